@@ -1,0 +1,140 @@
+"""Real Fourier layout shared by every layer (paper Eq. 2-3).
+
+A periodic signal x(tau), tau = Omega*t in [0, 2*pi), with H harmonics is stored as
+the 2H+1 real coefficients
+
+    X = [X0, Xc1, Xs1, Xc2, Xs2, ..., XcH, XsH]
+    x(tau) = X0 + sum_j Xc_j cos(j tau) + Xs_j sin(j tau)
+
+so index 2j-1 holds cos(j tau) and 2j holds sin(j tau), as in the paper.  The DC
+term is a real unknown (a complex h = 0 unknown would leave a free direction).
+Arrays of signals put the coefficient index last: shape (..., 2H+1).
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+
+def n_coeffs(H: int) -> int:
+    """Number of real coefficients, 2H+1."""
+    return 2 * H + 1
+
+
+def harmonics_of(n: int) -> int:
+    """H from a coefficient count 2H+1 (ValueError if n is even or < 1)."""
+    if n < 1 or n % 2 == 0:
+        raise ValueError(f"coefficient count must be 2H+1 (odd, >= 1), got {n}")
+    return (n - 1) // 2
+
+
+def basis(tau, H: int, order: int = 0) -> np.ndarray:
+    """Basis s(tau) or its `order`-th tau-derivative, shape tau.shape + (2H+1,).
+
+    x(tau) = basis(tau, H) @ X and d^k x/dtau^k = basis(tau, H, k) @ X.
+    """
+    tau = np.asarray(tau, dtype=float)
+    j = np.arange(1, H + 1)
+    arg = tau[..., None] * j
+    c, s = np.cos(arg), np.sin(arg)
+    # d^k/dtau^k cos(j tau) = j^k cos(j tau + k pi/2); same for sin.
+    if order:
+        jk = j.astype(float) ** order
+        rot = order % 4
+        if rot == 1:
+            c, s = -s, c
+        elif rot == 2:
+            c, s = -c, -s
+        elif rot == 3:
+            c, s = s, -c
+        c, s = c * jk, s * jk
+    out = np.empty(tau.shape + (2 * H + 1,))
+    out[..., 0] = 1.0 if order == 0 else 0.0
+    out[..., 1::2] = c
+    out[..., 2::2] = s
+    return out
+
+
+def derivative_matrix(H: int) -> np.ndarray:
+    """D with d/dtau x <-> D @ X (block diag of [[0, j], [-j, 0]])."""
+    D = np.zeros((2 * H + 1, 2 * H + 1))
+    for j in range(1, H + 1):
+        D[2 * j - 1, 2 * j] = j
+        D[2 * j, 2 * j - 1] = -j
+    return D
+
+
+def derivative(X: np.ndarray, order: int = 1) -> np.ndarray:
+    """Coefficients of d^order x / dtau^order, for X of shape (..., 2H+1)."""
+    X = np.asarray(X, dtype=float)
+    H = harmonics_of(X.shape[-1])
+    j = np.arange(1, H + 1, dtype=float)
+    c, s = X[..., 1::2], X[..., 2::2]
+    for _ in range(order):
+        c, s = j * s, -j * c
+    out = np.zeros_like(X)
+    out[..., 1::2] = c
+    out[..., 2::2] = s
+    return out
+
+
+def evaluate(X: np.ndarray, tau, order: int = 0) -> np.ndarray:
+    """x(tau) for X of shape (E, 2H+1) and tau of shape (E, K) or (K,): shape (E, K)."""
+    X = np.asarray(X, dtype=float)
+    H = harmonics_of(X.shape[-1])
+    S = basis(tau, H, order)
+    if S.ndim == 2:
+        return X @ S.T
+    return np.einsum("ekc,ec->ek", S, X)
+
+
+@lru_cache(maxsize=64)
+def _dft(H: int, N: int):
+    tau = 2 * np.pi * np.arange(N) / N
+    S = basis(tau, H)  # (N, 2H+1): coefficients -> samples
+    W = S.T * (2.0 / N)  # samples -> coefficients (valid for N >= 2H+1)
+    W[0] *= 0.5
+    S.setflags(write=False)
+    W.setflags(write=False)
+    return tau, S, W
+
+
+def time_grid(H: int, N: int):
+    """(tau, S, W): N equispaced samples, synthesis S (N, 2H+1), analysis W (2H+1, N).
+
+    x_samples = S @ X, X = W @ x_samples (exact for x with <= H harmonics, N >= 2H+1;
+    a non-smooth x is projected with the aliasing error of the rectangle rule).
+    """
+    if N < 2 * H + 1:
+        raise ValueError(f"n_samples must be >= 2H+1 = {2 * H + 1}, got {N}")
+    return _dft(H, N)
+
+
+def amplitude_half_peak_to_peak(X: np.ndarray, n_samples: int = 0) -> np.ndarray:
+    """(max x - min x)/2 over one period for X (..., 2H+1) (DATASET.md `amplitude`).
+
+    Sampled finely (default 64*H+64 points) and refined by the exact extrema:
+    the extrema of a trigonometric polynomial are roots of its derivative, polished
+    by Newton steps from the best sample, so the value is exact to rounding.
+    """
+    X = np.asarray(X, dtype=float)
+    H = harmonics_of(X.shape[-1])
+    flat = X.reshape(-1, X.shape[-1])
+    N = n_samples or 64 * H + 64
+    tau = 2 * np.pi * np.arange(N) / N
+    x = flat @ basis(tau, H).T
+    out = []
+    for pick in (np.argmax, np.argmin):
+        t = tau[pick(x, axis=1)]
+        for _ in range(4):  # Newton on x'(t) = 0 from the best sample
+            d1 = np.einsum("ec,ec->e", basis(t, H, 1), flat)
+            d2 = np.einsum("ec,ec->e", basis(t, H, 2), flat)
+            step = np.where(np.abs(d2) > 0, d1 / np.where(d2 == 0, 1, d2), 0.0)
+            step = np.clip(step, -np.pi / N, np.pi / N)
+            t = t - step
+        val = np.einsum("ec,ec->e", basis(t, H), flat)
+        best = pick(x, axis=1)
+        sampled = x[np.arange(len(flat)), best]
+        out.append(np.maximum(val, sampled) if pick is np.argmax else np.minimum(val, sampled))
+    return ((out[0] - out[1]) / 2).reshape(X.shape[:-1])
