@@ -1,0 +1,63 @@
+"""Yang-Menq contact element (paper Sec. 2, 4, 5; Eq. 1, 9, 10, 11).
+
+One contact point with relative tangential displacement u and normal displacement
+v: a tangential spring ku in series with a Coulomb slider (coefficient mu), a normal
+spring kv and a preload n0 (negative = initial gap).  Normal load n = n0 + kv v
+(Eq. 1).  States: stick, positive slip, negative slip, separation.
+
+Parameters are arrays over E elements; displacements are real Fourier coefficients
+in the layout of `harmonics.py`, shape (E, 2H+1).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def _as_param(name, value, E=None):
+    a = np.atleast_1d(np.asarray(value, dtype=float))
+    if a.ndim != 1:
+        raise ValueError(f"{name} must be a scalar or a 1-D array, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if E is not None and a.size not in (1, E):
+        raise ValueError(f"{name} has {a.size} values, expected 1 or {E}")
+    return a
+
+
+@dataclass(frozen=True)
+class YangMenq:
+    """E Yang-Menq elements: ku, kv [N/m], mu [-], n0 [N] (arrays of length E).
+
+    slider_rest: where a fully stuck slider sits.  A fully stuck cycle is periodic
+    for any slider position w in [max(u - mu n/ku), min(u + mu n/ku)]; None (default)
+    takes w = the cycle mean of u (the tangential spring is unstrained at the static
+    position), an array takes those absolute positions [m]; either is clamped into
+    the admissible interval.  Cycles that slip or separate do not depend on it.
+    """
+
+    ku: np.ndarray
+    kv: np.ndarray
+    mu: np.ndarray
+    n0: np.ndarray
+    slider_rest: np.ndarray | None = None
+
+    def __post_init__(self):
+        arrays = {k: _as_param(k, getattr(self, k)) for k in ("ku", "kv", "mu", "n0")}
+        E = max(a.size for a in arrays.values())
+        for k, a in arrays.items():
+            a = _as_param(k, a, E)
+            object.__setattr__(self, k, np.broadcast_to(a, (E,)).copy())
+        for k in ("ku", "kv"):
+            if np.any(getattr(self, k) < 0):
+                raise ValueError(f"{k} must be >= 0 (stiffness), got {getattr(self, k)}")
+        if np.any(self.mu < 0):
+            raise ValueError(f"mu must be >= 0, got {self.mu}")
+        if self.slider_rest is not None:
+            w = _as_param("slider_rest", self.slider_rest, E)
+            object.__setattr__(self, "slider_rest", np.broadcast_to(w, (E,)).copy())
+
+    @property
+    def size(self) -> int:
+        return self.ku.size

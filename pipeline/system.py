@@ -1,0 +1,52 @@
+"""Plain data for a linear structure with Yang-Menq contacts (paper Eq. 4-6).
+
+    M q'' + C q' + K q + Bt^T f_u(u, v) + Bn^T f_v(u, v) = F(t),
+    u = Bt q,  v = Bn q   (relative tangential / normal displacement per element)
+
+`Bt`, `Bn` (E, n) map the structure's DOFs to each element's relative motion: a row
+[.., +1 (dof a), .., -1 (dof b), ..] is a pair of DOFs, a single +1 is a DOF against
+ground, and rows of direction cosines give tilted contact frames.  The transposes
+distribute the contact forces back, so action = reaction holds by construction.
+
+The excitation is F(t) = Re sum_h F_h exp(i h Omega t) with `forcing[:, h] = F_h`
+(column 0 is a real static load), so any DOF and any harmonic can be excited.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .contact import YangMenq
+
+
+@dataclass(frozen=True)
+class System:
+    """Linear structure + Yang-Menq elements + harmonic excitation (SI units)."""
+
+    M: np.ndarray            # (n, n) mass [kg]
+    C: np.ndarray            # (n, n) viscous damping [N s/m]
+    K: np.ndarray            # (n, n) stiffness [N/m]
+    Bt: np.ndarray           # (E, n) tangential relative displacement map [-]
+    Bn: np.ndarray           # (E, n) normal relative displacement map [-]
+    contact: YangMenq        # E element parameter sets
+    forcing: np.ndarray      # (n, Hf+1) complex harmonic load amplitudes [N]
+    dof_names: tuple = field(default=())
+
+    @property
+    def n_dof(self) -> int:
+        return self.M.shape[0]
+
+    @property
+    def n_elements(self) -> int:
+        return self.Bt.shape[0]
+
+    def forcing_coefficients(self, H: int) -> np.ndarray:
+        """F in the real layout of harmonics.py, shape (n, 2H+1) [N]."""
+        F = np.zeros((self.n_dof, 2 * H + 1))
+        Fh = np.asarray(self.forcing)
+        F[:, 0] = Fh[:, 0].real
+        for h in range(1, min(H, Fh.shape[1] - 1) + 1):
+            F[:, 2 * h - 1] = Fh[:, h].real
+            F[:, 2 * h] = -Fh[:, h].imag
+        return F
