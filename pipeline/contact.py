@@ -61,3 +61,69 @@ class YangMenq:
     @property
     def size(self) -> int:
         return self.ku.size
+
+
+# ---------------------------------------------------------------------------
+# Public evaluation
+# ---------------------------------------------------------------------------
+
+SEP, STICK, PSLIP, NSLIP = 0, 1, 2, 3
+STATE_NAMES = {SEP: "separation", STICK: "stick", PSLIP: "positive slip", NSLIP: "negative slip"}
+# where a stick phase took its slider position w from (for dw/dQ)
+_SRC_LO, _SRC_HI, _SRC_TD, _SRC_MEAN, _SRC_FIXED = 0, 1, 2, 3, 4
+
+
+@dataclass(frozen=True)
+class ContactForces:
+    """Fourier coefficients of the contact forces and their Jacobian.
+
+    Fu, Fv: (E, 2H+1) [N]; dFu_dU, dFu_dV, dFv_dV: (E, 2H+1, 2H+1) [N/m]
+    (dFv/dU = 0 identically).  `regimes` counts elements evaluated as fully
+    separated, fully stuck (both linear over the cycle, no transition search) and
+    with transitions.
+    """
+
+    Fu: np.ndarray
+    Fv: np.ndarray
+    dFu_dU: np.ndarray | None
+    dFu_dV: np.ndarray | None
+    dFv_dV: np.ndarray | None
+    regimes: dict
+
+
+def check_coefficients(name, X, E):
+    X = np.asarray(X, dtype=float)
+    if X.ndim != 2 or X.shape[0] != E or X.shape[1] % 2 == 0:
+        raise ValueError(f"{name} must have shape (E={E}, 2H+1), got {X.shape}")
+    if not np.all(np.isfinite(X)):
+        raise ValueError(f"{name} contains NaN or Inf")
+    return X
+
+
+def forces(U, V, elem: YangMenq, method: str = "exact", n_samples: int = 1024,
+           jacobian: bool = True) -> ContactForces:
+    """Fourier coefficients of f_u, f_v (Eq. 9-11) for motions U, V (E, 2H+1).
+
+    method "exact": transition times as roots of trigonometric polynomials and
+    closed-form Fourier integrals of each state's force piece (`exact_forces`);
+    "aft": alternating frequency-time with `n_samples` samples (`aft_forces`).
+    """
+    E = elem.size
+    U = check_coefficients("U", U, E)
+    V = check_coefficients("V", V, E)
+    if U.shape != V.shape:
+        raise ValueError(f"U and V must have the same shape, got {U.shape} and {V.shape}")
+    if method == "exact":
+        from .contact_exact import exact_forces
+        return exact_forces(U, V, elem, jacobian)
+    if method == "aft":
+        from .contact_aft import aft_forces
+        return aft_forces(U, V, elem, int(n_samples), jacobian)
+    raise ValueError(f"method must be 'exact' or 'aft', got {method!r}")
+
+
+def slider_reference(elem: YangMenq, U: np.ndarray):
+    """Rest position w_ref of a fully stuck slider and its source kind (see YangMenq)."""
+    if elem.slider_rest is None:
+        return U[:, 0].copy(), np.full(U.shape[0], _SRC_MEAN)
+    return elem.slider_rest.copy(), np.full(U.shape[0], _SRC_FIXED)

@@ -35,24 +35,18 @@ def basis(tau, H: int, order: int = 0) -> np.ndarray:
     x(tau) = basis(tau, H) @ X and d^k x/dtau^k = basis(tau, H, k) @ X.
     """
     tau = np.asarray(tau, dtype=float)
-    j = np.arange(1, H + 1)
-    arg = tau[..., None] * j
-    c, s = np.cos(arg), np.sin(arg)
-    # d^k/dtau^k cos(j tau) = j^k cos(j tau + k pi/2); same for sin.
-    if order:
-        jk = j.astype(float) ** order
-        rot = order % 4
-        if rot == 1:
-            c, s = -s, c
-        elif rot == 2:
-            c, s = -c, -s
-        elif rot == 3:
-            c, s = s, -c
-        c, s = c * jk, s * jk
     out = np.empty(tau.shape + (2 * H + 1,))
     out[..., 0] = 1.0 if order == 0 else 0.0
-    out[..., 1::2] = c
-    out[..., 2::2] = s
+    if H == 0:
+        return out
+    # powers of exp(i tau) by repeated multiplication: two trig calls, not 2H
+    z = np.exp(1j * tau)[..., None]
+    zj = np.cumprod(np.broadcast_to(z, tau.shape + (H,)), axis=-1)
+    if order:
+        # d^k/dtau^k exp(i j tau) = (i j)^k exp(i j tau)
+        zj = zj * (1j * np.arange(1, H + 1)) ** order
+    out[..., 1::2] = zj.real
+    out[..., 2::2] = zj.imag
     return out
 
 

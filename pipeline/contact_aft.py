@@ -1,0 +1,105 @@
+"""Alternating frequency-time (AFT) Yang-Menq forces: the cross-check and fallback.
+
+Samples u, v at N equispaced tau, marches the element law of Eq. 9-10 sample by
+sample, and projects the forces back with the discrete Fourier transform.  The
+law is the play operator of `contact_exact` on samples: in contact (n_i > 0)
+w_i = clamp(w_{i-1}, lo_i, hi_i); separated samples reset w_i = u_i (spring
+unstrained at touchdown).  The periodic history is found the same way, discretely:
+start at a separated sample, or, in full contact, at argmin hi with w = min hi
+(the discrete play operator forgets its start there too), or, where
+max lo <= min hi, take the full-stick state fixed by `YangMenq.slider_rest`.
+So one pass over N samples gives the periodic history, not a march to convergence.
+
+Jacobian: f_u,i = ku (u_i - w_i) with w_i set at sample j(i) as lo_j, hi_j or u_j
+(or the cycle mean), so df_u,i/dQ is a combination of the basis at samples i and
+j(i); the stick history is carried by the index j(i).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .contact import (ContactForces, YangMenq, _SRC_FIXED, _SRC_HI, _SRC_LO,
+                      _SRC_MEAN, _SRC_TD, slider_reference)
+from .harmonics import harmonics_of, time_grid
+
+
+def play_march(lo, hi, u, contact, i0, w0, k0):
+    """Discrete play operator over one period from sample i0 with w = w0 (kind k0).
+
+    lo, hi, u: (E, N); contact: (E, N) bool.  Returns w (E, N), and for each sample
+    the sample index and kind (LO/HI/TD) where its w was set.  This is the one
+    inherently sequential piece of the AFT evaluation.
+    """
+    E, N = u.shape
+    rows = np.arange(E)
+    w, src, kind = np.empty((E, N)), np.empty((E, N), int), np.empty((E, N), int)
+    wc, sc, kc = w0.copy(), i0.copy(), k0.copy()
+    for step in range(N):
+        i = (i0 + step) % N
+        c = contact[rows, i]
+        li, hi_i = lo[rows, i], hi[rows, i]
+        low, high = c & (wc < li), c & (wc > hi_i)
+        sep = ~c
+        wc = np.where(low, li, np.where(high, hi_i, np.where(sep, u[rows, i], wc)))
+        sc = np.where(low | high | sep, i, sc)
+        kc = np.where(low, _SRC_LO, np.where(high, _SRC_HI, np.where(sep, _SRC_TD, kc)))
+        w[rows, i], src[rows, i], kind[rows, i] = wc, sc, kc
+    return w, src, kind
+
+
+def aft_forces(U, V, elem: YangMenq, N: int, jacobian: bool = True) -> ContactForces:
+    """AFT Fourier coefficients of f_u, f_v with N samples, and their Jacobian."""
+    E, nc = U.shape
+    H = harmonics_of(nc)
+    tau, S, W = time_grid(H, N)
+    ku, kv, mu, n0 = elem.ku, elem.kv, elem.mu, elem.n0
+    tang = (mu > 0) & (ku > 0)
+    r = np.where(tang, mu / np.where(ku > 0, ku, 1.0), 0.0)
+    u, v = U @ S.T, V @ S.T
+    n = n0[:, None] + kv[:, None] * v
+    contact = n > 0
+    lo, hi = u - r[:, None] * n, u + r[:, None] * n
+    rows = np.arange(E)
+
+    any_sep = ~contact.all(1)
+    maxlo, minhi = lo.max(1), hi.min(1)
+    stuck = ~any_sep & (maxlo <= minhi) & tang
+    wref, k_ref = slider_reference(elem, U)
+    w_st = np.clip(wref, maxlo, np.maximum(minhi, maxlo))
+    i_lo, i_hi = lo.argmax(1), hi.argmin(1)
+    k_st = np.where(wref < maxlo, _SRC_LO, np.where(wref > minhi, _SRC_HI, k_ref))
+    i_st = np.where(k_st == _SRC_LO, i_lo, i_hi)
+
+    i0 = np.where(any_sep, np.argmax(~contact, axis=1), i_hi)
+    w0 = np.where(any_sep, u[rows, i0], minhi)
+    k0 = np.where(any_sep, _SRC_TD, _SRC_HI)
+    mar = np.flatnonzero(tang & ~stuck & contact.any(1))
+    w = np.broadcast_to(w_st[:, None], (E, N)).copy()
+    src = np.broadcast_to(i_st[:, None], (E, N)).copy()
+    kind = np.broadcast_to(k_st[:, None], (E, N)).copy()
+    if mar.size:
+        w[mar], src[mar], kind[mar] = play_march(lo[mar], hi[mar], u[mar], contact[mar],
+                                                 i0[mar], w0[mar], k0[mar])
+    act = contact & tang[:, None]
+    fu = np.where(act, ku[:, None] * (u - w), 0.0)
+    fv = np.where(contact, n, 0.0)
+    Fu, Fv = fu @ W.T, fv @ W.T
+    regimes = {"separated": int((~contact.any(1)).sum()), "stuck": int(stuck.sum()),
+               "transitions": int(mar.size),
+               "frictionless": int((~tang & contact.any(1)).sum())}
+    if not jacobian:
+        return ContactForces(Fu, Fv, None, None, None, regimes)
+
+    # df_u,i/dU = ku (s_i - dw_i/dU), df_u,i/dV = -ku dw_i/dV, with dw_i = a * s_src
+    aU = np.where((kind == _SRC_MEAN) | (kind == _SRC_FIXED), 0.0, 1.0)
+    aV = np.where(kind == _SRC_LO, -(r * kv)[:, None], np.where(kind == _SRC_HI, (r * kv)[:, None], 0.0))
+    Ssrc = S[src]  # (E, N, 2H+1)
+    WA = W.T[None] * (act * ku[:, None])[..., None]  # (E, N, 2H+1): row weights
+    dFu_dU = np.einsum("enk,nj->ekj", WA, S) - np.einsum("enk,enj->ekj", WA * aU[..., None], Ssrc)
+    mean = kind == _SRC_MEAN
+    if mean.any():
+        dFu_dU[:, :, 0] -= np.einsum("enk,en->ek", WA, mean * 1.0)
+    dFu_dV = -np.einsum("enk,enj->ekj", WA * aV[..., None], Ssrc)
+    WC = W.T[None] * (contact * kv[:, None])[..., None]
+    dFv_dV = np.einsum("enk,nj->ekj", WC, S)
+    return ContactForces(Fu, Fv, dFu_dU, dFu_dV, dFv_dV, regimes)

@@ -1,0 +1,357 @@
+"""Exact (event-based) Yang-Menq forces: paper Sec. 4 transitions, Eq. 9-11 integrals.
+
+The element as a play operator.  With the band
+    lo(tau) = u - (mu/ku) n,   hi(tau) = u + (mu/ku) n,   n = n0 + kv v   (Eq. 1)
+the slider position w (f_u = ku (u - w), Eq. 9) obeys, in contact (n > 0),
+w = clamp(w, lo, hi): stick while lo < w < hi, positive slip w = lo, negative slip
+w = hi; in separation (n <= 0) f_u = f_v = 0 and the spring restarts unstrained at
+touchdown, w = u(tau_td) (Sec. 4.1).  The paper's switching equations are the same
+events: PS -> stick where lo' = u' - mu kv/ku v' = 0 (lo maximal, Sec. 4.2), NS ->
+stick where hi' = 0 (Sec. 4.3), stick -> PS/NS where lo = w / hi = w, i.e.
+ku u -+ mu kv v + (f0 -+ mu n0 - ku u0) = 0 with w = u0 - f0/ku (Sec. 4.4).
+
+Transition times: the sign changes of n, lo' and hi' (trigonometric polynomials
+of degree H) are found by `trigroots.sign_changes`, which provably misses none.
+Between consecutive such breakpoints n keeps its sign and lo, hi are monotone, so
+at most one stick -> slip event occurs in each (slips end only at breakpoints);
+it is the single root of the monotone lo - w (or hi - w) on that interval.
+
+The periodic (steady-state) history is found directly, not by marching to
+convergence:
+  * n changes sign: a touchdown erases all memory; start there.
+  * n > 0 throughout and max lo <= min hi: every w in [max lo, min hi] is a
+    periodic full-stick state; `YangMenq.slider_rest` picks one.
+  * n > 0 throughout and max lo > min hi: any trajectory that passes argmax lo and
+    then argmin hi leaves argmin hi with w = min hi (w can only decrease by being
+    clamped to hi, and hi >= min hi), so the periodic state starts there in
+    negative slip with w = hi(tau_b).
+Fourier integrals (Eq. 11) of each piece (a trigonometric polynomial times the
+basis) are closed form.  Forces are continuous at every transition, so the exact
+Jacobian is the integral of the piecewise derivative plus the derivative of each
+stick phase's w with respect to the coefficients, taken where it was set (lo, hi
+stationary there; at touchdown dtau/dV = -s(tau)/v').
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from .contact import (NSLIP, PSLIP, SEP, STICK, ContactForces, YangMenq,
+                      _SRC_FIXED, _SRC_HI, _SRC_LO, _SRC_MEAN, _SRC_TD,
+                      slider_reference)
+from .harmonics import basis, derivative, harmonics_of
+from .trigroots import TWO_PI, _polish, sign_changes
+
+
+# --------------------------------------------------------------------------
+# closed-form Fourier integrals of piecewise trigonometric polynomials
+# --------------------------------------------------------------------------
+
+def segment_integrals(a, b, H):
+    """X = [C_0..C_2H, S_0..S_2H] with C_m = 1/pi int_a^b cos(m t), S_m likewise."""
+    sa, sb = basis(a, 2 * H), basis(b, 2 * H)
+    m = np.arange(1, 2 * H + 1, dtype=float)
+    X = np.empty(np.shape(a) + (2 * (2 * H + 1),))
+    n = 2 * H + 1
+    X[..., 0] = (np.asarray(b) - np.asarray(a)) / np.pi
+    X[..., 1:n] = (sb[..., 2::2] - sa[..., 2::2]) / (m * np.pi)
+    X[..., n] = 0.0
+    X[..., n + 1:] = (sa[..., 1::2] - sb[..., 1::2]) / (m * np.pi)
+    return X
+
+
+@lru_cache(maxsize=None)
+def _gram_tables(H):
+    """Index tables so that gram(X)[k, j] = w_k/pi-normalised int s_k s_j (see gram)."""
+    n = 2 * H + 1
+    i1 = np.zeros((n, n), int); i2 = np.zeros((n, n), int)
+    a1 = np.zeros((n, n)); a2 = np.zeros((n, n))
+    C = lambda m: abs(m)            # noqa: E731  index of C_|m|
+    S = lambda m: n + abs(m)        # noqa: E731  index of S_|m|
+    sgn = lambda m: float(np.sign(m))  # noqa: E731
+    for k in range(n):
+        p, kc = (k + 1) // 2, (k % 2 == 1)
+        for j in range(n):
+            q, jc = (j + 1) // 2, (j % 2 == 1)
+            if k == 0 and j == 0:
+                i1[k, j], a1[k, j] = C(0), 0.5
+            elif k == 0:
+                i1[k, j], a1[k, j] = (C(q) if jc else S(q)), 0.5
+            elif j == 0:
+                i1[k, j], a1[k, j] = (C(p) if kc else S(p)), 1.0
+            elif kc and jc:
+                i1[k, j], a1[k, j], i2[k, j], a2[k, j] = C(p - q), 0.5, C(p + q), 0.5
+            elif kc and not jc:
+                i1[k, j], a1[k, j], i2[k, j], a2[k, j] = S(q + p), 0.5, S(q - p), 0.5 * sgn(q - p)
+            elif not kc and jc:
+                i1[k, j], a1[k, j], i2[k, j], a2[k, j] = S(p + q), 0.5, S(p - q), 0.5 * sgn(p - q)
+            else:
+                i1[k, j], a1[k, j], i2[k, j], a2[k, j] = C(p - q), 0.5, C(p + q), -0.5
+    for t in (i1, i2, a1, a2):
+        t.setflags(write=False)
+    return i1, i2, a1, a2
+
+
+def gram(X, H):
+    """G (..., 2H+1, 2H+1): coefficients of f = s.P on a set with integrals X are G @ P.
+
+    G[k, j] = c_k int s_k s_j, c_0 = 1/(2 pi), c_k = 1/pi (Eq. 11 normalised to the
+    layout of harmonics.py).
+    """
+    i1, i2, a1, a2 = _gram_tables(H)
+    return a1 * X[..., i1] + a2 * X[..., i2]
+
+
+def gram_column0(X, H):
+    """gram(X)[..., :, 0]: the coefficients of a unit constant on the set."""
+    n = 2 * H + 1
+    g = np.empty(X.shape[:-1] + (n,))
+    g[..., 0] = 0.5 * X[..., 0]
+    g[..., 1::2] = X[..., 1:H + 1]
+    g[..., 2::2] = X[..., n + 1:n + H + 1]
+    return g
+
+
+# --------------------------------------------------------------------------
+# periodic state sequence
+# --------------------------------------------------------------------------
+
+def _ev(P, tau, order=0):
+    H = harmonics_of(P.shape[-1])
+    return np.einsum("ec,ec->e", basis(tau, H, order), P)
+
+
+def _crossing(P, w, a, b):
+    """First tau in [a, b] where the increasing p(tau) = s.P reaches w (p(b) >= w)."""
+    Q = P.copy()
+    Q[:, 0] -= w
+    at_start = _ev(Q, a) >= 0
+    t = a.copy()
+    idx = np.flatnonzero(~at_start)
+    if idx.size:
+        t[idx] = _polish(Q[idx], a[idx].copy(), b[idx].copy(), -np.ones(idx.size, int))
+    return t
+
+
+def _first_root(roots, slope, want):
+    """First root (in tau order) with the given slope sign, NaN where none."""
+    ok = (slope == want) & ~np.isnan(roots)
+    first = np.argmax(ok, axis=1)
+    return np.where(ok.any(1), roots[np.arange(len(roots)), first], np.nan)
+
+
+def _extreme(P, roots, slope, want, pick):
+    """Value and location of the extremum of p over its stationary points (derivative
+    roots with slope `want`); p constant -> (p0, 0)."""
+    vals = np.full(roots.shape, np.nan)
+    ok = (slope == want) & ~np.isnan(roots)
+    r, c = np.nonzero(ok)
+    vals[r, c] = _ev(P[r], roots[r, c])
+    has = ok.any(1)
+    idx = np.where(has, pick(np.where(ok, vals, -np.inf if pick is np.argmax else np.inf), axis=1), 0)
+    rows = np.arange(len(P))
+    val = np.where(has, vals[rows, idx], P[:, 0])
+    loc = np.where(has, roots[rows, idx], 0.0)
+    return val, loc
+
+
+def periodic_segments(U, V, elem: YangMenq):
+    """Steady-state state sequence of every element over one period.
+
+    Returns a dict of arrays (E, S): `a`, `b` (segment limits, tau in
+    [t0, t0 + 2 pi)), `state` (SEP/STICK/PSLIP/NSLIP, -1 = unused), `w` (slider
+    position of stick segments), `src_tau`, `src_kind` (where w was set), plus per
+    element `regime` (0 separated, 1 stuck, 2 transitions) and the band/normal-load
+    coefficients `Lc`, `Hc`, `Nc`.
+    """
+    E, nc = U.shape
+    H = harmonics_of(nc)
+    ku, kv, mu, n0 = elem.ku, elem.kv, elem.mu, elem.n0
+    Nc = kv[:, None] * V
+    Nc[:, 0] += n0
+    tang = (mu > 0) & (ku > 0)
+    r = np.where(tang, mu / np.where(ku > 0, ku, 1.0), 0.0)
+    Lc, Hc = U - r[:, None] * Nc, U + r[:, None] * Nc
+
+    roots, slope = sign_changes(np.concatenate([Nc, derivative(Lc), derivative(Hc)]))
+    nr, ns = roots[:E], slope[:E]
+    lr, ls = roots[E:2 * E], slope[E:2 * E]
+    hr, hs = roots[2 * E:], slope[2 * E:]
+    crosses = ~np.isnan(nr).all(1)
+    grid = TWO_PI * np.arange(16) / 16
+    nvals = Nc @ basis(grid, H).T
+    positive = nvals[np.arange(E), np.argmax(np.abs(nvals), 1)] > 0
+    in_contact = ~crosses & positive
+
+    maxlo, tlo = _extreme(Lc, lr, ls, -1, np.argmax)
+    minhi, thi = _extreme(Hc, hr, hs, +1, np.argmin)
+    stuck = in_contact & (maxlo <= minhi) & tang
+    # 0 separated, 1 stuck, 2 transitions, 3 frictionless contact (f_u = 0)
+    regime = np.where(stuck, 1, np.where(crosses | in_contact, np.where(tang, 2, 3), 0))
+
+    # full stick: w = clamp(w_ref, max lo, min hi)
+    wref, kind = slider_reference(elem, U)
+    w_st = np.clip(wref, maxlo, np.maximum(minhi, maxlo))
+    kind = np.where(wref < maxlo, _SRC_LO, np.where(wref > minhi, _SRC_HI, kind))
+    src_tau = np.where(kind == _SRC_LO, tlo, np.where(kind == _SRC_HI, thi, 0.0))
+
+    march = np.flatnonzero(regime == 2)
+    out = dict(regime=regime, Lc=Lc, Hc=Hc, Nc=Nc, tang=tang, H=H,
+               contact_all=in_contact, n_roots=nr, n_slope=ns)
+    S_st = dict(a=np.zeros((E, 1)), b=np.full((E, 1), TWO_PI),
+                state=np.where(regime == 1, STICK, np.where(regime == 0, SEP, -1))[:, None],
+                w=w_st[:, None], src_tau=src_tau[:, None], src_kind=kind[:, None])
+    if march.size == 0:
+        out.update(S_st)
+        return out
+    seg = _march(U[march], Lc[march], Hc[march], Nc[march], nr[march], ns[march],
+                 lr[march], hr[march], crosses[march], thi[march], minhi[march])
+    S = seg["a"].shape[1]
+    for k, v in S_st.items():
+        full = np.zeros((E, S), dtype=v.dtype)
+        if k == "state":
+            full[:] = -1
+        full[:, :1] = v
+        full[march] = seg[k]
+        out[k] = full
+    return out
+
+
+def _march(U, Lc, Hc, Nc, nr, ns, lr, hr, crosses, thi, minhi):
+    """State sequence over one period for elements that switch (see module doc)."""
+    E = U.shape[0]
+    t0 = np.where(crosses, _first_root(nr, ns, +1), thi)
+    allr = np.concatenate([nr, lr, hr], axis=1)
+    rel = np.sort(np.where(np.isnan(allr), TWO_PI, np.mod(allr - t0[:, None], TWO_PI)), axis=1)
+    bp = np.concatenate([np.zeros((E, 1)), rel, np.full((E, 1), TWO_PI)], axis=1)
+    keep = (np.diff(bp, axis=1) > 0).any(0)  # drop columns that are empty everywhere
+    K = int(np.flatnonzero(keep).max()) + 1 if keep.any() else 1
+    bp = t0[:, None] + bp[:, :K + 1]
+
+    state = np.where(crosses, SEP, NSLIP)
+    w = np.where(crosses, 0.0, minhi)
+    src_t = np.where(crosses, t0, thi)
+    src_k = np.where(crosses, _SRC_TD, _SRC_HI)
+    rec = {k: np.zeros((E, 2 * K)) for k in ("a", "b", "w", "src_tau")}
+    rec["state"] = np.full((E, 2 * K), -1, dtype=int)
+    rec["src_kind"] = np.zeros((E, 2 * K), dtype=int)
+    for k in range(K):
+        a, b = bp[:, k], bp[:, k + 1]
+        act = b > a
+        mid = 0.5 * (a + b)
+        contact = _ev(Nc, mid) > 0
+        lp, hp = _ev(Lc, mid, 1), _ev(Hc, mid, 1)
+
+        td = act & contact & (state == SEP)
+        if td.any():
+            i = np.flatnonzero(td)
+            w[i], src_t[i], src_k[i] = _ev(U[i], a[i]), a[i], _SRC_TD
+            state[i] = np.where(lp[i] > 0, PSLIP, np.where(hp[i] < 0, NSLIP, STICK))
+        ends = act & contact & (((state == PSLIP) & (lp <= 0)) | ((state == NSLIP) & (hp >= 0)))
+        if ends.any():
+            i = np.flatnonzero(ends)
+            from_ps = state[i] == PSLIP
+            w[i] = np.where(from_ps, _ev(Lc[i], a[i]), _ev(Hc[i], a[i]))
+            src_t[i], src_k[i] = a[i], np.where(from_ps, _SRC_LO, _SRC_HI)
+            state[i] = STICK
+        state = np.where(act & ~contact, SEP, state)
+
+        # stick -> slip inside the interval (at most one event, see module doc)
+        te = b.copy()
+        new = state.copy()
+        st = act & (state == STICK)
+        cand = st & (lp > 0) & (_ev(Lc, b) >= w)
+        if cand.any():
+            i = np.flatnonzero(cand)
+            te[i] = _crossing(Lc[i], w[i], a[i], b[i])
+            new[i] = PSLIP
+        cand = st & (hp < 0) & (_ev(Hc, b) <= w)
+        if cand.any():
+            i = np.flatnonzero(cand)
+            t_ns = _crossing(-Hc[i], -w[i], a[i], b[i])
+            earlier = t_ns < te[i]
+            te[i] = np.where(earlier, t_ns, te[i])
+            new[i] = np.where(earlier, NSLIP, new[i])
+
+        c1, c2 = 2 * k, 2 * k + 1
+        rec["a"][:, c1], rec["b"][:, c1] = a, te
+        rec["state"][:, c1] = np.where(act, state, -1)
+        rec["w"][:, c1], rec["src_tau"][:, c1], rec["src_kind"][:, c1] = w, src_t, src_k
+        rec["a"][:, c2], rec["b"][:, c2] = te, b
+        rec["state"][:, c2] = np.where(act & (te < b), new, -1)
+        state = np.where(act, new, state)
+    return rec
+
+
+# --------------------------------------------------------------------------
+# forces and Jacobian
+# --------------------------------------------------------------------------
+
+def _contact_integrals(nr, ns, contact_all, H):
+    """Sum of segment integrals over {n > 0} from the sign changes of n; (E, 2(2H+1))."""
+    E = nr.shape[0]
+    X = np.zeros((E, 2 * (2 * H + 1)))
+    X[contact_all, 0] = 2.0  # full period: C_0 = 2 pi / pi
+    idx = np.flatnonzero(~np.isnan(nr).all(1))
+    if idx.size:
+        roots, slope = nr[idx], ns[idx]
+        cnt = (~np.isnan(roots)).sum(1)
+        R = roots.shape[1]
+        nxt = (np.arange(R)[None, :] + 1) % np.maximum(cnt, 1)[:, None]
+        rows = np.arange(idx.size)[:, None]
+        b = roots[rows, nxt]
+        b = np.where(b <= roots, b + TWO_PI, b)
+        up = (slope == 1) & ~np.isnan(roots)
+        Xs = segment_integrals(np.where(up, roots, 0.0), np.where(up, b, 0.0), H)
+        X[idx] = Xs.sum(1)
+    return X
+
+
+def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
+    """Exact Fourier coefficients of f_u, f_v (Eq. 9-11) and their Jacobian."""
+    E, nc = U.shape
+    H = harmonics_of(nc)
+    seg = periodic_segments(U, V, elem)
+    ku, kv, mu = elem.ku, elem.kv, elem.mu
+    Nc, regime = seg["Nc"], seg["regime"]
+    # normal force: on {n > 0}
+    Xc = _contact_integrals(seg["n_roots"], seg["n_slope"], seg["contact_all"], H)
+    Gc = gram(Xc, H)
+    Fv = np.einsum("ekj,ej->ek", Gc, Nc)
+
+    # tangential force from the segments
+    state, a, b = seg["state"], seg["a"], seg["b"]
+    tang = seg["tang"]
+    valid = state >= 0
+    Xs = segment_integrals(np.where(valid, a, 0.0), np.where(valid, b, 0.0), H)
+    X_st = np.einsum("es,esm->em", (state == STICK) & tang[:, None], Xs)
+    X_sl = np.einsum("es,esm->em", ((state == PSLIP) * 1.0 - (state == NSLIP)) * tang[:, None], Xs)
+    G_st, G_sl = gram(X_st, H), gram(X_sl, H)
+    g = gram_column0(Xs, H) * ((state == STICK) & tang[:, None])[..., None]
+    Fu = ku[:, None] * (np.einsum("ekj,ej->ek", G_st, U) - np.einsum("es,esk->ek", seg["w"], g))
+    Fu += mu[:, None] * np.einsum("ekj,ej->ek", G_sl, Nc)
+    regimes = {"separated": int((regime == 0).sum()), "stuck": int((regime == 1).sum()),
+               "transitions": int((regime == 2).sum()), "frictionless": int((regime == 3).sum())}
+    if not jacobian:
+        return ContactForces(Fu, Fv, None, None, None, regimes)
+
+    # dw/dU = s(t_src) * aU, dw/dV = s(t_src) * aV (MEAN: e0; FIXED: 0)
+    kind, ts = seg["src_kind"], seg["src_tau"]
+    r = np.where(tang, mu / np.where(ku > 0, ku, 1.0), 0.0)[:, None]
+    Sx = basis(ts, H)
+    Sx[kind == _SRC_MEAN] = np.eye(nc)[0]
+    Sx[kind == _SRC_FIXED] = 0.0
+    aV = np.zeros_like(ts)
+    aV = np.where(kind == _SRC_LO, -r * kv[:, None], aV)
+    aV = np.where(kind == _SRC_HI, r * kv[:, None], aV)
+    td = kind == _SRC_TD
+    if td.any():
+        e, s = np.nonzero(td & (state == STICK))
+        ud = np.einsum("kc,kc->k", basis(ts[e, s], H, 1), U[e])
+        vd = np.einsum("kc,kc->k", basis(ts[e, s], H, 1), V[e])
+        aV[e, s] = -ud / vd
+    dFu_dU = ku[:, None, None] * (G_st - np.einsum("esk,esj->ekj", g, Sx))
+    dFu_dV = (mu * kv)[:, None, None] * G_sl - ku[:, None, None] * np.einsum("esk,esj->ekj", g * aV[..., None], Sx)
+    dFv_dV = kv[:, None, None] * Gc
+    return ContactForces(Fu, Fv, dFu_dU, dFu_dV, dFv_dV, regimes)

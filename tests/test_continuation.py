@@ -1,0 +1,230 @@
+"""Continuation against closed-form fold curves and the Duffing frequency response."""
+import numpy as np
+import pytest
+from scipy.optimize import minimize_scalar
+
+from pipeline.continuation import Branch, continue_branch, newton
+
+
+# ------------------------------------------------------------------ closed forms
+def scurve(x, lam):
+    """x^3 - 3x = lam: folds at (x, lam) = (-1, 2) and (1, -2)."""
+    return np.array([x[0] ** 3 - 3 * x[0] - lam]), np.array([[3 * x[0] ** 2 - 3]]), np.array([-1.0])
+
+
+def circle2(x, lam):
+    """u^2 + lam^2 = 1, w = u lam (two unknowns): one fold at lam = 1, u = 0."""
+    u, w = x
+    R = np.array([u**2 + lam**2 - 1, w - u * lam])
+    J = np.array([[2 * u, 0.0], [-lam, 1.0]])
+    return R, J, np.array([2 * lam, -u])
+
+
+def real_root(coeffs, pick):
+    r = np.roots(coeffs)
+    return pick(r[np.abs(r.imag) < 1e-9].real)
+
+
+CASES = {
+    # name: fun, x0, lam0, lam_end, exact fold lams (in branch order), status, max points
+    # (measured: 21, 21, 40 points)
+    "scurve-up": (scurve, [real_root([1, 0, -3, 3], min)], -3.0, 3.0, [2.0, -2.0], 0, 25),
+    "scurve-down": (scurve, [real_root([1, 0, -3, -3], max)], 3.0, -3.0, [-2.0, 2.0], 0, 25),
+    "circle": (circle2, [-0.8, 0.4], -0.5, 1.5, [1.0], 1, 45),
+}
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_closed_form_folds(case):
+    fun, x0, lam0, lam_end, folds, status, max_len = CASES[case]
+    b = continue_branch(fun, np.array(x0, float), lam0, lam_end, tol=1e-11)
+    assert b.success and b.status == status, b.message
+    np.testing.assert_allclose(b.fold_lam, folds, atol=1e-9)
+    # every returned point satisfies the residual rule, recomputed here
+    for x, lam in zip(b.x, b.lam):
+        assert np.linalg.norm(fun(x, lam)[0]) <= 1e-11
+    # the run ends exactly on the interval boundary it left through
+    assert b.lam[-1] == (lam_end if status == 0 else lam0)
+    assert np.all(b.converged) and b.residual_norm.max() <= 1e-11
+    # cost budgets (measured: <= 5.8 fun calls per point incl. fold refinement)
+    assert len(b) <= max_len
+    assert b.nfev <= 6.5 * len(b)
+    assert b.nit.max() <= 5
+
+
+def test_scurve_fold_x_and_index():
+    x0 = [real_root([1, 0, -3, 3], min)]
+    b = continue_branch(scurve, x0, -3.0, 3.0, tol=1e-12)
+    np.testing.assert_allclose(b.fold_x[:, 0], [-1.0, 1.0], atol=1e-6)
+    for i in b.fold_index:  # lam-component of the tangent changes sign across i, i+1
+        assert b.tangent[i, -1] * b.tangent[i + 1, -1] < 0
+
+
+def test_hermite_only_fold_estimate_is_cheaper_and_close():
+    x0 = [real_root([1, 0, -3, 3], min)]
+    fine = continue_branch(scurve, x0, -3.0, 3.0, tol=1e-12)
+    rough = continue_branch(scurve, x0, -3.0, 3.0, tol=1e-12, refine_folds=False)
+    assert rough.nfev < fine.nfev
+    np.testing.assert_allclose(rough.fold_lam, [2.0, -2.0], atol=5e-3)
+
+
+# ------------------------------------------------------------------ Duffing (1 harmonic)
+def duffing_1h(zeta, gamma, P, w0=1.0, m=1.0):
+    """Single-harmonic HBM of m x'' + c x' + k x + gamma x^3 = P cos(Om t), x = qc cos + qs sin."""
+    c, k, kap = 2 * zeta * w0 * m, m * w0**2, 0.75 * gamma
+
+    def fun(q, Om):
+        qc, qs = q
+        a2 = qc**2 + qs**2
+        s = k - m * Om**2 + kap * a2
+        R = np.array([s * qc + c * Om * qs - P, s * qs - c * Om * qc])
+        J = np.array([[s + 2 * kap * qc**2, c * Om + 2 * kap * qc * qs],
+                      [2 * kap * qc * qs - c * Om, s + 2 * kap * qs**2]])
+        dOm = np.array([-2 * m * Om * qc + c * qs, -2 * m * Om * qs - c * qc])
+        return R, J, dOm
+    return fun
+
+
+def duffing_fold_frequencies(zeta, gamma, P, w0=1.0, m=1.0):
+    """Fold frequencies from the closed-form response Om_+(a) (extrema along a).
+
+    a^2 [(k - m Om^2 + 3/4 gamma a^2)^2 + (c Om)^2] = P^2 solved for u = Om^2:
+    m^2 u^2 - (2 m w - c^2) u + w^2 - P^2/a^2 = 0, w = k + 3/4 gamma a^2.
+    """
+    c, k = 2 * zeta * w0 * m, m * w0**2
+
+    def disc(a):
+        w = k + 0.75 * gamma * a**2
+        return (2 * m * w - c**2) ** 2 - 4 * m**2 * (w**2 - P**2 / a**2)
+
+    def Om_plus(a):
+        w = k + 0.75 * gamma * a**2
+        return np.sqrt((2 * m * w - c**2 + np.sqrt(np.maximum(disc(a), 0))) / (2 * m**2))
+
+    a = np.linspace(1e-3 * P / k, 2 * P / (c * w0), 200001)
+    a = a[disc(a) >= 0]
+    Om = Om_plus(a)
+    d = np.diff(Om)
+    out = []
+    for i in np.nonzero(d[:-1] * d[1:] < 0)[0]:
+        sgn = 1 if d[i] < 0 else -1  # minimum: +1, maximum: -1
+        r = minimize_scalar(lambda x: sgn * Om_plus(x), bounds=(a[i], a[i + 2]),
+                            method="bounded", options={"xatol": 1e-14})
+        out.append(Om_plus(r.x))
+    return np.array(out)  # in increasing a: jump-up (min Om) then jump-down (max Om)
+
+
+DUFFING = {
+    # name: zeta, gamma, P, w0, m, x unit L, Om range
+    "nondim": (0.02, 0.5, 0.05, 1.0, 1.0, 1.0, (0.5, 2.0)),
+    "softer-damping": (0.05, 1.0, 0.1, 1.0, 1.0, 1.0, (0.5, 2.5)),
+    # physical units: w0 = 1000 rad/s, m = 0.1 kg, amplitudes ~1e-5 m (no hand scaling)
+    "SI-units": (0.02, 0.5, 0.05, 1000.0, 0.1, 1e-5, (500.0, 2000.0)),
+}
+
+
+@pytest.mark.parametrize("case", DUFFING)
+@pytest.mark.parametrize("sweep", ["up", "down"])
+def test_duffing_fold_frequencies(case, sweep):
+    zeta, ghat, Phat, w0, m, L, (Om_lo, Om_hi) = DUFFING[case]
+    k = m * w0**2
+    gamma, P = ghat * k / L**2, Phat * k * L  # dimensional cubic stiffness and force
+    fun = duffing_1h(zeta, gamma, P, w0, m)
+    lam0, lam_end = (Om_lo, Om_hi) if sweep == "up" else (Om_hi, Om_lo)
+    x0 = np.array([P / (k - m * lam0**2), 0.0])  # linear response as the guess
+    tol, tol_rel = 1e-12 * P, 1e-10  # absolute part negligible: the relative rule governs
+    b = continue_branch(fun, x0, lam0, lam_end, tol=tol, tol_rel=tol_rel, r_ref=P)
+    assert b.success and b.status == 0 and b.lam[-1] == lam_end, b.message
+    exact = duffing_fold_frequencies(zeta, gamma, P, w0, m)
+    assert exact.size == 2
+    assert b.fold_lam.size == 2
+    np.testing.assert_allclose(np.sort(b.fold_lam), np.sort(exact), rtol=1e-9)
+    # convergence rule, recomputed in the caller's units
+    for x, Om in zip(b.x, b.lam):
+        assert np.linalg.norm(fun(x, Om)[0]) <= tol + tol_rel * P
+    # the peak amplitude equals the closed-form peak a = P / (c Om) at Om_peak
+    a = np.hypot(b.x[:, 0], b.x[:, 1])
+    assert a.max() <= P / (2 * zeta * w0 * m * w0) * 1.0001
+    # cost budgets (measured: 29-38 points, 5.2-5.6 fun calls per point, <= 3 rejections)
+    assert len(b) <= 45
+    assert b.nfev <= 6 * len(b)
+    assert b.n_rejected <= 4
+
+
+def test_point_at_lam_end_and_callback_stop():
+    fun = duffing_1h(0.02, 0.5, 0.05)
+    seen = []
+    b = continue_branch(fun, [0.05 / 0.75, 0.0], 0.5, 2.0, tol=1e-12,
+                        callback=lambda x, lam: seen.append(lam) or len(seen) >= 5)
+    assert b.status == 3 and b.success and len(b) == 5 == len(seen)
+    np.testing.assert_allclose(b.lam, seen)
+
+
+def test_max_points_and_step_failure_are_results():
+    b = continue_branch(scurve, [real_root([1, 0, -3, 3], min)], -3.0, 3.0, tol=1e-12,
+                        max_points=4)
+    assert (b.status, b.success, len(b)) == (2, False, 4)
+
+    def ends(x, lam):  # the branch x = lam stops existing at lam = 0.5
+        if lam > 0.5:
+            return np.array([x[0] ** 2 + 1.0]), np.array([[2 * x[0]]]), np.array([0.0])
+        return np.array([x[0] - lam]), np.array([[1.0]]), np.array([-1.0])
+    b = continue_branch(ends, [0.0], 0.0, 1.0, tol=1e-12, ds_min=1e-4)
+    assert isinstance(b, Branch) and not b.success and b.status == -1, b.message
+    assert "ds_min" in b.message
+    assert 0.5 - 2e-4 <= b.lam[-1] <= 0.5
+    np.testing.assert_allclose(b.x[:, 0], b.lam, atol=1e-12)
+
+
+def test_first_point_failure():
+    def nosol(x, lam):
+        return np.array([x[0] ** 2 + 1.0]), np.array([[2 * x[0]]]), np.array([0.0])
+    b = continue_branch(nosol, [0.3], 0.0, 1.0, tol=1e-10)
+    assert (b.status, b.success, len(b)) == (-2, False, 0)
+    assert "first point" in b.message
+
+
+def test_newton_rule_is_residual_only():
+    res = newton(lambda x: (x**2 - 2.0, np.diag(2 * x)), np.array([1.0]), 1e-14, 20)
+    assert res.success and abs(res.x[0] ** 2 - 2) <= 1e-14 and res.nfev == res.nit + 1
+    assert res.nit <= 6
+    res = newton(lambda x: (x**2 - 2.0, np.diag(2 * x)), np.array([1.0]), 1e-14, 2)
+    assert not res.success and res.status == 1 and res.residual_norm > 1e-14
+    res = newton(lambda x: (x**2 + 1.0, np.diag(2 * x)), np.array([0.0]), 1e-10, 10)
+    assert not res.success and res.status == 2
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(tol=None), "tol"),
+    (dict(tol=-1.0), "tol"),
+    (dict(tol=1e-8, ds=0.0), "ds"),
+    (dict(tol=1e-8, ds_min=1.0, ds_max=0.1), "ds_min"),
+    (dict(tol=1e-8, ds=1.0, ds_max=0.5), "ds"),
+    (dict(tol=1e-8, max_points=0), "max_points"),
+    (dict(tol=1e-8, max_newton=2.5), "max_newton"),
+    (dict(tol=1e-8, direction=0), "direction"),
+    (dict(tol=1e-8, scale=[1.0]), "scale"),
+    (dict(tol=1e-8, scale=[1.0, -1.0]), "scale"),
+    (dict(tol=1e-8, tol_rel=1e-6), "r_ref"),
+    (dict(tol=1e-8, callback=3), "callback"),
+])
+def test_bad_arguments(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        continue_branch(scurve, [-2.1], -3.0, 3.0, **kwargs)
+
+
+@pytest.mark.parametrize("args, match", [
+    (([np.nan], -3.0, 3.0), "x0"),
+    (([[1.0]], -3.0, 3.0), "x0"),
+    (([-2.1], -3.0, -3.0), "lam_end"),
+    (([-2.1], np.inf, 3.0), "lam0"),
+])
+def test_bad_positional_arguments(args, match):
+    with pytest.raises(ValueError, match=match):
+        continue_branch(scurve, *args, tol=1e-8)
+
+
+def test_fun_with_wrong_shapes_is_named():
+    with pytest.raises(ValueError, match="fun must return"):
+        continue_branch(lambda x, lam: (np.zeros(2), np.eye(2), np.zeros(2)),
+                        [1.0], 0.0, 1.0, tol=1e-8)
