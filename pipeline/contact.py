@@ -45,9 +45,12 @@ class YangMenq:
 
     def __post_init__(self):
         arrays = {k: _as_param(k, getattr(self, k)) for k in ("ku", "kv", "mu", "n0")}
-        E = max(a.size for a in arrays.values())
+        sizes = {a.size for a in arrays.values()} - {1}
+        if len(sizes) > 1:
+            got = ", ".join(f"{k}: {a.size}" for k, a in arrays.items())
+            raise ValueError(f"ku, kv, mu, n0 must have one common length (or 1); got {got}")
+        E = sizes.pop() if sizes else 1
         for k, a in arrays.items():
-            a = _as_param(k, a, E)
             object.__setattr__(self, k, np.broadcast_to(a, (E,)).copy())
         for k in ("ku", "kv"):
             if np.any(getattr(self, k) < 0):

@@ -31,20 +31,25 @@ def play_march(lo, hi, u, contact, i0, w0, k0):
     inherently sequential piece of the AFT evaluation.
     """
     E, N = u.shape
-    rows = np.arange(E)
-    w, src, kind = np.empty((E, N)), np.empty((E, N), int), np.empty((E, N), int)
-    wc, sc, kc = w0.copy(), i0.copy(), k0.copy()
-    for step in range(N):
-        i = (i0 + step) % N
-        c = contact[rows, i]
-        li, hi_i = lo[rows, i], hi[rows, i]
-        low, high = c & (wc < li), c & (wc > hi_i)
+    order = (i0[:, None] + np.arange(N)) % N  # each element starts at its own i0
+    # time-major copies so that each step reads contiguous rows
+    L, Hh, Uu, C = (np.take_along_axis(x, order, 1).T.copy() for x in (lo, hi, u, contact))
+    w, src, kind = np.empty((N, E)), np.empty((N, E), int), np.empty((N, E), int)
+    wc, sc, kc = w0.astype(float).copy(), np.zeros(E, int), k0.copy()
+    for i in range(N):
+        c = C[i]
+        low = c & (wc < L[i])
+        high = c & (wc > Hh[i])
         sep = ~c
-        wc = np.where(low, li, np.where(high, hi_i, np.where(sep, u[rows, i], wc)))
-        sc = np.where(low | high | sep, i, sc)
+        wc = np.where(low, L[i], np.where(high, Hh[i], np.where(sep, Uu[i], wc)))
+        moved = low | high | sep
+        sc[moved] = i
         kc = np.where(low, _SRC_LO, np.where(high, _SRC_HI, np.where(sep, _SRC_TD, kc)))
-        w[rows, i], src[rows, i], kind[rows, i] = wc, sc, kc
-    return w, src, kind
+        w[i], src[i], kind[i] = wc, sc, kc
+    back = np.argsort(order, axis=1)
+    src = np.take_along_axis(order, src.T, 1)  # rolled sample index -> true index
+    return (np.take_along_axis(w.T, back, 1), np.take_along_axis(src, back, 1),
+            np.take_along_axis(kind.T, back, 1))
 
 
 def aft_forces(U, V, elem: YangMenq, N: int, jacobian: bool = True) -> ContactForces:

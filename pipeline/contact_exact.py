@@ -144,6 +144,8 @@ def _first_root(roots, slope, want):
 def _extreme(P, roots, slope, want, pick):
     """Value and location of the extremum of p over its stationary points (derivative
     roots with slope `want`); p constant -> (p0, 0)."""
+    if roots.shape[1] == 0:
+        return P[:, 0].copy(), np.zeros(len(P))
     vals = np.full(roots.shape, np.nan)
     ok = (slope == want) & ~np.isnan(roots)
     r, c = np.nonzero(ok)
@@ -218,70 +220,93 @@ def periodic_segments(U, V, elem: YangMenq):
     return out
 
 
+def _ev_grid(P, tau, order=0):
+    """p^(order) at tau (E, K) for rows P (E, 2H+1): (E, K)."""
+    H = harmonics_of(P.shape[-1])
+    return np.matmul(basis(tau, H, order), P[:, :, None])[..., 0]
+
+
+_PROBES = (0.5, 0.5 - 0.5 / np.sqrt(5), 0.5 + 0.5 / np.sqrt(5))
+
+
+def _interval_sign(P, bp, order=0):
+    """Sign (+1/-1/0) of p^(order) on each interval between breakpoints bp (E, K+1).
+
+    The sign is constant inside an interval (no sign change there), but p may touch
+    zero at isolated points (tangencies), possibly at the midpoint; so p is probed at
+    three interior points and the value of largest magnitude decides.
+    """
+    a, b = bp[:, :-1], bp[:, 1:]
+    vals = np.stack([_ev_grid(P, a + f * (b - a), order) for f in _PROBES])
+    pick = np.argmax(np.abs(vals), axis=0)
+    return np.sign(np.take_along_axis(vals, pick[None], 0)[0])
+
+
 def _march(U, Lc, Hc, Nc, nr, ns, lr, hr, crosses, thi, minhi):
-    """State sequence over one period for elements that switch (see module doc)."""
+    """State sequence over one period for elements that switch (see module doc).
+
+    Everything that does not depend on the state (signs at interval midpoints,
+    lo/hi/u at breakpoints) is evaluated for all intervals at once; the loop over
+    intervals is cheap logic; all stick -> slip crossings are solved in one batch.
+    """
     E = U.shape[0]
     t0 = np.where(crosses, _first_root(nr, ns, +1), thi)
     allr = np.concatenate([nr, lr, hr], axis=1)
     rel = np.sort(np.where(np.isnan(allr), TWO_PI, np.mod(allr - t0[:, None], TWO_PI)), axis=1)
     bp = np.concatenate([np.zeros((E, 1)), rel, np.full((E, 1), TWO_PI)], axis=1)
-    keep = (np.diff(bp, axis=1) > 0).any(0)  # drop columns that are empty everywhere
-    K = int(np.flatnonzero(keep).max()) + 1 if keep.any() else 1
+    nonempty = (np.diff(bp, axis=1) > 0).any(0)
+    K = int(np.flatnonzero(nonempty).max()) + 1 if nonempty.any() else 1
     bp = t0[:, None] + bp[:, :K + 1]
+    act_all = bp[:, 1:] > bp[:, :-1]
+    contact_all = _interval_sign(Nc, bp) > 0
+    lp_all, hp_all = _interval_sign(Lc, bp, 1), _interval_sign(Hc, bp, 1)
+    lo_bp, hi_bp, u_bp = _ev_grid(Lc, bp), _ev_grid(Hc, bp), _ev_grid(U, bp)
 
     state = np.where(crosses, SEP, NSLIP)
     w = np.where(crosses, 0.0, minhi)
     src_t = np.where(crosses, t0, thi)
     src_k = np.where(crosses, _SRC_TD, _SRC_HI)
-    rec = {k: np.zeros((E, 2 * K)) for k in ("a", "b", "w", "src_tau")}
-    rec["state"] = np.full((E, 2 * K), -1, dtype=int)
-    rec["src_kind"] = np.zeros((E, 2 * K), dtype=int)
+    st1, w1, srt, srk = (np.empty((E, K), int), np.empty((E, K)), np.empty((E, K)),
+                         np.empty((E, K), int))
+    st2 = np.full((E, K), -1, dtype=int)
     for k in range(K):
-        a, b = bp[:, k], bp[:, k + 1]
-        act = b > a
-        mid = 0.5 * (a + b)
-        contact = _ev(Nc, mid) > 0
-        lp, hp = _ev(Lc, mid, 1), _ev(Hc, mid, 1)
-
-        td = act & contact & (state == SEP)
-        if td.any():
-            i = np.flatnonzero(td)
-            w[i], src_t[i], src_k[i] = _ev(U[i], a[i]), a[i], _SRC_TD
-            state[i] = np.where(lp[i] > 0, PSLIP, np.where(hp[i] < 0, NSLIP, STICK))
-        ends = act & contact & (((state == PSLIP) & (lp <= 0)) | ((state == NSLIP) & (hp >= 0)))
-        if ends.any():
-            i = np.flatnonzero(ends)
-            from_ps = state[i] == PSLIP
-            w[i] = np.where(from_ps, _ev(Lc[i], a[i]), _ev(Hc[i], a[i]))
-            src_t[i], src_k[i] = a[i], np.where(from_ps, _SRC_LO, _SRC_HI)
-            state[i] = STICK
+        act, contact = act_all[:, k], contact_all[:, k]
+        lp, hp = lp_all[:, k], hp_all[:, k]
+        on = act & contact
+        td = on & (state == SEP)
+        end_ps = on & (state == PSLIP) & (lp <= 0)
+        end_ns = on & (state == NSLIP) & (hp >= 0)
+        w = np.where(td, u_bp[:, k], np.where(end_ps, lo_bp[:, k], np.where(end_ns, hi_bp[:, k], w)))
+        src_t = np.where(td | end_ps | end_ns, bp[:, k], src_t)
+        src_k = np.where(td, _SRC_TD, np.where(end_ps, _SRC_LO, np.where(end_ns, _SRC_HI, src_k)))
+        state = np.where(td, np.where(lp > 0, PSLIP, np.where(hp < 0, NSLIP, STICK)), state)
+        state = np.where(end_ps | end_ns, STICK, state)
         state = np.where(act & ~contact, SEP, state)
-
-        # stick -> slip inside the interval (at most one event, see module doc)
-        te = b.copy()
-        new = state.copy()
         st = act & (state == STICK)
-        cand = st & (lp > 0) & (_ev(Lc, b) >= w)
-        if cand.any():
-            i = np.flatnonzero(cand)
-            te[i] = _crossing(Lc[i], w[i], a[i], b[i])
-            new[i] = PSLIP
-        cand = st & (hp < 0) & (_ev(Hc, b) <= w)
-        if cand.any():
-            i = np.flatnonzero(cand)
-            t_ns = _crossing(-Hc[i], -w[i], a[i], b[i])
-            earlier = t_ns < te[i]
-            te[i] = np.where(earlier, t_ns, te[i])
-            new[i] = np.where(earlier, NSLIP, new[i])
+        to_ps = st & (lp > 0) & (lo_bp[:, k + 1] >= w)
+        to_ns = st & (hp < 0) & (hi_bp[:, k + 1] <= w)
+        both = np.flatnonzero(to_ps & to_ns)  # band closing on w from both sides: rare
+        if both.size:
+            a, b = bp[both, k], bp[both, k + 1]
+            first_ps = (_crossing(Lc[both], w[both], a, b)
+                        <= _crossing(-Hc[both], -w[both], a, b))
+            to_ps[both], to_ns[both] = first_ps, ~first_ps
+        st1[:, k] = np.where(act, state, -1)
+        w1[:, k], srt[:, k], srk[:, k] = w, src_t, src_k
+        st2[:, k] = np.where(to_ps, PSLIP, np.where(to_ns, NSLIP, -1))
+        state = np.where(to_ps, PSLIP, np.where(to_ns, NSLIP, state))
 
-        c1, c2 = 2 * k, 2 * k + 1
-        rec["a"][:, c1], rec["b"][:, c1] = a, te
-        rec["state"][:, c1] = np.where(act, state, -1)
-        rec["w"][:, c1], rec["src_tau"][:, c1], rec["src_kind"][:, c1] = w, src_t, src_k
-        rec["a"][:, c2], rec["b"][:, c2] = te, b
-        rec["state"][:, c2] = np.where(act & (te < b), new, -1)
-        state = np.where(act, new, state)
-    return rec
+    te = bp[:, 1:].copy()  # crossing times, solved together
+    for target, sign, P in ((PSLIP, 1.0, Lc), (NSLIP, -1.0, Hc)):
+        e, k = np.nonzero(st2 == target)
+        if e.size:
+            te[e, k] = _crossing(sign * P[e], sign * w1[e, k], bp[e, k], bp[e, k + 1])
+    a2 = np.stack([bp[:, :-1], te], axis=2).reshape(E, 2 * K)
+    b2 = np.stack([te, bp[:, 1:]], axis=2).reshape(E, 2 * K)
+    return dict(a=a2, b=b2,
+                state=np.stack([st1, st2], axis=2).reshape(E, 2 * K),
+                w=np.repeat(w1, 2, axis=1), src_tau=np.repeat(srt, 2, axis=1),
+                src_kind=np.repeat(srk, 2, axis=1))
 
 
 # --------------------------------------------------------------------------
@@ -308,6 +333,11 @@ def _contact_integrals(nr, ns, contact_all, H):
     return X
 
 
+def _mv(A, x):
+    """Batched matrix-vector product (E, m, n) @ (E, n) -> (E, m)."""
+    return np.matmul(A, x[..., None])[..., 0]
+
+
 def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
     """Exact Fourier coefficients of f_u, f_v (Eq. 9-11) and their Jacobian."""
     E, nc = U.shape
@@ -318,19 +348,22 @@ def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
     # normal force: on {n > 0}
     Xc = _contact_integrals(seg["n_roots"], seg["n_slope"], seg["contact_all"], H)
     Gc = gram(Xc, H)
-    Fv = np.einsum("ekj,ej->ek", Gc, Nc)
+    Fv = _mv(Gc, Nc)
 
     # tangential force from the segments
     state, a, b = seg["state"], seg["a"], seg["b"]
     tang = seg["tang"]
     valid = state >= 0
     Xs = segment_integrals(np.where(valid, a, 0.0), np.where(valid, b, 0.0), H)
-    X_st = np.einsum("es,esm->em", (state == STICK) & tang[:, None], Xs)
-    X_sl = np.einsum("es,esm->em", ((state == PSLIP) * 1.0 - (state == NSLIP)) * tang[:, None], Xs)
+    m_st = ((state == STICK) & tang[:, None]) * 1.0
+    m_sl = ((state == PSLIP) * 1.0 - (state == NSLIP)) * tang[:, None]
+    X_st = np.matmul(m_st[:, None, :], Xs)[:, 0]
+    X_sl = np.matmul(m_sl[:, None, :], Xs)[:, 0]
     G_st, G_sl = gram(X_st, H), gram(X_sl, H)
-    g = gram_column0(Xs, H) * ((state == STICK) & tang[:, None])[..., None]
-    Fu = ku[:, None] * (np.einsum("ekj,ej->ek", G_st, U) - np.einsum("es,esk->ek", seg["w"], g))
-    Fu += mu[:, None] * np.einsum("ekj,ej->ek", G_sl, Nc)
+    g = gram_column0(Xs, H) * m_st[..., None]
+    gT = g.transpose(0, 2, 1)  # (E, 2H+1, S)
+    Fu = ku[:, None] * (_mv(G_st, U) - _mv(gT, seg["w"]))
+    Fu += mu[:, None] * _mv(G_sl, Nc)
     regimes = {"separated": int((regime == 0).sum()), "stuck": int((regime == 1).sum()),
                "transitions": int((regime == 2).sum()), "frictionless": int((regime == 3).sum())}
     if not jacobian:
@@ -351,7 +384,54 @@ def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
         ud = np.einsum("kc,kc->k", basis(ts[e, s], H, 1), U[e])
         vd = np.einsum("kc,kc->k", basis(ts[e, s], H, 1), V[e])
         aV[e, s] = -ud / vd
-    dFu_dU = ku[:, None, None] * (G_st - np.einsum("esk,esj->ekj", g, Sx))
-    dFu_dV = (mu * kv)[:, None, None] * G_sl - ku[:, None, None] * np.einsum("esk,esj->ekj", g * aV[..., None], Sx)
+    dFu_dU = ku[:, None, None] * (G_st - gT @ Sx)
+    dFu_dV = (mu * kv)[:, None, None] * G_sl - ku[:, None, None] * ((gT * aV[:, None, :]) @ Sx)
     dFv_dV = kv[:, None, None] * Gc
     return ContactForces(Fu, Fv, dFu_dU, dFu_dV, dFv_dV, regimes)
+
+
+def history(U, V, elem: YangMenq, tau) -> dict:
+    """Periodic time history of every element at the instants `tau` (K,).
+
+    Returns arrays (E, K): `state` (SEP, STICK, PSLIP, NSLIP), `fu`, `fv` [N], `u`,
+    `v` [m], `n` [N]; and `transitions`: per element a list of (tau, from, to)
+    with tau in [0, 2 pi).
+    """
+    from .contact import check_coefficients
+
+    E = elem.size
+    U = check_coefficients("U", U, E)
+    V = check_coefficients("V", V, E)
+    tau = np.asarray(tau, dtype=float)
+    H = harmonics_of(U.shape[1])
+    seg = periodic_segments(U, V, elem)
+    S = basis(tau, H)
+    u, v = U @ S.T, V @ S.T
+    n = seg["Nc"] @ S.T
+    a, b, st = seg["a"], seg["b"], seg["state"]
+    t0 = a[:, :1]
+    tq = t0 + np.mod(tau[None, :] - t0, TWO_PI)
+    # the segment containing each instant: last used segment with a <= t
+    inside = (a[:, None, :] <= tq[..., None]) & (st[:, None, :] >= 0) & (b[:, None, :] > a[:, None, :])
+    idx = inside.shape[2] - 1 - np.argmax(inside[..., ::-1], axis=2)
+    rows = np.arange(E)[:, None]
+    state = st[rows, idx]
+    w = seg["w"][rows, idx]
+    mu = elem.mu[:, None]
+    fu = np.select([state == STICK, state == PSLIP, state == NSLIP],
+                   [elem.ku[:, None] * (u - w), mu * n, -mu * n], 0.0)
+    # frictionless contact and separation need no segments
+    frictionless = (seg["regime"] == 3)[:, None]
+    ud = U @ basis(tau, H, 1).T
+    state = np.where(frictionless, np.where(ud >= 0, PSLIP, NSLIP), state)
+    state = np.where(n <= 0, SEP, state)
+    fu = np.where((n <= 0) | frictionless, 0.0, fu)
+    fv = np.where(n > 0, n, 0.0)
+    transitions = []
+    for e in range(E):
+        used = (st[e] >= 0) & (b[e] > a[e])
+        ta, ss = a[e][used], st[e][used]
+        ch = np.flatnonzero(ss != np.roll(ss, 1))
+        transitions.append([(float(np.mod(ta[i], TWO_PI)), int(ss[i - 1]), int(ss[i])) for i in ch]
+                           if ss.size > 1 else [])
+    return dict(state=state, fu=fu, fv=fv, u=u, v=v, n=n, transitions=transitions)

@@ -39,6 +39,13 @@ Options of `continue_branch` (defaults):
 The run stops when lam leaves [min(lam0, lam_end), max(lam0, lam_end)] (the last
 point is then re-solved exactly on the boundary), at max_points, on a callback
 request, or when ds < ds_min.
+
+Limits: branch points (bifurcations) are neither detected nor switched (the
+bordered system is singular there; the run usually steps over them).  The step
+control reads Newton counts, so with an inexact Jacobian (linear convergence) set
+target_newton to the count the solver needs, or steps keep shrinking.  The first
+tangent is the null vector of [J, J_lam] by a dense QR (O(n^3), robust at a fold);
+with a sparse J it is a bordered solve that needs dR/dx regular at lam0.
 """
 from __future__ import annotations
 
@@ -307,7 +314,7 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
     n = x0.size
     auto_scale = scale is None
     if auto_scale:
-        xmax = np.abs(x0)
+        xmax = np.zeros(n)
         s = np.empty(n + 1)
         s[n] = abs(lam_end - lam0)
     else:
@@ -345,7 +352,7 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         """[[Jx S_x, Jl s_lam], [row]] in the scaled unknowns."""
         if sparse:
             return sp.bmat([[Jx @ sp.diags(s[:n]), (Jl * s[n])[:, None]],
-                            [row[None, :], None]], format="csc")
+                            [row[None, :n], row[None, n:]]], format="csc")
         A = np.empty((n + 1, n + 1))
         A[:n, :n] = Jx * s[:n]
         A[:n, n] = Jl * s[n]
@@ -445,26 +452,25 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         return i, best
 
     def solve_fixed_lam(xg, lam):
+        """Newton at fixed lam; also returns (R, Jx, Jl) at the last iterate."""
         def fx(x):
-            R, Jx, _ = evaluate(x, lam)
-            return R, Jx
-        z, st, nit, nfev, njev, r, _, _ = _newton_core(
-            fx, xg, thresh, _FIRST_POINT_ITER * max_newton, np.linalg.norm)
+            R, Jx, Jl = evaluate(x, lam)
+            return R, (R, Jx, Jl)
+        z, st, nit, nfev, njev, r, RJJ, _ = _newton_core(
+            fx, xg, thresh, _FIRST_POINT_ITER * max_newton, np.linalg.norm,
+            lambda RJJ, rhs: _solve(RJJ[1], rhs))
         counters["nfev"] += nfev
         counters["njev"] += njev
-        return z, st, nit, nfev, r
+        return z, st, nit, nfev, r, RJJ
 
     # ---- first point: Newton at fixed lam0
-    x, st, nit, nfev, r = solve_fixed_lam(x0, lam0)
+    x, st, nit, nfev, r, (R, Jx, Jl) = solve_fixed_lam(x0, lam0)
     if st != 0:
         return result(-2, f"first point at lam0 = {lam0} did not converge: "
                           f"{_NEWTON_MESSAGES[st]} (||R|| = {r:.3e}, tol = {thresh:.3e})")
-    if auto_scale:
-        xmax = np.maximum(xmax, np.abs(x))
+    if auto_scale:  # from the solution, not from the caller's guess
+        xmax = np.abs(x)
         update_scale()
-    R, Jx, Jl = evaluate(x, lam0)  # Jacobian at the converged point, for the tangent
-    counters["nfev"] += 1
-    nfev += 1
     if sparse:
         rhs = np.zeros(n + 1)
         rhs[n] = 1.0
@@ -546,12 +552,9 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
             frac = (bound - z[n]) / (lam_new - z[n])
             xg = z[:n] + frac * (zn[:n] - z[:n])
             if not (bound == lam0 and len(Z) == 1):
-                xb, stb, nitb, nfevb, rb = solve_fixed_lam(xg, bound)
+                xb, stb, nitb, nfevb, rb, (R, Jx, Jl) = solve_fixed_lam(xg, bound)
                 spent += nfevb
                 if stb == 0:
-                    R, Jx, Jl = evaluate(xb, bound)
-                    counters["nfev"] += 1
-                    spent += 1
                     tb = tangent_from(Jx, Jl, t_phys)
                     counters["njev"] += 1
                     if tb is not None:

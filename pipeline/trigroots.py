@@ -82,10 +82,13 @@ def sign_changes(P: np.ndarray, resolution: float = 1e-12, n_initial: int = 0):
     N = n_initial or max(16, 8 * H)
     d = np.pi / N
 
-    tau_nodes = TWO_PI * np.arange(N + 1) / N
+    # the grid is offset by an irrational fraction of a cell: symmetric motions put
+    # roots exactly at 0, pi/2, pi..., where a node would see an ambiguous sign
+    tau_nodes = TWO_PI * (np.arange(N + 1) + 0.3819660112501051) / N
     centers = tau_nodes[:-1] + d
     Pl = P[live]
     pn = Pl @ basis(tau_nodes, H).T
+    pn[:, -1] = pn[:, 0]  # one point of the circle, one sign
     pc, pc1, pc2 = (Pl @ basis(centers, H, k).T for k in range(3))
     no_root, mono = _certify(pc, pc1, pc2, d, D3[live][:, None])
     sgn = np.where(pn >= 0, 1, -1)

@@ -228,3 +228,55 @@ def test_fun_with_wrong_shapes_is_named():
     with pytest.raises(ValueError, match="fun must return"):
         continue_branch(lambda x, lam: (np.zeros(2), np.eye(2), np.zeros(2)),
                         [1.0], 0.0, 1.0, tol=1e-8)
+
+
+def test_rule_holds_with_an_inexact_jacobian():
+    """A Jacobian off by 1.3x makes Newton converge linearly (rate 0.23): points must
+    still meet ||R|| <= tol, paid for with iterations, never accepted on a flag."""
+    def fun(x, lam):
+        R, J, Jl = scurve(x, lam)
+        return R, 1.3 * J, 1.3 * Jl
+    b = continue_branch(fun, [real_root([1, 0, -3, 3], min)], -3.0, 3.0, tol=1e-10,
+                        max_newton=40, target_newton=12)
+    assert b.success, b.message
+    np.testing.assert_allclose(b.fold_lam, [2.0, -2.0], atol=1e-9)
+    for x, lam in zip(b.x, b.lam):
+        assert abs(scurve(x, lam)[0][0]) <= 1e-10
+    assert b.nit.max() > 10  # the slow convergence is visible in the counts
+    assert len(b) <= 150  # measured 136
+    b = continue_branch(fun, [real_root([1, 0, -3, 3], min)], -3.0, 3.0, tol=1e-10,
+                        max_newton=5, ds_min=1e-3)
+    assert not b.success and b.status in (-1, -2)
+    for x, lam in zip(b.x, b.lam):
+        assert abs(scurve(x, lam)[0][0]) <= 1e-10
+
+
+@pytest.mark.parametrize("direction, status, x_end, folds", [
+    (+1, 0, real_root([1, 0, -3, 3], min), []),
+    (-1, 1, 2.0, [-2.0]),
+])
+def test_start_at_a_fold(direction, status, x_end, folds):
+    """Start exactly at the fold (x, lam) = (-1, 2) of x^3 - 3x = lam (singular dR/dx)."""
+    b = continue_branch(scurve, [-1.0], 2.0, -3.0, tol=1e-12, direction=direction)
+    assert b.status == status, b.message
+    assert b.x[-1, 0] == pytest.approx(x_end, abs=1e-10)
+    np.testing.assert_allclose(b.fold_lam, folds, atol=1e-9)
+
+
+def test_sparse_jacobian_matches_dense():
+    import scipy.sparse as sp
+    fun = duffing_1h(0.02, 0.5, 0.05)
+    dense = continue_branch(fun, [0.05 / 0.75, 0.0], 0.5, 2.0, tol=1e-12)
+    sparse = continue_branch(lambda x, lam: (lambda R, J, Jl: (R, sp.csr_matrix(J), Jl))(
+        *fun(x, lam)), [0.05 / 0.75, 0.0], 0.5, 2.0, tol=1e-12)
+    assert sparse.success and len(sparse) == len(dense)
+    np.testing.assert_allclose(sparse.fold_lam, dense.fold_lam, rtol=1e-12)
+
+
+def test_user_scale_is_kept():
+    fun = duffing_1h(0.02, 0.5, 0.05)
+    b = continue_branch(fun, [0.05 / 0.75, 0.0], 0.5, 2.0, tol=1e-12, scale=[1.0, 1.0, 1.5])
+    assert b.success
+    np.testing.assert_array_equal(b.scale, [1.0, 1.0, 1.5])
+    np.testing.assert_allclose(np.sort(b.fold_lam), np.sort(duffing_fold_frequencies(0.02, 0.5, 0.05)),
+                               rtol=1e-9)

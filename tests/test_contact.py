@@ -1,0 +1,298 @@
+"""Yang-Menq element: exact vs AFT, Jacobians vs finite differences, closed forms."""
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from pipeline.contact import NSLIP, PSLIP, SEP, STICK, YangMenq, forces
+from pipeline.contact_exact import history
+
+TWO_PI = 2 * np.pi
+
+
+def random_case(seed, E=240, H=5):
+    """Motions with decaying harmonics and parameters spanning every regime."""
+    rng = np.random.default_rng(seed)
+    dec = np.repeat(1.0 / np.arange(1, H + 1) ** 2, 2)
+    U = np.zeros((E, 2 * H + 1))
+    V = np.zeros((E, 2 * H + 1))
+    U[:, 1:] = rng.normal(size=(E, 2 * H)) * dec * rng.uniform(0.05, 3, (E, 1))
+    V[:, 1:] = rng.normal(size=(E, 2 * H)) * dec * rng.uniform(0, 2, (E, 1))
+    U[:, 0] = rng.normal(size=E) * 0.3
+    V[:, 0] = rng.normal(size=E) * 0.3
+    kv = rng.uniform(0.2, 2, E) * (rng.random(E) > 0.2)  # 20 % Jenkins (kv = 0)
+    el = YangMenq(ku=rng.uniform(0.5, 2, E), kv=kv, mu=rng.uniform(0.1, 0.6, E),
+                  n0=rng.normal(0.5, 1.5, E))
+    return U, V, el
+
+
+def mu_nmax(U, V, el):
+    tau = np.linspace(0, TWO_PI, 4001)
+    from pipeline.harmonics import basis
+    n = el.n0[:, None] + el.kv[:, None] * (V @ basis(tau, (U.shape[1] - 1) // 2).T)
+    return el.mu * np.maximum(n.max(1), 1e-12), np.maximum(n.max(1), 1e-12)
+
+
+def test_random_cases_cover_every_regime():
+    U, V, el = random_case(0)
+    f = forces(U, V, el, jacobian=False)
+    assert f.regimes["separated"] > 10 and f.regimes["stuck"] >= 3 and f.regimes["transitions"] > 100
+    tau = np.linspace(0, TWO_PI, 400)
+    states = history(U, V, el, tau)["state"]
+    for s in (SEP, STICK, PSLIP, NSLIP):
+        assert (states == s).any(axis=1).sum() > 10
+
+
+def test_exact_matches_aft_at_2_pow_14_and_aft_error_falls():
+    U, V, el = random_case(1)
+    ex = forces(U, V, el, "exact", jacobian=False)
+    su, sv = mu_nmax(U, V, el)
+    errs = []
+    for N in (256, 1024, 4096, 2**14):
+        af = forces(U, V, el, "aft", n_samples=N, jacobian=False)
+        eu = np.max(np.abs(af.Fu - ex.Fu), 1) / su
+        ev = np.max(np.abs(af.Fv - ex.Fv), 1) / sv
+        errs.append(max(eu.max(), ev.max()))
+    assert errs[-1] < 1e-4
+    assert all(e2 < e1 for e1, e2 in zip(errs, errs[1:])), errs
+
+
+@settings(max_examples=20, deadline=None)
+@given(A=st.floats(0.01, 5), B=st.floats(0, 3), ph=st.floats(0, TWO_PI),
+       a2=st.floats(-0.5, 0.5), n0=st.floats(-2, 4), kv=st.sampled_from([0.0, 0.3, 1.0, 3.0]),
+       mu=st.floats(0.05, 1.0), ku=st.floats(0.2, 5))
+def test_exact_matches_aft_hypothesis(A, B, ph, a2, n0, kv, mu, ku):
+    H = 3
+    U = np.zeros((1, 2 * H + 1)); V = np.zeros((1, 2 * H + 1))
+    U[0, 1], U[0, 4] = A, a2 * A
+    V[0, 1], V[0, 2], V[0, 3] = B * np.cos(ph), B * np.sin(ph), 0.2 * B
+    el = YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)
+    ex = forces(U, V, el, jacobian=False)
+    af = forces(U, V, el, "aft", n_samples=2**14, jacobian=False)
+    su, sv = mu_nmax(U, V, el)
+    assert np.max(np.abs(af.Fu - ex.Fu)) <= 1e-4 * su[0] + 1e-12
+    assert np.max(np.abs(af.Fv - ex.Fv)) <= 1e-4 * sv[0] + 1e-12
+
+
+def fd_jacobian_error(U, V, el, method, h=1e-6, **kw):
+    f = forces(U, V, el, method, **kw)
+    worst = np.zeros(len(U))
+    for which in ("U", "V"):
+        for c in range(U.shape[1]):
+            d = np.zeros_like(U); d[:, c] = h
+            args_p = (U + d, V) if which == "U" else (U, V + d)
+            args_m = (U - d, V) if which == "U" else (U, V - d)
+            fp = forces(*args_p, el, method, jacobian=False, **kw)
+            fm = forces(*args_m, el, method, jacobian=False, **kw)
+            Ju = (f.dFu_dU if which == "U" else f.dFu_dV)[:, :, c]
+            Jv = np.zeros_like(Ju) if which == "U" else f.dFv_dV[:, :, c]
+            for num, J in (((fp.Fu - fm.Fu) / (2 * h), Ju), ((fp.Fv - fm.Fv) / (2 * h), Jv)):
+                worst = np.maximum(worst, np.max(np.abs(num - J), 1) / np.maximum(np.max(np.abs(J), 1), 1.0))
+    return worst
+
+
+@pytest.mark.parametrize("method,kw", [("exact", {}), ("aft", {"n_samples": 512})])
+def test_jacobian_matches_central_differences(method, kw):
+    U, V, el = random_case(2, E=120)
+    err = fd_jacobian_error(U, V, el, method, **kw)
+    # away from degenerate transitions: all but a handful of random elements; the
+    # FD error itself is ~1e-10 here, so 1e-6 leaves room only for genuine kinks
+    assert np.mean(err < 1e-6) >= 0.97, np.sort(err)[-5:]
+    assert np.median(err) < 1e-8
+
+
+def jenkins_describing_function(A, ku, fs):
+    """First-harmonic coefficients (a1 cos, b1 sin) of the Jenkins force under
+    u = A cos(tau): derived by hand from the stick/slip phases (closed form)."""
+    if ku * A <= fs:
+        return ku * A, 0.0
+    t1 = 2 * np.arcsin(np.sqrt(fs / (ku * A)))  # 1 - cos t1 = 2 fs / (ku A), stably
+    a1 = 2 / np.pi * (ku * A * (t1 / 2 + np.sin(2 * t1) / 4) + (2 * fs - ku * A) * np.sin(t1))
+    b1 = -4 * fs / np.pi * (1 - fs / (ku * A))
+    return a1, b1
+
+
+@pytest.mark.parametrize("A", [0.05, 0.2, 0.2000001, 0.5, 1.0, 7.3, 100.0])
+def test_jenkins_describing_function_and_energy(A):
+    ku, mu, n = 10.0, 0.5, 4.0  # slip starts at A = mu n / ku = 0.2
+    fs = mu * n
+    H = 7
+    U = np.zeros((1, 2 * H + 1)); U[0, 1] = A
+    el = YangMenq(ku=ku, kv=0.0, mu=mu, n0=n)
+    f = forces(U, np.zeros_like(U), el)
+    a1, b1 = jenkins_describing_function(A, ku, fs)
+    assert f.Fu[0, 1] == pytest.approx(a1, rel=1e-10, abs=1e-12 * fs)
+    assert f.Fu[0, 2] == pytest.approx(b1, rel=1e-10, abs=1e-12 * fs)
+    # equivalent stiffness and damping of the describing function
+    k_eq, c_eq_omega = a1 / A, -b1 / A
+    assert f.Fu[0, 1] / A == pytest.approx(k_eq, rel=1e-10)
+    assert -f.Fu[0, 2] / A == pytest.approx(c_eq_omega, rel=1e-10, abs=1e-14)
+    W = dissipated_energy(U, f.Fu)[0]
+    W_ref = 4 * fs * (A - fs / ku) if A > fs / ku else 0.0
+    assert W == pytest.approx(W_ref, rel=1e-10, abs=1e-12)
+
+
+def dissipated_energy(U, Fu):
+    """Closed contour integral of f_u du over one period from the coefficients."""
+    H = (U.shape[1] - 1) // 2
+    k = np.arange(1, H + 1)
+    return np.pi * np.sum(k * (Fu[:, 1::2] * U[:, 2::2] - Fu[:, 2::2] * U[:, 1::2]), axis=1)
+
+
+def test_dissipation_nonnegative_and_normal_force_conservative():
+    for seed in range(3):
+        U, V, el = random_case(10 + seed)
+        f = forces(U, V, el, jacobian=False)
+        W = dissipated_energy(U, f.Fu)
+        su, _ = mu_nmax(U, V, el)
+        assert np.all(W >= -1e-12 * su * np.abs(U).sum(1))
+        # the unilateral normal spring stores and returns energy: closed integral 0
+        Wv = dissipated_energy(V, f.Fv)
+        assert np.all(np.abs(Wv) <= 1e-10 * (1 + np.abs(f.Fv).sum(1) * np.abs(V).sum(1)))
+
+
+def one(U1=(), V1=(), H=3, U0=0.0, V0=0.0):
+    U = np.zeros((1, 2 * H + 1)); V = np.zeros((1, 2 * H + 1))
+    U[0, 0], V[0, 0] = U0, V0
+    U[0, 1:1 + len(U1)] = U1
+    V[0, 1:1 + len(V1)] = V1
+    return U, V
+
+
+def test_full_stick_is_linear_with_documented_slider_convention():
+    U, V = one(U1=(0.01, 0.02), V1=(0.01,), U0=0.3)
+    el = YangMenq(ku=2.0, kv=1.0, mu=0.5, n0=10.0)
+    f = forces(U, V, el)
+    assert f.regimes == {"separated": 0, "stuck": 1, "transitions": 0, "frictionless": 0}
+    expect = 2.0 * U[0].copy(); expect[0] = 0.0  # spring unstrained at the mean
+    np.testing.assert_allclose(f.Fu[0], expect, atol=1e-14)
+    J = 2.0 * np.eye(7); J[0, 0] = 0.0
+    np.testing.assert_allclose(f.dFu_dU[0], J, atol=1e-14)
+    # the same cycle with the slider fixed at 0.25 m: a parameter, not an accident
+    f2 = forces(U, V, YangMenq(2.0, 1.0, 0.5, 10.0, slider_rest=0.25))
+    assert f2.Fu[0, 0] == pytest.approx(2.0 * (0.3 - 0.25), rel=1e-14)
+    np.testing.assert_allclose(f2.Fu[0, 1:], expect[1:], atol=1e-14)
+    af = forces(U, V, el, "aft", n_samples=64)
+    np.testing.assert_allclose(af.Fu, f.Fu, atol=1e-13)
+    assert dissipated_energy(U, f.Fu)[0] == pytest.approx(0.0, abs=1e-15)
+
+
+def test_full_separation_is_zero():
+    U, V = one(U1=(1.0, 0.5), V1=(0.3, 0.2))
+    f = forces(U, V, YangMenq(ku=1.0, kv=1.0, mu=0.4, n0=-5.0))
+    assert f.regimes["separated"] == 1
+    assert np.all(f.Fu == 0) and np.all(f.Fv == 0) and np.all(f.dFu_dU == 0)
+
+
+def test_gap_that_closes_normal_force_closed_form():
+    # n = -0.5 + cos(tau): contact on |tau| < pi/3
+    U, V = one(V1=(1.0,), H=4)
+    el = YangMenq(ku=1.0, kv=1.0, mu=0.0, n0=-0.5)
+    f = forces(U, V, el)
+    t = np.pi / 3
+    F0 = (np.sin(t) - 0.5 * t) / np.pi
+    F1 = (t + 0.5 * np.sin(2 * t) - 2 * 0.5 * np.sin(t)) / np.pi
+    assert f.Fv[0, 0] == pytest.approx(F0, rel=1e-13)
+    assert f.Fv[0, 1] == pytest.approx(F1, rel=1e-13)
+    assert np.all(f.Fu == 0)
+
+
+def test_gap_closes_with_friction_touchdown_unstrained():
+    U, V = one(U1=(0.0, 1.0), V1=(1.0,))
+    el = YangMenq(ku=1.0, kv=1.0, mu=0.4, n0=-0.5)
+    # u = sin(tau), n = -0.5 + cos(tau): lift-off at +pi/3, touchdown at -pi/3
+    h = history(U, V, el, np.array([np.pi / 3 + 1e-9]))
+    assert h["state"][0, 0] == SEP
+    hist = history(U, V, el, np.linspace(0, TWO_PI, 1000))
+    seq = [s for _, _, s in hist["transitions"][0]]
+    assert SEP in seq and (STICK in seq or PSLIP in seq or NSLIP in seq)
+    # touchdown at tau = -pi/3: the spring is unstrained there, f_u starts from 0
+    h = history(U, V, el, np.array([TWO_PI - np.pi / 3 + 1e-7]))
+    assert abs(h["fu"][0, 0]) < 1e-6
+    ex = forces(U, V, el, jacobian=False)
+    af = forces(U, V, el, "aft", n_samples=2**14, jacobian=False)
+    assert np.max(np.abs(ex.Fu - af.Fu)) < 1e-4 * 0.4 * 0.5
+
+
+@pytest.mark.parametrize("eps", [0.0, 1e-12, -1e-12])
+def test_grazing_normal_load_touches_zero(eps):
+    # n = 1 + eps - cos(tau) touches 0 at tau = 0 (eps = 0), barely separates or not
+    U, V = one(U1=(0.5, 0.3), V1=(-1.0,))
+    el = YangMenq(ku=1.0, kv=1.0, mu=0.4, n0=1.0 + eps)
+    ex = forces(U, V, el)
+    assert np.all(np.isfinite(ex.Fu)) and np.all(np.isfinite(ex.dFu_dU))
+    af = forces(U, V, el, "aft", n_samples=2**14, jacobian=False)
+    assert np.max(np.abs(ex.Fu - af.Fu)) < 1e-4 * 0.4 * 2
+    ref = forces(U, V, YangMenq(ku=1.0, kv=1.0, mu=0.4, n0=1.0), jacobian=False)
+    assert np.max(np.abs(ex.Fu - ref.Fu)) < 1e-9  # continuous through grazing
+
+
+@pytest.mark.parametrize("ku", [1e2, 1e4, 1e6, 1e8])
+def test_stiff_tangential_spring_and_coulomb_limit(ku):
+    # Jenkins under u = cos(tau) against the closed form; rounding in the stick
+    # force grows with the conditioning c = ku A / (mu n) (see README: limits)
+    U, V = one(U1=(1.0,), H=5)
+    fs = 0.3 * 2.0
+    f = forces(U, V, YangMenq(ku=ku, kv=0.0, mu=0.3, n0=2.0))
+    a1, b1 = jenkins_describing_function(1.0, ku, fs)
+    cond = ku / fs
+    assert f.Fu[0, 1] == pytest.approx(a1, rel=1e-10, abs=100 * np.finfo(float).eps * cond * fs)
+    assert f.Fu[0, 2] == pytest.approx(b1, rel=max(1e-12, 100 * np.finfo(float).eps * cond))
+    assert f.Fu[0, 3] == pytest.approx(0.0, abs=1e-12)  # cos(2 tau): half-wave symmetry
+    if ku >= 1e8:  # full slip: f_u -> mu n sign(u'), harmonics -4 mu n / (k pi)
+        assert f.Fu[0, 2] == pytest.approx(-4 * fs / np.pi, rel=1e-7)
+        assert f.Fu[0, 6] == pytest.approx(-4 * fs / (3 * np.pi), rel=1e-6)
+
+
+def test_zero_motion_and_zero_friction():
+    U, V = one(U0=0.2)
+    f = forces(U, V, YangMenq(ku=1.0, kv=1.0, mu=0.4, n0=3.0))
+    np.testing.assert_allclose(f.Fu, 0.0, atol=1e-15)
+    assert f.Fv[0, 0] == pytest.approx(3.0) and np.all(f.Fv[0, 1:] == 0)
+    U, V = one(U1=(1.0, 0.2), V1=(0.5,))
+    f = forces(U, V, YangMenq(ku=1.0, kv=1.0, mu=0.0, n0=1.0))
+    assert np.all(f.Fu == 0) and np.all(f.dFu_dU == 0) and f.regimes["frictionless"] == 1
+    assert f.Fv[0, 0] == pytest.approx(1.0) and f.Fv[0, 1] == pytest.approx(0.5)
+
+
+def test_kv_zero_is_jenkins_with_constant_normal_load():
+    U, V = one(U1=(1.0, 0.4, 0.1), V1=(5.0, 3.0))  # v is irrelevant when kv = 0
+    el = YangMenq(ku=3.0, kv=0.0, mu=0.5, n0=1.0)
+    f = forces(U, V, el)
+    f0 = forces(U, np.zeros_like(V), el)
+    np.testing.assert_allclose(f.Fu, f0.Fu, atol=1e-15)
+    np.testing.assert_allclose(f.Fv, [[1.0, 0, 0, 0, 0, 0, 0]], atol=1e-15)
+    assert np.all(f.dFu_dV == 0)
+
+
+def test_many_harmonics_vectorised():
+    U, V, el = random_case(5, E=40, H=50)
+    f = forces(U, V, el)
+    assert f.Fu.shape == (40, 101) and f.dFu_dU.shape == (40, 101, 101)
+    af = forces(U, V, el, "aft", n_samples=2**14, jacobian=False)
+    su, sv = mu_nmax(U, V, el)
+    assert np.max(np.max(np.abs(af.Fu - f.Fu), 1) / su) < 1e-4
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(ku=-1.0, kv=1.0, mu=0.3, n0=1.0), "ku"),
+    (dict(ku=1.0, kv=-1.0, mu=0.3, n0=1.0), "kv"),
+    (dict(ku=1.0, kv=1.0, mu=-0.3, n0=1.0), "mu"),
+    (dict(ku=1.0, kv=1.0, mu=0.3, n0=np.nan), "n0"),
+    (dict(ku=[1.0, 2.0], kv=[1.0, 2.0, 3.0], mu=0.3, n0=1.0), "kv"),
+])
+def test_bad_parameters_raise_valueerror_naming_them(kw, match):
+    with pytest.raises(ValueError, match=match):
+        YangMenq(**kw)
+
+
+def test_bad_coefficients_raise_valueerror_naming_them():
+    el = YangMenq(1.0, 1.0, 0.3, 1.0)
+    U, V = one()
+    with pytest.raises(ValueError, match="U"):
+        forces(np.zeros((1, 6)), V, el)
+    with pytest.raises(ValueError, match="V"):
+        forces(U, np.full_like(V, np.nan), el)
+    with pytest.raises(ValueError, match="U"):
+        forces(np.zeros((2, 7)), np.zeros((2, 7)), el)
+    with pytest.raises(ValueError, match="method"):
+        forces(U, V, el, method="spline")
