@@ -28,7 +28,7 @@ def _parser() -> argparse.ArgumentParser:
     h.set_defaults(func=_cmd_hysteresis)
 
     b = sub.add_parser("bench", help="benchmarks that print tables")
-    b.add_argument("what", choices=["contact"], help="what to benchmark")
+    b.add_argument("what", choices=["contact", "hbm", "blade"], help="what to benchmark")
     b.add_argument("--quick", action="store_true", help="fewer repetitions")
     b.set_defaults(func=_cmd_bench)
     return p
