@@ -438,7 +438,9 @@ def _next_event(mdl: _Model, piece: _Piece, t0, t1, x0):
     ts = t0 + np.linspace(0.0, span, N + 1)
     G = piece.g(ts)
     Gp = piece.g(ts, 1)
-    scale = m.cabs @ np.abs(x0) + np.abs(piece.gconst) + 1e-300
+    # magnitude of each function over the window (its start alone can be ~0, e.g. n0 = 0)
+    scale = np.maximum(m.cabs @ np.abs(x0) + np.abs(piece.gconst),
+                       np.abs(G).max(axis=1) + np.abs(Gp).max(axis=1) * (span / N)) + 1e-300
     # a just-switched function starts at 0 with a slope that is 0 up to rounding
     tol, tol_d = 1e-10 * scale, 1e-9 * scale * fmax
     best, trig = np.inf, []
@@ -497,10 +499,10 @@ def _first_crossing(piece: _Piece, j, ts, g, gp, scale):
         lo, hi = ts[k_max], t_hi
     else:
         lo, hi = ts[k_pos - 1], ts[k_pos]
-    if f(lo) > 0:                       # only at the start of a piece that just switched
+    if f(lo) >= 0:                      # only at the start of a piece that just switched
         for s in 10.0 ** -np.arange(1, 12):
             tl = ts[0] + s * (hi - ts[0])
-            if f(tl) <= 0:
+            if f(tl) < 0:
                 lo = tl
                 break
         else:
@@ -628,8 +630,8 @@ def _rel(dz, z):
 
 def steady_state(system: System, Omega: float, H: int | None = None, periods_max: int = 400,
                  tol: float = 1e-11, q0=None, qd0=None, w0=None, method: str = "shooting",
-                 transient_periods: int = 2, newton_max: int = 30, n_samples: int = 512,
-                 max_events_per_period: int = 2000) -> SteadyResult:
+                 transient_periods: int = 2, newton_max: int = 8, n_samples: int = 512,
+                 max_events_per_period: int = 2000, slider_rest: bool = True) -> SteadyResult:
     """Periodic steady state at excitation frequency Omega [rad/s].
 
     method='shooting': a few transient periods, then Newton on the Poincare map
@@ -675,25 +677,43 @@ def steady_state(system: System, Omega: float, H: int | None = None, periods_max
     if method == "integrate":
         x, w, st, r, status, msg = plain(x, w, st, periods_max)
     else:
+        # Newton phases from the physical trajectory; when a phase stalls (no orbit
+        # nearby: past a fold, long transient) or lands on an unstable orbit, go on
+        # integrating from the physical state for twice as long as before.
         x, w, st, r, status, msg = plain(x, w, st, transient_periods)
-        it = 0
-        while status == 0 and r >= tol and periods < periods_max and it < newton_max:
-            it += 1
-            ok, x, w, st, r, mult, status, msg = _newton_step(mdl, P, x, w, st, r, tol)
-            if not ok and status == 0:
-                x, w, st, r, status, msg = plain(x, w, st, 5)
-        if status == 0 and r < tol and mult is not None and np.abs(mult).max() > 1 + 1e-6:
-            log.info("Omega=%g: shooting found an unstable orbit (|mult| = %.4g); integrating",
-                     Omega, np.abs(mult).max())
-            z = _zvec(mdl, x, w, st)
-            x = x * (1 + 1e-3) + 1e-6 * np.linalg.norm(z)
-            st, w = mdl.classify(x, w)
-            x, w, st, r, status, msg = plain(x, w, st, max(periods_max - periods, 1))
-            mult = None
+        n_plain = 8
+        while status == 0 and r >= tol and periods < periods_max:
+            xn, wn, sn, rn, mult_n = x, w, st, r, None
+            for it in range(newton_max):
+                ok, xn, wn, sn, rn, mult_n, status, msg = _newton_step(mdl, P, xn, wn, sn, rn, tol)
+                log.debug("Omega=%g Newton %d: ok=%s residual=%.3e periods=%d", Omega, it, ok,
+                          rn, periods)
+                if not ok or status or rn < tol or periods >= periods_max:
+                    break
+            if status:
+                break
+            if rn < tol and (mult_n is None or np.abs(mult_n).max() <= 1 + 1e-6):
+                x, w, st, r, mult = xn, wn, sn, rn, mult_n
+                break
+            if rn < tol:
+                log.info("Omega=%g: shooting found an unstable orbit (|mult| = %.4g)",
+                         Omega, np.abs(mult_n).max())
+            x, w, st, r, status, msg = plain(x, w, st, n_plain)
+            n_plain *= 2
     # the returned period, recorded densely; its defect is the reported residual
-    per = _run(mdl, 0.0, x, w, st, mdl.T, t_eval=np.linspace(0, mdl.T, n_samples + 1),
+    t_eval = np.linspace(0, mdl.T, n_samples + 1)
+    per = _run(mdl, 0.0, x, w, st, mdl.T, t_eval=t_eval,
                max_events_per_period=max_events_per_period)
     periods += 1
+    if slider_rest and status == 0 and per.success and per.n_events == 0:
+        xr, wr = _rest_sliders(mdl, system.contact.slider_rest, x, w, st, per)
+        per_r = _run(mdl, 0.0, xr, wr, st, mdl.T, t_eval=t_eval,
+                     max_events_per_period=max_events_per_period)
+        periods += 1
+        if per_r.success and per_r.n_events == 0:      # else keep the unshifted cycle
+            x, w, per = xr, wr, per_r
+        else:
+            log.info("Omega=%g: slider_rest position not admissible; slider kept", Omega)
     ze = _zvec(mdl, np.concatenate([per.q_final, per.qdot_final]), per.w_final, per.state_final)
     res = _rel(ze - _zvec(mdl, x, w, st), ze)
     converged = bool(per.success and status == 0 and res < tol)
@@ -712,6 +732,47 @@ def steady_state(system: System, Omega: float, H: int | None = None, periods_max
         n_events=per.n_events, n_events_total=n_ev_total + per.n_events, events=per.events,
         wall_time=time.perf_counter() - tic, success=converged, status=status, message=msg,
         period=per)
+
+
+def _rest_sliders(mdl, rest, x, w, st, per):
+    """Shift the stuck sliders of an event-free cycle to the slider_rest convention.
+
+    Only the static part moves: q_s(w) = K_s^-1 (p0 + Wm w) is affine in w, so the
+    mean-u condition w_S = Bt_S q_s(w) is one small linear solve.
+    """
+    S = np.nonzero((st == STICK) & (mdl.kt > 0))[0]
+    if S.size == 0:
+        return x, w
+    m = mdl.mode(st)
+    G = mdl.Bt[S] @ m.Kinv                       # d(mean u_S)/d(static load)
+    if rest is None:
+        # w_S = mean u_S = Bt_S K_s^-1 (p0 + Wm w)  (harmonic parts have zero mean)
+        A = np.eye(S.size) - G @ m.Wm[:, S]
+        w_other = w.copy()
+        w_other[S] = 0.0
+        target = np.linalg.solve(A, G @ (m.p0 + m.Wm @ w_other))
+    else:
+        target = np.asarray(rest, float)[S]
+    u = per.q @ mdl.Bt[S].T                     # admissible interval of a stuck cycle
+    nrm = mdl.n0[S] + mdl.kv[S] * (per.q @ mdl.Bn[S].T)
+    lo = (u - mdl.mu[S] * nrm / mdl.kt[S]).max(axis=0)
+    hi = (u + mdl.mu[S] * nrm / mdl.kt[S]).min(axis=0)
+    # clamp against the interval of the SHIFTED cycle: u and n move with w through q_s,
+    # so the bounds move at the rates c_lo, c_hi (diagonal coupling per element)
+    dq_dw = m.Kinv @ m.Wm[:, S]
+    du = np.diag(mdl.Bt[S] @ dq_dw)
+    dn = mdl.kv[S] * np.diag(mdl.Bn[S] @ dq_dw)
+    c_lo, c_hi = du - mdl.mu[S] * dn / mdl.kt[S], du + mdl.mu[S] * dn / mdl.kt[S]
+    w0 = w[S]
+    d_lo = (lo - w0) / np.where(c_lo < 1, 1 - c_lo, np.inf)
+    d_hi = (hi - w0) / np.where(c_hi < 1, 1 - c_hi, np.inf)
+    pad = 1e-6 * np.maximum(d_hi - d_lo, 0.0)           # stay off the friction limit
+    target = w0 + np.clip(target - w0, d_lo + pad, d_hi - pad)
+    wn = w.copy()
+    wn[S] = target
+    xn = x.copy()
+    xn[: mdl.n] += dq_dw @ (target - w[S])
+    return xn, wn
 
 
 def _newton_step(mdl, P, x, w, st, r0, tol):
@@ -765,7 +826,7 @@ def _newton_step(mdl, P, x, w, st, r0, tol):
             return False, x, w, st, r0, mult, stt, msg
         zn_full = _zvec(mdl, xx, ww, sn)
         rn = _rel(_zvec(mdl, fx, fw, fs) - zn_full, zn_full)
-        if rn < min(r, r0):
+        if rn < 0.5 * r:
             return True, xx, ww, sn, rn, mult, 0, ""
         lam *= 0.5
     return False, xe, we, se, r, mult, 0, ""
@@ -805,25 +866,28 @@ def fourier_coefficients(res: TimeResult, H: int, t0: float = 0.0) -> np.ndarray
 
 
 def _amplitude(res: TimeResult, mdl) -> np.ndarray:
-    """(max - min)/2 per DOF over the recorded period, extrema polished on q' = 0."""
+    """(max - min)/2 per DOF over the recorded period, extrema polished on q' = 0.
+
+    res.t spans one closed period [0, T] (first and last sample coincide), so the
+    neighbours of an extremum at either end wrap around.
+    """
+    N = len(res.t) - 1
     amp = np.zeros(mdl.n)
     for i in range(mdl.n):
+        def qd(t):
+            return res.evaluate(t)[1][0, i]
         ext = []
-        for sgn in (1, -1):
-            k = int(np.argmax(sgn * res.q[:, i]))
-            best = res.q[k, i]
-            lo, hi = res.t[max(k - 1, 0)], res.t[min(k + 1, len(res.t) - 1)]
-
-            def qd(t):
-                return res.evaluate(t)[1][0, i]
-            try:
-                if qd(lo) * qd(hi) < 0:
-                    tm = brentq(qd, lo, hi, xtol=1e-15 * mdl.T)
-                    val = res.evaluate(tm)[0][0, i]
-                    best = max(best, val) if sgn > 0 else min(best, val)
-            except ValueError:
-                pass
-            ext.append(best)
+        for sgn in (1.0, -1.0):
+            k = int(np.argmax(sgn * res.q[:N, i]))
+            best = sgn * res.q[k, i]
+            left = (k - 1, k) if k > 0 else (N - 1, N)
+            right = (k, k + 1)
+            for lo, hi in (left, right):
+                a, b = res.t[lo], res.t[hi]
+                if qd(a) * qd(b) < 0:
+                    tm = brentq(qd, a, b, xtol=1e-15 * mdl.T)
+                    best = max(best, sgn * res.evaluate(tm)[0][0, i])
+            ext.append(sgn * best)
         amp[i] = (ext[0] - ext[1]) / 2
     return amp
 

@@ -1,0 +1,211 @@
+"""Event-driven time integration (pipeline/timesim.py) against closed forms and physics.
+
+References: the linear FRF |(K - Om^2 M + i Om C)^-1 F| in the separated / stuck
+limits, the energy balance of a periodic cycle, the friction limit at detected events,
+and the paper's Examples 1 and 3 (Sec. 6.1, 6.3).
+"""
+import numpy as np
+import pytest
+
+from pipeline import timesim as ts
+from pipeline.contact import YangMenq
+from pipeline.system import System
+
+
+def example1(n0=1.0, mu=0.5, ku=1e4):
+    """Paper Example 1: Jenkins sdof, m=1, c=0.3, k=3.55e4, F0=1 N (kv = 0)."""
+    F = np.zeros((1, 2), complex)
+    F[0, 1] = 1.0
+    return System(M=np.eye(1), C=np.array([[0.3]]), K=np.array([[3.55e4]]),
+                  Bt=np.array([[1.0]]), Bn=np.array([[0.0]]),
+                  contact=YangMenq(ku=ku, kv=0.0, mu=mu, n0=n0), forcing=F)
+
+
+def example3(n0, kv=1.0, mu=0.4):
+    """Paper Example 3: two DOFs (u, v) from modal data, Yang-Menq with ku = kv = 1."""
+    Phi = np.array([[0.707, 1.0], [0.707, -0.5]])
+    Pi = np.linalg.inv(Phi)
+    om, zeta = np.array([1.0, 10.0]), 0.01
+    F = np.zeros((2, 2), complex)
+    F[:, 1] = 1.0
+    return System(M=Pi.T @ Pi, C=Pi.T @ np.diag(2 * zeta * om) @ Pi,
+                  K=Pi.T @ np.diag(om ** 2) @ Pi, Bt=np.array([[1.0, 0.0]]),
+                  Bn=np.array([[0.0, 1.0]]), contact=YangMenq(ku=1.0, kv=kv, mu=mu, n0=n0),
+                  forcing=F)
+
+
+def frf(system, Om, K_add=0.0):
+    S = system.K + K_add - Om ** 2 * system.M + 1j * Om * system.C
+    return np.linalg.solve(S, system.forcing[:, 1])
+
+
+def assert_linear(res, X):
+    """Harmonic 1 (cos, sin) and half peak-to-peak amplitude equal the FRF to 1e-6."""
+    Q1 = res.Q[:, 1] - 1j * res.Q[:, 2]
+    assert res.converged, res.message
+    np.testing.assert_allclose(Q1, X, rtol=1e-6, atol=1e-6 * np.abs(X).max())
+    np.testing.assert_allclose(res.amplitude, np.abs(X), rtol=1e-6)
+    assert np.abs(res.Q[:, 3:]).max() < 1e-6 * np.abs(X).max()   # no higher harmonics
+
+
+@pytest.mark.parametrize("case, Om", [
+    ("sdof mu=0", 150.0), ("sdof mu=0", 188.4), ("sdof ku=0", 200.0),
+    ("ex3 separated", 0.97), ("ex3 separated", 1.2)])
+def test_linear_limit_free(case, Om):
+    s = {"sdof mu=0": example1(mu=0.0), "sdof ku=0": example1(ku=0.0),
+         "ex3 separated": example3(n0=-100.0)}[case]
+    r = ts.steady_state(s, Om)
+    assert_linear(r, frf(s, Om))
+    assert r.n_events == 0
+
+
+@pytest.mark.parametrize("case, Om", [
+    ("sdof stuck", 150.0), ("sdof stuck", 213.0), ("2dof stuck kv=0", 1.3),
+    ("ex3 n0=500", 0.97), ("ex3 n0=500", 1.41)])
+def test_linear_limit_stuck(case, Om):
+    if case == "sdof stuck":
+        s, Kadd = example1(n0=1e9), np.array([[1e4]])
+    elif case == "2dof stuck kv=0":
+        s, Kadd = example3(n0=1e6, kv=0.0), np.diag([1.0, 0.0])
+    else:                       # stuck tangential spring + normal spring in contact
+        s, Kadd = example3(n0=500.0), np.diag([1.0, 1.0])
+    r = ts.steady_state(s, Om)
+    assert_linear(r, frf(s, Om, Kadd))
+    assert r.n_events == 0 and np.all(r.state == ts.STICK)
+
+
+@pytest.mark.parametrize("Om", [180.0, 188.0, 200.0, 215.0])
+def test_example1_energy_balance_and_events(Om):
+    s = example1()
+    r = ts.steady_state(s, Om)
+    assert r.converged and r.residual < 1e-11, r.message
+    wk = ts.work_per_period(r.period)
+    assert wk["friction"] > 0.1 * wk["input"]            # friction really works here
+    assert abs(wk["input"] - wk["viscous"] - wk["friction"]) < 1e-6 * wk["input"]
+    ev = r.events
+    slip = (ev["old"] == ts.STICK) & np.isin(ev["new"], (ts.PS, ts.NS))
+    assert slip.sum() == 2 and len(ev) == 4                # stick-slip-stick-slip
+    mu_n = 0.5 * 1.0
+    u = r.period.event_q[slip, 0]
+    f = 1e4 * (u - r.period.event_w[slip, 0])
+    np.testing.assert_allclose(np.abs(f), mu_n, rtol=1e-9)
+    assert r.periods < 80                                 # shooting budget
+
+
+def test_example1_shooting_equals_plain_integration():
+    s = example1()
+    a = ts.steady_state(s, 200.0)
+    b = ts.steady_state(s, 200.0, method="integrate", periods_max=1000, tol=1e-11)
+    assert b.converged and b.multipliers is None
+    np.testing.assert_allclose(a.amplitude, b.amplitude, rtol=1e-8)
+    np.testing.assert_allclose(a.Q, b.Q, atol=1e-8 * a.amplitude.max())
+
+
+def test_example3_n0_10_visits_all_states():
+    s = example3(n0=10.0)
+    r = ts.steady_state(s, 1.3)
+    assert r.converged, r.message
+    seen = set(r.events["old"]) | set(r.events["new"])
+    assert seen == {ts.SEP, ts.STICK, ts.PS, ts.NS}
+    # touchdown restarts unstrained and goes to positive slip (Sec. 4.1 rule here)
+    td = r.events[r.events["old"] == ts.SEP]
+    assert len(td) == 1 and td["new"][0] == ts.PS
+    wk = ts.work_per_period(r.period)
+    assert abs(wk["input"] - wk["viscous"] - wk["friction"]) < 1e-6 * wk["input"]
+    assert r.amplitude[0] == pytest.approx(8.1626, rel=1e-4)
+
+
+def test_example3_n0_minus20_contact_interval():
+    """Gap of 20: near the linear resonance the blade hits, slips, sticks and separates."""
+    r = ts.steady_state(example3(n0=-20.0), 1.0)
+    assert r.converged
+    pairs = {(int(a), int(b)) for a, b in zip(r.events["old"], r.events["new"])}
+    assert pairs == {(ts.SEP, ts.PS), (ts.PS, ts.STICK), (ts.STICK, ts.NS), (ts.NS, ts.SEP)}
+    assert r.amplitude[0] < 0.6 * np.abs(frf(example3(-20.0), 1.0))[0]   # contact limits it
+
+
+def test_example3_sweep_hysteresis():
+    """Softening n0 = 10: up-sweep jumps up, down-sweep jumps down at a lower frequency."""
+    s = example3(n0=10.0)
+    Om = np.arange(1.15, 1.36, 0.025)
+    up, down = ts.sweep(s, Om, "up"), ts.sweep(s, Om, "down")
+    assert up.success and down.success
+    assert len(up.jumps) == 1 and len(down.jumps) == 1
+    Om_up = up.Omega[up.jumps[0]]
+    Om_down = down.Omega[down.jumps[0]]
+    assert Om_down < Om_up
+    assert up.amplitude[up.jumps[0], 0] > 2 * up.amplitude[up.jumps[0] - 1, 0]
+
+
+@pytest.mark.parametrize("rest", [None, 0.002])
+def test_fully_stuck_slider_rest_convention(rest):
+    """Event-free stuck cycle: the slider sits at mean u (None) or at slider_rest."""
+    from dataclasses import replace
+    s = example1(n0=1e9)
+    s = replace(s, forcing=s.forcing + np.array([[100.0, 0.0]]),
+                contact=replace(s.contact, slider_rest=rest))
+    r = ts.steady_state(s, 150.0)
+    assert r.converged and r.n_events == 0
+    w = r.w0[0]
+    if rest is None:
+        assert w == pytest.approx(r.Q[0, 0], rel=1e-10)       # mean u
+        assert r.Q[0, 0] == pytest.approx(100.0 / 3.55e4, rel=1e-10)
+    else:
+        assert w == pytest.approx(rest, rel=1e-12)
+        assert r.Q[0, 0] == pytest.approx((100.0 + 1e4 * rest) / 4.55e4, rel=1e-10)
+    assert r.amplitude[0] == pytest.approx(abs(1 / (4.55e4 - 150.0 ** 2 + 45j)), rel=1e-9)
+
+
+def three_dof_two_elements():
+    """Two coupled elements (a DOF pair and a DOF against ground) with 2 harmonics."""
+    M = np.diag([1.0, 1.5, 0.8])
+    K = np.array([[2.0, -1, 0], [-1, 2.5, -0.5], [0, -0.5, 1.5]])
+    F = np.zeros((3, 3), complex)
+    F[:, 1], F[:, 2] = [1, 0.5j, 0.8], [0.2, 0, 0.1]
+    return System(M=M, C=0.02 * K + 0.01 * M, K=K,
+                  Bt=np.array([[1.0, -1, 0], [0, 1, 0]]), Bn=np.array([[0, 0, 1.0], [0, 0, -0.5]]),
+                  contact=YangMenq(ku=[2.0, 1.0], kv=[1.0, 3.0], mu=[0.3, 0.5], n0=[0.5, 1.0]),
+                  forcing=F)
+
+
+@pytest.mark.parametrize("system, Om", [
+    pytest.param(three_dof_two_elements(), 1.0, id="2 elements"),
+    pytest.param(three_dof_two_elements(), 0.875, id="2 elements, lift-off at a root",
+                 marks=pytest.mark.slow),
+    pytest.param(example3(n0=0.0), 1.0, id="ex3 n0=0 (n = 0 at rest)")])
+def test_energy_balance_hard_cases(system, Om):
+    r = ts.steady_state(system, Om)
+    assert r.converged, r.message
+    assert r.n_events >= 4
+    assert np.all(np.diff(r.events["t"]) > 1e-9)           # no zero-length chatter
+    wk = ts.work_per_period(r.period)
+    assert abs(wk["input"] - wk["viscous"] - wk["friction"]) < 1e-6 * wk["input"]
+
+
+def test_simulate_history_and_event_cap():
+    s = example1()
+    T = 2 * np.pi / 200.0
+    r = ts.simulate(s, 200.0, 5 * T, samples_per_period=64)
+    assert r.success and r.t[-1] == pytest.approx(5 * T)
+    assert r.q.shape == (len(r.t), 1) and r.state.shape == (len(r.t), 1)
+    assert np.all(np.diff(r.events["t"]) >= 0)
+    # in stick the slider does not move; in slip |ku (u - w)| = mu n
+    f = 1e4 * (r.q[:, 0] - r.w[:, 0])
+    slip = np.isin(r.state[:, 0], (ts.PS, ts.NS))
+    np.testing.assert_allclose(np.abs(f[slip]), 0.5, rtol=1e-12)
+    assert np.all(np.abs(f) <= 0.5 * (1 + 1e-12))
+    capped = ts.simulate(s, 200.0, 5 * T, max_events_per_period=1)
+    assert not capped.success and capped.status == 1 and "chattering" in capped.message
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(Omega=-1.0), "Omega must be a positive"),
+    (dict(method="euler"), "method must be"),
+    (dict(tol=0.0), "tol must be"),
+])
+def test_misuse_raises(kwargs, match):
+    args = dict(system=example1(), Omega=200.0) | kwargs
+    with pytest.raises(ValueError, match=match):
+        ts.steady_state(**args)
+    with pytest.raises(ValueError, match="direction"):
+        ts.sweep(example1(), [1.0], direction="sideways")
