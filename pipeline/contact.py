@@ -31,10 +31,13 @@ class YangMenq:
     """E Yang-Menq elements: ku, kv [N/m], mu [-], n0 [N] (arrays of length E).
 
     slider_rest: where a fully stuck slider sits.  A fully stuck cycle is periodic
-    for any slider position w in [max(u - mu n/ku), min(u + mu n/ku)]; None (default)
-    takes w = the cycle mean of u (the tangential spring is unstrained at the static
-    position), an array takes those absolute positions [m]; either is clamped into
-    the admissible interval.  Cycles that slip or separate do not depend on it.
+    for any slider position w in [max lo, min hi], lo = u - mu n/ku, hi = u + mu n/ku.
+    None (default) takes the middle, w = (max lo + min hi)/2: for a constant normal
+    load the tangential spring is unstrained at the middle of the displacement range,
+    and the force is continuous where the cycle starts to slip (there max lo = min hi
+    is the only admissible w), which Newton needs.  An array takes those absolute
+    positions [m], clamped into the interval.  Cycles that slip or separate do not
+    depend on it.
     """
 
     ku: np.ndarray
@@ -73,7 +76,7 @@ class YangMenq:
 SEP, STICK, PSLIP, NSLIP = 0, 1, 2, 3
 STATE_NAMES = {SEP: "separation", STICK: "stick", PSLIP: "positive slip", NSLIP: "negative slip"}
 # where a stick phase took its slider position w from (for dw/dQ)
-_SRC_LO, _SRC_HI, _SRC_TD, _SRC_MEAN, _SRC_FIXED = 0, 1, 2, 3, 4
+_SRC_LO, _SRC_HI, _SRC_TD = 0, 1, 2
 
 
 @dataclass(frozen=True)
@@ -125,8 +128,33 @@ def forces(U, V, elem: YangMenq, method: str = "exact", n_samples: int = 1024,
     raise ValueError(f"method must be 'exact' or 'aft', got {method!r}")
 
 
-def slider_reference(elem: YangMenq, U: np.ndarray):
-    """Rest position w_ref of a fully stuck slider and its source kind (see YangMenq)."""
+def stuck_slider(elem: YangMenq, maxlo, minhi, s_lo, s_hi):
+    """Slider position w of fully stuck elements and its derivatives (see YangMenq).
+
+    maxlo, minhi: (E,) band extremes; s_lo, s_hi: (E, 2H+1) the basis where they
+    occur (lo, hi are stationary there, so d(max lo)/dQ = basis there).
+    Returns w (E,), dw/dU and dw/dV (E, 2H+1).
+    """
+    r = np.where(elem.ku > 0, elem.mu / np.where(elem.ku > 0, elem.ku, 1.0), 0.0)
+    rk = (r * elem.kv)[:, None]
     if elem.slider_rest is None:
-        return U[:, 0].copy(), np.full(U.shape[0], _SRC_MEAN)
-    return elem.slider_rest.copy(), np.full(U.shape[0], _SRC_FIXED)
+        return 0.5 * (maxlo + minhi), 0.5 * (s_lo + s_hi), 0.5 * rk * (s_hi - s_lo)
+    ref = elem.slider_rest
+    low, high = ref < maxlo, ref > minhi
+    w = np.where(low, maxlo, np.where(high, minhi, ref))
+    dU = np.where(low[:, None], s_lo, np.where(high[:, None], s_hi, 0.0))
+    dV = np.where(low[:, None], -rk * s_lo, np.where(high[:, None], rk * s_hi, 0.0))
+    return w, dU, dV
+
+
+def stuck_forces(U, elem: YangMenq, w, dwdU, dwdV, rows):
+    """Fu = ku (U - w e0) and its Jacobian for the fully stuck elements `rows`."""
+    nc = U.shape[1]
+    ku = elem.ku[rows][:, None]
+    Fu = ku * U[rows]
+    Fu[:, 0] -= ku[:, 0] * w[rows]
+    e0 = np.zeros(nc)
+    e0[0] = 1.0
+    dU = ku[..., None] * (np.eye(nc) - e0[:, None] * dwdU[rows][:, None, :])
+    dV = -ku[..., None] * e0[:, None] * dwdV[rows][:, None, :]
+    return Fu, dU, dV

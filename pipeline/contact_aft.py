@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .contact import (ContactForces, YangMenq, _SRC_FIXED, _SRC_HI, _SRC_LO,
-                      _SRC_MEAN, _SRC_TD, slider_reference)
+from .contact import (ContactForces, YangMenq, _SRC_HI, _SRC_LO, _SRC_TD,
+                      stuck_forces, stuck_slider)
 from .harmonics import harmonics_of, time_grid
 
 
@@ -69,19 +69,16 @@ def aft_forces(U, V, elem: YangMenq, N: int, jacobian: bool = True) -> ContactFo
     any_sep = ~contact.all(1)
     maxlo, minhi = lo.max(1), hi.min(1)
     stuck = ~any_sep & (maxlo <= minhi) & tang
-    wref, k_ref = slider_reference(elem, U)
-    w_st = np.clip(wref, maxlo, np.maximum(minhi, maxlo))
     i_lo, i_hi = lo.argmax(1), hi.argmin(1)
-    k_st = np.where(wref < maxlo, _SRC_LO, np.where(wref > minhi, _SRC_HI, k_ref))
-    i_st = np.where(k_st == _SRC_LO, i_lo, i_hi)
+    w_st, dwdU, dwdV = stuck_slider(elem, maxlo, minhi, S[i_lo], S[i_hi])
 
     i0 = np.where(any_sep, np.argmax(~contact, axis=1), i_hi)
     w0 = np.where(any_sep, u[rows, i0], minhi)
     k0 = np.where(any_sep, _SRC_TD, _SRC_HI)
     mar = np.flatnonzero(tang & ~stuck & contact.any(1))
     w = np.broadcast_to(w_st[:, None], (E, N)).copy()
-    src = np.broadcast_to(i_st[:, None], (E, N)).copy()
-    kind = np.broadcast_to(k_st[:, None], (E, N)).copy()
+    src = np.broadcast_to(i_lo[:, None], (E, N)).copy()
+    kind = np.full((E, N), _SRC_LO)
     if mar.size:
         w[mar], src[mar], kind[mar] = play_march(lo[mar], hi[mar], u[mar], contact[mar],
                                                  i0[mar], w0[mar], k0[mar])
@@ -96,15 +93,14 @@ def aft_forces(U, V, elem: YangMenq, N: int, jacobian: bool = True) -> ContactFo
         return ContactForces(Fu, Fv, None, None, None, regimes)
 
     # df_u,i/dU = ku (s_i - dw_i/dU), df_u,i/dV = -ku dw_i/dV, with dw_i = a * s_src
-    aU = np.where((kind == _SRC_MEAN) | (kind == _SRC_FIXED), 0.0, 1.0)
     aV = np.where(kind == _SRC_LO, -(r * kv)[:, None], np.where(kind == _SRC_HI, (r * kv)[:, None], 0.0))
     Ssrc = S[src]  # (E, N, 2H+1)
     WA = W.T[None] * (act * ku[:, None])[..., None]  # (E, N, 2H+1): row weights
-    dFu_dU = np.einsum("enk,nj->ekj", WA, S) - np.einsum("enk,enj->ekj", WA * aU[..., None], Ssrc)
-    mean = kind == _SRC_MEAN
-    if mean.any():
-        dFu_dU[:, :, 0] -= np.einsum("enk,en->ek", WA, mean * 1.0)
+    dFu_dU = np.einsum("enk,nj->ekj", WA, S) - np.einsum("enk,enj->ekj", WA, Ssrc)
     dFu_dV = -np.einsum("enk,enj->ekj", WA * aV[..., None], Ssrc)
     WC = W.T[None] * (contact * kv[:, None])[..., None]
     dFv_dV = np.einsum("enk,nj->ekj", WC, S)
+    st_rows = np.flatnonzero(stuck)
+    if st_rows.size:  # fully stuck: closed form, w from the convention (two sources)
+        _, dFu_dU[st_rows], dFu_dV[st_rows] = stuck_forces(U, elem, w_st, dwdU, dwdV, st_rows)
     return ContactForces(Fu, Fv, dFu_dU, dFu_dV, dFv_dV, regimes)

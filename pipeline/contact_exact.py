@@ -38,8 +38,7 @@ from functools import lru_cache
 import numpy as np
 
 from .contact import (NSLIP, PSLIP, SEP, STICK, ContactForces, YangMenq,
-                      _SRC_FIXED, _SRC_HI, _SRC_LO, _SRC_MEAN, _SRC_TD,
-                      slider_reference)
+                      _SRC_HI, _SRC_LO, _SRC_TD, stuck_forces, stuck_slider)
 from .harmonics import basis, derivative, harmonics_of
 from .trigroots import TWO_PI, _polish, sign_changes
 
@@ -192,15 +191,15 @@ def periodic_segments(U, V, elem: YangMenq):
     # 0 separated, 1 stuck, 2 transitions, 3 frictionless contact (f_u = 0)
     regime = np.where(stuck, 1, np.where(crosses | in_contact, np.where(tang, 2, 3), 0))
 
-    # full stick: w = clamp(w_ref, max lo, min hi)
-    wref, kind = slider_reference(elem, U)
-    w_st = np.clip(wref, maxlo, np.maximum(minhi, maxlo))
-    kind = np.where(wref < maxlo, _SRC_LO, np.where(wref > minhi, _SRC_HI, kind))
-    src_tau = np.where(kind == _SRC_LO, tlo, np.where(kind == _SRC_HI, thi, 0.0))
+    # full stick: w in [max lo, min hi] by the convention of YangMenq.slider_rest
+    w_st, dwdU, dwdV = stuck_slider(elem, maxlo, minhi, basis(tlo, H), basis(thi, H))
+    kind = np.full(E, _SRC_LO)
+    src_tau = tlo
 
     march = np.flatnonzero(regime == 2)
     out = dict(regime=regime, Lc=Lc, Hc=Hc, Nc=Nc, tang=tang, H=H,
-               contact_all=in_contact, n_roots=nr, n_slope=ns)
+               contact_all=in_contact, n_roots=nr, n_slope=ns,
+               stuck_w=w_st, stuck_dwdU=dwdU, stuck_dwdV=dwdV)
     S_st = dict(a=np.zeros((E, 1)), b=np.full((E, 1), TWO_PI),
                 state=np.where(regime == 1, STICK, np.where(regime == 0, SEP, -1))[:, None],
                 w=w_st[:, None], src_tau=src_tau[:, None], src_kind=kind[:, None])
@@ -369,12 +368,10 @@ def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
     if not jacobian:
         return ContactForces(Fu, Fv, None, None, None, regimes)
 
-    # dw/dU = s(t_src) * aU, dw/dV = s(t_src) * aV (MEAN: e0; FIXED: 0)
+    # dw/dU = s(t_src), dw/dV = s(t_src) * aV for the stick phases of switching cycles
     kind, ts = seg["src_kind"], seg["src_tau"]
     r = np.where(tang, mu / np.where(ku > 0, ku, 1.0), 0.0)[:, None]
     Sx = basis(ts, H)
-    Sx[kind == _SRC_MEAN] = np.eye(nc)[0]
-    Sx[kind == _SRC_FIXED] = 0.0
     aV = np.zeros_like(ts)
     aV = np.where(kind == _SRC_LO, -r * kv[:, None], aV)
     aV = np.where(kind == _SRC_HI, r * kv[:, None], aV)
@@ -387,6 +384,10 @@ def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
     dFu_dU = ku[:, None, None] * (G_st - gT @ Sx)
     dFu_dV = (mu * kv)[:, None, None] * G_sl - ku[:, None, None] * ((gT * aV[:, None, :]) @ Sx)
     dFv_dV = kv[:, None, None] * Gc
+    st_rows = np.flatnonzero(regime == 1)
+    if st_rows.size:  # fully stuck: closed form, w from the convention (two sources)
+        Fu[st_rows], dFu_dU[st_rows], dFu_dV[st_rows] = stuck_forces(
+            U, elem, seg["stuck_w"], seg["stuck_dwdU"], seg["stuck_dwdV"], st_rows)
     return ContactForces(Fu, Fv, dFu_dU, dFu_dV, dFv_dV, regimes)
 
 

@@ -504,6 +504,7 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
 
     # ---- predictor-corrector loop
     spent = 0
+    last_turn = None
     while True:
         ts = t_phys / s
         ts /= np.linalg.norm(ts)
@@ -534,7 +535,15 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
             if tan is None:
                 reason = "singular tangent system"
             elif tan[1] < cos_turn and ds > ds_min:
-                reason = f"tangent turned by {math.degrees(math.acos(tan[1])):.1f} deg"
+                angle = math.acos(min(1.0, tan[1]))
+                # a smooth curve's turn halves with the step; a turn that does not
+                # shrink is a kink of the branch (e.g. onset of slip), not a jump
+                if last_turn is not None and angle > 0.75 * last_turn:
+                    log.debug("kink passed: turn %.1f deg persists as ds shrinks",
+                              math.degrees(angle))
+                else:
+                    last_turn = angle
+                    reason = f"tangent turned by {math.degrees(angle):.1f} deg"
         if reason is not None:
             n_rejected += 1
             ds *= 0.5
@@ -545,6 +554,7 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
             continue
 
         # accepted
+        last_turn = None
         t_new_s, _, t_new_phys = tan
         lam_new = zn[n]
         if not lo <= lam_new <= hi:

@@ -159,21 +159,45 @@ def one(U1=(), V1=(), H=3, U0=0.0, V0=0.0):
 
 
 def test_full_stick_is_linear_with_documented_slider_convention():
-    U, V = one(U1=(0.01, 0.02), V1=(0.01,), U0=0.3)
+    # asymmetric motion (cos + sin 2 tau) and variable normal load, fully stuck
+    U, V = one(U1=(0.01, 0.0, 0.0, 0.005), V1=(0.01,), U0=0.3)
     el = YangMenq(ku=2.0, kv=1.0, mu=0.5, n0=10.0)
     f = forces(U, V, el)
     assert f.regimes == {"separated": 0, "stuck": 1, "transitions": 0, "frictionless": 0}
-    expect = 2.0 * U[0].copy(); expect[0] = 0.0  # spring unstrained at the mean
-    np.testing.assert_allclose(f.Fu[0], expect, atol=1e-14)
-    J = 2.0 * np.eye(7); J[0, 0] = 0.0
-    np.testing.assert_allclose(f.dFu_dU[0], J, atol=1e-14)
-    # the same cycle with the slider fixed at 0.25 m: a parameter, not an accident
-    f2 = forces(U, V, YangMenq(2.0, 1.0, 0.5, 10.0, slider_rest=0.25))
-    assert f2.Fu[0, 0] == pytest.approx(2.0 * (0.3 - 0.25), rel=1e-14)
+    # convention: w = middle of the admissible interval [max lo, min hi] (dense check)
+    from pipeline.harmonics import basis
+    tau = np.linspace(0, TWO_PI, 200_001)
+    u, n = (U @ basis(tau, 3).T)[0], 10.0 + (V @ basis(tau, 3).T)[0]
+    w = 0.5 * ((u - 0.25 * n).max() + (u + 0.25 * n).min())
+    assert w != pytest.approx(0.3, abs=1e-4)  # differs from the cycle mean here
+    expect = 2.0 * U[0].copy()
+    expect[0] = 2.0 * (0.3 - w)
+    np.testing.assert_allclose(f.Fu[0], expect, atol=1e-9)
+    np.testing.assert_allclose(f.dFu_dU[0][:, 1:], 2.0 * np.eye(7)[:, 1:], atol=1e-14)
+    # the same cycle with the slider fixed at 0.295 m: a parameter, not an accident
+    f2 = forces(U, V, YangMenq(2.0, 1.0, 0.5, 10.0, slider_rest=0.295))
+    assert f2.Fu[0, 0] == pytest.approx(2.0 * (0.3 - 0.295), rel=1e-13)
     np.testing.assert_allclose(f2.Fu[0, 1:], expect[1:], atol=1e-14)
     af = forces(U, V, el, "aft", n_samples=64)
-    np.testing.assert_allclose(af.Fu, f.Fu, atol=1e-13)
+    np.testing.assert_allclose(af.Fu[0, 1:], f.Fu[0, 1:], atol=1e-13)
+    assert af.Fu[0, 0] == pytest.approx(f.Fu[0, 0], abs=1e-5)  # sampled extremes
     assert dissipated_energy(U, f.Fu)[0] == pytest.approx(0.0, abs=1e-15)
+
+
+def test_stuck_convention_is_continuous_where_slip_starts():
+    # grow the amplitude through the onset of slip: forces continuous, no jump in DC
+    el = YangMenq(ku=1.0, kv=0.5, mu=0.3, n0=1.0)
+    vals = []
+    A_onset = None
+    for A in np.linspace(0.2, 0.4, 201):
+        U, V = one(U1=(A, 0.0, 0.0, 0.4 * A), V1=(0.3 * A,))
+        f = forces(U, V, el, jacobian=False)
+        if A_onset is None and f.regimes["transitions"]:
+            A_onset = A
+        vals.append(f.Fu[0])
+    vals = np.array(vals)
+    assert A_onset is not None and 0.2 < A_onset < 0.4
+    assert np.max(np.abs(np.diff(vals, axis=0))) < 5e-3  # steps of 1e-3 in A, Lipschitz
 
 
 def test_full_separation_is_zero():

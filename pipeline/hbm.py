@@ -1,0 +1,349 @@
+"""Multi-harmonic balance residual (paper Eq. 4, 7, 8), condensed onto contact DOFs.
+
+Unknowns are the real Fourier coefficients Q (n, 2H+1) of `harmonics.py`.  Per
+harmonic h the linear part is the dynamic stiffness S_h = K - (h Om)^2 M + i h Om C
+(complex amplitude Q_h = Qc_h - i Qs_h), so that Eq. 7 reads
+
+    R_h = S_h Q_h + Bt^T Fu_h(Bt Q, Bn Q) + Bn^T Fv_h(Bt Q, Bn Q) - P_h.
+
+Condensation: the DOFs touched by a contact (c) keep their unknowns, all others (o)
+carry no nonlinear force and are eliminated per harmonic,
+
+    S~_h = S_cc - S_co S_oo^-1 S_oc,   P~_h = P_c - S_co S_oo^-1 P_o,
+
+so Newton works on nc (2H+1) unknowns only; `recover` gives Q_o = S_oo^-1 (P_o -
+S_oc Q_c) afterwards.  The condensed residual is the full residual restricted to
+the c rows (the o rows vanish exactly), so its norm is in newtons [N], the units
+of the equations: no scaling is applied to decide convergence.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from .contact import YangMenq, forces
+from .harmonics import derivative_matrix
+from .system import System
+
+
+@dataclass(frozen=True)
+class HBMProblem:
+    """A System prepared for harmonic balance with H harmonics."""
+
+    system: System
+    H: int
+    method: str            # "exact" or "aft"
+    n_samples: int         # AFT samples per period
+    c: np.ndarray          # contact DOF indices (nc,)
+    o: np.ndarray          # eliminated DOF indices
+    idx: np.ndarray        # (E, m) positions in c of each element's DOFs
+    bt: np.ndarray         # (E, m) tangential weights
+    bn: np.ndarray         # (E, m) normal weights
+    P: np.ndarray          # (n, 2H+1) forcing coefficients [N]
+
+    @property
+    def nh(self):
+        return 2 * self.H + 1
+
+    @property
+    def size(self):
+        return self.c.size * self.nh
+
+
+def _dense(A):
+    return A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
+
+
+def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -> HBMProblem:
+    """Find the contact DOFs and the element -> DOF maps (rows of Bt, Bn)."""
+    if H < 1:
+        raise ValueError(f"H must be >= 1, got {H}")
+    if method not in ("exact", "aft"):
+        raise ValueError(f"method must be 'exact' or 'aft', got {method!r}")
+    Bt, Bn = _dense(system.Bt), _dense(system.Bn)
+    n = system.n_dof
+    used = np.flatnonzero((Bt != 0).any(0) | (Bn != 0).any(0))
+    c = used
+    o = np.setdiff1d(np.arange(n), c)
+    pos = {d: i for i, d in enumerate(c)}
+    E = Bt.shape[0]
+    rows = [np.flatnonzero((Bt[e] != 0) | (Bn[e] != 0)) for e in range(E)]
+    m = max([len(r) for r in rows] + [1])
+    idx = np.zeros((E, m), int)
+    bt = np.zeros((E, m))
+    bn = np.zeros((E, m))
+    for e, r in enumerate(rows):
+        idx[e, :len(r)] = [pos[d] for d in r]
+        bt[e, :len(r)], bn[e, :len(r)] = Bt[e, r], Bn[e, r]
+    return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
+                      system.forcing_coefficients(H))
+
+
+# --------------------------------------------------------------------------
+# linear part, condensed
+# --------------------------------------------------------------------------
+
+def _S(sys, h, Om):
+    K, M, C = sys.K, sys.M, sys.C
+    if sp.issparse(K):
+        return (K - (h * Om) ** 2 * M + 1j * h * Om * C).tocsc()
+    return np.asarray(K) - (h * Om) ** 2 * np.asarray(M) + 1j * h * Om * np.asarray(C)
+
+
+def _dS(sys, h, Om):
+    K, M, C = sys.K, sys.M, sys.C
+    if sp.issparse(K):
+        return (-2 * h * h * Om * M + 1j * h * C).tocsc()
+    return -2 * h * h * Om * np.asarray(M) + 1j * h * np.asarray(C)
+
+
+def _complex_forcing(P, h):
+    return P[:, 0].astype(complex) if h == 0 else P[:, 2 * h - 1] - 1j * P[:, 2 * h]
+
+
+def _block(S, c, o):
+    if sp.issparse(S):
+        S = S.tocsr()
+        return (S[c][:, c].toarray(), S[c][:, o], S[o][:, c], S[o][:, o].tocsc())
+    return S[np.ix_(c, c)], S[np.ix_(c, o)], S[np.ix_(o, c)], S[np.ix_(o, o)]
+
+
+class _Solver:
+    """Factorisation of S_oo (dense LU or sparse LU), reused for several solves."""
+
+    def __init__(self, A):
+        if sp.issparse(A):
+            import scipy.sparse.linalg as spla
+            self.lu = spla.splu(A.tocsc())
+            self.solve = self.lu.solve
+        else:
+            self.lu = sla.lu_factor(A, check_finite=False)
+            self.solve = lambda b: sla.lu_solve(self.lu, b, check_finite=False)
+
+
+def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True):
+    """Condensed dynamic stiffness per harmonic and condensed forcing.
+
+    Returns (St, dSt, Pt, dPt): St[h], dSt[h] complex (nc, nc) for h = 0..H
+    (dSt = d/dOm), Pt, dPt complex (H+1, nc).
+    """
+    sys, c, o, H = prob.system, prob.c, prob.o, prob.H
+    if not sp.issparse(sys.K):
+        return _linear_part_dense(prob, Om, derivatives)
+    St, dSt, Pt, dPt = [], [], [], []
+    for h in range(H + 1):
+        S = _S(sys, h, Om)
+        Ph = _complex_forcing(prob.P, h)
+        if o.size == 0:
+            St.append(np.asarray(S.toarray() if sp.issparse(S) else S)[np.ix_(c, c)])
+            Pt.append(Ph[c])
+            if derivatives:
+                dS = _dS(sys, h, Om)
+                dSt.append(np.asarray(dS.toarray() if sp.issparse(dS) else dS)[np.ix_(c, c)])
+                dPt.append(np.zeros(c.size, complex))
+            continue
+        Scc, Sco, Soc, Soo = _block(S, c, o)
+        lu = _Solver(Soo)
+        rhs = np.column_stack([_dense_c(Soc), Ph[o][:, None]])
+        sol = lu.solve(rhs)
+        X, z = sol[:, :-1], sol[:, -1]           # X = Soo^-1 Soc, z = Soo^-1 P_o
+        St.append(Scc - _mul(Sco, X))
+        Pt.append(Ph[c] - _mul(Sco, z))
+        if derivatives:
+            dScc, dSco, dSoc, dSoo = _block(_dS(sys, h, Om), c, o)
+            # Y = Sco Soo^-1 via the transposed solve: Y^T = Soo^-T Sco^T
+            YT = _solve_T(lu, Soo, _dense_c(Sco).T)
+            Y = YT.T
+            dSt.append(dScc - _mul(dSco, X) - Y @ _dense_c(dSoc) + Y @ _mul(dSoo, X))
+            dPt.append(-_mul(dSco, z) + Y @ _mul(dSoo, z))
+    return St, dSt, np.array(Pt), np.array(dPt) if derivatives else None
+
+
+def _linear_part_dense(prob: HBMProblem, Om: float, derivatives: bool):
+    """`linear_part` for dense matrices: all harmonics in batched numpy calls."""
+    sys, c, o, H = prob.system, prob.c, prob.o, prob.H
+    K, M, C = (np.asarray(A, dtype=float) for A in (sys.K, sys.M, sys.C))
+    h = np.arange(H + 1)[:, None, None]
+    S = K - (h * Om) ** 2 * M + 1j * h * Om * C                       # (H+1, n, n)
+    P = np.stack([_complex_forcing(prob.P, k) for k in range(H + 1)])  # (H+1, n)
+    dS = -2 * h * h * Om * M + 1j * h * C if derivatives else None
+    if o.size == 0:
+        return (S[:, c][:, :, c], dS[:, c][:, :, c] if derivatives else None, P[:, c],
+                np.zeros((H + 1, c.size), complex) if derivatives else None)
+    Scc, Sco, Soc, Soo = S[:, c][:, :, c], S[:, c][:, :, o], S[:, o][:, :, c], S[:, o][:, :, o]
+    sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, o, None]], axis=2))
+    X, z = sol[..., :-1], sol[..., -1]                  # Soo^-1 Soc, Soo^-1 P_o
+    St = Scc - Sco @ X
+    Pt = P[:, c] - (Sco @ z[..., None])[..., 0]
+    if not derivatives:
+        return St, None, Pt, None
+    dScc, dSco, dSoc, dSoo = (dS[:, c][:, :, c], dS[:, c][:, :, o], dS[:, o][:, :, c],
+                              dS[:, o][:, :, o])
+    Y = np.linalg.solve(Soo.transpose(0, 2, 1), Sco.transpose(0, 2, 1)).transpose(0, 2, 1)
+    dSt = dScc - dSco @ X - Y @ dSoc + Y @ dSoo @ X
+    dPt = (-(dSco @ z[..., None]) + Y @ (dSoo @ z[..., None]))[..., 0]
+    return St, dSt, Pt, dPt
+
+
+def _dense_c(A):
+    return A.toarray() if sp.issparse(A) else A
+
+
+def _mul(A, B):
+    return A @ B
+
+
+def _solve_T(lu, A, B):
+    if sp.issparse(A):
+        return lu.lu.solve(B, trans="T")
+    return sla.lu_solve(lu.lu, B, trans=1, check_finite=False)
+
+
+def real_blocks(St, nh):
+    """Real matrix (nc*nh, nc*nh), DOF-major, of complex per-harmonic blocks St[h]."""
+    nc = St[0].shape[0]
+    L = np.zeros((nc, nh, nc, nh))
+    L[:, 0, :, 0] = St[0].real
+    for h in range(1, len(St)):
+        A, B = St[h].real, St[h].imag
+        ci, si = 2 * h - 1, 2 * h
+        L[:, ci, :, ci] = A
+        L[:, ci, :, si] = B
+        L[:, si, :, ci] = -B
+        L[:, si, :, si] = A
+    return L.reshape(nc * nh, nc * nh)
+
+
+def real_vector(Pt, nh):
+    """Real layout (nc, nh) of complex per-harmonic vectors Pt (H+1, nc)."""
+    nc = Pt.shape[1]
+    out = np.zeros((nc, nh))
+    out[:, 0] = Pt[0].real
+    out[:, 1::2] = Pt[1:].real.T
+    out[:, 2::2] = -Pt[1:].imag.T
+    return out
+
+
+# --------------------------------------------------------------------------
+# nonlinear part
+# --------------------------------------------------------------------------
+
+def contact_motion(prob: HBMProblem, Qc):
+    """Relative displacements U = Bt Q, V = Bn Q (E, 2H+1) from Qc (nc, 2H+1)."""
+    Qe = Qc[prob.idx]  # (E, m, nh)
+    return np.einsum("em,emk->ek", prob.bt, Qe), np.einsum("em,emk->ek", prob.bn, Qe)
+
+
+def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobian=True):
+    """Generalised contact force Bt^T Fu + Bn^T Fv (nc, nh) and its Jacobian."""
+    elem = contact if contact is not None else prob.system.contact
+    nc, nh = prob.c.size, prob.nh
+    if prob.idx.shape[0] == 0:
+        return np.zeros((nc, nh)), (np.zeros((nc * nh, nc * nh)) if jacobian else None), None
+    U, V = contact_motion(prob, Qc)
+    f = forces(U, V, elem, prob.method, prob.n_samples, jacobian)
+    G = np.zeros((nc, nh))
+    contrib = prob.bt[..., None] * f.Fu[:, None, :] + prob.bn[..., None] * f.Fv[:, None, :]
+    np.add.at(G, prob.idx, contrib)
+    if not jacobian:
+        return G, None, f
+    bt, bn = prob.bt, prob.bn
+    # per element: d(b_a^T F)/d(Q_b) for element DOF pairs (a, b)
+    Je = (np.einsum("ea,eb,ekj->eakbj", bt, bt, f.dFu_dU)
+          + np.einsum("ea,eb,ekj->eakbj", bt, bn, f.dFu_dV)
+          + np.einsum("ea,eb,ekj->eakbj", bn, bn, f.dFv_dV))
+    J = np.zeros((nc, nh, nc, nh))
+    E, m = prob.idx.shape
+    ia = np.broadcast_to(prob.idx[:, :, None], (E, m, m))
+    ib = np.broadcast_to(prob.idx[:, None, :], (E, m, m))
+    np.add.at(J, (ia, slice(None), ib), Je.transpose(0, 1, 3, 2, 4))
+    return G, J.reshape(nc * nh, nc * nh), f
+
+
+# --------------------------------------------------------------------------
+# residual, recovery, full-system check
+# --------------------------------------------------------------------------
+
+def residual(prob: HBMProblem, x, Om, contact: YangMenq | None = None, jacobian=True):
+    """Condensed residual R(x, Om) [N] with x = Qc.ravel(); (R, dR/dx, dR/dOm)."""
+    nh = prob.nh
+    Qc = x.reshape(prob.c.size, nh)
+    St, dSt, Pt, dPt = linear_part(prob, Om, derivatives=jacobian)
+    L = real_blocks(St, nh)
+    G, Jnl, _ = contact_terms(prob, Qc, contact, jacobian)
+    R = L @ x + G.ravel() - real_vector(Pt, nh).ravel()
+    if not jacobian:
+        return R, None, None
+    dL = real_blocks(dSt, nh)
+    dR_dOm = dL @ x - real_vector(dPt, nh).ravel()
+    return R, L + Jnl, dR_dOm
+
+
+def recover(prob: HBMProblem, Qc, Om):
+    """All DOFs' coefficients Q (n, nh) from the contact DOFs' Qc (nc, nh)."""
+    sys, c, o, H, nh = prob.system, prob.c, prob.o, prob.H, prob.nh
+    Q = np.zeros((sys.n_dof, nh))
+    Q[c] = Qc
+    if o.size == 0:
+        return Q
+    if not sp.issparse(sys.K):
+        K, M, C = (np.asarray(A, dtype=float) for A in (sys.K, sys.M, sys.C))
+        h = np.arange(H + 1)[:, None, None]
+        S = (K - (h * Om) ** 2 * M + 1j * h * Om * C)[:, o]
+        Qh = np.concatenate([Qc[:, :1].T.astype(complex), (Qc[:, 1::2] - 1j * Qc[:, 2::2]).T])
+        rhs = np.stack([_complex_forcing(prob.P, k)[o] for k in range(H + 1)])
+        rhs = rhs - (S[:, :, c] @ Qh[..., None])[..., 0]
+        Qo = np.linalg.solve(S[:, :, o], rhs[..., None])[..., 0]     # (H+1, no)
+        Q[o, 0] = Qo[0].real
+        Q[o, 1::2], Q[o, 2::2] = Qo[1:].real.T, -Qo[1:].imag.T
+        return Q
+    for h in range(H + 1):
+        _, _, Soc, Soo = _block(_S(sys, h, Om), c, o)
+        Qh = Qc[:, 0].astype(complex) if h == 0 else Qc[:, 2 * h - 1] - 1j * Qc[:, 2 * h]
+        rhs = _complex_forcing(prob.P, h)[o] - _mul(Soc, Qh)
+        Qo = _Solver(Soo).solve(rhs)
+        if h == 0:
+            Q[o, 0] = Qo.real
+        else:
+            Q[o, 2 * h - 1], Q[o, 2 * h] = Qo.real, -Qo.imag
+    return Q
+
+
+def full_linear_operator(sys: System, Om: float, H: int):
+    """K (x) I + Om C (x) D + Om^2 M (x) D^2 acting on Q (n, 2H+1) row-major (dense)."""
+    D = derivative_matrix(H)
+    I = np.eye(2 * H + 1)
+    K, C, M = _dense(sys.K), _dense(sys.C), _dense(sys.M)
+    return np.kron(K, I) + Om * np.kron(C, D) + Om**2 * np.kron(M, D @ D)
+
+
+def full_residual(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
+    """Residual of all n (2H+1) equations [N] (no condensation): the acceptance check."""
+    sys, nh = prob.system, prob.nh
+    K, C, M = sys.K, sys.C, sys.M
+    D = derivative_matrix(prob.H)
+    lin = K @ Q + Om * (C @ Q) @ D.T + Om**2 * (M @ Q) @ (D @ D).T
+    G, _, _ = contact_terms(prob, Q[prob.c], contact, jacobian=False)
+    R = np.asarray(lin) - prob.P
+    R[prob.c] += G
+    return R
+
+
+def full_jacobian(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
+    """dR/dQ of the full (uncondensed) system, dense (n nh)^2: for Hill's method."""
+    nh, n = prob.nh, prob.system.n_dof
+    J = full_linear_operator(prob.system, Om, prob.H).reshape(n, nh, n, nh)
+    _, Jnl, _ = contact_terms(prob, Q[prob.c], contact, jacobian=True)
+    nc = prob.c.size
+    J[np.ix_(prob.c, np.arange(nh), prob.c, np.arange(nh))] += Jnl.reshape(nc, nh, nc, nh)
+    return J.reshape(n * nh, n * nh)
+
+
+def force_scale(prob: HBMProblem, contact: YangMenq | None = None) -> float:
+    """Reference force [N] for tolerances: |P| + sum |n0| (never 0)."""
+    elem = contact if contact is not None else prob.system.contact
+    s = float(np.linalg.norm(prob.P)) + float(np.abs(elem.n0).sum())
+    return s if s > 0 else 1.0
