@@ -29,6 +29,8 @@ Options of `continue_branch` (defaults):
     scale      None   automatic: s_lam = |lam_end - lam0|, s_x = running maximum of
                |x| per component, floored at 1e-2 * its largest entry; or an array
                (n+1,) of positive fixed scales [x scales..., lam scale]
+    groups     None   (n,) group label per unknown: the automatic x scale is shared
+                      within a group (e.g. all Fourier coefficients of one DOF)
     callback   None   callback(x, lam) after each accepted point; return True to stop
     refine_folds True  locate each fold by a few extra correctors (regula falsi on the
                lam-component of the tangent); False: cubic Hermite estimate only
@@ -268,7 +270,7 @@ def _check_count(name, value, minimum):
 def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None,
                     ds=0.05, ds_min=1e-6, ds_max=0.5, max_points=500, max_newton=10,
                     target_newton=4, max_turn=math.pi / 4, scale=None, callback=None,
-                    direction=+1, refine_folds=True) -> Branch:
+                    direction=+1, refine_folds=True, groups=None) -> Branch:
     """Trace the solution branch of R(x, lam) = 0 from (x0, lam0) towards lam_end.
 
     See the module docstring for the equations and the options.  Numerical failure
@@ -312,6 +314,10 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
     if callback is not None and not callable(callback):
         raise ValueError("callback must be callable or None")
     n = x0.size
+    if groups is not None:
+        groups = np.asarray(groups, dtype=int)
+        if groups.shape != (x0.size,) or groups.min() < 0:
+            raise ValueError(f"groups must be {x0.size} non-negative integers (one per unknown)")
     auto_scale = scale is None
     if auto_scale:
         xmax = np.zeros(n)
@@ -325,8 +331,13 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
 
     def update_scale():
         if auto_scale:
-            top = xmax.max()
-            s[:n] = np.maximum(xmax, _SCALE_FLOOR * top) if top > 0 else 1.0
+            xm = xmax
+            if groups is not None:  # unknowns of one group share the group's scale
+                gmax = np.zeros(groups.max() + 1)
+                np.maximum.at(gmax, groups, xmax)
+                xm = gmax[groups]
+            top = xm.max()
+            s[:n] = np.maximum(xm, _SCALE_FLOOR * top) if top > 0 else 1.0
 
     update_scale()
     lo, hi = min(lam0, lam_end), max(lam0, lam_end)

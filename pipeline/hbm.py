@@ -343,7 +343,12 @@ def full_jacobian(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
 
 
 def force_scale(prob: HBMProblem, contact: YangMenq | None = None) -> float:
-    """Reference force [N] for tolerances: |P| + sum |n0| (never 0)."""
+    """Reference force [N] for tolerances: |P| + sum |n0_e| |Bn_e| (never 0).
+
+    A preload counts only where it loads the structure (through Bn); the Jenkins
+    normal load of a kv = 0 element with Bn = 0 merely limits friction.
+    """
     elem = contact if contact is not None else prob.system.contact
-    s = float(np.linalg.norm(prob.P)) + float(np.abs(elem.n0).sum())
+    bn = np.linalg.norm(prob.bn, axis=1) if prob.bn.size else np.zeros(0)
+    s = float(np.linalg.norm(prob.P)) + float(np.sum(np.abs(elem.n0) * bn))
     return s if s > 0 else 1.0

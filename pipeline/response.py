@@ -74,8 +74,8 @@ def _initial_guess(prob, Om, contact):
 
 
 def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_samples=256,
-                       stability=True, tol_rel=1e-9, ds=0.02, ds_max=0.1, max_points=1000,
-                       contact=None, callback=None) -> ResponseCurve:
+                       stability=True, tol_rel=1e-10, ds=0.02, ds_max=0.1, max_points=1000,
+                       contact=None, callback=None, peak_dofs=None) -> ResponseCurve:
     """Trace the periodic response over Omega in [omega_start, omega_end] [rad/s].
 
     Pseudo-arclength continuation (`continuation.continue_branch`) of the condensed
@@ -96,12 +96,83 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     nr = newton(lambda x: hbm.residual(prob, x, omega_start, elem)[:2], x0, tol, max_iter=60)
     fun = lambda x, lam: hbm.residual(prob, x, lam, elem)  # noqa: E731
     br = continue_branch(fun, nr.x, omega_start, omega_end, tol=tol, ds=ds, ds_max=ds_max,
-                         max_points=max_points, callback=callback)
-    return _curve_from_branch(prob, br, elem, tol, stability, lambda lam: lam,
+                         max_points=max_points, callback=callback,
+                         groups=np.repeat(np.arange(prob.c.size), prob.nh))
+    pts = _insert_peaks(prob, _branch_points(br), fun, tol, elem,
+                        peak_dofs if peak_dofs is not None else range(system.n_dof))
+    return _curve_from_points(prob, br, pts, elem, tol, stability, lambda lam: lam,
                               time.perf_counter() - t_start, nr.nfev)
 
 
-def _curve_from_branch(prob, br, elem, tol, stability, omega_of, elapsed, extra_nfev):
+def _branch_points(br):
+    return {"x": np.array(br.x), "lam": np.array(br.lam), "nit": np.array(br.nit),
+            "converged": np.array(br.converged, bool), "extra_nfev": 0}
+
+
+def _dof_amplitude(prob, x, lam, dof, omega_of=lambda l: l):
+    from . import hbm
+    from .harmonics import amplitude_half_peak_to_peak
+    Q = hbm.recover(prob, x.reshape(prob.c.size, prob.nh), omega_of(lam))
+    return float(amplitude_half_peak_to_peak(Q[dof]))
+
+
+def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
+    """Locate each DOF's amplitude maximum along the branch exactly and insert it.
+
+    Around the best point i, the branch is parametrised by sigma in [-1, 1] through
+    the quadratic interpolant p(sigma) of points i-1, i, i+1; each trial point is the
+    exact solution on the hyperplane through p(sigma) normal to p'(sigma) (Newton on
+    R = 0 plus that condition) and the amplitude is maximised over sigma (bounded
+    Brent).  The maximum is then a converged solution, not a sample of the curve.
+    """
+    from scipy.optimize import minimize_scalar
+
+    from .continuation import newton
+
+    X, L = pts["x"], pts["lam"]
+    if L.size < 3:
+        return pts
+    scale = np.append(np.maximum(np.abs(X).max(0), 1e-12 * np.abs(X).max() + 1e-300),
+                      max(np.ptp(L), abs(L).max() * 1e-9, 1e-300))
+    for dof in dofs:
+        amps = np.array([_dof_amplitude(prob, X[i], L[i], dof, omega_of) for i in range(L.size)])
+        i = int(np.argmax(np.where(pts["converged"], amps, -np.inf)))
+        if i == 0 or i == L.size - 1:
+            continue
+        Z = np.column_stack([X[i - 1:i + 2], L[i - 1:i + 2]]) / scale
+        nfev = [0]
+        cache = {}
+
+        def solve(sig):
+            p = 0.5 * sig * (sig - 1) * Z[0] + (1 - sig * sig) * Z[1] + 0.5 * sig * (sig + 1) * Z[2]
+            d = (sig - 0.5) * Z[0] - 2 * sig * Z[1] + (sig + 0.5) * Z[2]
+            d /= np.linalg.norm(d)
+
+            def aug(z):
+                R, Jx, Jl = fun(z[:-1], z[-1])
+                nfev[0] += 1
+                return (np.append(R, d @ (z / scale - p)),
+                        np.vstack([np.column_stack([Jx, Jl]), d / scale]))
+            r = newton(aug, p * scale, tol, max_iter=20)
+            ok = r.success and np.linalg.norm(fun(r.x[:-1], r.x[-1])[0]) <= tol
+            cache[sig] = (r.x, ok)
+            return -_dof_amplitude(prob, r.x[:-1], r.x[-1], dof, omega_of) if ok else np.inf
+
+        res = minimize_scalar(solve, bounds=(-1.0, 1.0), method="bounded",
+                              options={"xatol": 1e-4})
+        z, ok = cache.get(res.x, (None, False))
+        pts["extra_nfev"] += nfev[0]
+        if not ok or -res.fun <= amps[i]:
+            continue
+        at = i + (1 if res.x > 0 else 0)  # keep branch order
+        pts["x"] = X = np.insert(X, at, z[:-1], axis=0)
+        pts["lam"] = L = np.insert(L, at, z[-1])
+        pts["nit"] = np.insert(pts["nit"], at, 0)
+        pts["converged"] = np.insert(pts["converged"], at, True)
+    return pts
+
+
+def _curve_from_points(prob, br, pts, elem, tol, stability, omega_of, elapsed, extra_nfev):
     import time
 
     from . import hbm
@@ -109,28 +180,145 @@ def _curve_from_branch(prob, br, elem, tol, stability, omega_of, elapsed, extra_
     from .stability import is_stable
 
     t0 = time.perf_counter()
-    P = br.lam.size
+    P = pts["lam"].size
     n, nh = prob.system.n_dof, prob.nh
     Q = np.zeros((P, n, nh))
     res = np.zeros(P)
     stable = np.ones(P, bool)
-    omega = np.array([omega_of(l) for l in br.lam], dtype=float)
+    omega = np.array([omega_of(l) for l in pts["lam"]], dtype=float)
     for i in range(P):
-        Qc = br.x[i].reshape(prob.c.size, nh)
+        Qc = pts["x"][i].reshape(prob.c.size, nh)
         Q[i] = hbm.recover(prob, Qc, omega[i])
         res[i] = np.linalg.norm(hbm.full_residual(prob, Q[i], omega[i], elem))
         if stability:
             J = hbm.full_jacobian(prob, Q[i], omega[i], elem)
             stable[i] = is_stable(J, hbm._dense(prob.system.M), hbm._dense(prob.system.C),
                                   omega[i], prob.H)[0]
-    converged = np.asarray(br.converged, bool) & (res <= tol) & np.isfinite(res)
+    converged = pts["converged"] & (res <= tol) & np.isfinite(res)
     amp = amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n))
     return ResponseCurve(
-        parameter=np.asarray(br.lam, float), omega=omega, Q=Q, converged=converged,
+        parameter=np.asarray(pts["lam"], float), omega=omega, Q=Q, converged=converged,
         residual=res, stable=stable, amplitude=amp,
         fold_parameter=np.asarray(br.fold_lam, float),
-        newton_iterations=np.asarray(br.nit), nfev=int(br.nfev + extra_nfev),
+        newton_iterations=np.asarray(pts["nit"]), nfev=int(br.nfev + extra_nfev + pts["extra_nfev"]),
         wall_time=elapsed + time.perf_counter() - t0, success=bool(br.success),
         status=int(br.status), message=str(br.message), H=prob.H, tolerance=tol,
         info={"njev": int(br.njev), "n_rejected": int(br.n_rejected),
+              "branch_points": int(br.lam.size), "peak_nfev": int(pts["extra_nfev"]),
               "solve_time": elapsed, "postprocess_time": time.perf_counter() - t0})
+
+
+def _with_preload(elem, lam, shape):
+    from dataclasses import replace
+    return replace(elem, n0=lam * shape)
+
+
+def preload_response(system, H, omega, preload_start, preload_end, *, method="exact",
+                     n_samples=256, stability=True, tol_rel=1e-10, ds=0.02, ds_max=0.1,
+                     max_points=1000, peak_dofs=None) -> ResponseCurve:
+    """Trace the response at fixed Omega [rad/s] over the preload [N].
+
+    Every element's preload is n0_e = lam * shape_e with shape = n0 / max|n0| of the
+    system (all ones if every n0 is 0), so lam is the largest preload.  dR/dlam is
+    a central difference of the contact forces (the linear part does not depend on
+    n0); dR/dQ stays exact.
+    """
+    import time
+
+    from . import hbm
+    from .continuation import continue_branch, newton
+
+    t_start = time.perf_counter()
+    prob = hbm.setup(system, H, method, n_samples)
+    base = system.contact
+    top = np.abs(base.n0).max()
+    shape = base.n0 / top if top > 0 else np.ones_like(base.n0)
+
+    def fun(x, lam, jacobian=True):
+        el = _with_preload(base, lam, shape)
+        R, J, _ = hbm.residual(prob, x, omega, el, jacobian)
+        if not jacobian:
+            return R, None, None
+        d = 1e-6 * max(abs(lam), 1e-3 * max(abs(preload_start), abs(preload_end), 1e-9))
+        Qc = x.reshape(prob.c.size, prob.nh)
+        Gp = hbm.contact_terms(prob, Qc, _with_preload(base, lam + d, shape), False)[0]
+        Gm = hbm.contact_terms(prob, Qc, _with_preload(base, lam - d, shape), False)[0]
+        return R, J, ((Gp - Gm) / (2 * d)).ravel()
+
+    el0 = _with_preload(base, preload_start, shape)
+    scale_ref = max(hbm.force_scale(prob, _with_preload(base, preload_start, shape)),
+                    hbm.force_scale(prob, _with_preload(base, preload_end, shape)))
+    tol = tol_rel * scale_ref
+    x0 = _initial_guess(prob, omega, el0)
+    nr = newton(lambda x: fun(x, preload_start)[:2], x0, tol, max_iter=60)
+    br = continue_branch(fun, nr.x, preload_start, preload_end, tol=tol, ds=ds, ds_max=ds_max,
+                         max_points=max_points, groups=np.repeat(np.arange(prob.c.size), prob.nh))
+    pts = _branch_points(br)
+    return _curve_from_points_preload(prob, br, pts, base, shape, tol, stability, omega,
+                                      time.perf_counter() - t_start, nr.nfev)
+
+
+def _curve_from_points_preload(prob, br, pts, base, shape, tol, stability, omega, elapsed, nfev0):
+    """As `_curve_from_points`, with the element preloads following the parameter."""
+    import time
+
+    from . import hbm
+    from .harmonics import amplitude_half_peak_to_peak
+    from .stability import is_stable
+
+    t0 = time.perf_counter()
+    P = pts["lam"].size
+    n, nh = prob.system.n_dof, prob.nh
+    Q = np.zeros((P, n, nh))
+    res = np.zeros(P)
+    stable = np.ones(P, bool)
+    for i in range(P):
+        el = _with_preload(base, pts["lam"][i], shape)
+        Q[i] = hbm.recover(prob, pts["x"][i].reshape(prob.c.size, nh), omega)
+        res[i] = np.linalg.norm(hbm.full_residual(prob, Q[i], omega, el))
+        if stability:
+            J = hbm.full_jacobian(prob, Q[i], omega, el)
+            stable[i] = is_stable(J, hbm._dense(prob.system.M), hbm._dense(prob.system.C),
+                                  omega, prob.H)[0]
+    converged = pts["converged"] & (res <= tol) & np.isfinite(res)
+    return ResponseCurve(
+        parameter=np.asarray(pts["lam"], float), omega=np.full(P, float(omega)), Q=Q,
+        converged=converged, residual=res, stable=stable,
+        amplitude=amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n)),
+        fold_parameter=np.asarray(br.fold_lam, float), newton_iterations=np.asarray(pts["nit"]),
+        nfev=int(br.nfev + nfev0), wall_time=elapsed + time.perf_counter() - t0,
+        success=bool(br.success), status=int(br.status), message=str(br.message), H=prob.H,
+        tolerance=tol, info={"njev": int(br.njev), "n_rejected": int(br.n_rejected)})
+
+
+def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
+                    log=True, **kwargs):
+    """The preload [N] in `bounds` that minimises the resonant peak of `dof`.
+
+    build(n0) -> System.  Each evaluation traces the frequency response over
+    [omega_start, omega_end] and takes its exact peak (`_insert_peaks`); the
+    peak-vs-preload function is minimised by bounded Brent, on log(n0) by default
+    (preloads span decades), to a relative tolerance `rtol` in n0.
+    Returns a dict: preload, peak, peak_omega, evaluations [(n0, peak, omega)].
+    """
+    from scipy.optimize import minimize_scalar
+
+    lo, hi = bounds
+    if not (0 < lo < hi) and log:
+        raise ValueError(f"bounds must satisfy 0 < low < high for a log search, got {bounds}")
+    evals = []
+    kwargs.setdefault("stability", False)
+
+    def peak(t):
+        n0 = float(np.exp(t)) if log else float(t)
+        c = frequency_response(build(n0), H, omega_start, omega_end, peak_dofs=[dof], **kwargs)
+        a, om, _ = c.peak(dof)
+        evals.append((n0, a, om))
+        return a
+
+    lims = (np.log(lo), np.log(hi)) if log else (lo, hi)
+    xatol = rtol if log else rtol * hi
+    res = minimize_scalar(peak, bounds=lims, method="bounded", options={"xatol": xatol})
+    best = min(evals, key=lambda e: e[1])
+    return {"preload": best[0], "peak": best[1], "peak_omega": best[2],
+            "evaluations": sorted(evals), "success": bool(res.success)}

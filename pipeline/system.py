@@ -50,3 +50,22 @@ class System:
             F[:, 2 * h - 1] = Fh[:, h].real
             F[:, 2 * h] = -Fh[:, h].imag
         return F
+
+
+def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
+    """Undamped natural frequencies [rad/s] with the contacts open or stuck.
+
+    "stuck" adds ku along Bt and kv along Bn of every element in contact (n0 > 0 or
+    kv = 0): the linear limits the nonlinear response tends to.
+    """
+    import scipy.linalg as sla
+
+    K = np.asarray(system.K.toarray() if hasattr(system.K, "toarray") else system.K, float)
+    M = np.asarray(system.M.toarray() if hasattr(system.M, "toarray") else system.M, float)
+    if contacts == "stuck":
+        el = system.contact
+        Bt, Bn = np.asarray(system.Bt, float), np.asarray(system.Bn, float)
+        K = K + Bt.T @ (el.ku[:, None] * Bt) + Bn.T @ ((el.kv * (el.n0 > 0))[:, None] * Bn)
+    elif contacts != "open":
+        raise ValueError(f"contacts must be 'open' or 'stuck', got {contacts!r}")
+    return np.sqrt(np.abs(sla.eigh(K, M, eigvals_only=True)))
