@@ -6,8 +6,7 @@ import logging
 import sys
 
 
-class UsageError(Exception):
-    """Bad user input: reported as one line `error: <file>: <field>: <what>`, exit 2."""
+from .errors import UsageError
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -18,6 +17,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    from .study import add_run_parser
+    add_run_parser(sub)
 
     h = sub.add_parser("hysteresis", help="draw the Yang-Menq time history and hysteresis loop (PNG)")
     h.add_argument("--out", default="results/hysteresis.png", help="PNG file to write")

@@ -29,6 +29,11 @@ Options of `continue_branch` (defaults):
     scale      None   automatic: s_lam = |lam_end - lam0|, s_x = running maximum of
                |x| per component, floored at 1e-2 * its largest entry; or an array
                (n+1,) of positive fixed scales [x scales..., lam scale]
+    max_deviation 0.3 largest distance of the corrected point from the predictor, in
+                      step lengths (scaled metric); farther steps are rejected: the
+                      secant left the tangent, i.e. the step crossed a feature
+    kink_ds    0.01   below this step, a turn or deviation that persists when the step
+                      is halved is accepted as a kink of the branch
     groups     None   (n,) group label per unknown: the automatic x scale is shared
                       within a group (e.g. all Fourier coefficients of one DOF)
     callback   None   callback(x, lam) after each accepted point; return True to stop
@@ -270,7 +275,8 @@ def _check_count(name, value, minimum):
 def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None,
                     ds=0.05, ds_min=1e-6, ds_max=0.5, max_points=500, max_newton=10,
                     target_newton=4, max_turn=math.pi / 4, scale=None, callback=None,
-                    direction=+1, refine_folds=True, groups=None) -> Branch:
+                    direction=+1, refine_folds=True, groups=None,
+                    max_deviation=0.3, kink_ds=0.01) -> Branch:
     """Trace the solution branch of R(x, lam) = 0 from (x0, lam0) towards lam_end.
 
     See the module docstring for the equations and the options.  Numerical failure
@@ -515,7 +521,17 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
 
     # ---- predictor-corrector loop
     spent = 0
-    last_turn = None
+    last = {}
+
+    def is_kink(what, value):
+        """A smooth curve's turn and predictor deviation shrink with the step; one
+        that persists while ds is already small (< kink_ds) is a kink of the branch
+        (e.g. the onset of slip), not a jump: in the scaled metric crossing a
+        resonance needs a step of order one."""
+        prev = last.get(what)
+        last[what] = value
+        return prev is not None and value > 0.75 * prev and ds < kink_ds
+
     while True:
         ts = t_phys / s
         ts /= np.linalg.norm(ts)
@@ -540,6 +556,16 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         if st != 0:
             reason = _NEWTON_MESSAGES[st]
         if reason is None:
+            # the corrector must stay near the predictor: a large deviation of the
+            # secant from the tangent means the step jumped over a feature (e.g. a
+            # resonance of a branch Newton finds easy), even if the tangents agree
+            dev = np.linalg.norm(zn / s - y_pred) / ds
+            if dev > max_deviation and ds > ds_min:
+                if is_kink("deviation", dev):
+                    log.debug("kink passed: deviation %.2f persists as ds shrinks", dev)
+                else:
+                    reason = f"corrector moved {dev:.2f} step lengths from the predictor"
+        if reason is None:
             Jx, Jl = JJ
             tan = tangent_from(Jx, Jl, t_phys)
             counters["njev"] += 1
@@ -547,13 +573,10 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
                 reason = "singular tangent system"
             elif tan[1] < cos_turn and ds > ds_min:
                 angle = math.acos(min(1.0, tan[1]))
-                # a smooth curve's turn halves with the step; a turn that does not
-                # shrink is a kink of the branch (e.g. onset of slip), not a jump
-                if last_turn is not None and angle > 0.75 * last_turn:
+                if is_kink("turn", angle):
                     log.debug("kink passed: turn %.1f deg persists as ds shrinks",
                               math.degrees(angle))
                 else:
-                    last_turn = angle
                     reason = f"tangent turned by {math.degrees(angle):.1f} deg"
         if reason is not None:
             n_rejected += 1
@@ -565,7 +588,7 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
             continue
 
         # accepted
-        last_turn = None
+        last.clear()
         t_new_s, _, t_new_phys = tan
         lam_new = zn[n]
         if not lo <= lam_new <= hi:

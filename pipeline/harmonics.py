@@ -39,14 +39,21 @@ def basis(tau, H: int, order: int = 0) -> np.ndarray:
     out[..., 0] = 1.0 if order == 0 else 0.0
     if H == 0:
         return out
-    # powers of exp(i tau) by repeated multiplication: two trig calls, not 2H
-    z = np.exp(1j * tau)[..., None]
-    zj = np.cumprod(np.broadcast_to(z, tau.shape + (H,)), axis=-1)
+    j = np.arange(1, H + 1, dtype=float)
+    arg = tau[..., None] * j
+    c, s = np.cos(arg), np.sin(arg)
+    # d^k/dtau^k [cos, sin](j tau) = j^k [cos, sin](j tau + k pi/2)
+    rot = order % 4
+    if rot == 1:
+        c, s = -s, c
+    elif rot == 2:
+        c, s = -c, -s
+    elif rot == 3:
+        c, s = s, -c
     if order:
-        # d^k/dtau^k exp(i j tau) = (i j)^k exp(i j tau)
-        zj = zj * (1j * np.arange(1, H + 1)) ** order
-    out[..., 1::2] = zj.real
-    out[..., 2::2] = zj.imag
+        c, s = c * j**order, s * j**order
+    out[..., 1::2] = c
+    out[..., 2::2] = s
     return out
 
 

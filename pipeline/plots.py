@@ -69,3 +69,71 @@ def hysteresis_figure(path, mu=0.4, ku=1.0, kv=1.0, n0=1.0, U=None, V=None, n_po
     out = _atomic_savefig(fig, path)
     plt.close(fig)
     return out
+
+
+# ---------------------------------------------------------------------------
+# Response curves of a study (paper Figs. 2, 4, 6)
+# ---------------------------------------------------------------------------
+
+def _fold_indices(f):
+    """Interior points where the frequency turns back (turning points of the branch)."""
+    d = np.diff(f)
+    return np.flatnonzero(d[:-1] * d[1:] < 0) + 1
+
+
+def _runs(mask):
+    """(start, stop) index pairs of the runs of True in `mask`."""
+    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
+    edges = np.flatnonzero(np.diff(m.astype(np.int8)))
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def response_curves_figure(path, branches, *, xlabel="frequency [rad/s]",
+                           ylabel="amplitude [m]", title="", yscale="linear",
+                           legend_title=None):
+    """Amplitude against frequency, one curve per branch (paper Figs. 2, 4, 6).
+
+    branches: [(label, frequency (P,), amplitude (P,), stable (P,), converged (P,))];
+    stable parts solid, unstable parts dashed (same colour), folds (turning points
+    of the frequency) marked with open circles; non-converged points are gaps.
+    """
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    any_unstable = any_fold = False
+    for k, (label, f, a, stable, conv) in enumerate(branches):
+        f, a = np.asarray(f, float), np.asarray(a, float)
+        conv = np.asarray(conv, bool) & np.isfinite(f) & np.isfinite(a)
+        stable = np.asarray(stable, bool)
+        col = colours[k % len(colours)]
+        first = True
+        for i0, i1 in _runs(conv):
+            fs, as_, st = f[i0:i1], a[i0:i1], stable[i0:i1]
+            # stable runs solid, unstable runs dashed; an unstable run is widened by
+            # one point each side so the curve stays connected
+            for j0, j1 in _runs(st):
+                ax.plot(fs[j0:j1], as_[j0:j1], "-", color=col, lw=1.6,
+                        label=label if first else None)
+                first = False
+            for j0, j1 in _runs(~st):
+                any_unstable = True
+                sl = slice(max(j0 - 1, 0), j1 + 1)
+                ax.plot(fs[sl], as_[sl], "--", color=col, lw=1.4, label=label if first else None)
+                first = False
+            folds = _fold_indices(fs)
+            if folds.size:
+                any_fold = True
+                ax.plot(fs[folds], as_[folds], "o", mfc="none", mec=col, ms=6)
+    handles, labels = ax.get_legend_handles_labels()
+    if any_unstable:
+        handles.append(ax.plot([], [], "k--", lw=1.4)[0])
+        labels.append("unstable")
+    if any_fold:
+        handles.append(ax.plot([], [], "ko", mfc="none", ms=6)[0])
+        labels.append("fold")
+    ax.legend(handles, labels, fontsize=8, title=legend_title, title_fontsize=8)
+    ax.set(xlabel=xlabel, ylabel=ylabel, title=title, yscale=yscale)
+    ax.grid(alpha=0.3, which="both")
+    out = _atomic_savefig(fig, path)
+    plt.close(fig)
+    return out

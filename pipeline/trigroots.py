@@ -31,15 +31,34 @@ def _eval(P, tau, order=0):
     return np.einsum("kc,kc->k", basis(tau, H, order), P)
 
 
-def _polish(P, lo, hi, plo):
-    """Root of p in [lo, hi] given a sign change (p(lo) has sign plo); Newton+bisection."""
-    x = 0.5 * (lo + hi)
+def _eval01(P, x):
+    """p(x) and p'(x) for rows P (K, 2H+1) at x (K,), from one set of cos/sin."""
+    H = harmonics_of(P.shape[-1])
+    j = np.arange(1, H + 1, dtype=float)
+    arg = x[:, None] * j
+    c, s = np.cos(arg), np.sin(arg)
+    a, b = P[:, 1::2], P[:, 2::2]
+    return P[:, 0] + np.einsum("kj,kj->k", a, c) + np.einsum("kj,kj->k", b, s), \
+        np.einsum("kj,kj->k", b * j, c) - np.einsum("kj,kj->k", a * j, s)
+
+
+def _polish(P, lo, hi, plo, flo=None, fhi=None):
+    """Root of p in [lo, hi] given a sign change (p(lo) has sign plo); Newton+bisection.
+
+    Starts from the secant point when the end values flo, fhi are given.
+    """
+    if flo is not None:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = lo - flo * (hi - lo) / (fhi - flo)
+        x = np.where(np.isfinite(x) & (x > lo) & (x < hi), x, 0.5 * (lo + hi))
+    else:
+        x = 0.5 * (lo + hi)
     up = plo < 0  # p increases through the root
     act = np.arange(x.size)
     noise = 8 * np.finfo(float).eps * np.abs(P).sum(1)  # evaluation round-off of p
     for _ in range(100):
         Pa, xa, loa, hia = P[act], x[act], lo[act], hi[act]
-        f, fp = _eval(Pa, xa), _eval(Pa, xa, 1)
+        f, fp = _eval01(Pa, xa)
         right = (f > 0) == up[act]  # root is left of x
         hia = np.where(right, xa, hia)
         loa = np.where(right, loa, xa)
@@ -47,8 +66,12 @@ def _polish(P, lo, hi, plo):
             xn = xa - f / fp
         bad = ~np.isfinite(xn) | (xn <= loa) | (xn >= hia)
         xn = np.where(bad, 0.5 * (loa + hia), xn)
-        done = (np.abs(xn - xa) < 1e-14) | (np.abs(f) <= noise[act]) | (hia - loa < 1e-13)
-        x[act] = np.where(np.abs(f) <= noise[act], xa, xn)
+        step = np.abs(xn - xa)
+        # at noise level with a tiny step: converged (a flat root keeps iterating,
+        # its bracket shrinking, until the step is tiny too)
+        small = (np.abs(f) <= noise[act]) & (step < 1e-11)
+        done = (step < 1e-14) | small | (hia - loa < 1e-13) | (f == 0)
+        x[act] = np.where(small | (f == 0), xa, xn)
         lo[act], hi[act] = loa, hia
         act = act[~done]
         if act.size == 0:
@@ -94,9 +117,10 @@ def sign_changes(P: np.ndarray, resolution: float = 1e-12, n_initial: int = 0):
     sgn = np.where(pn >= 0, 1, -1)
     change = sgn[:, :-1] != sgn[:, 1:]
 
-    rows, lo, hi, slo = [], [], [], []
+    rows, lo, hi, slo, flo, fhi = [], [], [], [], [], []
     r, k = np.nonzero(mono & ~no_root & change)
     rows.append(live[r]); lo.append(tau_nodes[k]); hi.append(tau_nodes[k + 1]); slo.append(sgn[r, k])
+    flo.append(pn[r, k]); fhi.append(pn[r, k + 1])
 
     r, k = np.nonzero(~no_root & ~mono)  # uncertified: refine
     urow, uc = live[r], centers[k]
@@ -110,6 +134,7 @@ def sign_changes(P: np.ndarray, resolution: float = 1e-12, n_initial: int = 0):
         sl, sh = np.where(pl >= 0, 1, -1), np.where(ph >= 0, 1, -1)
         keep = mono & ~no_root & (sl != sh)
         rows.append(urow[keep]); lo.append(uc[keep] - d); hi.append(uc[keep] + d); slo.append(sl[keep])
+        flo.append(pl[keep]); fhi.append(ph[keep])
         unc = ~no_root & ~mono
         urow, uc = urow[unc], uc[unc]
     if urow.size:  # at resolution: a crossing only where the end values differ in sign
@@ -117,10 +142,12 @@ def sign_changes(P: np.ndarray, resolution: float = 1e-12, n_initial: int = 0):
         sl, sh = np.where(pl >= 0, 1, -1), np.where(ph >= 0, 1, -1)
         keep = sl != sh
         rows.append(urow[keep]); lo.append(uc[keep] - d); hi.append(uc[keep] + d); slo.append(sl[keep])
+        flo.append(pl[keep]); fhi.append(ph[keep])
 
     rows = np.concatenate(rows).astype(int)
     lo, hi, slo = np.concatenate(lo), np.concatenate(hi), np.concatenate(slo)
-    roots = _polish(P[rows], lo.copy(), hi.copy(), slo) if rows.size else lo
+    flo, fhi = np.concatenate(flo), np.concatenate(fhi)
+    roots = _polish(P[rows], lo.copy(), hi.copy(), slo, flo, fhi) if rows.size else lo
     roots = np.mod(roots, TWO_PI)
     counts = np.bincount(rows, minlength=M)
     R = int(counts.max()) if rows.size else 0

@@ -1,0 +1,228 @@
+"""Response curves of a study -> one labelled `xarray.Dataset` -> netCDF (DATASET.md).
+
+The only module that imports xarray.  Layout (dims in this order):
+
+    sweep axes... (e.g. preload [N]),  point,  dof,  harmonic (0..H)
+
+Continuation branches have different lengths: every per-point variable is padded
+along `point` with NaN (floats), False (flags) or -1 (counts).  Padded points and
+points whose numbers are not finite are never `converged`, so every converged
+point carries finite values.  Amplitudes are half peak-to-peak (max x - min x)/2;
+harmonic amplitudes sqrt(a_h^2 + b_h^2) of x = a_0 + sum a_h cos(h W t) + b_h sin(h W t),
+|a_0| at h = 0.  Frequencies are in the study's unit (rad/s or Hz).
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import uuid
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from . import __version__
+from .scene import SWEEP_AXES, Study
+from .system import natural_frequencies
+
+CONVENTIONS = "CF-1.10"
+
+
+def _case_arrays(curve, dof_idx, to_unit):
+    """Plain per-point arrays of one curve (converged points finite)."""
+    om = np.asarray(curve.omega, dtype=float)
+    amp = np.asarray(curve.amplitude, dtype=float)[:, dof_idx]
+    Q = np.asarray(curve.Q, dtype=float)[:, dof_idx, :]
+    H = (Q.shape[-1] - 1) // 2
+    hamp = np.empty(Q.shape[:-1] + (H + 1,))
+    hamp[..., 0] = np.abs(Q[..., 0])
+    hamp[..., 1:] = np.hypot(Q[..., 1::2], Q[..., 2::2])
+    finite = (np.isfinite(om) & np.all(np.isfinite(amp), axis=1)
+              & np.all(np.isfinite(hamp), axis=(1, 2)))
+    conv = np.asarray(curve.converged, dtype=bool) & finite
+    return dict(frequency=om / to_unit, amplitude=amp, harmonic_amplitude=hamp, converged=conv,
+                stable=np.asarray(curve.stable, dtype=bool) & conv,
+                residual=np.asarray(curve.residual, dtype=float),
+                newton_iterations=np.asarray(curve.newton_iterations).astype(np.int32))
+
+
+def _peak(freq, amp, mask):
+    """(peak amplitude per dof, its frequency) over the points in `mask`."""
+    a = np.where(mask[:, None], amp, -np.inf)
+    if a.shape[0] == 0 or not mask.any():
+        return np.full(amp.shape[1], np.nan), np.full(amp.shape[1], np.nan)
+    i = np.argmax(a, axis=0)
+    return a[i, np.arange(a.shape[1])], freq[i]
+
+
+def to_dataset(study: Study, curves, errors=None) -> xr.Dataset:
+    """Build the study dataset from one ResponseCurve per grid case.
+
+    curves: sequence aligned with `study.sweep.cases()`; None for a case that
+    raised (then all its points are padding and `message` holds `errors[k]`).
+    """
+    cases = study.sweep.cases()
+    curves = list(curves)
+    if len(curves) != len(cases):
+        raise ValueError(f"curves has {len(curves)} entries, the study has {len(cases)} cases")
+    errors = list(errors) if errors is not None else [None] * len(cases)
+    scene, out, fr = study.scene, study.output, study.sweep.frequency
+    unit, to_unit = fr.unit, fr.to_rad_s
+    dof_idx = [scene.dof_index(d) for d in out.dofs]
+    H = max([study.solver.harmonics] + [(c.Q.shape[-1] - 1) // 2 for c in curves if c is not None])
+    shape = study.sweep.shape
+    D = len(dof_idx)
+    P = max([1] + [c.n_points for c in curves if c is not None])
+    F = max([1] + [np.size(c.fold_parameter) for c in curves if c is not None])
+    W = len(out.peak_windows)
+    n = len(scene.dofs)
+
+    def full(tail, fill, dtype=float):
+        return np.full(shape + tail, fill, dtype=dtype)
+
+    v = dict(frequency=full((P,), np.nan), amplitude=full((P, D), np.nan),
+             harmonic_amplitude=full((P, D, H + 1), np.nan),
+             converged=full((P,), False, bool), stable=full((P,), False, bool),
+             residual=full((P,), np.nan), newton_iterations=full((P,), -1, np.int32),
+             peak_amplitude=full((D,), np.nan), peak_frequency=full((D,), np.nan),
+             fold_frequency=full((F,), np.nan), n_points=full((), 0, np.int32),
+             wall_time=full((), np.nan), residual_evaluations=full((), -1, np.int32),
+             success=full((), False, bool), status=full((), -1, np.int32),
+             residual_tolerance=full((), np.nan),
+             natural_frequency_stuck=full((n,), np.nan),
+             window_peak_amplitude=full((W, D), np.nan), window_peak_frequency=full((W, D), np.nan))
+    message = np.full(shape, "", dtype=object)
+    for (idx, case), c, err in zip(cases, curves, errors):
+        sysc = study.system(case)
+        v["natural_frequency_stuck"][idx] = natural_frequencies(sysc, "stuck") / to_unit
+        if c is None:
+            message[idx] = f"failed: {err}" if err else "failed"
+            continue
+        a = _case_arrays(c, dof_idx, to_unit)
+        p, h1 = c.n_points, a["harmonic_amplitude"].shape[-1]
+        for k in ("frequency", "amplitude", "converged", "stable", "residual", "newton_iterations"):
+            v[k][idx][:p] = a[k]
+        v["harmonic_amplitude"][idx][:p, :, :h1] = a["harmonic_amplitude"]
+        v["harmonic_amplitude"][idx][:p, :, h1:] = 0.0
+        v["peak_amplitude"][idx], v["peak_frequency"][idx] = _peak(
+            a["frequency"], a["amplitude"], a["converged"])
+        for w, (lo, hi) in enumerate(out.peak_windows):
+            inside = a["converged"] & (a["frequency"] >= lo) & (a["frequency"] <= hi)
+            v["window_peak_amplitude"][idx][w], v["window_peak_frequency"][idx][w] = _peak(
+                a["frequency"], a["amplitude"], inside)
+        folds = np.asarray(c.fold_parameter, dtype=float).ravel() / to_unit
+        v["fold_frequency"][idx][:folds.size] = folds
+        v["n_points"][idx] = p
+        v["wall_time"][idx] = c.wall_time
+        v["residual_evaluations"][idx] = c.nfev
+        v["success"][idx] = c.success
+        v["status"][idx] = c.status
+        v["residual_tolerance"][idx] = c.tolerance
+        message[idx] = str(c.message)
+
+    sw = tuple(study.sweep.axes)
+    meta = {
+        "frequency": (("point",), unit, "excitation frequency"),
+        "amplitude": (("point", "dof"), "m", "response amplitude, half peak-to-peak (max x - min x)/2"),
+        "harmonic_amplitude": (("point", "dof", "harmonic"), "m",
+                               "harmonic amplitude sqrt(a_h^2 + b_h^2)"),
+        "converged": (("point",), "1", "Newton converged at this point"),
+        "stable": (("point",), "1", "asymptotically stable (Hill's method)"),
+        "residual": (("point",), "N", "recomputed harmonic balance residual norm"),
+        "newton_iterations": (("point",), "1", "Newton iterations at this point (-1: padding)"),
+        "peak_amplitude": (("dof",), "m", "largest amplitude over converged points"),
+        "peak_frequency": (("dof",), unit, "frequency of the largest amplitude"),
+        "fold_frequency": (("fold",), unit, "frequency of a fold (turning point) of the branch"),
+        "n_points": ((), "1", "points on the branch"),
+        "wall_time": ((), "s", "wall-clock time of the case"),
+        "residual_evaluations": ((), "1", "residual evaluations of the case (-1: case failed)"),
+        "success": ((), "1", "continuation reached the end of the frequency interval"),
+        "status": ((), "1", "continuation status code (-1: case failed)"),
+        "residual_tolerance": ((), "N", "residual norm accepted as converged"),
+        "natural_frequency_stuck": (("mode",), unit,
+                                    "undamped natural frequency with the contacts stuck "
+                                    "(ku of every contact, kv where n0 > 0)"),
+        "window_peak_amplitude": (("peak_window", "dof"), "m",
+                                  "largest amplitude over converged points inside the peak window"),
+        "window_peak_frequency": (("peak_window", "dof"), unit,
+                                  "frequency of the largest amplitude inside the peak window"),
+    }
+    data_vars = {}
+    for k, (dims, units, long_name) in meta.items():
+        if "peak_window" in dims and not W:
+            continue
+        data_vars[k] = (sw + dims, v[k], {"units": units, "long_name": long_name})
+    data_vars["message"] = (sw, message.astype(str), {"long_name": "continuation message"})
+    data_vars["natural_frequency_free"] = (
+        ("mode",), natural_frequencies(study.system(cases[0][1]), "open") / to_unit,
+        {"units": unit, "long_name": "undamped natural frequency without contacts"})
+
+    coords = {a: (a, np.asarray(vals, dtype=float),
+                  {"units": SWEEP_AXES[a][0], "long_name": SWEEP_AXES[a][1]})
+              for a, vals in study.sweep.axes.items()}
+    coords["dof"] = ("dof", np.asarray(out.dofs, dtype=str), {"long_name": "response degree of freedom"})
+    coords["harmonic"] = ("harmonic", np.arange(H + 1, dtype=np.int32),
+                          {"units": "1", "long_name": "harmonic index h (0: static part)"})
+    coords["point"] = ("point", np.arange(P, dtype=np.int32),
+                       {"units": "1", "long_name": "index along the continuation branch"})
+    coords["mode"] = ("mode", np.arange(1, n + 1, dtype=np.int32),
+                      {"units": "1", "long_name": "mode number"})
+    if W:
+        lo, hi = np.array(out.peak_windows, dtype=float).T
+        coords["peak_window"] = ("peak_window", np.arange(W, dtype=np.int32),
+                                 {"units": "1", "long_name": "peak window index"})
+        coords["peak_window_low"] = ("peak_window", lo, {"units": unit,
+                                                         "long_name": "lower bound of the peak window"})
+        coords["peak_window_high"] = ("peak_window", hi, {"units": unit,
+                                                          "long_name": "upper bound of the peak window"})
+    attrs = {
+        "title": study.title,
+        "study": study.text,
+        "study_name": study.name,
+        "description": study.description,
+        "reference": study.reference,
+        "model": scene.model,
+        "effects": ", ".join(scene.effects),
+        "harmonics": int(H),
+        "force_evaluation": study.solver.force_evaluation,
+        "aft_samples": int(study.solver.samples),
+        "tolerance": float(study.solver.tolerance),
+        "frequency_unit": unit,
+        "quick": int(study.quick),
+        "pipeline_version": __version__,
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "source": "pipeline (harmonic balance with Yang-Menq contact, continuation, Hill stability)",
+        "Conventions": CONVENTIONS,
+    }
+    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+
+def _encoding(ds: xr.Dataset) -> dict:
+    enc = {}
+    for name, var in ds.variables.items():
+        if var.dtype.kind in "fiub" and var.ndim > 0:
+            enc[name] = {"zlib": True, "complevel": 4, "shuffle": True}
+    return enc
+
+
+def write_netcdf(ds: xr.Dataset, path) -> Path:
+    """Write `ds` to `path` atomically: a temporary file in the same directory,
+    then os.replace, so `path` is either the old file, absent or complete."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # a fresh name in the same directory (same file system, so os.replace is atomic);
+    # netCDF creates it, so the final file gets the usual umask permissions
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+    try:
+        ds.to_netcdf(tmp, mode="w", format="NETCDF4", engine="netcdf4", encoding=_encoding(ds))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def read_dataset(path) -> xr.Dataset:
+    """Load a study dataset fully into memory (the file is closed on return)."""
+    with xr.open_dataset(path, engine="netcdf4") as ds:
+        return ds.load()

@@ -1,0 +1,759 @@
+"""Study files (`studies/*.toml`): schema, strict validation, and the `System` of a scene.
+
+A study is a scene (model + physical effects), sweeps (grid axes and one
+continuation axis) and solver settings (README "Study files" documents the schema).
+Everything a user can get wrong raises `UsageError("<file>: <field>: <what>")`,
+where <field> is a dotted path with 0-based list indices (`scene.contact[0].mu`);
+the command line prints it as one line and exits 2.  Nothing here runs a solver.
+
+Lumped scene (paper Eq. 5-6, Sec. 6):  M q'' + C q' + K q + Bt^T f_u + Bn^T f_v = F(t),
+either from `[scene.matrices]` M, C, K or from `[scene.modal]` data with mode
+shapes Phi as columns, modal masses m_r, frequencies w_r [rad/s], ratios z_r:
+
+    M = Phi^-T diag(m) Phi^-1,  K = Phi^-T diag(m w^2) Phi^-1,  C = Phi^-T diag(2 z m w) Phi^-1
+"""
+from __future__ import annotations
+
+import difflib
+import itertools
+import json
+import math
+import re
+import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from .contact import YangMenq
+from .errors import UsageError
+from .system import System
+
+MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
+IMPLEMENTED_MODELS = ("lumped",)
+EFFECTS = ("friction", "normal_load_variation", "separation")
+# grid axes of [sweep]: name -> (units, long_name)
+SWEEP_AXES = {
+    "preload": ("N", "normal preload n0 of every contact"),
+    "mu": ("1", "friction coefficient of every contact"),
+    "ku": ("N/m", "tangential contact stiffness of every contact"),
+    "kv": ("N/m", "normal contact stiffness of every contact"),
+    "excitation_scale": ("1", "factor on every excitation amplitude"),
+}
+FREQUENCY_UNITS = ("rad/s", "Hz")
+FIGURES = ("amplitude",)
+MAX_HARMONICS = 200
+MAX_DOFS = 2000
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]{0,63}$")
+_SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
+
+
+# ---------------------------------------------------------------------------
+# Plain data
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ContactSpec:
+    """One Yang-Menq element: u = bt . q, v = bn . q (rows of Bt, Bn)."""
+
+    name: str
+    bt: np.ndarray          # (n,) [-]
+    bn: np.ndarray          # (n,) [-], zeros when the normal load is constant
+    ku: float               # [N/m]
+    kv: float               # [N/m]
+    mu: float               # [-]
+    n0: float | None        # [N]; None when the sweep's `preload` sets it
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated lumped scene: matrices, contacts and excitation (SI units)."""
+
+    model: str
+    effects: tuple
+    dofs: tuple             # DOF names, one per row of M
+    M: np.ndarray           # (n, n) [kg]
+    C: np.ndarray           # (n, n) [N s/m]
+    K: np.ndarray           # (n, n) [N/m]
+    contacts: tuple         # ContactSpec, ...
+    forcing: np.ndarray     # (n, Hf+1) complex amplitudes F_h [N]
+
+    def dof_index(self, name: str) -> int:
+        return self.dofs.index(name)
+
+
+@dataclass(frozen=True)
+class FrequencyRange:
+    """Continuation interval of the excitation frequency, in `unit`."""
+
+    start: float
+    stop: float
+    unit: str = "rad/s"
+
+    @property
+    def to_rad_s(self) -> float:
+        return 2.0 * math.pi if self.unit == "Hz" else 1.0
+
+    @property
+    def omega_start(self) -> float:
+        return self.start * self.to_rad_s
+
+    @property
+    def omega_stop(self) -> float:
+        return self.stop * self.to_rad_s
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """Grid axes (ordered as in the file; their product is the set of cases) and
+    the continuation axis (frequency)."""
+
+    axes: dict                  # name -> tuple of float
+    frequency: FrequencyRange
+
+    @property
+    def shape(self) -> tuple:
+        return tuple(len(v) for v in self.axes.values())
+
+    def cases(self) -> list:
+        """[(index tuple, {axis: value})] in C order over the grid."""
+        names = list(self.axes)
+        idx = itertools.product(*(range(len(v)) for v in self.axes.values()))
+        return [(i, {a: self.axes[a][k] for a, k in zip(names, i)}) for i in idx]
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    harmonics: int = 5
+    force_evaluation: str = "exact"
+    samples: int = 256
+    tolerance: float = 1e-9
+    stability: bool = True
+    initial_step: float | None = None   # None: the solver's default
+    max_step: float | None = None
+    max_points: int = 1000
+
+    def kwargs(self) -> dict:
+        """Keyword arguments of `pipeline.response.frequency_response`."""
+        kw = dict(method=self.force_evaluation, n_samples=self.samples,
+                  stability=self.stability, tol_rel=self.tolerance, max_points=self.max_points)
+        if self.initial_step is not None:
+            kw["ds"] = self.initial_step
+        if self.max_step is not None:
+            kw["ds_max"] = self.max_step
+        return kw
+
+
+@dataclass(frozen=True)
+class OutputSettings:
+    dofs: tuple                  # response DOF names
+    figures: tuple = FIGURES
+    yscale: str = "linear"
+    peak_windows: tuple = ()     # ((lo, hi), ...) in the sweep's frequency unit
+
+
+@dataclass(frozen=True)
+class Study:
+    file: str
+    name: str                    # the file's stem: output DIR/<name>.nc
+    title: str
+    description: str
+    reference: str
+    text: str                    # the study file's text (dataset attribute `study`)
+    scene: Scene
+    sweep: Sweep
+    solver: SolverSettings
+    output: OutputSettings
+    quick: bool = False
+
+    def system(self, case: dict | None = None) -> System:
+        return build_system(self.scene, case)
+
+
+# ---------------------------------------------------------------------------
+# Building a System
+# ---------------------------------------------------------------------------
+
+def build_system(scene: Scene, case: dict | None = None) -> System:
+    """The `System` of a scene with one grid case applied: `preload` sets n0, `mu`,
+    `ku`, `kv` set those of every contact, `excitation_scale` scales the forcing."""
+    case = dict(case or {})
+    unknown = set(case) - set(SWEEP_AXES)
+    if unknown:
+        raise ValueError(f"case has unknown axes {sorted(unknown)}; known: {sorted(SWEEP_AXES)}")
+    n, E = len(scene.dofs), len(scene.contacts)
+    Bt = np.array([c.bt for c in scene.contacts], dtype=float).reshape(E, n)
+    Bn = np.array([c.bn for c in scene.contacts], dtype=float).reshape(E, n)
+
+    def param(name, attr):
+        if name in case:
+            return np.full(E, float(case[name]))
+        vals = [getattr(c, attr) for c in scene.contacts]
+        if any(v is None for v in vals):
+            raise ValueError(f"{attr} of a contact is unset and the case gives no {name!r}")
+        return np.array(vals, dtype=float)
+
+    contact = YangMenq(ku=param("ku", "ku"), kv=param("kv", "kv"), mu=param("mu", "mu"),
+                       n0=param("preload", "n0"))
+    forcing = scene.forcing * float(case.get("excitation_scale", 1.0))
+    return System(M=scene.M, C=scene.C, K=scene.K, Bt=Bt, Bn=Bn, contact=contact,
+                  forcing=forcing, dof_names=tuple(scene.dofs))
+
+
+def study_to_mapping(study: Study) -> dict:
+    """The canonical document of a validated study: explicit M, C, K, coefficient
+    rows for contacts, every default spelt out, no [quick] table (the variant that
+    was loaded).  `study_from_mapping(study_to_mapping(s))` rebuilds the same study."""
+    sc = study.scene
+
+    def row(r):
+        return {d: float(c) for d, c in zip(sc.dofs, r) if c != 0}
+
+    contacts = []
+    for c in sc.contacts:
+        e = {"name": c.name, "tangential": row(c.bt), "ku": c.ku, "kv": c.kv, "mu": c.mu}
+        if np.any(c.bn):
+            e["normal"] = row(c.bn)
+        if c.n0 is not None:
+            e["n0"] = c.n0
+        contacts.append(e)
+    excitation = [{"dof": sc.dofs[j], "amplitude": float(abs(F)), "harmonic": int(h),
+                   "phase": float(np.angle(F)) if h else 0.0}
+                  for j, h in zip(*np.nonzero(sc.forcing)) for F in [sc.forcing[j, h]]]
+    fr = study.sweep.frequency
+    sweep = {a: list(v) for a, v in study.sweep.axes.items()}
+    sweep["frequency"] = {"start": fr.start, "stop": fr.stop, "unit": fr.unit}
+    solver = {k: v for k, v in vars(study.solver).items() if v is not None}
+    out = study.output
+    return {
+        "study": {"title": study.title, "description": study.description,
+                  "reference": study.reference},
+        "scene": {"model": sc.model, "effects": list(sc.effects), "dofs": list(sc.dofs),
+                  "matrices": {k: getattr(sc, k).tolist() for k in ("M", "C", "K")},
+                  "contact": contacts, "excitation": excitation},
+        "sweep": sweep,
+        "solver": solver,
+        "output": {"dofs": list(out.dofs), "figures": list(out.figures), "yscale": out.yscale,
+                   "peak_windows": [list(w) for w in out.peak_windows]},
+    }
+
+
+# ---------------------------------------------------------------------------
+# Validation helpers: every failure names the file and the field
+# ---------------------------------------------------------------------------
+
+class _Checker:
+    def __init__(self, file: str):
+        self.file = file
+
+    def fail(self, field: str, what: str):
+        raise UsageError(f"{self.file}: {_printable(field)}: {_printable(what)}")
+
+    def table(self, value, field, required=True):
+        if value is None:
+            if required:
+                self.fail(field, "missing table (required)")
+            return {}
+        if not isinstance(value, dict):
+            self.fail(field, f"must be a table, got {_kind(value)}")
+        return value
+
+    def keys(self, table: dict, field: str, allowed, required=()):
+        for k in table:
+            if k not in allowed:
+                near = difflib.get_close_matches(str(k), list(allowed), n=1)
+                hint = f"; did you mean {near[0]!r}?" if near else ""
+                self.fail(_join(field, k), f"unknown key (allowed: {', '.join(allowed)}){hint}")
+        for k in required:
+            if k not in table:
+                self.fail(_join(field, k), "missing (required)")
+
+    def number(self, value, field, *, gt=None, ge=None, lt=None, le=None):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.fail(field, f"must be a number, got {_kind(value)}")
+        try:
+            x = float(value)
+        except OverflowError:
+            self.fail(field, f"number too large: {value}")
+        if not math.isfinite(x):
+            self.fail(field, f"must be finite, got {x}")
+        if gt is not None and not x > gt:
+            self.fail(field, f"must be > {gt:g}, got {x:g}")
+        if ge is not None and not x >= ge:
+            self.fail(field, f"must be >= {ge:g}, got {x:g}")
+        if lt is not None and not x < lt:
+            self.fail(field, f"must be < {lt:g}, got {x:g}")
+        if le is not None and not x <= le:
+            self.fail(field, f"must be <= {le:g}, got {x:g}")
+        return x
+
+    def integer(self, value, field, lo, hi):
+        if isinstance(value, bool) or not isinstance(value, int):
+            self.fail(field, f"must be an integer, got {_kind(value)}")
+        if not lo <= value <= hi:
+            self.fail(field, f"must be in [{lo}, {hi}], got {value}")
+        return int(value)
+
+    def string(self, value, field, choices=None, pattern=None):
+        if not isinstance(value, str):
+            self.fail(field, f"must be a string, got {_kind(value)}")
+        if choices is not None and value not in choices:
+            self.fail(field, f"must be one of {', '.join(map(repr, choices))}, got {value!r}")
+        if pattern is not None and not pattern.match(value):
+            self.fail(field, f"{value!r} is not a valid name (letters, digits, '_', '.'; "
+                             "starting with a letter or '_'; at most 64 characters)")
+        return value
+
+    def boolean(self, value, field):
+        if not isinstance(value, bool):
+            self.fail(field, f"must be true or false, got {_kind(value)}")
+        return value
+
+    def array(self, value, field, length=None, min_length=1):
+        if not isinstance(value, list):
+            self.fail(field, f"must be a list, got {_kind(value)}")
+        if length is not None and len(value) != length:
+            self.fail(field, f"must have {length} {'entry' if length == 1 else 'entries'}, "
+                             f"got {len(value)}")
+        if len(value) < min_length:
+            self.fail(field, "must not be empty" if min_length == 1
+                      else f"must have at least {min_length} entries")
+        return value
+
+    def numbers(self, value, field, length=None, **bounds):
+        vals = self.array(value, field, length)
+        return np.array([self.number(v, f"{field}[{i}]", **bounds) for i, v in enumerate(vals)])
+
+    def matrix(self, value, field, n):
+        rows = self.array(value, field, n)
+        return np.array([self.numbers(r, f"{field}[{i}]", n) for i, r in enumerate(rows)])
+
+    def names(self, value, field, min_length=1):
+        vals = self.array(value, field, min_length=min_length)
+        out = [self.string(v, f"{field}[{i}]", pattern=_NAME) for i, v in enumerate(vals)]
+        for i, v in enumerate(out):
+            if v in out[:i]:
+                self.fail(f"{field}[{i}]", f"duplicate {v!r}")
+        return tuple(out)
+
+
+def _printable(text: str) -> str:
+    """Escape control and other non-printable characters: the message is one line."""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii")
+                   for c in str(text))
+
+
+def _kind(value) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    return {dict: "a table", list: "a list", str: "a string", int: "an integer",
+            float: "a float"}.get(type(value), type(value).__name__)
+
+
+def _join(field, key):
+    """Dotted path; keys that are not plain words are quoted (JSON escapes keep
+    control characters out of the one-line message)."""
+    key = str(key)
+    if not re.fullmatch(r"[A-Za-z0-9_\-]+", key):
+        key = json.dumps(key)
+    return f"{field}.{key}" if field else key
+
+
+# ---------------------------------------------------------------------------
+# Loading
+# ---------------------------------------------------------------------------
+
+def load_study(path, quick: bool = False) -> Study:
+    """Read, parse and validate a study file (UsageError on any problem).
+
+    Both the full study and its `[quick]` variant are validated; `quick` selects
+    which one is returned.
+    """
+    path = Path(path)
+    file = str(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise UsageError(f"{file}: (file): no such file") from None
+    except OSError as exc:
+        raise UsageError(f"{file}: (file): cannot read: {exc.strerror or exc}") from None
+    return parse_study(raw, file=file, name=path.stem, quick=quick)
+
+
+def parse_study(text, file: str = "<study>", name: str | None = None, quick: bool = False) -> Study:
+    """Parse study text (str or UTF-8 bytes) and validate it."""
+    if isinstance(text, (bytes, bytearray)):
+        try:
+            text = bytes(text).decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise UsageError(f"{file}: (file): not UTF-8 text (byte 0x{text[exc.start]:02x} "
+                             f"at offset {exc.start})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
+        where = f"line {m.group(1)}" if m else "(syntax)"
+        what = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", msg)
+        raise UsageError(f"{file}: {where}: TOML syntax: {what}") from None
+    except (ValueError, RecursionError) as exc:  # e.g. absurdly nested or huge input
+        raise UsageError(f"{file}: (syntax): cannot parse: {type(exc).__name__}") from None
+    if name is None:
+        name = Path(file).stem
+    return study_from_mapping(data, file=file, name=name, text=text, quick=quick)
+
+
+_TOP = ("study", "scene", "sweep", "solver", "output", "quick")
+
+
+def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study",
+                       text: str = "", quick: bool = False) -> Study:
+    """Validate an already-parsed study document (the dict `tomllib` returns)."""
+    ck = _Checker(file)
+    ck.table(data, "(document)")
+    ck.keys(data, "", _TOP, required=("study", "scene", "sweep"))
+    head = ck.table(data["study"], "study")
+    ck.keys(head, "study", ("title", "description", "reference"), required=("title",))
+    title = ck.string(head["title"], "study.title")
+    description = ck.string(head.get("description", ""), "study.description")
+    reference = ck.string(head.get("reference", ""), "study.reference")
+
+    scene_tab = ck.table(data["scene"], "scene")
+    solver_tab = ck.table(data.get("solver"), "solver", required=False)
+    sweep_tab = ck.table(data["sweep"], "sweep")
+    quick_tab = ck.table(data.get("quick"), "quick", required=False)
+    ck.keys(quick_tab, "quick", ("sweep", "solver"))
+    q_sweep = ck.table(quick_tab.get("sweep"), "quick.sweep", required=False)
+    q_solver = ck.table(quick_tab.get("solver"), "quick.solver", required=False)
+    for k in q_sweep:
+        if k not in sweep_tab:
+            ck.fail(_join("quick.sweep", k), "quick mode may only override axes of [sweep] "
+                                        f"(which has: {', '.join(sweep_tab) or 'none'})")
+
+    solver = _solver(ck, solver_tab, "solver")
+    sweep_axes, freq = _sweep(ck, sweep_tab, "sweep")
+    q_solver_s = _solver(ck, q_solver, "quick.solver", base=solver)
+    q_axes, q_freq = _sweep(ck, q_sweep, "quick.sweep", partial=True)
+    q_axes = {k: q_axes.get(k, v) for k, v in sweep_axes.items()}
+    q_freq = q_freq or freq
+
+    scene = _scene(ck, scene_tab)
+    output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
+
+    variants = [(False, solver, sweep_axes, freq, "solver", "sweep")]
+    variants.append((True, q_solver_s, q_axes, q_freq,
+                     "quick.solver" if q_solver else "solver", "quick.sweep" if q_sweep else "sweep"))
+    chosen = None
+    for is_quick, sv, axes, fr, spath, wpath in variants:
+        _check_consistency(ck, scene, sv, axes, spath, wpath, data)
+        st = Study(file=file, name=name, title=title, description=description,
+                   reference=reference, text=text, scene=scene,
+                   sweep=Sweep(axes=axes, frequency=fr), solver=sv, output=output,
+                   quick=is_quick)
+        _check_build(ck, st)
+        if is_quick == bool(quick):
+            chosen = st
+    for lo, hi in output.peak_windows:
+        f0, f1 = sorted((freq.start, freq.stop))
+        if hi <= f0 or lo >= f1:
+            ck.fail("output.peak_windows", f"window [{lo:g}, {hi:g}] lies outside the frequency "
+                                           f"range [{f0:g}, {f1:g}] {freq.unit}")
+    return chosen
+
+
+# ---------------------------------------------------------------------------
+# Sections
+# ---------------------------------------------------------------------------
+
+_SOLVER_KEYS = ("harmonics", "force_evaluation", "samples", "tolerance", "stability",
+                "initial_step", "max_step", "max_points")
+
+
+def _solver(ck, tab, path, base=None) -> SolverSettings:
+    ck.keys(tab, path, _SOLVER_KEYS)
+    kw = {}
+    if "harmonics" in tab:
+        kw["harmonics"] = ck.integer(tab["harmonics"], f"{path}.harmonics", 1, MAX_HARMONICS)
+    if "force_evaluation" in tab:
+        kw["force_evaluation"] = ck.string(tab["force_evaluation"], f"{path}.force_evaluation",
+                                           ("exact", "aft"))
+    if "samples" in tab:
+        kw["samples"] = ck.integer(tab["samples"], f"{path}.samples", 3, 1 << 16)
+    if "tolerance" in tab:
+        kw["tolerance"] = ck.number(tab["tolerance"], f"{path}.tolerance", gt=0.0, lt=1.0)
+    if "stability" in tab:
+        kw["stability"] = ck.boolean(tab["stability"], f"{path}.stability")
+    for key in ("initial_step", "max_step"):
+        if key in tab:
+            kw[key] = ck.number(tab[key], f"{path}.{key}", gt=0.0, le=10.0)
+    if "max_points" in tab:
+        kw["max_points"] = ck.integer(tab["max_points"], f"{path}.max_points", 2, 1_000_000)
+    s = replace(base, **kw) if base is not None else SolverSettings(**kw)
+    if s.initial_step is not None and s.max_step is not None and s.initial_step > s.max_step:
+        key = "initial_step" if "initial_step" in tab else "max_step"
+        ck.fail(f"{path}.{key}", f"initial_step {s.initial_step:g} exceeds max_step {s.max_step:g}")
+    if s.samples < 2 * s.harmonics + 1:
+        # blame the key of this table that broke the rule
+        field = (f"{path}.samples" if "samples" in tab or "harmonics" not in tab
+                 else f"{path}.harmonics")
+        ck.fail(field, f"must be >= 2H+1 = {2 * s.harmonics + 1} for H = {s.harmonics}, "
+                       f"got {s.samples}")
+    return s
+
+
+def _sweep(ck, tab, path, partial=False):
+    axes, freq = {}, None
+    for key, value in tab.items():
+        field = _join(path, key)
+        if key == "frequency":
+            if isinstance(value, list):
+                ck.fail(field, "a frequency grid (continuation in preload) is not supported yet; "
+                               "give the continuation interval {start, stop, unit}")
+            t = ck.table(value, field)
+            ck.keys(t, field, ("start", "stop", "unit"), required=("start", "stop"))
+            unit = ck.string(t.get("unit", "rad/s"), f"{field}.unit", FREQUENCY_UNITS)
+            start = ck.number(t["start"], f"{field}.start", gt=0.0)
+            stop = ck.number(t["stop"], f"{field}.stop", gt=0.0)
+            if start == stop:
+                ck.fail(field, f"start and stop are equal ({start:g} {unit}): empty interval")
+            freq = FrequencyRange(start, stop, unit)
+        elif key in SWEEP_AXES:
+            if isinstance(value, dict):
+                ck.fail(field, f"continuation in {key} is not supported yet; give a list of values")
+            bounds = {"preload": {}, "mu": {"ge": 0.0}, "ku": {"gt": 0.0}, "kv": {"ge": 0.0},
+                      "excitation_scale": {"gt": 0.0}}[key]
+            vals = ck.numbers(value, field, **bounds)
+            for i, v in enumerate(vals):
+                if v in vals[:i]:
+                    ck.fail(f"{field}[{i}]", f"duplicate value {v:g}")
+            axes[key] = tuple(float(v) for v in vals)
+        else:
+            allowed = ("frequency",) + tuple(SWEEP_AXES)
+            ck.keys({key: value}, path, allowed)
+    if freq is None and not partial:
+        ck.fail(f"{path}.frequency", "missing (required): the continuation interval "
+                                     "{start, stop, unit}")
+    return axes, freq
+
+
+def _scene(ck, tab) -> Scene:
+    ck.keys(tab, "scene", ("model", "effects", "dofs", "matrices", "modal", "contact",
+                           "excitation"), required=("model",))
+    model = ck.string(tab["model"], "scene.model", MODELS)
+    if model not in IMPLEMENTED_MODELS:
+        ck.fail("scene.model", f"{model!r} is not implemented yet (available: "
+                               f"{', '.join(IMPLEMENTED_MODELS)})")
+    effects = ck.names(tab.get("effects", []), "scene.effects", min_length=0)
+    for i, e in enumerate(effects):
+        if e not in EFFECTS:
+            ck.fail(f"scene.effects[{i}]", f"unknown effect {e!r} (known: {', '.join(EFFECTS)})")
+    if "dofs" not in tab:
+        ck.fail("scene.dofs", "missing (required): the names of the DOFs, e.g. [\"x1\", \"x2\"]")
+    dofs = ck.names(tab["dofs"], "scene.dofs")
+    n = len(dofs)
+    if n > MAX_DOFS:
+        ck.fail("scene.dofs", f"a lumped scene has at most {MAX_DOFS} DOFs, got {n}")
+    if ("matrices" in tab) == ("modal" in tab):
+        ck.fail("scene", "give exactly one of [scene.matrices] and [scene.modal]")
+    if "matrices" in tab:
+        M, C, K = _matrices(ck, ck.table(tab["matrices"], "scene.matrices"), n)
+    else:
+        M, C, K = _modal(ck, ck.table(tab["modal"], "scene.modal"), n)
+    contacts_raw = tab.get("contact", [])
+    if isinstance(contacts_raw, dict):
+        ck.fail("scene.contact", "must be an array of tables: write [[scene.contact]]")
+    ck.array(contacts_raw, "scene.contact", min_length=0)
+    contacts = tuple(_contact(ck, c, f"scene.contact[{i}]", dofs, i)
+                     for i, c in enumerate(contacts_raw))
+    names = [c.name for c in contacts]
+    for i, nm in enumerate(names):
+        if nm in names[:i]:
+            ck.fail(f"scene.contact[{i}].name", f"duplicate contact name {nm!r}")
+    if "excitation" not in tab:
+        ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
+    forcing = _excitation(ck, tab["excitation"], dofs)
+    return Scene(model=model, effects=effects, dofs=dofs, M=M, C=C, K=K,
+                 contacts=contacts, forcing=forcing)
+
+
+def _matrices(ck, t, n):
+    ck.keys(t, "scene.matrices", ("M", "C", "K"), required=("M", "K"))
+    M = ck.matrix(t["M"], "scene.matrices.M", n)
+    K = ck.matrix(t["K"], "scene.matrices.K", n)
+    C = ck.matrix(t["C"], "scene.matrices.C", n) if "C" in t else np.zeros((n, n))
+    for A, nm, need in ((M, "M", "positive definite (mass)"),
+                        (K, "K", "positive definite (stiffness; no rigid-body modes)"),
+                        (C, "C", "positive semi-definite (damping)")):
+        scale = np.abs(A).max()
+        if np.abs(A - A.T).max() > 1e-9 * scale:
+            ck.fail(f"scene.matrices.{nm}", "must be symmetric")
+        lam = np.linalg.eigvalsh(0.5 * (A + A.T))
+        if (nm == "C" and lam.min() < -1e-9 * max(scale, 1e-300)) or (nm != "C" and lam.min() <= 1e-12 * scale):
+            ck.fail(f"scene.matrices.{nm}", f"must be {need}; smallest eigenvalue {lam.min():.4g}")
+    return M, C, K
+
+
+def _modal(ck, t, n):
+    f = "scene.modal"
+    ck.keys(t, f, ("masses", "frequencies", "damping_ratios", "mode_shapes"),
+            required=("masses", "frequencies", "damping_ratios", "mode_shapes"))
+    m = ck.numbers(t["masses"], f"{f}.masses", n, gt=0.0)
+    w = ck.numbers(t["frequencies"], f"{f}.frequencies", n, gt=0.0)
+    z = ck.numbers(t["damping_ratios"], f"{f}.damping_ratios", n, ge=0.0)
+    Phi = ck.matrix(t["mode_shapes"], f"{f}.mode_shapes", n)
+    s = np.linalg.svd(Phi, compute_uv=False)
+    if s.min() <= 1e-10 * s.max():
+        ck.fail(f"{f}.mode_shapes", "must be invertible (the columns are the mode shapes, "
+                                    "one row per DOF)")
+    Pinv = np.linalg.inv(Phi)
+
+    def sym(d):
+        A = Pinv.T @ np.diag(d) @ Pinv
+        return 0.5 * (A + A.T)
+
+    return sym(m), sym(2.0 * z * m * w), sym(m * w**2)
+
+
+def _signed_row(ck, value, field, dofs, required):
+    row = np.zeros(len(dofs))
+    if value is None:
+        if required:
+            ck.fail(field, "missing (required)")
+        return row
+    if isinstance(value, dict):
+        if not value:
+            ck.fail(field, "must not be empty")
+        for name, coef in value.items():
+            if name not in dofs:
+                ck.fail(_join(field, name), f"unknown DOF (DOFs: {', '.join(dofs)})")
+            row[dofs.index(name)] = ck.number(coef, _join(field, name))
+    else:
+        items = ck.array(value, field)
+        for i, item in enumerate(items):
+            s = ck.string(item, f"{field}[{i}]")
+            m = _SIGNED.match(s)
+            if not m:
+                ck.fail(f"{field}[{i}]", f"{s!r} is not a DOF name with an optional sign, "
+                                         "e.g. \"x1\" or \"-x2\"")
+            sign, name = m.groups()
+            if name not in dofs:
+                ck.fail(f"{field}[{i}]", f"unknown DOF {name!r} (DOFs: {', '.join(dofs)})")
+            j = dofs.index(name)
+            if row[j] != 0:
+                ck.fail(f"{field}[{i}]", f"DOF {name!r} appears twice")
+            row[j] = -1.0 if sign == "-" else 1.0
+    if not np.any(row):
+        ck.fail(field, "all coefficients are zero")
+    return row
+
+
+def _contact(ck, c, f, dofs, i) -> ContactSpec:
+    c = ck.table(c, f)
+    ck.keys(c, f, ("name", "tangential", "normal", "ku", "kv", "mu", "n0"),
+            required=("tangential", "ku", "mu"))
+    name = ck.string(c.get("name", f"contact{i}"), f"{f}.name", pattern=_NAME)
+    bt = _signed_row(ck, c["tangential"], f"{f}.tangential", dofs, True)
+    bn = _signed_row(ck, c.get("normal"), f"{f}.normal", dofs, False)
+    ku = ck.number(c["ku"], f"{f}.ku", gt=0.0)
+    kv = ck.number(c.get("kv", 0.0), f"{f}.kv", ge=0.0)
+    mu = ck.number(c["mu"], f"{f}.mu", ge=0.0)
+    n0 = ck.number(c["n0"], f"{f}.n0") if "n0" in c else None
+    if kv > 0 and not np.any(bn):
+        ck.fail(f"{f}.kv", f"kv = {kv:g} N/m needs normal DOFs (`normal = [...]`)")
+    return ContactSpec(name=name, bt=bt, bn=bn, ku=ku, kv=kv, mu=mu, n0=n0)
+
+
+def _excitation(ck, raw, dofs) -> np.ndarray:
+    if isinstance(raw, dict):
+        ck.fail("scene.excitation", "must be an array of tables: write [[scene.excitation]]")
+    items = ck.array(raw, "scene.excitation")
+    entries, seen = [], set()
+    for i, e in enumerate(items):
+        f = f"scene.excitation[{i}]"
+        e = ck.table(e, f)
+        ck.keys(e, f, ("dof", "amplitude", "harmonic", "phase"), required=("dof", "amplitude"))
+        dof = ck.string(e["dof"], f"{f}.dof")
+        if dof not in dofs:
+            ck.fail(f"{f}.dof", f"unknown DOF {dof!r} (DOFs: {', '.join(dofs)})")
+        amp = ck.number(e["amplitude"], f"{f}.amplitude")
+        h = ck.integer(e.get("harmonic", 1), f"{f}.harmonic", 0, MAX_HARMONICS)
+        phase = ck.number(e.get("phase", 0.0), f"{f}.phase")
+        if h == 0 and phase != 0.0:
+            ck.fail(f"{f}.phase", "a static load (harmonic = 0) has no phase")
+        if (dof, h) in seen:
+            ck.fail(f, f"DOF {dof!r} is excited twice at harmonic {h}")
+        seen.add((dof, h))
+        entries.append((dofs.index(dof), h, amp * complex(math.cos(phase), math.sin(phase))))
+    F = np.zeros((len(dofs), max(h for _, h, _ in entries) + 1), dtype=complex)
+    for j, h, a in entries:
+        F[j, h] = a
+    if not np.any(F):
+        ck.fail("scene.excitation", "every amplitude is zero: nothing excites the structure")
+    return F
+
+
+def _output(ck, t, scene) -> OutputSettings:
+    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows"))
+    dofs = ck.names(t["dofs"], "output.dofs") if "dofs" in t else scene.dofs
+    for i, d in enumerate(dofs):
+        if d not in scene.dofs:
+            ck.fail(f"output.dofs[{i}]", f"unknown DOF {d!r} (DOFs: {', '.join(scene.dofs)})")
+    figs = ck.names(t.get("figures", list(FIGURES)), "output.figures", min_length=0)
+    for i, fg in enumerate(figs):
+        if fg not in FIGURES:
+            ck.fail(f"output.figures[{i}]", f"unknown figure {fg!r} (known: {', '.join(FIGURES)})")
+    yscale = ck.string(t.get("yscale", "linear"), "output.yscale", ("linear", "log"))
+    windows = []
+    for i, w in enumerate(ck.array(t.get("peak_windows", []), "output.peak_windows", min_length=0)):
+        lo, hi = ck.numbers(w, f"output.peak_windows[{i}]", 2, ge=0.0)
+        if not lo < hi:
+            ck.fail(f"output.peak_windows[{i}]", f"must be [low, high] with low < high, got "
+                                                 f"[{lo:g}, {hi:g}]")
+        windows.append((float(lo), float(hi)))
+    return OutputSettings(dofs=tuple(dofs), figures=tuple(figs), yscale=yscale,
+                          peak_windows=tuple(windows))
+
+
+def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
+    """Cross-field rules: declared effects match the scene, harmonics cover the
+    excitation, swept contact parameters have contacts to act on."""
+    H = solver.harmonics
+    hf = scene.forcing.shape[1] - 1
+    if hf > H:
+        ck.fail(f"{spath}.harmonics", f"H = {H} is below the excited harmonic {hf} "
+                                      "(scene.excitation)")
+    has_contact = bool(scene.contacts)
+    for a in ("preload", "mu", "ku", "kv"):
+        if a in axes and not has_contact:
+            ck.fail(f"{wpath}.{a}", "the scene has no [[scene.contact]] to apply it to")
+    if has_contact and "preload" not in axes:
+        for i, c in enumerate(scene.contacts):
+            if c.n0 is None:
+                ck.fail(f"scene.contact[{i}].n0", "missing (required unless sweep.preload is given)")
+    effects = set(scene.effects)
+    if has_contact != ("friction" in effects):
+        ck.fail("scene.effects", "declare \"friction\" exactly when the scene has contacts"
+                if has_contact else "\"friction\" is declared but the scene has no [[scene.contact]]")
+    kv_vals = axes.get("kv") or tuple(c.kv for c in scene.contacts)
+    varies = any(np.any(c.bn) for c in scene.contacts) and max(kv_vals, default=0.0) > 0
+    if varies != ("normal_load_variation" in effects):
+        ck.fail("scene.effects", "normal DOFs with kv > 0 make the normal load vary: declare "
+                                 "\"normal_load_variation\"" if varies else
+                "\"normal_load_variation\" is declared but no contact has normal DOFs with kv > 0")
+    n0_vals = axes.get("preload") or tuple(c.n0 for c in scene.contacts if c.n0 is not None)
+    gap = min(n0_vals, default=0.0) < 0
+    if gap and "separation" not in effects:
+        ck.fail("scene.effects", "a negative preload (initial gap) means separation: declare "
+                                 "\"separation\"")
+    if "separation" in effects and not (gap or varies):
+        ck.fail("scene.effects", "\"separation\" is declared but cannot occur (constant normal "
+                                 "load and no negative preload)")
+
+
+def _check_build(ck, study: Study):
+    # Safety net: the System constructors must accept every case we validated.
+    try:
+        for _, case in study.sweep.cases()[:1] + study.sweep.cases()[-1:]:
+            build_system(study.scene, case)
+    except ValueError as exc:
+        ck.fail("scene", str(exc))

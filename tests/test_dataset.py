@@ -1,0 +1,366 @@
+"""Study datasets: layout per DATASET.md, netCDF round trip, checker, atomic write,
+figures, and the study runner's plumbing (with a linear reference solver)."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from pipeline import harmonics
+from pipeline.dataset import read_dataset, to_dataset, write_netcdf
+from pipeline.response import ResponseCurve
+from pipeline.scene import load_study
+from pipeline.study import run_study, write_figures
+
+ROOT = Path(__file__).resolve().parents[1]
+STUDIES = ROOT / "studies"
+CHECKER = Path("/work/shared/tools/check_dataset.py")
+
+
+# ---------------------------------------------------------------------------
+# One seeded data factory: linear harmonic response of a scene (contacts ignored)
+# ---------------------------------------------------------------------------
+
+def linear_curve(system, H, omega, *, converged=None, stable=None, folds=(), seed=0):
+    """ResponseCurve of M q'' + C q' + K q = F(t) at the frequencies `omega` [rad/s]:
+    exact for a scene without contact force, so peaks have closed forms."""
+    P, n = omega.size, system.n_dof
+    Q = np.zeros((P, n, 2 * H + 1))
+    F = system.forcing
+    for i, w in enumerate(omega):
+        for h in range(1, min(H, F.shape[1] - 1) + 1):
+            X = np.linalg.solve(system.K - (h * w) ** 2 * system.M + 1j * h * w * system.C, F[:, h])
+            Q[i, :, 2 * h - 1], Q[i, :, 2 * h] = X.real, -X.imag
+    if F.shape[1] == 2:                      # one harmonic: (max - min)/2 = |X_1| exactly
+        amp = np.hypot(Q[:, :, 1], Q[:, :, 2])
+    else:
+        x = harmonics.evaluate(Q.reshape(P * n, -1), np.linspace(0, 2 * np.pi, 4096, endpoint=False))
+        amp = (0.5 * (x.max(axis=1) - x.min(axis=1))).reshape(P, n)
+    rng = np.random.default_rng(seed)
+    return ResponseCurve(
+        parameter=omega, omega=omega, Q=Q,
+        converged=np.ones(P, bool) if converged is None else converged,
+        residual=rng.uniform(0, 1e-10, P),
+        stable=np.ones(P, bool) if stable is None else stable,
+        amplitude=amp, fold_parameter=np.asarray(folds, float),
+        newton_iterations=rng.integers(1, 5, P), nfev=4 * P, wall_time=0.01 * P,
+        success=True, status=0, message="ok", H=H, tolerance=1e-9)
+
+
+def linear_reference_solver(system, H, omega_start, omega_end, **kw):
+    """Drop-in for frequency_response on linear scenes (exercises the plumbing)."""
+    return linear_curve(system, H, np.linspace(omega_start, omega_end, 40))
+
+
+def failing_solver(system, H, omega_start, omega_end, **kw):
+    if system.contact.n0[0] == 2.0:
+        raise FloatingPointError("singular Jacobian")
+    return linear_reference_solver(system, H, omega_start, omega_end)
+
+
+def curves_for(study, lengths=None, **kw):
+    fr, H = study.sweep.frequency, study.solver.harmonics
+    out = []
+    for k, (_, case) in enumerate(study.sweep.cases()):
+        P = lengths[k] if lengths else 50
+        om = np.linspace(fr.omega_start, fr.omega_stop, P)
+        out.append(linear_curve(study.system(case), H, om, seed=k, **kw))
+    return out
+
+
+@pytest.fixture(scope="module")
+def ex1():
+    return load_study(STUDIES / "paper_example1.toml", quick=True)
+
+
+@pytest.fixture(scope="module")
+def ex2():
+    return load_study(STUDIES / "paper_example2.toml", quick=True)
+
+
+# ---------------------------------------------------------------------------
+# Layout and numbers
+# ---------------------------------------------------------------------------
+
+def test_layout_padding_and_flags(ex1):
+    curves = curves_for(ex1, lengths=[30, 45, 20])
+    conv = np.ones(45, bool)
+    conv[7] = False
+    amp = curves[1].amplitude.copy()
+    amp[11] = np.nan                          # not finite: must not count as converged
+    curves[1] = ResponseCurve(**{**vars(curves[1]), "converged": conv, "amplitude": amp})
+    ds = to_dataset(ex1, curves)
+    assert dict(ds.sizes) == {"preload": 3, "point": 45, "dof": 1, "harmonic": 4, "fold": 1, "mode": 1}
+    assert ds["amplitude"].dims == ("preload", "point", "dof")
+    assert ds["harmonic_amplitude"].dims == ("preload", "point", "dof", "harmonic")
+    assert ds["preload"].values.tolist() == [0.0, 2.0, 1000.0]
+    assert ds["preload"].attrs["units"] == "N"
+    assert ds["converged"].sum("point").values.tolist() == [30, 43, 20]
+    assert np.isnan(ds["frequency"].values[0, 30:]).all()
+    assert not ds["converged"].values[2, 20:].any() and not ds["stable"].values[2, 20:].any()
+    assert (ds["newton_iterations"].values[0, 30:] == -1).all()
+    conv = ds["converged"].values
+    for name in ("frequency", "residual"):
+        assert np.isfinite(ds[name].values[conv]).all()
+    assert np.isfinite(ds["amplitude"].values[conv]).all()
+    assert np.isfinite(ds["harmonic_amplitude"].values[conv]).all()
+    pk = ds["amplitude"].where(ds["converged"]).max("point")
+    np.testing.assert_array_equal(pk.values, ds["peak_amplitude"].values)
+    assert ds["n_points"].values.tolist() == [30, 45, 20]
+    assert ds["wall_time"].attrs["units"] == "s"
+    # only h = 1 is excited in a linear scene: the other harmonics vanish
+    ha = ds["harmonic_amplitude"].where(ds["converged"])
+    assert float(ha.sel(harmonic=[0, 2, 3]).max()) == 0.0
+    np.testing.assert_allclose(ha.sel(harmonic=1), ds["amplitude"].where(ds["converged"]),
+                               rtol=1e-12)
+
+
+def test_linear_peak_matches_closed_form(ex1):
+    """preload 0: m x'' + c x' + k x = cos(w t); the amplitude peaks at
+    w_n sqrt(1 - 2 z^2) with height F0 / (c w_n sqrt(1 - z^2)) (m = 1)."""
+    k, c = 3.55e4, 0.3
+    wn, z = np.sqrt(k), c / (2 * np.sqrt(k))
+    om = np.linspace(188.0, 189.0, 4001)
+    curve = linear_curve(ex1.system({"preload": 0.0}), 3, om)
+    ds = to_dataset(ex1, [curve] * 3)
+    pk = ds["peak_amplitude"].sel(preload=0.0, dof="x")
+    assert float(pk) == pytest.approx(1 / (c * wn * np.sqrt(1 - z**2)), rel=1e-6)
+    assert float(ds["peak_frequency"].sel(preload=0.0, dof="x")) == pytest.approx(
+        wn * np.sqrt(1 - 2 * z**2), abs=2.5e-4)
+    assert float(ds["natural_frequency_free"][0]) == pytest.approx(wn)
+    np.testing.assert_allclose(ds["natural_frequency_stuck"].values[:, 0], np.sqrt(k + 1e4))
+
+
+def test_hz_units_and_peaks_per_mode_window(ex2):
+    """Example 2 without the damper (linear): the two window peaks sit at the
+    paper's 19.67 and 51.50 Hz; frequencies are stored in Hz."""
+    om = 2 * np.pi * np.concatenate([np.linspace(13, 67, 400), np.linspace(19.5, 19.8, 301),
+                                     np.linspace(51.3, 51.7, 401)])
+    om.sort()
+    curve = linear_curve(ex2.system({"preload": 0.0}), 3, om)
+    ds = to_dataset(ex2, [curve] * 3)
+    assert ds["frequency"].attrs["units"] == "Hz"
+    np.testing.assert_allclose(ds["frequency"].values[0], om / (2 * np.pi))
+    f = ds["window_peak_frequency"].sel(preload=0.0, dof="x1").values
+    np.testing.assert_allclose(f, [19.67, 51.50], atol=0.01)
+    assert ds["peak_window_low"].values.tolist() == [13.0, 38.0]
+    a = ds["window_peak_amplitude"].sel(preload=0.0).values
+    assert np.all(a[0] > a[1])               # mode 1 responds more than mode 2
+    np.testing.assert_allclose(ds["natural_frequency_stuck"].values[0], [23.5255, 56.9745], atol=1e-3)
+
+
+def test_failed_case_is_all_padding(ex1):
+    curves = curves_for(ex1)
+    curves[1] = None
+    ds = to_dataset(ex1, curves, errors=[None, "FloatingPointError: singular", None])
+    assert not ds["converged"].values[1].any()
+    assert np.isnan(ds["peak_amplitude"].values[1]).all()
+    assert ds["message"].values[1] == "failed: FloatingPointError: singular"
+    assert ds["status"].values[1] == -1
+
+
+def test_cf_attributes(ex2):
+    ds = to_dataset(ex2, curves_for(ex2, folds=[200.0, 210.0]))
+    for name, var in ds.variables.items():
+        assert "long_name" in var.attrs, name
+        if var.dtype.kind in "fiub":
+            assert "units" in var.attrs, name
+    for a in ("title", "study", "harmonics", "force_evaluation", "pipeline_version", "created"):
+        assert a in ds.attrs
+    assert ds.attrs["Conventions"] == "CF-1.10"
+    assert ds.attrs["study"] == (STUDIES / "paper_example2.toml").read_text()
+    assert ds.attrs["harmonics"] == 3 and ds.attrs["quick"] == 1
+    np.testing.assert_allclose(ds["fold_frequency"].values[0], np.array([200.0, 210.0]) / (2 * np.pi))
+
+
+# ---------------------------------------------------------------------------
+# netCDF: round trip, checker, atomic write
+# ---------------------------------------------------------------------------
+
+def test_round_trip_and_checker(tmp_path, ex2):
+    curves = curves_for(ex2, lengths=[50, 20, 35], folds=[150.0])
+    ds = to_dataset(ex2, curves)
+    path = write_netcdf(ds, tmp_path / "sub" / "ex2.nc")
+    back = read_dataset(path)
+    xr.testing.assert_identical(ds, back)
+    assert back["converged"].dtype == bool and back["dof"].values.tolist() == ["x1", "x2"]
+    enc = xr.open_dataset(path).__enter__()["harmonic_amplitude"].encoding
+    assert enc.get("zlib") is True
+    r = subprocess.run([sys.executable, str(CHECKER), str(path)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert [p.name for p in path.parent.iterdir()] == ["ex2.nc"]
+
+
+class Boom(Exception):
+    pass
+
+
+@pytest.mark.parametrize("exc", [Boom, KeyboardInterrupt])
+def test_atomic_write_leaves_no_partial_file(tmp_path, ex1, monkeypatch, exc):
+    ds = to_dataset(ex1, curves_for(ex1))
+    target = tmp_path / "ex1.nc"
+    write_netcdf(ds, target)
+    before = target.read_bytes()
+    real = xr.Dataset.to_netcdf
+
+    def half_then_fail(self, path, *a, **k):
+        real(self, path, *a, **k)
+        with open(path, "r+b") as f:          # a truncated file, as if killed mid-write
+            f.truncate(100)
+        raise exc("disk full")
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", half_then_fail)
+    with pytest.raises(exc):
+        write_netcdf(ds, target)
+    assert target.read_bytes() == before      # the old complete file is untouched
+    with pytest.raises(exc):
+        write_netcdf(ds, tmp_path / "new.nc")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ex1.nc"]   # no temp, no partial
+
+
+# ---------------------------------------------------------------------------
+# Study runner plumbing and figures
+# ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_run_study_writes_dataset_and_figures(tmp_path, ex2, workers):
+    res = run_study(ex2, tmp_path, workers=workers, solver=linear_reference_solver, progress=False)
+    assert res.ok and res.path == tmp_path / "paper_example2.nc"
+    assert sorted(p.name for p in res.figures) == ["amplitude_x1.png", "amplitude_x2.png"]
+    assert all(p.parent == tmp_path / "paper_example2" and p.stat().st_size > 10_000
+               for p in res.figures)
+    back = read_dataset(res.path)
+    assert int(back["n_points"].sum()) == 3 * 40
+    r = subprocess.run([sys.executable, str(CHECKER), str(res.path)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout
+
+
+def test_a_failing_case_is_kept_and_reported(tmp_path, ex1, caplog):
+    res = run_study(ex1, tmp_path, solver=failing_solver, progress=False, figures=False)
+    assert res.failures == 1 and not res.ok and res.path.exists()
+    ds = read_dataset(res.path)
+    assert ds["message"].sel(preload=2.0).item().startswith("failed: FloatingPointError")
+    assert ds["converged"].sel(preload=0.0).all()
+
+
+def test_nothing_converged_writes_nothing(tmp_path, ex1):
+    def never(system, H, w0, w1, **kw):
+        c = linear_reference_solver(system, H, w0, w1)
+        return ResponseCurve(**{**vars(c), "converged": np.zeros(c.n_points, bool)})
+
+    res = run_study(ex1, tmp_path / "out", solver=never, progress=False)
+    assert res.path is None and not (tmp_path / "out").exists()
+
+
+def test_figure_marks_folds_and_dashes_unstable_parts(tmp_path):
+    from pipeline.plots import _fold_indices, _runs, response_curves_figure
+
+    s = np.linspace(0, 1, 61)                 # an S-shaped (folded) branch
+    f = s + 0.25 * np.sin(2 * np.pi * s)
+    a = 1 + s
+    stable = ~((s > 0.36) & (s < 0.64))
+    # df/ds = 0 where cos(2 pi s) = -2/pi: s = 0.360, 0.640 (points 21.6, 38.4)
+    assert _fold_indices(f).tolist() == [22, 38]
+    assert _runs(stable) == [(0, 22), (39, 61)]
+    p = response_curves_figure(tmp_path / "fig.png", [("n0 = 10 N", f, a, stable, np.ones(61, bool))],
+                               title="folded")
+    assert p.exists() and p.stat().st_size > 5_000
+
+
+# ---------------------------------------------------------------------------
+# The paper studies with the real solver (quick mode): key numbers
+# ---------------------------------------------------------------------------
+
+def _real_solver():
+    from pipeline import response
+
+    fn = getattr(response, "frequency_response", None)
+    if fn is None:
+        pytest.skip("pipeline.response.frequency_response is not available yet")
+    return fn
+
+
+@pytest.fixture(scope="module")
+def quick_runs(tmp_path_factory):
+    """The three paper studies in quick mode with the real solver, run once."""
+    solver = _real_solver()
+    out = tmp_path_factory.mktemp("studies")
+    runs = {}
+
+    def get(n):
+        if n not in runs:
+            st = load_study(STUDIES / f"paper_example{n}.toml", quick=True)
+            runs[n] = run_study(st, out, solver=solver, progress=False, figures=False)
+        return runs[n]
+    return get
+
+
+def test_example1_quick(quick_runs):
+    """Sec. 6.1, Fig. 2: n = 0 is the oscillator k, n = 1000 N the stuck k + ku; both
+    linear: peak F0 / (c w_n) at w_n.  n = 2 N damps by slip: far lower peak."""
+    res = quick_runs(1)
+    ds = read_dataset(res.path)
+    assert res.ok and bool(ds["success"].all())
+    for n, k in ((0.0, 3.55e4), (1000.0, 4.55e4)):
+        wn = np.sqrt(k)
+        assert float(ds["peak_frequency"].sel(preload=n, dof="x")) == pytest.approx(wn, rel=1e-4)
+        assert float(ds["peak_amplitude"].sel(preload=n, dof="x")) == pytest.approx(
+            1 / (0.3 * wn), rel=1e-3)
+    assert float(ds["peak_amplitude"].sel(preload=2.0, dof="x")) < 0.05 * 1 / (0.3 * np.sqrt(4.55e4))
+    r = subprocess.run([sys.executable, str(CHECKER), str(res.path)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout
+
+
+def test_example2_quick_both_modes(quick_runs):
+    """Sec. 6.2, Fig. 4: peaks at the free (19.67, 51.50 Hz) and stuck (23.52,
+    56.97 Hz) natural frequencies; a moderate load damps both modes."""
+    ds = read_dataset(quick_runs(2).path)
+    f = ds["window_peak_frequency"].sel(dof="x1")
+    np.testing.assert_allclose(f.sel(preload=0.0), [19.67, 51.50], atol=0.15)
+    np.testing.assert_allclose(f.sel(preload=1e5), [23.52, 56.97], atol=0.15)
+    a = ds["window_peak_amplitude"].sel(dof="x1")
+    assert np.all(a.sel(preload=300.0) < a.sel(preload=0.0))
+    assert float(a.sel(preload=300.0)[0]) < 0.25 * float(a.sel(preload=1e5)[0])
+
+
+def test_example3_quick_separation_and_softening(quick_runs):
+    """Sec. 6.3, Fig. 6: n0 = -100 never touches (linear, mode 1 at 1 rad/s with
+    u = 0.707 * 1.414 / (2 * 0.01) = 50); n0 = 500 stays stuck (1.414 rad/s);
+    n0 = 10 separates: the curve bends left with two folds and an unstable part."""
+    ds = read_dataset(quick_runs(3).path)
+    u = ds.sel(dof="u")
+    assert float(u["peak_frequency"].sel(preload=-100.0)) == pytest.approx(1.0, abs=1e-3)
+    assert float(u["peak_amplitude"].sel(preload=-100.0)) == pytest.approx(50.0, rel=5e-3)
+    wst = float(ds["natural_frequency_stuck"].sel(preload=500.0, mode=1))
+    assert wst == pytest.approx(1.4137, abs=1e-4)
+    assert float(u["peak_frequency"].sel(preload=500.0)) == pytest.approx(wst, abs=2e-3)
+    soft = ds.sel(preload=10.0)
+    assert 1.0 < float(soft["peak_frequency"].sel(dof="u")) < wst
+    folds = soft["fold_frequency"].values
+    assert np.isfinite(folds).sum() == 2
+    conv = soft["converged"].values
+    assert 0 < int((conv & ~soft["stable"].values).sum()) < int(conv.sum())
+
+
+def test_two_axis_grid_gives_one_figure_per_other_axis_value(tmp_path):
+    import copy
+    import tomllib
+
+    from pipeline.scene import study_from_mapping
+
+    doc = tomllib.loads((STUDIES / "paper_example3.toml").read_text())
+    doc = copy.deepcopy(doc)
+    doc["sweep"] = {"mu": [0.2, 0.4], "preload": [-100.0, 10.0],
+                    "frequency": {"start": 0.5, "stop": 1.6}}
+    study = study_from_mapping(doc, file="grid.toml", name="grid")
+    ds = to_dataset(study, curves_for(study))
+    assert ds["amplitude"].dims == ("mu", "preload", "point", "dof")
+    paths = write_figures(study, ds, tmp_path / "grid")
+    assert sorted(p.name for p in paths) == ["amplitude_u_mu=0.2.png", "amplitude_u_mu=0.4.png",
+                                             "amplitude_v_mu=0.2.png", "amplitude_v_mu=0.4.png"]
+    back = read_dataset(write_netcdf(ds, tmp_path / "grid.nc"))
+    xr.testing.assert_identical(ds, back)
