@@ -423,7 +423,7 @@ def assemble_elasticity(basis, E: float, nu: float, rho: float, chunk: int = 512
     lam, mu = lame_parameters(E, nu)
     nb = len(basis.basis)
     G = np.stack([basis.basis[i][0].grad for i in range(nb)], axis=1)  # (3, nb, E, q)
-    P = np.stack([basis.basis[i][0].value for i in range(nb)])  # (nb, E, q)
+    P = np.stack([np.asarray(basis.basis[i][0]) for i in range(nb)])  # (nb, E, q)
     W = basis.dx
     s = basis.element_dofs  # (nb, E)
     ne = s.shape[1]

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg as la
@@ -36,7 +36,7 @@ import scipy.sparse.linalg as sla
 
 log = logging.getLogger(__name__)
 
-DEFAULT_MODES = 20
+DEFAULT_MODES = 40
 
 
 @dataclass(frozen=True, eq=False)
@@ -228,7 +228,7 @@ def reduce_blade(blade, n_modes: int = DEFAULT_MODES, names=None, **kw) -> Reduc
     pos = -np.ones(blade.n_dof, dtype=np.int64)
     pos[b] = np.arange(b.size)
     sets = {k: pos[v] for k, v in blade.dof_sets.items() if np.all(pos[v] >= 0)}
-    return ReducedModel(**{**red.__dict__, "sets": sets})
+    return replace(red, sets=sets)
 
 
 def reconstruct(model: ReducedModel, q: np.ndarray) -> np.ndarray:
