@@ -524,13 +524,17 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
     last = {}
 
     def is_kink(what, value):
-        """A smooth curve's turn and predictor deviation shrink with the step; one
-        that persists while ds is already small (< kink_ds) is a kink of the branch
-        (e.g. the onset of slip), not a jump: in the scaled metric crossing a
-        resonance needs a step of order one."""
+        """A smooth curve's turn and predictor deviation shrink in proportion to the
+        step; once the step is small (< kink_ds, while crossing a resonance needs a
+        step of order one in the scaled metric), a rejection that survives three
+        halvings there is a corner of the branch (e.g. a change of the stick/slip
+        pattern), not a jump: it is accepted."""
         prev = last.get(what)
         last[what] = value
-        return prev is not None and value > 0.75 * prev and ds < kink_ds
+        if ds >= kink_ds:
+            return False
+        last["small"] = last.get("small", 0) + 1
+        return last["small"] > 3 or (prev is not None and value > 0.75 * prev)
 
     while True:
         ts = t_phys / s
