@@ -14,7 +14,7 @@ except pairs of crossings closer than 2*resolution (1e-12 rad by default), which
 bound an excursion of height < resolution^2 max|p''| / 2: a tangency for every
 purpose here.  Tangencies (touching zero without crossing) are deliberately not
 reported: nothing switches there.  Each root is polished by safeguarded Newton
-inside its bracket.
+inside its bracket, to 1e-13 rad or the polynomial's own conditioning.
 """
 from __future__ import annotations
 
