@@ -225,20 +225,41 @@ def _ev_grid(P, tau, order=0):
     return np.matmul(basis(tau, H, order), P[:, :, None])[..., 0]
 
 
+def _ev_many(Ps, tau, orders):
+    """Several polynomials (rows (E, 2H+1) each) at the same tau (E, K), sharing one
+    cos/sin table: [p^(order) for p, order in zip(Ps, orders)], each (E, K)."""
+    H = harmonics_of(Ps[0].shape[-1])
+    B0 = basis(tau, H)
+    out = []
+    for P, o in zip(Ps, orders):
+        if o == 0:
+            out.append(np.matmul(B0, P[:, :, None])[..., 0])
+        else:  # first derivative from the same table: d/dtau (c, s) = j (-s, c)
+            j = np.arange(1, H + 1, dtype=float)
+            D = np.zeros_like(P)
+            D[:, 1::2], D[:, 2::2] = j * P[:, 2::2], -j * P[:, 1::2]
+            out.append(np.matmul(B0, D[:, :, None])[..., 0])
+    return out
+
+
 _PROBES = (0.5, 0.5 - 0.5 / np.sqrt(5), 0.5 + 0.5 / np.sqrt(5))
 
 
-def _interval_sign(P, bp, order=0):
-    """Sign (+1/-1/0) of p^(order) on each interval between breakpoints bp (E, K+1).
+def _interval_signs(Ps, orders, bp):
+    """Sign (+1/-1/0) of each p^(order) on each interval between breakpoints bp.
 
     The sign is constant inside an interval (no sign change there), but p may touch
     zero at isolated points (tangencies), possibly at the midpoint; so p is probed at
     three interior points and the value of largest magnitude decides.
     """
     a, b = bp[:, :-1], bp[:, 1:]
-    vals = np.stack([_ev_grid(P, a + f * (b - a), order) for f in _PROBES])
-    pick = np.argmax(np.abs(vals), axis=0)
-    return np.sign(np.take_along_axis(vals, pick[None], 0)[0])
+    vals = [_ev_many(Ps, a + f * (b - a), orders) for f in _PROBES]  # [probe][poly]
+    out = []
+    for k in range(len(Ps)):
+        v = np.stack([vals[i][k] for i in range(len(_PROBES))])
+        pick = np.argmax(np.abs(v), axis=0)
+        out.append(np.sign(np.take_along_axis(v, pick[None], 0)[0]))
+    return out
 
 
 def _march(U, Lc, Hc, Nc, nr, ns, lr, hr, crosses, thi, minhi):
@@ -257,9 +278,9 @@ def _march(U, Lc, Hc, Nc, nr, ns, lr, hr, crosses, thi, minhi):
     K = int(np.flatnonzero(nonempty).max()) + 1 if nonempty.any() else 1
     bp = t0[:, None] + bp[:, :K + 1]
     act_all = bp[:, 1:] > bp[:, :-1]
-    contact_all = _interval_sign(Nc, bp) > 0
-    lp_all, hp_all = _interval_sign(Lc, bp, 1), _interval_sign(Hc, bp, 1)
-    lo_bp, hi_bp, u_bp = _ev_grid(Lc, bp), _ev_grid(Hc, bp), _ev_grid(U, bp)
+    n_sign, lp_all, hp_all = _interval_signs((Nc, Lc, Hc), (0, 1, 1), bp)
+    contact_all = n_sign > 0
+    lo_bp, hi_bp, u_bp = _ev_many((Lc, Hc, U), bp, (0, 0, 0))
 
     state = np.where(crosses, SEP, NSLIP)
     w = np.where(crosses, 0.0, minhi)
@@ -332,6 +353,15 @@ def _contact_integrals(nr, ns, contact_all, H):
     return X
 
 
+def _rowsum(values, rows, E):
+    """out[e] = sum of values[i] with rows[i] == e, for rows sorted ascending."""
+    out = np.zeros((E,) + values.shape[1:])
+    if rows.size:
+        starts = np.flatnonzero(np.r_[True, rows[1:] != rows[:-1]])
+        out[rows[starts]] = np.add.reduceat(values, starts, axis=0)
+    return out
+
+
 def _mv(A, x):
     """Batched matrix-vector product (E, m, n) @ (E, n) -> (E, m)."""
     return np.matmul(A, x[..., None])[..., 0]
@@ -349,42 +379,47 @@ def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
     Gc = gram(Xc, H)
     Fv = _mv(Gc, Nc)
 
-    # tangential force from the segments
-    state, a, b = seg["state"], seg["a"], seg["b"]
-    tang = seg["tang"]
-    valid = state >= 0
-    Xs = segment_integrals(np.where(valid, a, 0.0), np.where(valid, b, 0.0), H)
-    m_st = ((state == STICK) & tang[:, None]) * 1.0
-    m_sl = ((state == PSLIP) * 1.0 - (state == NSLIP)) * tang[:, None]
-    X_st = np.matmul(m_st[:, None, :], Xs)[:, 0]
-    X_sl = np.matmul(m_sl[:, None, :], Xs)[:, 0]
+    # tangential force: integrals only over the segments in use (padding skipped)
+    state, a, b, tang = seg["state"], seg["a"], seg["b"], seg["tang"]
+    used = (state >= 0) & (b > a) & tang[:, None] & (regime == 2)[:, None]
+    e_i, s_i = np.nonzero(used)
+    st_u = state[e_i, s_i]
+    Xs = segment_integrals(a[e_i, s_i], b[e_i, s_i], H)        # (Nu, n2)
+    sign = np.where(st_u == PSLIP, 1.0, np.where(st_u == NSLIP, -1.0, 0.0))
+    stick = st_u == STICK
+    X_st = _rowsum(Xs[stick], e_i[stick], E)
+    X_sl = _rowsum(Xs * sign[:, None], e_i, E)
     G_st, G_sl = gram(X_st, H), gram(X_sl, H)
-    g = gram_column0(Xs, H) * m_st[..., None]
-    gT = g.transpose(0, 2, 1)  # (E, 2H+1, S)
-    Fu = ku[:, None] * (_mv(G_st, U) - _mv(gT, seg["w"]))
-    Fu += mu[:, None] * _mv(G_sl, Nc)
+    es, ss = e_i[stick], s_i[stick]
+    g = gram_column0(Xs[stick], H)                             # (Nst, 2H+1)
+    Fu = ku[:, None] * _mv(G_st, U) + mu[:, None] * _mv(G_sl, Nc)
+    Fu -= _rowsum((ku[es] * seg["w"][es, ss])[:, None] * g, es, E)
     regimes = {"separated": int((regime == 0).sum()), "stuck": int((regime == 1).sum()),
                "transitions": int((regime == 2).sum()), "frictionless": int((regime == 3).sum())}
+    st_rows = np.flatnonzero(regime == 1)
     if not jacobian:
+        if st_rows.size:
+            Fu[st_rows] = stuck_forces(U, elem, seg["stuck_w"], seg["stuck_dwdU"],
+                                       seg["stuck_dwdV"], st_rows)[0]
         return ContactForces(Fu, Fv, None, None, None, regimes)
 
     # dw/dU = s(t_src), dw/dV = s(t_src) * aV for the stick phases of switching cycles
-    kind, ts = seg["src_kind"], seg["src_tau"]
-    r = np.where(tang, mu / np.where(ku > 0, ku, 1.0), 0.0)[:, None]
-    Sx = basis(ts, H)
-    aV = np.zeros_like(ts)
-    aV = np.where(kind == _SRC_LO, -r * kv[:, None], aV)
-    aV = np.where(kind == _SRC_HI, r * kv[:, None], aV)
-    td = kind == _SRC_TD
-    if td.any():
-        e, s = np.nonzero(td & (state == STICK))
-        ud = np.einsum("kc,kc->k", basis(ts[e, s], H, 1), U[e])
-        vd = np.einsum("kc,kc->k", basis(ts[e, s], H, 1), V[e])
-        aV[e, s] = -ud / vd
-    dFu_dU = ku[:, None, None] * (G_st - gT @ Sx)
-    dFu_dV = (mu * kv)[:, None, None] * G_sl - ku[:, None, None] * ((gT * aV[:, None, :]) @ Sx)
+    kind, ts = seg["src_kind"][es, ss], seg["src_tau"][es, ss]
+    r = np.where(tang, mu / np.where(ku > 0, ku, 1.0), 0.0)[es]
+    Sx = basis(ts, H)                                          # (Nst, 2H+1)
+    aV = np.where(kind == _SRC_LO, -r * kv[es], np.where(kind == _SRC_HI, r * kv[es], 0.0))
+    td = np.flatnonzero(kind == _SRC_TD)
+    if td.size:
+        B1 = basis(ts[td], H, 1)
+        ud = np.einsum("kc,kc->k", B1, U[es[td]])
+        vd = np.einsum("kc,kc->k", B1, V[es[td]])
+        aV[td] = -ud / vd
+    outer = g[:, :, None] * Sx[:, None, :] * ku[es][:, None, None]   # ku g (x) s(t_src)
+    dFu_dU = ku[:, None, None] * G_st
+    dFu_dV = (mu * kv)[:, None, None] * G_sl
+    dFu_dU -= _rowsum(outer, es, E)
+    dFu_dV -= _rowsum(outer * aV[:, None, None], es, E)
     dFv_dV = kv[:, None, None] * Gc
-    st_rows = np.flatnonzero(regime == 1)
     if st_rows.size:  # fully stuck: closed form, w from the convention (two sources)
         Fu[st_rows], dFu_dU[st_rows], dFu_dV[st_rows] = stuck_forces(
             U, elem, seg["stuck_w"], seg["stuck_dwdU"], seg["stuck_dwdV"], st_rows)

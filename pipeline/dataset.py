@@ -55,7 +55,7 @@ def _peak(freq, amp, mask):
     return a[i, np.arange(a.shape[1])], freq[i]
 
 
-def to_dataset(study: Study, curves, errors=None) -> xr.Dataset:
+def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
     """Build the study dataset from one ResponseCurve per grid case.
 
     curves: sequence aligned with `study.sweep.cases()`; None for a case that
@@ -194,7 +194,30 @@ def to_dataset(study: Study, curves, errors=None) -> xr.Dataset:
         "source": "pipeline (harmonic balance with Yang-Menq contact, continuation, Hill stability)",
         "Conventions": CONVENTIONS,
     }
+    if optimum is not None:
+        _add_optimum(data_vars, coords, optimum, study, to_unit, unit)
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+
+def _add_optimum(data_vars, coords, opt, study, to_unit, unit):
+    """Optimum preload (a search, not a grid read-off) and the curve it searched."""
+    dof = study.output.optimum["dof"]
+    ev = np.array(opt["evaluations"], dtype=float).reshape(-1, 3)
+    coords["search_evaluation"] = ("search_evaluation", np.arange(len(ev), dtype=np.int32),
+                                   {"units": "1", "long_name": "evaluation of the optimum search"})
+    data_vars["optimum_preload"] = ((), float(opt["preload"]), {
+        "units": "N", "long_name": f"preload minimising the resonant peak of {dof} "
+                                   "(bounded Brent search on log preload)"})
+    data_vars["optimum_peak_amplitude"] = ((), float(opt["peak"]), {
+        "units": "m", "long_name": f"resonant peak of {dof} at the optimum preload"})
+    data_vars["optimum_peak_frequency"] = ((), float(opt["peak_omega"]) / to_unit, {
+        "units": unit, "long_name": "frequency of that peak"})
+    data_vars["search_preload"] = (("search_evaluation",), ev[:, 0], {
+        "units": "N", "long_name": "preload evaluated by the optimum search"})
+    data_vars["search_peak_amplitude"] = (("search_evaluation",), ev[:, 1], {
+        "units": "m", "long_name": f"resonant peak of {dof} at that preload"})
+    data_vars["search_wall_time"] = ((), float(opt.get("wall_time", np.nan)), {
+        "units": "s", "long_name": "wall time of the optimum search"})
 
 
 def _encoding(ds: xr.Dataset) -> dict:

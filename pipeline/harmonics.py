@@ -40,8 +40,12 @@ def basis(tau, H: int, order: int = 0) -> np.ndarray:
     if H == 0:
         return out
     j = np.arange(1, H + 1, dtype=float)
-    arg = tau[..., None] * j
-    c, s = np.cos(arg), np.sin(arg)
+    if tau.size * H > 20000:  # large tables: powers of exp(i tau), 2 trig calls not 2H
+        z = np.cumprod(np.broadcast_to(np.exp(1j * tau)[..., None], tau.shape + (H,)), axis=-1)
+        c, s = z.real, z.imag
+    else:
+        arg = tau[..., None] * j
+        c, s = np.cos(arg), np.sin(arg)
     # d^k/dtau^k [cos, sin](j tau) = j^k [cos, sin](j tau + k pi/2)
     rot = order % 4
     if rot == 1:

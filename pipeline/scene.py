@@ -150,6 +150,7 @@ class OutputSettings:
     figures: tuple = FIGURES
     yscale: str = "linear"
     peak_windows: tuple = ()     # ((lo, hi), ...) in the sweep's frequency unit
+    optimum: dict | None = None  # {dof, bounds (N), window (rad/s) | None, rtol}
 
 
 @dataclass(frozen=True)
@@ -225,6 +226,14 @@ def study_to_mapping(study: Study) -> dict:
     sweep["frequency"] = {"start": fr.start, "stop": fr.stop, "unit": fr.unit}
     solver = {k: v for k, v in vars(study.solver).items() if v is not None}
     out = study.output
+    output = {"dofs": list(out.dofs), "figures": list(out.figures), "yscale": out.yscale,
+              "peak_windows": [list(w) for w in out.peak_windows]}
+    if out.optimum is not None:
+        o = out.optimum
+        output["optimum_preload"] = {"dof": o["dof"], "bounds": list(o["bounds"]), "rtol": o["rtol"]}
+        if o["window"] is not None:
+            w = o["window"]
+            output["optimum_preload"]["frequency"] = {"start": w.start, "stop": w.stop, "unit": w.unit}
     return {
         "study": {"title": study.title, "description": study.description,
                   "reference": study.reference},
@@ -233,8 +242,7 @@ def study_to_mapping(study: Study) -> dict:
                   "contact": contacts, "excitation": excitation},
         "sweep": sweep,
         "solver": solver,
-        "output": {"dofs": list(out.dofs), "figures": list(out.figures), "yscale": out.yscale,
-                   "peak_windows": [list(w) for w in out.peak_windows]},
+        "output": output,
     }
 
 
@@ -693,7 +701,7 @@ def _excitation(ck, raw, dofs) -> np.ndarray:
 
 
 def _output(ck, t, scene) -> OutputSettings:
-    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows"))
+    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload"))
     dofs = ck.names(t["dofs"], "output.dofs") if "dofs" in t else scene.dofs
     for i, d in enumerate(dofs):
         if d not in scene.dofs:
@@ -710,8 +718,31 @@ def _output(ck, t, scene) -> OutputSettings:
             ck.fail(f"output.peak_windows[{i}]", f"must be [low, high] with low < high, got "
                                                  f"[{lo:g}, {hi:g}]")
         windows.append((float(lo), float(hi)))
+    optimum = None
+    if "optimum_preload" in t:
+        o, f = t["optimum_preload"], "output.optimum_preload"
+        if not isinstance(o, dict):
+            ck.fail(f, f"must be a table, got {_kind(o)}")
+        ck.keys(o, f, ("dof", "bounds", "frequency", "rtol"))
+        if "dof" not in o or "bounds" not in o:
+            ck.fail(f, "needs dof and bounds = [low, high] (N)")
+        dof = ck.string(o["dof"], f + ".dof", tuple(scene.dofs))
+        lo, hi = ck.numbers(o["bounds"], f + ".bounds", 2, gt=0.0)
+        if not lo < hi:
+            ck.fail(f + ".bounds", f"must be [low, high] with 0 < low < high, got [{lo:g}, {hi:g}]")
+        window = None
+        if "frequency" in o:
+            w = o["frequency"]
+            if not isinstance(w, dict):
+                ck.fail(f + ".frequency", f"must be a table {{start, stop, unit}}, got {_kind(w)}")
+            window = _sweep(ck, {"frequency": w}, f, partial=True)[1]
+        rtol = ck.number(o.get("rtol", 1e-2), f + ".rtol", gt=0.0, lt=1.0)
+        if not scene.contacts:
+            ck.fail(f, "the scene has no contact: there is no preload to optimise")
+        optimum = {"dof": dof, "bounds": (float(lo), float(hi)), "window": window,
+                   "rtol": float(rtol)}
     return OutputSettings(dofs=tuple(dofs), figures=tuple(figs), yscale=yscale,
-                          peak_windows=tuple(windows))
+                          peak_windows=tuple(windows), optimum=optimum)
 
 
 def _check_consistency(ck, scene, solver, axes, spath, wpath, data):

@@ -55,7 +55,10 @@ def _polish(P, lo, hi, plo, flo=None, fhi=None):
         x = 0.5 * (lo + hi)
     up = plo < 0  # p increases through the root
     act = np.arange(x.size)
-    noise = 8 * np.finfo(float).eps * np.abs(P).sum(1)  # evaluation round-off of p
+    # evaluation round-off of p: cos(j x), sin(j x) carry ~ j x eps each
+    H = harmonics_of(P.shape[-1])
+    weight = np.concatenate([[1.0], np.repeat(1.0 + 2 * np.pi * np.arange(1, H + 1), 2)])
+    noise = 8 * np.finfo(float).eps * (np.abs(P) * weight).sum(1)
     for _ in range(100):
         Pa, xa, loa, hia = P[act], x[act], lo[act], hi[act]
         f, fp = _eval01(Pa, xa)
@@ -63,15 +66,19 @@ def _polish(P, lo, hi, plo, flo=None, fhi=None):
         hia = np.where(right, xa, hia)
         loa = np.where(right, loa, xa)
         with np.errstate(divide="ignore", invalid="ignore"):
-            xn = xa - f / fp
+            newton = -f / fp
+        # converged on the raw Newton step (x itself may have just become a bracket
+        # end, which must not turn a converged iterate into a bisection); at noise
+        # level a flat root keeps iterating, its bracket shrinking, until the step
+        # is tiny too
+        tiny = np.abs(newton) < 1e-14
+        small = (np.abs(f) <= noise[act]) & (np.abs(newton) < 1e-11)
+        xn = xa + newton
         bad = ~np.isfinite(xn) | (xn <= loa) | (xn >= hia)
         xn = np.where(bad, 0.5 * (loa + hia), xn)
-        step = np.abs(xn - xa)
-        # at noise level with a tiny step: converged (a flat root keeps iterating,
-        # its bracket shrinking, until the step is tiny too)
-        small = (np.abs(f) <= noise[act]) & (step < 1e-11)
-        done = (step < 1e-14) | small | (hia - loa < 1e-13) | (f == 0)
-        x[act] = np.where(small | (f == 0), xa, xn)
+        keep = tiny | small | (f == 0)
+        done = keep | (hia - loa < 1e-13)
+        x[act] = np.where(keep, xa, xn)
         lo[act], hi[act] = loa, hia
         act = act[~done]
         if act.size == 0:

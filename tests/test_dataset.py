@@ -311,6 +311,11 @@ def test_example1_quick(quick_runs):
         assert float(ds["peak_amplitude"].sel(preload=n, dof="x")) == pytest.approx(
             1 / (0.3 * wn), rel=1e-3)
     assert float(ds["peak_amplitude"].sel(preload=2.0, dof="x")) < 0.05 * 1 / (0.3 * np.sqrt(4.55e4))
+    # the optimum normal load, found by a search: between the paper's 2 N and 5 N
+    # curves and no worse than any preload the search evaluated
+    assert 2.0 < float(ds["optimum_preload"]) < 5.0
+    assert float(ds["optimum_peak_amplitude"]) <= float(ds["search_peak_amplitude"].min()) + 1e-15
+    assert float(ds["optimum_peak_amplitude"]) < float(ds["peak_amplitude"].sel(preload=2.0, dof="x"))
     r = subprocess.run([sys.executable, str(CHECKER), str(res.path)], capture_output=True, text=True)
     assert r.returncode == 0, r.stdout
 
