@@ -102,8 +102,8 @@ def _state_at_zero(system, Q, Om):
     return q0, qd0, w0
 
 
-@pytest.mark.parametrize("case,n", [("ex1", 0.5), ("ex1", 2.0), ("ex1", 10.0),
-                                    ("ex3", -100.0), ("ex3", -20.0), ("ex3", 10.0), ("ex3", 500.0)])
+@pytest.mark.parametrize("case,n", [("ex1", n) for n in (0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 1000.0)]
+                         + [("ex3", n) for n in (-100.0, -20.0, 10.0, 500.0)])
 def test_hbm_peak_matches_event_driven_time_integration(case, n, ex3_curves):
     if case == "ex1":
         system, c = example1(n), frequency_response(example1(n), 7, 150, 250)
@@ -136,3 +136,28 @@ def test_harmonic_convergence_of_the_peak(build, n, rng, H):
     a1 = frequency_response(build(n), H, *rng, stability=False).peak(0)[0]
     a2 = frequency_response(build(n), 2 * H, *rng, stability=False).peak(0)[0]
     assert abs(a2 - a1) < 1e-3 * a2
+
+
+@pytest.mark.parametrize("n0", [-20.0, 10.0])
+def test_sweep_jumps_in_time_at_the_hbm_folds(n0, ex3_curves):
+    """Stepped-sine sweeps integrated in time jump where HBM puts the folds: the up
+    sweep between the two sweep frequencies around the upper fold, the down sweep
+    around the lower one (within one sweep step)."""
+    c = ex3_curves[n0]
+    lo, hi = np.sort(c.fold_parameter)
+    step = 0.004
+    # a grid whose points keep at least 0.2 steps away from both folds (at a fold
+    # itself a multiplier is 1 and no integration settles)
+    for shift in np.linspace(0, step, 11):
+        grid = np.arange(lo - 0.02 + shift, hi + 0.02, step)
+        if min(np.abs(grid - lo).min(), np.abs(grid - hi).min()) >= 0.2 * step:
+            break
+    system = example3(n0)
+    for direction, fold in (("up", hi), ("down", lo)):
+        # next to a fold the transient decays slowly (a multiplier near 1): more periods
+        sw = timesim.sweep(system, grid, direction=direction, H=c.H, periods_max=3000)
+        assert sw.converged.all()
+        assert sw.jumps.size == 1, (direction, sw.jumps, sw.amplitude[:, 0])
+        k = int(sw.jumps[0])
+        before, after = sw.Omega[k - 1], sw.Omega[k]
+        assert min(before, after) <= fold <= max(before, after), (direction, before, fold, after)
