@@ -70,7 +70,11 @@ def aft_forces(U, V, elem: YangMenq, N: int, jacobian: bool = True) -> ContactFo
     maxlo, minhi = lo.max(1), hi.min(1)
     stuck = ~any_sep & (maxlo <= minhi) & tang
     i_lo, i_hi = lo.argmax(1), hi.argmin(1)
-    w_st, dwdU, dwdV = stuck_slider(elem, maxlo, minhi, S[i_lo], S[i_hi])
+    # where lo (hi) is constant its extremum is everywhere: derivative e0 (mean)
+    e0 = np.eye(nc)[0]
+    s_lo = np.where((np.ptp(lo, axis=1) == 0)[:, None], e0, S[i_lo])
+    s_hi = np.where((np.ptp(hi, axis=1) == 0)[:, None], e0, S[i_hi])
+    w_st, dwdU, dwdV = stuck_slider(elem, maxlo, minhi, s_lo, s_hi)
 
     i0 = np.where(any_sep, np.argmax(~contact, axis=1), i_hi)
     w0 = np.where(any_sep, u[rows, i0], minhi)

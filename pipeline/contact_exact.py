@@ -142,9 +142,10 @@ def _first_root(roots, slope, want):
 
 def _extreme(P, roots, slope, want, pick):
     """Value and location of the extremum of p over its stationary points (derivative
-    roots with slope `want`); p constant -> (p0, 0)."""
+    roots with slope `want`); p constant -> (p0, NaN): the extremum is attained
+    everywhere (see `_extreme_basis`)."""
     if roots.shape[1] == 0:
-        return P[:, 0].copy(), np.zeros(len(P))
+        return P[:, 0].copy(), np.full(len(P), np.nan)
     vals = np.full(roots.shape, np.nan)
     ok = (slope == want) & ~np.isnan(roots)
     r, c = np.nonzero(ok)
@@ -153,8 +154,17 @@ def _extreme(P, roots, slope, want, pick):
     idx = np.where(has, pick(np.where(ok, vals, -np.inf if pick is np.argmax else np.inf), axis=1), 0)
     rows = np.arange(len(P))
     val = np.where(has, vals[rows, idx], P[:, 0])
-    loc = np.where(has, roots[rows, idx], 0.0)
+    loc = np.where(has, roots[rows, idx], np.nan)
     return val, loc
+
+
+def _extreme_basis(t, H):
+    """d(extremum)/d(coefficients) = basis at its location t; where p is constant
+    (t NaN, e.g. zero motion) the extremum is attained everywhere and the
+    derivative consistent with small symmetric motion is the mean, e0."""
+    B = basis(np.nan_to_num(t), H)
+    B[np.isnan(t)] = np.eye(2 * H + 1)[0]
+    return B
 
 
 def periodic_segments(U, V, elem: YangMenq):
@@ -192,9 +202,11 @@ def periodic_segments(U, V, elem: YangMenq):
     regime = np.where(stuck, 1, np.where(crosses | in_contact, np.where(tang, 2, 3), 0))
 
     # full stick: w in [max lo, min hi] by the convention of YangMenq.slider_rest
-    w_st, dwdU, dwdV = stuck_slider(elem, maxlo, minhi, basis(tlo, H), basis(thi, H))
+    w_st, dwdU, dwdV = stuck_slider(elem, maxlo, minhi, _extreme_basis(tlo, H),
+                                    _extreme_basis(thi, H))
     kind = np.full(E, _SRC_LO)
-    src_tau = tlo
+    src_tau = np.nan_to_num(tlo)
+    thi = np.nan_to_num(thi)
 
     march = np.flatnonzero(regime == 2)
     out = dict(regime=regime, Lc=Lc, Hc=Hc, Nc=Nc, tang=tang, H=H,

@@ -99,18 +99,22 @@ def _solve(A, b):
     return np.linalg.solve(A, b)
 
 
-def _newton_core(fun, z0, thresh, max_iter, measure, step=_solve):
-    """Newton iterations on F(z) = 0 with F, dF = fun(z); converged iff measure(F) <= thresh.
+def _newton_core(fun, z0, thresh, max_iter, measure, step=_solve, damped=False):
+    """Newton on F(z) = 0 with F, dF = fun(z); converged iff measure(F) <= thresh.
 
-    The Newton step is dz = step(dF, -F).  Returns (z, status, nit, nfev, njev,
-    rnorm, dF, F).
+    The Newton step is dz = step(dF, -F).  damped=True halves it (up to 6 times)
+    until measure(F) decreases: plain Newton can cycle between the linearisations
+    of a non-smooth residual (stick/slip, contact) or diverge from a cold start;
+    backtracking breaks that.  The continuation corrector stays undamped (its step
+    control handles failures, and a first step may rise and still converge).
+    Returns (z, status, nit, nfev, njev, rnorm, dF, F).
     """
     z = np.array(z0, dtype=float)
     nfev = njev = 0
+    F, dF = fun(z)
+    nfev += 1
     r0 = None
     for k in range(max_iter + 1):
-        F, dF = fun(z)
-        nfev += 1
         if not np.all(np.isfinite(F)):
             return z, 3, k, nfev, njev, math.inf, dF, F
         r = measure(F)
@@ -128,7 +132,15 @@ def _newton_core(fun, z0, thresh, max_iter, measure, step=_solve):
         njev += 1
         if not np.all(np.isfinite(dz)):
             return z, 2, k, nfev, njev, r, dF, F
-        z = z + dz
+        alpha = 1.0
+        for _ in range(7 if damped else 1):
+            zt = z + alpha * dz
+            Ft, dFt = fun(zt)
+            nfev += 1
+            if np.all(np.isfinite(Ft)) and measure(Ft) < r:
+                break
+            alpha *= 0.5
+        z, F, dF = zt, Ft, dFt
     raise AssertionError("unreachable")
 
 
@@ -141,11 +153,12 @@ _NEWTON_MESSAGES = {
 }
 
 
-def newton(fun_x, x0, tol, max_iter=20) -> NewtonResult:
+def newton(fun_x, x0, tol, max_iter=20, damped=True) -> NewtonResult:
     """Newton's method for R(x) = 0 with `fun_x(x) -> (R, dR_dx)`.
 
     Converged iff the residual evaluated at the returned x satisfies ||R||_2 <= tol
-    (absolute, in the units of R).  Numerical failure is reported in the result.
+    (absolute, in the units of R).  damped: backtrack until ||R|| decreases (see
+    `_newton_core`).  Numerical failure is reported in the result.
     """
     x0 = np.asarray(x0, dtype=float)
     if x0.ndim != 1 or not np.all(np.isfinite(x0)):
@@ -165,7 +178,7 @@ def newton(fun_x, x0, tol, max_iter=20) -> NewtonResult:
         return R, J
 
     z, status, nit, nfev, njev, r, J, _ = _newton_core(
-        checked, x0, tol, int(max_iter), np.linalg.norm)
+        checked, x0, tol, int(max_iter), np.linalg.norm, damped=damped)
     return NewtonResult(z, status == 0, status, _NEWTON_MESSAGES[status], nit, nfev,
                         njev, float(r), J)
 
@@ -207,6 +220,7 @@ class Branch:
     nfev: int
     njev: int
     n_rejected: int
+    min_step: float          # smallest accepted step (scaled arclength); inf if none
     scale: np.ndarray
     success: bool
     status: int
@@ -414,9 +428,11 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
             point_nfev=_frozen(PNFEV, int), residual_norm=_frozen(RN),
             fold_index=_frozen(fi, int), fold_lam=_frozen(fl), fold_x=_frozen(fx),
             nfev=counters["nfev"], njev=counters["njev"], n_rejected=n_rejected,
+            min_step=min_step,
             scale=_frozen(s), success=success, status=status, message=message)
 
     n_rejected = 0
+    min_step = math.inf
 
     def refine_fold(i, u, seg):
         """Fold between points i, i+1: zero of the tangent's lam-component along the
@@ -593,6 +609,7 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
 
         # accepted
         last.clear()
+        min_step = min(min_step, ds)
         t_new_s, _, t_new_phys = tan
         lam_new = zn[n]
         if not lo <= lam_new <= hi:

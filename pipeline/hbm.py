@@ -352,3 +352,34 @@ def force_scale(prob: HBMProblem, contact: YangMenq | None = None) -> float:
     bn = np.linalg.norm(prob.bn, axis=1) if prob.bn.size else np.zeros(0)
     s = float(np.linalg.norm(prob.P)) + float(np.sum(np.abs(elem.n0) * bn))
     return s if s > 0 else 1.0
+
+
+def tolerances(prob: HBMProblem, tol_rel: float, contact: YangMenq | None = None):
+    """Residual tolerances [N] of the static (h = 0) and the harmonic (h >= 1) equations.
+
+    static:  tol_rel * (|P_0| + sum |n0_e| |Bn_e| + |P_h>=1|)
+    dynamic: tol_rel * |P_h>=1|
+    The harmonic equations are held to the excitation's scale, so a large static
+    preload cannot swamp them; the static equations also carry the rectified
+    (mean) contact forces of the vibration, so their scale includes the dynamic
+    load.  Zero excitation falls back to the static scale, then to tol_rel * 1 N.
+    """
+    elem = contact if contact is not None else prob.system.contact
+    bn = np.linalg.norm(prob.bn, axis=1) if prob.bn.size else np.zeros(0)
+    d = float(np.linalg.norm(prob.P[:, 1:]))
+    s = float(np.linalg.norm(prob.P[:, 0])) + float(np.sum(np.abs(elem.n0) * bn)) + d
+    s = s or 1.0
+    return tol_rel * s, tol_rel * (d or s)
+
+
+def row_weights(prob: HBMProblem, tols) -> np.ndarray:
+    """1/tolerance for each condensed equation (DOF-major rows): with them, one
+    scaled residual norm <= 1 implies every block within its tolerance."""
+    w = np.full((prob.c.size, prob.nh), 1.0 / tols[1])
+    w[:, 0] = 1.0 / tols[0]
+    return w.ravel()
+
+
+def residual_parts(R_full) -> tuple:
+    """(static, harmonic) norms [N] of a full residual (n, 2H+1)."""
+    return float(np.linalg.norm(R_full[:, 0])), float(np.linalg.norm(R_full[:, 1:]))

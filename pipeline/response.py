@@ -80,7 +80,8 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
 
     Pseudo-arclength continuation (`continuation.continue_branch`) of the condensed
     HBM residual (`hbm.residual`), all DOFs recovered, each point's full residual
-    recomputed (converged iff <= tol_rel * force_scale [N]), Hill stability of the
+    recomputed (converged iff its static and harmonic parts are each within
+    `hbm.tolerances` [N]), Hill stability of the
     full system at every point (`stability.is_stable`).
     """
     import time
@@ -91,17 +92,54 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     t_start = time.perf_counter()
     prob = hbm.setup(system, H, method, n_samples)
     elem = contact if contact is not None else system.contact
-    tol = tol_rel * hbm.force_scale(prob, elem)
+    tols = hbm.tolerances(prob, tol_rel, elem)
+    w = hbm.row_weights(prob, tols)
+    fun = _weighted(lambda x, lam: hbm.residual(prob, x, lam, elem), w)
     x0 = _initial_guess(prob, omega_start, elem)
-    nr = newton(lambda x: hbm.residual(prob, x, omega_start, elem)[:2], x0, tol, max_iter=60)
-    fun = lambda x, lam: hbm.residual(prob, x, lam, elem)  # noqa: E731
+    tol = 1.0  # on the weighted residual: every block within its own tolerance [N]
+    nr = newton(lambda x: fun(x, omega_start)[:2], x0, tol, max_iter=60)
+    if not nr.success:
+        nr = _cold_start(prob, elem, omega_start, w, nr)
     br = continue_branch(fun, nr.x, omega_start, omega_end, tol=tol, ds=ds, ds_max=ds_max,
                          max_points=max_points, callback=callback,
                          groups=np.repeat(np.arange(prob.c.size), prob.nh))
     pts = _insert_peaks(prob, _branch_points(br), fun, tol, elem,
                         peak_dofs if peak_dofs is not None else range(system.n_dof))
-    return _curve_from_points(prob, br, pts, elem, tol, stability, lambda lam: lam,
+    return _curve_from_points(prob, br, pts, elem, tols, stability, lambda lam: lam,
                               time.perf_counter() - t_start, nr.nfev)
+
+
+def _cold_start(prob, elem, Om, w, failed):
+    """First point by continuation in the load: R_s = R + (1 - s) P~ from s = 0 (no
+    excitation: the static state under the preloads) to s = 1, at fixed Om.  Used
+    when Newton from the linear guesses fails (strong impact, a gap that closes)."""
+    from . import hbm
+    from .continuation import continue_branch, newton
+
+    _, _, Pt, _ = hbm.linear_part(prob, Om, derivatives=False)
+    wP = w * hbm.real_vector(Pt, prob.nh).ravel()
+
+    def fun_s(x, s):
+        R, J, _ = hbm.residual(prob, x, Om, elem)
+        return w * R + (1.0 - s) * wP, w[:, None] * J, -wP
+
+    st = newton(lambda x: fun_s(x, 0.0)[:2], np.zeros(prob.size), 1.0, max_iter=60)
+    if not st.success:
+        return failed
+    br = continue_branch(fun_s, st.x, 0.0, 1.0, tol=1.0,
+                         groups=np.repeat(np.arange(prob.c.size), prob.nh))
+    if not (br.success and br.lam.size and br.lam[-1] == 1.0):
+        return failed
+    return newton(lambda x: fun_s(x, 1.0)[:2], br.x[-1], 1.0, max_iter=10)
+
+
+def _weighted(fun, w):
+    """fun(x, lam) -> (R, J, dR) with every equation divided by its tolerance [N]
+    (row scaling: Newton steps and tangents are unchanged, only the test is)."""
+    def f(x, lam):
+        R, J, dR = fun(x, lam)
+        return w * R, (None if J is None else w[:, None] * J), (None if dR is None else w * dR)
+    return f
 
 
 def _branch_points(br):
@@ -172,7 +210,7 @@ def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     return pts
 
 
-def _curve_from_points(prob, br, pts, elem, tol, stability, omega_of, elapsed, extra_nfev):
+def _curve_from_points(prob, br, pts, elem, tols, stability, omega_of, elapsed, extra_nfev):
     import time
 
     from . import hbm
@@ -186,15 +224,19 @@ def _curve_from_points(prob, br, pts, elem, tol, stability, omega_of, elapsed, e
     res = np.zeros(P)
     stable = np.ones(P, bool)
     omega = np.array([omega_of(l) for l in pts["lam"]], dtype=float)
+    ok = np.zeros(P, bool)
     for i in range(P):
         Qc = pts["x"][i].reshape(prob.c.size, nh)
         Q[i] = hbm.recover(prob, Qc, omega[i])
-        res[i] = np.linalg.norm(hbm.full_residual(prob, Q[i], omega[i], elem))
+        rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q[i], omega[i], elem))
+        res[i] = np.hypot(rs, rd)
+        ok[i] = rs <= tols[0] and rd <= tols[1]
         if stability:
             J = hbm.full_jacobian(prob, Q[i], omega[i], elem)
             stable[i] = is_stable(J, hbm._dense(prob.system.M), hbm._dense(prob.system.C),
                                   omega[i], prob.H)[0]
-    converged = pts["converged"] & (res <= tol) & np.isfinite(res)
+    converged = pts["converged"] & ok & np.isfinite(res)
+    tol = float(np.hypot(*tols))  # implied by both blocks within theirs
     amp = amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n))
     return ResponseCurve(
         parameter=np.asarray(pts["lam"], float), omega=omega, Q=Q, converged=converged,
@@ -204,7 +246,8 @@ def _curve_from_points(prob, br, pts, elem, tol, stability, omega_of, elapsed, e
         wall_time=elapsed + time.perf_counter() - t0, success=bool(br.success),
         status=int(br.status), message=str(br.message), H=prob.H, tolerance=tol,
         info={"njev": int(br.njev), "n_rejected": int(br.n_rejected),
-              "branch_points": int(br.lam.size), "peak_nfev": int(pts["extra_nfev"]),
+              "min_step": float(br.min_step), "branch_points": int(br.lam.size),
+              "tol_static": float(tols[0]), "tol_dynamic": float(tols[1]), "peak_nfev": int(pts["extra_nfev"]),
               "solve_time": elapsed, "postprocess_time": time.perf_counter() - t0})
 
 
@@ -246,19 +289,22 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
         return R, J, ((Gp - Gm) / (2 * d)).ravel()
 
     el0 = _with_preload(base, preload_start, shape)
-    scale_ref = max(hbm.force_scale(prob, _with_preload(base, preload_start, shape)),
-                    hbm.force_scale(prob, _with_preload(base, preload_end, shape)))
-    tol = tol_rel * scale_ref
+    tols = tuple(max(a, b) for a, b in zip(
+        hbm.tolerances(prob, tol_rel, _with_preload(base, preload_start, shape)),
+        hbm.tolerances(prob, tol_rel, _with_preload(base, preload_end, shape))))
+    raw = fun
+    fun = _weighted(lambda x, lam: raw(x, lam), hbm.row_weights(prob, tols))
+    tol = 1.0
     x0 = _initial_guess(prob, omega, el0)
     nr = newton(lambda x: fun(x, preload_start)[:2], x0, tol, max_iter=60)
     br = continue_branch(fun, nr.x, preload_start, preload_end, tol=tol, ds=ds, ds_max=ds_max,
                          max_points=max_points, groups=np.repeat(np.arange(prob.c.size), prob.nh))
     pts = _branch_points(br)
-    return _curve_from_points_preload(prob, br, pts, base, shape, tol, stability, omega,
+    return _curve_from_points_preload(prob, br, pts, base, shape, tols, stability, omega,
                                       time.perf_counter() - t_start, nr.nfev)
 
 
-def _curve_from_points_preload(prob, br, pts, base, shape, tol, stability, omega, elapsed, nfev0):
+def _curve_from_points_preload(prob, br, pts, base, shape, tols, stability, omega, elapsed, nfev0):
     """As `_curve_from_points`, with the element preloads following the parameter."""
     import time
 
@@ -272,15 +318,19 @@ def _curve_from_points_preload(prob, br, pts, base, shape, tol, stability, omega
     Q = np.zeros((P, n, nh))
     res = np.zeros(P)
     stable = np.ones(P, bool)
+    ok = np.zeros(P, bool)
     for i in range(P):
         el = _with_preload(base, pts["lam"][i], shape)
         Q[i] = hbm.recover(prob, pts["x"][i].reshape(prob.c.size, nh), omega)
-        res[i] = np.linalg.norm(hbm.full_residual(prob, Q[i], omega, el))
+        rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q[i], omega, el))
+        res[i] = np.hypot(rs, rd)
+        ok[i] = rs <= tols[0] and rd <= tols[1]
         if stability:
             J = hbm.full_jacobian(prob, Q[i], omega, el)
             stable[i] = is_stable(J, hbm._dense(prob.system.M), hbm._dense(prob.system.C),
                                   omega, prob.H)[0]
-    converged = pts["converged"] & (res <= tol) & np.isfinite(res)
+    converged = pts["converged"] & ok & np.isfinite(res)
+    tol = float(np.hypot(*tols))
     return ResponseCurve(
         parameter=np.asarray(pts["lam"], float), omega=np.full(P, float(omega)), Q=Q,
         converged=converged, residual=res, stable=stable,
