@@ -154,10 +154,21 @@ def _dof_amplitude(prob, x, lam, dof, omega_of=lambda l: l):
     return float(amplitude_half_peak_to_peak(Q[dof]))
 
 
-def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
-    """Locate each DOF's amplitude maximum along the branch exactly and insert it.
+def _local_maxima(amps, converged, rel=0.05):
+    """Interior local maxima of the amplitude along the branch above rel * max:
+    the resonance peaks (several modes in one range), highest first."""
+    a = np.where(converged, amps, -np.inf)
+    top = a.max()
+    idx = [i for i in range(1, a.size - 1)
+           if a[i] >= a[i - 1] and a[i] > a[i + 1] and a[i] >= rel * top]
+    return sorted(idx, key=lambda i: -a[i])
 
-    Around the best point i, the branch is parametrised by sigma in [-1, 1] through
+
+def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
+    """Locate each DOF's resonance peaks (local amplitude maxima) along the branch
+    exactly and insert them.
+
+    Around each local maximum i, the branch is parametrised by sigma in [-1, 1] through
     the quadratic interpolant p(sigma) of points i-1, i, i+1; each trial point is the
     exact solution on the hyperplane through p(sigma) normal to p'(sigma) (Newton on
     R = 0 plus that condition) and the amplitude is maximised over sigma (bounded
@@ -172,11 +183,12 @@ def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
         return pts
     scale = np.append(np.maximum(np.abs(X).max(0), 1e-12 * np.abs(X).max() + 1e-300),
                       max(np.ptp(L), abs(L).max() * 1e-9, 1e-300))
+    todo = []
     for dof in dofs:
         amps = np.array([_dof_amplitude(prob, X[i], L[i], dof, omega_of) for i in range(L.size)])
-        i = int(np.argmax(np.where(pts["converged"], amps, -np.inf)))
-        if i == 0 or i == L.size - 1:
-            continue
+        todo += [(dof, i, amps[i]) for i in _local_maxima(amps, pts["converged"])]
+    # insert from the end of the branch backwards: earlier indices stay valid
+    for dof, i, amp_i in sorted(todo, key=lambda t: -t[1]):
         Z = np.column_stack([X[i - 1:i + 2], L[i - 1:i + 2]]) / scale
         nfev = [0]
         cache = {}
@@ -200,7 +212,7 @@ def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
                               options={"xatol": 1e-4})
         z, ok = cache.get(res.x, (None, False))
         pts["extra_nfev"] += nfev[0]
-        if not ok or -res.fun <= amps[i]:
+        if not ok or -res.fun <= amp_i:
             continue
         at = i + (1 if res.x > 0 else 0)  # keep branch order
         pts["x"] = X = np.insert(X, at, z[:-1], axis=0)
