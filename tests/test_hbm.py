@@ -71,3 +71,16 @@ def test_setup_rejects_bad_arguments():
         hbm.setup(chain4(), 0)
     with pytest.raises(ValueError, match="method"):
         hbm.setup(chain4(), 2, method="fem")
+
+
+def test_sparse_matrices_give_the_dense_residual_and_jacobian():
+    import scipy.sparse as sp
+    from dataclasses import replace
+    s = chain4()
+    ssp = replace(s, M=sp.csr_matrix(s.M), C=sp.csr_matrix(s.C), K=sp.csr_matrix(s.K))
+    x = np.random.default_rng(3).normal(size=hbm.setup(s, 3).size) * 0.3
+    for a, b in zip(hbm.residual(hbm.setup(s, 3), x, 1.1), hbm.residual(hbm.setup(ssp, 3), x, 1.1)):
+        np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12)
+    Qd = hbm.recover(hbm.setup(s, 3), x.reshape(3, -1), 1.1)
+    Qs = hbm.recover(hbm.setup(ssp, 3), x.reshape(3, -1), 1.1)
+    np.testing.assert_allclose(Qs, Qd, rtol=1e-12, atol=1e-14)
