@@ -29,6 +29,12 @@ def _parser() -> argparse.ArgumentParser:
     h.add_argument("--n0", type=float, default=1.0, help="preload [N] (negative = gap)")
     h.set_defaults(func=_cmd_hysteresis)
 
+    o = sub.add_parser("optimise", help="the preload that minimises the resonant peak of a study")
+    o.add_argument("study", metavar="STUDY.toml", help="study file with [output.optimum_preload]")
+    o.add_argument("--quick", action="store_true", help="use the study's [quick] solver settings")
+    o.add_argument("--out", default="results", help="directory for <name>/optimum_preload.png")
+    o.set_defaults(func=_cmd_optimise)
+
     b = sub.add_parser("bench", help="benchmarks that print tables")
     b.add_argument("what", choices=["contact", "hbm", "blade"], help="what to benchmark")
     b.add_argument("--quick", action="store_true", help="fewer repetitions")
@@ -40,6 +46,32 @@ def _cmd_hysteresis(args) -> int:
     from .plots import hysteresis_figure
 
     path = hysteresis_figure(args.out, mu=args.mu, ku=args.ku, kv=args.kv, n0=args.n0)
+    print(f"wrote {path}")
+    return 0
+
+
+def _cmd_optimise(args) -> int:
+    """Optimum preload by a search on the exact peak (response.optimum_preload)."""
+    from pathlib import Path
+
+    from .plots import optimum_figure
+    from .scene import load_study
+    from .study import find_optimum
+
+    study = load_study(args.study, quick=args.quick)
+    if study.output.optimum is None:
+        raise UsageError(f"{args.study}: output.optimum_preload: missing: give dof and "
+                         "bounds = [low, high] (N) for the search")
+    res = find_optimum(study)
+    o = study.output.optimum
+    print(f"{study.name}: preload minimising the peak of {o['dof']}: {res['preload']:.6g} N "
+          f"(peak {res['peak']:.6g} m at {res['peak_omega']:.6g} rad/s; "
+          f"{len(res['evaluations'])} evaluations, {res['wall_time']:.1f} s)")
+    print(f"{'preload [N]':>14} {'peak [m]':>14} {'at [rad/s]':>12}")
+    for n0, a, om in res["evaluations"]:
+        print(f"{n0:14.6g} {a:14.6g} {om:12.6g}{'  <- optimum' if n0 == res['preload'] else ''}")
+    path = optimum_figure(Path(args.out) / study.name / "optimum_preload.png", res, o["dof"],
+                          study.title)
     print(f"wrote {path}")
     return 0
 

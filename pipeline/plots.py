@@ -137,3 +137,20 @@ def response_curves_figure(path, branches, *, xlabel="frequency [rad/s]",
     out = _atomic_savefig(fig, path)
     plt.close(fig)
     return out
+
+
+def optimum_figure(path, result, dof, title=""):
+    """Resonant peak vs preload from the optimum search (log-log), optimum marked."""
+    ev = np.array(result["evaluations"], dtype=float).reshape(-1, 3)
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    ax.loglog(ev[:, 0], ev[:, 1], "o-", color="#1f77b4", label="evaluated by the search")
+    ax.loglog([result["preload"]], [result["peak"]], "*", ms=14, color="#d62728",
+              label=f"optimum {result['preload']:.4g} N")
+    ax.set(xlabel="preload n0 [N]", ylabel=f"resonant peak of {dof} [m]",
+           title=title or "Optimum preload")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend()
+    out = _atomic_savefig(fig, path)
+    plt.close(fig)
+    return out

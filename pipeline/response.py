@@ -100,13 +100,71 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     nr = newton(lambda x: fun(x, omega_start)[:2], x0, tol, max_iter=60)
     if not nr.success:
         nr = _cold_start(prob, elem, omega_start, w, nr)
-    br = continue_branch(fun, nr.x, omega_start, omega_end, tol=tol, ds=ds, ds_max=ds_max,
-                         max_points=max_points, callback=callback,
-                         groups=np.repeat(np.arange(prob.c.size), prob.nh))
+    groups = np.repeat(np.arange(prob.c.size), prob.nh)
+    br = _continue_past_corners(fun, nr.x, omega_start, omega_end, tol, groups,
+                                ds=ds, ds_max=ds_max, max_points=max_points, callback=callback)
     pts = _insert_peaks(prob, _branch_points(br), fun, tol, elem,
                         peak_dofs if peak_dofs is not None else range(system.n_dof))
     return _curve_from_points(prob, br, pts, elem, tols, stability, lambda lam: lam,
                               time.perf_counter() - t_start, nr.nfev)
+
+
+class _Merged:
+    """Branches of restarted continuations joined into one (Branch-like)."""
+
+    def __init__(self, parts, message, success, status):
+        self.x = np.concatenate([p.x for p in parts])
+        self.lam = np.concatenate([p.lam for p in parts])
+        self.nit = np.concatenate([p.nit for p in parts])
+        self.converged = np.concatenate([p.converged for p in parts])
+        self.fold_lam = np.concatenate([p.fold_lam for p in parts])
+        self.nfev = sum(p.nfev for p in parts)
+        self.njev = sum(p.njev for p in parts)
+        self.n_rejected = sum(p.n_rejected for p in parts)
+        self.min_step = min(p.min_step for p in parts)
+        self.restarts = len(parts) - 1
+        self.message, self.success, self.status = message, success, status
+
+
+def _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, max_restarts=4, **kw):
+    """`continue_branch`, restarted where it stalls at a corner of the branch.
+
+    At a corner the one-sided tangents can alternate between accepted points so that
+    the step shrinks to its minimum without crossing.  Then the point just beyond is
+    solved at a fixed parameter a little further (damped Newton from the last point)
+    and the continuation resumes from it, but only if that point is continuous with
+    the last one (relative change below 5 %, so no jump to another branch) and the
+    parameter keeps its direction of travel.
+    """
+    from .continuation import continue_branch, newton
+
+    parts = []
+    x, lam = x0, lam0
+    span = abs(lam_end - lam0)
+    for attempt in range(max_restarts + 1):
+        br = continue_branch(fun, x, lam, lam_end, tol=tol, groups=groups, **kw)
+        parts.append(br)
+        if br.success or br.status != -1 or br.lam.size < 2:
+            break
+        xl, ll = br.x[-1], br.lam[-1]
+        direction = np.sign(br.lam[-1] - br.lam[-2]) or np.sign(lam_end - lam0)
+        jumped = None
+        for frac in (1e-4, 1e-3, 1e-2):
+            lt = ll + direction * frac * span
+            if (lt - lam0) * (lt - lam_end) > 0:
+                break
+            r = newton(lambda y: fun(y, lt)[:2], xl, tol, max_iter=30)
+            if r.success and np.linalg.norm(r.x - xl) <= 0.05 * max(np.linalg.norm(xl), 1e-300):
+                jumped = (r.x, lt)
+                break
+        if jumped is None:
+            break
+        x, lam = jumped
+    last = parts[-1]
+    if len(parts) == 1:
+        return last
+    return _Merged(parts, last.message + f" (after {len(parts) - 1} restart(s) past corners)",
+                   bool(last.success), int(last.status))
 
 
 def _cold_start(prob, elem, Om, w, failed):
@@ -374,6 +432,11 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     def peak(t):
         n0 = float(np.exp(t)) if log else float(t)
         c = frequency_response(build(n0), H, omega_start, omega_end, peak_dofs=[dof], **kwargs)
+        if not c.success:  # an incomplete curve may miss its peak: never a candidate
+            import logging
+            logging.getLogger(__name__).warning("optimum search: curve at %.6g N incomplete "
+                                                "(%s); skipped", n0, c.message)
+            return np.inf
         a, om, _ = c.peak(dof)
         evals.append((n0, a, om))
         return a

@@ -179,3 +179,16 @@ def test_preload_continuation_agrees_with_frequency_sweeps():
         a_f = np.interp(om, f.omega, f.amplitude[:, 0])
         a_p = np.interp(n, c.parameter, c.amplitude[:, 0])
         assert a_p == pytest.approx(a_f, rel=2e-3)  # interpolation between points
+
+
+def test_optimum_preload_agrees_with_a_dense_scan():
+    """Example 1: the search's optimum equals the minimum of a dense preload scan
+    (step 0.02 N, 0.65 % of the optimum) to 1 %."""
+    window = (190.0, 210.0)
+    opt = optimum_preload(example1, 7, *window, 0, (0.5, 100.0), rtol=1e-3)
+    scan = np.arange(2.7, 3.5, 0.02)
+    peaks = [frequency_response(example1(n), 7, *window, stability=False, peak_dofs=[0]).peak(0)[0]
+             for n in scan]
+    best = scan[int(np.argmin(peaks))]
+    assert opt["preload"] == pytest.approx(best, rel=1e-2)
+    assert opt["peak"] <= min(peaks) * (1 + 1e-6)
