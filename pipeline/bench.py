@@ -73,20 +73,8 @@ def contact(quick=False):
 
 
 def _paper_system(example, n):
-    """Paper Examples 1 and 3 (Sec. 6) as Systems, from their study files' data."""
-    from .contact import YangMenq
-    from .system import System
-
-    if example == 1:
-        return System(M=np.array([[1.0]]), C=np.array([[0.3]]), K=np.array([[3.55e4]]),
-                      Bt=np.array([[1.0]]), Bn=np.array([[0.0]]),
-                      contact=YangMenq(1e4, 0.0, 0.5, n), forcing=np.array([[0, 1.0]]))
-    Phi = np.array([[0.707, 1.0], [0.707, -0.5]])
-    W = np.diag([1.0, 10.0])
-    Pi = np.linalg.inv(Phi)
-    return System(M=Pi.T @ Pi, C=Pi.T @ (2 * 0.01 * W) @ Pi, K=Pi.T @ W**2 @ Pi,
-                  Bt=np.array([[1.0, 0.0]]), Bn=np.array([[0.0, 1.0]]),
-                  contact=YangMenq(1.0, 1.0, 0.4, n), forcing=np.array([[0, 1.0], [0, 1.0]]))
+    from .paper_systems import example1, example3
+    return example1(n) if example == 1 else example3(n)
 
 
 def hbm(quick=False):

@@ -105,7 +105,7 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
                                 ds=ds, ds_max=ds_max, max_points=max_points, callback=callback)
     pts = _insert_peaks(prob, _branch_points(br), fun, tol, elem,
                         peak_dofs if peak_dofs is not None else range(system.n_dof))
-    return _curve_from_points(prob, br, pts, elem, tols, stability, lambda lam: lam,
+    return _curve_from_points(prob, br, pts, lambda lam: elem, tols, stability, lambda lam: lam,
                               time.perf_counter() - t_start, nr.nfev)
 
 
@@ -280,7 +280,11 @@ def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     return pts
 
 
-def _curve_from_points(prob, br, pts, elem, tols, stability, omega_of, elapsed, extra_nfev):
+def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapsed, extra_nfev):
+    """ResponseCurve from branch points: all DOFs recovered, the full residual of each
+    point recomputed and split into static and harmonic parts, each held to its
+    tolerance [N]; Hill stability of the full system.  elem_at(lam) gives the
+    contact elements at a parameter value (they change with it in preload mode)."""
     import time
 
     from . import hbm
@@ -293,32 +297,34 @@ def _curve_from_points(prob, br, pts, elem, tols, stability, omega_of, elapsed, 
     Q = np.zeros((P, n, nh))
     res = np.zeros(P)
     stable = np.ones(P, bool)
-    omega = np.array([omega_of(l) for l in pts["lam"]], dtype=float)
     ok = np.zeros(P, bool)
+    omega = np.array([omega_of(l) for l in pts["lam"]], dtype=float)
     for i in range(P):
-        Qc = pts["x"][i].reshape(prob.c.size, nh)
-        Q[i] = hbm.recover(prob, Qc, omega[i])
-        rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q[i], omega[i], elem))
+        el = elem_at(pts["lam"][i])
+        Q[i] = hbm.recover(prob, pts["x"][i].reshape(prob.c.size, nh), omega[i])
+        rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q[i], omega[i], el))
         res[i] = np.hypot(rs, rd)
         ok[i] = rs <= tols[0] and rd <= tols[1]
         if stability:
-            J = hbm.full_jacobian(prob, Q[i], omega[i], elem)
+            J = hbm.full_jacobian(prob, Q[i], omega[i], el)
             stable[i] = is_stable(J, hbm._dense(prob.system.M), hbm._dense(prob.system.C),
                                   omega[i], prob.H)[0]
     converged = pts["converged"] & ok & np.isfinite(res)
-    tol = float(np.hypot(*tols))  # implied by both blocks within theirs
-    amp = amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n))
     return ResponseCurve(
         parameter=np.asarray(pts["lam"], float), omega=omega, Q=Q, converged=converged,
-        residual=res, stable=stable, amplitude=amp,
+        residual=res, stable=stable,
+        amplitude=amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n)),
         fold_parameter=np.asarray(br.fold_lam, float),
-        newton_iterations=np.asarray(pts["nit"]), nfev=int(br.nfev + extra_nfev + pts["extra_nfev"]),
+        newton_iterations=np.asarray(pts["nit"]),
+        nfev=int(br.nfev + extra_nfev + pts["extra_nfev"]),
         wall_time=elapsed + time.perf_counter() - t0, success=bool(br.success),
-        status=int(br.status), message=str(br.message), H=prob.H, tolerance=tol,
+        status=int(br.status), message=str(br.message), H=prob.H,
+        tolerance=float(np.hypot(*tols)),  # implied by both blocks within theirs
         info={"njev": int(br.njev), "n_rejected": int(br.n_rejected),
               "min_step": float(br.min_step), "branch_points": int(br.lam.size),
-              "tol_static": float(tols[0]), "tol_dynamic": float(tols[1]), "peak_nfev": int(pts["extra_nfev"]),
-              "solve_time": elapsed, "postprocess_time": time.perf_counter() - t0})
+              "tol_static": float(tols[0]), "tol_dynamic": float(tols[1]),
+              "peak_nfev": int(pts["extra_nfev"]), "solve_time": elapsed,
+              "postprocess_time": time.perf_counter() - t0})
 
 
 def _with_preload(elem, lam, shape):
@@ -370,45 +376,8 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
     br = continue_branch(fun, nr.x, preload_start, preload_end, tol=tol, ds=ds, ds_max=ds_max,
                          max_points=max_points, groups=np.repeat(np.arange(prob.c.size), prob.nh))
     pts = _branch_points(br)
-    return _curve_from_points_preload(prob, br, pts, base, shape, tols, stability, omega,
-                                      time.perf_counter() - t_start, nr.nfev)
-
-
-def _curve_from_points_preload(prob, br, pts, base, shape, tols, stability, omega, elapsed, nfev0):
-    """As `_curve_from_points`, with the element preloads following the parameter."""
-    import time
-
-    from . import hbm
-    from .harmonics import amplitude_half_peak_to_peak
-    from .stability import is_stable
-
-    t0 = time.perf_counter()
-    P = pts["lam"].size
-    n, nh = prob.system.n_dof, prob.nh
-    Q = np.zeros((P, n, nh))
-    res = np.zeros(P)
-    stable = np.ones(P, bool)
-    ok = np.zeros(P, bool)
-    for i in range(P):
-        el = _with_preload(base, pts["lam"][i], shape)
-        Q[i] = hbm.recover(prob, pts["x"][i].reshape(prob.c.size, nh), omega)
-        rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q[i], omega, el))
-        res[i] = np.hypot(rs, rd)
-        ok[i] = rs <= tols[0] and rd <= tols[1]
-        if stability:
-            J = hbm.full_jacobian(prob, Q[i], omega, el)
-            stable[i] = is_stable(J, hbm._dense(prob.system.M), hbm._dense(prob.system.C),
-                                  omega, prob.H)[0]
-    converged = pts["converged"] & ok & np.isfinite(res)
-    tol = float(np.hypot(*tols))
-    return ResponseCurve(
-        parameter=np.asarray(pts["lam"], float), omega=np.full(P, float(omega)), Q=Q,
-        converged=converged, residual=res, stable=stable,
-        amplitude=amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n)),
-        fold_parameter=np.asarray(br.fold_lam, float), newton_iterations=np.asarray(pts["nit"]),
-        nfev=int(br.nfev + nfev0), wall_time=elapsed + time.perf_counter() - t0,
-        success=bool(br.success), status=int(br.status), message=str(br.message), H=prob.H,
-        tolerance=tol, info={"njev": int(br.njev), "n_rejected": int(br.n_rejected)})
+    return _curve_from_points(prob, br, pts, lambda lam: _with_preload(base, lam, shape), tols,
+                              stability, lambda lam: omega, time.perf_counter() - t_start, nr.nfev)
 
 
 def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
