@@ -194,8 +194,71 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         "source": "pipeline (harmonic balance with Yang-Menq contact, continuation, Hill stability)",
         "Conventions": CONVENTIONS,
     }
+    if hasattr(scene, "dataset_attrs"):  # FE blade scenes describe their model
+        attrs.update(scene.dataset_attrs())
+        attrs["stability"] = ("Hill's method" if study.solver.stability else
+                              "not computed (solver.stability = false): stable is true everywhere")
     if optimum is not None:
         _add_optimum(data_vars, coords, optimum, study, to_unit, unit)
+    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+
+def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset:
+    """Dataset of a blade modes study (`blade_scene.modal_study` result `res`): full and
+    Craig-Bampton eigenfrequencies against the mode count, errors and timings."""
+    counts = np.asarray(res["mode_counts"], dtype=np.int32)
+    nf = len(res["full_hz"])
+    ci = list(counts).index(study.scene.n_modes)
+
+    def var(dims, data, units, long_name):
+        return (dims, np.asarray(data), {"units": units, "long_name": long_name})
+
+    data_vars = {
+        "full_frequency": var(("mode",), res["full_hz"], "Hz",
+                              "eigenfrequency of the unreduced FE model (shift-invert Lanczos)"),
+        "reduced_frequency": var(("mode_count", "mode"), res["reduced_hz"], "Hz",
+                                 "eigenfrequency of the Craig-Bampton model"),
+        "relative_error": var(("mode_count", "mode"), res["rel_error"], "1",
+                              "reduced/full - 1 (Rayleigh-Ritz: >= 0)"),
+        "max_relative_error": var(("mode_count",), np.nanmax(res["rel_error"], axis=1), "1",
+                                  "largest relative frequency error over the modes"),
+        "reduction_time": var(("mode_count",), res["time_reduce_s"], "s",
+                              "wall time of the Craig-Bampton reduction (all stages)"),
+        "reduction_stage_time": var(("mode_count", "stage"), res["time_stage_s"], "s",
+                                    "wall time of each stage of the reduction"),
+        "reduced_size": var(("mode_count",), np.asarray(res["reduced_size"], np.int32), "1",
+                            "reduced coordinates: boundary DOFs + modes"),
+        "full_eigen_time": var((), float(res["time_full_s"]), "s",
+                               "wall time of the unreduced eigen solve (factorisation included)"),
+        "mac": var(("mode",), res["mac"], "1", "modal assurance criterion, full vs reduced "
+                                               f"mode at {study.scene.n_modes} modes"),
+        "n_dof": var((), np.int32(res["n_dof"]), "1", "free DOFs of the unreduced blade"),
+        "n_boundary": var((), np.int32(res["n_boundary"]), "1",
+                          "boundary DOFs kept physical (contact faces, excitation, response)"),
+    }
+    coords = {
+        "mode_count": ("mode_count", counts, {"units": "1",
+                                              "long_name": "Craig-Bampton fixed-interface modes"}),
+        "mode": ("mode", np.arange(1, nf + 1, dtype=np.int32), {"units": "1",
+                                                              "long_name": "mode number"}),
+        "stage": ("stage", np.asarray(res["stage_names"], dtype=str),
+                  {"long_name": "stage of the reduction"}),
+    }
+    sc = study.scene
+    attrs = {
+        "title": study.title, "study": study.text, "study_name": study.name,
+        "description": study.description, "reference": study.reference,
+        "kind": "modes", "model": sc.model, "mesh": sc.mesh or "generated",
+        "blade_parameters": repr(sc.params),
+        "default_mode_count": int(sc.n_modes),
+        "max_relative_error_at_default": float(np.nanmax(res["rel_error"][ci])),
+        "mode_shapes": mode_shapes_file,
+        "quick": int(study.quick),
+        "pipeline_version": __version__,
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "source": "pipeline (scikit-fem blade, sparse Craig-Bampton reduction)",
+        "Conventions": CONVENTIONS,
+    }
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
 
 

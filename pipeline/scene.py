@@ -178,6 +178,8 @@ class Study:
 def build_system(scene: Scene, case: dict | None = None) -> System:
     """The `System` of a scene with one grid case applied: `preload` sets n0, `mu`,
     `ku`, `kv` set those of every contact, `excitation_scale` scales the forcing."""
+    if not isinstance(scene, Scene):  # a blade scene (pipeline/blade_scene.py) builds its own
+        return scene.system(case)
     case = dict(case or {})
     unknown = set(case) - set(SWEEP_AXES)
     if unknown:
@@ -419,6 +421,10 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     """Validate an already-parsed study document (the dict `tomllib` returns)."""
     ck = _Checker(file)
     ck.table(data, "(document)")
+    from .blade_scene import is_blade_document
+    if is_blade_document(data):  # FE blade scenes: pipeline/blade_scene.py
+        from .blade_scene import study_from_mapping as blade_study
+        return blade_study(data, file=file, name=name, text=text, quick=quick)
     ck.keys(data, "", _TOP, required=("study", "scene", "sweep"))
     head = ck.table(data["study"], "study")
     ck.keys(head, "study", ("title", "description", "reference"), required=("title",))

@@ -89,6 +89,8 @@ class _Progress:
 def _execute(study, solver, workers, scheduler, progress):
     cases = study.sweep.cases()
     H, fr, kw = study.solver.harmonics, study.sweep.frequency, study.solver.kwargs()
+    if study.scene.model != "lumped":  # FE scenes: exact peaks of the reported DOFs only
+        kw["peak_dofs"] = [study.scene.dof_index(d) for d in study.output.dofs]
     jobs = [(solver, study.system(case), H, fr.omega_start, fr.omega_stop, kw) for _, case in cases]
     results = [None] * len(jobs)
     bar = _Progress(len(jobs), study.name) if progress else None
@@ -149,6 +151,9 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     """Run every case of `study`, write `out_dir/<name>.nc` and the figures."""
     from .dataset import to_dataset, write_netcdf
 
+    if getattr(study, "kind", "response") == "modes":  # blade modal study (blade_scene.py)
+        from .blade_scene import run_modes_study
+        return run_modes_study(study, out_dir, figures=figures)
     t0 = time.perf_counter()
     solver = solver or default_solver()
     out_dir = Path(out_dir)

@@ -1,0 +1,752 @@
+"""Blade scenes of study files: `[scene] model = "solid_blade"` or `"beam_blade"`.
+
+A blade scene is an FE blade (`fe_model`, generated from `[scene.blade]` = the
+fields of `BladeParams`, or read from `mesh = "file"`), reduced by Craig-Bampton
+(`reduction`, the contact faces, excitation and response DOFs kept physical), with
+Yang-Menq elements between its shroud contact faces and RIGID neighbours:
+
+    M_r q'' + C_r q' + K_r q + Bt_r^T f_u + Bn_r^T f_v = T^T F(t),
+    Bt_r = Bt T,  Bn_r = Bn T  (`reduction.reduce_map`),
+
+one element per contact-face node k with u_k = t . d_k (face tangent) and
+v_k = n . d_k (outward normal: v > 0 closes the gap, as `fe_model.ContactFrame`
+defines).  `ku`, `kv` [N/m] and `mu` are per node; the preload `n0` [N] is the TOTAL
+normal load of the face, n0_k = n0 / (number of face nodes).  Damping is modal
+(`damping_ratios` of `[scene.blade]`, on the reduced modes) or Rayleigh
+C = alpha M + beta K (`rayleigh = [alpha, beta]`), whose projection is exact, so the
+reduced and the unreduced model then carry the same damping.
+
+Two study kinds (`[study] kind`, default "modes" when a `[modes]` table is given,
+else "response"):
+- "modes": full vs Craig-Bampton eigenfrequencies against the mode count, with
+  timings, and the mode shapes as VTU (`run_modes_study`);
+- "response": frequency-response continuation per sweep case, the same command,
+  dataset and figures as the lumped scenes (`scene.Study` with a `BladeScene`).
+
+Validation follows `scene.py`: every mistake is `UsageError("<file>: <field>: <what>")`.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import re
+import time
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from .contact import YangMenq
+from .errors import UsageError
+from .system import System
+
+log = logging.getLogger(__name__)
+
+BLADE_MODELS = ("solid_blade", "beam_blade")
+KINDS = ("response", "modes")
+FACES = ("shroud_left", "shroud_right")
+POINTS = ("excitation", "response")
+COMPONENTS = "xyz"
+DEFAULT_MODE_COUNTS = (0, 5, 10, 20, 40)
+_OUT_DOF = re.compile(r"^(excitation|response)\.([xyz])$")
+# BladeParams fields a study may set (kind comes from the model)
+_FLOAT_FIELDS = ("length", "chord", "thickness", "shroud_chord", "shroud_width", "shroud_height",
+                 "shroud_angle", "stagger_angle", "E", "nu", "rho")
+_INT_FIELDS = ("n_chord", "n_thick", "n_span")
+_BLADE_KEYS = _FLOAT_FIELDS + _INT_FIELDS + ("damping_ratios", "shroud")
+_MAX_ELEMENTS = 200_000
+
+
+# ---------------------------------------------------------------------------
+# Plain data
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class FaceContact:
+    """Yang-Menq elements on every node of one contact face, against a rigid wall."""
+
+    name: str
+    face: str               # node set of the blade (shroud_left / shroud_right)
+    ku: float               # [N/m] per node
+    kv: float               # [N/m] per node
+    mu: float               # [-]
+    n0: float | None        # [N] total over the face; None: the sweep's preload
+
+
+@dataclass(frozen=True)
+class PointLoad:
+    """F(t) = amplitude * direction * cos(h Omega t + phase) at the node of a point set."""
+
+    set: str
+    direction: tuple        # unit vector, global axes (blade DOF frame for beams)
+    amplitude: float        # [N]
+    harmonic: int
+    phase: float            # [rad]
+
+
+@dataclass(frozen=True, eq=False)
+class BladeScene:
+    """A validated blade scene.  The FE model and its reduction are built on first
+    use and cached (`blade()`, `reduced()`)."""
+
+    model: str
+    effects: tuple
+    params: object                      # fe_model.BladeParams
+    mesh: str | None                    # user mesh file (solid) or None: generated
+    n_modes: int                        # Craig-Bampton fixed-interface modes
+    rayleigh: tuple | None              # (alpha [1/s], beta [s]) or None: modal ratios
+    contacts: tuple = ()                # FaceContact, ...
+    loads: tuple = ()                   # PointLoad, ...
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    # -- models ------------------------------------------------------------
+    def blade(self):
+        if "blade" not in self._cache:
+            from .fe_model import build_blade, load_blade
+
+            self._cache["blade"] = (load_blade(self.mesh, self.params, required=("root",))
+                                    if self.mesh else build_blade(self.params))
+        return self._cache["blade"]
+
+    def reduced(self):
+        """Craig-Bampton model keeping contact faces, excitation and response DOFs."""
+        if "reduced" not in self._cache:
+            from .reduction import reduce_blade
+
+            kw = {"rayleigh": self.rayleigh} if self.rayleigh is not None else {}
+            t0 = time.perf_counter()
+            self._cache["reduced"] = reduce_blade(self.blade(), self.n_modes, **kw)
+            self._cache["reduce_time"] = time.perf_counter() - t0
+        return self._cache["reduced"]
+
+    # -- DOF names -----------------------------------------------------------
+    @property
+    def dofs(self) -> tuple:
+        """Names of the reduced coordinates: `<set>.<c>` (point sets), `<face>.<k>.<c>`,
+        `mode.<j>` (modal coordinates)."""
+        if "dofs" not in self._cache:
+            red = self.reduced()
+            names = [lab.replace(":", ".") for lab in red.labels]
+            for s in POINTS:
+                if s in red.sets:
+                    for c, pos in enumerate(red.sets[s][0]):
+                        names[pos] = f"{s}.{COMPONENTS[c]}"
+            self._cache["dofs"] = tuple(names)
+        return self._cache["dofs"]
+
+    def dof_index(self, name: str) -> int:
+        return self.dofs.index(name)
+
+    def full_dof(self, name: str) -> int:
+        """Free-DOF index in the unreduced blade of an output name `<set>.<c>`."""
+        s, c = name.split(".")
+        return int(self.blade().dof_sets[s][0, COMPONENTS.index(c)])
+
+    # -- contacts and loads on the full model ----------------------------------
+    def contact_maps(self):
+        """(Bt, Bn) sparse (E, n_full) over all face nodes, and the face of each element."""
+        blade = self.blade()
+        Bt, Bn, owner = [], [], []
+        for i, c in enumerate(self.contacts):
+            t, n, _ = blade.frames[c.face].maps(blade.n_dof)
+            # drop round-off direction cosines (~1e-17 from the SVD of the face): a
+            # zero column keeps its DOF out of the condensed HBM unknowns
+            for B in (t, n):
+                B.data[np.abs(B.data) < 1e-12] = 0.0
+                B.eliminate_zeros()
+            Bt.append(t)
+            Bn.append(n)
+            owner += [i] * t.shape[0]
+        n = blade.n_dof
+        if not Bt:
+            return sp.csr_matrix((0, n)), sp.csr_matrix((0, n)), np.zeros(0, int)
+        return sp.vstack(Bt).tocsr(), sp.vstack(Bn).tocsr(), np.asarray(owner)
+
+    def elements(self, case: dict | None = None) -> YangMenq:
+        """Yang-Menq parameters per face node; `preload` is the total per face."""
+        case = dict(case or {})
+        _, _, owner = self.contact_maps()
+        counts = np.bincount(owner, minlength=len(self.contacts)) if owner.size else np.zeros(0)
+
+        def per(name, attr):
+            if name in case:
+                return np.full(len(self.contacts), float(case[name]))
+            vals = [getattr(c, attr) for c in self.contacts]
+            if any(v is None for v in vals):
+                raise ValueError(f"{attr} of a contact is unset and the case gives no {name!r}")
+            return np.array(vals, dtype=float)
+
+        n0 = per("preload", "n0") / np.maximum(counts, 1)
+        return YangMenq(ku=per("ku", "ku")[owner], kv=per("kv", "kv")[owner],
+                        mu=per("mu", "mu")[owner], n0=n0[owner])
+
+    def forcing_full(self, case: dict | None = None) -> np.ndarray:
+        """(n_full, Hf+1) complex load amplitudes [N] on the free DOFs."""
+        blade = self.blade()
+        hf = max([ld.harmonic for ld in self.loads] + [1])
+        F = np.zeros((blade.n_dof, hf + 1), dtype=complex)
+        for ld in self.loads:
+            local = blade.point_rotation.T @ np.asarray(ld.direction)
+            a = ld.amplitude * complex(math.cos(ld.phase), math.sin(ld.phase))
+            for c, d in enumerate(blade.dof_sets[ld.set][0]):
+                if d >= 0:
+                    F[d, ld.harmonic] += a * local[c]
+        return F * float((case or {}).get("excitation_scale", 1.0))
+
+    # -- systems ---------------------------------------------------------------
+    def system(self, case: dict | None = None, reduced: bool = True) -> System:
+        """The System of one sweep case: Craig-Bampton (dense) or, with
+        reduced=False, the unreduced FE model (sparse M, C, K; Rayleigh damping only)."""
+        from .scene import SWEEP_AXES
+
+        unknown = set(case or {}) - set(SWEEP_AXES)
+        if unknown:
+            raise ValueError(f"case has unknown axes {sorted(unknown)}; known: {sorted(SWEEP_AXES)}")
+        Bt, Bn, _ = self.contact_maps()
+        elem = self.elements(case) if self.contacts else YangMenq(ku=np.zeros(0), kv=np.zeros(0),
+                                                                  mu=np.zeros(0), n0=np.zeros(0))
+        F = self.forcing_full(case)
+        if not reduced:
+            if self.rayleigh is None:
+                raise ValueError("the unreduced system needs Rayleigh damping "
+                                 "(scene rayleigh = [alpha, beta]); modal damping is dense")
+            blade = self.blade()
+            a, b = self.rayleigh
+            C = (a * blade.M + b * blade.K).tocsr()
+            return System(M=blade.M, C=C, K=blade.K, Bt=Bt, Bn=Bn, contact=elem, forcing=F)
+        from .reduction import reduce_map
+
+        red = self.reduced()
+        Fr = np.zeros((red.M.shape[0], F.shape[1]), dtype=complex)
+        Fr[:red.n_boundary] = F[red.boundary]
+        if np.abs(F).sum() != np.abs(Fr).sum():
+            raise ValueError("a load acts on an interior DOF (keep it in the boundary)")
+        return System(M=red.M, C=red.C, K=red.K, Bt=reduce_map(red, Bt), Bn=reduce_map(red, Bn),
+                      contact=elem, forcing=Fr, dof_names=self.dofs)
+
+    def dataset_attrs(self) -> dict:
+        """Global attributes a response dataset of this scene adds."""
+        red, blade = self.reduced(), self.blade()
+        return {"blade_model": self.model, "mesh": self.mesh or "generated",
+                "n_dof_full": int(blade.n_dof), "n_boundary_dofs": int(red.n_boundary),
+                "craig_bampton_modes": int(red.n_modes),
+                "contact_nodes": int(self.contact_maps()[0].shape[0]),
+                "damping": (f"rayleigh alpha = {self.rayleigh[0]:g} 1/s, beta = "
+                            f"{self.rayleigh[1]:g} s" if self.rayleigh is not None else
+                            f"modal ratios {list(self.params.damping_ratios)}"),
+                "contact_parameters": "ku, kv per contact node [N/m]; preload = total normal "
+                                      "load of each face [N], n0 per node = preload / nodes",
+                "reduced_frequencies_hz": np.asarray(red.frequencies[:10], dtype=float),
+                "reduction_time_s": float(self._cache.get("reduce_time", np.nan))}
+
+
+@dataclass(frozen=True)
+class ModesStudy:
+    """A "modes" study: reduced vs full eigenfrequencies against the mode count."""
+
+    file: str
+    name: str
+    title: str
+    description: str
+    reference: str
+    text: str
+    scene: BladeScene
+    mode_counts: tuple
+    n_frequencies: int
+    n_shapes: int
+    quick: bool = False
+    kind: str = "modes"
+
+
+# ---------------------------------------------------------------------------
+# Validation
+# ---------------------------------------------------------------------------
+
+def is_blade_document(data) -> bool:
+    return (isinstance(data, dict) and isinstance(data.get("scene"), dict)
+            and data["scene"].get("model") in BLADE_MODELS)
+
+
+def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quick: bool = False):
+    """Validate a blade study document: a `ModesStudy` or a `scene.Study`."""
+    from .scene import _Checker, _join
+
+    ck = _Checker(file)
+    top = ("study", "scene", "sweep", "solver", "output", "quick", "modes")
+    ck.keys(data, "", top, required=("study", "scene"))
+    head = ck.table(data["study"], "study")
+    ck.keys(head, "study", ("title", "description", "reference", "kind"), required=("title",))
+    title = ck.string(head["title"], "study.title")
+    description = ck.string(head.get("description", ""), "study.description")
+    reference = ck.string(head.get("reference", ""), "study.reference")
+    kind = ck.string(head.get("kind", "modes" if "modes" in data else "response"),
+                     "study.kind", KINDS)
+    if kind == "modes":
+        for k in ("sweep", "solver", "output"):
+            if k in data:
+                ck.fail(k, "not used by a modes study (study.kind = \"modes\")")
+    else:
+        if "modes" in data:
+            ck.fail("modes", "only a modes study (study.kind = \"modes\") has a [modes] table")
+        if "sweep" not in data:
+            ck.fail("sweep", "missing table (required)")
+    qt = ck.table(data.get("quick"), "quick", required=False)
+    ck.keys(qt, "quick", ("scene", "modes") if kind == "modes" else ("scene", "sweep", "solver"))
+    base_dir = Path(file).parent if file and not file.startswith("<") else Path(".")
+
+    scene_tab = ck.table(data["scene"], "scene")
+    q_scene = ck.table(qt.get("scene"), "quick.scene", required=False)
+    ck.keys(q_scene, "quick.scene", ("blade", "craig_bampton_modes", "mesh"))
+    merged = dict(scene_tab)
+    origin = {}
+    if "blade" in q_scene:
+        ck.table(q_scene["blade"], "quick.scene.blade")
+        merged["blade"] = {**ck.table(scene_tab.get("blade", {}), "scene.blade"), **q_scene["blade"]}
+        origin = {k: "quick.scene.blade" for k in q_scene["blade"]}
+    for k in ("craig_bampton_modes", "mesh"):
+        if k in q_scene:
+            merged[k] = q_scene[k]
+            origin[f"scene.{k}"] = f"quick.scene.{k}"
+    full_scene = _blade_scene(ck, scene_tab, kind, base_dir, {})
+    quick_scene = _blade_scene(ck, merged, kind, base_dir, origin) if q_scene else full_scene
+    scene = quick_scene if quick else full_scene
+
+    if kind == "modes":
+        mt = ck.table(data.get("modes"), "modes", required=False)
+        q_modes = ck.table(qt.get("modes"), "quick.modes", required=False)
+        full = _modes(ck, mt, "modes", full_scene)
+        variant = _modes(ck, {**mt, **q_modes}, "quick.modes" if q_modes else "modes",
+                         quick_scene)
+        counts, nf, ns = variant if quick else full
+        return ModesStudy(file=file, name=name, title=title, description=description,
+                          reference=reference, text=text, scene=scene, mode_counts=counts,
+                          n_frequencies=nf, n_shapes=ns, quick=bool(quick))
+
+    from .scene import OutputSettings, Study, Sweep, _solver, _sweep
+
+    solver_tab = ck.table(data.get("solver"), "solver", required=False)
+    sweep_tab = ck.table(data["sweep"], "sweep")
+    q_sweep = ck.table(qt.get("sweep"), "quick.sweep", required=False)
+    q_solver = ck.table(qt.get("solver"), "quick.solver", required=False)
+    for k in q_sweep:
+        if k not in sweep_tab:
+            ck.fail(_join("quick.sweep", k), "quick mode may only override axes of [sweep] "
+                                             f"(which has: {', '.join(sweep_tab) or 'none'})")
+    solver = _solver(ck, solver_tab, "solver")
+    if "stability" not in solver_tab:
+        solver = replace(solver, stability=False)  # Hill on hundreds of DOFs: opt in
+    axes, freq = _sweep(ck, sweep_tab, "sweep")
+    q_solver_s = _solver(ck, q_solver, "quick.solver", base=solver)
+    q_axes, q_freq = _sweep(ck, q_sweep, "quick.sweep", partial=True)
+    q_axes = {k: q_axes.get(k, v) for k, v in axes.items()}
+    output = _output(ck, ck.table(data.get("output"), "output", required=False))
+    chosen = None
+    for is_quick, sv, ax, fr, spath, wpath, sc in (
+            (False, solver, axes, freq, "solver", "sweep", full_scene),
+            (True, q_solver_s, q_axes, q_freq or freq, "quick.solver" if q_solver else "solver",
+             "quick.sweep" if q_sweep else "sweep", quick_scene)):
+        _consistency(ck, sc, sv, ax, spath, wpath)
+        st = Study(file=file, name=name, title=title, description=description,
+                   reference=reference, text=text, scene=sc, sweep=Sweep(axes=ax, frequency=fr),
+                   solver=sv, output=output, quick=is_quick)
+        if is_quick == bool(quick):
+            chosen = st
+    for lo, hi in output.peak_windows:
+        f0, f1 = sorted((freq.start, freq.stop))
+        if hi <= f0 or lo >= f1:
+            ck.fail("output.peak_windows", f"window [{lo:g}, {hi:g}] lies outside the frequency "
+                                           f"range [{f0:g}, {f1:g}] {freq.unit}")
+    return chosen
+
+
+def _blade_params(ck, t, model, origin):
+    from .fe_model import BladeParams
+
+    def where(k):
+        return f"{origin.get(k, 'scene.blade')}.{k}"
+
+    allowed = _BLADE_KEYS
+    for k in t:
+        if k not in allowed:
+            ck.keys({k: None}, origin.get(k, "scene.blade"), allowed)
+    kw = {}
+    for k, v in t.items():
+        if k in ("shroud_angle", "stagger_angle"):
+            kw[k] = ck.number(v, where(k), gt=-math.pi / 2, lt=math.pi / 2)
+        elif k == "nu":
+            kw[k] = ck.number(v, where(k), gt=-1.0, lt=0.5)
+        elif k in _FLOAT_FIELDS:
+            kw[k] = ck.number(v, where(k), gt=0.0)
+        elif k in _INT_FIELDS:
+            kw[k] = ck.integer(v, where(k), 1, 1000)
+        elif k == "shroud":
+            kw[k] = ck.boolean(v, where(k))
+        elif k == "damping_ratios":
+            kw[k] = tuple(ck.numbers(v, where(k), ge=0.0, lt=1.0))
+    kw["kind"] = "beam" if model == "beam_blade" else "solid"
+    if kw["kind"] == "solid":  # guard the structured mesh size before generating it
+        d = {f.name: f.default for f in fields(BladeParams)}
+        g = {**d, **kw}
+        hx, hz = g["chord"] / g["n_chord"], g["length"] / g["n_span"]
+        nx = math.ceil(max(g["chord"], g["shroud_chord"]) / hx) + 2
+        ny = g["n_thick"] + 2 * max(1, round(max(g["shroud_width"] - g["thickness"], 0) / 2 / hx))
+        nz = g["n_span"] + max(1, round(g["shroud_height"] / hz))
+        n_el = nx * ny * nz
+        if n_el > _MAX_ELEMENTS:
+            ck.fail("scene.blade", f"mesh too fine (about {n_el:.3g} hexahedra > "
+                                   f"{_MAX_ELEMENTS}): fewer elements or a less extreme shroud")
+    try:
+        return BladeParams(**kw)
+    except ValueError as exc:
+        msg = str(exc)
+        key = msg.split(" ", 1)[0]
+        ck.fail(where(key) if key in _BLADE_KEYS else "scene.blade", msg)
+
+
+def _blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
+    from .reduction import DEFAULT_MODES
+    from .scene import EFFECTS, _NAME
+
+    def fld(k):
+        return origin.get(f"scene.{k}", f"scene.{k}")
+
+    allowed = ("model", "effects", "blade", "mesh", "craig_bampton_modes", "rayleigh")
+    if kind == "response":
+        allowed += ("contact", "excitation")
+    ck.keys(tab, "scene", allowed, required=("model",))
+    model = ck.string(tab["model"], "scene.model", BLADE_MODELS)
+    effects = ck.names(tab.get("effects", []), "scene.effects", min_length=0)
+    for i, e in enumerate(effects):
+        if e not in EFFECTS:
+            ck.fail(f"scene.effects[{i}]", f"unknown effect {e!r} (known: {', '.join(EFFECTS)})")
+    params = _blade_params(ck, ck.table(tab.get("blade", {}), "scene.blade"), model, origin)
+    mesh = None
+    if "mesh" in tab:
+        if model != "solid_blade":
+            ck.fail(fld("mesh"), f"a mesh file needs model = \"solid_blade\", got {model!r}")
+        mesh = _mesh(ck, tab["mesh"], fld("mesh"), base_dir, tab, kind)
+    n_modes = ck.integer(tab.get("craig_bampton_modes", DEFAULT_MODES),
+                         fld("craig_bampton_modes"), 0, 10_000)
+    rayleigh = None
+    if "rayleigh" in tab:
+        a, b = ck.numbers(tab["rayleigh"], "scene.rayleigh", 2, ge=0.0)
+        if a == 0 and b == 0:
+            ck.fail("scene.rayleigh", "alpha and beta are both zero (no damping)")
+        rayleigh = (float(a), float(b))
+    contacts, loads = (), ()
+    if kind == "response":
+        raw = tab.get("contact", [])
+        if isinstance(raw, dict):
+            ck.fail("scene.contact", "must be an array of tables: write [[scene.contact]]")
+        ck.array(raw, "scene.contact", min_length=0)
+        if raw and (model == "beam_blade" or not params.shroud):
+            ck.fail("scene.contact", "the blade has no shroud contact faces "
+                                     "(beam_blade, or shroud = false)")
+        contacts = tuple(_face_contact(ck, c, f"scene.contact[{i}]", i) for i, c in enumerate(raw))
+        for i, c in enumerate(contacts):
+            if c.face in [d.face for d in contacts[:i]]:
+                ck.fail(f"scene.contact[{i}].face", f"face {c.face!r} has two contacts")
+            if c.name in [d.name for d in contacts[:i]]:
+                ck.fail(f"scene.contact[{i}].name", f"duplicate contact name {c.name!r}")
+            ck.string(c.name, f"scene.contact[{i}].name", pattern=_NAME)
+        if "excitation" not in tab:
+            ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
+        loads = _loads(ck, tab["excitation"])
+    scene = BladeScene(model=model, effects=effects, params=params, mesh=mesh, n_modes=n_modes,
+                       rayleigh=rayleigh, contacts=contacts, loads=loads)
+    try:
+        blade = scene.blade()
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # e.g. a degenerate mesh
+        ck.fail(fld("mesh") if mesh else "scene.blade", str(exc))
+    from .fe_model import boundary_dofs
+
+    nb = boundary_dofs(blade)[0].size
+    if n_modes > blade.n_dof - nb:
+        ck.fail(fld("craig_bampton_modes"), f"must be <= {blade.n_dof - nb} (free DOFs "
+                                            f"{blade.n_dof} - boundary DOFs {nb}), got {n_modes}")
+    for i, ld in enumerate(loads):
+        if ld.set not in blade.dof_sets:
+            ck.fail(f"scene.excitation[{i}].set", f"the blade has no node set {ld.set!r}")
+    for i, c in enumerate(contacts):
+        if c.face not in blade.frames:
+            ck.fail(f"scene.contact[{i}].face", f"the blade has no contact face {c.face!r}")
+    return scene
+
+
+def _mesh(ck, value, field_, base_dir, tab, kind):
+    from .fe_model import read_mesh
+
+    s = ck.string(value, field_)
+    path = Path(s) if Path(s).is_absolute() else base_dir / s
+    if not path.is_file():
+        ck.fail(field_, f"mesh file {str(path)!r} not found")
+    required = ["root"]
+    if kind == "response":
+        for c in tab.get("contact", []) if isinstance(tab.get("contact"), list) else []:
+            if isinstance(c, dict) and isinstance(c.get("face"), str):
+                required.append(c["face"])
+        for e in tab.get("excitation", []) if isinstance(tab.get("excitation"), list) else []:
+            if isinstance(e, dict) and isinstance(e.get("set"), str):
+                required.append(e["set"])
+        required.append("response")
+    try:
+        read_mesh(path, tuple(dict.fromkeys(required)))
+    except ValueError as exc:
+        ck.fail(field_, str(exc))
+    except Exception as exc:  # meshio's many parse errors: still one line
+        ck.fail(field_, f"cannot read mesh file {str(path)!r}: {type(exc).__name__}: {exc}")
+    return str(path)
+
+
+def _face_contact(ck, c, f, i) -> FaceContact:
+    c = ck.table(c, f)
+    ck.keys(c, f, ("name", "face", "ku", "kv", "mu", "n0"), required=("face", "ku", "mu"))
+    face = ck.string(c["face"], f"{f}.face", FACES)
+    name = ck.string(c.get("name", face), f"{f}.name")
+    ku = ck.number(c["ku"], f"{f}.ku", gt=0.0)
+    kv = ck.number(c.get("kv", 0.0), f"{f}.kv", ge=0.0)
+    mu = ck.number(c["mu"], f"{f}.mu", ge=0.0)
+    n0 = ck.number(c["n0"], f"{f}.n0") if "n0" in c else None
+    return FaceContact(name=name, face=face, ku=ku, kv=kv, mu=mu, n0=n0)
+
+
+def _loads(ck, raw) -> tuple:
+    from .scene import MAX_HARMONICS
+
+    if isinstance(raw, dict):
+        ck.fail("scene.excitation", "must be an array of tables: write [[scene.excitation]]")
+    items = ck.array(raw, "scene.excitation")
+    out, seen = [], set()
+    for i, e in enumerate(items):
+        f = f"scene.excitation[{i}]"
+        e = ck.table(e, f)
+        ck.keys(e, f, ("set", "direction", "amplitude", "harmonic", "phase"),
+                required=("set", "direction", "amplitude"))
+        s = ck.string(e["set"], f"{f}.set", POINTS)
+        d = ck.numbers(e["direction"], f"{f}.direction", 3)
+        nrm = float(np.linalg.norm(d))
+        if not nrm > 0:
+            ck.fail(f"{f}.direction", "must not be the zero vector")
+        amp = ck.number(e["amplitude"], f"{f}.amplitude")
+        h = ck.integer(e.get("harmonic", 1), f"{f}.harmonic", 0, MAX_HARMONICS)
+        phase = ck.number(e.get("phase", 0.0), f"{f}.phase")
+        if h == 0 and phase != 0.0:
+            ck.fail(f"{f}.phase", "a static load (harmonic = 0) has no phase")
+        dir_ = tuple(float(x) for x in d / nrm)
+        if (s, h, dir_) in seen:
+            ck.fail(f, f"set {s!r} is excited twice in the same direction at harmonic {h}")
+        seen.add((s, h, dir_))
+        out.append(PointLoad(set=s, direction=dir_, amplitude=amp, harmonic=h, phase=phase))
+    if not any(ld.amplitude for ld in out):
+        ck.fail("scene.excitation", "every amplitude is zero: nothing excites the structure")
+    return tuple(out)
+
+
+def _output(ck, t):
+    from .scene import FIGURES, OutputSettings
+
+    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows"))
+    dofs = (ck.names(t["dofs"], "output.dofs") if "dofs" in t
+            else tuple(f"response.{c}" for c in COMPONENTS))
+    for i, d in enumerate(dofs):
+        if not _OUT_DOF.match(d):
+            ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>' with set excitation "
+                                         "or response and component x, y or z")
+    figs = ck.names(t.get("figures", list(FIGURES)), "output.figures", min_length=0)
+    for i, fg in enumerate(figs):
+        if fg not in FIGURES:
+            ck.fail(f"output.figures[{i}]", f"unknown figure {fg!r} (known: {', '.join(FIGURES)})")
+    yscale = ck.string(t.get("yscale", "linear"), "output.yscale", ("linear", "log"))
+    windows = []
+    for i, w in enumerate(ck.array(t.get("peak_windows", []), "output.peak_windows", min_length=0)):
+        lo, hi = ck.numbers(w, f"output.peak_windows[{i}]", 2, ge=0.0)
+        if not lo < hi:
+            ck.fail(f"output.peak_windows[{i}]", f"must be [low, high] with low < high, got "
+                                                 f"[{lo:g}, {hi:g}]")
+        windows.append((float(lo), float(hi)))
+    return OutputSettings(dofs=tuple(dofs), figures=tuple(figs), yscale=yscale,
+                          peak_windows=tuple(windows))
+
+
+def _modes(ck, t, path, scene):
+    ck.keys(t, path, ("mode_counts", "n_frequencies", "mode_shapes"))
+    counts = (ck.array(t["mode_counts"], f"{path}.mode_counts") if "mode_counts" in t
+              else list(DEFAULT_MODE_COUNTS))
+    vals = [ck.integer(v, f"{path}.mode_counts[{i}]", 0, 10_000) for i, v in enumerate(counts)]
+    for i in range(1, len(vals)):
+        if vals[i] <= vals[i - 1]:
+            ck.fail(f"{path}.mode_counts[{i}]", f"must increase strictly, got {vals[i - 1]} "
+                                                f"then {vals[i]}")
+    from .fe_model import boundary_dofs
+
+    blade = scene.blade()
+    n_int = blade.n_dof - boundary_dofs(blade)[0].size
+    if vals and vals[-1] > n_int:
+        ck.fail(f"{path}.mode_counts[{len(vals) - 1}]", f"must be <= {n_int} (interior DOFs), "
+                                                        f"got {vals[-1]}")
+    if scene.n_modes not in vals:  # the scene's own count is always reported
+        vals = sorted(vals + [scene.n_modes])
+    nf = ck.integer(t.get("n_frequencies", 10), f"{path}.n_frequencies", 1, 200)
+    if nf >= blade.n_dof - 1:
+        ck.fail(f"{path}.n_frequencies", f"must be < {blade.n_dof - 1} (DOFs of the blade)")
+    ns = ck.integer(t.get("mode_shapes", min(nf, 6)), f"{path}.mode_shapes", 0, nf)
+    return tuple(vals), nf, ns
+
+
+def _consistency(ck, scene, solver, axes, spath, wpath):
+    H = solver.harmonics
+    hf = max([ld.harmonic for ld in scene.loads] + [0])
+    if hf > H:
+        ck.fail(f"{spath}.harmonics", f"H = {H} is below the excited harmonic {hf} "
+                                      "(scene.excitation)")
+    has = bool(scene.contacts)
+    for a in ("preload", "mu", "ku", "kv"):
+        if a in axes and not has:
+            ck.fail(f"{wpath}.{a}", "the scene has no [[scene.contact]] to apply it to")
+    if has and "preload" not in axes:
+        for i, c in enumerate(scene.contacts):
+            if c.n0 is None:
+                ck.fail(f"scene.contact[{i}].n0", "missing (required unless sweep.preload is given)")
+    eff = set(scene.effects)
+    if has != ("friction" in eff):
+        ck.fail("scene.effects", "declare \"friction\" exactly when the scene has contacts"
+                if has else "\"friction\" is declared but the scene has no [[scene.contact]]")
+    kv = axes.get("kv") or tuple(c.kv for c in scene.contacts)
+    varies = has and max(kv, default=0.0) > 0
+    if varies != ("normal_load_variation" in eff):
+        ck.fail("scene.effects", "kv > 0 makes the normal load vary: declare "
+                                 "\"normal_load_variation\"" if varies else
+                "\"normal_load_variation\" is declared but no contact has kv > 0")
+    n0s = axes.get("preload") or tuple(c.n0 for c in scene.contacts if c.n0 is not None)
+    gap = min(n0s, default=0.0) < 0
+    if gap and "separation" not in eff:
+        ck.fail("scene.effects", "a negative preload (initial gap) means separation: declare "
+                                 "\"separation\"")
+    if "separation" in eff and not (gap or varies):
+        ck.fail("scene.effects", "\"separation\" is declared but cannot occur (constant normal "
+                                 "load and no negative preload)")
+
+
+# ---------------------------------------------------------------------------
+# Modes study: cost and accuracy of the reduction
+# ---------------------------------------------------------------------------
+
+def _normalise(X):
+    """Each column scaled to max |entry| = 1, the largest entry positive."""
+    X = np.array(X, dtype=float)
+    j = np.argmax(np.abs(X), axis=0)
+    return X / X[j, np.arange(X.shape[1])]
+
+
+def modal_study(scene: BladeScene, mode_counts, n_freqs: int, n_shapes: int = 0) -> dict:
+    """Full (shift-invert Lanczos) vs Craig-Bampton eigenfrequencies [Hz] per mode count.
+
+    Returns plain arrays: full_hz (n_freqs,), reduced_hz (m, n_freqs) (NaN where the
+    reduced model has fewer coordinates), rel_error = reduced/full - 1, times [s]
+    (full eigen solve; total and per stage of each reduction), reduced sizes, MAC of
+    the scene's mode count, and the first n_shapes mode shapes (full, reduced).
+    """
+    from .fe_model import boundary_dofs
+    from .reduction import eigenmodes, reduce, reduced_modes
+
+    blade = scene.blade()
+    b, labels = boundary_dofs(blade)
+    t0 = time.perf_counter()
+    w2, X = eigenmodes(blade.K, blade.M, n_freqs)
+    t_full = time.perf_counter() - t0
+    full = np.sqrt(np.maximum(w2, 0)) / (2 * np.pi)
+    kw = ({"rayleigh": scene.rayleigh} if scene.rayleigh is not None
+          else {"damping_ratios": scene.params.damping_ratios})
+    stages = ("partition", "factorize", "normal_modes", "constraint_modes", "projection", "damping")
+    m = len(mode_counts)
+    red_hz = np.full((m, n_freqs), np.nan)
+    t_red, t_stage, sizes = np.zeros(m), np.zeros((m, len(stages))), np.zeros(m, int)
+    shapes_red, mac = None, np.full(n_freqs, np.nan)
+    for i, k in enumerate(mode_counts):
+        t0 = time.perf_counter()
+        red = reduce(blade.K, blade.M, b, int(k), labels=labels, **kw)
+        t_red[i] = time.perf_counter() - t0
+        t_stage[i] = [red.info["times"].get(s, 0.0) for s in stages]
+        sizes[i] = red.M.shape[0]
+        nk = min(n_freqs, red.frequencies.size)
+        red_hz[i, :nk] = red.frequencies[:nk]
+        if k == scene.n_modes and nk == n_freqs:
+            _, U = reduced_modes(red, n_freqs)
+            MX = blade.M @ X
+            num = (MX.T @ U) ** 2
+            mac = np.diag(num) / (np.einsum("ij,ij->j", X, MX) * np.einsum("ij,ij->j", U, blade.M @ U))
+            sign = np.sign(np.einsum("ij,ij->j", U, MX))
+            shapes_red = _normalise(U[:, :n_shapes] * np.where(sign == 0, 1, sign)[:n_shapes])
+    shapes_full = _normalise(X[:, :n_shapes])
+    if shapes_red is not None:  # same sign convention as the full shapes
+        s = np.sign(np.einsum("ij,ij->j", shapes_red, shapes_full))
+        shapes_red = shapes_red * np.where(s == 0, 1, s)
+    return {"mode_counts": np.asarray(mode_counts, int), "full_hz": full, "reduced_hz": red_hz,
+            "rel_error": red_hz / full - 1, "time_full_s": t_full, "time_reduce_s": t_red,
+            "stage_names": stages, "time_stage_s": t_stage, "reduced_size": sizes,
+            "mac": mac, "n_dof": int(blade.n_dof), "n_boundary": int(b.size),
+            "shapes_full": shapes_full, "shapes_reduced": shapes_red}
+
+
+def run_modes_study(study: ModesStudy, out_dir="results", *, figures: bool = True):
+    """Run a modes study: `out_dir/<name>.nc`, then `out_dir/<name>/mode_shapes.vtu`
+    and `out_dir/<name>/modal_convergence.png`."""
+    from .dataset import modes_to_dataset, write_netcdf
+    from .fe_model import write_fields
+    from .study import StudyResult
+
+    t0 = time.perf_counter()
+    sc = study.scene
+    log.info("%s: %s, mode counts %s, %d frequencies%s", study.name, sc.model,
+             list(study.mode_counts), study.n_frequencies, " (quick)" if study.quick else "")
+    res = modal_study(sc, study.mode_counts, study.n_frequencies, study.n_shapes)
+    out_dir = Path(out_dir)
+    fig_dir = out_dir / study.name
+    shapes_file = f"{study.name}/mode_shapes.vtu" if study.n_shapes else ""
+    ds = modes_to_dataset(study, res, shapes_file)
+    path = write_netcdf(ds, out_dir / f"{study.name}.nc")
+    log.info("wrote %s", path)
+    written = []
+    if study.n_shapes:
+        fieldsd = {f"full_mode_{j + 1}": res["shapes_full"][:, j] for j in range(study.n_shapes)}
+        if res["shapes_reduced"] is not None:
+            fieldsd.update({f"reduced_mode_{j + 1}": res["shapes_reduced"][:, j]
+                            for j in range(study.n_shapes)})
+        written.append(write_fields(sc.blade(), fig_dir / "mode_shapes.vtu", fieldsd))
+    if figures:
+        written.append(_convergence_figure(fig_dir / "modal_convergence.png", res, study.title))
+    for p in written:
+        log.info("wrote %s", p)
+    i = list(res["mode_counts"]).index(sc.n_modes)
+    log.info("%s: f1 = %.6g Hz; max error at %d modes %.3g %%; done in %.1f s", study.name,
+             res["full_hz"][0], sc.n_modes, 100 * np.nanmax(res["rel_error"][i]),
+             time.perf_counter() - t0)
+    return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=0,
+                       wall_time=time.perf_counter() - t0)
+
+
+def _convergence_figure(path, res, title):
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    err = np.abs(res["rel_error"])
+    for j in range(err.shape[1]):
+        ax.semilogy(res["mode_counts"], np.maximum(err[:, j], 1e-16), "o-", ms=3,
+                    label=f"f{j + 1} = {res['full_hz'][j]:.4g} Hz")
+    ax.axhline(1e-3, color="k", lw=0.8, ls="--")
+    ax.set_xlabel("Craig-Bampton fixed-interface modes")
+    ax.set_ylabel("relative frequency error (reduced/full - 1)")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    tmp.replace(path)
+    return path
