@@ -595,37 +595,12 @@ def _modes(ck, t, path, scene):
 
 
 def _consistency(ck, scene, solver, axes, spath, wpath):
-    H = solver.harmonics
-    hf = max([ld.harmonic for ld in scene.loads] + [0])
-    if hf > H:
-        ck.fail(f"{spath}.harmonics", f"H = {H} is below the excited harmonic {hf} "
-                                      "(scene.excitation)")
-    has = bool(scene.contacts)
-    for a in ("preload", "mu", "ku", "kv"):
-        if a in axes and not has:
-            ck.fail(f"{wpath}.{a}", "the scene has no [[scene.contact]] to apply it to")
-    if has and "preload" not in axes:
-        for i, c in enumerate(scene.contacts):
-            if c.n0 is None:
-                ck.fail(f"scene.contact[{i}].n0", "missing (required unless sweep.preload is given)")
-    eff = set(scene.effects)
-    if has != ("friction" in eff):
-        ck.fail("scene.effects", "declare \"friction\" exactly when the scene has contacts"
-                if has else "\"friction\" is declared but the scene has no [[scene.contact]]")
-    kv = axes.get("kv") or tuple(c.kv for c in scene.contacts)
-    varies = has and max(kv, default=0.0) > 0
-    if varies != ("normal_load_variation" in eff):
-        ck.fail("scene.effects", "kv > 0 makes the normal load vary: declare "
-                                 "\"normal_load_variation\"" if varies else
-                "\"normal_load_variation\" is declared but no contact has kv > 0")
-    n0s = axes.get("preload") or tuple(c.n0 for c in scene.contacts if c.n0 is not None)
-    gap = min(n0s, default=0.0) < 0
-    if gap and "separation" not in eff:
-        ck.fail("scene.effects", "a negative preload (initial gap) means separation: declare "
-                                 "\"separation\"")
-    if "separation" in eff and not (gap or varies):
-        ck.fail("scene.effects", "\"separation\" is declared but cannot occur (constant normal "
-                                 "load and no negative preload)")
+    """Cross-field rules (scene.check_scene_rules); every face contact has a normal."""
+    from .scene import check_scene_rules
+    check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
+                      [c.kv for c in scene.contacts], bool(scene.contacts),
+                      max([ld.harmonic for ld in scene.loads] + [0]), solver.harmonics,
+                      axes, spath, wpath)
 
 
 # ---------------------------------------------------------------------------

@@ -752,32 +752,39 @@ def _output(ck, t, scene) -> OutputSettings:
 
 
 def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
-    """Cross-field rules: declared effects match the scene, harmonics cover the
-    excitation, swept contact parameters have contacts to act on."""
-    H = solver.harmonics
-    hf = scene.forcing.shape[1] - 1
-    if hf > H:
-        ck.fail(f"{spath}.harmonics", f"H = {H} is below the excited harmonic {hf} "
+    """Cross-field rules of a lumped scene (see `check_scene_rules`)."""
+    check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
+                      [c.kv for c in scene.contacts], any(np.any(c.bn) for c in scene.contacts),
+                      scene.forcing.shape[1] - 1, solver.harmonics, axes, spath, wpath)
+
+
+def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spath, wpath):
+    """Cross-field rules shared by every scene: harmonics cover the excitation, swept
+    contact parameters have contacts to act on, a preload is given, and the
+    declared effects match the scene (friction <=> contacts; normal-load variation
+    <=> normal DOFs with kv > 0; separation <=> a gap or a varying normal load)."""
+    if h_excited > H:
+        ck.fail(f"{spath}.harmonics", f"H = {H} is below the excited harmonic {h_excited} "
                                       "(scene.excitation)")
-    has_contact = bool(scene.contacts)
+    has_contact = bool(n0s)
     for a in ("preload", "mu", "ku", "kv"):
         if a in axes and not has_contact:
             ck.fail(f"{wpath}.{a}", "the scene has no [[scene.contact]] to apply it to")
     if has_contact and "preload" not in axes:
-        for i, c in enumerate(scene.contacts):
-            if c.n0 is None:
+        for i, n0 in enumerate(n0s):
+            if n0 is None:
                 ck.fail(f"scene.contact[{i}].n0", "missing (required unless sweep.preload is given)")
-    effects = set(scene.effects)
+    effects = set(effects)
     if has_contact != ("friction" in effects):
         ck.fail("scene.effects", "declare \"friction\" exactly when the scene has contacts"
                 if has_contact else "\"friction\" is declared but the scene has no [[scene.contact]]")
-    kv_vals = axes.get("kv") or tuple(c.kv for c in scene.contacts)
-    varies = any(np.any(c.bn) for c in scene.contacts) and max(kv_vals, default=0.0) > 0
+    kv_vals = axes.get("kv") or tuple(kvs)
+    varies = has_normal and max(kv_vals, default=0.0) > 0
     if varies != ("normal_load_variation" in effects):
         ck.fail("scene.effects", "normal DOFs with kv > 0 make the normal load vary: declare "
                                  "\"normal_load_variation\"" if varies else
                 "\"normal_load_variation\" is declared but no contact has normal DOFs with kv > 0")
-    n0_vals = axes.get("preload") or tuple(c.n0 for c in scene.contacts if c.n0 is not None)
+    n0_vals = axes.get("preload") or tuple(n0 for n0 in n0s if n0 is not None)
     gap = min(n0_vals, default=0.0) < 0
     if gap and "separation" not in effects:
         ck.fail("scene.effects", "a negative preload (initial gap) means separation: declare "

@@ -164,7 +164,7 @@ def test_contact_schema_errors():
         ('set = "excitation"', 'set = "root"', r"scene\.excitation\[0\]\.set: must be one of"),
         ('dofs = ["response.x"', 'dofs = ["tip.x"', r"output\.dofs\[0\]: 'tip\.x' is not"),
         ('effects = ["friction", "normal_load_variation", "separation"]', 'effects = ["friction"]',
-         r"scene\.effects: kv > 0 makes the normal load vary"),
+         r"scene\.effects: normal DOFs with kv > 0 make the normal load vary"),
         ("rayleigh = [20.0, 4e-6]", "rayleigh = [20.0]", r"scene\.rayleigh: must have 2 entries"),
         ('model = "solid_blade"', 'model = "beam_blade"', r"scene\.contact: the blade has no shroud"),
     ]:
