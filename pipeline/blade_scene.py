@@ -38,7 +38,6 @@ import numpy as np
 import scipy.sparse as sp
 
 from .contact import YangMenq
-from .errors import UsageError
 from .system import System
 
 log = logging.getLogger(__name__)
@@ -323,7 +322,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                           reference=reference, text=text, scene=scene, mode_counts=counts,
                           n_frequencies=nf, n_shapes=ns, quick=bool(quick))
 
-    from .scene import OutputSettings, Study, Sweep, _solver, _sweep
+    from .scene import Study, Sweep, _solver, _sweep
 
     solver_tab = ck.table(data.get("solver"), "solver", required=False)
     sweep_tab = ck.table(data["sweep"], "sweep")
@@ -544,7 +543,7 @@ def _loads(ck, raw) -> tuple:
 
 
 def _output(ck, t):
-    from .scene import FIGURES, OutputSettings
+    from .scene import OutputSettings
 
     ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows"))
     dofs = (ck.names(t["dofs"], "output.dofs") if "dofs" in t
@@ -553,20 +552,9 @@ def _output(ck, t):
         if not _OUT_DOF.match(d):
             ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>' with set excitation "
                                          "or response and component x, y or z")
-    figs = ck.names(t.get("figures", list(FIGURES)), "output.figures", min_length=0)
-    for i, fg in enumerate(figs):
-        if fg not in FIGURES:
-            ck.fail(f"output.figures[{i}]", f"unknown figure {fg!r} (known: {', '.join(FIGURES)})")
-    yscale = ck.string(t.get("yscale", "linear"), "output.yscale", ("linear", "log"))
-    windows = []
-    for i, w in enumerate(ck.array(t.get("peak_windows", []), "output.peak_windows", min_length=0)):
-        lo, hi = ck.numbers(w, f"output.peak_windows[{i}]", 2, ge=0.0)
-        if not lo < hi:
-            ck.fail(f"output.peak_windows[{i}]", f"must be [low, high] with low < high, got "
-                                                 f"[{lo:g}, {hi:g}]")
-        windows.append((float(lo), float(hi)))
-    return OutputSettings(dofs=tuple(dofs), figures=tuple(figs), yscale=yscale,
-                          peak_windows=tuple(windows))
+    from .scene import output_common
+    figs, yscale, windows = output_common(ck, t)
+    return OutputSettings(dofs=tuple(dofs), figures=figs, yscale=yscale, peak_windows=windows)
 
 
 def _modes(ck, t, path, scene):

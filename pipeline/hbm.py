@@ -322,7 +322,7 @@ def full_linear_operator(sys: System, Om: float, H: int):
 
 def full_residual(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
     """Residual of all n (2H+1) equations [N] (no condensation): the acceptance check."""
-    sys, nh = prob.system, prob.nh
+    sys = prob.system
     K, C, M = sys.K, sys.C, sys.M
     D = derivative_matrix(prob.H)
     lin = K @ Q + Om * (C @ Q) @ D.T + Om**2 * (M @ Q) @ (D @ D).T

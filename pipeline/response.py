@@ -87,7 +87,7 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     import time
 
     from . import hbm
-    from .continuation import continue_branch, newton
+    from .continuation import newton
 
     t_start = time.perf_counter()
     prob = hbm.setup(system, H, method, n_samples)

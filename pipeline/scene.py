@@ -706,12 +706,8 @@ def _excitation(ck, raw, dofs) -> np.ndarray:
     return F
 
 
-def _output(ck, t, scene) -> OutputSettings:
-    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload"))
-    dofs = ck.names(t["dofs"], "output.dofs") if "dofs" in t else scene.dofs
-    for i, d in enumerate(dofs):
-        if d not in scene.dofs:
-            ck.fail(f"output.dofs[{i}]", f"unknown DOF {d!r} (DOFs: {', '.join(scene.dofs)})")
+def output_common(ck, t):
+    """`[output]` keys shared by every scene: figures, yscale, peak_windows."""
     figs = ck.names(t.get("figures", list(FIGURES)), "output.figures", min_length=0)
     for i, fg in enumerate(figs):
         if fg not in FIGURES:
@@ -724,6 +720,16 @@ def _output(ck, t, scene) -> OutputSettings:
             ck.fail(f"output.peak_windows[{i}]", f"must be [low, high] with low < high, got "
                                                  f"[{lo:g}, {hi:g}]")
         windows.append((float(lo), float(hi)))
+    return tuple(figs), yscale, tuple(windows)
+
+
+def _output(ck, t, scene) -> OutputSettings:
+    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload"))
+    dofs = ck.names(t["dofs"], "output.dofs") if "dofs" in t else scene.dofs
+    for i, d in enumerate(dofs):
+        if d not in scene.dofs:
+            ck.fail(f"output.dofs[{i}]", f"unknown DOF {d!r} (DOFs: {', '.join(scene.dofs)})")
+    figs, yscale, windows = output_common(ck, t)
     optimum = None
     if "optimum_preload" in t:
         o, f = t["optimum_preload"], "output.optimum_preload"

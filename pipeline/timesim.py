@@ -777,7 +777,7 @@ def _rest_sliders(mdl, rest, x, w, st, per):
 
 def _newton_step(mdl, P, x, w, st, r0, tol):
     """One Newton step on P(z) - z with a finite-difference Jacobian (and backtracking)."""
-    n, E = mdl.n, mdl.E
+    n = mdl.n
     stick = np.nonzero(st == STICK)[0]
     stick = stick[mdl.kt[stick] > 0]
     xe, we, se, status, msg = P(x, w, st)
