@@ -152,6 +152,12 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         if "peak_window" in dims and not W:
             continue
         data_vars[k] = (sw + dims, v[k], {"units": units, "long_name": long_name})
+    if not study.solver.stability:  # say so where users look: on the variable itself
+        data_vars["stable"][2].update(
+            long_name="stability NOT computed (solver.stability = false): true everywhere",
+            stability_computed=0)
+    else:
+        data_vars["stable"][2]["stability_computed"] = 1
     data_vars["message"] = (sw, message.astype(str), {"long_name": "continuation message"})
     data_vars["natural_frequency_free"] = (
         ("mode",), natural_frequencies(study.system(cases[0][1]), "open") / to_unit,
@@ -196,8 +202,8 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
     }
     if hasattr(scene, "dataset_attrs"):  # FE blade scenes describe their model
         attrs.update(scene.dataset_attrs())
-        attrs["stability"] = ("Hill's method" if study.solver.stability else
-                              "not computed (solver.stability = false): stable is true everywhere")
+    attrs["stability"] = ("Hill's method" if study.solver.stability else
+                          "not computed (solver.stability = false): stable is true everywhere")
     if optimum is not None:
         _add_optimum(data_vars, coords, optimum, study, to_unit, unit)
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)

@@ -276,3 +276,6 @@ def test_contact_study_quick_writes_a_conforming_dataset(tmp_path):
     f_pk = float(ds["peak_frequency"].sel(dof="response.y").squeeze())
     assert 395.0 < f_pk < 403.6
     assert (tmp_path / "blade_shroud_contact" / "amplitude_response.y.png").is_file()
+    # stability is off for blade scenes: the variable itself says it was not computed
+    assert ds["stable"].attrs["stability_computed"] == 0
+    assert "NOT computed" in ds["stable"].attrs["long_name"]

@@ -344,7 +344,11 @@ def test_example3_quick_separation_and_softening(quick_runs):
     assert wst == pytest.approx(1.4137, abs=1e-4)
     assert float(u["peak_frequency"].sel(preload=500.0)) == pytest.approx(wst, abs=2e-3)
     soft = ds.sel(preload=10.0)
-    assert 1.0 < float(soft["peak_frequency"].sel(dof="u")) < wst
+    # softening: the peak lies well below the stuck system's resonance, above the open one
+    f_soft = float(soft["peak_frequency"].sel(dof="u"))
+    assert f_soft < 0.95 * wst
+    assert f_soft > 1.0
+    assert ds["stable"].attrs["stability_computed"] == 1
     folds = soft["fold_frequency"].values
     assert np.isfinite(folds).sum() == 2
     conv = soft["converged"].values
