@@ -351,11 +351,8 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                    solver=sv, output=output, quick=is_quick)
         if is_quick == bool(quick):
             chosen = st
-    for lo, hi in output.peak_windows:
-        f0, f1 = sorted((freq.start, freq.stop))
-        if hi <= f0 or lo >= f1:
-            ck.fail("output.peak_windows", f"window [{lo:g}, {hi:g}] lies outside the frequency "
-                                           f"range [{f0:g}, {f1:g}] {freq.unit}")
+    from .scene import check_windows
+    check_windows(ck, output.peak_windows, freq)
     return chosen
 
 

@@ -467,11 +467,7 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
         _check_build(ck, st)
         if is_quick == bool(quick):
             chosen = st
-    for lo, hi in output.peak_windows:
-        f0, f1 = sorted((freq.start, freq.stop))
-        if hi <= f0 or lo >= f1:
-            ck.fail("output.peak_windows", f"window [{lo:g}, {hi:g}] lies outside the frequency "
-                                           f"range [{f0:g}, {f1:g}] {freq.unit}")
+    check_windows(ck, output.peak_windows, freq)
     return chosen
 
 
@@ -704,6 +700,15 @@ def _excitation(ck, raw, dofs) -> np.ndarray:
     if not np.any(F):
         ck.fail("scene.excitation", "every amplitude is zero: nothing excites the structure")
     return F
+
+
+def check_windows(ck, windows, freq):
+    """Every peak window must overlap the swept frequency range."""
+    f0, f1 = sorted((freq.start, freq.stop))
+    for lo, hi in windows:
+        if hi <= f0 or lo >= f1:
+            ck.fail("output.peak_windows", f"window [{lo:g}, {hi:g}] lies outside the frequency "
+                                           f"range [{f0:g}, {f1:g}] {freq.unit}")
 
 
 def output_common(ck, t):
