@@ -421,6 +421,10 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     """Validate an already-parsed study document (the dict `tomllib` returns)."""
     ck = _Checker(file)
     ck.table(data, "(document)")
+    head = data.get("study")
+    if isinstance(head, dict) and head.get("kind") == "accuracy_cost":  # pipeline/accuracy_cost.py
+        from .accuracy_cost import study_from_mapping as accuracy_study
+        return accuracy_study(data, file=file, name=name, text=text, quick=quick)
     from .blade_scene import is_blade_document
     if is_blade_document(data):  # FE blade scenes: pipeline/blade_scene.py
         from .blade_scene import study_from_mapping as blade_study

@@ -154,6 +154,9 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     if getattr(study, "kind", "response") == "modes":  # blade modal study (blade_scene.py)
         from .blade_scene import run_modes_study
         return run_modes_study(study, out_dir, figures=figures)
+    if getattr(study, "kind", "response") == "accuracy_cost":  # pipeline/accuracy_cost.py
+        from .accuracy_cost import run_accuracy_study
+        return run_accuracy_study(study, out_dir, figures=figures, progress=progress)
     t0 = time.perf_counter()
     solver = solver or default_solver()
     out_dir = Path(out_dir)
