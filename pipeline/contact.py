@@ -86,7 +86,8 @@ class ContactForces:
     Fu, Fv: (E, 2H+1) [N]; dFu_dU, dFu_dV, dFv_dV: (E, 2H+1, 2H+1) [N/m]
     (dFv/dU = 0 identically).  `regimes` counts elements evaluated as fully
     separated, fully stuck (both linear over the cycle, no transition search) and
-    with transitions.
+    with transitions; for the exact method also `normal_load_searched`, the
+    elements whose normal load varies and was searched for zeros (separation).
     """
 
     Fu: np.ndarray

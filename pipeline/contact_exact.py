@@ -185,10 +185,17 @@ def periodic_segments(U, V, elem: YangMenq):
     r = np.where(tang, mu / np.where(ku > 0, ku, 1.0), 0.0)
     Lc, Hc = U - r[:, None] * Nc, U + r[:, None] * Nc
 
-    roots, slope = sign_changes(np.concatenate([Nc, derivative(Lc), derivative(Hc)]))
-    nr, ns = roots[:E], slope[:E]
-    lr, ls = roots[E:2 * E], slope[E:2 * E]
-    hr, hs = roots[2 * E:], slope[2 * E:]
+    # Only a varying normal load n(t) = n0 + kv v(t) is searched for zeros (separation);
+    # with a constant one (kv = 0: the Jenkins path) the band edges lo, hi move with
+    # u(t) alone, so their extremes are the roots of u'(t), found once.
+    iv = np.flatnonzero(np.any(Nc[:, 1:] != 0.0, axis=1))
+    roots, slope = sign_changes(np.concatenate([Nc[iv], derivative(Lc), derivative(Hc)[iv]]))
+    m = iv.size
+    nr, ns = np.full((E, roots.shape[1]), np.nan), np.zeros((E, roots.shape[1]), dtype=int)
+    nr[iv], ns[iv] = roots[:m], slope[:m]
+    lr, ls = roots[m:m + E], slope[m:m + E]
+    hr, hs = lr.copy(), ls.copy()
+    hr[iv], hs[iv] = roots[m + E:], slope[m + E:]
     crosses = ~np.isnan(nr).all(1)
     grid = TWO_PI * np.arange(16) / 16
     nvals = Nc @ basis(grid, H).T
@@ -209,7 +216,7 @@ def periodic_segments(U, V, elem: YangMenq):
     thi = np.nan_to_num(thi)
 
     march = np.flatnonzero(regime == 2)
-    out = dict(regime=regime, Lc=Lc, Hc=Hc, Nc=Nc, tang=tang, H=H,
+    out = dict(regime=regime, Lc=Lc, Hc=Hc, Nc=Nc, tang=tang, H=H, normal_searched=m,
                contact_all=in_contact, n_roots=nr, n_slope=ns,
                stuck_w=w_st, stuck_dwdU=dwdU, stuck_dwdV=dwdV)
     S_st = dict(a=np.zeros((E, 1)), b=np.full((E, 1), TWO_PI),
@@ -407,7 +414,8 @@ def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
     Fu = ku[:, None] * _mv(G_st, U) + mu[:, None] * _mv(G_sl, Nc)
     Fu -= _rowsum((ku[es] * seg["w"][es, ss])[:, None] * g, es, E)
     regimes = {"separated": int((regime == 0).sum()), "stuck": int((regime == 1).sum()),
-               "transitions": int((regime == 2).sum()), "frictionless": int((regime == 3).sum())}
+               "transitions": int((regime == 2).sum()), "frictionless": int((regime == 3).sum()),
+               "normal_load_searched": int(seg["normal_searched"])}
     st_rows = np.flatnonzero(regime == 1)
     if not jacobian:
         if st_rows.size:

@@ -4,11 +4,16 @@
 
 Each grid case (one combination of the `[sweep]` axes) is one frequency
 continuation `pipeline.response.frequency_response(system, H, omega_start,
-omega_stop, **solver.kwargs())`.  Cases run in this process (`--workers 1`), a
-process pool (`--workers N`) or on a Dask cluster (`--scheduler ADDRESS`).  The
-dataset `DIR/<name>.nc` is written atomically after all cases finished, then the
-figures under `DIR/<name>/`.  A case that raises is logged and kept as an empty
-branch; the run then exits 1 (the dataset of the other cases is still written).
+omega_stop, **solver.kwargs())`, or one direct solve per frequency for a linear
+scene (`pipeline.linear_response`).  Cases run in a process pool sized to the
+machine (`--workers`, 1 = this process) or on a Dask cluster (`--scheduler`).
+
+Nothing is lost: each finished case is kept at once in `DIR/.<name>.<key>.cases/`
+(atomic writes); a rerun after Ctrl-C, a killed worker or a restart computes only
+the missing cases.  The dataset `DIR/<name>.nc` is written atomically when all
+cases are done (then the checkpoints are removed), followed by the figures under
+`DIR/<name>/`.  A case that raises is logged and kept as an empty branch; the run
+then exits 1 (the dataset of the other cases is still written).
 """
 from __future__ import annotations
 
@@ -26,14 +31,24 @@ from .scene import Study, load_study
 log = logging.getLogger("pipeline.study")
 
 
-def default_solver():
-    """`pipeline.response.frequency_response` (looked up at call time)."""
+def default_solver(study: Study | None = None):
+    """The solver of a study's cases: `linear_response.frequency_response` (direct
+    solve per frequency) when the scene calls for neither friction nor separation,
+    else `response.frequency_response` (HBM continuation)."""
+    if study is not None and is_linear_scene(study.scene):
+        from .linear_response import frequency_response as linear_solver
+        return linear_solver
     from . import response
 
     fn = getattr(response, "frequency_response", None)
     if fn is None:
         raise RuntimeError("pipeline.response.frequency_response is not available yet")
     return fn
+
+
+def is_linear_scene(scene) -> bool:
+    """A scene without friction and separation has no nonlinear force to solve for."""
+    return not ({"friction", "separation"} & set(getattr(scene, "effects", ()) or ()))
 
 
 def run_case(solver, system, H, omega_start, omega_stop, kwargs):
@@ -52,6 +67,8 @@ class StudyResult:
     path: Path | None               # the netCDF file (None if nothing converged)
     figures: list = field(default_factory=list)
     failures: int = 0               # cases that raised
+    reused: int = 0                 # cases taken from checkpoints of an interrupted run
+    computed: int = 0               # cases computed in this run
     wall_time: float = 0.0          # [s]
 
     @property
@@ -60,22 +77,35 @@ class StudyResult:
 
 
 class _Progress:
-    """tqdm when it is installed, otherwise one log line per finished case."""
+    """tqdm when it is installed (cases done, and the current case's frequency when
+    cases run in this process), otherwise one log line per finished case."""
 
-    def __init__(self, total, desc):
-        self.total, self.desc, self.done = total, desc, 0
+    def __init__(self, total, desc, initial=0):
+        self.total, self.desc, self.done = total, desc, initial
         try:
             from tqdm.auto import tqdm
-            self.bar = tqdm(total=total, desc=desc, unit="case", disable=None, file=sys.stderr)
+            self.bar = tqdm(total=total, initial=initial, desc=desc, unit="case",
+                            disable=None, file=sys.stderr)
         except ImportError:
             self.bar = None
+
+    @property
+    def live(self) -> bool:
+        return self.bar is not None and not self.bar.disable
+
+    def frequency(self, omega):
+        """Callback of the continuation in this process: show where the case is."""
+        if self.live:
+            self.bar.set_postfix_str(f"{omega:.5g} rad/s", refresh=False)
+            self.bar.update(0)
+        return False
 
     def update(self, case, curve, err):
         self.done += 1
         what = (f"failed ({err})" if curve is None else
                 f"{curve.n_points} points, {int(np.sum(curve.converged))} converged, "
                 f"{curve.wall_time:.2f} s")
-        if self.bar is not None and not self.bar.disable:
+        if self.live:
             self.bar.update(1)
             log.debug("case %s: %s", case, what)
         else:
@@ -86,43 +116,138 @@ class _Progress:
             self.bar.close()
 
 
-def _execute(study, solver, workers, scheduler, progress):
+# ---------------------------------------------------------------------------
+# Checkpoints: every finished case is kept on disk until the dataset is written
+# ---------------------------------------------------------------------------
+
+def checkpoint_dir(study, out_dir, solver) -> Path:
+    """`DIR/.<name>.<key>.cases`: the key hashes the study text (or its parsed
+    content), the quick flag, the solver function and the pipeline version, so a
+    changed study or software never reuses old cases."""
+    import hashlib
+    from . import __version__
+
+    content = study.text or repr((study.scene, study.sweep, study.solver))
+    ident = "\n".join([content, str(study.quick), repr(study.sweep), repr(study.solver),
+                       f"{getattr(solver, '__module__', '')}.{getattr(solver, '__qualname__', solver)}",
+                       __version__])
+    key = hashlib.sha256(ident.encode()).hexdigest()[:16]
+    return Path(out_dir) / f".{study.name}.{key}.cases"
+
+
+def _load_checkpoints(cdir: Path, cases) -> dict:
+    """{case index: (curve, None)} of the finished cases kept in `cdir`."""
+    import pickle
+
+    found = {}
+    for k, (_, case) in enumerate(cases):
+        f = cdir / f"case-{k:05d}.pkl"
+        if not f.is_file():
+            continue
+        try:
+            with open(f, "rb") as fh:
+                rec = pickle.load(fh)
+            if rec["case"] == case and rec["curve"] is not None:
+                found[k] = (rec["curve"], None)
+        except Exception as exc:  # unreadable: recompute that case
+            log.warning("ignoring checkpoint %s (%s)", f, exc)
+    return found
+
+
+def _save_checkpoint(cdir: Path, k, case, curve) -> bool:
+    """Write case k atomically (temporary file + os.replace); False if it failed."""
+    import os
+    import pickle
+    import uuid
+
+    tmp = cdir / f".case-{k:05d}.{uuid.uuid4().hex[:8]}.tmp"
+    try:
+        cdir.mkdir(parents=True, exist_ok=True)
+        with open(tmp, "wb") as fh:
+            pickle.dump({"case": case, "curve": curve}, fh, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(tmp, cdir / f"case-{k:05d}.pkl")
+        return True
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        log.warning("cannot keep case %d on disk (%s); a rerun will recompute it", k, exc)
+        return False
+
+
+def _remove_stale(out_dir: Path, name: str, keep: Path):
+    """Checkpoints of an older version of the same study (other key) and temporary
+    files of killed writers are removed."""
+    import shutil
+
+    for d in Path(out_dir).glob(f".{name}.*.cases"):
+        if d != keep and d.is_dir():
+            log.info("removing checkpoints of a different study version: %s", d)
+            shutil.rmtree(d, ignore_errors=True)
+    stale = list(Path(out_dir).glob(f".{name}.nc.*.tmp")) + list(keep.glob(".case-*.tmp"))
+    for t in stale:
+        t.unlink(missing_ok=True)
+
+
+def _execute(study, solver, workers, scheduler, progress, cdir=None):
+    """Run the cases not found in `cdir`; each finished case is kept there at once.
+    Returns (results aligned with the cases, number reused from checkpoints)."""
     cases = study.sweep.cases()
     H, fr, kw = study.solver.harmonics, study.sweep.frequency, study.solver.kwargs()
     if study.scene.model != "lumped":  # FE scenes: exact peaks of the reported DOFs only
         kw["peak_dofs"] = [study.scene.dof_index(d) for d in study.output.dofs]
-    jobs = [(solver, study.system(case), H, fr.omega_start, fr.omega_stop, kw) for _, case in cases]
-    results = [None] * len(jobs)
-    bar = _Progress(len(jobs), study.name) if progress else None
+    results = [None] * len(cases)
+    reused = _load_checkpoints(cdir, cases) if cdir is not None else {}
+    for k, res in reused.items():
+        results[k] = res
+    todo = [k for k in range(len(cases)) if k not in reused]
+    if reused:
+        log.info("%s: resuming: %d of %d case(s) finished earlier (kept in %s), %d to compute",
+                 study.name, len(reused), len(cases), cdir, len(todo))
+    bar = _Progress(len(cases), study.name, initial=len(reused)) if progress else None
+
+    def job(k):
+        return (solver, study.system(cases[k][1]), H, fr.omega_start, fr.omega_stop, kw)
 
     def done(k, res):
         results[k] = res
+        if cdir is not None and res[0] is not None:
+            _save_checkpoint(cdir, k, cases[k][1], res[0])
         if bar is not None:
             bar.update(cases[k][1], *res)
 
     try:
-        if scheduler:
+        if scheduler and todo:
             from dask.distributed import Client, as_completed
 
             with Client(scheduler) as client:
-                futs = [client.submit(run_case, *job, pure=False) for job in jobs]
-                index = {f.key: k for k, f in enumerate(futs)}
+                futs = [client.submit(run_case, *job(k), pure=False) for k in todo]
+                index = {f.key: k for k, f in zip(todo, futs)}
                 for fut in as_completed(futs):
                     done(index[fut.key], fut.result())
-        elif workers > 1 and len(jobs) > 1:
+        elif workers > 1 and len(todo) > 1:
             from concurrent.futures import ProcessPoolExecutor, as_completed
 
-            with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
-                futs = {pool.submit(run_case, *job): k for k, job in enumerate(jobs)}
+            pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
+            try:
+                futs = {pool.submit(run_case, *job(k)): k for k in todo}
                 for fut in as_completed(futs):
                     done(futs[fut], fut.result())
+            except BaseException:  # Ctrl-C or a lost worker: stop the running cases now
+                for proc in list(getattr(pool, "_processes", {}).values()):
+                    proc.terminate()
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
+            pool.shutdown()
         else:
-            for k, job in enumerate(jobs):
-                done(k, run_case(*job))
+            for k in todo:
+                kwk = dict(kw)
+                if bar is not None and bar.live and getattr(solver, "__name__", "") == "frequency_response":
+                    kwk["callback"] = lambda x, lam: bar.frequency(lam)
+                solver_k, system, *rest = job(k)
+                done(k, run_case(solver_k, system, *rest[:-1], kwk))
     finally:
         if bar is not None:
             bar.close()
-    return results
+    return results, len(reused)
 
 
 def find_optimum(study: Study) -> dict:
@@ -146,9 +271,42 @@ def find_optimum(study: Study) -> dict:
     return res
 
 
+def keep_older_dataset(target: Path):
+    """A dataset at `target` written by another pipeline version (or not readable as
+    ours) is renamed, never overwritten: `<name>.v<version>.nc` / `<name>.unreadable.nc`."""
+    from . import __version__
+
+    if not target.exists():
+        return None
+    try:
+        import xarray as xr
+        with xr.open_dataset(target, engine="netcdf4") as old:
+            version = str(old.attrs.get("pipeline_version", "unknown"))
+    except Exception:
+        version = None
+    if version == __version__:
+        return None
+    tag = f"v{version}" if version is not None else "unreadable"
+    backup = target.with_name(f"{target.stem}.{tag}{target.suffix}")
+    n = 1
+    while backup.exists():
+        n += 1
+        backup = target.with_name(f"{target.stem}.{tag}.{n}{target.suffix}")
+    target.rename(backup)
+    log.warning("%s was written by %s; kept it as %s", target,
+                f"pipeline {version}" if version else "something else (not readable as netCDF)",
+                backup.name)
+    return backup
+
+
 def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: str | None = None,
-              solver=None, figures: bool = True, progress: bool = True) -> StudyResult:
-    """Run every case of `study`, write `out_dir/<name>.nc` and the figures."""
+              solver=None, figures: bool = True, progress: bool = True,
+              checkpoints: bool = True) -> StudyResult:
+    """Run every case of `study`, write `out_dir/<name>.nc` and the figures.
+
+    With `checkpoints`, each finished case is kept in `checkpoint_dir` as soon as
+    it ends; a rerun after an interruption computes only the missing cases, and
+    the directory is removed once the dataset is written."""
     from .dataset import to_dataset, write_netcdf
 
     if getattr(study, "kind", "response") == "modes":  # blade modal study (blade_scene.py)
@@ -158,24 +316,42 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
         from .accuracy_cost import run_accuracy_study
         return run_accuracy_study(study, out_dir, figures=figures, progress=progress)
     t0 = time.perf_counter()
-    solver = solver or default_solver()
+    solver = solver or default_solver(study)
     out_dir = Path(out_dir)
     log.info("%s: %d case(s) %s, H = %d, %s forces%s", study.name, len(study.sweep.cases()),
              dict(zip(study.sweep.axes, study.sweep.shape)), study.solver.harmonics,
              study.solver.force_evaluation, " (quick)" if study.quick else "")
-    results = _execute(study, solver, workers, scheduler, progress)
+    fresh_out = not out_dir.exists()
+    cdir = checkpoint_dir(study, out_dir, solver) if checkpoints else None
+    if cdir is not None:
+        _remove_stale(out_dir, study.name, cdir)
+    results, reused = _execute(study, solver, workers, scheduler, progress, cdir)
     curves = [c for c, _ in results]
     errors = [e for _, e in results]
     failures = sum(c is None for c in curves)
     optimum = find_optimum(study) if study.output.optimum is not None else None
     ds = to_dataset(study, curves, errors, optimum=optimum)
-    res = StudyResult(study=study, dataset=ds, path=None, failures=failures)
+    res = StudyResult(study=study, dataset=ds, path=None, failures=failures,
+                      reused=reused, computed=len(curves) - reused)
     if int(ds["converged"].sum()) == 0:
         log.error("%s: no converged point in any case; nothing written", study.name)
+        if cdir is not None:  # nothing worth resuming
+            import shutil
+            shutil.rmtree(cdir, ignore_errors=True)
+            if fresh_out and out_dir.is_dir() and not any(out_dir.iterdir()):
+                out_dir.rmdir()
         res.wall_time = time.perf_counter() - t0
         return res
-    res.path = write_netcdf(ds, out_dir / f"{study.name}.nc")
+    target = out_dir / f"{study.name}.nc"
+    keep_older_dataset(target)
+    res.path = write_netcdf(ds, target)
     log.info("wrote %s", res.path)
+    if cdir is not None and failures == 0:
+        import shutil
+        shutil.rmtree(cdir, ignore_errors=True)
+    elif cdir is not None:
+        log.info("%s: %d case(s) failed; the finished ones stay in %s, a rerun retries "
+                 "only the failed ones", study.name, failures, cdir)
     if figures:
         res.figures = write_figures(study, ds, out_dir / study.name)
         for p in res.figures:
@@ -234,8 +410,8 @@ def configure_run_parser(r):
     r.add_argument("study", metavar="STUDY.toml", help="study file (see README: Study files)")
     r.add_argument("--out", default="results", metavar="DIR",
                    help="output directory: DIR/<name>.nc and DIR/<name>/*.png (default: results)")
-    r.add_argument("--workers", type=int, default=1, metavar="N",
-                   help="local worker processes (default 1: run in this process)")
+    r.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes (default: one per CPU core; 1 = run in this process)")
     r.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler address, e.g. tcp://host:8786 (overrides --workers)")
     r.add_argument("--quick", action="store_true",
@@ -244,16 +420,36 @@ def configure_run_parser(r):
     r.set_defaults(func=cmd_run)
 
 
+def check_writable(file, out: Path):
+    """UsageError unless `out` is (or can be made) a directory we can write in,
+    checked before any computing."""
+    import os
+    import tempfile
+
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"{file}: --out: {out} exists and is not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".write-test.", dir=out)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise UsageError(f"{file}: --out: {out} is not writable "
+                         f"({exc.strerror or type(exc).__name__})") from None
+
+
 def cmd_run(args) -> int:
     """`python -m pipeline run`: 0 ok, 1 a case failed or nothing converged, 2 bad input."""
     try:
         study = load_study(args.study, quick=getattr(args, "quick", False))
-        workers = getattr(args, "workers", 1)
-        if workers is None or workers < 1:
+        workers = getattr(args, "workers", None)
+        if workers is None:
+            import os
+            workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        if workers < 1:
             raise UsageError(f"{args.study}: --workers: must be >= 1, got {workers}")
         out = Path(getattr(args, "out", "results"))
-        if out.exists() and not out.is_dir():
-            raise UsageError(f"{args.study}: --out: {out} exists and is not a directory")
+        check_writable(args.study, out)
         scheduler = getattr(args, "scheduler", None)
         if scheduler:
             try:
@@ -266,7 +462,7 @@ def cmd_run(args) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     try:
-        solver = default_solver()
+        solver = default_solver(study)
     except RuntimeError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
@@ -274,8 +470,16 @@ def cmd_run(args) -> int:
         res = run_study(study, out, workers=workers, scheduler=scheduler, solver=solver,
                         figures=getattr(args, "figures", True))
     except OSError as exc:
-        print(f"error: {args.study}: --out: cannot write: {exc}", file=sys.stderr)
+        print(f"error: {args.study}: --out: cannot write: {exc}; finished cases are kept "
+              f"in {out}/.{study.name}.*.cases, rerun to resume", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print(f"interrupted: finished cases are kept in {out}/.{study.name}.*.cases; "
+              "rerun the same command to resume", file=sys.stderr)
+        return 130
+    if res.reused:
+        log.info("%s: %d case(s) reused from the interrupted run, %d computed",
+                 study.name, res.reused, res.computed)
     log.info("%s: done in %.1f s", study.name, res.wall_time)
     return 0 if res.ok else 1
 

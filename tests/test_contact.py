@@ -163,7 +163,8 @@ def test_full_stick_is_linear_with_documented_slider_convention():
     U, V = one(U1=(0.01, 0.0, 0.0, 0.005), V1=(0.01,), U0=0.3)
     el = YangMenq(ku=2.0, kv=1.0, mu=0.5, n0=10.0)
     f = forces(U, V, el)
-    assert f.regimes == {"separated": 0, "stuck": 1, "transitions": 0, "frictionless": 0}
+    assert f.regimes == {"separated": 0, "stuck": 1, "transitions": 0, "frictionless": 0,
+                         "normal_load_searched": 1}  # n varies: searched, no root
     # convention: w = middle of the admissible interval [max lo, min hi] (dense check)
     from pipeline.harmonics import basis
     tau = np.linspace(0, TWO_PI, 200_001)
