@@ -84,6 +84,33 @@ def derivative(X: np.ndarray, order: int = 1) -> np.ndarray:
     return out
 
 
+def shift_tables(theta, H: int):
+    """(c, s), each theta.shape + (2H+1,): cos(h theta), sin(h theta) at the layout
+    positions of harmonic h (c = 1, s = 0 at the DC entry), for `turn`."""
+    h = np.repeat(np.arange(H + 1), 2)[1:]                        # 0, 1, 1, 2, 2, ...
+    a = np.asarray(theta, dtype=float)[..., None] * h
+    return np.cos(a), np.sin(a)
+
+
+def turn(X: np.ndarray, c, s, axis: int = -1) -> np.ndarray:
+    """T X along `axis`, T = c I + s J with (J X)c_h = Xs_h and (J X)s_h = -Xc_h;
+    c, s from `shift_tables`, broadcastable against X.  With c, s of theta this is
+    the time shift x(tau) -> x(tau + theta) (complex amplitudes Xc_h - i Xs_h times
+    exp(i h theta)); T is orthogonal and T(theta)^T = T(-theta): pass -s."""
+    X = np.moveaxis(np.asarray(X, dtype=float), axis, -1)
+    c, s = np.moveaxis(np.asarray(c), axis, -1), np.moveaxis(np.asarray(s), axis, -1)
+    out = X * c
+    out[..., 1::2] += s[..., 1::2] * X[..., 2::2]
+    out[..., 2::2] -= s[..., 2::2] * X[..., 1::2]
+    return np.moveaxis(out, -1, axis)
+
+
+def shift(X: np.ndarray, theta) -> np.ndarray:
+    """Coefficients of x(tau + theta) for X (..., 2H+1), theta broadcast over (...)."""
+    X = np.asarray(X, dtype=float)
+    return turn(X, *shift_tables(theta, harmonics_of(X.shape[-1])))
+
+
 def evaluate(X: np.ndarray, tau, order: int = 0) -> np.ndarray:
     """x(tau) for X of shape (E, 2H+1) and tau of shape (E, K) or (K,): shape (E, K)."""
     X = np.asarray(X, dtype=float)

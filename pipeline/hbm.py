@@ -15,6 +15,25 @@ so Newton works on nc (2H+1) unknowns only; `recover` gives Q_o = S_oo^-1 (P_o -
 S_oc Q_c) afterwards.  The condensed residual is the full residual restricted to
 the c rows (the o rows vanish exactly), so its norm is in newtons [N], the units
 of the equations: no scaling is applied to decide convergence.
+
+Cyclic sectors (`System.cyclic`; Petrov, J. Turbomach. 126, 2004).  An element
+that also acts on the next sector sees that sector's motion shifted in time,
+q_{j+1}(tau) = q_j(tau + phi), phi = 2 pi EO / N.  In the real layout a shift by
+theta is the orthogonal, harmonic-wise rotation
+
+    T(theta) = blockdiag(1, R(theta), R(2 theta), ..., R(H theta)),
+    R(a) = [[cos a, sin a], [-sin a, cos a]]    (acting on [Xc_h, Xs_h]),
+
+i.e. the complex amplitude times exp(i h theta).  So every element DOF slot a
+carries a weight b_a and a shift theta_a (0 on the own sector, phi on the next):
+
+    U = sum_a bt_a T(theta_a) Q_a,   G_a += T(theta_a)^T (bt_a Fu + bn_a Fv),
+    dG_a/dQ_b = T(theta_a)^T (bt_a bt_b dFu/dU + bt_a bn_b dFu/dV + bn_a bn_b dFv/dV) T(theta_b),
+
+the back-projection being the transpose of the motion map (the force of the
+previous sector's element reaches this sector shifted by -phi), so the Jacobian
+stays exact.  The linear part, the condensation and the recovery are unchanged.
+Without `System.cyclic` no shift is stored and nothing is rotated.
 """
 from __future__ import annotations
 
@@ -25,7 +44,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .contact import YangMenq, forces
-from .harmonics import derivative_matrix
+from .harmonics import derivative_matrix, shift_tables, turn
 from .system import System
 
 
@@ -43,6 +62,8 @@ class HBMProblem:
     bt: np.ndarray         # (E, m) tangential weights
     bn: np.ndarray         # (E, m) normal weights
     P: np.ndarray          # (n, 2H+1) forcing coefficients [N]
+    shift: np.ndarray | None = None   # (E, m) time shift theta of each slot [rad] (cyclic)
+    rot: np.ndarray | None = None     # (2, E, m, 2H+1) cos, sin of h theta in the layout
 
     @property
     def nh(self):
@@ -65,21 +86,37 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
         raise ValueError(f"method must be 'exact' or 'aft', got {method!r}")
     Bt, Bn = _dense(system.Bt), _dense(system.Bn)
     n = system.n_dof
-    used = np.flatnonzero((Bt != 0).any(0) | (Bn != 0).any(0))
+    maps = [(Bt, Bn, 0.0)]
+    cy = system.cyclic
+    if cy is not None:  # slots on the next sector's DOFs, shifted by phi
+        maps.append((_dense(cy.Bt_next), _dense(cy.Bn_next), cy.phase))
+    used = np.flatnonzero(np.any([(T != 0).any(0) | (N_ != 0).any(0) for T, N_, _ in maps], 0))
     c = used
     o = np.setdiff1d(np.arange(n), c)
     pos = {d: i for i, d in enumerate(c)}
     E = Bt.shape[0]
-    rows = [np.flatnonzero((Bt[e] != 0) | (Bn[e] != 0)) for e in range(E)]
-    m = max([len(r) for r in rows] + [1])
+    rows = [[(T, N_, th, r) for T, N_, th in maps
+             for r in [np.flatnonzero((T[e] != 0) | (N_[e] != 0))] if r.size] for e in range(E)]
+    m = max([sum(r.size for *_, r in slots) for slots in rows] + [1])
     idx = np.zeros((E, m), int)
     bt = np.zeros((E, m))
     bn = np.zeros((E, m))
-    for e, r in enumerate(rows):
-        idx[e, :len(r)] = [pos[d] for d in r]
-        bt[e, :len(r)], bn[e, :len(r)] = Bt[e, r], Bn[e, r]
+    shift = np.zeros((E, m))
+    for e, slots in enumerate(rows):
+        k = 0
+        for T, N_, th, r in slots:
+            sl = slice(k, k + r.size)
+            idx[e, sl] = [pos[d] for d in r]
+            bt[e, sl], bn[e, sl], shift[e, sl] = T[e, r], N_[e, r], th
+            k += r.size
+    rot = None
+    if cy is None:
+        shift = None
+    else:
+        rot = np.stack(shift_tables(shift, H))
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
-                      system.forcing_coefficients(H))
+                      system.forcing_coefficients(H), shift, rot)
+
 
 
 # --------------------------------------------------------------------------
@@ -232,8 +269,11 @@ def real_vector(Pt, nh):
 # --------------------------------------------------------------------------
 
 def contact_motion(prob: HBMProblem, Qc):
-    """Relative displacements U = Bt Q, V = Bn Q (E, 2H+1) from Qc (nc, 2H+1)."""
+    """Relative displacements U = Bt Q, V = Bn Q (E, 2H+1) from Qc (nc, 2H+1)
+    (cyclic: each slot's coefficients shifted first, U = sum_a bt_a T(theta_a) Q_a)."""
     Qe = Qc[prob.idx]  # (E, m, nh)
+    if prob.rot is not None:
+        Qe = turn(Qe, prob.rot[0], prob.rot[1])
     return np.einsum("em,emk->ek", prob.bt, Qe), np.einsum("em,emk->ek", prob.bn, Qe)
 
 
@@ -247,6 +287,8 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
     f = forces(U, V, elem, prob.method, prob.n_samples, jacobian)
     G = np.zeros((nc, nh))
     contrib = prob.bt[..., None] * f.Fu[:, None, :] + prob.bn[..., None] * f.Fv[:, None, :]
+    if prob.rot is not None:  # back-projection T(theta_a)^T = T(-theta_a)
+        contrib = turn(contrib, prob.rot[0], -prob.rot[1])
     np.add.at(G, prob.idx, contrib)
     if not jacobian:
         return G, None, f
@@ -254,12 +296,16 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
     # per element: d(b_a^T F)/d(Q_b) for element DOF pairs (a, b)
     Je = (np.einsum("ea,eb,ekj->eakbj", bt, bt, f.dFu_dU)
           + np.einsum("ea,eb,ekj->eakbj", bt, bn, f.dFu_dV)
-          + np.einsum("ea,eb,ekj->eakbj", bn, bn, f.dFv_dV))
+          + np.einsum("ea,eb,ekj->eakbj", bn, bn, f.dFv_dV)).transpose(0, 1, 3, 2, 4)
+    if prob.rot is not None:  # T(theta_a)^T Je T(theta_b): rows by -theta_a, columns by -theta_b
+        c, s = prob.rot
+        Je = turn(Je, c[:, :, None, :, None], -s[:, :, None, :, None], axis=-2)
+        Je = turn(Je, c[:, None, :, None, :], -s[:, None, :, None, :], axis=-1)
     J = np.zeros((nc, nh, nc, nh))
     E, m = prob.idx.shape
     ia = np.broadcast_to(prob.idx[:, :, None], (E, m, m))
     ib = np.broadcast_to(prob.idx[:, None, :], (E, m, m))
-    np.add.at(J, (ia, slice(None), ib), Je.transpose(0, 1, 3, 2, 4))
+    np.add.at(J, (ia, slice(None), ib), Je)
     return G, J.reshape(nc * nh, nc * nh), f
 
 

@@ -10,6 +10,12 @@ distribute the contact forces back, so action = reaction holds by construction.
 
 The excitation is F(t) = Re sum_h F_h exp(i h Omega t) with `forcing[:, h] = F_h`
 (column 0 is a real static load), so any DOF and any harmonic can be excited.
+
+A System may be ONE SECTOR of a tuned cyclic structure (`cyclic`, see
+`CyclicCoupling` and `pipeline.cyclic`): its elements then also act on the next
+sector's DOFs, u = Bt q_j + Bt_next q_{j+1}, and the travelling wave
+q_{j+1}(tau) = q_j(tau + phi), phi = 2 pi EO / N, closes the equations on one
+sector (Petrov 2004).
 """
 from __future__ import annotations
 
@@ -18,6 +24,31 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .contact import YangMenq
+
+
+@dataclass(frozen=True)
+class CyclicCoupling:
+    """Contacts of a cyclic sector with the NEXT sector (tuned disk, N sectors).
+
+    Element e of sector j has the relative motion
+
+        u = Bt[e] q_j + Bt_next[e] q_{j+1},   v = Bn[e] q_j + Bn_next[e] q_{j+1},
+
+    and the engine-order travelling wave is q_{j+1}(tau) = q_j(tau + phi),
+    phi = 2 pi EO / N, i.e. Q_{j+1,h} = exp(i h phi) Q_{j,h} for every harmonic h
+    (Petrov, J. Turbomach. 126, 2004).  `pipeline.cyclic` builds such sectors and
+    their full N-sector assemblies.
+    """
+
+    Bt_next: np.ndarray      # (E, n) tangential map on the next sector's DOFs [-]
+    Bn_next: np.ndarray      # (E, n) normal map on the next sector's DOFs [-]
+    sectors: int             # N
+    engine_order: int        # EO
+
+    @property
+    def phase(self) -> float:
+        """Inter-sector phase angle phi = 2 pi EO / N [rad]."""
+        return 2.0 * np.pi * self.engine_order / self.sectors
 
 
 @dataclass(frozen=True)
@@ -32,6 +63,7 @@ class System:
     contact: YangMenq        # E element parameter sets
     forcing: np.ndarray      # (n, Hf+1) complex harmonic load amplitudes [N]
     dof_names: tuple = field(default=())
+    cyclic: CyclicCoupling | None = None   # None: an ordinary (non-cyclic) structure
 
     @property
     def n_dof(self) -> int:
@@ -56,7 +88,10 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     """Undamped natural frequencies [rad/s] with the contacts open or stuck.
 
     "stuck" adds ku along Bt and kv along Bn of every element in contact (n0 > 0 or
-    kv = 0): the linear limits the nonlinear response tends to.
+    kv = 0): the linear limits the nonlinear response tends to.  For a cyclic
+    sector the maps of the first harmonic, B = Bt + exp(i phi) Bt_next, give the
+    Hermitian stiffness K + B^H ku B + ...: the frequencies of the engine-order
+    family (nodal diameter EO).
     """
     import scipy.linalg as sla
 
@@ -65,7 +100,13 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     if contacts == "stuck":
         el = system.contact
         Bt, Bn = np.asarray(system.Bt, float), np.asarray(system.Bn, float)
-        K = K + Bt.T @ (el.ku[:, None] * Bt) + Bn.T @ ((el.kv * (el.n0 > 0))[:, None] * Bn)
+        cy = system.cyclic
+        if cy is not None:
+            z = np.exp(1j * cy.phase)
+            Bt = Bt + z * np.asarray(cy.Bt_next, float)
+            Bn = Bn + z * np.asarray(cy.Bn_next, float)
+        K = K + (Bt.conj().T @ (el.ku[:, None] * Bt)
+                 + Bn.conj().T @ ((el.kv * (el.n0 > 0))[:, None] * Bn))
     elif contacts != "open":
         raise ValueError(f"contacts must be 'open' or 'stuck', got {contacts!r}")
     return np.sqrt(np.abs(sla.eigh(K, M, eigvals_only=True)))

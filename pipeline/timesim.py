@@ -513,6 +513,9 @@ def _first_crossing(piece: _Piece, j, ts, g, gp, scale):
 def _check(system, Omega):
     if not isinstance(system, System):
         raise ValueError(f"system must be a pipeline.system.System, got {type(system).__name__}")
+    if system.cyclic is not None:
+        raise ValueError("system is a cyclic sector (System.cyclic): integrate its N-sector "
+                         "assembly, pipeline.cyclic.full_assembly, instead")
     if not (np.isfinite(Omega) and Omega > 0):
         raise ValueError(f"Omega must be a positive finite frequency [rad/s], got {Omega!r}")
 

@@ -1,0 +1,167 @@
+"""Tuned cyclic structures (bladed disks) with engine-order excitation.
+
+N identical sectors j = 0..N-1, each with the linear M, C, K of one sector (n DOFs)
+and Yang-Menq elements (paper Eq. 1, 9, 10) between sector j and the next one,
+j+1 (mod N):
+
+    u_j = Bt q_j + Bt_next q_{j+1},   v_j = Bn q_j + Bn_next q_{j+1}
+
+(a shroud pair: Bt = -t . (right face of j), Bt_next = +t . (left face of j+1), so
+the relative motion is d = U^L_{j+1} - U^R_j, as in the technical notes).  Rows with
+zero `_next` parts are elements inside one sector (e.g. a damper to ground).
+
+Engine-order excitation EO: sector j is loaded by the sector load shifted in time,
+F_j(tau) = F_0(tau + j phi), phi = 2 pi EO / N, i.e. F_{j,h} = exp(i h j phi) F_{0,h}
+(a first-harmonic load has the phase j phi).  The tuned steady state is then the
+travelling wave (Petrov, J. Turbomach. 126, 2004; exact for the nonlinear problem)
+
+    Q_{j,h} = exp(i h j phi) Q_{0,h}      for every harmonic h,
+
+which closes the harmonic balance on ONE sector: `sector_system` returns that
+sector as a `System` with `System.cyclic` set, which `hbm` solves with the
+shifted contact maps (see `hbm` docstring).  `full_assembly` builds all N sectors
+with the N x E elements as ordinary elements: the independent reference.
+EO = 0 (all sectors in phase) and EO = N/2 (N even; neighbours in antiphase in the
+odd harmonics) are standing waves; any other EO is a travelling wave.
+Mistuning, localisation and excitations that are not engine orders need the full
+assembly.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from math import gcd
+
+import numpy as np
+
+from .contact import YangMenq
+from .harmonics import shift
+from .system import CyclicCoupling, System
+
+
+@dataclass(frozen=True)
+class Sector:
+    """One tuned sector: linear part, interblade/intra-sector contacts, sector-0 load."""
+
+    M: np.ndarray            # (n, n) [kg]
+    C: np.ndarray            # (n, n) [N s/m]
+    K: np.ndarray            # (n, n) [N/m]
+    Bt: np.ndarray           # (E, n) tangential map on this sector's DOFs [-]
+    Bn: np.ndarray           # (E, n) normal map on this sector's DOFs [-]
+    Bt_next: np.ndarray      # (E, n) tangential map on the next sector's DOFs [-]
+    Bn_next: np.ndarray      # (E, n) normal map on the next sector's DOFs [-]
+    contact: YangMenq        # E elements (one set per sector)
+    forcing: np.ndarray      # (n, Hf+1) complex load of sector 0, F_{0,h} [N]
+    sectors: int             # N >= 2
+    dof_names: tuple = field(default=())
+
+    def __post_init__(self):
+        n = np.shape(self.M)[0]
+        if isinstance(self.sectors, bool) or int(self.sectors) != self.sectors or self.sectors < 2:
+            raise ValueError(f"sectors must be an integer >= 2, got {self.sectors!r}")
+        E = np.shape(self.Bt)[0]
+        for name in ("Bn", "Bt_next", "Bn_next"):
+            if np.shape(getattr(self, name)) != (E, n):
+                raise ValueError(f"{name} must have shape ({E}, {n}) like Bt, "
+                                 f"got {np.shape(getattr(self, name))}")
+        if self.contact.size != E and E:
+            raise ValueError(f"contact has {self.contact.size} elements, the maps have {E} rows")
+
+    @property
+    def n_dof(self) -> int:
+        return np.shape(self.M)[0]
+
+
+def phase(sectors: int, engine_order: int) -> float:
+    """Inter-sector phase angle phi = 2 pi EO / N [rad]."""
+    return 2.0 * np.pi * engine_order / sectors
+
+
+def check_engine_order(sectors: int, engine_order) -> int:
+    """EO as an int in [0, N-1] (ValueError naming the argument otherwise).
+    EO and N - EO are the same wave travelling the other way."""
+    if isinstance(engine_order, bool) or int(engine_order) != engine_order:
+        raise ValueError(f"engine_order must be an integer, got {engine_order!r}")
+    eo = int(engine_order)
+    if not 0 <= eo < sectors:
+        raise ValueError(f"engine_order must be in [0, {sectors - 1}] for {sectors} sectors, "
+                         f"got {eo}")
+    return eo
+
+
+def sector_system(sector: Sector, engine_order: int) -> System:
+    """The cyclic reduction: one sector whose elements see the next sector as this
+    one shifted by phi (Q_{j+1,h} = exp(i h phi) Q_{j,h}; Petrov 2004).  The
+    result is an ordinary `System` (n DOFs) with `cyclic` set: `hbm`, `response`,
+    `stability` solve it as they solve any other."""
+    eo = check_engine_order(sector.sectors, engine_order)
+    cy = CyclicCoupling(Bt_next=np.asarray(sector.Bt_next, float),
+                        Bn_next=np.asarray(sector.Bn_next, float),
+                        sectors=int(sector.sectors), engine_order=eo)
+    return System(M=sector.M, C=sector.C, K=sector.K, Bt=np.asarray(sector.Bt, float),
+                  Bn=np.asarray(sector.Bn, float), contact=sector.contact,
+                  forcing=np.asarray(sector.forcing, complex), dof_names=tuple(sector.dof_names),
+                  cyclic=cy)
+
+
+def isolated_system(sector: Sector) -> System:
+    """The sector alone, its interblade elements removed (rows of Bt, Bn with a
+    `_next` part dropped): the linear limit of EO = 0 for pure pair contacts."""
+    keep = ~(np.any(sector.Bt_next != 0, 1) | np.any(sector.Bn_next != 0, 1))
+    el = sector.contact
+    sub = YangMenq(el.ku[keep], el.kv[keep], el.mu[keep], el.n0[keep],
+                   None if el.slider_rest is None else el.slider_rest[keep])
+    return System(M=sector.M, C=sector.C, K=sector.K, Bt=np.asarray(sector.Bt)[keep],
+                  Bn=np.asarray(sector.Bn)[keep], contact=sub,
+                  forcing=np.asarray(sector.forcing, complex), dof_names=tuple(sector.dof_names))
+
+
+def sector_forcing(sector: Sector, engine_order: int, j: int) -> np.ndarray:
+    """Load of sector j: F_{j,h} = exp(i h j phi) F_{0,h} (n, Hf+1) [N]."""
+    F = np.asarray(sector.forcing, complex)
+    h = np.arange(F.shape[1])
+    return F * np.exp(1j * h * j * phase(sector.sectors, engine_order))
+
+
+def full_assembly(sector: Sector, engine_order: int) -> System:
+    """All N sectors in one `System` (N n DOFs, sector-major: DOF i of sector j is
+    j n + i), the N E elements as ordinary rows of Bt, Bn, travelling-wave load.
+    No symmetry is used: the reference for `sector_system`."""
+    eo = check_engine_order(sector.sectors, engine_order)
+    N, n = sector.sectors, sector.n_dof
+    E = np.shape(sector.Bt)[0]
+    blk = lambda A: np.kron(np.eye(N), np.asarray(A, float))  # noqa: E731
+    Bt = np.zeros((N * E, N * n))
+    Bn = np.zeros((N * E, N * n))
+    for j in range(N):
+        r, a, b = slice(j * E, (j + 1) * E), slice(j * n, (j + 1) * n), (j + 1) % N
+        nb = slice(b * n, (b + 1) * n)
+        Bt[r, a] += sector.Bt
+        Bn[r, a] += sector.Bn
+        Bt[r, nb] += sector.Bt_next
+        Bn[r, nb] += sector.Bn_next
+    el = sector.contact
+    tile = lambda a: None if a is None else np.tile(a, N)  # noqa: E731
+    contact = YangMenq(tile(el.ku), tile(el.kv), tile(el.mu), tile(el.n0), tile(el.slider_rest))
+    F = np.concatenate([sector_forcing(sector, eo, j) for j in range(N)])
+    names = tuple(f"s{j}.{d}" for j in range(N) for d in sector.dof_names)
+    return System(M=blk(sector.M), C=blk(sector.C), K=blk(sector.K), Bt=Bt, Bn=Bn,
+                  contact=contact, forcing=F, dof_names=names)
+
+
+def expand(Q0, sectors: int, engine_order: int):
+    """The N-sector response (N n, 2H+1) of a sector solution Q0 (n, 2H+1):
+    Q_j = T(j phi) Q0 (`harmonics.shift`), stacked sector-major as in `full_assembly`."""
+    phi = phase(sectors, engine_order)
+    return np.concatenate([shift(Q0, j * phi) for j in range(sectors)])
+
+
+def aft_samples_ok(sectors: int, engine_order: int, n_samples: int) -> bool:
+    """True if AFT on the sector equals AFT on the full assembly: the sample grid
+    must be invariant under the shift phi, i.e. n_samples a multiple of
+    N / gcd(N, EO) (technical notes, Cyclic symmetry with HBM)."""
+    return n_samples % (sectors // gcd(sectors, engine_order)) == 0
+
+
+def with_contact(sector: Sector, **params) -> Sector:
+    """A copy with contact parameters replaced (ku, kv, mu, n0 arrays or scalars)."""
+    return replace(sector, contact=replace(sector.contact, **params))
