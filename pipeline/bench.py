@@ -125,7 +125,59 @@ def blade(quick=False):
     return run_blade(quick)
 
 
-BENCHES = {"contact": contact, "hbm": hbm, "blade": blade}
+def parallel(quick=False, studies=("paper_example1", "paper_example3")):
+    """Wall time of whole studies: in this process, a 2-process pool and a Dask
+    LocalCluster with 2 workers; the datasets must be identical (timing aside)."""
+    import logging
+    import tempfile
+    from dataclasses import replace
+    from pathlib import Path
+
+    import xarray as xr
+
+    from .scene import load_study
+    from .study import run_study
+
+    for name in ("pipeline", "distributed"):
+        logging.getLogger(name).setLevel(logging.WARNING)
+    root = Path(__file__).resolve().parents[1] / "studies"
+
+    def same(a, b):
+        a, b = (d.drop_vars(["wall_time", "search_wall_time"], errors="ignore") for d in (a, b))
+        a.attrs.pop("created", None), b.attrs.pop("created", None)
+        return a.identical(b)
+
+    print(f"{'study':<16} {'cases':>5} | {'serial s':>8} | {'pool-2 s':>8} {'speed-up':>8} | "
+          f"{'dask-2 s':>8} {'speed-up':>8} | identical")
+    for name in studies:
+        study = load_study(root / f"{name}.toml", quick=quick)
+        # the cases only: the optimum-preload search after them is one serial search
+        study = replace(study, output=replace(study.output, optimum=None))
+        times, data = {}, {}
+        with tempfile.TemporaryDirectory() as tmp:
+            for how in ("serial", "pool", "dask"):
+                kw = dict(figures=False, progress=False, checkpoints=False)
+                t = time.perf_counter()
+                if how == "dask":
+                    from dask.distributed import LocalCluster
+                    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                      dashboard_address=None, silence_logs=logging.WARNING) as cluster:
+                        t = time.perf_counter()  # cluster start-up not counted
+                        res = run_study(study, Path(tmp) / how, scheduler=cluster.scheduler_address, **kw)
+                        times[how] = time.perf_counter() - t
+                else:
+                    res = run_study(study, Path(tmp) / how, workers=1 if how == "serial" else 2, **kw)
+                    times[how] = time.perf_counter() - t
+                data[how] = res.dataset
+        ok = same(data["serial"], data["pool"]) and same(data["serial"], data["dask"])
+        print(f"{name:<16} {len(study.sweep.cases()):>5} | {times['serial']:8.2f} | "
+              f"{times['pool']:8.2f} {times['serial'] / times['pool']:8.2f} | "
+              f"{times['dask']:8.2f} {times['serial'] / times['dask']:8.2f} | {'yes' if ok else 'NO'}")
+    print("pool: process start-up included; dask: cluster start-up excluded, client connection included")
+    return 0
+
+
+BENCHES = {"contact": contact, "hbm": hbm, "blade": blade, "parallel": parallel}
 
 
 def run(what, quick=False):
