@@ -188,7 +188,8 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         "description": study.description,
         "reference": study.reference,
         "model": scene.model,
-        "effects": ", ".join(scene.effects),
+        "effects": ", ".join(scene.effects) or "none (linear)",
+        "solution_method": _solution_method(study),
         "harmonics": int(H),
         "force_evaluation": study.solver.force_evaluation,
         "aft_samples": int(study.solver.samples),
@@ -287,6 +288,20 @@ def _add_optimum(data_vars, coords, opt, study, to_unit, unit):
         "units": "m", "long_name": f"resonant peak of {dof} at that preload"})
     data_vars["search_wall_time"] = ((), float(opt.get("wall_time", np.nan)), {
         "units": "s", "long_name": "wall time of the optimum search"})
+
+
+def _solution_method(study) -> str:
+    """What the run composed for the scene's declared effects (issue 5: a scene pays
+    only for what it calls for), in words."""
+    from .study import is_linear_scene
+
+    if is_linear_scene(study.scene):
+        return "direct linear solve per frequency (no contact elements: no Newton, no continuation)"
+    eff = set(study.scene.effects)
+    normal = ("variable normal load, searched for separation" if "normal_load_variation" in eff
+              else "constant normal load (Jenkins path: no separation search)")
+    return (f"harmonic balance with pseudo-arclength continuation; Yang-Menq contacts: {normal}; "
+            "fully stuck or open elements evaluated as linear springs")
 
 
 def _encoding(ds: xr.Dataset) -> dict:

@@ -121,6 +121,8 @@ def test_linear_scene_is_solved_directly_without_newton(tmp_path, monkeypatch):
     res = run_study(study, tmp_path, figures=False, progress=False)
     assert res.ok
     ds = res.dataset
+    assert ds.attrs["effects"] == "none (linear)"
+    assert ds.attrs["solution_method"].startswith("direct linear solve per frequency")
     assert (ds["newton_iterations"].fillna(0) <= 0).all() and (ds["residual_evaluations"] == 0).all()
     # closed form: peak at wn sqrt(1 - 2 zeta^2), amplitude F / (k 2 zeta sqrt(1 - zeta^2))
     m, c, k = 2.0, 0.8, 5.0e4
@@ -162,3 +164,13 @@ def test_linear_regimes_never_reach_the_transition_search(counted, system, H, lo
     assert c.success and c.converged.all()
     assert counted["evaluations"] > 10
     assert counted["transitions"] == 0 and counted["marched_rows"] == 0
+
+
+def test_dataset_says_what_the_scene_included():
+    from pipeline.dataset import _solution_method
+    from pipeline.scene import load_study
+
+    ex1 = load_study(ROOT / "studies" / "paper_example1.toml", quick=True)
+    ex3 = load_study(ROOT / "studies" / "paper_example3.toml", quick=True)
+    assert "Jenkins path: no separation search" in _solution_method(ex1)
+    assert "searched for separation" in _solution_method(ex3)
