@@ -11,6 +11,11 @@ either from `[scene.matrices]` M, C, K or from `[scene.modal]` data with mode
 shapes Phi as columns, modal masses m_r, frequencies w_r [rad/s], ratios z_r:
 
     M = Phi^-T diag(m) Phi^-1,  K = Phi^-T diag(m w^2) Phi^-1,  C = Phi^-T diag(2 z m w) Phi^-1
+
+Disk scene (`model = "disk"`, `disk_scene.py`): the same data for ONE sector of a
+tuned disk, `[scene.disk] sectors`, contact rows that may name the next sector's
+DOFs (`next.<dof>`), and an engine order (`engine_order` or the sweep axis `eo`);
+solved by the one-sector cyclic reduction (`cyclic.py`).
 """
 from __future__ import annotations
 
@@ -30,8 +35,8 @@ from .errors import UsageError
 from .system import System
 
 MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
-IMPLEMENTED_MODELS = ("lumped",)
-EFFECTS = ("friction", "normal_load_variation", "separation")
+IMPLEMENTED_MODELS = ("lumped", "disk")
+EFFECTS = ("friction", "normal_load_variation", "separation", "cyclic_coupling")
 # grid axes of [sweep]: name -> (units, long_name)
 SWEEP_AXES = {
     "preload": ("N", "normal preload n0 of every contact"),
@@ -39,6 +44,7 @@ SWEEP_AXES = {
     "ku": ("N/m", "tangential contact stiffness of every contact"),
     "kv": ("N/m", "normal contact stiffness of every contact"),
     "excitation_scale": ("1", "factor on every excitation amplitude"),
+    "eo": ("1", "engine order EO of the excitation (disk scenes)"),
 }
 FREQUENCY_UNITS = ("rad/s", "Hz")
 FIGURES = ("amplitude",)
@@ -184,23 +190,32 @@ def build_system(scene: Scene, case: dict | None = None) -> System:
     unknown = set(case) - set(SWEEP_AXES)
     if unknown:
         raise ValueError(f"case has unknown axes {sorted(unknown)}; known: {sorted(SWEEP_AXES)}")
+    if "eo" in case:
+        raise ValueError("case has an engine order (eo) but the scene is not a disk")
     n, E = len(scene.dofs), len(scene.contacts)
     Bt = np.array([c.bt for c in scene.contacts], dtype=float).reshape(E, n)
     Bn = np.array([c.bn for c in scene.contacts], dtype=float).reshape(E, n)
+    forcing = scene.forcing * float(case.get("excitation_scale", 1.0))
+    return System(M=scene.M, C=scene.C, K=scene.K, Bt=Bt, Bn=Bn,
+                  contact=contact_elements(scene.contacts, case),
+                  forcing=forcing, dof_names=tuple(scene.dofs))
+
+
+def contact_elements(contacts, case: dict) -> YangMenq:
+    """The Yang-Menq parameters of `contacts` (ContactSpec) with a case applied:
+    `preload` sets n0, `mu`, `ku`, `kv` those of every contact."""
+    E = len(contacts)
 
     def param(name, attr):
         if name in case:
             return np.full(E, float(case[name]))
-        vals = [getattr(c, attr) for c in scene.contacts]
+        vals = [getattr(c, attr) for c in contacts]
         if any(v is None for v in vals):
             raise ValueError(f"{attr} of a contact is unset and the case gives no {name!r}")
         return np.array(vals, dtype=float)
 
-    contact = YangMenq(ku=param("ku", "ku"), kv=param("kv", "kv"), mu=param("mu", "mu"),
-                       n0=param("preload", "n0"))
-    forcing = scene.forcing * float(case.get("excitation_scale", 1.0))
-    return System(M=scene.M, C=scene.C, K=scene.K, Bt=Bt, Bn=Bn, contact=contact,
-                  forcing=forcing, dof_names=tuple(scene.dofs))
+    return YangMenq(ku=param("ku", "ku"), kv=param("kv", "kv"), mu=param("mu", "mu"),
+                    n0=param("preload", "n0"))
 
 
 def study_to_mapping(study: Study) -> dict:
@@ -208,9 +223,10 @@ def study_to_mapping(study: Study) -> dict:
     rows for contacts, every default spelt out, no [quick] table (the variant that
     was loaded).  `study_from_mapping(study_to_mapping(s))` rebuilds the same study."""
     sc = study.scene
+    cdofs = getattr(sc, "contact_dofs", sc.dofs)  # disk scenes: also next.<dof>
 
     def row(r):
-        return {d: float(c) for d, c in zip(sc.dofs, r) if c != 0}
+        return {d: float(c) for d, c in zip(cdofs, r) if c != 0}
 
     contacts = []
     for c in sc.contacts:
@@ -236,12 +252,17 @@ def study_to_mapping(study: Study) -> dict:
         if o["window"] is not None:
             w = o["window"]
             output["optimum_preload"]["frequency"] = {"start": w.start, "stop": w.stop, "unit": w.unit}
+    scene = {"model": sc.model, "effects": list(sc.effects), "dofs": list(sc.dofs),
+             "matrices": {k: getattr(sc, k).tolist() for k in ("M", "C", "K")},
+             "contact": contacts, "excitation": excitation}
+    if sc.model == "disk":
+        scene["disk"] = {"sectors": sc.sectors}
+        if sc.engine_order is not None:
+            scene["disk"]["engine_order"] = sc.engine_order
     return {
         "study": {"title": study.title, "description": study.description,
                   "reference": study.reference},
-        "scene": {"model": sc.model, "effects": list(sc.effects), "dofs": list(sc.dofs),
-                  "matrices": {k: getattr(sc, k).tolist() for k in ("M", "C", "K")},
-                  "contact": contacts, "excitation": excitation},
+        "scene": scene,
         "sweep": sweep,
         "solver": solver,
         "output": output,
@@ -531,6 +552,13 @@ def _sweep(ck, tab, path, partial=False):
             if start == stop:
                 ck.fail(field, f"start and stop are equal ({start:g} {unit}): empty interval")
             freq = FrequencyRange(start, stop, unit)
+        elif key == "eo":  # engine orders: integers, range checked against the sectors
+            vals = ck.array(value, field)
+            for i, v in enumerate(vals):
+                ck.integer(v, f"{field}[{i}]", 0, 1 << 30)
+                if v in vals[:i]:
+                    ck.fail(f"{field}[{i}]", f"duplicate value {v}")
+            axes[key] = tuple(int(v) for v in vals)
         elif key in SWEEP_AXES:
             if isinstance(value, dict):
                 ck.fail(field, f"continuation in {key} is not supported yet; give a list of values")
@@ -552,11 +580,17 @@ def _sweep(ck, tab, path, partial=False):
 
 def _scene(ck, tab) -> Scene:
     ck.keys(tab, "scene", ("model", "effects", "dofs", "matrices", "modal", "contact",
-                           "excitation"), required=("model",))
+                           "excitation", "disk"), required=("model",))
     model = ck.string(tab["model"], "scene.model", MODELS)
     if model not in IMPLEMENTED_MODELS:
         ck.fail("scene.model", f"{model!r} is not implemented yet (available: "
                                f"{', '.join(IMPLEMENTED_MODELS)})")
+    disk = model == "disk"  # one sector of a cyclic disk: pipeline/disk_scene.py
+    if disk:
+        from . import disk_scene
+        sectors, engine_order = disk_scene.parse_disk(ck, tab)
+    elif "disk" in tab:
+        ck.fail("scene.disk", "only a disk scene (model = \"disk\") has a [scene.disk] table")
     effects = ck.names(tab.get("effects", []), "scene.effects", min_length=0)
     for i, e in enumerate(effects):
         if e not in EFFECTS:
@@ -564,6 +598,8 @@ def _scene(ck, tab) -> Scene:
     if "dofs" not in tab:
         ck.fail("scene.dofs", "missing (required): the names of the DOFs, e.g. [\"x1\", \"x2\"]")
     dofs = ck.names(tab["dofs"], "scene.dofs")
+    if disk:
+        disk_scene.check_dof_names(ck, dofs)
     n = len(dofs)
     if n > MAX_DOFS:
         ck.fail("scene.dofs", f"a lumped scene has at most {MAX_DOFS} DOFs, got {n}")
@@ -577,7 +613,14 @@ def _scene(ck, tab) -> Scene:
     if isinstance(contacts_raw, dict):
         ck.fail("scene.contact", "must be an array of tables: write [[scene.contact]]")
     ck.array(contacts_raw, "scene.contact", min_length=0)
-    contacts = tuple(_contact(ck, c, f"scene.contact[{i}]", dofs, i)
+    if disk:  # rows may name the next sector's DOFs, `next.<dof>`
+        cdofs = dofs + tuple(disk_scene.NEXT + d for d in dofs)
+        contacts_raw = [{k: disk_scene.contact_rows(v) if k in ("tangential", "normal") else v
+                         for k, v in c.items()} if isinstance(c, dict) else c
+                        for c in contacts_raw]
+    else:
+        cdofs = dofs
+    contacts = tuple(_contact(ck, c, f"scene.contact[{i}]", cdofs, i)
                      for i, c in enumerate(contacts_raw))
     names = [c.name for c in contacts]
     for i, nm in enumerate(names):
@@ -586,6 +629,10 @@ def _scene(ck, tab) -> Scene:
     if "excitation" not in tab:
         ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
     forcing = _excitation(ck, tab["excitation"], dofs)
+    if disk:
+        return disk_scene.DiskScene(model=model, effects=effects, dofs=dofs, M=M, C=C, K=K,
+                                    contacts=contacts, forcing=forcing, sectors=sectors,
+                                    engine_order=engine_order)
     return Scene(model=model, effects=effects, dofs=dofs, M=M, C=C, K=K,
                  contacts=contacts, forcing=forcing)
 
@@ -767,17 +814,31 @@ def _output(ck, t, scene) -> OutputSettings:
 
 
 def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
-    """Cross-field rules of a lumped scene (see `check_scene_rules`)."""
+    """Cross-field rules of a lumped or disk scene (see `check_scene_rules`,
+    `disk_scene.check_disk_rules`)."""
+    disk = scene.model == "disk"
+    if disk:
+        from .disk_scene import check_disk_rules
+        check_disk_rules(ck, scene, axes, wpath, data)
     check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
                       [c.kv for c in scene.contacts], any(np.any(c.bn) for c in scene.contacts),
-                      scene.forcing.shape[1] - 1, solver.harmonics, axes, spath, wpath)
+                      scene.forcing.shape[1] - 1, solver.harmonics, axes, spath, wpath, disk=disk)
 
 
-def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spath, wpath):
+def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spath, wpath,
+                      disk=False):
     """Cross-field rules shared by every scene: harmonics cover the excitation, swept
     contact parameters have contacts to act on, a preload is given, and the
     declared effects match the scene (friction <=> contacts; normal-load variation
-    <=> normal DOFs with kv > 0; separation <=> a gap or a varying normal load)."""
+    <=> normal DOFs with kv > 0; separation <=> a gap or a varying normal load;
+    an engine order and "cyclic_coupling" only in a disk scene)."""
+    if not disk:
+        if "eo" in axes:
+            ck.fail(f"{wpath}.eo", "only a disk scene (scene.model = \"disk\") has an engine "
+                                   "order")
+        if "cyclic_coupling" in effects:
+            ck.fail("scene.effects", "\"cyclic_coupling\" needs a disk scene (scene.model = "
+                                     "\"disk\"); this scene is one structure")
     if h_excited > H:
         ck.fail(f"{spath}.harmonics", f"H = {H} is below the excited harmonic {h_excited} "
                                       "(scene.excitation)")

@@ -1,10 +1,16 @@
 """Cyclic bladed disks: the one-sector reduction (Petrov 2004) against the full
 N-sector assembly, and the standing-wave hard cases EO = 0 and EO = N/2 against
 closed references."""
+import copy
+import subprocess
+import sys
+import tomllib
 from math import gcd
+from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.linalg import eigh
 from scipy.optimize import minimize_scalar
 
 from pipeline import hbm
@@ -14,6 +20,8 @@ from pipeline.cyclic import (Sector, aft_samples_ok, expand, full_assembly, isol
                              sector_forcing, sector_system)
 from pipeline.harmonics import evaluate
 from pipeline.response import frequency_response
+from pipeline.scene import load_study, study_from_mapping, study_to_mapping
+from pipeline.study import run_study
 from pipeline.system import System, natural_frequencies
 
 KU, MU, N0 = 2.0, 0.3, 0.5
@@ -276,3 +284,80 @@ def test_travelling_wave_with_separation_sector_equals_full_assembly():
     assert a.peak(1)[1] == pytest.approx(1.7371435, rel=1e-6)
     np.testing.assert_allclose(np.sort(a.fold_parameter), [1.4998483, 1.5004554, 1.5517259,
                                                            1.5517328], rtol=1e-6)
+
+
+# ---------------------------------------------------------------------------
+# Disk scenes: studies/disk_cyclic.toml
+# ---------------------------------------------------------------------------
+
+ROOT = Path(__file__).resolve().parents[1]
+DISK = ROOT / "studies" / "disk_cyclic.toml"
+CHECKER = ROOT.parent / "shared" / "tools" / "check_dataset.py"
+
+
+def test_disk_scene_builds_only_its_sector():
+    st = load_study(DISK)
+    assert st.sweep.axes == {"eo": (0, 3, 12)}
+    s = st.system({"eo": 3})
+    assert s.n_dof == 2 and s.dof_names == ("x1", "x2")
+    assert (s.cyclic.sectors, s.cyclic.engine_order) == (24, 3)
+    np.testing.assert_array_equal(s.Bt, [[0, -1]])
+    np.testing.assert_array_equal(s.cyclic.Bt_next, [[0, 1]])
+    assert s.contact.n0[0] == 2.0 and s.forcing[0, 1] == 1.0
+    # the stuck EO = 12 family: x2 held by 4 ku (neighbours in antiphase)
+    K = st.scene.K + np.diag([0.0, 4 * 7.1e5])
+    ref = np.sqrt(eigh(K, st.scene.M, eigvals_only=True))
+    np.testing.assert_allclose(natural_frequencies(st.system({"eo": 12}), "stuck"), ref)
+    full = st.scene.full_system({"eo": 3})  # only on request: the reference assembly
+    assert full.n_dof == 48 and full.n_elements == 24
+    # a one-structure scene builds no cyclic system
+    lumped = load_study(ROOT / "studies" / "paper_example1.toml")
+    assert lumped.system({"preload": 1.0}).cyclic is None
+    # dotted-key and signed-list rows agree; the canonical document round-trips
+    doc = tomllib.loads(DISK.read_text())
+    doc["scene"]["contact"][0]["tangential"] = {"x2": -1.0, "next": {"x2": 1.0}}
+    t = study_from_mapping(copy.deepcopy(doc), file="dict.toml")
+    np.testing.assert_array_equal(t.system({"eo": 3}).cyclic.Bt_next, s.cyclic.Bt_next)
+    u = study_from_mapping(study_to_mapping(st), file="canonical.toml")
+    assert (u.sweep, u.solver, u.output) == (st.sweep, st.solver, st.output)
+    assert study_to_mapping(u) == study_to_mapping(st)
+
+
+def test_disk_study_quick_run(tmp_path, monkeypatch):
+    """The quick variant end to end (EO = 0 and 12, H = 1) without ever building
+    the 24-sector assembly; EO = 0 is the uncoupled blade's linear FRF."""
+    import pipeline.cyclic as cyclic
+
+    def forbidden(*a, **k):
+        raise AssertionError("a disk run must not assemble all sectors")
+
+    monkeypatch.setattr(cyclic, "full_assembly", forbidden)
+    st = load_study(DISK, quick=True)
+    res = run_study(st, tmp_path, workers=1, figures=False, progress=False)
+    assert res.ok
+    ds = res.dataset
+    assert ds.attrs["sectors"] == 24 and list(ds["eo"].values) == [0, 12]
+    assert bool(ds["converged"].sum() > 0) and not np.isnan(ds["peak_amplitude"].values).any()
+    sc = st.scene
+    for dof in (0, 1):
+        ref, om, _ = linear_peak(sc.K, sc.M, sc.C, sc.forcing[:, 1], dof, 2 * np.pi * 370,
+                                 2 * np.pi * 385)
+        assert float(ds["peak_amplitude"][0, dof]) == pytest.approx(ref, rel=1e-8)
+        assert float(ds["peak_frequency"][0, dof]) == pytest.approx(om / (2 * np.pi), rel=1e-6)
+    assert float(ds["peak_amplitude"][0, 0]) == pytest.approx(3.5343649e-5, rel=1e-7)
+    assert float(ds["peak_amplitude"][1, 0]) < 0.2 * float(ds["peak_amplitude"][0, 0])
+    chk = subprocess.run([sys.executable, str(CHECKER), str(res.path)], capture_output=True,
+                         text=True)
+    assert chk.returncode == 0, chk.stdout + chk.stderr
+
+
+def test_disk_cli_rejects_an_engine_order_of_the_sector_count(tmp_path):
+    bad = ROOT / "tests" / "bad_studies" / "disk_eo_not_below_sectors.toml"
+    r = subprocess.run([sys.executable, "-m", "pipeline", "run", str(bad), "--out",
+                        str(tmp_path / "out")], capture_output=True, text=True, cwd=ROOT,
+                       timeout=120)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.splitlines() == [
+        f"error: {bad}: sweep.eo[1]: engine order 24 is not smaller than the number of "
+        "sectors 24 (EO and EO mod N are the same excitation); give 0 <= EO <= 12"]
+    assert not (tmp_path / "out").exists()
