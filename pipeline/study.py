@@ -60,6 +60,10 @@ def run_case(solver, system, H, omega_start, omega_stop, kwargs):
         return None, f"{type(exc).__name__}: {exc}"
 
 
+class WorkerLost(RuntimeError):
+    """A worker process of the local pool died; the finished cases are kept."""
+
+
 @dataclass
 class StudyResult:
     study: Study
@@ -231,10 +235,13 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
                 futs = {pool.submit(run_case, *job(k)): k for k in todo}
                 for fut in as_completed(futs):
                     done(futs[fut], fut.result())
-            except BaseException:  # Ctrl-C or a lost worker: stop the running cases now
-                for proc in list(getattr(pool, "_processes", {}).values()):
+            except BaseException as exc:  # Ctrl-C or a lost worker: stop the running cases now
+                for proc in list((getattr(pool, "_processes", None) or {}).values()):
                     proc.terminate()
                 pool.shutdown(wait=False, cancel_futures=True)
+                from concurrent.futures.process import BrokenProcessPool
+                if isinstance(exc, BrokenProcessPool):
+                    raise WorkerLost("a worker process died (killed, or out of memory)") from None
                 raise
             pool.shutdown()
         else:
@@ -477,6 +484,10 @@ def cmd_run(args) -> int:
         print(f"interrupted: finished cases are kept in {out}/.{study.name}.*.cases; "
               "rerun the same command to resume", file=sys.stderr)
         return 130
+    except WorkerLost as exc:
+        print(f"error: {args.study}: {exc}; finished cases are kept in "
+              f"{out}/.{study.name}.*.cases, rerun the same command to resume", file=sys.stderr)
+        return 1
     if res.reused:
         log.info("%s: %d case(s) reused from the interrupted run, %d computed",
                  study.name, res.reused, res.computed)

@@ -109,6 +109,35 @@ def test_interrupted_study_resumes_without_recomputing(serial, study_file, tmp_p
     assert not cdirs()
 
 
+def test_killed_pool_worker_loses_nothing(serial, study_file, tmp_path):
+    """A worker of the process pool is killed (OOM killer, operator): the run stops
+    with one error line, the finished cases stay, and the rerun completes them."""
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pipeline", "run", str(study_file), "--out", str(out),
+           "--workers", "2", "--no-figures"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env=dict(os.environ, MPLBACKEND="Agg"))
+    t_end = time.time() + 120
+    while time.time() < t_end and proc.poll() is None:
+        cd = list(out.glob(".six_preloads.*.cases"))
+        if cd and list(cd[0].glob("case-*.pkl")):
+            break
+        time.sleep(0.02)
+    kids = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+    assert proc.poll() is None and kids, "no running worker to kill"
+    os.kill(int(kids[-1]), signal.SIGKILL)
+    _, err = proc.communicate(timeout=60)
+    err = err.decode()
+    assert proc.returncode == 1 and "Traceback" not in err
+    assert "a worker process died" in err and "rerun the same command to resume" in err
+    assert not (out / "six_preloads.nc").exists()
+    kept = len(list(next(out.glob(".six_preloads.*.cases")).glob("case-*.pkl")))
+    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    res = run_study(study, out, workers=2, figures=False, progress=False)
+    assert res.ok and res.reused == kept and res.computed == N_CASES - kept
+    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(serial))
+
+
 def test_changed_study_does_not_reuse_old_cases(study_file, tmp_path):
     a = parse_study(STUDY, file=str(study_file), name="six_preloads")
     b = parse_study(STUDY.replace("mu = 0.5", "mu = 0.4"), file=str(study_file), name="six_preloads")
