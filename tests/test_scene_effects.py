@@ -174,3 +174,21 @@ def test_dataset_says_what_the_scene_included():
     ex3 = load_study(ROOT / "studies" / "paper_example3.toml", quick=True)
     assert "Jenkins path: no separation search" in _solution_method(ex1)
     assert "searched for separation" in _solution_method(ex3)
+
+
+# -- 3. assembly: one blade builds no cyclic assembly; a disk builds one sector -----
+
+def test_one_blade_builds_no_cyclic_assembly_and_a_disk_only_one_sector():
+    from pipeline.scene import load_study
+
+    blade = load_study(ROOT / "studies" / "blade_shroud_contact.toml", quick=True)
+    sb = blade.system(blade.sweep.cases()[0][1])
+    assert sb.cyclic is None                                   # no cyclic operator at all
+    assert sb.n_dof == blade.scene.reduced().M.shape[0]        # one reduced blade, nothing more
+
+    disk = load_study(ROOT / "studies" / "disk_cyclic.toml", quick=True)
+    n_sector = len(disk.scene.dofs)
+    for _, case in disk.sweep.cases():
+        sd = disk.system(case)
+        assert sd.cyclic is not None and sd.n_dof == n_sector  # 1 of 24 sectors assembled
+        assert sd.M.shape == (n_sector, n_sector)
