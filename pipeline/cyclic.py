@@ -24,11 +24,16 @@ with the N x E elements as ordinary elements: the independent reference.
 EO = 0 (all sectors in phase) and EO = N/2 (N even; neighbours in antiphase in the
 odd harmonics) are standing waves; any other EO is a travelling wave.
 Mistuning, localisation and excitations that are not engine orders need the full
-assembly.
+assembly.  Stability: the sector's own Hill problem only sees perturbations with
+the symmetry of the solution (wave number 0 relative to it); a travelling wave can
+lose stability to other wave numbers r = 1..N/2 (measured: N = 4, EO = 1 with
+separation, stable by the sector's Hill problem, unstable by the assembly's).
+`hbm.wave_jacobians` gives the Hill problem of every wave number from the sector
+alone (together exactly the assembly's eigenvalues).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from math import gcd
 
 import numpy as np
@@ -161,7 +166,3 @@ def aft_samples_ok(sectors: int, engine_order: int, n_samples: int) -> bool:
     N / gcd(N, EO) (technical notes, Cyclic symmetry with HBM)."""
     return n_samples % (sectors // gcd(sectors, engine_order)) == 0
 
-
-def with_contact(sector: Sector, **params) -> Sector:
-    """A copy with contact parameters replaced (ku, kv, mu, n0 arrays or scalars)."""
-    return replace(sector, contact=replace(sector.contact, **params))

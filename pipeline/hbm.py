@@ -64,6 +64,7 @@ class HBMProblem:
     P: np.ndarray          # (n, 2H+1) forcing coefficients [N]
     shift: np.ndarray | None = None   # (E, m) time shift theta of each slot [rad] (cyclic)
     rot: np.ndarray | None = None     # (2, E, m, 2H+1) cos, sin of h theta in the layout
+    nxt: np.ndarray | None = None     # (E, m) bool: the slot is a DOF of the next sector
 
     @property
     def nh(self):
@@ -102,20 +103,20 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
     bt = np.zeros((E, m))
     bn = np.zeros((E, m))
     shift = np.zeros((E, m))
+    nxt = np.zeros((E, m), bool)
     for e, slots in enumerate(rows):
         k = 0
         for T, N_, th, r in slots:
             sl = slice(k, k + r.size)
             idx[e, sl] = [pos[d] for d in r]
             bt[e, sl], bn[e, sl], shift[e, sl] = T[e, r], N_[e, r], th
+            nxt[e, sl] = T is not Bt
             k += r.size
-    rot = None
     if cy is None:
-        shift = None
-    else:
-        rot = np.stack(shift_tables(shift, H))
+        return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
+                          system.forcing_coefficients(H))
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
-                      system.forcing_coefficients(H), shift, rot)
+                      system.forcing_coefficients(H), shift, np.stack(shift_tables(shift, H)), nxt)
 
 
 
@@ -277,8 +278,11 @@ def contact_motion(prob: HBMProblem, Qc):
     return np.einsum("em,emk->ek", prob.bt, Qe), np.einsum("em,emk->ek", prob.bn, Qe)
 
 
-def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobian=True):
-    """Generalised contact force Bt^T Fu + Bn^T Fv (nc, nh) and its Jacobian."""
+def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobian=True,
+                  blocks=False):
+    """Generalised contact force Bt^T Fu + Bn^T Fv (nc, nh) and its Jacobian
+    (nc nh, nc nh); with blocks=True the Jacobian is returned per element and slot
+    pair instead, (E, m, m, nh, nh), for `assemble` (see `wave_jacobians`)."""
     elem = contact if contact is not None else prob.system.contact
     nc, nh = prob.c.size, prob.nh
     if prob.idx.shape[0] == 0:
@@ -301,12 +305,18 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
         c, s = prob.rot
         Je = turn(Je, c[:, :, None, :, None], -s[:, :, None, :, None], axis=-2)
         Je = turn(Je, c[:, None, :, None, :], -s[:, None, :, None, :], axis=-1)
-    J = np.zeros((nc, nh, nc, nh))
+    return G, (Je if blocks else assemble(prob, Je)), f
+
+
+def assemble(prob: HBMProblem, Je):
+    """Contact Jacobian (nc nh, nc nh) from per-element slot-pair blocks Je (E, m, m, nh, nh)."""
+    nc, nh = prob.c.size, prob.nh
+    J = np.zeros((nc, nh, nc, nh), dtype=Je.dtype)
     E, m = prob.idx.shape
     ia = np.broadcast_to(prob.idx[:, :, None], (E, m, m))
     ib = np.broadcast_to(prob.idx[:, None, :], (E, m, m))
     np.add.at(J, (ia, slice(None), ib), Je)
-    return G, J.reshape(nc * nh, nc * nh), f
+    return J.reshape(nc * nh, nc * nh)
 
 
 # --------------------------------------------------------------------------
@@ -386,6 +396,60 @@ def full_jacobian(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
     nc = prob.c.size
     J[np.ix_(prob.c, np.arange(nh), prob.c, np.arange(nh))] += Jnl.reshape(nc, nh, nc, nh)
     return J.reshape(n * nh, n * nh)
+
+
+def wave_jacobians(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
+    """Hill's problems [(r, J, M, C), ...] of a solution Q (n, nh) for every family of
+    perturbations, so that the travelling wave is stable iff each one is.
+
+    Non-cyclic: the one problem (0, full_jacobian, M, C).  A cyclic sector's own
+    Jacobian only sees perturbations with the symmetry of the solution; the
+    N-sector assembly also has perturbations with a wave number r: dQ_j =
+    z^j T(j phi) dQ_0, z = exp(2 pi i r / N).  With that ansatz the contact
+    Jacobian becomes (from the equivariance of the contact law under time shifts)
+
+        J_r = L + J_ss + J_nn + z J_sn + conj(z) J_ns
+
+    (s: slots on this sector, n: on the next; J_sn = rows s, columns n).  For
+    r = 0 and r = N/2 z is real; the pairs r, N - r are conjugate and are solved
+    together as the real problem of twice the size
+
+        [[L + A + c S, -s D], [s D, L + A + c S]],  A = J_ss + J_nn, S = J_sn + J_ns,
+        D = J_sn - J_ns, c + i s = z,   with M, C doubled.
+
+    The union of their exponents is the Hill spectrum of the full assembly."""
+    sysm, nh, n = prob.system, prob.nh, prob.system.n_dof
+    M, C = _dense(sysm.M), _dense(sysm.C)
+    if prob.nxt is None:
+        return [(0, full_jacobian(prob, Q, Om, contact), M, C)]
+    N = sysm.cyclic.sectors
+    L = full_linear_operator(sysm, Om, prob.H).reshape(n, nh, n, nh)
+    _, Je, _ = contact_terms(prob, Q[prob.c], contact, jacobian=True, blocks=True)
+    nxt = prob.nxt
+
+    def part(rows, cols):
+        mask = (nxt[:, :, None] == rows) & (nxt[:, None, :] == cols)
+        out = np.zeros((n, nh, n, nh))
+        nc = prob.c.size
+        out[np.ix_(prob.c, np.arange(nh), prob.c, np.arange(nh))] = assemble(
+            prob, Je * mask[..., None, None]).reshape(nc, nh, nc, nh)
+        return out.reshape(n * nh, n * nh)
+
+    L = L.reshape(n * nh, n * nh)
+    A = L + part(False, False) + part(True, True)
+    Jsn, Jns = part(False, True), part(True, False)
+    out = []
+    for r in range(N // 2 + 1):
+        a = 2 * np.pi * r / N
+        if r == 0 or 2 * r == N:
+            out.append((r, A + np.cos(a) * (Jsn + Jns), M, C))
+            continue
+        c, s = np.cos(a), np.sin(a)
+        B, D = A + c * (Jsn + Jns), s * (Jsn - Jns)
+        J2 = np.block([[B, -D], [D, B]])
+        # real and imaginary parts of the perturbation as two blocks of DOFs
+        out.append((r, J2, np.kron(np.eye(2), M), np.kron(np.eye(2), C)))
+    return out
 
 
 def force_scale(prob: HBMProblem, contact: YangMenq | None = None) -> float:

@@ -20,6 +20,7 @@ from pipeline.cyclic import (Sector, aft_samples_ok, expand, full_assembly, isol
                              sector_forcing, sector_system)
 from pipeline.harmonics import evaluate
 from pipeline.response import frequency_response
+from pipeline.stability import hill_eigenvalues, is_stable
 from pipeline.scene import load_study, study_from_mapping, study_to_mapping
 from pipeline.study import run_study
 from pipeline.system import System, natural_frequencies
@@ -127,6 +128,41 @@ def test_aft_sector_equals_aft_assembly_only_for_shift_invariant_samples(samples
         assert err > 1e-6
     assert aft_samples_ok(6, 0, 7) and aft_samples_ok(6, 3, 2) and not aft_samples_ok(6, 3, 3)
     assert all(aft_samples_ok(24, eo, 24 // gcd(24, eo)) for eo in range(24))
+
+
+@pytest.mark.parametrize("N,eo", [(4, 1), (5, 2), (6, 3)])
+def test_wave_families_decompose_the_assembly_hill_problem(N, eo):
+    """The sector's Hill problems for the wave numbers r = 0..N/2 (`hbm.wave_jacobians`)
+    have together exactly the eigenvalues of the N-sector assembly's Hill problem,
+    so the stability of a travelling wave against every perturbation (not only
+    those with its own symmetry) needs no assembly."""
+    sec = sector(N=N, kv=3.0, n0=0.1, normal=True, static=True)
+    prob, Q = solve_sector(sec, eo, 1.6)
+    fam = hbm.wave_jacobians(prob, Q, 1.6)
+    assert [r for r, *_ in fam] == list(range(N // 2 + 1))
+    lam = np.concatenate([hill_eigenvalues(J, M, C, 1.6, 3, full_output=True).eigenvalues
+                          for _, J, M, C in fam])
+    full = hbm.setup(full_assembly(sec, eo), 3)
+    ref = hill_eigenvalues(hbm.full_jacobian(full, expand(Q, N, eo), 1.6), full.system.M,
+                           full.system.C, 1.6, 3, full_output=True).eigenvalues
+    assert lam.size == ref.size == 2 * N * 2 * 7
+    assert np.abs(ref[:, None] - lam[None, :]).min(1).max() < 1e-10 * np.abs(ref).max()
+    J0 = hbm.full_jacobian(prob, Q, 1.6)  # r = 0: the sector's own symmetry
+    np.testing.assert_allclose(fam[0][1], J0, rtol=0, atol=1e-12 * np.abs(J0).max())
+    assert len(hbm.wave_jacobians(hbm.setup(isolated_system(sec), 3), Q, 1.6)) == 1
+
+
+def test_a_travelling_wave_can_lose_stability_to_another_wave_number():
+    """N = 4, EO = 1 with separation at 1.7 rad/s: stable against perturbations with
+    its own symmetry (the sector's Hill problem), unstable to the standing wave
+    r = 2, as the 8-DOF assembly's Hill problem says too."""
+    sec = sector(N=4, kv=3.0, n0=0.1, normal=True, static=True)
+    prob, Q = solve_sector(sec, 1, 1.7)
+    verdict = [is_stable(J, M, C, 1.7, 3)[0] for _, J, M, C in hbm.wave_jacobians(prob, Q, 1.7)]
+    assert verdict == [True, True, False]
+    full = hbm.setup(full_assembly(sec, 1), 3)
+    assert not is_stable(hbm.full_jacobian(full, expand(Q, 4, 1), 1.7), full.system.M,
+                         full.system.C, 1.7, 3)[0]
 
 
 # ---------------------------------------------------------------------------
