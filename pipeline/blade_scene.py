@@ -10,8 +10,14 @@ Yang-Menq elements between its shroud contact faces and RIGID neighbours:
 
 one element per contact-face node k with u_k = t . d_k (face tangent) and
 v_k = n . d_k (outward normal: v > 0 closes the gap, as `fe_model.ContactFrame`
-defines).  `ku`, `kv` [N/m] and `mu` are per node; the preload `n0` [N] is the TOTAL
-normal load of the face, n0_k = n0 / (number of face nodes).  Damping is modal
+defines).  `mu` is per node.  With `stiffness = "per_node"` (the default) `ku`, `kv`
+[N/m] are per node and the preload `n0` [N] is the TOTAL normal load of the face,
+n0_k = n0 / (number of face nodes); the face stiffness then grows with the mesh.
+With `stiffness = "per_face"`, ku, kv and n0 are all face totals, shared by the
+nodes in proportion to the area they carry, a_k = int_face N_k dA
+(`ContactFrame.weights`): ku_k = ku a_k / A, kv_k = kv a_k / A, n0_k = n0 a_k / A.
+That is a uniform contact pressure and stiffness per area, the same on every mesh
+(a row-sum lumping of the consistent face stiffness).  Damping is modal
 (`damping_ratios` of `[scene.blade]`, on the reduced modes) or Rayleigh
 C = alpha M + beta K (`rayleigh = [alpha, beta]`), whose projection is exact, so the
 reduced and the unreduced model then carry the same damping.
@@ -46,6 +52,7 @@ BLADE_MODELS = ("solid_blade", "beam_blade")
 KINDS = ("response", "modes")
 FACES = ("shroud_left", "shroud_right")
 POINTS = ("excitation", "response")
+STIFFNESS = ("per_node", "per_face")  # how ku, kv of a face contact are given
 COMPONENTS = "xyz"
 DEFAULT_MODE_COUNTS = (0, 5, 10, 20, 40)
 _OUT_DOF = re.compile(r"^(excitation|response)\.([xyz])$")
@@ -67,10 +74,11 @@ class FaceContact:
 
     name: str
     face: str               # node set of the blade (shroud_left / shroud_right)
-    ku: float               # [N/m] per node
-    kv: float               # [N/m] per node
+    ku: float               # [N/m] per node (face total when stiffness = "per_face")
+    kv: float               # [N/m] per node (face total when stiffness = "per_face")
     mu: float               # [-]
     n0: float | None        # [N] total over the face; None: the sweep's preload
+    stiffness: str = "per_node"  # "per_face": ku, kv are face totals shared by area
 
 
 @dataclass(frozen=True)
@@ -163,22 +171,32 @@ class BladeScene:
         return sp.vstack(Bt).tocsr(), sp.vstack(Bn).tocsr(), np.asarray(owner)
 
     def elements(self, case: dict | None = None) -> YangMenq:
-        """Yang-Menq parameters per face node; `preload` is the total per face."""
+        """Yang-Menq parameters per face node; `preload` is the total per face, shared
+        equally ("per_node" contacts) or by area with ku, kv ("per_face" contacts)."""
         case = dict(case or {})
         _, _, owner = self.contact_maps()
-        counts = np.bincount(owner, minlength=len(self.contacts)) if owner.size else np.zeros(0)
 
         def per(name, attr):
             if name in case:
-                return np.full(len(self.contacts), float(case[name]))
+                return np.full(owner.size, float(case[name]))
             vals = [getattr(c, attr) for c in self.contacts]
             if any(v is None for v in vals):
                 raise ValueError(f"{attr} of a contact is unset and the case gives no {name!r}")
-            return np.array(vals, dtype=float)
+            return np.array(vals, dtype=float)[owner]
 
-        n0 = per("preload", "n0") / np.maximum(counts, 1)
-        return YangMenq(ku=per("ku", "ku")[owner], kv=per("kv", "kv")[owner],
-                        mu=per("mu", "mu")[owner], n0=n0[owner])
+        ku, kv, mu, n0 = per("ku", "ku"), per("kv", "kv"), per("mu", "mu"), per("preload", "n0")
+        for i, c in enumerate(self.contacts):
+            on = owner == i
+            if c.stiffness == "per_face":
+                a = self.blade().frames[c.face].weights
+                if a is None or not np.all(a > 0):
+                    raise ValueError(f"contact {c.name!r}: stiffness = 'per_face' needs a positive "
+                                     "area per face node")
+                share = a / a.sum()
+                ku[on], kv[on], n0[on] = ku[on] * share, kv[on] * share, n0[on] * share
+            else:
+                n0[on] = n0[on] / max(int(on.sum()), 1)
+        return YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)
 
     def forcing_full(self, case: dict | None = None) -> np.ndarray:
         """(n_full, Hf+1) complex load amplitudes [N] on the free DOFs."""
@@ -234,8 +252,13 @@ class BladeScene:
                 "damping": (f"rayleigh alpha = {self.rayleigh[0]:g} 1/s, beta = "
                             f"{self.rayleigh[1]:g} s" if self.rayleigh is not None else
                             f"modal ratios {list(self.params.damping_ratios)}"),
-                "contact_parameters": "ku, kv per contact node [N/m]; preload = total normal "
-                                      "load of each face [N], n0 per node = preload / nodes",
+                "contact_parameters": "; ".join(
+                    f"{c.name}: " + ("ku, kv per contact node [N/m]; preload = total normal load "
+                                     "of the face [N], n0 per node = preload / nodes"
+                                     if c.stiffness == "per_node" else
+                                     "ku, kv [N/m] and preload [N] are face totals, shared by "
+                                     "the nodes in proportion to their area")
+                    for c in self.contacts),
                 "reduced_frequencies_hz": np.asarray(red.frequencies[:10], dtype=float),
                 "reduction_time_s": float(self._cache.get("reduce_time", np.nan))}
 
@@ -467,6 +490,10 @@ def _blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
     for i, c in enumerate(contacts):
         if c.face not in blade.frames:
             ck.fail(f"scene.contact[{i}].face", f"the blade has no contact face {c.face!r}")
+        a = blade.frames[c.face].weights
+        if c.stiffness == "per_face" and (a is None or not np.all(a > 0)):
+            ck.fail(f"scene.contact[{i}].stiffness", "\"per_face\" needs a positive area per "
+                                                     "face node; this mesh gives some none")
     return scene
 
 
@@ -497,14 +524,16 @@ def _mesh(ck, value, field_, base_dir, tab, kind):
 
 def _face_contact(ck, c, f, i) -> FaceContact:
     c = ck.table(c, f)
-    ck.keys(c, f, ("name", "face", "ku", "kv", "mu", "n0"), required=("face", "ku", "mu"))
+    ck.keys(c, f, ("name", "face", "ku", "kv", "mu", "n0", "stiffness"),
+            required=("face", "ku", "mu"))
     face = ck.string(c["face"], f"{f}.face", FACES)
     name = ck.string(c.get("name", face), f"{f}.name")
     ku = ck.number(c["ku"], f"{f}.ku", gt=0.0)
     kv = ck.number(c.get("kv", 0.0), f"{f}.kv", ge=0.0)
     mu = ck.number(c["mu"], f"{f}.mu", ge=0.0)
     n0 = ck.number(c["n0"], f"{f}.n0") if "n0" in c else None
-    return FaceContact(name=name, face=face, ku=ku, kv=kv, mu=mu, n0=n0)
+    stiffness = ck.string(c.get("stiffness", "per_node"), f"{f}.stiffness", STIFFNESS)
+    return FaceContact(name=name, face=face, ku=ku, kv=kv, mu=mu, n0=n0, stiffness=stiffness)
 
 
 def _loads(ck, raw) -> tuple:

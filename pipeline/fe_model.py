@@ -50,7 +50,7 @@ import meshio
 import numpy as np
 import scipy.sparse as sp
 from skfem import (Basis, BilinearForm, ElementHex2, ElementLineHermite, ElementLineP1,
-                   ElementTetP2, MeshHex, MeshLine, MeshTet, asm)
+                   ElementTetP2, FacetBasis, LinearForm, MeshHex, MeshLine, MeshTet, asm)
 from skfem.helpers import dd, dot, grad
 from skfem.io.meshio import HEX_MAPPING
 from skfem.models.elasticity import lame_parameters
@@ -147,7 +147,9 @@ class ContactFrame:
 
     normal: outward unit normal n; tangent: t = n_R x e_Z (shared by both faces);
     tangent2: t x n_R (radial, shared).  points (k, 3) [m]; dofs (k, 3) free-DOF indices of the X, Y, Z
-    displacement components of each point.
+    displacement components of each point.  weights (k,) [m^2]: int_face N_k dA, the
+    face area each point carries (its shape function integrated over the face; they
+    sum to the face area); None when the face spans no element facet.
     """
 
     name: str
@@ -156,6 +158,7 @@ class ContactFrame:
     tangent2: np.ndarray
     points: np.ndarray
     dofs: np.ndarray
+    weights: np.ndarray | None = None
 
     def maps(self, n_dof: int):
         """(Bt, Bn, Bt2) sparse (k, n_dof): u = Bt q, v = Bn q, u2 = Bt2 q."""
@@ -385,7 +388,18 @@ def _set_dofs(mesh, basis, nodes):
     return dofs, basis.doflocs[:, dofs[:, 0]].T
 
 
-def _frame(mesh, name, nodes, points, dofs, n_right):
+def _face_weights(mesh, sbasis, nodes, scalar_dofs):
+    """int_face N_s dA [m^2] of the scalar DOFs `scalar_dofs` over the boundary facets
+    spanned by `nodes` (None if they span none): the area each face point carries."""
+    bf = mesh.boundary_facets()
+    facets = bf[np.isin(mesh.facets[:, bf], nodes).all(axis=0)]
+    if not facets.size:
+        return None
+    fb = FacetBasis(mesh, sbasis.elem, facets=facets, intorder=4)
+    return LinearForm(lambda v, w: v).assemble(fb)[scalar_dofs]
+
+
+def _frame(mesh, name, nodes, points, dofs, n_right, weights=None):
     X = mesh.p[:, nodes].T
     centre = X.mean(axis=0)
     _, sv, vt = np.linalg.svd(X - centre, full_matrices=False)
@@ -404,7 +418,7 @@ def _frame(mesh, name, nodes, points, dofs, n_right):
     if np.linalg.norm(tangent) < 1e-8:
         tangent = np.cross(ref, [1.0, 0.0, 0.0])
     tangent /= np.linalg.norm(tangent)
-    return ContactFrame(name, normal, tangent, np.cross(tangent, ref), points, dofs)
+    return ContactFrame(name, normal, tangent, np.cross(tangent, ref), points, dofs, weights)
 
 
 def assemble_elasticity(basis, E: float, nu: float, rho: float, chunk: int = 512):
@@ -499,7 +513,7 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
     K, M = K[free][:, free].tocsr(), M[free][:, free].tocsr()
     renum = -np.ones(basis.N, dtype=np.int64)
     renum[free] = np.arange(free.size)
-    dof_sets, set_points = {}, {}
+    dof_sets, set_points, weights = {}, {}, {}
     for name, nodes in node_sets.items():
         if name == "root":
             continue
@@ -508,11 +522,14 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
         else:
             d, x = _set_dofs(mesh, basis, nodes)
         dof_sets[name], set_points[name] = renum[d], x
+        if name in CONTACT_SETS:
+            weights[name] = _face_weights(mesh, sbasis, nodes, d[:, 0] // 3)
     frames = {}
     n_right = None
     for name in ("shroud_right", "shroud_left"):
         if name in node_sets:
-            f = _frame(mesh, name, node_sets[name], set_points[name], dof_sets[name], n_right)
+            f = _frame(mesh, name, node_sets[name], set_points[name], dof_sets[name], n_right,
+                       weights[name])
             n_right = f.normal if name == "shroud_right" else n_right
             frames[name] = f
     t = mesh.t if cell_type == "tetra" else mesh.t[HEX_MAPPING[:8]]
