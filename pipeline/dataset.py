@@ -55,6 +55,9 @@ def _peak(freq, amp, mask):
     return a[i, np.arange(a.shape[1])], freq[i]
 
 
+INTEGER_AXES = ("eo",)   # sweep axes whose values are counts (engine order)
+
+
 def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
     """Build the study dataset from one ResponseCurve per grid case.
 
@@ -163,7 +166,7 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         ("mode",), natural_frequencies(study.system(cases[0][1]), "open") / to_unit,
         {"units": unit, "long_name": "undamped natural frequency without contacts"})
 
-    coords = {a: (a, np.asarray(vals, dtype=float),
+    coords = {a: (a, np.asarray(vals, dtype=np.int32 if a in INTEGER_AXES else float),
                   {"units": SWEEP_AXES[a][0], "long_name": SWEEP_AXES[a][1]})
               for a, vals in study.sweep.axes.items()}
     coords["dof"] = ("dof", np.asarray(out.dofs, dtype=str), {"long_name": "response degree of freedom"})

@@ -390,7 +390,8 @@ def write_figures(study: Study, ds, fig_dir) -> list:
             branches = []
             for j in range(ds.sizes[curve_axis] if curve_axis else 1):
                 b = d.isel({curve_axis: j}) if curve_axis else d
-                label = (f"{curve_axis} = {float(b[curve_axis]):g} {ds[curve_axis].attrs['units']}"
+                unit_c = ds[curve_axis].attrs["units"] if curve_axis else ""
+                label = (f"{curve_axis} = {float(b[curve_axis]):g}" + (f" {unit_c}" if unit_c != "1" else "")
                          if curve_axis else study.name)
                 branches.append((label, b["frequency"].values, b["amplitude"].values,
                                  b["stable"].values, b["converged"].values))
