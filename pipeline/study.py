@@ -35,7 +35,8 @@ def default_solver(study: Study | None = None):
     """The solver of a study's cases: `linear_response.frequency_response` (direct
     solve per frequency) when the scene calls for neither friction nor separation,
     else `response.frequency_response` (HBM continuation)."""
-    if study is not None and is_linear_scene(study.scene):
+    scene = getattr(study, "scene", None)  # an accuracy-cost study has one scene per case
+    if scene is not None and is_linear_scene(scene):
         from .linear_response import frequency_response as linear_solver
         return linear_solver
     from . import response
