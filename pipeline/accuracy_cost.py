@@ -1,0 +1,1036 @@
+"""Accuracy against cost (`[study] kind = "accuracy_cost"`, `studies/accuracy_cost.toml`).
+
+Each case (a lumped scene `[lumped]`, an FE blade scene `[blade]`) is traced once
+with its REFERENCE settings (the most accurate ones), once with its BASELINE
+settings and once per value of each accuracy knob, the other settings held at the
+baseline.  Every run is a frequency continuation (`response.frequency_response`,
+without stability) whose peak is located exactly; it gives
+
+    wall time      best of `repeats` runs [s] (plus, for a blade, the FE assembly
+                   and the Craig-Bampton reduction of its mesh and mode count)
+    e_A = |A - A_ref| / A_ref               peak amplitude of the case's DOF
+    e_W = |W - W_ref| / W_ref               peak frequency
+    e_F = max_f |W_f - W_f,ref| / W_f,ref   fold frequencies (inf if the number of
+                                            folds differs; NaN if neither has any)
+    error = max(e_A, e_W, e_F)
+
+Knobs: `harmonics` H, `samples` N (AFT forces on N samples instead of the exact
+ones), `tolerance` (Newton residual tolerance of every point, relative to the
+force scale, `hbm.tolerances`), `max_step` (largest continuation step in the
+scaled arclength: it sets how densely the branch is sampled, while peaks and folds
+are refined to the tolerance whatever the step), `craig_bampton_modes` and
+`mesh = [n_chord, n_thick, n_span]` (blades).
+
+The lumped reference is also checked against event-driven time integration
+(`timesim.steady_state`, no harmonic truncation) at its peak: the amplitude there,
+and the peak frequency found by maximising the integrated amplitude (bounded Brent).
+
+The recommended value of each knob is the cheapest measured one (baseline
+included) whose three errors are all below `[recommendation] target`; the
+combination of the recommended values is then run once more and reported as is
+(errors of several knobs add, so it may miss the target; the run says so).
+
+Output: `DIR/<name>.nc` (one `run` dimension, the response variables of
+DATASET.md per run, the settings, times and errors), `DIR/<name>/pareto.png`
+(error against wall time, log-log, one series per knob) and
+`DIR/<name>/table.md`.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from .scene import _Checker
+
+log = logging.getLogger(__name__)
+
+CASES = ("lumped", "blade")
+_LUMPED_KNOBS = ("harmonics", "samples", "tolerance", "max_step")
+KNOBS = {"lumped": _LUMPED_KNOBS, "blade": _LUMPED_KNOBS + ("craig_bampton_modes", "mesh")}
+_SETTINGS = {"lumped": ("harmonics", "force_evaluation", "samples", "tolerance", "max_step",
+                        "initial_step"),
+             "blade": ("harmonics", "force_evaluation", "samples", "tolerance", "max_step",
+                       "initial_step", "craig_bampton_modes", "mesh")}
+_CASE_KEYS = ("dof", "preload", "frequency", "repeats", "time_integration", "scene", "reference",
+              "baseline", "knobs")
+_QUICK_KEYS = ("dof", "preload", "frequency", "repeats", "time_integration", "reference",
+               "baseline", "knobs")
+_MESH_FIELDS = ("n_chord", "n_thick", "n_span")
+METRICS = ("peak_amplitude", "peak_frequency", "fold_frequency")
+
+
+# ---------------------------------------------------------------------------
+# Plain data
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Settings:
+    """Solver and model accuracy settings of one run."""
+
+    harmonics: int = 14
+    force_evaluation: str = "exact"
+    samples: int = 256                  # AFT samples per period (force_evaluation = "aft")
+    tolerance: float = 1e-9             # relative residual tolerance (hbm.tolerances)
+    max_step: float = 0.1               # largest continuation step (scaled arclength)
+    initial_step: float = 0.02          # first continuation step
+    craig_bampton_modes: int | None = None   # blades: fixed-interface modes
+    mesh: tuple | None = None           # blades: (n_chord, n_thick, n_span)
+
+    def with_knob(self, knob: str, value) -> "Settings":
+        """These settings with one knob changed (`samples` switches to AFT; a max_step
+        below the initial step lowers the initial step too)."""
+        if knob == "samples":
+            return replace(self, force_evaluation="aft", samples=int(value))
+        if knob == "max_step":
+            return replace(self, max_step=float(value), initial_step=min(self.initial_step, value))
+        return replace(self, **{knob: value})
+
+    def value_of(self, knob: str):
+        if knob == "samples":
+            return self.samples if self.force_evaluation == "aft" else "exact"
+        return getattr(self, knob)
+
+    def solver_kwargs(self) -> dict:
+        """Keyword arguments of `response.frequency_response`."""
+        return dict(method=self.force_evaluation, n_samples=self.samples, tol_rel=self.tolerance,
+                    ds=self.initial_step, ds_max=self.max_step, stability=False)
+
+    def describe(self) -> str:
+        parts = [f"H = {self.harmonics}",
+                 "exact forces" if self.force_evaluation == "exact" else f"AFT N = {self.samples}",
+                 f"tolerance {self.tolerance:g}", f"max_step {self.max_step:g}"]
+        if self.craig_bampton_modes is not None:
+            parts.append(f"{self.craig_bampton_modes} CB modes")
+        if self.mesh is not None:
+            parts.append("mesh " + "x".join(map(str, self.mesh)))
+        return ", ".join(parts)
+
+
+@dataclass(frozen=True)
+class Case:
+    """One scene with its reference, baseline and knob values."""
+
+    name: str                   # "lumped" or "blade"
+    scene: object               # scene.Scene or blade_scene.BladeScene
+    dof: str                    # response DOF whose peak is measured
+    preload: float | None       # [N] every contact's n0 (blades: total per face); None: the scene's
+    frequency: object           # scene.FrequencyRange
+    repeats: int
+    time_integration: bool      # lumped only: reference vs event-driven integration
+    reference: Settings
+    baseline: Settings
+    knobs: tuple                # ((knob, (value, ...)), ...) in file order
+
+    def runs(self) -> list:
+        """[(knob, value, Settings)]: reference, baseline, then every knob value."""
+        out = [("reference", None, self.reference), ("baseline", None, self.baseline)]
+        for k, values in self.knobs:
+            out += [(k, v, self.baseline.with_knob(k, v)) for v in values]
+        return out
+
+
+@dataclass(frozen=True)
+class AccuracyStudy:
+    file: str
+    name: str
+    title: str
+    description: str
+    reference: str
+    text: str
+    cases: tuple                # Case, ...
+    target: float               # relative error the recommendation must meet
+    quick: bool = False
+    kind: str = "accuracy_cost"
+
+
+# ---------------------------------------------------------------------------
+# Validation
+# ---------------------------------------------------------------------------
+
+class _Prefixed(_Checker):
+    """Reports every field under a prefix (a scene nested in a case table)."""
+
+    def __init__(self, file, prefix):
+        super().__init__(file)
+        self.prefix = prefix
+
+    def fail(self, field_, what):
+        super().fail(f"{self.prefix}.{field_}" if field_ else self.prefix, what)
+
+
+class _At(_Checker):
+    """Reports every failure at one field (a value checked by code that names others)."""
+
+    def __init__(self, file, at):
+        super().__init__(file)
+        self.at = at
+
+    def fail(self, field_, what):
+        super().fail(self.at, what)
+
+
+def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study", text: str = "",
+                       quick: bool = False) -> AccuracyStudy:
+    """Validate an accuracy-cost study document (both the full and the quick variant)."""
+    ck = _Checker(file)
+    ck.table(data, "(document)")
+    ck.keys(data, "", ("study", "recommendation", "quick") + CASES, required=("study",))
+    head = ck.table(data["study"], "study")
+    ck.keys(head, "study", ("title", "description", "reference", "kind"), required=("title",))
+    title = ck.string(head["title"], "study.title")
+    description = ck.string(head.get("description", ""), "study.description")
+    reference = ck.string(head.get("reference", ""), "study.reference")
+    ck.string(head.get("kind", ""), "study.kind", ("accuracy_cost",))
+    rec = ck.table(data.get("recommendation"), "recommendation", required=False)
+    ck.keys(rec, "recommendation", ("target",))
+    target = ck.number(rec.get("target", 1e-3), "recommendation.target", gt=0.0, lt=1.0)
+    present = [c for c in CASES if c in data]
+    if not present:
+        ck.fail("(document)", "no case: give a [lumped] and/or a [blade] table")
+    qt = ck.table(data.get("quick"), "quick", required=False)
+    ck.keys(qt, "quick", tuple(present))
+    base_dir = Path(file).parent if file and not file.startswith("<") else Path(".")
+    full, short = [], []
+    for c in present:
+        tab = ck.table(data[c], c)
+        ck.keys(tab, c, _CASE_KEYS, required=("scene", "reference", "frequency"))
+        q = ck.table(qt.get(c), f"quick.{c}", required=False)
+        ck.keys(q, f"quick.{c}", _QUICK_KEYS)
+        scene, h_excited = _case_scene(ck, c, tab, base_dir)
+        full.append(_case(ck, c, tab, scene, h_excited, lambda p, c=c: f"{c}.{p}"))
+        merged, origin = _merge_quick(ck, c, tab, q)
+        short.append(_case(ck, c, merged, scene, h_excited,
+                           lambda p, c=c, o=origin: f"{o(p)}.{p}"))
+    return AccuracyStudy(file=file, name=name, title=title, description=description,
+                         reference=reference, text=text, cases=tuple(short if quick else full),
+                         target=float(target), quick=bool(quick))
+
+
+def _merge_quick(ck, c, tab, q):
+    """The case table with `[quick.<case>]` applied: reference and baseline are merged
+    key by key, every other key (knobs included) is replaced.  Returns (table,
+    origin(path) -> "quick.<case>" or "<case>")."""
+    merged, from_quick = dict(tab), set()
+    for k, v in q.items():
+        if k in ("reference", "baseline"):
+            sub = ck.table(v, f"quick.{c}.{k}")
+            merged[k] = {**ck.table(tab.get(k, {}), f"{c}.{k}"), **sub}
+            from_quick |= {f"{k}.{s}" for s in sub}
+        else:
+            merged[k] = v
+            from_quick.add(k)
+
+    def origin(path):
+        parts = path.split(".")
+        heads = {".".join(parts[:i]) for i in range(1, len(parts) + 1)}
+        head = parts[0].split("[")[0]
+        return f"quick.{c}" if (heads & from_quick or head in from_quick) else c
+    return merged, origin
+
+
+def _case_scene(ck, c, tab, base_dir):
+    """(scene, highest excited harmonic) of a case: a lumped `Scene` or a `BladeScene`
+    (validated with the reference mesh and mode count)."""
+    pk = _Prefixed(ck.file, c)
+    raw = ck.table(tab["scene"], f"{c}.scene")
+    model = raw.get("model")
+    if c == "lumped":
+        from .scene import _scene
+        if model != "lumped":
+            ck.fail(f"{c}.scene.model", f"the [lumped] case needs model = \"lumped\", got {model!r}")
+        scene = _scene(pk, raw)
+        return scene, scene.forcing.shape[1] - 1
+    from .blade_scene import _blade_scene
+    if model != "solid_blade":
+        ck.fail(f"{c}.scene.model", f"the [blade] case needs model = \"solid_blade\", got {model!r}")
+    for k in ("craig_bampton_modes",):
+        if k in raw:
+            ck.fail(f"{c}.scene.{k}", "an accuracy setting: give it in reference, baseline or knobs")
+    blade_tab = ck.table(raw.get("blade", {}), f"{c}.scene.blade")
+    for k in _MESH_FIELDS:
+        if k in blade_tab:
+            ck.fail(f"{c}.scene.blade.{k}", "an accuracy setting: give mesh = [n_chord, n_thick, "
+                                            "n_span] in reference, baseline or knobs")
+    ref = ck.table(tab["reference"], f"{c}.reference")
+    at = dict(raw)
+    if "mesh" in ref:  # build (and so validate) the scene on the reference mesh
+        counts = _mesh_value(ck, ref["mesh"], f"{c}.reference.mesh")
+        at["blade"] = {**blade_tab, **dict(zip(_MESH_FIELDS, counts))}
+    if "craig_bampton_modes" in ref:
+        at["craig_bampton_modes"] = ck.integer(ref["craig_bampton_modes"],
+                                               f"{c}.reference.craig_bampton_modes", 0, 10_000)
+    scene = _blade_scene(pk, at, "response", base_dir, {})
+    if not scene.contacts:
+        ck.fail(f"{c}.scene.contact", "a blade case needs at least one [[blade.scene.contact]]")
+    return scene, max(ld.harmonic for ld in scene.loads)
+
+
+def _mesh_value(ck, value, field_):
+    vals = ck.array(value, field_, length=3)
+    return tuple(ck.integer(v, f"{field_}[{i}]", 1, 1000) for i, v in enumerate(vals))
+
+
+def _setting(ck, key, value, field_, h_excited):
+    """One validated setting value."""
+    from .scene import MAX_HARMONICS
+
+    if key == "harmonics":
+        H = ck.integer(value, field_, 1, MAX_HARMONICS)
+        if H < h_excited:
+            ck.fail(field_, f"H = {H} is below the excited harmonic {h_excited}")
+        return H
+    if key == "force_evaluation":
+        return ck.string(value, field_, ("exact", "aft"))
+    if key == "samples":
+        return ck.integer(value, field_, 3, 1 << 16)
+    if key == "tolerance":
+        return ck.number(value, field_, gt=0.0, lt=1.0)
+    if key in ("max_step", "initial_step"):
+        return ck.number(value, field_, gt=0.0, le=10.0)
+    if key == "craig_bampton_modes":
+        return ck.integer(value, field_, 0, 10_000)
+    if key == "mesh":
+        return _mesh_value(ck, value, field_)
+    raise AssertionError(key)
+
+
+def _settings(ck, c, t, path, where, h_excited, base=None) -> Settings:
+    """Settings from table `t` on top of `base` (default: the built-in defaults)."""
+    allowed = _SETTINGS[c]
+    for k in t:
+        if k not in allowed:
+            ck.keys({k: None}, where(f"{path}.{k}").rsplit(".", 1)[0], allowed)
+    kw = {k: _setting(ck, k, v, f"{where(f'{path}.{k}')}", h_excited) for k, v in t.items()}
+    s = replace(base, **kw) if base is not None else Settings(**kw)
+    if c == "blade" and base is None:
+        from .reduction import DEFAULT_MODES
+        if s.craig_bampton_modes is None:
+            s = replace(s, craig_bampton_modes=DEFAULT_MODES)
+        if s.mesh is None:
+            from .fe_model import BladeParams
+            p = BladeParams()
+            s = replace(s, mesh=(p.n_chord, p.n_thick, p.n_span))
+    _check_settings(ck, s, lambda k: where(f"{path}.{k}") if k in t else where(path))
+    return s
+
+
+def _check_settings(ck, s, field_of):
+    if s.initial_step > s.max_step:
+        ck.fail(field_of("initial_step"), f"initial_step {s.initial_step:g} exceeds max_step "
+                                          f"{s.max_step:g}")
+    if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
+        ck.fail(field_of("samples"), f"must be >= 2H+1 = {2 * s.harmonics + 1} for H = "
+                                     f"{s.harmonics}, got {s.samples}")
+
+
+def _beyond(knob, value, ref: Settings) -> str | None:
+    """Why `value` of `knob` is more accurate than the reference (None if it is not)."""
+    if knob == "harmonics" and value > ref.harmonics:
+        return f"H = {value} exceeds the reference's H = {ref.harmonics}"
+    if knob == "samples" and ref.force_evaluation == "aft" and value > ref.samples:
+        return f"N = {value} exceeds the reference's N = {ref.samples}"
+    if knob == "tolerance" and value < ref.tolerance:
+        return f"{value:g} is below the reference's tolerance {ref.tolerance:g}"
+    if knob == "max_step" and value < ref.max_step:
+        return f"{value:g} is below the reference's max_step {ref.max_step:g}"
+    if knob == "craig_bampton_modes" and value > ref.craig_bampton_modes:
+        return f"{value} modes exceed the reference's {ref.craig_bampton_modes}"
+    if knob == "mesh" and any(a > b for a, b in zip(value, ref.mesh)):
+        return f"mesh {list(value)} is finer than the reference's {list(ref.mesh)}"
+    return None
+
+
+def _case(ck, c, tab, scene, h_excited, where) -> Case:
+    """Validate one case table (full or quick variant); `where(path)` gives the
+    dotted field of a path inside the case."""
+    from .scene import FrequencyRange, _sweep, check_scene_rules
+
+    dofs = scene.dofs
+    if "dof" not in tab:
+        ck.fail(where("dof"), "missing (required): the response DOF whose peak is measured")
+    dof = ck.string(tab["dof"], where("dof"))
+    if c == "blade":
+        from .blade_scene import _OUT_DOF
+        if not _OUT_DOF.match(dof):
+            ck.fail(where("dof"), f"{dof!r} is not '<set>.<component>' with set excitation or "
+                                  "response and component x, y or z")
+    elif dof not in dofs:
+        ck.fail(where("dof"), f"unknown DOF {dof!r} (DOFs: {', '.join(dofs)})")
+    preload = ck.number(tab["preload"], where("preload")) if "preload" in tab else None
+    fr = tab["frequency"]
+    if not isinstance(fr, dict):
+        ck.fail(where("frequency"), "must be a table {start, stop, unit}")
+    _, freq = _sweep(_Prefixed(ck.file, where("frequency").rsplit(".", 1)[0]),
+                     {"frequency": fr}, "", partial=True)
+    if freq.start > freq.stop:
+        ck.fail(where("frequency"), "start must be below stop")
+    repeats = ck.integer(tab.get("repeats", 1), where("repeats"), 1, 100)
+    ti = ck.boolean(tab.get("time_integration", False), where("time_integration"))
+    if ti and c != "lumped":
+        ck.fail(where("time_integration"), "event-driven time integration is offered for the "
+                                           "lumped case only")
+    ref_t = ck.table(tab["reference"], where("reference"))
+    reference = _settings(ck, c, ref_t, "reference", where, h_excited)
+    base_t = ck.table(tab.get("baseline", {}), where("baseline"))
+    baseline = _settings(ck, c, base_t, "baseline", where, h_excited, base=reference)
+    for k in base_t:
+        why = _beyond(k, baseline.value_of(k), reference) if k in KNOBS[c] else None
+        if why:
+            ck.fail(where(f"baseline.{k}"), why + ": the reference must be the most accurate")
+    knobs_t = ck.table(tab.get("knobs", {}), where("knobs"))
+    if not knobs_t:
+        ck.fail(where("knobs"), f"no knob to vary (knobs: {', '.join(KNOBS[c])})")
+    knobs = []
+    for k, values in knobs_t.items():
+        path = where(f"knobs.{k}")
+        if k not in KNOBS[c]:
+            ck.keys({k: None}, where("knobs"), KNOBS[c])
+        vals = ck.array(values, path)
+        out = []
+        for i, v in enumerate(vals):
+            f = f"{path}[{i}]"
+            x = _setting(ck, k, v, f, h_excited)
+            if x in out:
+                ck.fail(f, f"duplicate value {v}")
+            why = _beyond(k, x, reference)
+            if why:
+                ck.fail(f, why + ": the reference must be the most accurate setting")
+            s = baseline.with_knob(k, x)
+            if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
+                ck.fail(f, f"must be >= 2H+1 = {2 * s.harmonics + 1} for the baseline's H = "
+                           f"{s.harmonics}, got {s.samples}")
+            if k == "mesh":
+                _check_mesh(ck, scene, x, f)
+            out.append(x)
+        knobs.append((k, tuple(out)))
+    if c == "blade":
+        for k, s in (("reference", reference), ("baseline", baseline)):
+            _check_mesh(ck, scene, s.mesh, where(f"{k}.mesh"))
+        if scene.mesh is not None and ("mesh" in knobs_t or "mesh" in base_t):
+            ck.fail(where("knobs.mesh" if "mesh" in knobs_t else "baseline.mesh"),
+                    "the scene reads a mesh file: it cannot be refined")
+    if preload is not None and not scene.contacts:
+        ck.fail(where("preload"), "the scene has no contact to apply it to")
+    n0s = [cc.n0 for cc in scene.contacts]
+    kvs = [cc.kv for cc in scene.contacts]
+    has_normal = (any(np.any(cc.bn) for cc in scene.contacts) if c == "lumped"
+                  else bool(scene.contacts))
+    axes = {"preload": (preload,)} if preload is not None else {}
+    check_scene_rules(_Prefixed(ck.file, c), scene.effects, n0s, kvs, has_normal, h_excited,
+                      reference.harmonics, axes, "reference", "")
+    return Case(name=c, scene=scene, dof=dof, preload=preload,
+                frequency=FrequencyRange(freq.start, freq.stop, freq.unit), repeats=repeats,
+                time_integration=ti, reference=reference, baseline=baseline, knobs=tuple(knobs))
+
+
+def _check_mesh(ck, scene, counts, field_):
+    """A generated blade with these element counts must be valid and not too fine."""
+    from .blade_scene import _blade_params
+
+    p = scene.params
+    t = {k: getattr(p, k) for k in ("length", "chord", "thickness", "shroud_chord",
+                                    "shroud_width", "shroud_height", "shroud_angle",
+                                    "stagger_angle", "E", "nu", "rho")}
+    t.update(dict(zip(_MESH_FIELDS, counts)))
+    _blade_params(_At(ck.file, field_), t, scene.model, {})
+
+
+# ---------------------------------------------------------------------------
+# Measurements
+# ---------------------------------------------------------------------------
+
+@dataclass
+class Measurement:
+    """What one run gives: its cost, its peak and folds, and its curve."""
+
+    success: bool
+    message: str
+    crashed: bool = False               # raised an exception (a bug or a bad model)
+    wall_time: float = math.nan         # [s] continuation (best of repeats) + model time
+    cpu_time: float = math.nan          # [s] process time of that best continuation
+    model_time: float = 0.0             # [s] blades: FE assembly + Craig-Bampton reduction
+    peak_amplitude: float = math.nan    # [m]
+    peak_frequency: float = math.nan    # [rad/s]
+    folds: np.ndarray = field(default_factory=lambda: np.zeros(0))   # [rad/s], ascending
+    n_points: int = 0
+    nfev: int = 0
+    n_dof: int = 0                      # DOFs of the model solved (reduced for blades)
+    n_dof_full: int = 0                 # DOFs of the unreduced model
+    omega: np.ndarray = field(default_factory=lambda: np.zeros(0))          # (P,) [rad/s]
+    amplitude: np.ndarray = field(default_factory=lambda: np.zeros(0))      # (P,) [m]
+    harmonic_amplitude: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    converged: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    peak_state: tuple | None = None     # (system, Q (n, 2H+1), omega) at the peak
+
+
+def _system(case: Case, s: Settings, models: dict):
+    """(System, index of the case's DOF, model time [s], n_dof_full) for settings s.
+    `models` caches FE blades per mesh and reductions per (mesh, modes)."""
+    case_arg = {"preload": case.preload} if case.preload is not None else None
+    if case.name == "lumped":
+        from .scene import build_system
+        system = build_system(case.scene, case_arg)
+        return system, case.scene.dof_index(case.dof), 0.0, system.n_dof
+    sc = case.scene
+    if s.mesh not in models:
+        params = replace(sc.params, **dict(zip(_MESH_FIELDS, s.mesh)))
+        v = replace(sc, params=params, _cache={})
+        t0 = time.perf_counter()
+        blade = v.blade() if params != sc.params else sc.blade()
+        models[s.mesh] = (params, blade, time.perf_counter() - t0)
+    params, blade, t_fe = models[s.mesh]
+    key = (s.mesh, s.craig_bampton_modes)
+    if key not in models:
+        v = replace(sc, params=params, n_modes=s.craig_bampton_modes, _cache={"blade": blade})
+        t0 = time.perf_counter()
+        v.reduced()
+        models[key] = (v, time.perf_counter() - t0)
+    v, t_red = models[key]
+    return (v.system(case_arg), v.dof_index(case.dof), t_fe + t_red, blade.n_dof)
+
+
+def measure(case: Case, s: Settings, models: dict, solver=None) -> Measurement:
+    """Trace the case with settings s (`repeats` times; the best wall time counts)."""
+    from .response import frequency_response
+
+    solver = solver or frequency_response
+    try:
+        system, dof, t_model, n_full = _system(case, s, models)
+        best = None
+        for _ in range(case.repeats):
+            t0, c0 = time.perf_counter(), time.process_time()
+            curve = solver(system, s.harmonics, case.frequency.omega_start,
+                           case.frequency.omega_stop, peak_dofs=[dof], **s.solver_kwargs())
+            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+            if best is None or wall < best[0]:
+                best = (wall, cpu)
+    except Exception as exc:  # a failing setting is a finding, not the end of the study
+        log.exception("%s: %s failed", case.name, s.describe())
+        return Measurement(success=False, message=f"{type(exc).__name__}: {exc}", crashed=True)
+    conv = np.asarray(curve.converged, bool)
+    m = Measurement(success=bool(curve.success and conv.any()), message=str(curve.message),
+                    wall_time=best[0] + t_model, cpu_time=best[1], model_time=t_model,
+                    n_points=int(curve.n_points), nfev=int(curve.nfev), n_dof=int(system.n_dof),
+                    n_dof_full=int(n_full))
+    if not conv.any():
+        m.message = "no converged point: " + m.message
+        return m
+    amp, om, i = curve.peak(dof)
+    m.peak_amplitude, m.peak_frequency = amp, om
+    if i in (0, curve.n_points - 1):
+        m.success = False
+        m.message = "peak at the edge of the frequency window; " + m.message
+    m.folds = np.sort(np.asarray(curve.fold_parameter, float))
+    m.omega = np.asarray(curve.omega, float)
+    m.amplitude = np.asarray(curve.amplitude, float)[:, dof]
+    Q = np.asarray(curve.Q, float)[:, dof, :]
+    m.harmonic_amplitude = np.column_stack([np.abs(Q[:, 0]), np.hypot(Q[:, 1::2], Q[:, 2::2])])
+    m.converged = conv
+    m.peak_state = (system, np.asarray(curve.Q[i], float), om)
+    return m
+
+
+def relative_errors(m: Measurement, ref: Measurement) -> dict:
+    """e_A, e_W, e_F and error = max of them (NaN parts ignored) against `ref`."""
+    if not ref.success or not np.isfinite(m.peak_amplitude):
+        return {k: math.nan for k in METRICS + ("error",)}
+    e = {"peak_amplitude": abs(m.peak_amplitude / ref.peak_amplitude - 1.0),
+         "peak_frequency": abs(m.peak_frequency / ref.peak_frequency - 1.0)}
+    if m.folds.size != ref.folds.size:
+        e["fold_frequency"] = math.inf
+    elif ref.folds.size == 0:
+        e["fold_frequency"] = math.nan
+    else:
+        e["fold_frequency"] = float(np.max(np.abs(m.folds / ref.folds - 1.0)))
+    vals = [v for v in e.values() if not math.isnan(v)]
+    e["error"] = max(vals) if vals and m.success else math.nan
+    return e
+
+
+def _state_at_zero(system, Q, Om):
+    """q(0), q'(0) and the slider positions w(0) of an HBM solution Q (n, 2H+1)."""
+    from .contact_exact import history
+
+    H = (Q.shape[1] - 1) // 2
+    j = np.arange(1, H + 1)
+    q0 = Q[:, 0] + Q[:, 1::2].sum(1)
+    qd0 = Om * (Q[:, 2::2] * j).sum(1)
+    h = history(system.Bt @ Q, system.Bn @ Q, system.contact, np.array([0.0]))
+    w0 = np.where(h["state"][:, 0] == 0, h["u"][:, 0], h["u"][:, 0] - h["fu"][:, 0] / system.contact.ku)
+    return q0, qd0, w0
+
+
+def time_integration_check(ref: Measurement, dof: int, lo: float, rel_window: float = 1e-3) -> dict:
+    """Event-driven time integration (`timesim.steady_state`, shooting from the HBM
+    state) at the reference peak, and the peak frequency of the integrated response
+    (bounded Brent on the amplitude in Omega_ref (1 -+ rel_window), kept above `lo`,
+    the fold that ends the branch the peak sits on)."""
+    from scipy.optimize import minimize_scalar
+
+    from . import timesim
+
+    system, Q, Om = ref.peak_state
+    q0, qd0, w0 = _state_at_zero(system, Q, Om)
+    t0 = time.perf_counter()
+    at_peak = timesim.steady_state(system, Om, q0=q0, qd0=qd0, w0=w0)
+    periods = [at_peak.periods]
+
+    def neg_amp(W):
+        r = timesim.steady_state(system, W, q0=q0, qd0=qd0, w0=w0)
+        periods.append(r.periods)
+        return -r.amplitude[dof] if r.converged else math.inf
+
+    bounds = (max(Om * (1 - rel_window), lo), Om * (1 + rel_window))
+    res = minimize_scalar(neg_amp, bounds=bounds, method="bounded", options={"xatol": 1e-10 * Om})
+    return {"amplitude_at_peak": float(at_peak.amplitude[dof]), "converged": bool(at_peak.converged),
+            "peak_amplitude": float(-res.fun), "peak_frequency": float(res.x),
+            "amplitude_error": abs(ref.peak_amplitude / at_peak.amplitude[dof] - 1.0),
+            "peak_amplitude_error": abs(ref.peak_amplitude / -res.fun - 1.0),
+            "peak_frequency_error": abs(ref.peak_frequency / res.x - 1.0),
+            "wall_time": time.perf_counter() - t0, "periods": int(sum(periods)),
+            "evaluations": len(periods)}
+
+
+# ---------------------------------------------------------------------------
+# Recommendation
+# ---------------------------------------------------------------------------
+
+def recommend(rows: list, knobs, target: float) -> dict:
+    """Per knob, the cheapest run (its series or the baseline) whose errors all meet
+    the target: {knob: (value, row, met)}; if none meets it, the most accurate one
+    (met False)."""
+    base = next(r for r in rows if r["knob"] == "baseline")
+    out = {}
+    for k, _ in knobs:
+        cand = [base] + [r for r in rows if r["knob"] == k]
+        ok = [r for r in cand if _meets(r, target)]
+        if ok:
+            best = min(ok, key=lambda r: r["m"].wall_time)
+        else:
+            best = min(cand, key=lambda r: (r["errors"]["error"] if np.isfinite(r["errors"]["error"])
+                                           else math.inf))
+        out[k] = (best["settings"].value_of(k), best, bool(ok))
+    return out
+
+
+def _meets(row, target):
+    e = row["errors"]
+    return bool(row["m"].success and all(not (e[k] > target) for k in METRICS)
+                and np.isfinite(e["error"]))
+
+
+def recommended_settings(baseline: Settings, rec: dict) -> Settings:
+    s = baseline
+    for k, (value, _, _) in rec.items():
+        s = replace(s, force_evaluation="exact") if (k == "samples" and value == "exact") \
+            else s.with_knob(k, value)
+    if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
+        s = replace(s, force_evaluation="exact")  # that N was measured at a lower H only
+    return s
+
+
+# ---------------------------------------------------------------------------
+# Running the study
+# ---------------------------------------------------------------------------
+
+def run_case(case: Case, target: float, solver=None) -> dict:
+    """All runs of one case: rows [{case, knob, value, settings, m, errors,
+    errors_baseline}], the recommendation, and the time-integration check."""
+    models, cache = {}, {}
+
+    def get(s):
+        if s not in cache:
+            cache[s] = measure(case, s, models, solver)
+            m = cache[s]
+            log.info("%s: %s: %s, %.3g s%s", case.name, s.describe(),
+                     f"peak {m.peak_amplitude:.8g} at {m.peak_frequency:.8g} rad/s, "
+                     f"folds {np.round(m.folds, 6).tolist()}" if m.success else "FAILED",
+                     m.wall_time, "" if m.success else f" ({m.message})")
+        return cache[s]
+
+    rows = []
+    for knob, value, s in case.runs():
+        rows.append({"case": case.name, "knob": knob, "value": value, "settings": s, "m": get(s)})
+    ref = rows[0]["m"]
+    base = rows[1]["m"]
+    for r in rows:
+        r["errors"] = relative_errors(r["m"], ref)
+        r["errors_baseline"] = relative_errors(r["m"], base)
+    rec = recommend(rows, case.knobs, target)
+    s_rec = recommended_settings(case.baseline, rec)
+    m_rec = get(s_rec)
+    row = {"case": case.name, "knob": "recommended", "value": None, "settings": s_rec, "m": m_rec,
+           "errors": relative_errors(m_rec, ref), "errors_baseline": relative_errors(m_rec, base)}
+    rows.append(row)
+    ti = None
+    if case.time_integration and ref.success:
+        lo = float(ref.folds[ref.folds < ref.peak_frequency].max()) if np.any(
+            ref.folds < ref.peak_frequency) else 0.0
+        dof = case.scene.dof_index(case.dof)
+        ti = time_integration_check(ref, dof, lo * (1 + 1e-9))
+        log.info("%s: reference vs event-driven time integration: amplitude at the peak %.3g, "
+                 "peak amplitude %.3g, peak frequency %.3g (relative; %.2f s)", case.name,
+                 ti["amplitude_error"], ti["peak_amplitude_error"], ti["peak_frequency_error"],
+                 ti["wall_time"])
+    return {"case": case, "rows": rows, "recommendation": rec, "recommended": row, "ti": ti}
+
+
+def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool = True,
+                       progress: bool = True, solver=None):
+    """Run every case, write `out_dir/<name>.nc`, `out_dir/<name>/table.md` and
+    `out_dir/<name>/pareto.png`; returns a `study.StudyResult`."""
+    from .dataset import write_netcdf
+    from .study import StudyResult
+
+    t0 = time.perf_counter()
+    out_dir = Path(out_dir)
+    results = []
+    for case in study.cases:
+        n = len({s for _, _, s in case.runs()})
+        log.info("%s: case %s, %d distinct settings%s", study.name, case.name, n,
+                 " (quick)" if study.quick else "")
+        results.append(run_case(case, study.target, solver))
+    ds = to_dataset(study, results)
+    res = StudyResult(study=study, dataset=ds, path=None)
+    # a knob value whose continuation fails is a finding; a failed reference or a crash is not
+    res.failures = sum(int(not r["rows"][0]["m"].success) for r in results) + sum(
+        int(row["m"].crashed) for r in results for row in r["rows"])
+    res.path = write_netcdf(ds, out_dir / f"{study.name}.nc")
+    log.info("wrote %s", res.path)
+    table = results_table(results, study.target)
+    for line in table.splitlines():
+        log.info("%s", line)
+    for line in recommendation_lines(results, study.target):
+        log.info("%s", line)
+    fig_dir = out_dir / study.name
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    table_path = fig_dir / "table.md"
+    tmp = table_path.with_name(f".{table_path.name}.tmp")
+    tmp.write_text(table + "\n\n" + "\n".join(recommendation_lines(results, study.target)) + "\n")
+    tmp.replace(table_path)
+    res.figures.append(table_path)
+    if figures:
+        res.figures.append(pareto_figure(fig_dir / "pareto.png", results, study.target,
+                                         study.title))
+    for p in res.figures:
+        log.info("wrote %s", p)
+    res.wall_time = time.perf_counter() - t0
+    return res
+
+
+# ---------------------------------------------------------------------------
+# Dataset, table, figure
+# ---------------------------------------------------------------------------
+
+def _value_text(row) -> str:
+    k, s = row["knob"], row["settings"]
+    if k in ("reference", "baseline", "recommended"):
+        return s.describe()
+    v = s.value_of(k)
+    if k == "mesh":
+        return "x".join(map(str, v)) + f" ({row['m'].n_dof_full:,} DOFs)"
+    if k == "samples":
+        return f"AFT N = {v}"
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def _run_label(row) -> str:
+    k = row["knob"]
+    if k in ("reference", "baseline", "recommended"):
+        return f"{row['case']}/{k}"
+    v = row["settings"].value_of(k)
+    v = "x".join(map(str, v)) if k == "mesh" else (f"{v:g}" if isinstance(v, float) else v)
+    return f"{row['case']}/{k}={v}"
+
+
+def to_dataset(study: AccuracyStudy, results: list):
+    """One `run` per measured setting (references, baselines, knob values, the
+    recommended combinations); per run the DATASET.md response variables of the
+    case's DOF (frequency in rad/s), the settings, times, peaks, folds and errors."""
+    import datetime as _dt
+
+    import xarray as xr
+
+    from . import __version__
+    from .dataset import CONVENTIONS
+
+    rows = [r for res in results for r in res["rows"]]
+    R = len(rows)
+    P = max([1] + [r["m"].omega.size for r in rows])
+    Hmax = max(r["settings"].harmonics for r in rows)
+    F = max([1] + [r["m"].folds.size for r in rows])
+
+    def pad(get, shape, fill=np.nan, dtype=float):
+        a = np.full((R,) + shape, fill, dtype=dtype)
+        for i, r in enumerate(rows):
+            v = np.asarray(get(r))
+            a[(i,) + tuple(slice(0, n) for n in v.shape)] = v
+        return a
+
+    def var(dims, data, units, long_name, **extra):
+        attrs = {"long_name": long_name, **extra}
+        if units is not None:
+            attrs["units"] = units
+        return (dims, data, attrs)
+
+    conv = pad(lambda r: r["m"].converged, (P,), False, bool)
+    freq = pad(lambda r: r["m"].omega, (P,))
+    amp = pad(lambda r: r["m"].amplitude, (P,))
+    freq[~conv], amp[~conv] = np.nan, np.nan
+    hamp = pad(lambda r: r["m"].harmonic_amplitude, (P, Hmax + 1))
+    hamp[~conv] = np.nan
+    num = lambda f: np.array([f(r) for r in rows], dtype=float)        # noqa: E731
+    err = lambda key, k: np.array([r[key][k] for r in rows], dtype=float)  # noqa: E731
+    s_ = [r["settings"] for r in rows]
+    data_vars = {
+        "frequency": var(("run", "point"), freq, "rad/s", "excitation frequency"),
+        "amplitude": var(("run", "point", "dof"), amp[..., None], "m",
+                         "half peak-to-peak amplitude of the case's response DOF"),
+        "harmonic_amplitude": var(("run", "point", "dof", "harmonic"), hamp[:, :, None, :], "m",
+                                  "sqrt(a_h^2 + b_h^2) of the response DOF (|a_0| at h = 0)"),
+        "converged": var(("run", "point"), conv, None, "full residual within its tolerance"),
+        "stable": var(("run", "point"), conv.copy(), None,
+                      "stability NOT computed (accuracy study): true at every converged point",
+                      stability_computed=0),
+        "peak_amplitude": var(("run", "dof"), num(lambda r: r["m"].peak_amplitude)[:, None], "m",
+                              "largest amplitude on the branch (exact peak)"),
+        "peak_frequency": var(("run", "dof"), num(lambda r: r["m"].peak_frequency)[:, None],
+                              "rad/s", "frequency of that peak"),
+        "fold_frequency": var(("run", "fold"), pad(lambda r: r["m"].folds, (F,)), "rad/s",
+                              "frequencies of the folds, ascending (NaN: fewer folds)"),
+        "n_folds": var(("run",), np.array([r["m"].folds.size for r in rows], np.int32), "1",
+                       "folds detected on the branch"),
+        "wall_time": var(("run",), num(lambda r: r["m"].wall_time), "s",
+                         "wall time: best continuation of the repeats + model time"),
+        "cpu_time": var(("run",), num(lambda r: r["m"].cpu_time), "s",
+                        "process (CPU) time of that continuation"),
+        "model_time": var(("run",), num(lambda r: r["m"].model_time), "s",
+                          "FE assembly + Craig-Bampton reduction (blades; 0 for lumped)"),
+        "n_points": var(("run",), np.array([r["m"].n_points for r in rows], np.int32), "1",
+                        "points on the branch"),
+        "residual_evaluations": var(("run",), np.array([r["m"].nfev for r in rows], np.int32),
+                                    "1", "residual evaluations of the continuation"),
+        "n_dof": var(("run",), np.array([r["m"].n_dof for r in rows], np.int32), "1",
+                     "DOFs of the model solved (reduced for blades)"),
+        "n_dof_full": var(("run",), np.array([r["m"].n_dof_full for r in rows], np.int32), "1",
+                          "DOFs of the unreduced model"),
+        "success": var(("run",), np.array([r["m"].success for r in rows]), None,
+                       "the branch reached the end of the window and its peak is interior"),
+        "message": var(("run",), np.array([r["m"].message for r in rows], dtype=str), None,
+                       "continuation message"),
+        "case": var(("run",), np.array([r["case"] for r in rows], dtype=str), None, "case"),
+        "knob": var(("run",), np.array([r["knob"] for r in rows], dtype=str), None,
+                    "knob varied (or reference / baseline / recommended)"),
+        "value": var(("run",), np.array([_value_text(r) for r in rows], dtype=str), None,
+                     "value of the knob (settings of reference / baseline / recommended)"),
+        "harmonics": var(("run",), np.array([s.harmonics for s in s_], np.int32), "1",
+                         "harmonics H"),
+        "force_evaluation": var(("run",), np.array([s.force_evaluation for s in s_], dtype=str),
+                                None, "contact forces: exact or aft"),
+        "samples": var(("run",), np.array([s.samples if s.force_evaluation == "aft" else -1
+                                           for s in s_], np.int32), "1",
+                       "AFT samples per period (-1: exact forces)"),
+        "tolerance": var(("run",), np.array([s.tolerance for s in s_]), "1",
+                         "Newton residual tolerance, relative to the force scale"),
+        "max_step": var(("run",), np.array([s.max_step for s in s_]), "1",
+                        "largest continuation step (scaled arclength)"),
+        "craig_bampton_modes": var(("run",), np.array([-1 if s.craig_bampton_modes is None else
+                                                       s.craig_bampton_modes for s in s_],
+                                                      np.int32), "1",
+                                   "Craig-Bampton fixed-interface modes (-1: lumped)"),
+        "mesh": var(("run",), np.array(["" if s.mesh is None else "x".join(map(str, s.mesh))
+                                        for s in s_], dtype=str), None,
+                    "blade mesh n_chord x n_thick x n_span ('' : lumped)"),
+    }
+    for key, what in (("errors", "the case's reference"), ("errors_baseline", "its baseline")):
+        sfx = "" if key == "errors" else "_vs_baseline"
+        for k, text in (("peak_amplitude", "peak amplitude"), ("peak_frequency", "peak frequency"),
+                        ("fold_frequency", "fold frequencies (largest; inf: other fold count)"),
+                        ("error", "largest of the three")):
+            data_vars[f"{k}_error{sfx}" if k != "error" else f"error{sfx}"] = var(
+                ("run",), err(key, k), "1", f"relative error of the {text} against {what}")
+    attrs = {"title": study.title, "study": study.text, "study_name": study.name,
+             "description": study.description, "reference": study.reference,
+             "kind": "accuracy_cost", "quick": int(study.quick),
+             "harmonics": int(Hmax), "force_evaluation": "per run (variable force_evaluation)",
+             "target": float(study.target),
+             "frequency_note": "every frequency in rad/s (blade: Hz = rad/s / 2 pi)",
+             "pipeline_version": __version__,
+             "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+             "source": "pipeline (accuracy-cost study: harmonic balance, continuation)",
+             "Conventions": CONVENTIONS}
+    for res in results:
+        c = res["case"].name
+        rr = res["recommended"]
+        attrs[f"{c}_reference"] = res["case"].reference.describe()
+        attrs[f"{c}_baseline"] = res["case"].baseline.describe()
+        attrs[f"{c}_recommended"] = rr["settings"].describe()
+        attrs[f"{c}_recommended_error"] = float(rr["errors"]["error"])
+        attrs[f"{c}_recommended_wall_time"] = float(rr["m"].wall_time)
+        attrs[f"{c}_recommended_meets_target"] = int(_meets(rr, study.target))
+        for k, (v, _, met) in res["recommendation"].items():
+            attrs[f"{c}_recommended_{k}"] = ("x".join(map(str, v)) if k == "mesh" else v
+                                            if isinstance(v, str) else
+                                            int(v) if isinstance(v, (int, np.integer)) else float(v))
+            attrs[f"{c}_recommended_{k}_meets_target"] = int(met)
+        ti = res["ti"]
+        if ti is not None:
+            for k in ("amplitude_at_peak", "peak_amplitude", "peak_frequency", "amplitude_error",
+                      "peak_amplitude_error", "peak_frequency_error", "wall_time"):
+                units = {"amplitude_at_peak": "m", "peak_amplitude": "m", "peak_frequency": "rad/s",
+                         "wall_time": "s"}.get(k, "1")
+                text = {"amplitude_at_peak": "amplitude at the reference peak frequency",
+                        "peak_amplitude": "largest amplitude near the reference peak",
+                        "peak_frequency": "frequency of that largest amplitude",
+                        "amplitude_error": "|A_ref / A_ti(W_ref) - 1| at the reference peak",
+                        "peak_amplitude_error": "|A_ref / A_ti,peak - 1|",
+                        "peak_frequency_error": "|W_ref / W_ti,peak - 1|",
+                        "wall_time": "wall time of the time integration check"}[k]
+                data_vars[f"{c}_time_integration_{k}"] = var(
+                    (), float(ti[k]), units, f"{c}: event-driven time integration: {text}")
+    labels = np.array([_run_label(r) for r in rows], dtype=str)
+    coords = {"run": ("run", labels, {"long_name": "run: case/knob=value"}),
+              "dof": ("dof", np.array(["response"], dtype=str),
+                      {"long_name": "the case's response DOF (see response_dof)"}),
+              "harmonic": ("harmonic", np.arange(Hmax + 1, dtype=np.int32),
+                           {"units": "1", "long_name": "harmonic index h"}),
+              "point": ("point", np.arange(P, dtype=np.int32),
+                        {"units": "1", "long_name": "index along the branch"}),
+              "fold": ("fold", np.arange(F, dtype=np.int32), {"units": "1", "long_name": "fold"})}
+    dofs = {res["case"].name: res["case"].dof for res in results}
+    data_vars["response_dof"] = var(("run",), np.array([dofs[r["case"]] for r in rows], dtype=str),
+                                    None, "the case's response DOF (dof = 'response')")
+    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+
+def _fmt(x) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "–"
+    if math.isinf(x):
+        return "fold missed"
+    return "0" if x == 0 else f"{x:.1e}"
+
+
+def results_table(results: list, target: float) -> str:
+    """Markdown table: case, knob, value, wall time, the three errors, vs baseline."""
+    lines = ["| case | knob | value | wall time [s] | peak amplitude | peak frequency | folds "
+             "| largest vs baseline |", "|---|---|---|---|---|---|---|---|"]
+    for res in results:
+        for r in res["rows"]:
+            e, m = r["errors"], r["m"]
+            ok = "" if m.success else " (failed)"
+            lines.append(f"| {r['case']} | {r['knob']} | {_value_text(r)}{ok} | "
+                         f"{m.wall_time:.3g} | {_fmt(e['peak_amplitude'])} | "
+                         f"{_fmt(e['peak_frequency'])} | {_fmt(e['fold_frequency'])} | "
+                         f"{_fmt(r['errors_baseline']['error'])} |")
+    return "\n".join(lines)
+
+
+def recommendation_lines(results: list, target: float) -> list:
+    out = []
+    for res in results:
+        c, rr, ref = res["case"].name, res["recommended"], res["rows"][0]["m"]
+        parts = []
+        for k, (v, _, met) in res["recommendation"].items():
+            txt = "x".join(map(str, v)) if k == "mesh" else (f"{v:g}" if isinstance(v, float) else v)
+            parts.append(f"{k} = {txt}" + ("" if met else f" (none meets {target:g})"))
+        verdict = "meets" if _meets(rr, target) else "MISSES"
+        out.append(f"{c}: recommended {', '.join(parts)} -> error {_fmt(rr['errors']['error'])} "
+                   f"({verdict} the target {target:g}) in {rr['m'].wall_time:.3g} s; reference "
+                   f"{ref.wall_time:.3g} s")
+        ti = res["ti"]
+        if ti is not None:
+            out.append(f"{c}: reference vs event-driven time integration: amplitude at the peak "
+                       f"{_fmt(ti['amplitude_error'])}, peak amplitude "
+                       f"{_fmt(ti['peak_amplitude_error'])}, peak frequency "
+                       f"{_fmt(ti['peak_frequency_error'])}")
+    return out
+
+
+def pareto_figure(path, results: list, target: float, title: str = ""):
+    """Error against wall time (log-log), one panel per case, one series per knob;
+    the baseline (open square), the recommended combination (star), the target
+    (dashed), the reference's wall time (dotted) and, for the lumped case, the
+    reference's discrepancy to event-driven time integration (dash-dot)."""
+    from .plots import _atomic_savefig, _plt
+
+    plt = _plt()
+    n = len(results)
+    fig, axes = plt.subplots(1, n, figsize=(6.0 * n, 5.4), squeeze=False)
+    markers = "osD^v<>p"
+    for ax, res in zip(axes[0], results):
+        rows, case = res["rows"], res["case"]
+        base, rr, ref = rows[1], res["recommended"], rows[0]
+        errs = [r["errors"]["error"] for r in rows] + ([max(res["ti"]["amplitude_error"],
+                                                             res["ti"]["peak_frequency_error"])]
+                                                         if res["ti"] is not None else [])
+        pos = [e for e in errs if np.isfinite(e) and e > 0]
+        lo = 10 ** np.floor(np.log10(min(pos + [target]))) / 10
+
+        def shown(e):  # zero (the reference itself) at the bottom, a missed fold at the top
+            return lo if e == 0 else 2.0 if np.isinf(e) else e
+
+        for j, (k, _) in enumerate(case.knobs):
+            rs = sorted([base] + [r for r in rows if r["knob"] == k], key=lambda r: _order(r, k))
+            t = [r["m"].wall_time for r in rs]
+            e = [shown(r["errors"]["error"]) for r in rs]
+            ax.plot(t, e, marker=markers[j % len(markers)], ms=5, lw=1, label=k.replace("_", " "))
+            for r, ti, ei in zip(rs, t, e):
+                if np.isfinite(ei) and r is not base:
+                    ax.annotate(_short(r), (ti, ei), fontsize=6, xytext=(3, 2),
+                                textcoords="offset points")
+        for r, style, kw in ((base, "ks", {"mfc": "none", "ms": 10}),
+                             (rr, "*", {"color": "gold", "mec": "k", "ms": 14})):
+            ax.plot([r["m"].wall_time], [shown(r["errors"]["error"])], style,
+                    label=f"{r['knob']}: " + _wrap(r["settings"].describe()), **kw)
+        ax.axvline(ref["m"].wall_time, color="k", ls=":", lw=1,
+                   label="reference: " + _wrap(ref["settings"].describe()))
+        ax.axhline(target, color="grey", ls="--", lw=1, label=f"target {target:g}")
+        if res["ti"] is not None:
+            d = max(res["ti"]["amplitude_error"], res["ti"]["peak_frequency_error"])
+            ax.axhline(shown(d), color="tab:purple", ls="-.", lw=1,
+                       label=f"reference vs time integration: {d:.1e}")
+        ax.set_ylim(lo / 1.5, 3.0)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("wall time [s]")
+        ax.set_ylabel("largest relative error")
+        what = f"{case.dof}" + (f", n0 = {case.preload:g} N" if case.preload is not None else "")
+        ax.set_title(f"{case.name}: {what}\n(peak amplitude, peak and fold frequencies vs "
+                     "the reference)", fontsize=8)
+        ax.grid(True, which="major", lw=0.3)
+        ax.legend(fontsize=6, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2,
+                  frameon=False)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    out = _atomic_savefig(fig, path)
+    plt.close(fig)
+    return out
+
+
+def _wrap(text: str) -> str:
+    return text.replace(", tolerance", "\ntolerance")
+
+
+def _order(r, knob):
+    """Sort key of a run along a knob's series: from the cheapest to the most accurate."""
+    v = r["settings"].value_of(knob)
+    if knob == "samples":
+        return math.inf if v == "exact" else v
+    if knob in ("tolerance", "max_step"):
+        return -v
+    if knob == "mesh":
+        return (int(np.prod(v)), v)
+    return v
+
+
+def _short(r) -> str:
+    v = r["settings"].value_of(r["knob"])
+    if r["knob"] == "mesh":
+        return "x".join(map(str, v))
+    return f"{v:g}" if isinstance(v, float) else str(v)
