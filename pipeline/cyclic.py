@@ -24,7 +24,8 @@ with the N x E elements as ordinary elements: the independent reference.
 EO = 0 (all sectors in phase) and EO = N/2 (N even; neighbours in antiphase in the
 odd harmonics) are standing waves; any other EO is a travelling wave.
 Mistuning, localisation and excitations that are not engine orders need the full
-assembly.  Stability: the sector's own Hill problem only sees perturbations with
+assembly: `full_assembly(..., stiffness_factors)` with per-sector stiffness factors
+(`mistuning_factors`) is the model of a mistuned disk.  Stability: the sector's own Hill problem only sees perturbations with
 the symmetry of the solution (wave number 0 relative to it); a travelling wave can
 lose stability to other wave numbers r = 1..N/2 (measured: N = 4, EO = 1 with
 separation, stable by the sector's Hill problem, unstable by the assembly's).
@@ -127,14 +128,34 @@ def sector_forcing(sector: Sector, engine_order: int, j: int) -> np.ndarray:
     return F * np.exp(1j * h * j * phase(sector.sectors, engine_order))
 
 
-def full_assembly(sector: Sector, engine_order: int) -> System:
+def mistuning_factors(sectors: int, stiffness_std: float, seed: int) -> np.ndarray:
+    """Stiffness factors 1 + delta_j of the N sectors (K_j = (1 + delta_j) K):
+    delta_j ~ N(0, stiffness_std^2) from `numpy.random.default_rng(seed)`, drawn in
+    sector order, truncated at 3 standard deviations and at -0.9 so every K_j stays
+    positive definite.  The same (N, std, seed) gives the same disk on any machine."""
+    if isinstance(sectors, bool) or int(sectors) != sectors or sectors < 2:
+        raise ValueError(f"sectors must be an integer >= 2, got {sectors!r}")
+    if not 0.0 <= stiffness_std < 0.5:
+        raise ValueError(f"stiffness_std must be in [0, 0.5), got {stiffness_std!r}")
+    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    delta = np.random.default_rng(int(seed)).normal(0.0, stiffness_std, int(sectors))
+    return 1.0 + np.clip(delta, max(-3.0 * stiffness_std, -0.9), 3.0 * stiffness_std)
+
+
+def full_assembly(sector: Sector, engine_order: int, stiffness_factors=None) -> System:
     """All N sectors in one `System` (N n DOFs, sector-major: DOF i of sector j is
     j n + i), the N E elements as ordinary rows of Bt, Bn, travelling-wave load.
-    No symmetry is used: the reference for `sector_system`."""
+    No symmetry is used: the reference for `sector_system`, and the model of a
+    mistuned disk, sector j with the stiffness `stiffness_factors[j]` K (N positive
+    factors, `mistuning_factors`; None: tuned, all 1)."""
     eo = check_engine_order(sector.sectors, engine_order)
     N, n = sector.sectors, sector.n_dof
     E = np.shape(sector.Bt)[0]
     blk = lambda A: np.kron(np.eye(N), np.asarray(A, float))  # noqa: E731
+    kf = np.ones(N) if stiffness_factors is None else np.asarray(stiffness_factors, float)
+    if kf.shape != (N,) or not np.all(np.isfinite(kf)) or np.any(kf <= 0):
+        raise ValueError(f"stiffness_factors must be {N} positive numbers, got {kf!r}")
     Bt = np.zeros((N * E, N * n))
     Bn = np.zeros((N * E, N * n))
     for j in range(N):
@@ -149,7 +170,8 @@ def full_assembly(sector: Sector, engine_order: int) -> System:
     contact = YangMenq(tile(el.ku), tile(el.kv), tile(el.mu), tile(el.n0), tile(el.slider_rest))
     F = np.concatenate([sector_forcing(sector, eo, j) for j in range(N)])
     names = tuple(f"s{j}.{d}" for j in range(N) for d in sector.dof_names)
-    return System(M=blk(sector.M), C=blk(sector.C), K=blk(sector.K), Bt=Bt, Bn=Bn,
+    K = np.kron(np.diag(kf), np.asarray(sector.K, float))
+    return System(M=blk(sector.M), C=blk(sector.C), K=K, Bt=Bt, Bn=Bn,
                   contact=contact, forcing=F, dof_names=names)
 
 

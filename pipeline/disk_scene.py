@@ -16,17 +16,38 @@ j phi).  EO is `[scene.disk] engine_order` or the sweep axis `eo`, an integer in
 EO mod N).  Each case is solved on ONE sector by the cyclic reduction
 (`pipeline.cyclic.sector_system`, Petrov 2004): only the sector is built, never
 the N-sector assembly (`DiskScene.full_system` gives it, for checks).
+
+Mistuning (effect "mistuning", `[scene.disk] mistuning = {stiffness_std, seed}`,
+seed or the sweep axis `mistuning_seed`): sector j has the stiffness
+(1 + delta_j) K, delta_j ~ N(0, stiffness_std^2) from `numpy.random.default_rng(seed)`
+(`cyclic.mistuning_factors`).  Cyclic symmetry is broken, so each case is the full
+N-sector assembly (`cyclic.full_assembly`, N n DOFs, `System.cyclic` None) under the
+same engine-order load, and the scene's `dofs` are every sector's DOFs, labelled
+`<dof>@<sector>` (`x1@3`: x1 of sector 3), sector-major as in the assembly.  A
+study is mistuned in all its cases or in none, so the dataset's `dof` dimension
+is the same for every case.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .system import System
 
 NEXT = "next."
+AT = "@"                 # "<dof>@<sector>": a DOF of one sector of a mistuned disk
 MAX_SECTORS = 10_000
+MAX_MISTUNED_SECTORS = 200   # the full assembly is dense: (N n)^2 per matrix
+MAX_STIFFNESS_STD = 0.5
+
+
+@dataclass(frozen=True)
+class Mistuning:
+    """Random sector stiffness: K_j = (1 + delta_j) K, delta_j ~ N(0, stiffness_std^2)."""
+
+    stiffness_std: float     # relative standard deviation [-], 0 <= std < 0.5
+    seed: int | None = None  # None: the sweep's `mistuning_seed` sets it
 
 
 @dataclass(frozen=True)
@@ -35,7 +56,7 @@ class DiskScene:
 
     model: str              # "disk"
     effects: tuple
-    dofs: tuple             # the sector's DOF names, one per row of M
+    sector_dofs: tuple      # the sector's DOF names, one per row of M
     M: np.ndarray           # (n, n) [kg]
     C: np.ndarray           # (n, n) [N s/m]
     K: np.ndarray           # (n, n) [N/m]
@@ -43,19 +64,35 @@ class DiskScene:
     forcing: np.ndarray     # (n, Hf+1) complex load of sector 0 [N]
     sectors: int            # N
     engine_order: int | None = None   # None: the sweep's `eo` sets it
+    mistuning: Mistuning | None = None  # None: a tuned disk (one-sector reduction)
+
+    @property
+    def dofs(self) -> tuple:
+        """The DOF names of a case's `System`: the sector's (tuned), or every
+        sector's as `<dof>@<sector>`, sector-major (mistuned)."""
+        if self.mistuning is None:
+            return self.sector_dofs
+        return tuple(f"{d}{AT}{j}" for j in range(self.sectors) for d in self.sector_dofs)
 
     @property
     def contact_dofs(self) -> tuple:
         """Names the contact rows refer to: the sector's DOFs, then `next.<dof>`."""
-        return self.dofs + tuple(NEXT + d for d in self.dofs)
+        return self.sector_dofs + tuple(NEXT + d for d in self.sector_dofs)
 
     def dof_index(self, name: str) -> int:
-        return self.dofs.index(name)
+        """Row of DOF `name` in a case's `System` ("x1@3" = j n + i in a mistuned disk)."""
+        if self.mistuning is None:
+            return self.sector_dofs.index(name)
+        d, _, j = name.rpartition(AT)
+        if not d or not j.isdigit() or int(j) >= self.sectors:
+            raise ValueError(f"{name!r} is not '<dof>{AT}<sector>' with a sector below "
+                             f"{self.sectors}")
+        return int(j) * len(self.sector_dofs) + self.sector_dofs.index(d)
 
     @property
     def coupled(self) -> bool:
         """True if an element reaches the next sector (effect "cyclic_coupling")."""
-        n = len(self.dofs)
+        n = len(self.sector_dofs)
         return any(np.any(c.bt[n:]) or np.any(c.bn[n:]) for c in self.contacts)
 
     def engine_order_of(self, case: dict | None = None) -> int:
@@ -76,34 +113,61 @@ class DiskScene:
         unknown = set(case) - set(SWEEP_AXES)
         if unknown:
             raise ValueError(f"case has unknown axes {sorted(unknown)}; known: {sorted(SWEEP_AXES)}")
-        n, E = len(self.dofs), len(self.contacts)
+        n, E = len(self.sector_dofs), len(self.contacts)
         Bt = np.array([c.bt for c in self.contacts], dtype=float).reshape(E, 2 * n)
         Bn = np.array([c.bn for c in self.contacts], dtype=float).reshape(E, 2 * n)
         return Sector(M=self.M, C=self.C, K=self.K, Bt=Bt[:, :n], Bn=Bn[:, :n],
                       Bt_next=Bt[:, n:], Bn_next=Bn[:, n:],
                       contact=contact_elements(self.contacts, case),
                       forcing=self.forcing * float(case.get("excitation_scale", 1.0)),
-                      sectors=self.sectors, dof_names=tuple(self.dofs))
+                      sectors=self.sectors, dof_names=tuple(self.sector_dofs))
+
+    def stiffness_factors(self, case: dict | None = None):
+        """The sectors' stiffness factors 1 + delta_j of a case (None when tuned)."""
+        if self.mistuning is None:
+            return None
+        from .cyclic import mistuning_factors
+        seed = (case or {}).get("mistuning_seed", self.mistuning.seed)
+        if seed is None:
+            raise ValueError("the mistuning seed is unset: give [scene.disk] mistuning.seed "
+                             "or the sweep axis mistuning_seed")
+        return mistuning_factors(self.sectors, self.mistuning.stiffness_std, int(seed))
 
     def system(self, case: dict | None = None) -> System:
-        """The one-sector cyclic `System` of a case (n DOFs, `System.cyclic` set)."""
-        from .cyclic import sector_system
-        return sector_system(self.sector(case), self.engine_order_of(case))
+        """The `System` of a case: tuned, the one-sector cyclic reduction (n DOFs,
+        `System.cyclic` set); mistuned, the full N-sector assembly (N n DOFs named
+        as `dofs`, `System.cyclic` None)."""
+        from . import cyclic
+        if self.mistuning is None:
+            return cyclic.sector_system(self.sector(case), self.engine_order_of(case))
+        full = cyclic.full_assembly(self.sector(case), self.engine_order_of(case),
+                                    self.stiffness_factors(case))
+        return replace(full, dof_names=self.dofs)
 
     def full_system(self, case: dict | None = None) -> System:
-        """All N sectors assembled (N n DOFs): the reference, never used by a run."""
+        """All N sectors assembled (N n DOFs, with the case's mistuning if any): the
+        reference for a tuned disk, never used by its runs."""
         from .cyclic import full_assembly
-        return full_assembly(self.sector(case), self.engine_order_of(case))
+        return full_assembly(self.sector(case), self.engine_order_of(case),
+                             self.stiffness_factors(case))
 
     def dataset_attrs(self) -> dict:
         """Global attributes a response dataset of this scene adds."""
-        attrs = {"sectors": int(self.sectors), "sector_dofs": int(len(self.dofs)),
+        attrs = {"sectors": int(self.sectors), "sector_dofs": int(len(self.sector_dofs)),
                  "cyclic_reduction": "one sector, travelling wave Q_{j,h} = exp(i h j phi) "
                                      "Q_{0,h}, phi = 2 pi EO / sectors (Petrov 2004)",
                  "excitation": "engine order EO: sector j loaded by sector 0's load "
                                "shifted by j phi (phase j phi in the first harmonic)"}
         if self.engine_order is not None:
             attrs["engine_order"] = int(self.engine_order)
+        if self.mistuning is not None:
+            attrs["cyclic_reduction"] = ("none: mistuned, the full assembly of all sectors "
+                                         "(DOF labels <dof>@<sector>)")
+            attrs["mistuning"] = ("sector j stiffness (1 + delta_j) K, delta_j ~ N(0, std^2) "
+                                  "from numpy default_rng(seed), truncated at 3 std and -0.9")
+            attrs["mistuning_stiffness_std"] = float(self.mistuning.stiffness_std)
+            if self.mistuning.seed is not None:
+                attrs["mistuning_seed"] = int(self.mistuning.seed)
         return attrs
 
 
@@ -128,16 +192,34 @@ def contact_rows(value):
 
 
 def parse_disk(ck, tab) -> tuple:
-    """(sectors, engine_order or None) of a `[scene.disk]` table."""
+    """(sectors, engine_order or None, Mistuning or None) of a `[scene.disk]` table."""
     if "disk" not in tab:
         ck.fail("scene.disk", "missing table (required for model = \"disk\"): "
                               "[scene.disk] sectors = N")
     t = ck.table(tab["disk"], "scene.disk")
-    ck.keys(t, "scene.disk", ("sectors", "engine_order"), required=("sectors",))
+    ck.keys(t, "scene.disk", ("sectors", "engine_order", "mistuning"), required=("sectors",))
     N = ck.integer(t["sectors"], "scene.disk.sectors", 2, MAX_SECTORS)
     eo = check_engine_order(ck, t["engine_order"], "scene.disk.engine_order", N) \
         if "engine_order" in t else None
-    return N, eo
+    mis = parse_mistuning(ck, t["mistuning"], N) if "mistuning" in t else None
+    return N, eo, mis
+
+
+def parse_mistuning(ck, value, N) -> Mistuning:
+    f = "scene.disk.mistuning"
+    if not isinstance(value, dict):
+        ck.fail(f, "must be a table, e.g. mistuning = { stiffness_std = 0.02, seed = 1 }")
+    ck.keys(value, f, ("stiffness_std", "seed"), required=("stiffness_std",))
+    std = ck.number(value["stiffness_std"], f"{f}.stiffness_std", ge=0.0)
+    if std >= MAX_STIFFNESS_STD:
+        ck.fail(f"{f}.stiffness_std", f"relative standard deviation {std:g} is too large "
+                                      "(sector stiffnesses could turn negative); give "
+                                      f"0 <= std < {MAX_STIFFNESS_STD:g}")
+    seed = ck.integer(value["seed"], f"{f}.seed", 0, 1 << 30) if "seed" in value else None
+    if N > MAX_MISTUNED_SECTORS:
+        ck.fail(f, f"a mistuned disk is solved as one dense assembly of all sectors: at most "
+                   f"{MAX_MISTUNED_SECTORS} sectors, got {N}")
+    return Mistuning(stiffness_std=std, seed=seed)
 
 
 def check_engine_order(ck, value, field, N) -> int:
@@ -176,3 +258,56 @@ def check_disk_rules(ck, scene: DiskScene, axes, wpath, data):
     if isinstance(out, dict) and "optimum_preload" in out and scene.engine_order is None:
         ck.fail("output.optimum_preload", "the optimum search runs at one engine order: "
                                           "give [scene.disk] engine_order")
+    check_mistuning_rules(ck, scene, axes, wpath, out)
+
+
+def check_mistuning_rules(ck, scene: DiskScene, axes, wpath, out):
+    """"mistuning" declared exactly when `[scene.disk] mistuning` is given; its seed
+    given once (table or sweep axis `mistuning_seed`)."""
+    mis = scene.mistuning
+    declared = "mistuning" in scene.effects
+    if mis is None:
+        if "mistuning_seed" in axes:
+            ck.fail(f"{wpath}.mistuning_seed", "the disk is tuned: give [scene.disk] mistuning "
+                                               "= { stiffness_std = ... } (and declare "
+                                               "\"mistuning\")")
+        if declared:
+            ck.fail("scene.effects", "\"mistuning\" is declared but [scene.disk] has no "
+                                     "mistuning = { stiffness_std = ..., seed = ... }")
+        return
+    if not declared:
+        ck.fail("scene.effects", "[scene.disk] mistuning breaks cyclic symmetry: declare "
+                                 "\"mistuning\"")
+    if "mistuning_seed" in axes:
+        if mis.seed is not None:
+            ck.fail(f"{wpath}.mistuning_seed", "the mistuning seed is set twice: [scene.disk] "
+                                               "mistuning.seed and the sweep axis "
+                                               "mistuning_seed")
+    elif mis.seed is None:
+        ck.fail("scene.disk.mistuning.seed", "missing: give mistuning.seed or the sweep axis "
+                                             "mistuning_seed = [...]")
+    if isinstance(out, dict) and "optimum_preload" in out:
+        ck.fail("output.optimum_preload", "the optimum-preload search is not available for a "
+                                          "mistuned disk")
+
+
+def output_dofs(ck, t, scene: DiskScene) -> tuple:
+    """`[output] dofs` of a mistuned disk: a sector DOF name ("x1") stands for that
+    DOF in every sector ("x1@0" ... "x1@<N-1>"); "x1@3" names one sector's."""
+    raw = t["dofs"] if "dofs" in t else list(scene.sector_dofs)
+    vals = ck.array(raw, "output.dofs")
+    out = []
+    for i, d in enumerate(vals):
+        d = ck.string(d, f"output.dofs[{i}]")
+        if d in scene.sector_dofs:
+            out.extend(f"{d}{AT}{j}" for j in range(scene.sectors))
+        elif d in scene.dofs:
+            out.append(d)
+        else:
+            ck.fail(f"output.dofs[{i}]", f"unknown DOF {d!r} (a sector DOF, "
+                                         f"{', '.join(scene.sector_dofs)}, for every sector, "
+                                         f"or one sector's, e.g. {scene.dofs[-1]!r})")
+    for i, d in enumerate(out):
+        if d in out[:i]:
+            ck.fail("output.dofs", f"DOF {d!r} is reported twice")
+    return tuple(out)

@@ -36,7 +36,7 @@ from .system import System
 
 MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
 IMPLEMENTED_MODELS = ("lumped", "disk")
-EFFECTS = ("friction", "normal_load_variation", "separation", "cyclic_coupling")
+EFFECTS = ("friction", "normal_load_variation", "separation", "cyclic_coupling", "mistuning")
 # grid axes of [sweep]: name -> (units, long_name)
 SWEEP_AXES = {
     "preload": ("N", "normal preload n0 of every contact"),
@@ -45,7 +45,9 @@ SWEEP_AXES = {
     "kv": ("N/m", "normal contact stiffness of every contact"),
     "excitation_scale": ("1", "factor on every excitation amplitude"),
     "eo": ("1", "engine order EO of the excitation (disk scenes)"),
+    "mistuning_seed": ("1", "seed of the random sector stiffness mistuning (disk scenes)"),
 }
+INTEGER_SWEEP_AXES = ("eo", "mistuning_seed")
 FREQUENCY_UNITS = ("rad/s", "Hz")
 FIGURES = ("amplitude",)
 MAX_HARMONICS = 200
@@ -190,8 +192,9 @@ def build_system(scene: Scene, case: dict | None = None) -> System:
     unknown = set(case) - set(SWEEP_AXES)
     if unknown:
         raise ValueError(f"case has unknown axes {sorted(unknown)}; known: {sorted(SWEEP_AXES)}")
-    if "eo" in case:
-        raise ValueError("case has an engine order (eo) but the scene is not a disk")
+    for a in ("eo", "mistuning_seed"):
+        if a in case:
+            raise ValueError(f"case has the disk axis {a!r} but the scene is not a disk")
     n, E = len(scene.dofs), len(scene.contacts)
     Bt = np.array([c.bt for c in scene.contacts], dtype=float).reshape(E, n)
     Bn = np.array([c.bn for c in scene.contacts], dtype=float).reshape(E, n)
@@ -236,7 +239,8 @@ def study_to_mapping(study: Study) -> dict:
         if c.n0 is not None:
             e["n0"] = c.n0
         contacts.append(e)
-    excitation = [{"dof": sc.dofs[j], "amplitude": float(abs(F)), "harmonic": int(h),
+    sector_dofs = getattr(sc, "sector_dofs", sc.dofs)  # disk scenes: the sector's names
+    excitation = [{"dof": sector_dofs[j], "amplitude": float(abs(F)), "harmonic": int(h),
                    "phase": float(np.angle(F)) if h else 0.0}
                   for j, h in zip(*np.nonzero(sc.forcing)) for F in [sc.forcing[j, h]]]
     fr = study.sweep.frequency
@@ -252,13 +256,18 @@ def study_to_mapping(study: Study) -> dict:
         if o["window"] is not None:
             w = o["window"]
             output["optimum_preload"]["frequency"] = {"start": w.start, "stop": w.stop, "unit": w.unit}
-    scene = {"model": sc.model, "effects": list(sc.effects), "dofs": list(sc.dofs),
+    scene = {"model": sc.model, "effects": list(sc.effects), "dofs": list(sector_dofs),
              "matrices": {k: getattr(sc, k).tolist() for k in ("M", "C", "K")},
              "contact": contacts, "excitation": excitation}
     if sc.model == "disk":
         scene["disk"] = {"sectors": sc.sectors}
         if sc.engine_order is not None:
             scene["disk"]["engine_order"] = sc.engine_order
+        if sc.mistuning is not None:
+            mis = {"stiffness_std": sc.mistuning.stiffness_std}
+            if sc.mistuning.seed is not None:
+                mis["seed"] = sc.mistuning.seed
+            scene["disk"]["mistuning"] = mis
     return {
         "study": {"title": study.title, "description": study.description,
                   "reference": study.reference},
@@ -552,7 +561,8 @@ def _sweep(ck, tab, path, partial=False):
             if start == stop:
                 ck.fail(field, f"start and stop are equal ({start:g} {unit}): empty interval")
             freq = FrequencyRange(start, stop, unit)
-        elif key == "eo":  # engine orders: integers, range checked against the sectors
+        elif key in INTEGER_SWEEP_AXES:  # engine orders (range checked against the
+            # sectors) and mistuning seeds: integers >= 0
             vals = ck.array(value, field)
             for i, v in enumerate(vals):
                 ck.integer(v, f"{field}[{i}]", 0, 1 << 30)
@@ -588,7 +598,7 @@ def _scene(ck, tab) -> Scene:
     disk = model == "disk"  # one sector of a cyclic disk: pipeline/disk_scene.py
     if disk:
         from . import disk_scene
-        sectors, engine_order = disk_scene.parse_disk(ck, tab)
+        sectors, engine_order, mistuning = disk_scene.parse_disk(ck, tab)
     elif "disk" in tab:
         ck.fail("scene.disk", "only a disk scene (model = \"disk\") has a [scene.disk] table")
     effects = ck.names(tab.get("effects", []), "scene.effects", min_length=0)
@@ -630,9 +640,9 @@ def _scene(ck, tab) -> Scene:
         ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
     forcing = _excitation(ck, tab["excitation"], dofs)
     if disk:
-        return disk_scene.DiskScene(model=model, effects=effects, dofs=dofs, M=M, C=C, K=K,
-                                    contacts=contacts, forcing=forcing, sectors=sectors,
-                                    engine_order=engine_order)
+        return disk_scene.DiskScene(model=model, effects=effects, sector_dofs=dofs, M=M, C=C,
+                                    K=K, contacts=contacts, forcing=forcing, sectors=sectors,
+                                    engine_order=engine_order, mistuning=mistuning)
     return Scene(model=model, effects=effects, dofs=dofs, M=M, C=C, K=K,
                  contacts=contacts, forcing=forcing)
 
@@ -781,7 +791,14 @@ def output_common(ck, t):
 
 def _output(ck, t, scene) -> OutputSettings:
     ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload"))
-    dofs = ck.names(t["dofs"], "output.dofs") if "dofs" in t else scene.dofs
+    if getattr(scene, "mistuning", None) is not None:  # every sector's DOFs, "x1@3"
+        from .disk_scene import output_dofs
+        dofs = output_dofs(ck, t, scene)
+        if "optimum_preload" in t:
+            ck.fail("output.optimum_preload", "the optimum-preload search is not available for "
+                                              "a mistuned disk")
+    else:
+        dofs = ck.names(t["dofs"], "output.dofs") if "dofs" in t else scene.dofs
     for i, d in enumerate(dofs):
         if d not in scene.dofs:
             ck.fail(f"output.dofs[{i}]", f"unknown DOF {d!r} (DOFs: {', '.join(scene.dofs)})")
@@ -838,6 +855,12 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
                                    "order")
         if "cyclic_coupling" in effects:
             ck.fail("scene.effects", "\"cyclic_coupling\" needs a disk scene (scene.model = "
+                                     "\"disk\"); this scene is one structure")
+        if "mistuning_seed" in axes:
+            ck.fail(f"{wpath}.mistuning_seed", "only a disk scene (scene.model = \"disk\") can "
+                                               "be mistuned")
+        if "mistuning" in effects:
+            ck.fail("scene.effects", "\"mistuning\" needs a disk scene (scene.model = "
                                      "\"disk\"); this scene is one structure")
     if h_excited > H:
         ck.fail(f"{spath}.harmonics", f"H = {H} is below the excited harmonic {h_excited} "

@@ -1,0 +1,226 @@
+"""Mistuned disk scenes (effect "mistuning"): the full N-sector assembly with random
+sector stiffnesses, against the tuned one-sector reduction (zero mistuning), a
+direct linear solve of independently assembled matrices (stuck contacts), and the
+harmonic balance residual of the assembly; schema and cost rules."""
+import copy
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pipeline.cyclic as cyclic
+from pipeline import hbm
+from pipeline.errors import UsageError
+from pipeline.response import frequency_response
+from pipeline.scene import load_study, study_from_mapping, study_to_mapping
+
+ROOT = Path(__file__).resolve().parents[1]
+MISTUNED = ROOT / "studies" / "disk_mistuned.toml"
+TUNED = ROOT / "studies" / "disk_cyclic.toml"
+DOC = tomllib.loads(MISTUNED.read_text())
+KU = 7.1e5
+
+
+def study(N=6, eo=2, std=0.02, seed=None, n0=None, mistuned=True, H=1):
+    """disk_mistuned.toml with N sectors, EO `eo`, H harmonics; tuned (no mistuning
+    table, no seed axis) when `mistuned` is false."""
+    doc = copy.deepcopy(DOC)
+    doc.pop("quick")
+    doc["scene"]["disk"].update(sectors=N, engine_order=eo)
+    doc["solver"].update(harmonics=H, stability=False)
+    if n0 is not None:
+        doc["scene"]["contact"][0]["n0"] = n0
+    if mistuned:
+        doc["scene"]["disk"]["mistuning"] = {"stiffness_std": std, "seed": seed or 1}
+        doc["sweep"].pop("mistuning_seed")
+    else:
+        del doc["scene"]["disk"]["mistuning"], doc["sweep"]["mistuning_seed"]
+        doc["scene"]["effects"].remove("mistuning")
+    return study_from_mapping(doc, file="mistuned.toml")
+
+
+def curve(st, lo_hz, hi_hz, peak_dofs):
+    s = st.system({})
+    return s, frequency_response(s, st.solver.harmonics, 2 * np.pi * lo_hz, 2 * np.pi * hi_hz,
+                                 stability=False, tol_rel=st.solver.tolerance,
+                                 peak_dofs=peak_dofs)
+
+
+def test_zero_mistuning_assembly_equals_the_tuned_sector():
+    """std = 0: the 6-sector assembly (12 DOFs, 6 contacts) gives every sector the
+    tuned one-sector peak, amplitude and frequency."""
+    tuned, mis = study(std=0.0, mistuned=False), study(std=0.0)
+    np.testing.assert_array_equal(mis.scene.stiffness_factors({}), np.ones(6))
+    st, a = curve(tuned, 400.0, 470.0, [0])
+    sm, b = curve(mis, 400.0, 470.0, [mis.scene.dof_index(f"x1@{j}") for j in range(6)])
+    assert st.n_dof == 2 and st.cyclic is not None
+    assert sm.n_dof == 12 and sm.cyclic is None and sm.n_elements == 6
+    assert a.success and b.success and a.converged.all() and b.converged.all()
+    amp, om, _ = a.peak(0)
+    for j in range(6):
+        bj = b.peak(mis.scene.dof_index(f"x1@{j}"))
+        assert bj[0] == pytest.approx(amp, rel=1e-9)
+        assert bj[1] == pytest.approx(om, rel=1e-7)
+
+
+def reference_matrices(st, seed_case):
+    """M, C, K of the ring with stuck shroud springs, built here from the sector
+    data and `default_rng(seed)`, independently of `cyclic.full_assembly`."""
+    sc = st.scene
+    N, n = sc.sectors, 2
+    std, seed = sc.mistuning.stiffness_std, seed_case
+    delta = np.random.default_rng(seed).normal(0.0, std, N)
+    assert np.abs(delta).max() < 3 * std  # no truncation for these seeds
+    M = np.zeros((N * n, N * n))
+    C, K = M.copy(), M.copy()
+    for j in range(N):
+        s = slice(j * n, (j + 1) * n)
+        M[s, s], C[s, s], K[s, s] = sc.M, sc.C, (1 + delta[j]) * sc.K
+    for j in range(N):
+        b = np.zeros(N * n)
+        b[((j + 1) % N) * n + 1], b[j * n + 1] = 1.0, -1.0  # u = x2_{j+1} - x2_j
+        K += KU * np.outer(b, b)
+    return M, C, K
+
+
+def test_stuck_mistuned_assembly_is_the_direct_linear_solve():
+    """n0 = 1e6 N (never slips): every point of the mistuned assembly's branch is
+    the linear solve (K_ring - w^2 M + i w C) X = F with K_ring assembled here, to
+    1e-9; the sectors' peaks differ (mistuning localises the response)."""
+    st = study(N=6, eo=2, std=0.02, seed=3, n0=1e6)
+    s, c = curve(st, 490.0, 520.0, [0])
+    assert c.success and c.converged.all()
+    M, C, K = reference_matrices(st, 3)
+    F = np.concatenate([np.exp(1j * j * 2 * np.pi * 2 / 6) * np.array([1.0, 0.0])
+                        for j in range(6)])
+    f = 1 + np.random.default_rng(3).normal(0.0, 0.02, 6)
+    np.testing.assert_allclose(s.K, np.kron(np.diag(f), st.scene.K), rtol=0, atol=1e-9)
+    for Q, om in zip(c.Q[::7], c.omega[::7]):
+        X = np.linalg.solve(K - om**2 * M + 1j * om * C, F)
+        Xh = Q[:, 1] - 1j * Q[:, 2]       # x = a cos + b sin  ->  X = a - i b
+        assert np.abs(Xh - X).max() <= 1e-9 * np.abs(X).max()
+    peaks = np.array([c.peak(i)[0] for i in range(0, 12, 2)])
+    assert np.ptp(peaks) > 1e-2 * peaks.max()
+
+
+def test_mistuned_friction_branch_satisfies_the_assembly_residual():
+    """Friction slips (n0 = 2 N): every converged point of the assembly's branch,
+    residual recomputed here on the uncondensed assembly, is within tolerance; the
+    sectors' blade peaks differ, the tuned sector's lies within their range."""
+    st = study(N=6, eo=2, std=0.02, seed=1)
+    s, c = curve(st, 380.0, 480.0, range(0, 12, 2))
+    assert c.success and c.converged.all()
+    prob = hbm.setup(s, st.solver.harmonics)
+    for Q, om in zip(c.Q[::5], c.omega[::5]):
+        assert np.linalg.norm(hbm.full_residual(prob, Q, om)) <= c.tolerance
+    peaks = np.array([c.peak(i)[0] for i in range(0, 12, 2)])
+    assert np.ptp(peaks) > 1e-2 * peaks.max()
+    _, t = curve(study(N=6, eo=2, mistuned=False), 380.0, 480.0, [0])
+    assert peaks.min() < t.peak(0)[0] < peaks.max()
+
+
+def test_a_tuned_disk_never_assembles_and_a_mistuned_one_once_per_case(monkeypatch):
+    calls = {"full": 0, "sector": 0}
+    full, sector = cyclic.full_assembly, cyclic.sector_system
+
+    def forbidden(*a, **k):
+        raise AssertionError("a tuned disk must not assemble all sectors")
+
+    monkeypatch.setattr(cyclic, "full_assembly", forbidden)
+    tuned = load_study(TUNED)
+    for _, case in tuned.sweep.cases():
+        assert tuned.system(case).cyclic is not None
+
+    def counted_full(*a, **k):
+        calls["full"] += 1
+        return full(*a, **k)
+
+    def counted_sector(*a, **k):
+        calls["sector"] += 1
+        return sector(*a, **k)
+
+    monkeypatch.setattr(cyclic, "full_assembly", counted_full)
+    monkeypatch.setattr(cyclic, "sector_system", counted_sector)
+    mis = load_study(MISTUNED)
+    calls.update(full=0, sector=0)
+    systems = [mis.system(case) for _, case in mis.sweep.cases()]
+    assert calls == {"full": 2, "sector": 0}
+    for s in systems:
+        assert s.cyclic is None and s.n_dof == 24 and s.dof_names == mis.scene.dofs
+    assert not np.array_equal(systems[0].K, systems[1].K)  # seeds 1 and 2
+
+
+def test_mistuned_scene_labels_every_sector():
+    st = load_study(MISTUNED)
+    sc = st.scene
+    assert sc.sector_dofs == ("x1", "x2") and len(sc.dofs) == 24
+    assert st.output.dofs == tuple(f"x1@{j}" for j in range(12))
+    for i, label in enumerate(sc.dofs):
+        assert sc.dof_index(label) == i
+    assert sc.dof_index("x2@3") == 7
+    with pytest.raises(ValueError, match="sector below 12"):
+        sc.dof_index("x1@12")
+    f = sc.stiffness_factors({"mistuning_seed": 2})
+    np.testing.assert_array_equal(f, 1 + np.random.default_rng(2).normal(0, 0.02, 12))
+    # the canonical document round-trips (explicit labels are accepted back)
+    u = study_from_mapping(study_to_mapping(st), file="canonical.toml")
+    assert (u.sweep, u.solver, u.output) == (st.sweep, st.solver, st.output)
+    assert u.scene.mistuning == sc.mistuning
+    assert study_to_mapping(u) == study_to_mapping(st)
+
+
+@pytest.mark.parametrize("std, match", [(0.5, "0 <= std < 0.5"), (-0.01, ">= 0")])
+def test_stiffness_std_bounds(std, match):
+    doc = copy.deepcopy(DOC)
+    doc["scene"]["disk"]["mistuning"]["stiffness_std"] = std
+    with pytest.raises(UsageError, match=r"scene\.disk\.mistuning\.stiffness_std: .*" + match):
+        study_from_mapping(doc, file="m.toml")
+
+
+def test_mistuning_factors_arguments_are_named():
+    with pytest.raises(ValueError, match="stiffness_std"):
+        cyclic.mistuning_factors(12, 0.6, 1)
+    with pytest.raises(ValueError, match="seed"):
+        cyclic.mistuning_factors(12, 0.02, -1)
+    f = cyclic.mistuning_factors(4, 0.49, 7)     # truncation keeps every K_j positive
+    assert np.all(f >= 0.1) and np.all(np.abs(f - 1) <= 3 * 0.49)
+
+
+def test_cli_rejects_a_mistuning_not_declared(tmp_path):
+    bad = ROOT / "tests" / "bad_studies" / "disk_mistuning_not_declared.toml"
+    r = subprocess.run([sys.executable, "-m", "pipeline", "run", str(bad), "--out",
+                        str(tmp_path / "out")], capture_output=True, text=True, cwd=ROOT,
+                       timeout=120)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.splitlines() == [
+        f"error: {bad}: scene.effects: [scene.disk] mistuning breaks cyclic symmetry: "
+        "declare \"mistuning\""]
+    assert not (tmp_path / "out").exists()
+
+
+def test_mistuned_study_dataset(tmp_path):
+    """disk_mistuned.toml (one seed, a narrower band) end to end: the dataset reports
+    x1 of every sector, passes the contract checker, and its per-sector peaks
+    differ; the mode dimension is that of the 24-DOF assembly."""
+    from pipeline.study import run_study
+
+    doc = copy.deepcopy(DOC)
+    doc["quick"]["sweep"] = {"mistuning_seed": [1],
+                             "frequency": {"start": 400.0, "stop": 460.0, "unit": "Hz"}}
+    st = study_from_mapping(doc, file=str(tmp_path / "disk_mistuned.toml"),
+                            name="disk_mistuned", text=MISTUNED.read_text(), quick=True)
+    res = run_study(st, tmp_path, workers=1, figures=False, progress=False)
+    assert res.ok
+    ds = res.dataset
+    assert list(ds["dof"].values) == [f"x1@{j}" for j in range(12)]
+    assert ds.sizes["mode"] == 24 and ds.attrs["mistuning_stiffness_std"] == 0.02
+    assert int(ds["converged"].sum()) > 50
+    peaks = ds["peak_amplitude"].isel(mistuning_seed=0).values
+    assert np.all(np.isfinite(peaks)) and np.ptp(peaks) > 1e-2 * peaks.max()
+    chk = subprocess.run([sys.executable, str(ROOT.parent / "shared" / "tools" /
+                                              "check_dataset.py"), str(res.path)],
+                         capture_output=True, text=True)
+    assert chk.returncode == 0, chk.stdout + chk.stderr
