@@ -22,7 +22,7 @@ import numpy as np
 import xarray as xr
 
 from . import __version__
-from .scene import SWEEP_AXES, Study
+from .scene import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from .system import natural_frequencies
 
 CONVENTIONS = "CF-1.10"
@@ -53,9 +53,6 @@ def _peak(freq, amp, mask):
         return np.full(amp.shape[1], np.nan), np.full(amp.shape[1], np.nan)
     i = np.argmax(a, axis=0)
     return a[i, np.arange(a.shape[1])], freq[i]
-
-
-INTEGER_AXES = ("eo",)   # sweep axes whose values are counts (engine order)
 
 
 def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
@@ -166,7 +163,7 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         ("mode",), natural_frequencies(study.system(cases[0][1]), "open") / to_unit,
         {"units": unit, "long_name": "undamped natural frequency without contacts"})
 
-    coords = {a: (a, np.asarray(vals, dtype=np.int32 if a in INTEGER_AXES else float),
+    coords = {a: (a, np.asarray(vals, dtype=np.int32 if a in INTEGER_SWEEP_AXES else float),
                   {"units": SWEEP_AXES[a][0], "long_name": SWEEP_AXES[a][1]})
               for a, vals in study.sweep.axes.items()}
     coords["dof"] = ("dof", np.asarray(out.dofs, dtype=str), {"long_name": "response degree of freedom"})
