@@ -201,11 +201,13 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
         ck.keys(tab, c, _CASE_KEYS, required=("scene", "reference", "frequency"))
         q = ck.table(qt.get(c), f"quick.{c}", required=False)
         ck.keys(q, f"quick.{c}", _QUICK_KEYS)
-        scene, h_excited = _case_scene(ck, c, tab, base_dir)
-        full.append(_case(ck, c, tab, scene, h_excited, lambda p, c=c: f"{c}.{p}"))
         merged, origin = _merge_quick(ck, c, tab, q)
-        short.append(_case(ck, c, merged, scene, h_excited,
-                           lambda p, c=c, o=origin: f"{o(p)}.{p}"))
+        w_full, w_quick = (lambda p, c=c: f"{c}.{p}"), (lambda p, o=origin: f"{o(p)}.{p}")
+        # the FE blade is built (validated) once, on the chosen variant's reference mesh
+        scene, h_excited = _case_scene(ck, c, merged if quick else tab, base_dir,
+                                       w_quick if quick else w_full)
+        full.append(_case(ck, c, tab, scene, h_excited, w_full))
+        short.append(_case(ck, c, merged, scene, h_excited, w_quick))
     return AccuracyStudy(file=file, name=name, title=title, description=description,
                          reference=reference, text=text, cases=tuple(short if quick else full),
                          target=float(target), quick=bool(quick))
@@ -233,9 +235,9 @@ def _merge_quick(ck, c, tab, q):
     return merged, origin
 
 
-def _case_scene(ck, c, tab, base_dir):
+def _case_scene(ck, c, tab, base_dir, where):
     """(scene, highest excited harmonic) of a case: a lumped `Scene` or a `BladeScene`
-    (validated with the reference mesh and mode count)."""
+    (built on the reference mesh with the reference mode count of `tab`)."""
     pk = _Prefixed(ck.file, c)
     raw = ck.table(tab["scene"], f"{c}.scene")
     model = raw.get("model")
@@ -256,14 +258,14 @@ def _case_scene(ck, c, tab, base_dir):
         if k in blade_tab:
             ck.fail(f"{c}.scene.blade.{k}", "an accuracy setting: give mesh = [n_chord, n_thick, "
                                             "n_span] in reference, baseline or knobs")
-    ref = ck.table(tab["reference"], f"{c}.reference")
+    ref = ck.table(tab["reference"], where("reference"))
     at = dict(raw)
     if "mesh" in ref:  # build (and so validate) the scene on the reference mesh
-        counts = _mesh_value(ck, ref["mesh"], f"{c}.reference.mesh")
+        counts = _mesh_value(ck, ref["mesh"], where("reference.mesh"))
         at["blade"] = {**blade_tab, **dict(zip(_MESH_FIELDS, counts))}
     if "craig_bampton_modes" in ref:
         at["craig_bampton_modes"] = ck.integer(ref["craig_bampton_modes"],
-                                               f"{c}.reference.craig_bampton_modes", 0, 10_000)
+                                               where("reference.craig_bampton_modes"), 0, 10_000)
     scene = _blade_scene(pk, at, "response", base_dir, {})
     if not scene.contacts:
         ck.fail(f"{c}.scene.contact", "a blade case needs at least one [[blade.scene.contact]]")
@@ -457,6 +459,7 @@ class Measurement:
     peak_amplitude: float = math.nan    # [m]
     peak_frequency: float = math.nan    # [rad/s]
     folds: np.ndarray = field(default_factory=lambda: np.zeros(0))   # [rad/s], ascending
+    repeats: int = 1                    # timing runs (the shortest counts)
     n_points: int = 0
     nfev: int = 0
     n_dof: int = 0                      # DOFs of the model solved (reduced for blades)
@@ -495,26 +498,23 @@ def _system(case: Case, s: Settings, models: dict):
 
 
 def measure(case: Case, s: Settings, models: dict, solver=None) -> Measurement:
-    """Trace the case with settings s (`repeats` times; the best wall time counts)."""
+    """Trace the case once with settings s: the result and its cost (`retime` adds
+    timing runs)."""
     from .response import frequency_response
 
     solver = solver or frequency_response
     try:
         system, dof, t_model, n_full = _system(case, s, models)
-        best = None
-        for _ in range(case.repeats):
-            t0, c0 = time.perf_counter(), time.process_time()
-            curve = solver(system, s.harmonics, case.frequency.omega_start,
-                           case.frequency.omega_stop, peak_dofs=[dof], **s.solver_kwargs())
-            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-            if best is None or wall < best[0]:
-                best = (wall, cpu)
+        t0, c0 = time.perf_counter(), time.process_time()
+        curve = solver(system, s.harmonics, case.frequency.omega_start, case.frequency.omega_stop,
+                       peak_dofs=[dof], **s.solver_kwargs())
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     except Exception as exc:  # a failing setting is a finding, not the end of the study
         log.exception("%s: %s failed", case.name, s.describe())
         return Measurement(success=False, message=f"{type(exc).__name__}: {exc}", crashed=True)
     conv = np.asarray(curve.converged, bool)
     m = Measurement(success=bool(curve.success and conv.any()), message=str(curve.message),
-                    wall_time=best[0] + t_model, cpu_time=best[1], model_time=t_model,
+                    wall_time=wall + t_model, cpu_time=cpu, model_time=t_model,
                     n_points=int(curve.n_points), nfev=int(curve.nfev), n_dof=int(system.n_dof),
                     n_dof_full=int(n_full))
     if not conv.any():
@@ -533,6 +533,24 @@ def measure(case: Case, s: Settings, models: dict, solver=None) -> Measurement:
     m.converged = conv
     m.peak_state = (system, np.asarray(curve.Q[i], float), om)
     return m
+
+
+def retime(case: Case, s: Settings, m: Measurement, models: dict, solver=None) -> None:
+    """Run the continuation of `m` again and keep the shorter time (wall and CPU
+    of the same run)."""
+    from .response import frequency_response
+
+    if m.crashed:
+        return
+    solver = solver or frequency_response
+    system, dof, t_model, _ = _system(case, s, models)
+    t0, c0 = time.perf_counter(), time.process_time()
+    solver(system, s.harmonics, case.frequency.omega_start, case.frequency.omega_stop,
+           peak_dofs=[dof], **s.solver_kwargs())
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    if wall + t_model < m.wall_time:
+        m.wall_time, m.cpu_time = wall + t_model, cpu
+    m.repeats += 1
 
 
 def relative_errors(m: Measurement, ref: Measurement) -> dict:
@@ -600,17 +618,23 @@ def time_integration_check(ref: Measurement, dof: int, lo: float, rel_window: fl
 # Recommendation
 # ---------------------------------------------------------------------------
 
+TIE = 0.1   # wall times within 10 % of the cheapest count as equal (timing noise)
+
+
 def recommend(rows: list, knobs, target: float) -> dict:
     """Per knob, the cheapest run (its series or the baseline) whose errors all meet
-    the target: {knob: (value, row, met)}; if none meets it, the most accurate one
-    (met False)."""
+    the target: {knob: (value, row, met)}.  Runs within `TIE` of the cheapest time
+    count as equally cheap, and the most accurate of them is taken.  If no run
+    meets the target, the most accurate one (met False)."""
     base = next(r for r in rows if r["knob"] == "baseline")
     out = {}
     for k, _ in knobs:
         cand = [base] + [r for r in rows if r["knob"] == k]
         ok = [r for r in cand if _meets(r, target)]
         if ok:
-            best = min(ok, key=lambda r: r["m"].wall_time)
+            t_min = min(r["m"].wall_time for r in ok)
+            near = [r for r in ok if r["m"].wall_time <= (1 + TIE) * t_min]
+            best = min(near, key=lambda r: r["errors"]["error"])
         else:
             best = min(cand, key=lambda r: (r["errors"]["error"] if np.isfinite(r["errors"]["error"])
                                            else math.inf))
@@ -643,19 +667,27 @@ def run_case(case: Case, target: float, solver=None) -> dict:
     errors_baseline}], the recommendation, and the time-integration check."""
     models, cache = {}, {}
 
-    def get(s):
-        if s not in cache:
-            cache[s] = measure(case, s, models, solver)
-            m = cache[s]
+    def get(settings):
+        """Measure every new setting once, then time them again `repeats - 1` times,
+        round-robin, so that a burst of load on a shared machine does not hit all
+        the timings of one setting."""
+        new = [s for s in dict.fromkeys(settings) if s not in cache]
+        for s in new:
+            cache[s] = m = measure(case, s, models, solver)
             log.info("%s: %s: %s, %.3g s%s", case.name, s.describe(),
                      f"peak {m.peak_amplitude:.8g} at {m.peak_frequency:.8g} rad/s, "
                      f"folds {np.round(m.folds, 6).tolist()}" if m.success else "FAILED",
                      m.wall_time, "" if m.success else f" ({m.message})")
-        return cache[s]
+        for _ in range(case.repeats - 1):
+            for s in new:
+                retime(case, s, cache[s], models, solver)
+        return [cache[s] for s in settings]
 
+    get([s for _, _, s in case.runs()])
     rows = []
     for knob, value, s in case.runs():
-        rows.append({"case": case.name, "knob": knob, "value": value, "settings": s, "m": get(s)})
+        rows.append({"case": case.name, "knob": knob, "value": value, "settings": s,
+                     "m": cache[s]})
     ref = rows[0]["m"]
     base = rows[1]["m"]
     for r in rows:
@@ -663,7 +695,7 @@ def run_case(case: Case, target: float, solver=None) -> dict:
         r["errors_baseline"] = relative_errors(r["m"], base)
     rec = recommend(rows, case.knobs, target)
     s_rec = recommended_settings(case.baseline, rec)
-    m_rec = get(s_rec)
+    m_rec = get([s_rec])[0]
     row = {"case": case.name, "knob": "recommended", "value": None, "settings": s_rec, "m": m_rec,
            "errors": relative_errors(m_rec, ref), "errors_baseline": relative_errors(m_rec, base)}
     rows.append(row)
@@ -806,9 +838,11 @@ def to_dataset(study: AccuracyStudy, results: list):
         "n_folds": var(("run",), np.array([r["m"].folds.size for r in rows], np.int32), "1",
                        "folds detected on the branch"),
         "wall_time": var(("run",), num(lambda r: r["m"].wall_time), "s",
-                         "wall time: best continuation of the repeats + model time"),
+                         "wall time: shortest continuation of the repeats + model time"),
         "cpu_time": var(("run",), num(lambda r: r["m"].cpu_time), "s",
                         "process (CPU) time of that continuation"),
+        "repeats": var(("run",), np.array([r["m"].repeats for r in rows], np.int32), "1",
+                       "timing runs of the setting (interleaved; the shortest counts)"),
         "model_time": var(("run",), num(lambda r: r["m"].model_time), "s",
                           "FE assembly + Craig-Bampton reduction (blades; 0 for lumped)"),
         "n_points": var(("run",), np.array([r["m"].n_points for r in rows], np.int32), "1",

@@ -122,8 +122,8 @@ def test_recommendation_meets_the_target(quick):
 def _text(old, new, coarse_blade=False):
     text = STUDY.read_text()
     if coarse_blade:  # validation builds the reference blade: keep it small here
-        text = text.replace("mesh = [6, 1, 10]", "mesh = [4, 1, 6]").replace(
-            "mesh = [[2, 1, 3], [3, 1, 4], [4, 1, 6]]", "mesh = [[2, 1, 3], [3, 1, 4]]")
+        text = text.replace("mesh = [6, 1, 9]", "mesh = [4, 1, 6]").replace(
+            "mesh = [[2, 1, 3], [2, 1, 6], [4, 1, 6]]", "mesh = [[2, 1, 3], [3, 1, 4]]")
     if old.startswith("+"):
         return text.replace(old[1:], old[1:] + new, 1)
     assert old in text, old
@@ -131,7 +131,7 @@ def _text(old, new, coarse_blade=False):
 
 
 BAD = {
-    "unknown_case_key": ("repeats = 2", "repeat = 2",
+    "unknown_case_key": ("repeats = 3", "repeat = 3",
                          r"lumped\.repeat: unknown key .*did you mean 'repeats'"),
     "knob_beyond_reference": ("harmonics = [1, 2, 3, 5, 7, 10, 21]", "harmonics = [1, 41]",
                               r"lumped\.knobs\.harmonics\[1\]: H = 41 exceeds the reference's "
