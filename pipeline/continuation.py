@@ -40,10 +40,13 @@ Options of `continue_branch` (defaults):
     refine_folds True  locate each fold by a few extra correctors (regula falsi on the
                lam-component of the tangent); False: cubic Hermite estimate only
     direction  +1     +1 starts towards lam_end, -1 reverses the initial tangent
-               (useful only when the start lies at a fold, where the lam-component
-               of the tangent vanishes; otherwise the first step leaves the interval)
+               (useful at a fold, where the lam-component of the tangent vanishes,
+               or with `lam_back`; otherwise the first step leaves the interval)
+    lam_back   None   how far the run may go back beyond lam0 (on the side away from
+               lam_end); default lam0.  With it, a branch that turns back past lam0
+               (a start between two folds) is followed through its next fold.
 
-The run stops when lam leaves [min(lam0, lam_end), max(lam0, lam_end)] (the last
+The run stops when lam leaves the interval between lam_back and lam_end (the last
 point is then re-solved exactly on the boundary), at max_points, on a callback
 request, or when ds < ds_min.
 
@@ -69,6 +72,7 @@ log = logging.getLogger(__name__)
 
 _SCALE_FLOOR = 1e-2  # components are weighted at most 100x above the largest one
 _FIRST_POINT_ITER = 5  # the first Newton solve gets this many times max_newton
+_CORNER_TURN = math.radians(20.0)  # one-sided tangents differing by more: try a corner
 
 
 # --------------------------------------------------------------------------- Newton
@@ -203,8 +207,8 @@ class Branch:
                                 and tangent solves)
     n_rejected                  rejected step attempts
     scale (n+1,)                final scale [s_x, s_lam]
-    status  0 reached lam_end, 1 left the interval on the lam0 side, 2 max_points,
-            3 stopped by callback, -1 step below ds_min, -2 first point failed
+    status  0 reached lam_end, 1 left the interval on the lam0 side (at lam_back),
+            2 max_points, 3 stopped by callback, -1 step below ds_min, -2 first point failed
     """
 
     x: np.ndarray
@@ -290,7 +294,7 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
                     ds=0.05, ds_min=1e-6, ds_max=0.5, max_points=500, max_newton=10,
                     target_newton=4, max_turn=math.pi / 4, scale=None, callback=None,
                     direction=+1, refine_folds=True, groups=None,
-                    max_deviation=0.3, kink_ds=0.01) -> Branch:
+                    max_deviation=0.3, kink_ds=0.01, lam_back=None) -> Branch:
     """Trace the solution branch of R(x, lam) = 0 from (x0, lam0) towards lam_end.
 
     See the module docstring for the equations and the options.  Numerical failure
@@ -361,6 +365,11 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
 
     update_scale()
     lo, hi = min(lam0, lam_end), max(lam0, lam_end)
+    if lam_back is not None:
+        if not (np.isfinite(lam_back) and (lam_back - lam0) * (lam_end - lam0) <= 0):
+            raise ValueError(f"lam_back must be finite and lie beyond lam0 = {lam0} away from "
+                             f"lam_end = {lam_end}, got {lam_back!r}")
+        lo, hi = min(lam_back, lam_end), max(lam_back, lam_end)
     cos_turn = math.cos(min(max_turn, math.pi))
     sparse = None
 
@@ -538,6 +547,8 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
     # ---- predictor-corrector loop
     spent = 0
     last = {}
+    if not auto_scale:
+        xmax = None
 
     def is_kink(what, value):
         """A smooth curve's turn and predictor deviation shrink in proportion to the
@@ -552,17 +563,16 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         last["small"] = last.get("small", 0) + 1
         return last["small"] > 3 or (prev is not None and value > 0.75 * prev)
 
-    while True:
-        ts = t_phys / s
-        ts /= np.linalg.norm(ts)
-        y_pred = z / s + ds * ts
+    def correct(y_pred, normal):
+        """Corrector on the hyperplane through y_pred normal to `normal` (scaled)."""
+        nonlocal spent
 
         def aug(zz):
             R, Jx, Jl = evaluate(zz[:n], zz[n])
-            return np.append(R, ts @ (zz / s - y_pred)), (Jx, Jl)
+            return np.append(R, normal @ (zz / s - y_pred)), (Jx, Jl)
 
         def scaled_step(JJ, rhs):  # Newton in the scaled unknowns: dz = S dy
-            return s * _solve(bordered(JJ[0], JJ[1], ts), rhs)
+            return s * _solve(bordered(JJ[0], JJ[1], normal), rhs)
 
         zn, st, nit, nfev, njev, r, JJ, F = _newton_core(
             aug, y_pred * s, thresh, max_newton, lambda F: np.linalg.norm(F[:n]),
@@ -570,47 +580,71 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         counters["nfev"] += nfev
         counters["njev"] += njev
         spent += nfev
-        reason = None
-        if st == 0 and abs(F[n]) > 1e-6 * max(ds, 1e-12):
-            reason = "arclength condition not met"
-        if st != 0:
-            reason = _NEWTON_MESSAGES[st]
-        if reason is None:
-            # the corrector must stay near the predictor: a large deviation of the
-            # secant from the tangent means the step jumped over a feature (e.g. a
-            # resonance of a branch Newton finds easy), even if the tangents agree
-            dev = np.linalg.norm(zn / s - y_pred) / ds
-            if dev > max_deviation and ds > ds_min:
-                if is_kink("deviation", dev):
-                    log.debug("kink passed: deviation %.2f persists as ds shrinks", dev)
-                else:
-                    reason = f"corrector moved {dev:.2f} step lengths from the predictor"
-        if reason is None:
-            Jx, Jl = JJ
-            tan = tangent_from(Jx, Jl, t_phys)
-            counters["njev"] += 1
-            if tan is None:
-                reason = "singular tangent system"
-            elif tan[1] < cos_turn and ds > ds_min:
-                angle = math.acos(min(1.0, tan[1]))
-                if is_kink("turn", angle):
-                    log.debug("kink passed: turn %.1f deg persists as ds shrinks",
-                              math.degrees(angle))
-                else:
-                    reason = f"tangent turned by {math.degrees(angle):.1f} deg"
-        if reason is not None:
-            n_rejected += 1
-            ds *= 0.5
-            log.debug("step rejected (%s); ds -> %.3e", reason, ds)
-            if ds < ds_min:
-                return result(-1, f"step size below ds_min = {ds_min:g} at lam = "
-                                  f"{z[n]:.6g} (last failure: {reason})")
-            continue
+        if st == 0 and abs(F[n]) > 1e-6 * max(np.linalg.norm(y_pred - z / s), 1e-12):
+            st = -1  # arclength condition not met
+        return zn, st, nit, nfev, r, JJ
 
-        # accepted
-        last.clear()
-        min_step = min(min_step, ds)
-        t_new_s, _, t_new_phys = tan
+    def oriented_tangent(JJ, along):
+        """Unit scaled tangent at a point (Jacobians JJ) oriented along `along` (scaled)."""
+        tan = tangent_from(JJ[0], JJ[1], along * s)
+        counters["njev"] += 1
+        return None if tan is None else tan[0]
+
+    def pass_corner(ts, zn, JJn):
+        """A corner of the branch between z and the rejected corrector point zn.
+
+        The branch is piecewise smooth (stick/slip/separation patterns change at
+        corners): where one-sided tangents differ, halving the step only creeps
+        towards the corner.  Instead, the corner is located as the meeting point
+        c = y + a t = y_n - b t_n of the line along the tangent t at z and the line
+        back along the tangent t_n at zn (least squares, scaled metric), and two
+        points are solved: y1 just before c (corrector normal to t at 0.98 a; its
+        tangent must still be t) and y2 beyond it (predictor c + d t_n, corrector
+        normal to t_n, d = min(ds, b)); y2 must lie near its predictor and its
+        tangent near t_n.  A smooth turn fails these tests (its chords and middle
+        tangents lie between t and t_n), so only genuine corners pass.  Returns the
+        accepted points [(z, t_scaled, nit, r)] (possibly only y1), or None.
+        """
+        y0, yn = z / s, zn / s
+        tn = oriented_tangent(JJn, yn - y0)
+        if tn is None:
+            return None
+        (a, b), *_ = np.linalg.lstsq(np.column_stack([ts, tn]), yn - y0, rcond=None)
+        if b < 0:
+            tn, b = -tn, -b
+        turn = math.acos(float(np.clip(ts @ tn, -1.0, 1.0)))
+        gap = np.linalg.norm(y0 + a * ts + b * tn - yn)
+        if not (turn > _CORNER_TURN and 0 < a <= ds and gap <= 0.25 * max(a, b)):
+            return None
+        tol_angle = max(0.2 * turn, math.radians(2.0))
+        out = []
+        c = y0 + a * ts
+        if a > 0.05 * ds:  # a point just before the corner
+            y1p = y0 + 0.98 * a * ts
+            z1, st1, nit1, _, r1, JJ1 = correct(y1p, ts)
+            if st1 != 0:
+                return None
+            t1 = oriented_tangent(JJ1, ts)
+            if t1 is None or np.linalg.norm(z1 / s - y1p) > max_deviation * 0.98 * a:
+                return None
+            if math.acos(min(1.0, float(t1 @ ts))) > tol_angle:
+                return None
+            out.append((z1, t1, nit1, r1))
+        d = min(ds, b)
+        for _ in range(2):
+            y2p = c + d * tn
+            z2, st2, nit2, _, r2, JJ2 = correct(y2p, tn)
+            t2 = oriented_tangent(JJ2, tn) if st2 == 0 else None
+            if (t2 is not None and np.linalg.norm(z2 / s - y2p) <= max_deviation * d
+                    and math.acos(min(1.0, float(t2 @ tn))) <= max_turn):
+                out.append((z2, t2, nit2, r2))
+                break
+            d *= 0.25
+        return out or None
+
+    def commit(zn, t_new_phys, nit, r):
+        """Append an accepted point; a Branch when the run ends there, else None."""
+        nonlocal z, t_phys, spent, xmax
         lam_new = zn[n]
         if not lo <= lam_new <= hi:
             bound = hi if lam_new > hi else lo
@@ -623,7 +657,8 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
                     tb = tangent_from(Jx, Jl, t_phys)
                     counters["njev"] += 1
                     if tb is not None:
-                        zn, nit, r, t_new_phys = np.append(xb, bound), nitb, np.linalg.norm(R), tb[2]
+                        zn, nit, t_new_phys = np.append(xb, bound), nitb, tb[2]
+                        r = np.linalg.norm(R)
                 Z.append(zn)
                 T.append(t_new_phys)
                 NIT.append(nit)
@@ -632,7 +667,6 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
             if bound == lam_end:
                 return result(0, f"reached lam_end = {lam_end}")
             return result(1, f"left the interval at lam = {bound} (branch turned back)")
-
         z, t_phys = zn, t_new_phys
         Z.append(z)
         T.append(t_phys)
@@ -647,5 +681,68 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
             return result(3, "stopped by callback")
         if len(Z) >= max_points:
             return result(2, "max_points reached before lam_end")
+        return None
+
+    while True:
+        ts = t_phys / s
+        ts /= np.linalg.norm(ts)
+        y_pred = z / s + ds * ts
+        zn, st, nit, nfev, r, JJ = correct(y_pred, ts)
+        reason = None
+        feature = False  # rejected for a turn or a deviation: possibly a corner
+        if st == -1:
+            reason = "arclength condition not met"
+        elif st != 0:
+            reason = _NEWTON_MESSAGES[st]
+        if reason is None:
+            # the corrector must stay near the predictor: a large deviation of the
+            # secant from the tangent means the step jumped over a feature (e.g. a
+            # resonance of a branch Newton finds easy), even if the tangents agree
+            dev = np.linalg.norm(zn / s - y_pred) / ds
+            if dev > max_deviation and ds > ds_min:
+                if is_kink("deviation", dev):
+                    log.debug("kink passed: deviation %.2f persists as ds shrinks", dev)
+                else:
+                    reason = f"corrector moved {dev:.2f} step lengths from the predictor"
+                    feature = True
+        if reason is None:
+            Jx, Jl = JJ
+            tan = tangent_from(Jx, Jl, t_phys)
+            counters["njev"] += 1
+            if tan is None:
+                reason = "singular tangent system"
+            elif tan[1] < cos_turn and ds > ds_min:
+                angle = math.acos(min(1.0, tan[1]))
+                if is_kink("turn", angle):
+                    log.debug("kink passed: turn %.1f deg persists as ds shrinks",
+                              math.degrees(angle))
+                else:
+                    reason = f"tangent turned by {math.degrees(angle):.1f} deg"
+                    feature = True
+        if reason is not None:
+            n_rejected += 1
+            corner = pass_corner(ts, zn, JJ) if feature else None
+            if corner:
+                log.debug("corner passed with %d point(s) (%s)", len(corner), reason)
+                last.clear()
+                min_step = min(min_step, ds)
+                for zc, tc, nitc, rc in corner:
+                    done = commit(zc, tc * s, nitc, rc)
+                    if done is not None:
+                        return done
+                continue
+            ds *= 0.5
+            log.debug("step rejected (%s); ds -> %.3e", reason, ds)
+            if ds < ds_min:
+                return result(-1, f"step size below ds_min = {ds_min:g} at lam = "
+                                  f"{z[n]:.6g} (last failure: {reason})")
+            continue
+
+        # accepted
+        last.clear()
+        min_step = min(min_step, ds)
+        done = commit(zn, tan[2], nit, r)
+        if done is not None:
+            return done
         factor = math.sqrt(target_newton / max(nit, 1))
         ds = min(max(ds * min(max(factor, 0.5), 2.0), ds_min), ds_max)

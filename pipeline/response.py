@@ -75,7 +75,8 @@ def _initial_guess(prob, Om, contact):
 
 def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_samples=256,
                        stability=True, tol_rel=1e-10, ds=0.02, ds_max=0.1, max_points=1000,
-                       contact=None, callback=None, peak_dofs=None) -> ResponseCurve:
+                       contact=None, callback=None, peak_dofs=None,
+                       initial=None) -> ResponseCurve:
     """Trace the periodic response over Omega in [omega_start, omega_end] [rad/s].
 
     Pseudo-arclength continuation (`continuation.continue_branch`) of the condensed
@@ -83,11 +84,19 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     recomputed (converged iff its static and harmonic parts are each within
     `hbm.tolerances` [N]), Hill stability of the
     full system at every point (`stability.is_stable`).
+
+    First point: Newton from `initial` (Fourier coefficients (n, 2H+1) of all DOFs,
+    e.g. a known solution) if given, else from the better linear guess (contacts
+    open or stuck); then continuation in the excitation level, then in the contact
+    stiffness (`_cold_start`, `_stiffness_start`).  A branch that turns back past
+    omega_start (a start between two folds) is followed through its next fold and
+    its other side traced too (`_trace_range`); one that does not reach omega_end
+    at all is traced from omega_end instead.  A curve that does not cover the
+    range has success False and says why in its message.
     """
     import time
 
     from . import hbm
-    from .continuation import newton
 
     t_start = time.perf_counter()
     prob = hbm.setup(system, H, method, n_samples)
@@ -95,38 +104,132 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     tols = hbm.tolerances(prob, tol_rel, elem)
     w = hbm.row_weights(prob, tols)
     fun = _weighted(lambda x, lam: hbm.residual(prob, x, lam, elem), w)
-    x0 = _initial_guess(prob, omega_start, elem)
     tol = 1.0  # on the weighted residual: every block within its own tolerance [N]
-    nr = newton(lambda x: fun(x, omega_start)[:2], x0, tol, max_iter=60)
-    if not nr.success:
-        nr = _cold_start(prob, elem, omega_start, w, nr)
     groups = np.repeat(np.arange(prob.c.size), prob.nh)
-    br = _continue_past_corners(fun, nr.x, omega_start, omega_end, tol, groups,
-                                ds=ds, ds_max=ds_max, max_points=max_points, callback=callback)
+    kw = dict(ds=ds, ds_max=ds_max, max_points=max_points, callback=callback)
+
+    if initial is not None:
+        initial = np.asarray(initial, dtype=float)
+        if initial.shape != (system.n_dof, prob.nh) or not np.all(np.isfinite(initial)):
+            raise ValueError(f"initial must be finite Fourier coefficients of shape "
+                             f"({system.n_dof}, {prob.nh}), got {initial.shape}")
+
+    def first_point(Om, guess=None):
+        return _first_point(prob, elem, Om, w, lambda x: fun(x, Om)[:2], guess)
+
+    br, spent = _cover_range(fun, first_point, omega_start, omega_end, tol, groups, initial, **kw)
     pts = _insert_peaks(prob, _branch_points(br), fun, tol, elem,
                         peak_dofs if peak_dofs is not None else range(system.n_dof))
     return _curve_from_points(prob, br, pts, lambda lam: elem, tols, stability, lambda lam: lam,
-                              time.perf_counter() - t_start, nr.nfev)
+                              time.perf_counter() - t_start, spent)
+
+
+def _first_point(prob, elem, Om, w, fun_x, guess=None):
+    """The first point at fixed parameter: Newton (weighted residual `fun_x`, tol 1)
+    from `guess` (all DOFs' coefficients) if given, else from the better linear
+    guess; then the load and the stiffness homotopies.  (NewtonResult, nfev spent)."""
+    from .continuation import newton
+
+    spent = 0
+    if guess is not None:
+        nr = newton(fun_x, guess[prob.c].ravel(), 1.0, max_iter=60)
+        spent += nr.nfev
+        if nr.success:
+            return nr, spent
+    nr = newton(fun_x, _initial_guess(prob, Om, elem), 1.0, max_iter=60)
+    spent += nr.nfev
+    for start in (_cold_start, _stiffness_start):
+        if nr.success:
+            break
+        nr, n = start(prob, elem, Om, w, nr)
+        spent += n
+    return nr, spent
+
+
+def _cover_range(fun, first_point, lam0, lam_end, tol, groups, guess=None, **kw):
+    """The branch across [lam0, lam_end]: from the first point at lam0 (`_trace_range`);
+    if that does not reach lam_end (an isolated arc, or no first point at lam0), from
+    a first point at lam_end backwards, returned in the order lam0 -> lam_end.  A
+    branch that still does not reach the other end is no success.
+    Returns (Branch-like, nfev spent on first points)."""
+    nr, spent = first_point(lam0, guess)
+    br = _trace_range(fun, nr.x, lam0, lam_end, tol, groups, **kw)
+    if br.status in (1, -2):
+        nr_end, spent_end = first_point(lam_end)
+        spent += spent_end
+        rb = _trace_range(fun, nr_end.x, lam_end, lam0, tol, groups, **kw)
+        if rb.status == 0:
+            br = _Merged([_Piece(rb, reverse=True)], f"reached {lam_end} (traced backwards from "
+                         f"there; from {lam0}: {br.message})", True, 0, discarded=[br])
+        else:
+            br = _Merged([br], br.message, False, br.status, discarded=[rb])
+    if br.status == 1:  # the range is not covered: an incomplete curve is no success
+        br = _Merged([br], f"{lam_end} not reached: {br.message}", False, 1)
+    return br, spent
+
+
+_BACK = 0.2  # how far (fraction of the range) a branch may be followed back past its start
+
+
+def _trace_range(fun, x0, lam0, lam_end, tol, groups, **kw):
+    """The branch through (x0, lam0) across [lam0, lam_end] (`_continue_past_corners`).
+
+    A start between two folds (e.g. on the unstable middle branch of an S-curve)
+    sends the branch back past lam0; it is followed there, up to _BACK of the range
+    beyond lam0 (staying positive), through its next fold.  If it still ends on the
+    lam0 side, the other side of the branch through the first point is traced too
+    (initial tangent reversed); when that reaches lam_end, the curve is both pieces
+    joined at the first point (with points beyond lam0).
+    """
+    span = lam_end - lam0
+    back = lam0 - _BACK * span
+    if span > 0 and lam0 > 0:
+        back = max(back, 0.5 * lam0)
+    br = _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, lam_back=back, **kw)
+    if br.status != 1 or br.lam.size < 2:
+        return br
+    other = _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, lam_back=back,
+                                   direction=-1, **kw)
+    if other.status != 0:
+        return _Merged([br], br.message, br.success, br.status, discarded=[other])
+    return _Merged([_Piece(br, reverse=True), _Piece(other, drop_first=True)],
+                   other.message + " (the branch through the first point traced both ways)",
+                   True, 0)
+
+
+class _Piece:
+    """A branch's points (Branch-like), reversed and/or without its first point."""
+
+    def __init__(self, br, reverse=False, drop_first=False):
+        k = 1 if drop_first else 0
+        order = slice(None, None, -1) if reverse else slice(None)
+        for a in ("x", "lam", "nit", "converged"):
+            setattr(self, a, np.asarray(getattr(br, a))[k:][order])
+        self.fold_lam = np.asarray(br.fold_lam)[order]
+        for a in ("nfev", "njev", "n_rejected", "min_step", "message", "success", "status"):
+            setattr(self, a, getattr(br, a))
 
 
 class _Merged:
-    """Branches of restarted continuations joined into one (Branch-like)."""
+    """Branches of restarted continuations joined into one (Branch-like); the costs
+    of discarded attempts are counted too."""
 
-    def __init__(self, parts, message, success, status):
+    def __init__(self, parts, message, success, status, discarded=()):
         self.x = np.concatenate([p.x for p in parts])
         self.lam = np.concatenate([p.lam for p in parts])
         self.nit = np.concatenate([p.nit for p in parts])
         self.converged = np.concatenate([p.converged for p in parts])
         self.fold_lam = np.concatenate([p.fold_lam for p in parts])
-        self.nfev = sum(p.nfev for p in parts)
-        self.njev = sum(p.njev for p in parts)
-        self.n_rejected = sum(p.n_rejected for p in parts)
+        every = list(parts) + list(discarded)
+        self.nfev = sum(p.nfev for p in every)
+        self.njev = sum(p.njev for p in every)
+        self.n_rejected = sum(p.n_rejected for p in every)
         self.min_step = min(p.min_step for p in parts)
-        self.restarts = len(parts) - 1
         self.message, self.success, self.status = message, success, status
 
 
-def _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, max_restarts=4, **kw):
+def _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, max_restarts=4, lam_back=None,
+                           **kw):
     """`continue_branch`, restarted where it stalls at a corner of the branch.
 
     At a corner the one-sided tangents can alternate between accepted points so that
@@ -140,9 +243,11 @@ def _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, max_restarts=4, 
 
     parts = []
     x, lam = x0, lam0
+    back = lam0 if lam_back is None else lam_back
     span = abs(lam_end - lam0)
     for attempt in range(max_restarts + 1):
-        br = continue_branch(fun, x, lam, lam_end, tol=tol, groups=groups, **kw)
+        br = continue_branch(fun, x, lam, lam_end, tol=tol, groups=groups,
+                             lam_back=back if back != lam else None, **kw)
         parts.append(br)
         if br.success or br.status != -1 or br.lam.size < 2:
             break
@@ -151,7 +256,7 @@ def _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, max_restarts=4, 
         jumped = None
         for frac in (1e-4, 1e-3, 1e-2):
             lt = ll + direction * frac * span
-            if (lt - lam0) * (lt - lam_end) > 0:
+            if (lt - back) * (lt - lam_end) > 0:
                 break
             r = newton(lambda y: fun(y, lt)[:2], xl, tol, max_iter=30)
             if r.success and np.linalg.norm(r.x - xl) <= 0.05 * max(np.linalg.norm(xl), 1e-300):
@@ -160,6 +265,8 @@ def _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, max_restarts=4, 
         if jumped is None:
             break
         x, lam = jumped
+        # keep the direction of travel (towards or away from lam_end)
+        kw["direction"] = 1 if direction * (lam_end - lam) > 0 else -1
     last = parts[-1]
     if len(parts) == 1:
         return last
@@ -170,7 +277,8 @@ def _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, max_restarts=4, 
 def _cold_start(prob, elem, Om, w, failed):
     """First point by continuation in the load: R_s = R + (1 - s) P~ from s = 0 (no
     excitation: the static state under the preloads) to s = 1, at fixed Om.  Used
-    when Newton from the linear guesses fails (strong impact, a gap that closes)."""
+    when Newton from the linear guesses fails (strong impact, a gap that closes).
+    Returns (NewtonResult, nfev spent); `failed` if the homotopy fails."""
     from . import hbm
     from .continuation import continue_branch, newton
 
@@ -183,12 +291,55 @@ def _cold_start(prob, elem, Om, w, failed):
 
     st = newton(lambda x: fun_s(x, 0.0)[:2], np.zeros(prob.size), 1.0, max_iter=60)
     if not st.success:
-        return failed
+        return failed, st.nfev
     br = continue_branch(fun_s, st.x, 0.0, 1.0, tol=1.0,
                          groups=np.repeat(np.arange(prob.c.size), prob.nh))
+    spent = st.nfev + br.nfev
     if not (br.success and br.lam.size and br.lam[-1] == 1.0):
-        return failed
-    return newton(lambda x: fun_s(x, 1.0)[:2], br.x[-1], 1.0, max_iter=10)
+        return failed, spent
+    nr = newton(lambda x: fun_s(x, 1.0)[:2], br.x[-1], 1.0, max_iter=10)
+    return nr, spent + nr.nfev
+
+
+def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
+    """First point by continuation in the contact stiffness: ku and kv scaled by
+    10**p from a soft contact p0 = -d (d in `decades`, until Newton from the linear
+    guesses converges and the branch reaches p = 0), at fixed Om, on log scale (stiff impact
+    spans decades).  Used when stiff impact defeats both Newton from the linear
+    guesses and the load homotopy (whose branch then meets a cascade of folds).
+    Returns (NewtonResult, nfev spent); `failed` if no decade leads to p = 0."""
+    from dataclasses import replace
+
+    from . import hbm
+    from .continuation import continue_branch, newton
+
+    def el(p):
+        f = 10.0 ** p
+        return replace(elem, ku=elem.ku * f, kv=elem.kv * f)
+
+    def fun_p(x, p):
+        R, J, _ = hbm.residual(prob, x, Om, el(p))
+        Qc = x.reshape(prob.c.size, prob.nh)
+        d = 1e-6
+        Gp = hbm.contact_terms(prob, Qc, el(p + d), False)[0]
+        Gm = hbm.contact_terms(prob, Qc, el(p - d), False)[0]
+        return w * R, w[:, None] * J, w * ((Gp - Gm) / (2 * d)).ravel()
+
+    groups = np.repeat(np.arange(prob.c.size), prob.nh)
+    spent = 0
+    for dec in decades:
+        p0 = -float(dec)
+        st = newton(lambda x: fun_p(x, p0)[:2], _initial_guess(prob, Om, el(p0)), 1.0,
+                    max_iter=30)
+        spent += st.nfev
+        if not st.success:
+            continue
+        br = continue_branch(fun_p, st.x, p0, 0.0, tol=1.0, max_points=2000, groups=groups)
+        spent += br.nfev
+        if br.success and br.lam.size and br.lam[-1] == 0.0:
+            nr = newton(lambda x: fun_p(x, 0.0)[:2], br.x[-1], 1.0, max_iter=10)
+            return nr, spent + nr.nfev
+    return failed, spent
 
 
 def _weighted(fun, w):
@@ -245,8 +396,8 @@ def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     for dof in dofs:
         amps = np.array([_dof_amplitude(prob, X[i], L[i], dof, omega_of) for i in range(L.size)])
         todo += [(dof, i, amps[i]) for i in _local_maxima(amps, pts["converged"])]
-    # insert from the end of the branch backwards: earlier indices stay valid
-    for dof, i, amp_i in sorted(todo, key=lambda t: -t[1]):
+    found = []  # (position along the branch, z): i + sigma, sigma in [-1, 1]
+    for dof, i, amp_i in todo:
         Z = np.column_stack([X[i - 1:i + 2], L[i - 1:i + 2]]) / scale
         nfev = [0]
         cache = {}
@@ -264,19 +415,24 @@ def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
             r = newton(aug, p * scale, tol, max_iter=20)
             ok = r.success and np.linalg.norm(fun(r.x[:-1], r.x[-1])[0]) <= tol
             cache[sig] = (r.x, ok)
-            return -_dof_amplitude(prob, r.x[:-1], r.x[-1], dof, omega_of) if ok else np.inf
+            # a failed solve ranks below any amplitude (finite: Brent cannot take inf)
+            return -_dof_amplitude(prob, r.x[:-1], r.x[-1], dof, omega_of) if ok else 0.0
 
         res = minimize_scalar(solve, bounds=(-1.0, 1.0), method="bounded",
                               options={"xatol": 1e-4})
         z, ok = cache.get(res.x, (None, False))
         pts["extra_nfev"] += nfev[0]
-        if not ok or -res.fun <= amp_i:
-            continue
-        at = i + (1 if res.x > 0 else 0)  # keep branch order
-        pts["x"] = X = np.insert(X, at, z[:-1], axis=0)
-        pts["lam"] = L = np.insert(L, at, z[-1])
-        pts["nit"] = np.insert(pts["nit"], at, 0)
-        pts["converged"] = np.insert(pts["converged"], at, True)
+        if ok and -res.fun > amp_i:
+            found.append((i + float(res.x), z))
+    if not found:
+        return pts
+    # merge in branch order (several DOFs' peaks may fall between the same two points)
+    pos = np.concatenate([np.arange(L.size, dtype=float), [f[0] for f in found]])
+    order = np.argsort(pos, kind="stable")
+    pts["x"] = np.concatenate([X, [f[1][:-1] for f in found]])[order]
+    pts["lam"] = np.concatenate([L, [f[1][-1] for f in found]])[order]
+    pts["nit"] = np.concatenate([pts["nit"], np.zeros(len(found), int)])[order]
+    pts["converged"] = np.concatenate([pts["converged"], np.ones(len(found), bool)])[order]
     return pts
 
 
@@ -345,7 +501,6 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
     import time
 
     from . import hbm
-    from .continuation import continue_branch, newton
 
     t_start = time.perf_counter()
     prob = hbm.setup(system, H, method, n_samples)
@@ -364,20 +519,23 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
         Gm = hbm.contact_terms(prob, Qc, _with_preload(base, lam - d, shape), False)[0]
         return R, J, ((Gp - Gm) / (2 * d)).ravel()
 
-    el0 = _with_preload(base, preload_start, shape)
     tols = tuple(max(a, b) for a, b in zip(
         hbm.tolerances(prob, tol_rel, _with_preload(base, preload_start, shape)),
         hbm.tolerances(prob, tol_rel, _with_preload(base, preload_end, shape))))
     raw = fun
     fun = _weighted(lambda x, lam: raw(x, lam), hbm.row_weights(prob, tols))
-    tol = 1.0
-    x0 = _initial_guess(prob, omega, el0)
-    nr = newton(lambda x: fun(x, preload_start)[:2], x0, tol, max_iter=60)
-    br = continue_branch(fun, nr.x, preload_start, preload_end, tol=tol, ds=ds, ds_max=ds_max,
-                         max_points=max_points, groups=np.repeat(np.arange(prob.c.size), prob.nh))
+    w = hbm.row_weights(prob, tols)
+
+    def first_point(lam, guess=None):
+        return _first_point(prob, _with_preload(base, lam, shape), omega, w,
+                            lambda x: fun(x, lam)[:2], guess)
+
+    br, spent = _cover_range(fun, first_point, preload_start, preload_end, 1.0,
+                             np.repeat(np.arange(prob.c.size), prob.nh), ds=ds, ds_max=ds_max,
+                             max_points=max_points)
     pts = _branch_points(br)
     return _curve_from_points(prob, br, pts, lambda lam: _with_preload(base, lam, shape), tols,
-                              stability, lambda lam: omega, time.perf_counter() - t_start, nr.nfev)
+                              stability, lambda lam: omega, time.perf_counter() - t_start, spent)
 
 
 def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,

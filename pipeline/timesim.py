@@ -634,14 +634,17 @@ def _rel(dz, z):
 def steady_state(system: System, Omega: float, H: int | None = None, periods_max: int = 400,
                  tol: float = 1e-11, q0=None, qd0=None, w0=None, method: str = "shooting",
                  transient_periods: int = 2, newton_max: int = 8, n_samples: int = 512,
-                 max_events_per_period: int = 2000, slider_rest: bool = True) -> SteadyResult:
+                 max_events_per_period: int = 2000, slider_rest: bool = True,
+                 accept_unstable: bool = False) -> SteadyResult:
     """Periodic steady state at excitation frequency Omega [rad/s].
 
     method='shooting': a few transient periods, then Newton on the Poincare map
     P(z) - z = 0, z = [q, q'/Omega, w_stuck], with a finite-difference monodromy
     (least squares, so the neutral slider direction of a fully stuck cycle is
     harmless), backtracking, and fallback to plain periods when Newton stalls; an
-    unstable fixed point is left by plain integration.  method='integrate': plain
+    unstable fixed point is left by plain integration (accept_unstable=True returns
+    it instead, with stable False: the reference for unstable harmonic-balance
+    points; start it at the point with transient_periods=0).  method='integrate': plain
     periods until the Poincare map changes by less than tol.  H: harmonics of Q
     (default max(7, forcing harmonics)).
     """
@@ -695,7 +698,8 @@ def steady_state(system: System, Omega: float, H: int | None = None, periods_max
                     break
             if status:
                 break
-            if rn < tol and (mult_n is None or np.abs(mult_n).max() <= 1 + 1e-6):
+            if rn < tol and (accept_unstable or mult_n is None
+                             or np.abs(mult_n).max() <= 1 + 1e-6):
                 x, w, st, r, mult = xn, wn, sn, rn, mult_n
                 break
             if rn < tol:

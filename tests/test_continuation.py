@@ -207,6 +207,8 @@ def test_newton_rule_is_residual_only():
     (dict(tol=1e-8, scale=[1.0, -1.0]), "scale"),
     (dict(tol=1e-8, tol_rel=1e-6), "r_ref"),
     (dict(tol=1e-8, callback=3), "callback"),
+    (dict(tol=1e-8, lam_back=0.0), "lam_back"),
+    (dict(tol=1e-8, lam_back=np.nan), "lam_back"),
 ])
 def test_bad_arguments(kwargs, match):
     with pytest.raises(ValueError, match=match):
@@ -280,3 +282,43 @@ def test_user_scale_is_kept():
     np.testing.assert_array_equal(b.scale, [1.0, 1.0, 1.5])
     np.testing.assert_allclose(np.sort(b.fold_lam), np.sort(duffing_fold_frequencies(0.02, 0.5, 0.05)),
                                rtol=1e-9)
+
+
+@pytest.mark.parametrize("direction,status,folds", [(+1, 1, [2.0]), (-1, 0, [-2.0])])
+def test_start_between_folds_followed_back_past_lam0(direction, status, folds):
+    """x^3 - 3x = lam from the middle branch (x = 0, lam = 0) towards lam = 3, allowed
+    back to lam = -3: towards lam_end the branch turns at the fold (-1, 2) and leaves
+    at lam_back; the reversed start passes the fold (1, -2) behind lam0 and reaches
+    lam_end on the upper branch."""
+    b = continue_branch(scurve, [0.0], 0.0, 3.0, tol=1e-12, lam_back=-3.0,
+                        direction=direction)
+    assert b.success and b.status == status, b.message
+    assert b.lam[-1] == (3.0 if status == 0 else -3.0)
+    np.testing.assert_allclose(b.fold_lam, folds, atol=1e-9)
+    assert np.all((b.lam >= -3.0) & (b.lam <= 3.0))
+
+
+def corner(x, lam):
+    """x = 10 max(lam - 1, 0) (scaled: a corner of ~85 deg at lam = 1) plus a smooth
+    second unknown, as at the onset of stick or slip."""
+    R = np.array([x[0] - 10 * max(lam - 1.0, 0.0), x[1] - np.sin(lam)])
+    J = np.eye(2)
+    return R, J, np.array([-10.0 * (lam > 1.0), -np.cos(lam)])
+
+
+@pytest.mark.parametrize("lam0,lam_end", [(0.0, 2.0), (2.0, 0.0)])
+def test_corner_passed_without_the_step_collapsing(lam0, lam_end):
+    """The corner is located from the two one-sided tangents and passed without the
+    step collapsing.  Measured: 4 / 1 rejected steps, smallest step 0.025 / 0.05,
+    20 / 15 points (by halving alone: 10 / 11 rejected, 5.5e-4 / 7.8e-4, 29 / 31)."""
+    x0 = np.array([10 * max(lam0 - 1.0, 0.0), np.sin(lam0)])
+    b = continue_branch(corner, x0, lam0, lam_end, tol=1e-12, ds=0.05, ds_max=0.2,
+                        scale=[10.0, 1.0, 2.0])
+    assert b.success and b.status == 0, b.message
+    for x, lam in zip(b.x, b.lam):
+        assert np.linalg.norm(corner(x, lam)[0]) <= 1e-12
+    assert b.n_rejected <= 5 and b.min_step >= 0.02 and len(b) <= 22
+    assert np.all(np.diff(b.lam) * np.sign(lam_end - lam0) > 0)
+    before = (b.lam - 1.0) * np.sign(lam_end - lam0) < 0  # incoming side of the corner
+    assert np.abs(b.lam[before] - 1.0).min() < 0.01      # a point just before it
+    assert np.abs(b.lam[~before] - 1.0).min() < 0.05

@@ -168,8 +168,8 @@ def test_preload_continuation_agrees_with_frequency_sweeps():
     frequency sweeps at fixed preloads give (Example 1 at 200 rad/s, stick-slip).
 
     The range stops short of 3.636 N, where the damper becomes fully stuck at this
-    frequency: there the preload continuation creeps along the corner (known
-    limitation, README)."""
+    frequency; the branch through that corner into full stick is checked in
+    test_hard_cases.py."""
     from pipeline.response import preload_response
     om = 200.0
     c = preload_response(example1(1.0), 7, om, 0.5, 3.5)
