@@ -461,10 +461,9 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
         rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q[i], omega[i], el))
         res[i] = np.hypot(rs, rd)
         ok[i] = rs <= tols[0] and rd <= tols[1]
-        if stability:
-            J = hbm.full_jacobian(prob, Q[i], omega[i], el)
-            stable[i] = is_stable(J, hbm._dense(prob.system.M), hbm._dense(prob.system.C),
-                                  omega[i], prob.H)[0]
+        if stability:  # a cyclic sector: every wave number r of perturbation (hbm.wave_jacobians)
+            stable[i] = all(is_stable(J, Mr, Cr, omega[i], prob.H)[0]
+                            for _, J, Mr, Cr in hbm.wave_jacobians(prob, Q[i], omega[i], el))
     converged = pts["converged"] & ok & np.isfinite(res)
     return ResponseCurve(
         parameter=np.asarray(pts["lam"], float), omega=omega, Q=Q, converged=converged,

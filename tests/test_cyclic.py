@@ -316,6 +316,14 @@ def test_travelling_wave_with_separation_sector_equals_full_assembly():
         _, V = hbm.contact_motion(prob, Q[prob.c])
         nmin = min(nmin, (0.1 + 3.0 * evaluate(V, np.linspace(0, 2 * np.pi, 128))).min())
     assert nmin < -1.0  # the contact separates
+    # the curve's stability covers every wave number: near 1.7 rad/s the sector's own
+    # Hill problem (r = 0) says stable, the standing wave r = 2 does not (see
+    # test_a_travelling_wave_can_lose_stability_to_another_wave_number)
+    near = np.flatnonzero(a.converged & (np.abs(a.omega - 1.7) < 0.01))
+    assert near.size >= 1
+    for i in near:
+        own = is_stable(hbm.full_jacobian(prob, a.Q[i], a.omega[i]), s.M, s.C, a.omega[i], 3)[0]
+        assert own and not a.stable[i]
     assert a.peak(1)[0] == pytest.approx(2.39190129, rel=1e-7)
     assert a.peak(1)[1] == pytest.approx(1.7371435, rel=1e-6)
     np.testing.assert_allclose(np.sort(a.fold_parameter), [1.4998483, 1.5004554, 1.5517259,
