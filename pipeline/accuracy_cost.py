@@ -667,10 +667,10 @@ def run_case(case: Case, target: float, solver=None) -> dict:
     errors_baseline}], the recommendation, and the time-integration check."""
     models, cache = {}, {}
 
-    def get(settings, alongside=()):
-        """Measure every new setting once, then time them (and `alongside`) again
-        `repeats - 1` times, round-robin, so that a burst of load on a shared machine
-        does not hit all the timings of one setting."""
+    def get(settings):
+        """Measure every new setting once, then time them again `repeats - 1` times,
+        round-robin, so that a burst of load on a shared machine does not hit all
+        the timings of one setting."""
         new = [s for s in dict.fromkeys(settings) if s not in cache]
         for s in new:
             cache[s] = m = measure(case, s, models, solver)
@@ -678,8 +678,8 @@ def run_case(case: Case, target: float, solver=None) -> dict:
                      f"peak {m.peak_amplitude:.8g} at {m.peak_frequency:.8g} rad/s, "
                      f"folds {np.round(m.folds, 6).tolist()}" if m.success else "FAILED",
                      m.wall_time, "" if m.success else f" ({m.message})")
-        for _ in range(case.repeats - 1 if new else 0):
-            for s in new + [a for a in alongside if a not in new]:
+        for _ in range(case.repeats - 1):
+            for s in new:
                 retime(case, s, cache[s], models, solver)
         return [cache[s] for s in settings]
 
@@ -695,7 +695,7 @@ def run_case(case: Case, target: float, solver=None) -> dict:
         r["errors_baseline"] = relative_errors(r["m"], base)
     rec = recommend(rows, case.knobs, target)
     s_rec = recommended_settings(case.baseline, rec)
-    m_rec = get([s_rec], alongside=[case.baseline])[0]   # timed next to the baseline
+    m_rec = get([s_rec])[0]
     row = {"case": case.name, "knob": "recommended", "value": None, "settings": s_rec, "m": m_rec,
            "errors": relative_errors(m_rec, ref), "errors_baseline": relative_errors(m_rec, base)}
     rows.append(row)

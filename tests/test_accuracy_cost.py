@@ -135,7 +135,7 @@ def _text(old, new, coarse_blade=False):
 
 
 BAD = {
-    "unknown_case_key": ("repeats = 3", "repeat = 3",
+    "unknown_case_key": ("repeats = 5", "repeat = 5",
                          r"lumped\.repeat: unknown key .*did you mean 'repeats'"),
     "knob_beyond_reference": ("harmonics = [1, 2, 3, 5, 7, 10, 21]", "harmonics = [1, 41]",
                               r"lumped\.knobs\.harmonics\[1\]: H = 41 exceeds the reference's "
