@@ -747,8 +747,7 @@ def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool
     tmp.replace(table_path)
     res.figures.append(table_path)
     if figures:
-        res.figures.append(pareto_figure(fig_dir / "pareto.png", results, study.target,
-                                         study.title))
+        res.figures.append(pareto_figure(fig_dir / "pareto.png", ds))
     for p in res.figures:
         log.info("wrote %s", p)
     res.wall_time = time.perf_counter() - t0
@@ -902,6 +901,8 @@ def to_dataset(study: AccuracyStudy, results: list):
         c = res["case"].name
         rr = res["recommended"]
         attrs[f"{c}_reference"] = res["case"].reference.describe()
+        if res["case"].preload is not None:
+            attrs[f"{c}_preload"] = float(res["case"].preload)
         attrs[f"{c}_baseline"] = res["case"].baseline.describe()
         attrs[f"{c}_recommended"] = rr["settings"].describe()
         attrs[f"{c}_recommended_error"] = float(rr["errors"]["error"])
@@ -988,85 +989,123 @@ def recommendation_lines(results: list, target: float) -> list:
     return out
 
 
-def pareto_figure(path, results: list, target: float, title: str = ""):
-    """Error against wall time (log-log), one panel per case, one series per knob;
-    the baseline (open square), the recommended combination (star), the target
-    (dashed), the reference's wall time (dotted) and, for the lumped case, the
-    reference's discrepancy to event-driven time integration (dash-dot)."""
+def pareto_figure(path, ds, title: str | None = None):
+    """Error against wall time (log-log) from an accuracy dataset: one panel per case,
+    one series per knob (through the baseline, from the cheapest to the most accurate
+    value), the baseline (open square), the recommended combination (star), the
+    target (dashed), the reference's wall time (dotted) and, for the lumped case, the
+    reference's discrepancy to event-driven time integration (dash-dot).  An error of
+    0 (the reference itself) is drawn on the bottom edge, a missed fold on the top."""
+    import matplotlib.ticker as mticker
+
     from .plots import _atomic_savefig, _plt
 
     plt = _plt()
-    n = len(results)
-    fig, axes = plt.subplots(1, n, figsize=(6.0 * n, 5.4), squeeze=False)
+    cases = list(dict.fromkeys(ds["case"].values.tolist()))
+    target = float(ds.attrs["target"])
+    fig, axes = plt.subplots(1, len(cases), figsize=(6.0 * len(cases), 5.6), squeeze=False)
     markers = "osD^v<>p"
-    for ax, res in zip(axes[0], results):
-        rows, case = res["rows"], res["case"]
-        base, rr, ref = rows[1], res["recommended"], rows[0]
-        errs = [r["errors"]["error"] for r in rows] + ([max(res["ti"]["amplitude_error"],
-                                                             res["ti"]["peak_frequency_error"])]
-                                                         if res["ti"] is not None else [])
-        pos = [e for e in errs if np.isfinite(e) and e > 0]
-        lo = 10 ** np.floor(np.log10(min(pos + [target]))) / 10
+    for ax, c in zip(axes[0], cases):
+        sub = ds.isel(run=np.flatnonzero(ds["case"].values == c))
+        knob = sub["knob"].values.tolist()
+        t, err = sub["wall_time"].values, sub["error"].values
+        i_ref, i_base, i_rec = (knob.index(k) for k in ("reference", "baseline", "recommended"))
+        ti = None
+        if f"{c}_time_integration_amplitude_error" in ds:
+            ti = max(float(ds[f"{c}_time_integration_amplitude_error"]),
+                     float(ds[f"{c}_time_integration_peak_frequency_error"]))
+        pos = [e for e in list(err) + [ti or np.nan, target] if np.isfinite(e) and e > 0]
+        lo = 10 ** np.floor(np.log10(min(pos))) / 10
 
-        def shown(e):  # zero (the reference itself) at the bottom, a missed fold at the top
+        def shown(e):
             return lo if e == 0 else 2.0 if np.isinf(e) else e
 
-        for j, (k, _) in enumerate(case.knobs):
-            rs = sorted([base] + [r for r in rows if r["knob"] == k], key=lambda r: _order(r, k))
-            t = [r["m"].wall_time for r in rs]
-            e = [shown(r["errors"]["error"]) for r in rs]
-            ax.plot(t, e, marker=markers[j % len(markers)], ms=5, lw=1, label=k.replace("_", " "))
-            for r, ti, ei in zip(rs, t, e):
-                if np.isfinite(ei) and r is not base:
-                    ax.annotate(_short(r), (ti, ei), fontsize=6, xytext=(3, 2),
-                                textcoords="offset points")
-        for r, style, kw in ((base, "ks", {"mfc": "none", "ms": 10}),
-                             (rr, "*", {"color": "gold", "mec": "k", "ms": 14})):
-            ax.plot([r["m"].wall_time], [shown(r["errors"]["error"])], style,
-                    label=f"{r['knob']}: " + _wrap(r["settings"].describe()), **kw)
-        ax.axvline(ref["m"].wall_time, color="k", ls=":", lw=1,
-                   label="reference: " + _wrap(ref["settings"].describe()))
+        series = [k for k in dict.fromkeys(knob) if k not in ("reference", "baseline",
+                                                               "recommended")]
+        for j, k in enumerate(series):
+            idx = sorted([i_base] + [i for i, kk in enumerate(knob) if kk == k],
+                         key=lambda i: _order(sub, i, k))
+            ax.plot(t[idx], [shown(err[i]) for i in idx], marker=markers[j % len(markers)],
+                    ms=5, lw=1, label=_KNOB_LABELS.get(k, k))
+            dense = k in ("tolerance", "max_step")   # values on one level: label the ends
+            ends = [i for i in idx if i != i_base]
+            for i in idx:
+                if i == i_base or (dense and i not in (ends[0], ends[-1])):
+                    continue
+                ax.annotate(_short(sub, i, k), (t[i], shown(err[i])), fontsize=6,
+                            xytext=(3, 3), textcoords="offset points")
+        val = sub["value"].values
+        ax.plot([t[i_base]], [shown(err[i_base])], "ks", mfc="none", ms=10,
+                label="baseline: " + _wrap(str(val[i_base])))
+        ax.plot([t[i_rec]], [shown(err[i_rec])], "*", color="gold", mec="k", ms=14,
+                label="recommended: " + _wrap(str(val[i_rec])))
+        ax.axvline(t[i_ref], color="k", ls=":", lw=1,
+                   label="reference: " + _wrap(str(val[i_ref])))
         ax.axhline(target, color="grey", ls="--", lw=1, label=f"target {target:g}")
-        if res["ti"] is not None:
-            d = max(res["ti"]["amplitude_error"], res["ti"]["peak_frequency_error"])
-            ax.axhline(shown(d), color="tab:purple", ls="-.", lw=1,
-                       label=f"reference vs time integration: {d:.1e}")
-        ax.set_ylim(lo / 1.5, 3.0)
+        if ti is not None:
+            ax.axhline(shown(ti), color="tab:purple", ls="-.", lw=1,
+                       label=f"reference vs event-driven time integration: {ti:.1e}")
+        if np.isinf(err).any():
+            ax.text(0.99, 0.985, "top edge: a fold missed", transform=ax.transAxes, fontsize=6,
+                    ha="right", va="top")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.set_ylim(lo / 1.5, 3.0)
+        fmt = mticker.FuncFormatter(lambda x, _: f"{x:g}")
+        ax.xaxis.set_major_formatter(fmt)
+        ax.xaxis.set_minor_formatter(mticker.FuncFormatter(
+            lambda x, _: f"{x:g}" if f"{x:g}"[0] in "25" else ""))
+        ax.tick_params(axis="x", which="minor", labelsize=7)
         ax.set_xlabel("wall time [s]")
-        ax.set_ylabel("largest relative error")
-        what = f"{case.dof}" + (f", n0 = {case.preload:g} N" if case.preload is not None else "")
-        ax.set_title(f"{case.name}: {what}\n(peak amplitude, peak and fold frequencies vs "
-                     "the reference)", fontsize=8)
+        ax.set_ylabel("largest relative error (bottom edge: the reference itself)")
+        dof = str(sub["response_dof"].values[0])
+        pre = ds.attrs.get(f"{c}_preload")
+        ax.set_title(f"{c}: peak of {dof}" + (f", preload {pre:g} N" if pre is not None else "")
+                     + "\nerror of peak amplitude, peak and fold frequencies vs the reference",
+                     fontsize=8)
         ax.grid(True, which="major", lw=0.3)
         ax.legend(fontsize=6, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2,
                   frameon=False)
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(title if title is not None else ds.attrs.get("title", ""), fontsize=10)
     fig.tight_layout()
     out = _atomic_savefig(fig, path)
     plt.close(fig)
     return out
 
 
+_KNOB_LABELS = {"harmonics": "harmonics H", "samples": "AFT samples N (then exact)",
+                "tolerance": "Newton tolerance", "max_step": "largest continuation step",
+                "craig_bampton_modes": "Craig-Bampton modes", "mesh": "mesh (chord x thickness x span)"}
+
+
 def _wrap(text: str) -> str:
     return text.replace(", tolerance", "\ntolerance")
 
 
-def _order(r, knob):
-    """Sort key of a run along a knob's series: from the cheapest to the most accurate."""
-    v = r["settings"].value_of(knob)
+def _knob_value(sub, i, knob):
+    """The value of `knob` in run i of a dataset (from its settings variables)."""
+    if knob == "samples":
+        n = int(sub["samples"].values[i])
+        return "exact" if n < 0 else n
+    if knob == "mesh":
+        return str(sub["mesh"].values[i])
+    v = sub[knob].values[i]
+    return float(v) if knob in ("tolerance", "max_step") else int(v)
+
+
+def _order(sub, i, knob):
+    """Sort key along a knob's series: from the cheapest to the most accurate value."""
+    v = _knob_value(sub, i, knob)
     if knob == "samples":
         return math.inf if v == "exact" else v
     if knob in ("tolerance", "max_step"):
         return -v
     if knob == "mesh":
-        return (int(np.prod(v)), v)
+        counts = tuple(int(x) for x in v.split("x"))
+        return (int(np.prod(counts)), counts)
     return v
 
 
-def _short(r) -> str:
-    v = r["settings"].value_of(r["knob"])
-    if r["knob"] == "mesh":
-        return "x".join(map(str, v))
+def _short(sub, i, knob) -> str:
+    v = _knob_value(sub, i, knob)
     return f"{v:g}" if isinstance(v, float) else str(v)
