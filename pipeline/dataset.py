@@ -89,12 +89,13 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
              wall_time=full((), np.nan), residual_evaluations=full((), -1, np.int32),
              success=full((), False, bool), status=full((), -1, np.int32),
              residual_tolerance=full((), np.nan),
-             natural_frequency_stuck=full((n,), np.nan),
+             natural_frequency_stuck=full((n,), np.nan), natural_frequency_free=full((n,), np.nan),
              window_peak_amplitude=full((W, D), np.nan), window_peak_frequency=full((W, D), np.nan))
     message = np.full(shape, "", dtype=object)
     for (idx, case), c, err in zip(cases, curves, errors):
         sysc = study.system(case)
         v["natural_frequency_stuck"][idx] = natural_frequencies(sysc, "stuck") / to_unit
+        v["natural_frequency_free"][idx] = natural_frequencies(sysc, "open") / to_unit  # per case: mistuning
         if c is None:
             message[idx] = f"failed: {err}" if err else "failed"
             continue
@@ -139,6 +140,7 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         "success": ((), "1", "continuation reached the end of the frequency interval"),
         "status": ((), "1", "continuation status code (-1: case failed)"),
         "residual_tolerance": ((), "N", "residual norm accepted as converged"),
+        "natural_frequency_free": (("mode",), unit, "undamped natural frequency without contacts"),
         "natural_frequency_stuck": (("mode",), unit,
                                     "undamped natural frequency with the contacts stuck "
                                     "(ku of every contact, kv where n0 > 0)"),
@@ -159,9 +161,6 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
     else:
         data_vars["stable"][2]["stability_computed"] = 1
     data_vars["message"] = (sw, message.astype(str), {"long_name": "continuation message"})
-    data_vars["natural_frequency_free"] = (
-        ("mode",), natural_frequencies(study.system(cases[0][1]), "open") / to_unit,
-        {"units": unit, "long_name": "undamped natural frequency without contacts"})
 
     coords = {a: (a, np.asarray(vals, dtype=np.int32 if a in INTEGER_SWEEP_AXES else float),
                   {"units": SWEEP_AXES[a][0], "long_name": SWEEP_AXES[a][1]})
