@@ -292,7 +292,7 @@ def is_blade_document(data) -> bool:
 
 def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quick: bool = False):
     """Validate a blade study document: a `ModesStudy` or a `scene.Study`."""
-    from .scene import _Checker, _join
+    from .scene import _Checker
 
     ck = _Checker(file)
     top = ("study", "scene", "sweep", "solver", "output", "quick", "modes")
@@ -345,16 +345,9 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                           reference=reference, text=text, scene=scene, mode_counts=counts,
                           n_frequencies=nf, n_shapes=ns, quick=bool(quick))
 
-    from .scene import Study, Sweep, _solver, _sweep
+    from .scene import Study, Sweep, _solver, _sweep, solver_sweep_tables
 
-    solver_tab = ck.table(data.get("solver"), "solver", required=False)
-    sweep_tab = ck.table(data["sweep"], "sweep")
-    q_sweep = ck.table(qt.get("sweep"), "quick.sweep", required=False)
-    q_solver = ck.table(qt.get("solver"), "quick.solver", required=False)
-    for k in q_sweep:
-        if k not in sweep_tab:
-            ck.fail(_join("quick.sweep", k), "quick mode may only override axes of [sweep] "
-                                             f"(which has: {', '.join(sweep_tab) or 'none'})")
+    solver_tab, sweep_tab, q_solver, q_sweep = solver_sweep_tables(ck, data, qt)
     solver = _solver(ck, solver_tab, "solver")
     if "stability" not in solver_tab:
         solver = replace(solver, stability=False)  # Hill on hundreds of DOFs: opt in

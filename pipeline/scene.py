@@ -467,16 +467,9 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     reference = ck.string(head.get("reference", ""), "study.reference")
 
     scene_tab = ck.table(data["scene"], "scene")
-    solver_tab = ck.table(data.get("solver"), "solver", required=False)
-    sweep_tab = ck.table(data["sweep"], "sweep")
     quick_tab = ck.table(data.get("quick"), "quick", required=False)
     ck.keys(quick_tab, "quick", ("sweep", "solver"))
-    q_sweep = ck.table(quick_tab.get("sweep"), "quick.sweep", required=False)
-    q_solver = ck.table(quick_tab.get("solver"), "quick.solver", required=False)
-    for k in q_sweep:
-        if k not in sweep_tab:
-            ck.fail(_join("quick.sweep", k), "quick mode may only override axes of [sweep] "
-                                        f"(which has: {', '.join(sweep_tab) or 'none'})")
+    solver_tab, sweep_tab, q_solver, q_sweep = solver_sweep_tables(ck, data, quick_tab)
 
     solver = _solver(ck, solver_tab, "solver")
     sweep_axes, freq = _sweep(ck, sweep_tab, "sweep")
@@ -508,6 +501,20 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
 # ---------------------------------------------------------------------------
 # Sections
 # ---------------------------------------------------------------------------
+
+def solver_sweep_tables(ck, data, quick_tab):
+    """[solver], [sweep], [quick.solver], [quick.sweep] of any response study; quick
+    mode may only override axes that [sweep] has."""
+    solver_tab = ck.table(data.get("solver"), "solver", required=False)
+    sweep_tab = ck.table(data["sweep"], "sweep")
+    q_sweep = ck.table(quick_tab.get("sweep"), "quick.sweep", required=False)
+    q_solver = ck.table(quick_tab.get("solver"), "quick.solver", required=False)
+    for k in q_sweep:
+        if k not in sweep_tab:
+            ck.fail(_join("quick.sweep", k), "quick mode may only override axes of [sweep] "
+                                             f"(which has: {', '.join(sweep_tab) or 'none'})")
+    return solver_tab, sweep_tab, q_solver, q_sweep
+
 
 _SOLVER_KEYS = ("harmonics", "force_evaluation", "samples", "tolerance", "stability",
                 "initial_step", "max_step", "max_points")
@@ -850,18 +857,13 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     <=> normal DOFs with kv > 0; separation <=> a gap or a varying normal load;
     an engine order and "cyclic_coupling" only in a disk scene)."""
     if not disk:
-        if "eo" in axes:
-            ck.fail(f"{wpath}.eo", "only a disk scene (scene.model = \"disk\") has an engine "
-                                   "order")
-        if "cyclic_coupling" in effects:
-            ck.fail("scene.effects", "\"cyclic_coupling\" needs a disk scene (scene.model = "
-                                     "\"disk\"); this scene is one structure")
-        if "mistuning_seed" in axes:
-            ck.fail(f"{wpath}.mistuning_seed", "only a disk scene (scene.model = \"disk\") can "
-                                               "be mistuned")
-        if "mistuning" in effects:
-            ck.fail("scene.effects", "\"mistuning\" needs a disk scene (scene.model = "
-                                     "\"disk\"); this scene is one structure")
+        for axis, what in (("eo", "has an engine order"), ("mistuning_seed", "can be mistuned")):
+            if axis in axes:
+                ck.fail(f"{wpath}.{axis}", f"only a disk scene (scene.model = \"disk\") {what}")
+        for effect in ("cyclic_coupling", "mistuning"):
+            if effect in effects:
+                ck.fail("scene.effects", f"\"{effect}\" needs a disk scene (scene.model = "
+                                         "\"disk\"); this scene is one structure")
     if h_excited > H:
         ck.fail(f"{spath}.harmonics", f"H = {H} is below the excited harmonic {h_excited} "
                                       "(scene.excitation)")

@@ -393,15 +393,3 @@ def test_disk_study_quick_run(tmp_path, monkeypatch):
     chk = subprocess.run([sys.executable, str(CHECKER), str(res.path)], capture_output=True,
                          text=True)
     assert chk.returncode == 0, chk.stdout + chk.stderr
-
-
-def test_disk_cli_rejects_an_engine_order_of_the_sector_count(tmp_path):
-    bad = ROOT / "tests" / "bad_studies" / "disk_eo_not_below_sectors.toml"
-    r = subprocess.run([sys.executable, "-m", "pipeline", "run", str(bad), "--out",
-                        str(tmp_path / "out")], capture_output=True, text=True, cwd=ROOT,
-                       timeout=120)
-    assert r.returncode == 2 and r.stdout == ""
-    assert r.stderr.splitlines() == [
-        f"error: {bad}: sweep.eo[1]: engine order 24 is not smaller than the number of "
-        "sectors 24 (EO and EO mod N are the same excitation); give 0 <= EO <= 12"]
-    assert not (tmp_path / "out").exists()

@@ -285,3 +285,20 @@ def test_huge_integer_is_a_usage_error():
     with pytest.raises(UsageError, match=r"scene\.contact\[0\]\.ku: number too large"):
         study_from_mapping(doc, file="f")
     assert math.isinf(float("inf"))
+
+
+@pytest.mark.parametrize("name, line", [
+    ("disk_eo_not_below_sectors", "sweep.eo[1]: engine order 24 is not smaller than the "
+     "number of sectors 24 (EO and EO mod N are the same excitation); give 0 <= EO <= 12"),
+    ("disk_mistuning_not_declared", "scene.effects: [scene.disk] mistuning breaks cyclic "
+     "symmetry: declare \"mistuning\""),
+])
+def test_disk_errors_read_as_one_full_line(tmp_path, name, line):
+    """The corpus checks the field of every bad study; these check whole messages."""
+    bad = BAD / f"{name}.toml"
+    r = subprocess.run([sys.executable, "-m", "pipeline", "run", str(bad), "--out",
+                        str(tmp_path / "out")], capture_output=True, text=True, cwd=ROOT,
+                       timeout=120)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.splitlines() == [f"error: {bad}: {line}"]
+    assert not (tmp_path / "out").exists()

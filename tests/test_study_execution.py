@@ -6,6 +6,7 @@ existing dataset from an older version".
 from __future__ import annotations
 
 import os
+import pickle
 import random
 import signal
 import subprocess
@@ -99,8 +100,16 @@ def test_interrupted_study_resumes_without_recomputing(serial, study_file, tmp_p
         assert b"rerun the same command to resume" in err and b"Traceback" not in err
     assert not final.exists()                       # never a partial dataset
     assert not list(out.glob("*.nc")) and not list(out.glob("*.nc.*"))
-    kept = len(list(cdirs()[0].glob("case-*.pkl")))
-    assert 1 <= kept < N_CASES
+    files = sorted(cdirs()[0].glob("case-*.pkl"))
+    kept = len(files)
+    assert 1 <= kept < N_CASES, "the signal must fall between the first and the last case"
+    assert not list(cdirs()[0].glob(".case-*.tmp")) or sig == signal.SIGKILL
+    for f in files:  # each kept case is complete and equals the uninterrupted run's
+        rec = pickle.loads(f.read_bytes())
+        k = int(f.stem.split("-")[1])
+        assert rec["case"] == {"preload": float(serial["preload"][k])}
+        np.testing.assert_array_equal(rec["curve"].peak(0)[0],
+                                      serial["peak_amplitude"].isel(preload=k, dof=0).values)
 
     study = parse_study(STUDY, file=str(study_file), name="six_preloads")
     res = run_study(study, out, workers=1, figures=False, progress=False)
