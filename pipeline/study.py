@@ -61,6 +61,13 @@ def run_case(solver, system, H, omega_start, omega_stop, kwargs):
         return None, f"{type(exc).__name__}: {exc}"
 
 
+SCHEDULER_TIMEOUT = "20s"   # connecting to a --scheduler address
+
+
+class SchedulerUnreachable(RuntimeError):
+    """--scheduler names no reachable Dask scheduler (nothing was computed)."""
+
+
 class WorkerLost(RuntimeError):
     """A worker process of the local pool died; the finished cases are kept."""
 
@@ -223,7 +230,12 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
         if scheduler and todo:
             from dask.distributed import Client, as_completed
 
-            with Client(scheduler) as client:
+            try:
+                client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
+            except (OSError, TimeoutError) as exc:
+                raise SchedulerUnreachable(f"cannot reach the Dask scheduler at {scheduler} "
+                                           f"({type(exc).__name__}: {exc})") from None
+            with client:
                 futs = [client.submit(run_case, *job(k), pure=False) for k in todo]
                 index = {f.key: k for k, f in zip(todo, futs)}
                 for fut in as_completed(futs):
@@ -486,6 +498,9 @@ def cmd_run(args) -> int:
         print(f"interrupted: finished cases are kept in {out}/.{study.name}.*.cases; "
               "rerun the same command to resume", file=sys.stderr)
         return 130
+    except SchedulerUnreachable as exc:
+        print(f"error: {args.study}: --scheduler: {exc}", file=sys.stderr)
+        return 2
     except WorkerLost as exc:
         print(f"error: {args.study}: {exc}; finished cases are kept in "
               f"{out}/.{study.name}.*.cases, rerun the same command to resume", file=sys.stderr)

@@ -221,3 +221,23 @@ def test_dataset_of_an_older_version_is_kept_not_overwritten(serial, study_file,
     new = read_dataset(target)
     assert new.attrs["pipeline_version"] != "0.0.1"
     np.testing.assert_array_equal(new["peak_amplitude"], serial["peak_amplitude"])
+
+
+def test_unreachable_scheduler_is_one_line_exit_2(study_file, tmp_path, monkeypatch, capsys):
+    import argparse
+    import socket
+
+    import pipeline.study as study_mod
+
+    pytest.importorskip("dask.distributed")
+    with socket.socket() as sock:           # a local port nobody listens on
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    monkeypatch.setattr(study_mod, "SCHEDULER_TIMEOUT", "2s")
+    args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
+                              scheduler=f"tcp://127.0.0.1:{port}", quick=False, figures=False)
+    assert study_mod.cmd_run(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        f"error: {study_file}: --scheduler: cannot reach the Dask scheduler at tcp://127.0.0.1:{port}")
+    assert not list((tmp_path / "out").glob("*.nc"))
