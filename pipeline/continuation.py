@@ -45,6 +45,12 @@ Options of `continue_branch` (defaults):
     lam_back   None   how far the run may go back beyond lam0 (on the side away from
                lam_end); default lam0.  With it, a branch that turns back past lam0
                (a start between two folds) is followed through its next fold.
+    segment_check None  segment_check(x0, lam0, x1, lam1) -> None if a step from the
+               current point to the corrected one may be taken, else the largest
+               admissible |lam1 - lam0| (e.g. a resonance lies inside the step:
+               `resonance.step_guard`); the step is shortened to fit.  A refused
+               step that cannot shrink below ds_min is taken and counted in
+               `n_unresolved`.
 
 The run stops when lam leaves the interval between lam_back and lam_end (the last
 point is then re-solved exactly on the boundary), at max_points, on a callback
@@ -206,6 +212,7 @@ class Branch:
     nfev, njev                  total fun calls; Jacobians factorised (Newton steps
                                 and tangent solves)
     n_rejected                  rejected step attempts
+    n_unresolved                steps taken at ds_min that `segment_check` refused
     scale (n+1,)                final scale [s_x, s_lam]
     status  0 reached lam_end, 1 left the interval on the lam0 side (at lam_back),
             2 max_points, 3 stopped by callback, -1 step below ds_min, -2 first point failed
@@ -229,6 +236,7 @@ class Branch:
     success: bool
     status: int
     message: str
+    n_unresolved: int = 0    # steps accepted at ds_min although segment_check refused them
 
     def __len__(self):
         return self.lam.size
@@ -294,7 +302,8 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
                     ds=0.05, ds_min=1e-6, ds_max=0.5, max_points=500, max_newton=10,
                     target_newton=4, max_turn=math.pi / 4, scale=None, callback=None,
                     direction=+1, refine_folds=True, groups=None,
-                    max_deviation=0.3, kink_ds=0.01, lam_back=None) -> Branch:
+                    max_deviation=0.3, kink_ds=0.01, lam_back=None,
+                    segment_check=None) -> Branch:
     """Trace the solution branch of R(x, lam) = 0 from (x0, lam0) towards lam_end.
 
     See the module docstring for the equations and the options.  Numerical failure
@@ -438,9 +447,11 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
             fold_index=_frozen(fi, int), fold_lam=_frozen(fl), fold_x=_frozen(fx),
             nfev=counters["nfev"], njev=counters["njev"], n_rejected=n_rejected,
             min_step=min_step,
-            scale=_frozen(s), success=success, status=status, message=message)
+            scale=_frozen(s), success=success, status=status, message=message,
+            n_unresolved=n_unresolved)
 
     n_rejected = 0
+    n_unresolved = 0
     min_step = math.inf
 
     def refine_fold(i, u, seg):
@@ -719,6 +730,16 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
                 else:
                     reason = f"tangent turned by {math.degrees(angle):.1f} deg"
                     feature = True
+        shrink = 0.5
+        if reason is None and segment_check is not None:
+            width = segment_check(z[:n], z[n], zn[:n], zn[n])
+            if width is not None and ds > ds_min:
+                step = abs(zn[n] - z[n])
+                reason = f"a resonance inside the step (|dlam| = {step:.3g} > {width:.3g})"
+                shrink = min(0.5, max(0.9 * width / step, 1e-3))
+            elif width is not None:
+                n_unresolved += 1
+                log.debug("step at ds_min taken although segment_check refused it")
         if reason is not None:
             n_rejected += 1
             corner = pass_corner(ts, zn, JJ) if feature else None
@@ -731,8 +752,10 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
                     if done is not None:
                         return done
                 continue
-            ds *= 0.5
+            ds *= shrink
             log.debug("step rejected (%s); ds -> %.3e", reason, ds)
+            if shrink < 0.5 and ds < ds_min:  # try the smallest step before giving up
+                ds = ds_min
             if ds < ds_min:
                 return result(-1, f"step size below ds_min = {ds_min:g} at lam = "
                                   f"{z[n]:.6g} (last failure: {reason})")

@@ -97,8 +97,10 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     import time
 
     from . import hbm
+    from .resonance import step_guard
 
     t_start = time.perf_counter()
+    ds = min(ds, ds_max)  # a small max_step also bounds the first step
     prob = hbm.setup(system, H, method, n_samples)
     elem = contact if contact is not None else system.contact
     tols = hbm.tolerances(prob, tol_rel, elem)
@@ -106,7 +108,8 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     fun = _weighted(lambda x, lam: hbm.residual(prob, x, lam, elem), w)
     tol = 1.0  # on the weighted residual: every block within its own tolerance [N]
     groups = np.repeat(np.arange(prob.c.size), prob.nh)
-    kw = dict(ds=ds, ds_max=ds_max, max_points=max_points, callback=callback)
+    kw = dict(ds=ds, ds_max=ds_max, max_points=max_points, callback=callback,
+              segment_check=step_guard(prob, elem))
 
     if initial is not None:
         initial = np.asarray(initial, dtype=float)
@@ -206,7 +209,8 @@ class _Piece:
         for a in ("x", "lam", "nit", "converged"):
             setattr(self, a, np.asarray(getattr(br, a))[k:][order])
         self.fold_lam = np.asarray(br.fold_lam)[order]
-        for a in ("nfev", "njev", "n_rejected", "min_step", "message", "success", "status"):
+        for a in ("nfev", "njev", "n_rejected", "n_unresolved", "min_step", "message",
+                  "success", "status"):
             setattr(self, a, getattr(br, a))
 
 
@@ -224,6 +228,7 @@ class _Merged:
         self.nfev = sum(p.nfev for p in every)
         self.njev = sum(p.njev for p in every)
         self.n_rejected = sum(p.n_rejected for p in every)
+        self.n_unresolved = sum(p.n_unresolved for p in parts)
         self.min_step = min(p.min_step for p in parts)
         self.message, self.success, self.status = message, success, status
 
@@ -373,6 +378,9 @@ def _local_maxima(amps, converged, rel=0.05):
     return sorted(idx, key=lambda i: -a[i])
 
 
+_AFT_PEAK_GRID = 9  # solves per bracket before Brent when forces are sampled (AFT)
+
+
 def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     """Locate each DOF's resonance peaks (local amplitude maxima) along the branch
     exactly and insert them.
@@ -414,16 +422,26 @@ def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
                         np.vstack([np.column_stack([Jx, Jl]), d / scale]))
             r = newton(aug, p * scale, tol, max_iter=20)
             ok = r.success and np.linalg.norm(fun(r.x[:-1], r.x[-1])[0]) <= tol
-            cache[sig] = (r.x, ok)
+            amp = _dof_amplitude(prob, r.x[:-1], r.x[-1], dof, omega_of) if ok else 0.0
+            cache[sig] = (r.x, ok, amp)
             # a failed solve ranks below any amplitude (finite: Brent cannot take inf)
-            return -_dof_amplitude(prob, r.x[:-1], r.x[-1], dof, omega_of) if ok else 0.0
+            return -amp
 
-        res = minimize_scalar(solve, bounds=(-1.0, 1.0), method="bounded",
-                              options={"xatol": 1e-4})
-        z, ok = cache.get(res.x, (None, False))
+        lo, hi = -1.0, 1.0
+        if prob.method == "aft":
+            # sampled forces alias: the amplitude ripples along the branch with
+            # several maxima per bracket, so Brent starts from the best of a grid
+            grid = np.linspace(-1.0, 1.0, _AFT_PEAK_GRID)
+            vals = [solve(g) for g in grid]
+            j = int(np.argmin(vals))
+            lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+        minimize_scalar(solve, bounds=(lo, hi), method="bounded", options={"xatol": 1e-4})
+        # the highest converged solve of the bracket (Brent's answer or a grid point)
+        best = max(cache, key=lambda k: cache[k][2] if cache[k][1] else -np.inf)
+        z, ok, amp = cache[best]
         pts["extra_nfev"] += nfev[0]
-        if ok and -res.fun > amp_i:
-            found.append((i + float(res.x), z))
+        if ok and amp > amp_i:
+            found.append((i + float(best), z))
     if not found:
         return pts
     # merge in branch order (several DOFs' peaks may fall between the same two points)
@@ -476,6 +494,7 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
         status=int(br.status), message=str(br.message), H=prob.H,
         tolerance=float(np.hypot(*tols)),  # implied by both blocks within theirs
         info={"njev": int(br.njev), "n_rejected": int(br.n_rejected),
+              "unresolved_resonance_steps": int(br.n_unresolved),
               "min_step": float(br.min_step), "branch_points": int(br.lam.size),
               "tol_static": float(tols[0]), "tol_dynamic": float(tols[1]),
               "peak_nfev": int(pts["extra_nfev"]), "solve_time": elapsed,
@@ -502,6 +521,7 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
     from . import hbm
 
     t_start = time.perf_counter()
+    ds = min(ds, ds_max)
     prob = hbm.setup(system, H, method, n_samples)
     base = system.contact
     top = np.abs(base.n0).max()

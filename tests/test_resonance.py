@@ -1,0 +1,130 @@
+"""No branch steps over a resonance; the reported peak is the branch's highest.
+
+References: the linear FRF of the stuck structure (closed form per frequency, its
+peak by bounded search), natural frequencies by a generalised eigen-solve, and a
+dense trace of the same branch.
+"""
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize_scalar
+
+from pipeline import hbm, resonance
+from pipeline.contact import YangMenq
+from pipeline.paper_systems import example1
+from pipeline.response import frequency_response
+from pipeline.scene import load_study
+from pipeline.study import run_study
+from pipeline.system import System
+
+CHAIN = Path(__file__).parent / "studies" / "chain_stuck_resonance.toml"
+K_CHAIN = 1e4 * np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+BETA = 2 * 0.005 / np.sqrt(np.linalg.eigvalsh(K_CHAIN)[0])  # zeta = 0.5 % at mode 1
+
+
+def stuck_peak(normal_dof: int):
+    """Peak of |X3| of the chain with the contact stuck (ku on x3, kv on the normal
+    DOF): (amplitude [m], frequency [Hz])."""
+    Ks = K_CHAIN.copy()
+    Ks[2, 2] += 1e4
+    Ks[normal_dof, normal_dof] += 1e3
+    F = np.array([1.0, 0.0, 0.0])
+
+    def neg(f):
+        w = 2 * np.pi * f
+        return -abs(np.linalg.solve(Ks - w * w * np.eye(3) + 1j * w * BETA * K_CHAIN, F)[2])
+
+    f0 = np.sqrt(np.linalg.eigvalsh(Ks)[0]) / (2 * np.pi)
+    r = minimize_scalar(neg, bounds=(0.97 * f0, 1.03 * f0), method="bounded",
+                        options={"xatol": 1e-12})
+    return -r.fun, r.x
+
+
+@pytest.mark.parametrize("normal", ["x3", "x2"])
+def test_stuck_chain_peak_is_the_linear_resonance(tmp_path, normal):
+    """At 1e5 N the contact never slips: the branch is the stuck chain's linear FRF,
+    whose sharp first resonance lies inside the range.  Its peak must be found."""
+    text = CHAIN.read_text().replace('normal = ["x3"]', f'normal = ["{normal}"]')
+    f = tmp_path / "chain.toml"
+    f.write_text(text.replace("preload = [0.0, 5.0, 1.0e5]", "preload = [1.0e5]"))
+    res = run_study(load_study(f), tmp_path / "out", figures=False, progress=False)
+    ds = res.dataset
+    amp, freq = stuck_peak(int(normal[1]) - 1)
+    got_a = float(ds.peak_amplitude.sel(dof="x3").squeeze())
+    got_f = float(ds.peak_frequency.sel(dof="x3").squeeze())
+    assert got_a == pytest.approx(amp, rel=1e-6)
+    assert got_f == pytest.approx(freq, rel=1e-6)
+
+
+def chain_system(n0, normal=2):
+    Bn = np.zeros((1, 3))
+    Bn[0, normal] = 1.0
+    return System(M=np.eye(3), C=BETA * K_CHAIN, K=K_CHAIN, Bt=np.array([[0.0, 0.0, 1.0]]),
+                  Bn=Bn, contact=YangMenq(1e4, 1e3, 0.5, n0),
+                  forcing=np.array([[0, 1.0], [0, 0], [0, 0]]))
+
+
+@pytest.mark.parametrize("n0, added", [(1e5, (1e4, 1e3)), (-1.0, (0.0, 0.0))])
+def test_count_equals_the_natural_frequencies_below(n0, added):
+    """Stuck (large preload, small motion) the count is that of K + ku + kv; open (a
+    gap never closed) that of K alone: the Sturm count of the linear limits."""
+    sys = chain_system(n0)
+    prob = hbm.setup(sys, 3)
+    rc = resonance.prepare(prob)
+    x = np.zeros(prob.size)
+    x.reshape(prob.c.size, prob.nh)[:, 1] = 1e-7  # small first-harmonic motion
+    K = K_CHAIN.copy()
+    K[2, 2] += sum(added)
+    wn = np.sqrt(np.linalg.eigvalsh(K))
+    for Om in np.linspace(20.0, 200.0, 37):
+        assert resonance.counts(rc, prob, x, Om, sys.contact) == (int(np.sum(wn < Om)),)
+
+
+def test_contact_stiffness_closed_forms():
+    """Z_1 of a stuck Jenkins element is ku, of an open one 0, and fully sliding
+    (large motion) it is mostly dissipation: |Im| > Re."""
+    sys = example1(1.0)
+    prob = hbm.setup(sys, 5)
+    Q = np.zeros((1, prob.nh))
+    Q[0, 1] = 1e-6  # ku |u| = 0.01 N < mu n = 0.5 N: stuck
+    assert resonance.contact_stiffness(prob, Q, sys.contact, 1)[0, 0] == pytest.approx(1e4)
+    Q[0, 1] = 1.0  # slides almost all the cycle
+    z = resonance.contact_stiffness(prob, Q, sys.contact, 1)[0, 0]
+    assert 0 <= z.real < abs(z.imag)
+    open_el = replace(sys.contact, n0=np.array([0.0]), mu=np.array([0.0]))
+    assert resonance.contact_stiffness(prob, Q, open_el, 1)[0, 0] == pytest.approx(0.0)
+
+
+def test_branch_has_points_inside_every_crossed_resonance():
+    """Every step across a change of the count is within the half-power width."""
+    sys = chain_system(1e5)
+    c = frequency_response(sys, 5, 2 * np.pi * 4, 2 * np.pi * 25, stability=False)
+    prob = hbm.setup(sys, 5)
+    rc = resonance.prepare(prob)
+    cnt = [resonance.counts(rc, prob, q[prob.c], om, sys.contact) for q, om in zip(c.Q, c.omega)]
+    crossings = 0
+    for i in range(len(cnt) - 1):
+        w = resonance.width(rc, cnt[i], cnt[i + 1], 0.5 * (c.omega[i] + c.omega[i + 1]))
+        if np.isfinite(w):
+            crossings += 1
+            assert abs(c.omega[i + 1] - c.omega[i]) <= w * (1 + 1e-12)
+    assert crossings >= 2  # two stuck modes inside 4-25 Hz
+    assert c.info["unresolved_resonance_steps"] == 0
+
+
+def test_aft_peak_is_the_highest_ripple():
+    """Sampled forces make the amplitude ripple near Example 1's peak at 5 N (three
+    local maxima within 0.7 rad/s at 128 samples): the reported peak is the highest
+    of the branch, as a dense trace of the peak's neighbourhood finds it."""
+    kw = dict(method="aft", n_samples=128, stability=False)
+    c = frequency_response(example1(5.0), 7, 150.0, 250.0, **kw)
+    dense = frequency_response(example1(5.0), 7, 206.5, 207.9, ds=0.004, ds_max=0.004,
+                               max_points=4000, **kw)
+    a_ref = dense.amplitude[dense.converged, 0].max()
+    a, om, _ = c.peak(0)
+    assert a >= a_ref * (1 - 1e-7)
+    assert om == pytest.approx(dense.omega[np.argmax(np.where(dense.converged,
+                                                              dense.amplitude[:, 0], -1))],
+                               abs=0.02)
