@@ -438,7 +438,7 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         fl = np.array([f[1][n] for f in folds], float)
         fx = np.array([f[1][:n] for f in folds], float).reshape(len(folds), n)
         success = status >= 0 and status != 2
-        log.info("continuation: %d points, %d folds, nfev=%d: %s", m, fi.size,
+        log.debug("continuation: %d points, %d folds, nfev=%d: %s", m, fi.size,
                  counters["nfev"], message)
         return Branch(
             x=_frozen(Zs[:, :n]), lam=_frozen(Zs[:, n]), tangent=_frozen(Ts),

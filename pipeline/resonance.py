@@ -17,15 +17,18 @@ structure below h Omega is the number of negative eigenvalues of
     D_h(Omega) = K + Herm(Z_h) - (h Omega)^2 M        (Sylvester's law of inertia)
 
 (Wittrick & Williams 1971 count natural frequencies of a structure the same way).
-Between two points whose counts differ, h Omega crossed a natural frequency of the
-linearised structure: a resonance (of the stuck or open linear limit on a linear
-branch, of the backbone of a nonlinear one) lies inside the step.  Such a step is
-admissible only if it is short enough to resolve that resonance: at most the
-half-power width 2 zeta Omega of the slowest-decaying (least damped) mode among
-those crossed, from the viscous damping of the bounding linear systems (contacts
-open, contacts closed); friction and impact only add dissipation, so a real
-resonance is at least that wide.  Only the excited harmonics are counted: they
-carry the primary resonances, the only ones a linear branch has.
+Between two points whose counts differ, h Omega crossed a natural frequency w_k of
+the linearised structure: a resonance (of the stuck or open linear limit on a
+linear branch, of the backbone of a nonlinear one) lies inside the step.  Such a
+step is admissible only if it resolves that resonance: the detuning
+g = w_k - h Omega changes over the step by at most the half-power width
+2 zeta_k h Omega, so both ends lie inside the half-power band (for a linear branch
+in frequency: a step of at most 2 zeta_k Omega).  zeta_k is the smaller damping
+ratio of mode k of the bounding linear systems (contacts open, contacts closed);
+friction and impact only add dissipation, so a real resonance is at least that
+wide.  The rule holds for any continuation parameter (frequency or preload).
+Only the excited harmonics are counted: they carry the primary resonances, the
+only ones a linear branch has.
 """
 from __future__ import annotations
 
@@ -107,61 +110,89 @@ def contact_stiffness(prob: hbm.HBMProblem, Qc, contact, h: int) -> np.ndarray:
     return Z
 
 
-def counts(rc: ResonanceCount, prob: hbm.HBMProblem, x, Om, contact) -> tuple:
-    """Number of natural frequencies of the linearised structure below h Omega, for
-    each excited harmonic h (tuple of ints, in the order of rc.harmonics)."""
+def natural_frequencies(rc: ResonanceCount, prob: hbm.HBMProblem, x, contact) -> tuple:
+    """Natural frequencies [rad/s] of the structure linearised at x, per excited
+    harmonic h (the contacts' tangent stiffness depends on h): a tuple of arrays in
+    the order of rc.harmonics."""
     Qc = np.asarray(x, float).reshape(prob.c.size, prob.nh)
-    out = []
     cc = np.ix_(prob.c, prob.c)
+    out = []
     for h in rc.harmonics:
         Z = contact_stiffness(prob, Qc, contact, h)
-        D = rc.K.astype(complex) - (h * Om) ** 2 * rc.M
-        D[cc] += 0.5 * (Z + Z.conj().T)
-        out.append(int(np.sum(np.linalg.eigvalsh(D) < 0.0)))
+        K = rc.K.astype(complex)
+        K[cc] += 0.5 * (Z + Z.conj().T)
+        lam = sla.eigh(K, rc.M, eigvals_only=True)
+        out.append(np.sign(lam) * np.sqrt(np.abs(lam)))
     return tuple(out)
 
 
-def width(rc: ResonanceCount, counts_a, counts_b, Om) -> float:
-    """Half-power width [rad/s of Omega] of the least damped resonance crossed between
-    two points with these counts; inf if none is crossed."""
-    w = np.inf
-    for h, ka, kb in zip(rc.harmonics, counts_a, counts_b):
-        if ka != kb:
-            lo, hi = sorted((ka, kb))
-            zeta = float(rc.zeta[lo:hi].min()) if hi <= rc.zeta.size else 0.0
-            w = min(w, max(2.0 * zeta, WIDTH_FLOOR) * Om)
-    return w
+def counts(rc: ResonanceCount, prob: hbm.HBMProblem, x, Om, contact) -> tuple:
+    """Number of natural frequencies of the linearised structure below h Omega, for
+    each excited harmonic h (tuple of ints, in the order of rc.harmonics)."""
+    return tuple(int(np.sum(w < h * Om))
+                 for h, w in zip(rc.harmonics, natural_frequencies(rc, prob, x, contact)))
 
 
-def step_guard(prob: hbm.HBMProblem, contact, omega_of=lambda lam: lam):
-    """segment_check(x0, lam0, x1, lam1) for `continuation.continue_branch`: None when
-    no resonance is crossed or the step resolves it, else the largest admissible
-    |lam1 - lam0|.  A step next to a resolved crossing is held to the same width,
-    so the resonance has points on both sides.  None if the count does not apply."""
+def crossed(rc: ResonanceCount, w_a, Om_a, w_b, Om_b) -> list:
+    """(h, mode index) of every natural frequency w_k / h that Omega passes between
+    two points (natural frequencies w_a, w_b per harmonic as `natural_frequencies`)."""
+    out = []
+    for h, wa, wb in zip(rc.harmonics, w_a, w_b):
+        ka, kb = int(np.sum(wa < h * Om_a)), int(np.sum(wb < h * Om_b))
+        out += [(h, k) for k in range(min(ka, kb), max(ka, kb))]
+    return out
+
+
+def detuning_ratio(rc: ResonanceCount, modes, w_a, Om_a, w_b, Om_b) -> float:
+    """Largest change of the detuning g = w_k - h Omega between two points, over the
+    half-power width 2 zeta_k h Omega of the resonance, among `modes` [(h, k)]:
+    <= 1 when the step resolves every one of those resonances."""
+    idx = {h: i for i, h in enumerate(rc.harmonics)}
+    ratio = 0.0
+    for h, k in modes:
+        i = idx[h]
+        change = abs((w_b[i][k] - h * Om_b) - (w_a[i][k] - h * Om_a))
+        zeta = max(float(rc.zeta[k]) if k < rc.zeta.size else 0.0, 0.5 * WIDTH_FLOOR)
+        ratio = max(ratio, change / (2.0 * zeta * h * 0.5 * (Om_a + Om_b)))
+    return ratio
+
+
+def step_guard(prob: hbm.HBMProblem, contact_of, omega_of=lambda lam: lam):
+    """segment_check(x0, lam0, x1, lam1) for `continuation.continue_branch`; lam is the
+    frequency, or any parameter with Omega = omega_of(lam) and contact elements
+    contact_of(lam) (e.g. the preload).
+
+    None when no resonance is crossed or the step resolves each one crossed (the
+    detuning w_k - h Omega changes by at most the half-power width over the step:
+    both ends lie inside the resonance's half-power band), else the admissible
+    |lam1 - lam0| estimated by linear interpolation of the detuning.  The step
+    after a crossing is held to the same rule for the modes just crossed, so a
+    resonance has points inside its band on both sides.  None (no guard) if the
+    count does not apply (`prepare`)."""
     rc = prepare(prob)
     if rc is None:
         return None
     memo = {}
-    near = {"width": np.inf, "at": None}
+    near = {"at": None, "modes": []}
 
-    def count_at(x, lam):
+    def freqs(x, lam):
         key = (float(lam), np.asarray(x, float).tobytes())
         if key not in memo:
             if len(memo) > 64:
                 memo.clear()
-            memo[key] = counts(rc, prob, x, omega_of(lam), contact)
+            memo[key] = natural_frequencies(rc, prob, x, contact_of(lam))
         return memo[key]
 
     def check(x0, lam0, x1, lam1):
-        step = abs(lam1 - lam0)
-        Om = 0.5 * (omega_of(lam0) + omega_of(lam1))
-        w_cross = width(rc, count_at(x0, lam0), count_at(x1, lam1), Om)
-        w = min(w_cross, near["width"]) if near["at"] == float(lam0) else w_cross
-        if step <= w:
-            crossed = bool(np.isfinite(w_cross))
-            near.update(width=w_cross if crossed else np.inf, at=float(lam1) if crossed else None)
+        Om0, Om1 = omega_of(lam0), omega_of(lam1)
+        w0, w1 = freqs(x0, lam0), freqs(x1, lam1)
+        modes = crossed(rc, w0, Om0, w1, Om1)
+        held = modes + (near["modes"] if near["at"] == float(lam0) else [])
+        ratio = detuning_ratio(rc, held, w0, Om0, w1, Om1)
+        if ratio <= 1.0:
+            near.update(at=float(lam1) if modes else None, modes=modes)
             return None
-        return w
+        return abs(lam1 - lam0) / ratio
 
-    check.counts = count_at
+    check.frequencies = freqs
     return check

@@ -8,6 +8,7 @@ dataset layer turns into xarray.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -76,7 +77,7 @@ def _initial_guess(prob, Om, contact):
 def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_samples=256,
                        stability=True, tol_rel=1e-10, ds=0.02, ds_max=0.1, max_points=1000,
                        contact=None, callback=None, peak_dofs=None,
-                       initial=None) -> ResponseCurve:
+                       initial=None, dense_output=True) -> ResponseCurve:
     """Trace the periodic response over Omega in [omega_start, omega_end] [rad/s].
 
     Pseudo-arclength continuation (`continuation.continue_branch`) of the condensed
@@ -93,6 +94,15 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     its other side traced too (`_trace_range`); one that does not reach omega_end
     at all is traced from omega_end instead.  A curve that does not cover the
     range has success False and says why in its message.
+
+    No step jumps over a resonance: `resonance.step_guard` shortens every step
+    across which the count of the linearised structure's natural frequencies
+    below h Omega changes, until it resolves the resonance; a step it could not
+    shorten enough is counted in info["unresolved_resonance_steps"].  With
+    `dense_output`, points are added where the drawn curve (frequency, log
+    amplitude of the `peak_dofs`) bends (`_densify`), so that figures are smooth
+    at their resolution.  The peaks of the `peak_dofs` are then located exactly
+    (`_insert_peaks`).
     """
     import time
 
@@ -109,7 +119,7 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     tol = 1.0  # on the weighted residual: every block within its own tolerance [N]
     groups = np.repeat(np.arange(prob.c.size), prob.nh)
     kw = dict(ds=ds, ds_max=ds_max, max_points=max_points, callback=callback,
-              segment_check=step_guard(prob, elem))
+              segment_check=step_guard(prob, lambda lam: elem))
 
     if initial is not None:
         initial = np.asarray(initial, dtype=float)
@@ -121,8 +131,11 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
         return _first_point(prob, elem, Om, w, lambda x: fun(x, Om)[:2], guess)
 
     br, spent = _cover_range(fun, first_point, omega_start, omega_end, tol, groups, initial, **kw)
-    pts = _insert_peaks(prob, _branch_points(br), fun, tol, elem,
-                        peak_dofs if peak_dofs is not None else range(system.n_dof))
+    dofs = peak_dofs if peak_dofs is not None else range(system.n_dof)
+    pts = _branch_points(br)
+    if dense_output:
+        pts = _densify(prob, pts, fun, tol, dofs)
+    pts = _insert_peaks(prob, pts, fun, tol, elem, dofs)
     return _curve_from_points(prob, br, pts, lambda lam: elem, tols, stability, lambda lam: lam,
                               time.perf_counter() - t_start, spent)
 
@@ -378,6 +391,101 @@ def _local_maxima(amps, converged, rel=0.05):
     return sorted(idx, key=lambda i: -a[i])
 
 
+_PLOT_TURN = math.radians(10.0)  # largest turn of the drawn curve at a point
+_PLOT_MIN_CHORD = 2e-3           # segments shorter than this (plot units) are not split
+_PLOT_MAX_POINTS = 400           # points `_densify` may add to one curve
+_PLOT_PASSES = 8
+
+
+def _solve_on_plane(fun, p, d, scale, tol):
+    """The branch point on the hyperplane through p normal to d (scaled unknowns
+    z / scale, d unit): Newton on R = 0 plus that condition.  (z, ok, nfev)."""
+    from .continuation import newton
+
+    nfev = [0]
+
+    def aug(z):
+        R, Jx, Jl = fun(z[:-1], z[-1])
+        nfev[0] += 1
+        return (np.append(R, d @ (z / scale - p)),
+                np.vstack([np.column_stack([Jx, Jl]), d / scale]))
+
+    r = newton(aug, p * scale, tol, max_iter=20)
+    ok = bool(r.success) and np.linalg.norm(fun(r.x[:-1], r.x[-1])[0]) <= tol
+    return r.x, ok, nfev[0] + 1
+
+
+def _plot_coordinates(prob, X, L, dofs, omega_of):
+    """(P, 1 + D) points of the drawn curves: frequency over the range, log10 of each
+    DOF's amplitude over its decades (at least half a decade), so that one unit is
+    one axis length of a figure."""
+    om = np.array([omega_of(l) for l in L])
+    cols = [om / max(np.ptp(om), 1e-300)]
+    for dof in dofs:
+        a = np.array([_dof_amplitude(prob, X[i], L[i], dof, omega_of) for i in range(L.size)])
+        la = np.log10(np.maximum(a, 1e-300))
+        la = np.maximum(la, la.max() - 12.0)  # amplitudes near zero: a floor, not -inf
+        cols.append(la / max(np.ptp(la), 0.5))
+    return np.column_stack(cols)
+
+
+def _densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
+    """Add branch points where the drawn curves bend.
+
+    A chord of a drawn curve (frequency, log amplitude of one DOF, in axis units)
+    that meets its neighbour at more than _PLOT_TURN is split at its middle: the
+    new point solves R = 0 on the hyperplane through the middle of the chord of
+    scaled [x; lam], normal to it.  Straight stretches get no point, and a point
+    on a linear stretch costs one Newton iteration.  Repeated until the curves
+    turn by less than _PLOT_TURN, chords are shorter than _PLOT_MIN_CHORD, or
+    _PLOT_MAX_POINTS were added.
+    """
+    X, L = np.array(pts["x"]), np.array(pts["lam"])
+    nit = np.array(pts["nit"])
+    if L.size < 3 or not np.all(pts["converged"]):
+        return pts
+    dofs = list(dofs)
+    scale = np.append(np.maximum(np.abs(X).max(0), 1e-12 * np.abs(X).max() + 1e-300),
+                      max(np.ptp(L), abs(L).max() * 1e-9, 1e-300))
+    added = 0
+    failed = set()
+    for _ in range(_PLOT_PASSES):
+        Pc = _plot_coordinates(prob, X, L, dofs, omega_of)
+        chord = np.diff(Pc, axis=0)
+        length = np.linalg.norm(chord, axis=1)
+        turn = np.zeros(L.size)  # at each interior point, largest over the drawn curves
+        for k in range(1, Pc.shape[1]):
+            c2 = chord[:, [0, k]]
+            n2 = np.linalg.norm(c2, axis=1)
+            cosang = np.einsum("ij,ij->i", c2[:-1], c2[1:]) / np.maximum(n2[:-1] * n2[1:], 1e-300)
+            turn[1:-1] = np.maximum(turn[1:-1], np.arccos(np.clip(cosang, -1.0, 1.0)))
+        split = sorted({seg for i in np.flatnonzero(turn > _PLOT_TURN) for seg in (i - 1, i)
+                        if length[seg] > _PLOT_MIN_CHORD and (L[seg], L[seg + 1]) not in failed})
+        if not split or added >= _PLOT_MAX_POINTS:
+            break
+        new = []
+        for seg in split[:_PLOT_MAX_POINTS - added]:
+            za = np.append(X[seg], L[seg]) / scale
+            zb = np.append(X[seg + 1], L[seg + 1]) / scale
+            d = zb - za
+            z, ok, nfev = _solve_on_plane(fun, 0.5 * (za + zb), d / np.linalg.norm(d), scale, tol)
+            pts["dense_nfev"] = pts.get("dense_nfev", 0) + nfev
+            if ok:
+                new.append((seg + 0.5, z))
+            else:
+                failed.add((L[seg], L[seg + 1]))
+        if not new:
+            break
+        added += len(new)
+        pos = np.concatenate([np.arange(L.size, dtype=float), [q for q, _ in new]])
+        order = np.argsort(pos, kind="stable")
+        X = np.concatenate([X, [z[:-1] for _, z in new]])[order]
+        L = np.concatenate([L, [z[-1] for _, z in new]])[order]
+        nit = np.concatenate([nit, np.zeros(len(new), int)])[order]
+    pts.update(x=X, lam=L, nit=nit, converged=np.ones(L.size, bool), dense_points=added)
+    return pts
+
+
 _AFT_PEAK_GRID = 9  # solves per bracket before Brent when forces are sampled (AFT)
 
 
@@ -489,7 +597,7 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
         amplitude=amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n)),
         fold_parameter=np.asarray(br.fold_lam, float),
         newton_iterations=np.asarray(pts["nit"]),
-        nfev=int(br.nfev + extra_nfev + pts["extra_nfev"]),
+        nfev=int(br.nfev + extra_nfev + pts["extra_nfev"] + pts.get("dense_nfev", 0)),
         wall_time=elapsed + time.perf_counter() - t0, success=bool(br.success),
         status=int(br.status), message=str(br.message), H=prob.H,
         tolerance=float(np.hypot(*tols)),  # implied by both blocks within theirs
@@ -498,6 +606,8 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
               "min_step": float(br.min_step), "branch_points": int(br.lam.size),
               "tol_static": float(tols[0]), "tol_dynamic": float(tols[1]),
               "peak_nfev": int(pts["extra_nfev"]), "solve_time": elapsed,
+              "dense_points": int(pts.get("dense_points", 0)),
+              "dense_nfev": int(pts.get("dense_nfev", 0)),
               "postprocess_time": time.perf_counter() - t0})
 
 
@@ -519,6 +629,7 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
     import time
 
     from . import hbm
+    from .resonance import step_guard
 
     t_start = time.perf_counter()
     ds = min(ds, ds_max)
@@ -549,9 +660,10 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
         return _first_point(prob, _with_preload(base, lam, shape), omega, w,
                             lambda x: fun(x, lam)[:2], guess)
 
+    guard = step_guard(prob, lambda lam: _with_preload(base, lam, shape), lambda lam: omega)
     br, spent = _cover_range(fun, first_point, preload_start, preload_end, 1.0,
                              np.repeat(np.arange(prob.c.size), prob.nh), ds=ds, ds_max=ds_max,
-                             max_points=max_points)
+                             max_points=max_points, segment_check=guard)
     pts = _branch_points(br)
     return _curve_from_points(prob, br, pts, lambda lam: _with_preload(base, lam, shape), tols,
                               stability, lambda lam: omega, time.perf_counter() - t_start, spent)

@@ -1,2 +1,21 @@
-"""The paper's examples for the tests (see pipeline/paper_systems.py)."""
+"""Systems for the tests: the paper's examples (see pipeline/paper_systems.py) and the
+three-mass chain of tests/studies/chain_stuck_resonance.toml."""
+import numpy as np
+
+from pipeline.contact import YangMenq
 from pipeline.paper_systems import example1, example2, example3  # noqa: F401
+from pipeline.system import System
+
+# ground-1-2-3, 1 kg and 1e4 N/m each, C = BETA K (zeta = 0.5 % at the first open mode)
+K_CHAIN = 1e4 * np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])
+BETA = 2 * 0.005 / np.sqrt(np.linalg.eigvalsh(K_CHAIN)[0])
+
+
+def chain_system(n0, normal=2):
+    """The chain with one Yang-Menq contact on x3 (ku = 1e4, kv = 1e3 N/m, mu = 0.5)
+    against ground, its normal direction on DOF `normal`, preload n0 [N]; 1 N on x1."""
+    Bn = np.zeros((1, 3))
+    Bn[0, normal] = 1.0
+    return System(M=np.eye(3), C=BETA * K_CHAIN, K=K_CHAIN, Bt=np.array([[0.0, 0.0, 1.0]]),
+                  Bn=Bn, contact=YangMenq(1e4, 1e3, 0.5, n0),
+                  forcing=np.array([[0, 1.0], [0, 0], [0, 0]]))

@@ -247,7 +247,7 @@ def test_stiff_impact_in_the_mixed_regime_kv10():
     s = stiff(10.0)
     c = frequency_response(s, 14, 0.7, 1.2, stability=False, peak_dofs=[0])
     sound(c, max_nfev_per_point=7.5)
-    assert c.info["min_step"] > 5e-4 and c.n_points < 150
+    assert c.info["min_step"] > 5e-4 and c.info["branch_points"] < 150  # continuation only
     assert c.fold_parameter.size == 4
     i = int(np.argmin(np.abs(c.omega - 0.75)))
     st = history(s.Bt @ c.Q[i], s.Bn @ c.Q[i], s.contact, np.linspace(0, 2 * np.pi, 721))["state"]
@@ -301,7 +301,7 @@ def test_stiff_impact_full_range(k, nfev_pt, step, check, rtol):
         assert c.amplitude[i, 0] == pytest.approx(ts.amplitude[0], rel=rtol), om
 
 
-@pytest.mark.parametrize("start,end,max_points,max_rejected", [(0.5, 50.0, 50, 3),
+@pytest.mark.parametrize("start,end,max_points,max_rejected", [(0.5, 50.0, 55, 6),
                                                                 (50.0, 0.5, 65, 14)])
 def test_preload_continuation_into_full_stick(start, end, max_points, max_rejected):
     """Example 1 at 200 rad/s: the damper sticks fully from n* = ku A_stuck / mu =
@@ -310,9 +310,11 @@ def test_preload_continuation_into_full_stick(start, end, max_points, max_reject
     preload solve at the same (n0, Omega); above n* the response is the linear one
     of (m, c, k + ku).
 
-    Measured: up 42 points, 2.9 residual evaluations per point, 1 rejected step,
-    smallest step 0.02; down 56 points, 4.3 per point, 10 rejected, smallest 3.1e-3
-    (before the corner steps: 51 / 67 points, 9 / 21 rejected, 6.4e-4 / 2.4e-5)."""
+    Measured: up 51 points, 3.2 residual evaluations per point, 5 rejected steps,
+    smallest step 0.011; down 61 points, 4.3 per point, 13 rejected, smallest 3.1e-3
+    (before the resonance guard, whose steps resolve the crossing of the linearised
+    natural frequency through 200 rad/s near 2.6 N: 42 / 56 points, 1 / 10 rejected;
+    before the corner steps: 51 / 67 points, 9 / 21 rejected, 6.4e-4 / 2.4e-5)."""
     from pipeline.response import preload_response
     om = 200.0
     c = preload_response(example1(1.0), 7, om, start, end, stability=False)
