@@ -815,6 +815,8 @@ def to_dataset(study: AccuracyStudy, results: list):
     amp = pad(lambda r: r["m"].amplitude, (P,))
     freq[~conv], amp[~conv] = np.nan, np.nan
     hamp = pad(lambda r: r["m"].harmonic_amplitude, (P, Hmax + 1))
+    for i, r in enumerate(rows):  # harmonics above a run's H are not in its ansatz: zero
+        hamp[i, :, np.shape(r["m"].harmonic_amplitude)[-1]:] = 0.0
     hamp[~conv] = np.nan
     num = lambda f: np.array([f(r) for r in rows], dtype=float)        # noqa: E731
     err = lambda key, k: np.array([r[key][k] for r in rows], dtype=float)  # noqa: E731

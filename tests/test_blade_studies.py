@@ -59,6 +59,7 @@ def test_modes_dataset_metadata_and_mode_shapes(modes_run):
     import meshio
 
     out, ds = modes_run
+    assert problems(out / "blade_modes.nc") == []     # a modal dataset: attributes, units
     for a in ("title", "study", "pipeline_version", "created"):
         assert ds.attrs[a]
     assert ds.attrs["Conventions"] == "CF-1.10"
