@@ -171,7 +171,8 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
 
     sw = tuple(study.sweep.axes)
     stable_name = ("asymptotically stable (Hill's method): 1 stable, 0 unstable, NaN not computed"
-                   if computed else "stability NOT computed (solver.stability = false): NaN everywhere")
+                   if computed else
+                   "stability NOT computed (solver.stability = false): NaN everywhere")
     meta = {
         "amplitude": (("sector", "point", "dof"), "m",
                       "response amplitude, half peak-to-peak (max x - min x)/2"),
