@@ -383,6 +383,7 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
 def write_figures(study: Study, ds, fig_dir) -> list:
     """Amplitude-frequency figures (one per response DOF and per combination of
     the non-curve sweep axes); one curve per value of `preload` (or the first axis)."""
+    from .dataset import dof_selection
     from .plots import response_curves_figure
 
     if "amplitude" not in study.output.figures:
@@ -399,7 +400,7 @@ def write_figures(study: Study, ds, fig_dir) -> list:
         sub = ds.isel(sel)
         suffix = "".join(f"_{a}={study.sweep.axes[a][i]:g}" for a, i in sel.items())
         for dof in study.output.dofs:
-            d = sub.sel(dof=dof)
+            d = sub.sel(dof_selection(study, dof))   # "x1@3": dof x1 of sector 3
             branches = []
             for j in range(ds.sizes[curve_axis] if curve_axis else 1):
                 b = d.isel({curve_axis: j}) if curve_axis else d

@@ -1,7 +1,5 @@
-"""Running studies: serial = process pool = Dask, resume after a kill, output errors.
-
-Issue 5 acceptance 2 and 3; issue 6 "output directory not writable, disk full, an
-existing dataset from an older version".
+"""Running studies: serial = process pool = Dask, resume after a kill, output errors
+(output directory not writable, disk full, an existing dataset from an older version).
 """
 from __future__ import annotations
 
