@@ -387,6 +387,9 @@ def test_separation_not_declared_fails_the_case_that_separates(tmp_path):
     ds = read_dataset(res.path)
     assert int(ds["converged"].sel(preload=10.0).sum()) == 0
     assert int(ds["converged"].sel(preload=500.0).sum()) > 10
+    assert "separation" not in ds.attrs["effects"]
+    assert "kept closed (a case that separates fails)" in ds.attrs["solution_method"]
+    assert "searched for separation" not in ds.attrs["solution_method"]
     # the kept case really stays closed at every point
     from pipeline.response import frequency_response
     sysm = study.system({"preload": 500.0})
