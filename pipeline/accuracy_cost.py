@@ -192,7 +192,8 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     present = [c for c in CASES if c in data]
     if not present:
         ck.fail("(document)", "no case: give a [lumped] and/or a [blade] table")
-    qt = ck.table(data.get("quick"), "quick", required=False)
+    # [quick] is read only for --quick: a full run never depends on it
+    qt = ck.table(data.get("quick"), "quick", required=False) if quick else {}
     ck.keys(qt, "quick", tuple(present))
     base_dir = Path(file).parent if file and not file.startswith("<") else Path(".")
     full, short = [], []

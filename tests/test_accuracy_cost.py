@@ -177,9 +177,10 @@ def test_bad_study_is_one_line_exit_2(tmp_path, case, capsys):
     old, new, pattern = BAD[case] if case in BAD else BAD_BLADE[case]
     f = tmp_path / "bad.toml"
     f.write_text(_text(old, new, coarse_blade=True))
+    quick = case.startswith("quick")   # [quick] is read only for --quick
     with pytest.raises(UsageError, match=pattern):
-        load_study(f)
-    assert cli(["run", str(f), "--out", str(tmp_path / "out")]) == 2
+        load_study(f, quick=quick)
+    assert cli(["run", str(f), "--out", str(tmp_path / "out")] + ["--quick"] * quick) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"error: {f}: "), err
     assert not (tmp_path / "out").exists()
