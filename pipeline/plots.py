@@ -88,52 +88,103 @@ def _runs(mask):
     return list(zip(edges[::2], edges[1::2]))
 
 
-def response_curves_figure(path, branches, *, xlabel="frequency [rad/s]",
-                           ylabel="amplitude [m]", title="", yscale="linear",
-                           legend_title=None):
-    """Amplitude against frequency, one curve per branch (paper Figs. 2, 4, 6).
+STABLE, UNSTABLE, NOT_COMPUTED = 1, 0, -1
 
-    branches: [(label, frequency (P,), amplitude (P,), stable (P,), converged (P,))];
-    stable parts solid, unstable parts dashed (same colour), folds (turning points
-    of the frequency) marked with open circles; non-converged points are gaps.
-    """
+
+def stability_states(stable):
+    """Per-point stability as STABLE / UNSTABLE / NOT_COMPUTED from a bool array
+    (True stable) or a float array (1.0 stable, 0.0 unstable, NaN not computed)."""
+    st = np.asarray(stable)
+    if st.dtype == bool:
+        return np.where(st, STABLE, UNSTABLE)
+    st = st.astype(float)
+    return np.where(np.isnan(st), NOT_COMPUTED, np.where(st > 0.5, STABLE, UNSTABLE))
+
+
+def stability_for_plot(stable):
+    """The `stable` variable of a response dataset as floats for the figures: NaN
+    where stability was not computed (the variable's attribute `stability_computed`
+    = 0 marks a dataset whose `stable` is a placeholder True everywhere)."""
+    values = np.asarray(getattr(stable, "values", stable))
+    attrs = getattr(stable, "attrs", {})
+    if int(attrs.get("stability_computed", 1)) == 0:
+        return np.full(values.shape, np.nan)
+    return values
+
+
+# line style per stability state: stable solid, unstable dashed, not computed dotted
+_STYLE = {STABLE: dict(ls="-", lw=1.6), UNSTABLE: dict(ls="--", lw=1.4),
+          NOT_COMPUTED: dict(ls=":", lw=1.6)}
+_STATE_LEGEND = {UNSTABLE: "unstable", NOT_COMPUTED: "stability not computed"}
+
+
+def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplitude [m]",
+                         title="", yscale="linear", legend_title=None):
+    """The figure of `response_curves_figure`, left open (for saving or inspection).
+
+    A branch may carry a sixth element, a dict of Line2D properties (color, lw,
+    alpha, zorder) that override its defaults; label None leaves it out of the legend."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    any_unstable = any_fold = False
-    for k, (label, f, a, stable, conv) in enumerate(branches):
+    states_seen, any_fold = set(), False
+    for k, (label, f, a, stable, conv, *extra) in enumerate(branches):
+        style = dict(extra[0]) if extra else {}
         f, a = np.asarray(f, float), np.asarray(a, float)
         conv = np.asarray(conv, bool) & np.isfinite(f) & np.isfinite(a)
-        stable = np.asarray(stable, bool)
-        col = colours[k % len(colours)]
+        state = stability_states(stable)
+        col = style.pop("color", colours[k % len(colours)])
+        lw = style.pop("lw", None)
         first = True
         for i0, i1 in _runs(conv):
-            fs, as_, st = f[i0:i1], a[i0:i1], stable[i0:i1]
-            # stable runs solid, unstable runs dashed; an unstable run is widened by
-            # one point each side so the curve stays connected
-            for j0, j1 in _runs(st):
-                ax.plot(fs[j0:j1], as_[j0:j1], "-", color=col, lw=1.6,
-                        label=label if first else None)
-                first = False
-            for j0, j1 in _runs(~st):
-                any_unstable = True
-                sl = slice(max(j0 - 1, 0), j1 + 1)
-                ax.plot(fs[sl], as_[sl], "--", color=col, lw=1.4, label=label if first else None)
-                first = False
+            fs, as_, st = f[i0:i1], a[i0:i1], state[i0:i1]
+            n = i1 - i0
+            # stable runs solid; unstable (dashed) and not-computed (dotted) runs
+            # reach back to the point before and on to a stable point after, so the
+            # curve stays connected and every segment is drawn once
+            for s in (STABLE, UNSTABLE, NOT_COMPUTED):
+                for j0, j1 in _runs(st == s):
+                    if s != STABLE:
+                        j0 = max(j0 - 1, 0)
+                        j1 = j1 + 1 if j1 < n and st[j1] == STABLE else j1
+                    kw = dict(_STYLE[s])
+                    if lw is not None:
+                        kw["lw"] = lw
+                    ax.plot(fs[j0:j1], as_[j0:j1], color=col, label=label if first else None,
+                            gid=f"stability={s}", **kw, **style)
+                    first = False
+                    if s != STABLE:
+                        states_seen.add(s)
             folds = _fold_indices(fs)
             if folds.size:
                 any_fold = True
                 ax.plot(fs[folds], as_[folds], "o", mfc="none", mec=col, ms=6)
     handles, labels = ax.get_legend_handles_labels()
-    if any_unstable:
-        handles.append(ax.plot([], [], "k--", lw=1.4)[0])
-        labels.append("unstable")
+    for s in (UNSTABLE, NOT_COMPUTED):
+        if s in states_seen:
+            handles.append(ax.plot([], [], color="k", **_STYLE[s])[0])
+            labels.append(_STATE_LEGEND[s])
     if any_fold:
         handles.append(ax.plot([], [], "ko", mfc="none", ms=6)[0])
         labels.append("fold")
     ax.legend(handles, labels, fontsize=8, title=legend_title, title_fontsize=8)
     ax.set(xlabel=xlabel, ylabel=ylabel, title=title, yscale=yscale)
     ax.grid(alpha=0.3, which="both")
+    return fig
+
+
+def response_curves_figure(path, branches, **kwargs):
+    """Amplitude against frequency, one curve per branch (paper Figs. 2, 4, 6).
+
+    branches: [(label, frequency (P,), amplitude (P,), stable (P,), converged (P,))];
+    `stable` is bool (True stable) or float (1.0 stable, 0.0 unstable, NaN not
+    computed).  Stable parts solid, unstable parts dashed, parts whose stability was
+    not computed dotted and labelled so (same colour); folds (turning points of the
+    frequency) marked with open circles; non-converged points are gaps.  Keyword
+    arguments as `response_curves_plot`.
+    """
+    plt = _plt()
+    fig = response_curves_plot(branches, **kwargs)
     out = _atomic_savefig(fig, path)
     plt.close(fig)
     return out
