@@ -190,6 +190,44 @@ def response_curves_figure(path, branches, **kwargs):
     return out
 
 
+# ---------------------------------------------------------------------------
+# Log axes over a narrow range
+# ---------------------------------------------------------------------------
+
+_LOG_SUBS = ((1.0,), (1.0, 2.0, 5.0), (1.0, 2.0, 3.0, 5.0), (1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 7.0),
+             (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0))
+
+
+def log_ticks(lo: float, hi: float, at_least: int = 3) -> np.ndarray:
+    """Tick values for a log axis from lo to hi (> 0): the coarsest of the
+    1 / 1-2-5 / 1-2-3-5 / ... sequences per decade with at least `at_least` values
+    inside; over a range too narrow for any of them, evenly spaced round values."""
+    lo, hi = sorted((float(lo), float(hi)))
+    for subs in _LOG_SUBS:
+        decades = np.arange(np.floor(np.log10(lo)) - 1, np.ceil(np.log10(hi)) + 1)
+        t = np.unique(np.round((np.asarray(subs)[None, :] * 10.0 ** decades[:, None]).ravel(), 12))
+        t = t[(t >= lo * (1 - 1e-9)) & (t <= hi * (1 + 1e-9))]
+        if t.size >= at_least:
+            return t
+    from matplotlib.ticker import MaxNLocator
+    t = MaxNLocator(nbins=at_least + 1, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
+    return t[(t >= lo) & (t <= hi)]
+
+
+def label_log_axis(axis):
+    """Labelled major ticks (plain numbers, `log_ticks`) over the visible range of a
+    log-scaled matplotlib axis (ax.xaxis / ax.yaxis), unlabelled minor ticks."""
+    from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter
+    ax = axis.axes
+    get, set_ = (ax.get_xlim, ax.set_xlim) if axis.axis_name == "x" else (ax.get_ylim, ax.set_ylim)
+    lo, hi = get()          # autoscaled to the data drawn so far; kept from here on
+    set_(lo, hi)
+    axis.set_major_locator(FixedLocator(log_ticks(lo, hi)))
+    axis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+    axis.set_minor_locator(LogLocator(base=10, subs=np.arange(1, 10), numticks=100))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def optimum_figure(path, result, dof, title=""):
     """Resonant peak vs preload from the optimum search (log-log), optimum marked."""
     ev = np.array(result["evaluations"], dtype=float).reshape(-1, 3)

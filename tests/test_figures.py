@@ -1,11 +1,12 @@
-"""What the figures draw: stability styles of response curves."""
+"""What the figures draw: stability styles of response curves, labelled log axes."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import xarray as xr
 
-from pipeline.plots import (NOT_COMPUTED, STABLE, UNSTABLE, _plt, response_curves_plot,
-                            stability_for_plot, stability_states)
+from pipeline.plots import (NOT_COMPUTED, STABLE, UNSTABLE, _plt, label_log_axis, log_ticks,
+                            response_curves_plot, stability_for_plot, stability_states)
 
 
 def _lines(fig):
@@ -57,3 +58,22 @@ def test_stability_states_and_placeholder_stability():
     assert np.isnan(stability_for_plot(placeholder)).all()
     computed = xr.DataArray(np.ones(3, bool), attrs={"stability_computed": 1})
     assert stability_for_plot(computed).tolist() == [True, True, True]
+
+
+@pytest.mark.parametrize("lo,hi", [(0.52, 1.04), (0.55, 0.87), (1.2, 1.9), (4.6, 30.0),
+                                   (0.6, 25.0), (5.5, 6.5)])
+def test_log_axis_has_at_least_three_labelled_ticks(lo, hi):
+    assert len(log_ticks(lo, hi)) >= 3
+    plt = _plt()
+    fig, ax = plt.subplots()
+    try:
+        ax.plot([lo, hi], [1.0, 2.0])
+        ax.set_xscale("log")
+        ax.set_xlim(lo, hi)
+        label_log_axis(ax.xaxis)
+        fig.canvas.draw()
+        shown = [t.get_text() for t in ax.get_xticklabels(which="both")
+                 if t.get_text() and lo <= t.get_position()[0] <= hi]
+        assert len(shown) >= 3, shown
+    finally:
+        plt.close(fig)
