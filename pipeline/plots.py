@@ -190,6 +190,67 @@ def response_curves_figure(path, branches, **kwargs):
     return out
 
 
+def sector_peaks_figure(path, sectors, series, tuned_peak, *, dof="x", title="",
+                        tuned_note=None):
+    """Peak amplitude per sector of a mistuned disk against the tuned disk's peak.
+
+    sectors: (N,) sector numbers; series: [(label, peaks (N,) [m])], one per
+    mistuning pattern; tuned_peak: the tuned disk's peak [m] (NaN if unknown, then
+    `tuned_note` says why).  Each sector's peak is a marker on a stem from the tuned
+    line; the legend gives each series' amplification factor max peak / tuned peak
+    and its sector, the title the largest; the right-hand axis reads peak / tuned peak."""
+    plt = _plt()
+    sectors = np.asarray(sectors)
+    fig, ax = plt.subplots(figsize=(7.5, 4.6))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    markers = "osD^v<>p"
+    n = max(len(series), 1)
+    width = min(0.7 / n, 0.25)
+    tuned_ok = bool(np.isfinite(tuned_peak))
+    worst = None
+    for i, (label, pk) in enumerate(series):
+        pk = np.asarray(pk, float)
+        x = sectors + (i - (n - 1) / 2) * width
+        col = colours[i % len(colours)]
+        text = label or "mistuned"
+        if np.isfinite(pk).any():
+            k = int(np.nanargmax(pk))
+            if tuned_ok:
+                amp = pk[k] / tuned_peak
+                text += f": max / tuned = {amp:.3f} (sector {sectors[k]})"
+                if worst is None or amp > worst[0]:
+                    worst = (amp, label)
+                ax.vlines(x, tuned_peak, pk, color=col, lw=1.2)
+            else:
+                text += f": max {pk[k]:.4g} m (sector {sectors[k]})"
+        ax.plot(x, pk, markers[i % len(markers)], color=col, ms=6, label=text, zorder=3)
+    if tuned_ok:
+        ax.axhline(tuned_peak, color="k", lw=1.5, zorder=2,
+                   label=f"tuned disk: {tuned_peak:.4g} m (no mistuning: one sector by the "
+                         "cyclic reduction, same solver settings)")
+        sec = ax.secondary_yaxis("right", functions=(lambda y: y / tuned_peak,
+                                                     lambda r: r * tuned_peak))
+        sec.set_ylabel("peak / tuned peak [-]")
+    else:
+        ax.plot([], [], color="k", lw=1.5,
+                label="tuned disk: not available" + (f" ({tuned_note})" if tuned_note else ""))
+    head = f"peak of {dof} per sector"
+    if worst is not None:
+        head += f"; amplification max peak / tuned peak = {worst[0]:.3f}"
+        head += f" ({worst[1]})" if worst[1] and len(series) > 1 else ""
+    ax.set(xlabel="sector", ylabel=f"peak amplitude of {dof} [m]",
+           title=(title + "\n" if title else "") + head)
+    ax.title.set_fontsize(9)
+    if sectors.size <= 36:
+        ax.set_xticks(sectors)
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1,
+              frameon=False)
+    out = _atomic_savefig(fig, path)
+    plt.close(fig)
+    return out
+
+
 # ---------------------------------------------------------------------------
 # Log axes over a narrow range
 # ---------------------------------------------------------------------------

@@ -382,11 +382,15 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
 
 def write_figures(study: Study, ds, fig_dir) -> list:
     """Amplitude-frequency figures (one per response DOF and per combination of
-    the non-curve sweep axes); one curve per value of `preload` (or the first axis)."""
+    the non-curve sweep axes); one curve per value of `preload` (or the first axis).
+    A mistuned disk gets its own figures (`disk_figures.write_sector_figures`)."""
+    from .disk_figures import is_sector_resolved, write_sector_figures
     from .plots import response_curves_figure, stability_for_plot
 
     if "amplitude" not in study.output.figures:
         return []
+    if is_sector_resolved(study, ds):
+        return write_sector_figures(study, ds, fig_dir)
     axes = list(study.sweep.axes)
     curve_axis = "preload" if "preload" in axes else (axes[0] if axes else None)
     other = [a for a in axes if a != curve_axis]
