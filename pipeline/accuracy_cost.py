@@ -998,15 +998,24 @@ def recommendation_lines(results: list, target: float) -> list:
 
 
 def pareto_figure(path, ds, title: str | None = None):
+    """`pareto_plot` written to `path` (PNG)."""
+    from .plots import _atomic_savefig, _plt
+
+    fig = pareto_plot(ds, title)
+    out = _atomic_savefig(fig, path)
+    _plt().close(fig)
+    return out
+
+
+def pareto_plot(ds, title: str | None = None):
     """Error against wall time (log-log) from an accuracy dataset: one panel per case,
     one series per knob (through the baseline, from the cheapest to the most accurate
     value), the baseline (open square), the recommended combination (star), the
     target (dashed), the reference's wall time (dotted) and, for the lumped case, the
     reference's discrepancy to event-driven time integration (dash-dot).  An error of
-    0 (the reference itself) is drawn on the bottom edge, a missed fold on the top."""
-    import matplotlib.ticker as mticker
-
-    from .plots import _atomic_savefig, _plt
+    0 (the reference itself) is drawn on the bottom edge, a missed fold on the top.
+    Returns the open figure."""
+    from .plots import _plt, label_log_axis
 
     plt = _plt()
     cases = list(dict.fromkeys(ds["case"].values.tolist()))
@@ -1059,11 +1068,7 @@ def pareto_figure(path, ds, title: str | None = None):
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_ylim(lo / 1.5, 3.0)
-        fmt = mticker.FuncFormatter(lambda x, _: f"{x:g}")
-        ax.xaxis.set_major_formatter(fmt)
-        ax.xaxis.set_minor_formatter(mticker.FuncFormatter(
-            lambda x, _: f"{x:g}" if f"{x:g}"[0] in "25" else ""))
-        ax.tick_params(axis="x", which="minor", labelsize=7)
+        label_log_axis(ax.xaxis)   # 1-2-5 (or finer) seconds over the range drawn
         ax.set_xlabel("wall time [s]")
         ax.set_ylabel("largest relative error (bottom edge: the reference itself)")
         dof = str(sub["response_dof"].values[0])
@@ -1076,9 +1081,7 @@ def pareto_figure(path, ds, title: str | None = None):
                   frameon=False)
     fig.suptitle(title if title is not None else ds.attrs.get("title", ""), fontsize=10)
     fig.tight_layout()
-    out = _atomic_savefig(fig, path)
-    plt.close(fig)
-    return out
+    return fig
 
 
 _KNOB_LABELS = {"harmonics": "harmonics H", "samples": "AFT samples N (then exact)",

@@ -458,12 +458,16 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
 
 def write_figures(study: Study, ds, fig_dir) -> list:
     """Amplitude-frequency figures (one per response DOF and per combination of
-    the non-curve sweep axes); one curve per value of `preload` (or the first axis)."""
+    the non-curve sweep axes); one curve per value of `preload` (or the first axis).
+    A mistuned disk gets its own figures (`disk_figures.write_sector_figures`)."""
     from .dataset import dof_selection
-    from .plots import response_curves_figure
+    from .disk_figures import is_sector_resolved, write_sector_figures
+    from .plots import response_curves_figure, stability_for_plot
 
     if "amplitude" not in study.output.figures:
         return []
+    if is_sector_resolved(study, ds):
+        return write_sector_figures(study, ds, fig_dir)
     axes = list(study.sweep.axes)
     curve_axis = "preload" if "preload" in axes else (axes[0] if axes else None)
     other = [a for a in axes if a != curve_axis]
@@ -484,7 +488,7 @@ def write_figures(study: Study, ds, fig_dir) -> list:
                 label = (f"{curve_axis} = {float(b[curve_axis]):g}" + (f" {unit_c}" if unit_c != "1" else "")
                          if curve_axis else study.name)
                 branches.append((label, b["frequency"].values, b["amplitude"].values,
-                                 b["stable"].values, b["converged"].values))
+                                 stability_for_plot(b["stable"]), b["converged"].values))
             title = study.title + "".join(f", {a} = {study.sweep.axes[a][i]:g}" for a, i in sel.items())
             paths.append(response_curves_figure(
                 Path(fig_dir) / f"amplitude_{dof}{suffix}.png", branches,

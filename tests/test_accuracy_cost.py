@@ -65,6 +65,24 @@ def test_quick_study_writes_a_conforming_dataset_table_and_figure(quick):
     assert ds["force_evaluation"].sel(run="lumped/baseline").item() == "exact"
 
 
+def test_pareto_time_axis_is_labelled_over_its_range(quick):
+    """The quick study's wall times span less than a decade: at least three labelled
+    ticks inside each panel's time range."""
+    from pipeline.accuracy_cost import pareto_plot
+    from pipeline.plots import _plt
+
+    _, ds = quick
+    fig = pareto_plot(ds)
+    try:
+        fig.canvas.draw()
+        for ax in fig.axes:
+            lo, hi = ax.get_xlim()
+            shown = [t.get_text() for t in ax.get_xticklabels(which="both")
+                     if t.get_text() and lo <= t.get_position()[0] <= hi]
+            assert len(shown) >= 3, (ax.get_title(), shown)
+    finally:
+        _plt().close(fig)
+
 def test_lumped_reference_numbers_and_time_integration(quick):
     _, ds = quick
     ref = _run(ds, "lumped/reference")              # H = 14, exact, tolerance 1e-11
