@@ -1,17 +1,25 @@
-"""Command line: `python -m pipeline COMMAND ...` (see `--help`)."""
+"""Command line: `shroud COMMAND ...` or `python -m pipeline COMMAND ...` (see `--help`)."""
 from __future__ import annotations
 
 import argparse
-import logging
+import os
 import sys
 
 
 from .errors import UsageError
 
 
+def _prog() -> str:
+    """The command as it was invoked: `shroud` (console script) or `python -m pipeline`."""
+    name = os.path.basename(sys.argv[0] if sys.argv and sys.argv[0] else "")
+    if name in ("", "__main__.py", "-c", "-m") or name.startswith("python"):
+        return "python -m pipeline"
+    return name
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="python -m pipeline",
+        prog=_prog(),
         description="Shrouded bladed disks with dry friction: Yang-Menq contact, "
         "harmonic balance, continuation, studies.",
     )
@@ -20,6 +28,15 @@ def _parser() -> argparse.ArgumentParser:
 
     from .study import add_run_parser
     add_run_parser(sub)
+
+    c = sub.add_parser("check", help="validate a study without computing (cases, solver, "
+                                     "estimated cost), or a dataset against its contract")
+    c.add_argument("file", metavar="STUDY.toml|FILE.nc", help="study file or dataset")
+    c.add_argument("--quick", action="store_true",
+                   help="check the study's [quick] variant (the one `run --quick` runs)")
+    c.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="workers the cost estimate assumes (default: one per CPU core)")
+    c.set_defaults(func=_cmd_check)
 
     h = sub.add_parser("hysteresis", help="draw the Yang-Menq time history and hysteresis loop (PNG)")
     h.add_argument("--out", default="results/hysteresis.png", help="PNG file to write")
@@ -54,22 +71,30 @@ def _cmd_optimise(args) -> int:
     """Optimum preload by a search on the exact peak (response.optimum_preload)."""
     from pathlib import Path
 
+    from .declared import UndeclaredSeparation
     from .plots import optimum_figure
     from .scene import load_study
-    from .study import find_optimum
+    from .study import find_optimum, sigint_interrupts
 
     study = load_study(args.study, quick=args.quick)
     if study.output.optimum is None:
         raise UsageError(f"{args.study}: output.optimum_preload: missing: give dof and "
                          "bounds = [low, high] (N) for the search")
-    res = find_optimum(study)
+    try:
+        with sigint_interrupts():
+            res = find_optimum(study)
+    except UndeclaredSeparation as exc:
+        print(f"error: {args.study}: scene.effects: {exc}", file=sys.stderr)
+        return 1
     o = study.output.optimum
+    fr = study.sweep.frequency
     print(f"{study.name}: preload minimising the peak of {o['dof']}: {res['preload']:.6g} N "
-          f"(peak {res['peak']:.6g} m at {res['peak_omega']:.6g} rad/s; "
+          f"(peak {res['peak']:.6g} m at {res['peak_omega'] / fr.to_rad_s:.6g} {fr.unit}; "
           f"{len(res['evaluations'])} evaluations, {res['wall_time']:.1f} s)")
-    print(f"{'preload [N]':>14} {'peak [m]':>14} {'at [rad/s]':>12}")
+    print(f"{'preload [N]':>14} {'peak [m]':>14} {'at [' + fr.unit + ']':>12}")
     for n0, a, om in res["evaluations"]:
-        print(f"{n0:14.6g} {a:14.6g} {om:12.6g}{'  <- optimum' if n0 == res['preload'] else ''}")
+        print(f"{n0:14.6g} {a:14.6g} {om / fr.to_rad_s:12.6g}"
+              f"{'  <- optimum' if n0 == res['preload'] else ''}")
     path = optimum_figure(Path(args.out) / study.name / "optimum_preload.png", res, o["dof"],
                           study.title)
     print(f"wrote {path}")
@@ -82,10 +107,17 @@ def _cmd_bench(args) -> int:
     return bench.run(args.what, quick=args.quick)
 
 
+def _cmd_check(args) -> int:
+    from .check import check
+
+    return check(args.file, quick=args.quick, workers=args.workers)
+
+
 def main(argv=None) -> int:
+    from .study import configure_logging
+
     args = _parser().parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
-                        format="%(levelname)s %(name)s: %(message)s")
+    configure_logging(args.verbose)
     try:
         return args.func(args)
     except UsageError as exc:

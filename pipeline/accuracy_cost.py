@@ -31,7 +31,7 @@ combination of the recommended values is then run once more and reported as is
 (errors of several knobs add, so it may miss the target; the run says so).
 
 Output: `DIR/<name>.nc` (one `run` dimension, the response variables of
-DATASET.md per run, the settings, times and errors), `DIR/<name>/pareto.png`
+the dataset contract per run, the settings, times and errors), `DIR/<name>/pareto.png`
 (error against wall time, log-log, one series per knob) and
 `DIR/<name>/table.md`.
 """
@@ -192,7 +192,8 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     present = [c for c in CASES if c in data]
     if not present:
         ck.fail("(document)", "no case: give a [lumped] and/or a [blade] table")
-    qt = ck.table(data.get("quick"), "quick", required=False)
+    # [quick] is read only for --quick: a full run never depends on it
+    qt = ck.table(data.get("quick"), "quick", required=False) if quick else {}
     ck.keys(qt, "quick", tuple(present))
     base_dir = Path(file).parent if file and not file.startswith("<") else Path(".")
     full, short = [], []
@@ -781,8 +782,9 @@ def _run_label(row) -> str:
 
 def to_dataset(study: AccuracyStudy, results: list):
     """One `run` per measured setting (references, baselines, knob values, the
-    recommended combinations); per run the DATASET.md response variables of the
-    case's DOF (frequency in rad/s), the settings, times, peaks, folds and errors."""
+    recommended combinations); per run the contract's response variables (README,
+    Dataset) of the case's DOF (frequency in rad/s), the settings, times, peaks,
+    folds and errors."""
     import datetime as _dt
 
     import xarray as xr
@@ -814,19 +816,22 @@ def to_dataset(study: AccuracyStudy, results: list):
     amp = pad(lambda r: r["m"].amplitude, (P,))
     freq[~conv], amp[~conv] = np.nan, np.nan
     hamp = pad(lambda r: r["m"].harmonic_amplitude, (P, Hmax + 1))
+    for i, r in enumerate(rows):  # harmonics above a run's H are not in its ansatz: zero
+        hamp[i, :, np.shape(r["m"].harmonic_amplitude)[-1]:] = 0.0
     hamp[~conv] = np.nan
     num = lambda f: np.array([f(r) for r in rows], dtype=float)        # noqa: E731
     err = lambda key, k: np.array([r[key][k] for r in rows], dtype=float)  # noqa: E731
     s_ = [r["settings"] for r in rows]
     data_vars = {
-        "frequency": var(("run", "point"), freq, "rad/s", "excitation frequency"),
         "amplitude": var(("run", "point", "dof"), amp[..., None], "m",
                          "half peak-to-peak amplitude of the case's response DOF"),
         "harmonic_amplitude": var(("run", "point", "dof", "harmonic"), hamp[:, :, None, :], "m",
                                   "sqrt(a_h^2 + b_h^2) of the response DOF (|a_0| at h = 0)"),
         "converged": var(("run", "point"), conv, None, "full residual within its tolerance"),
-        "stable": var(("run", "point"), conv.copy(), None,
-                      "stability NOT computed (accuracy study): true at every converged point",
+        "stable": var(("run", "point"), np.full(conv.shape, np.nan), "1",
+                      "stability NOT computed (accuracy study): NaN everywhere",
+                      flag_values=np.array([0.0, 1.0]), flag_meanings="unstable stable",
+                      comment="NaN: stability not computed (the runs measure accuracy and time)",
                       stability_computed=0),
         "peak_amplitude": var(("run", "dof"), num(lambda r: r["m"].peak_amplitude)[:, None], "m",
                               "largest amplitude on the branch (exact peak)"),
@@ -936,7 +941,10 @@ def to_dataset(study: AccuracyStudy, results: list):
                            {"units": "1", "long_name": "harmonic index h"}),
               "point": ("point", np.arange(P, dtype=np.int32),
                         {"units": "1", "long_name": "index along the branch"}),
-              "fold": ("fold", np.arange(F, dtype=np.int32), {"units": "1", "long_name": "fold"})}
+              "fold": ("fold", np.arange(F, dtype=np.int32),
+                       {"units": "1", "long_name": "index of a fold, in ascending frequency"}),
+              "frequency": (("run", "point"), freq, {"units": "rad/s",
+                                                     "long_name": "excitation frequency"})}
     dofs = {res["case"].name: res["case"].dof for res in results}
     data_vars["response_dof"] = var(("run",), np.array([dofs[r["case"]] for r in rows], dtype=str),
                                     None, "the case's response DOF (dof = 'response')")
@@ -990,15 +998,24 @@ def recommendation_lines(results: list, target: float) -> list:
 
 
 def pareto_figure(path, ds, title: str | None = None):
+    """`pareto_plot` written to `path` (PNG)."""
+    from .plots import _atomic_savefig, _plt
+
+    fig = pareto_plot(ds, title)
+    out = _atomic_savefig(fig, path)
+    _plt().close(fig)
+    return out
+
+
+def pareto_plot(ds, title: str | None = None):
     """Error against wall time (log-log) from an accuracy dataset: one panel per case,
     one series per knob (through the baseline, from the cheapest to the most accurate
     value), the baseline (open square), the recommended combination (star), the
     target (dashed), the reference's wall time (dotted) and, for the lumped case, the
     reference's discrepancy to event-driven time integration (dash-dot).  An error of
-    0 (the reference itself) is drawn on the bottom edge, a missed fold on the top."""
-    import matplotlib.ticker as mticker
-
-    from .plots import _atomic_savefig, _plt
+    0 (the reference itself) is drawn on the bottom edge, a missed fold on the top.
+    Returns the open figure."""
+    from .plots import _plt, label_log_axis
 
     plt = _plt()
     cases = list(dict.fromkeys(ds["case"].values.tolist()))
@@ -1051,11 +1068,7 @@ def pareto_figure(path, ds, title: str | None = None):
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_ylim(lo / 1.5, 3.0)
-        fmt = mticker.FuncFormatter(lambda x, _: f"{x:g}")
-        ax.xaxis.set_major_formatter(fmt)
-        ax.xaxis.set_minor_formatter(mticker.FuncFormatter(
-            lambda x, _: f"{x:g}" if f"{x:g}"[0] in "25" else ""))
-        ax.tick_params(axis="x", which="minor", labelsize=7)
+        label_log_axis(ax.xaxis)   # 1-2-5 (or finer) seconds over the range drawn
         ax.set_xlabel("wall time [s]")
         ax.set_ylabel("largest relative error (bottom edge: the reference itself)")
         dof = str(sub["response_dof"].values[0])
@@ -1068,9 +1081,7 @@ def pareto_figure(path, ds, title: str | None = None):
                   frameon=False)
     fig.suptitle(title if title is not None else ds.attrs.get("title", ""), fontsize=10)
     fig.tight_layout()
-    out = _atomic_savefig(fig, path)
-    plt.close(fig)
-    return out
+    return fig
 
 
 _KNOB_LABELS = {"harmonics": "harmonics H", "samples": "AFT samples N (then exact)",

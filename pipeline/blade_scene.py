@@ -313,11 +313,14 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
             ck.fail("modes", "only a modes study (study.kind = \"modes\") has a [modes] table")
         if "sweep" not in data:
             ck.fail("sweep", "missing table (required)")
-    qt = ck.table(data.get("quick"), "quick", required=False)
-    ck.keys(qt, "quick", ("scene", "modes") if kind == "modes" else ("scene", "sweep", "solver"))
+    # [quick] is read only for --quick, after the main tables (a full run never
+    # depends on it)
+    qt = ck.table(data.get("quick"), "quick", required=False) if quick else {}
     base_dir = Path(file).parent if file and not file.startswith("<") else Path(".")
 
     scene_tab = ck.table(data["scene"], "scene")
+    full_scene = _blade_scene(ck, scene_tab, kind, base_dir, {})
+    ck.keys(qt, "quick", ("scene", "modes") if kind == "modes" else ("scene", "sweep", "solver"))
     q_scene = ck.table(qt.get("scene"), "quick.scene", required=False)
     ck.keys(q_scene, "quick.scene", ("blade", "craig_bampton_modes", "mesh"))
     merged = dict(scene_tab)
@@ -330,7 +333,6 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
         if k in q_scene:
             merged[k] = q_scene[k]
             origin[f"scene.{k}"] = f"quick.scene.{k}"
-    full_scene = _blade_scene(ck, scene_tab, kind, base_dir, {})
     quick_scene = _blade_scene(ck, merged, kind, base_dir, origin) if q_scene else full_scene
     scene = quick_scene if quick else full_scene
 
@@ -345,22 +347,25 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                           reference=reference, text=text, scene=scene, mode_counts=counts,
                           n_frequencies=nf, n_shapes=ns, quick=bool(quick))
 
-    from .scene import Study, Sweep, _solver, _sweep, solver_sweep_tables
+    from .scene import Study, Sweep, _solver, _sweep, quick_tables, solver_sweep_tables
 
-    solver_tab, sweep_tab, q_solver, q_sweep = solver_sweep_tables(ck, data, qt)
+    solver_tab, sweep_tab = solver_sweep_tables(ck, data)
     solver = _solver(ck, solver_tab, "solver")
     if "stability" not in solver_tab:
         solver = replace(solver, stability=False)  # Hill on hundreds of DOFs: opt in
     axes, freq = _sweep(ck, sweep_tab, "sweep")
-    q_solver_s = _solver(ck, q_solver, "quick.solver", base=solver)
-    q_axes, q_freq = _sweep(ck, q_sweep, "quick.sweep", partial=True)
-    q_axes = {k: q_axes.get(k, v) for k, v in axes.items()}
     output = _output(ck, ck.table(data.get("output"), "output", required=False))
+    variants = [(False, solver, axes, freq, "solver", "sweep", full_scene)]
+    if quick:
+        q_solver, q_sweep = quick_tables(ck, {"quick": qt}, sweep_tab, ("scene", "sweep", "solver"))
+        q_solver_s = _solver(ck, q_solver, "quick.solver", base=solver)
+        q_axes, q_freq = _sweep(ck, q_sweep, "quick.sweep", partial=True)
+        q_axes = {k: q_axes.get(k, v) for k, v in axes.items()}
+        variants.append((True, q_solver_s, q_axes, q_freq or freq,
+                         "quick.solver" if q_solver else "solver",
+                         "quick.sweep" if q_sweep else "sweep", quick_scene))
     chosen = None
-    for is_quick, sv, ax, fr, spath, wpath, sc in (
-            (False, solver, axes, freq, "solver", "sweep", full_scene),
-            (True, q_solver_s, q_axes, q_freq or freq, "quick.solver" if q_solver else "solver",
-             "quick.sweep" if q_sweep else "sweep", quick_scene)):
+    for is_quick, sv, ax, fr, spath, wpath, sc in variants:
         _consistency(ck, sc, sv, ax, spath, wpath)
         st = Study(file=file, name=name, title=title, description=description,
                    reference=reference, text=text, scene=sc, sweep=Sweep(axes=ax, frequency=fr),

@@ -1,15 +1,25 @@
-"""Response curves of a study -> one labelled `xarray.Dataset` -> netCDF (DATASET.md).
+"""Response curves of a study -> one labelled `xarray.Dataset` -> netCDF.
 
-The only module that imports xarray.  Layout (dims in this order):
+Builds the response and modal datasets with xarray (`dataset_check` checks any
+study dataset against the contract).  Layout (dims in this order):
 
-    sweep axes... (e.g. preload [N]),  point,  dof,  harmonic (0..H)
+    sweep axes... (e.g. preload [N]),  [sector,]  point,  dof,  harmonic (0..H)
+
+`frequency` is a non-index coordinate on (sweep axes..., point): branches are
+multivalued in frequency, and `ds.amplitude.sel(preload=10, dof="u").plot(x="frequency")`
+draws one branch.  `sector` (the sector numbers) exists only for a mistuned disk,
+whose response DOFs are reported per sector: `dof` then holds the sector's DOF
+names ("x1"), never "x1@3".
 
 Continuation branches have different lengths: every per-point variable is padded
 along `point` with NaN (floats), False (flags) or -1 (counts).  Padded points and
 points whose numbers are not finite are never `converged`, so every converged
-point carries finite values.  Amplitudes are half peak-to-peak (max x - min x)/2;
-harmonic amplitudes sqrt(a_h^2 + b_h^2) of x = a_0 + sum a_h cos(h W t) + b_h sin(h W t),
-|a_0| at h = 0.  Frequencies are in the study's unit (rad/s or Hz).
+point carries finite values.  `stable` is 1 (stable) or 0 (unstable) where Hill's
+method was run and NaN elsewhere (not converged, or stability off): a flag that
+cannot say "not computed" would read True there.  Amplitudes are half peak-to-peak
+(max x - min x)/2; harmonic amplitudes sqrt(a_h^2 + b_h^2) of
+x = a_0 + sum a_h cos(h W t) + b_h sin(h W t), |a_0| at h = 0.  Frequencies are in
+the study's unit (rad/s or Hz).
 """
 from __future__ import annotations
 
@@ -22,37 +32,67 @@ import numpy as np
 import xarray as xr
 
 from . import __version__
+from .disk_scene import AT
 from .scene import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from .system import natural_frequencies
 
 CONVENTIONS = "CF-1.10"
 
 
-def _case_arrays(curve, dof_idx, to_unit):
-    """Plain per-point arrays of one curve (converged points finite)."""
+def response_layout(study):
+    """(dof labels, sector numbers or None, rows) of the reported response DOFs.
+
+    rows[s, d] is the row in a case's `System` of DOF `dofs[d]` of sector
+    `sectors[s]`.  A mistuned disk reports its DOFs per sector (output labels
+    "<dof>@<sector>" become the grid sectors x dofs); every other scene has one
+    row of rows and `sectors` None (no sector dimension)."""
+    scene, labels = study.scene, study.output.dofs
+    if getattr(scene, "mistuning", None) is None:
+        return tuple(labels), None, np.array([[scene.dof_index(d) for d in labels]])
+    pairs = [scene.split_dof(d) for d in labels]
+    dofs = tuple(dict.fromkeys(d for d, _ in pairs))
+    sectors = tuple(sorted({j for _, j in pairs}))
+    rows = np.array([[scene.dof_index(f"{d}{AT}{j}") for d in dofs] for j in sectors])
+    return dofs, sectors, rows
+
+
+def dof_selection(study, label: str) -> dict:
+    """`Dataset.sel` arguments of an output DOF label: {"dof": "x1", "sector": 3}
+    for "x1@3" of a mistuned disk, else {"dof": label}."""
+    if getattr(study.scene, "mistuning", None) is None:
+        return {"dof": label}
+    d, j = study.scene.split_dof(label)
+    return {"dof": d, "sector": j}
+
+
+def _case_arrays(curve, rows, to_unit):
+    """Plain per-point arrays of one curve (converged points finite); rows (S, D)
+    of the reported DOFs give amplitudes shaped (S, P, D), (S, P, D, H+1)."""
     om = np.asarray(curve.omega, dtype=float)
-    amp = np.asarray(curve.amplitude, dtype=float)[:, dof_idx]
-    Q = np.asarray(curve.Q, dtype=float)[:, dof_idx, :]
+    amp = np.moveaxis(np.asarray(curve.amplitude, dtype=float)[:, rows], 0, 1)
+    Q = np.moveaxis(np.asarray(curve.Q, dtype=float)[:, rows, :], 0, 1)
     H = (Q.shape[-1] - 1) // 2
     hamp = np.empty(Q.shape[:-1] + (H + 1,))
     hamp[..., 0] = np.abs(Q[..., 0])
     hamp[..., 1:] = np.hypot(Q[..., 1::2], Q[..., 2::2])
-    finite = (np.isfinite(om) & np.all(np.isfinite(amp), axis=1)
-              & np.all(np.isfinite(hamp), axis=(1, 2)))
+    finite = (np.isfinite(om) & np.all(np.isfinite(amp), axis=(0, 2))
+              & np.all(np.isfinite(hamp), axis=(0, 2, 3)))
     conv = np.asarray(curve.converged, dtype=bool) & finite
     return dict(frequency=om / to_unit, amplitude=amp, harmonic_amplitude=hamp, converged=conv,
-                stable=np.asarray(curve.stable, dtype=bool) & conv,
+                stable=np.where(conv, np.asarray(curve.stable, dtype=float), np.nan),
                 residual=np.asarray(curve.residual, dtype=float),
                 newton_iterations=np.asarray(curve.newton_iterations).astype(np.int32))
 
 
 def _peak(freq, amp, mask):
-    """(peak amplitude per dof, its frequency) over the points in `mask`."""
-    a = np.where(mask[:, None], amp, -np.inf)
-    if a.shape[0] == 0 or not mask.any():
-        return np.full(amp.shape[1], np.nan), np.full(amp.shape[1], np.nan)
-    i = np.argmax(a, axis=0)
-    return a[i, np.arange(a.shape[1])], freq[i]
+    """(peak amplitude, its frequency), each (S, D), of amp (S, P, D) over the
+    points in `mask` (P,)."""
+    S, P, D = amp.shape
+    if P == 0 or not mask.any():
+        return np.full((S, D), np.nan), np.full((S, D), np.nan)
+    a = np.where(mask[None, :, None], amp, -np.inf)
+    i = np.argmax(a, axis=1)
+    return np.take_along_axis(a, i[:, None, :], axis=1)[:, 0, :], freq[i]
 
 
 def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
@@ -60,6 +100,9 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
 
     curves: sequence aligned with `study.sweep.cases()`; None for a case that
     raised (then all its points are padding and `message` holds `errors[k]`).
+    `stable` is NaN wherever Hill's method was not run: at every point when the
+    study's `solver.stability` is off (the solver then reports True everywhere),
+    and at points that did not converge.
     """
     cases = study.sweep.cases()
     curves = list(curves)
@@ -68,10 +111,11 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
     errors = list(errors) if errors is not None else [None] * len(cases)
     scene, out, fr = study.scene, study.output, study.sweep.frequency
     unit, to_unit = fr.unit, fr.to_rad_s
-    dof_idx = [scene.dof_index(d) for d in out.dofs]
+    dofs, sectors, rows = response_layout(study)
+    computed = bool(study.solver.stability)
     H = max([study.solver.harmonics] + [(c.Q.shape[-1] - 1) // 2 for c in curves if c is not None])
     shape = study.sweep.shape
-    D = len(dof_idx)
+    S, D = rows.shape
     P = max([1] + [c.n_points for c in curves if c is not None])
     F = max([1] + [np.size(c.fold_parameter) for c in curves if c is not None])
     W = len(out.peak_windows)
@@ -80,17 +124,18 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
     def full(tail, fill, dtype=float):
         return np.full(shape + tail, fill, dtype=dtype)
 
-    v = dict(frequency=full((P,), np.nan), amplitude=full((P, D), np.nan),
-             harmonic_amplitude=full((P, D, H + 1), np.nan),
-             converged=full((P,), False, bool), stable=full((P,), False, bool),
+    v = dict(frequency=full((P,), np.nan), amplitude=full((S, P, D), np.nan),
+             harmonic_amplitude=full((S, P, D, H + 1), np.nan),
+             converged=full((P,), False, bool), stable=full((P,), np.nan),
              residual=full((P,), np.nan), newton_iterations=full((P,), -1, np.int32),
-             peak_amplitude=full((D,), np.nan), peak_frequency=full((D,), np.nan),
+             peak_amplitude=full((S, D), np.nan), peak_frequency=full((S, D), np.nan),
              fold_frequency=full((F,), np.nan), n_points=full((), 0, np.int32),
              wall_time=full((), np.nan), residual_evaluations=full((), -1, np.int32),
              success=full((), False, bool), status=full((), -1, np.int32),
              residual_tolerance=full((), np.nan),
              natural_frequency_stuck=full((n,), np.nan), natural_frequency_free=full((n,), np.nan),
-             window_peak_amplitude=full((W, D), np.nan), window_peak_frequency=full((W, D), np.nan))
+             window_peak_amplitude=full((S, W, D), np.nan),
+             window_peak_frequency=full((S, W, D), np.nan))
     message = np.full(shape, "", dtype=object)
     for (idx, case), c, err in zip(cases, curves, errors):
         sysc = study.system(case)
@@ -99,17 +144,20 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         if c is None:
             message[idx] = f"failed: {err}" if err else "failed"
             continue
-        a = _case_arrays(c, dof_idx, to_unit)
+        a = _case_arrays(c, rows, to_unit)
         p, h1 = c.n_points, a["harmonic_amplitude"].shape[-1]
-        for k in ("frequency", "amplitude", "converged", "stable", "residual", "newton_iterations"):
+        for k in ("frequency", "converged", "residual", "newton_iterations"):
             v[k][idx][:p] = a[k]
-        v["harmonic_amplitude"][idx][:p, :, :h1] = a["harmonic_amplitude"]
-        v["harmonic_amplitude"][idx][:p, :, h1:] = 0.0
+        if computed:
+            v["stable"][idx][:p] = a["stable"]
+        v["amplitude"][idx][:, :p] = a["amplitude"]
+        v["harmonic_amplitude"][idx][:, :p, :, :h1] = a["harmonic_amplitude"]
+        v["harmonic_amplitude"][idx][:, :p, :, h1:] = 0.0
         v["peak_amplitude"][idx], v["peak_frequency"][idx] = _peak(
             a["frequency"], a["amplitude"], a["converged"])
         for w, (lo, hi) in enumerate(out.peak_windows):
             inside = a["converged"] & (a["frequency"] >= lo) & (a["frequency"] <= hi)
-            v["window_peak_amplitude"][idx][w], v["window_peak_frequency"][idx][w] = _peak(
+            v["window_peak_amplitude"][idx][:, w], v["window_peak_frequency"][idx][:, w] = _peak(
                 a["frequency"], a["amplitude"], inside)
         folds = np.asarray(c.fold_parameter, dtype=float).ravel() / to_unit
         v["fold_frequency"][idx][:folds.size] = folds
@@ -122,17 +170,20 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         message[idx] = str(c.message)
 
     sw = tuple(study.sweep.axes)
+    stable_name = ("asymptotically stable (Hill's method): 1 stable, 0 unstable, NaN not computed"
+                   if computed else
+                   "stability NOT computed (solver.stability = false): NaN everywhere")
     meta = {
-        "frequency": (("point",), unit, "excitation frequency"),
-        "amplitude": (("point", "dof"), "m", "response amplitude, half peak-to-peak (max x - min x)/2"),
-        "harmonic_amplitude": (("point", "dof", "harmonic"), "m",
+        "amplitude": (("sector", "point", "dof"), "m",
+                      "response amplitude, half peak-to-peak (max x - min x)/2"),
+        "harmonic_amplitude": (("sector", "point", "dof", "harmonic"), "m",
                                "harmonic amplitude sqrt(a_h^2 + b_h^2)"),
         "converged": (("point",), "1", "Newton converged at this point"),
-        "stable": (("point",), "1", "asymptotically stable (Hill's method)"),
+        "stable": (("point",), "1", stable_name),
         "residual": (("point",), "N", "recomputed harmonic balance residual norm"),
         "newton_iterations": (("point",), "1", "Newton iterations at this point (-1: padding)"),
-        "peak_amplitude": (("dof",), "m", "largest amplitude over converged points"),
-        "peak_frequency": (("dof",), unit, "frequency of the largest amplitude"),
+        "peak_amplitude": (("sector", "dof"), "m", "largest amplitude over converged points"),
+        "peak_frequency": (("sector", "dof"), unit, "frequency of the largest amplitude"),
         "fold_frequency": (("fold",), unit, "frequency of a fold (turning point) of the branch"),
         "n_points": ((), "1", "points on the branch"),
         "wall_time": ((), "s", "wall-clock time of the case"),
@@ -144,32 +195,42 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         "natural_frequency_stuck": (("mode",), unit,
                                     "undamped natural frequency with the contacts stuck "
                                     "(ku of every contact, kv where n0 > 0)"),
-        "window_peak_amplitude": (("peak_window", "dof"), "m",
+        "window_peak_amplitude": (("sector", "peak_window", "dof"), "m",
                                   "largest amplitude over converged points inside the peak window"),
-        "window_peak_frequency": (("peak_window", "dof"), unit,
+        "window_peak_frequency": (("sector", "peak_window", "dof"), unit,
                                   "frequency of the largest amplitude inside the peak window"),
     }
     data_vars = {}
     for k, (dims, units, long_name) in meta.items():
         if "peak_window" in dims and not W:
             continue
-        data_vars[k] = (sw + dims, v[k], {"units": units, "long_name": long_name})
-    if not study.solver.stability:  # say so where users look: on the variable itself
-        data_vars["stable"][2].update(
-            long_name="stability NOT computed (solver.stability = false): true everywhere",
-            stability_computed=0)
-    else:
-        data_vars["stable"][2]["stability_computed"] = 1
+        data = v[k]
+        if "sector" in dims and sectors is None:  # one row of DOFs: no sector dimension
+            data, dims = data.take(0, axis=len(sw)), dims[1:]
+        data_vars[k] = (sw + dims, data, {"units": units, "long_name": long_name})
+    data_vars["stable"][2].update(
+        flag_values=np.array([0.0, 1.0]), flag_meanings="unstable stable",
+        comment="NaN where stability was not computed: points that did not converge"
+                + ("" if computed else ", and every point since solver.stability = false"),
+        stability_computed=int(computed))
     data_vars["message"] = (sw, message.astype(str), {"long_name": "continuation message"})
 
     coords = {a: (a, np.asarray(vals, dtype=np.int32 if a in INTEGER_SWEEP_AXES else float),
                   {"units": SWEEP_AXES[a][0], "long_name": SWEEP_AXES[a][1]})
               for a, vals in study.sweep.axes.items()}
-    coords["dof"] = ("dof", np.asarray(out.dofs, dtype=str), {"long_name": "response degree of freedom"})
+    coords["frequency"] = (sw + ("point",), v["frequency"],
+                           {"units": unit, "long_name": "excitation frequency"})
+    coords["dof"] = ("dof", np.asarray(dofs, dtype=str), {"long_name": "response degree of freedom"})
+    if sectors is not None:
+        coords["sector"] = ("sector", np.asarray(sectors, dtype=np.int32),
+                            {"units": "1", "long_name": "sector number j (0 ... sectors - 1)"})
+        _add_mistuning_factors(data_vars, study, sectors)
     coords["harmonic"] = ("harmonic", np.arange(H + 1, dtype=np.int32),
                           {"units": "1", "long_name": "harmonic index h (0: static part)"})
     coords["point"] = ("point", np.arange(P, dtype=np.int32),
                        {"units": "1", "long_name": "index along the continuation branch"})
+    coords["fold"] = ("fold", np.arange(F, dtype=np.int32),
+                      {"units": "1", "long_name": "index of a fold (turning point) on the branch"})
     coords["mode"] = ("mode", np.arange(1, n + 1, dtype=np.int32),
                       {"units": "1", "long_name": "mode number"})
     if W:
@@ -200,13 +261,27 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         "source": "pipeline (harmonic balance with Yang-Menq contact, continuation, Hill stability)",
         "Conventions": CONVENTIONS,
     }
-    if hasattr(scene, "dataset_attrs"):  # FE blade scenes describe their model
+    if hasattr(scene, "dataset_attrs"):  # FE blade and disk scenes describe their model
         attrs.update(scene.dataset_attrs())
-    attrs["stability"] = ("Hill's method" if study.solver.stability else
-                          "not computed (solver.stability = false): stable is true everywhere")
+    attrs["stability"] = ("Hill's method" if computed else
+                          "not computed (solver.stability = false): stable is NaN everywhere")
     if optimum is not None:
         _add_optimum(data_vars, coords, optimum, study, to_unit, unit)
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+
+def _add_mistuning_factors(data_vars, study, sectors):
+    """`mistuning_factor` (mistuning_seed?, sector): the stiffness factor 1 + delta_j
+    of each reported sector; it depends on the seed only."""
+    scene, axes = study.scene, study.sweep.axes
+    seeds = axes.get("mistuning_seed")
+    cases = [{}] if seeds is None else [{"mistuning_seed": s} for s in seeds]
+    f = np.array([np.asarray(scene.stiffness_factors(c), dtype=float)[list(sectors)]
+                  for c in cases])
+    dims = ("sector",) if seeds is None else ("mistuning_seed", "sector")
+    data_vars["mistuning_factor"] = (dims, f[0] if seeds is None else f, {
+        "units": "1", "long_name": "stiffness factor 1 + delta_j of the sector "
+                                   "(mistuned stiffness (1 + delta_j) K)"})
 
 
 def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset:
@@ -290,14 +365,14 @@ def _add_optimum(data_vars, coords, opt, study, to_unit, unit):
 
 
 def _solution_method(study) -> str:
-    """What the run composed for the scene's declared effects (issue 5: a scene pays
-    only for what it calls for), in words."""
+    """What the run composed for the scene's declared effects (a scene pays only
+    for what it calls for), in words."""
     from .study import is_linear_scene
 
     if is_linear_scene(study.scene):
         return "direct linear solve per frequency (no contact elements: no Newton, no continuation)"
     eff = set(study.scene.effects)
-    normal = ("variable normal load, searched for separation" if "normal_load_variation" in eff
+    normal = ("variable normal load, " + ("searched for separation" if "separation" in eff else "kept closed (a case that separates fails)") if "normal_load_variation" in eff
               else "constant normal load (Jenkins path: no separation search)")
     return (f"harmonic balance with pseudo-arclength continuation; Yang-Menq contacts: {normal}; "
             "fully stuck or open elements evaluated as linear springs")

@@ -24,8 +24,8 @@ seed or the sweep axis `mistuning_seed`): sector j has the stiffness
 N-sector assembly (`cyclic.full_assembly`, N n DOFs, `System.cyclic` None) under the
 same engine-order load, and the scene's `dofs` are every sector's DOFs, labelled
 `<dof>@<sector>` (`x1@3`: x1 of sector 3), sector-major as in the assembly.  A
-study is mistuned in all its cases or in none, so the dataset's `dof` dimension
-is the same for every case.
+study is mistuned in all its cases or in none; its dataset reports the response
+per sector on a `sector` dimension, with the sector's DOF names on `dof`.
 """
 from __future__ import annotations
 
@@ -79,15 +79,20 @@ class DiskScene:
         """Names the contact rows refer to: the sector's DOFs, then `next.<dof>`."""
         return self.sector_dofs + tuple(NEXT + d for d in self.sector_dofs)
 
-    def dof_index(self, name: str) -> int:
-        """Row of DOF `name` in a case's `System` ("x1@3" = j n + i in a mistuned disk)."""
-        if self.mistuning is None:
-            return self.sector_dofs.index(name)
+    def split_dof(self, name: str) -> tuple:
+        """("x1", 3) of the label "x1@3": the sector's DOF name and the sector number."""
         d, _, j = name.rpartition(AT)
         if not d or not j.isdigit() or int(j) >= self.sectors:
             raise ValueError(f"{name!r} is not '<dof>{AT}<sector>' with a sector below "
                              f"{self.sectors}")
-        return int(j) * len(self.sector_dofs) + self.sector_dofs.index(d)
+        return d, int(j)
+
+    def dof_index(self, name: str) -> int:
+        """Row of DOF `name` in a case's `System` ("x1@3" = j n + i in a mistuned disk)."""
+        if self.mistuning is None:
+            return self.sector_dofs.index(name)
+        d, j = self.split_dof(name)
+        return j * len(self.sector_dofs) + self.sector_dofs.index(d)
 
     @property
     def coupled(self) -> bool:
@@ -162,7 +167,7 @@ class DiskScene:
             attrs["engine_order"] = int(self.engine_order)
         if self.mistuning is not None:
             attrs["cyclic_reduction"] = ("none: mistuned, the full assembly of all sectors "
-                                         "(DOF labels <dof>@<sector>)")
+                                         "(responses per sector on the sector dimension)")
             attrs["mistuning"] = ("sector j stiffness (1 + delta_j) K, delta_j ~ N(0, std^2) "
                                   "from numpy default_rng(seed), truncated at 3 std and -0.9")
             attrs["mistuning_stiffness_std"] = float(self.mistuning.stiffness_std)

@@ -144,7 +144,7 @@ def time_grid(H: int, N: int):
 
 
 def amplitude_half_peak_to_peak(X: np.ndarray, n_samples: int = 0) -> np.ndarray:
-    """(max x - min x)/2 over one period for X (..., 2H+1) (DATASET.md `amplitude`).
+    """(max x - min x)/2 over one period for X (..., 2H+1) (the dataset's `amplitude`).
 
     Sampled finely (default 64*H+64 points) and refined by the exact extrema:
     the extrema of a trigonometric polynomial are roots of its derivative, polished

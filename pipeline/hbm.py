@@ -380,7 +380,7 @@ def full_linear_operator(sys: System, Om: float, H: int):
 
 
 def full_residual(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
-    """Residual of all n (2H+1) equations [N] (no condensation): the acceptance check."""
+    """Residual of all n (2H+1) equations [N] (no condensation): every point's convergence check."""
     sys = prob.system
     K, C, M = sys.K, sys.C, sys.M
     D = derivative_matrix(prob.H)

@@ -88,55 +88,205 @@ def _runs(mask):
     return list(zip(edges[::2], edges[1::2]))
 
 
-def response_curves_figure(path, branches, *, xlabel="frequency [rad/s]",
-                           ylabel="amplitude [m]", title="", yscale="linear",
-                           legend_title=None):
-    """Amplitude against frequency, one curve per branch (paper Figs. 2, 4, 6).
+STABLE, UNSTABLE, NOT_COMPUTED = 1, 0, -1
 
-    branches: [(label, frequency (P,), amplitude (P,), stable (P,), converged (P,))];
-    stable parts solid, unstable parts dashed (same colour), folds (turning points
-    of the frequency) marked with open circles; non-converged points are gaps.
-    """
+
+def stability_states(stable):
+    """Per-point stability as STABLE / UNSTABLE / NOT_COMPUTED from a bool array
+    (True stable) or a float array (1.0 stable, 0.0 unstable, NaN not computed)."""
+    st = np.asarray(stable)
+    if st.dtype == bool:
+        return np.where(st, STABLE, UNSTABLE)
+    st = st.astype(float)
+    return np.where(np.isnan(st), NOT_COMPUTED, np.where(st > 0.5, STABLE, UNSTABLE))
+
+
+def stability_for_plot(stable):
+    """The `stable` variable of a response dataset as floats for the figures: NaN
+    where stability was not computed (the variable's attribute `stability_computed`
+    = 0 marks a dataset whose `stable` is a placeholder True everywhere)."""
+    values = np.asarray(getattr(stable, "values", stable))
+    attrs = getattr(stable, "attrs", {})
+    if int(attrs.get("stability_computed", 1)) == 0:
+        return np.full(values.shape, np.nan)
+    return values
+
+
+# line style per stability state: stable solid, unstable dashed, not computed dotted
+_STYLE = {STABLE: dict(ls="-", lw=1.6), UNSTABLE: dict(ls="--", lw=1.4),
+          NOT_COMPUTED: dict(ls=":", lw=1.6)}
+_STATE_LEGEND = {UNSTABLE: "unstable", NOT_COMPUTED: "stability not computed"}
+
+
+def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplitude [m]",
+                         title="", yscale="linear", legend_title=None):
+    """The figure of `response_curves_figure`, left open (for saving or inspection).
+
+    A branch may carry a sixth element, a dict of Line2D properties (color, lw,
+    alpha, zorder) that override its defaults; label None leaves it out of the legend."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    any_unstable = any_fold = False
-    for k, (label, f, a, stable, conv) in enumerate(branches):
+    states_seen, any_fold = set(), False
+    for k, (label, f, a, stable, conv, *extra) in enumerate(branches):
+        style = dict(extra[0]) if extra else {}
         f, a = np.asarray(f, float), np.asarray(a, float)
         conv = np.asarray(conv, bool) & np.isfinite(f) & np.isfinite(a)
-        stable = np.asarray(stable, bool)
-        col = colours[k % len(colours)]
+        state = stability_states(stable)
+        col = style.pop("color", colours[k % len(colours)])
+        lw = style.pop("lw", None)
         first = True
         for i0, i1 in _runs(conv):
-            fs, as_, st = f[i0:i1], a[i0:i1], stable[i0:i1]
-            # stable runs solid, unstable runs dashed; an unstable run is widened by
-            # one point each side so the curve stays connected
-            for j0, j1 in _runs(st):
-                ax.plot(fs[j0:j1], as_[j0:j1], "-", color=col, lw=1.6,
-                        label=label if first else None)
-                first = False
-            for j0, j1 in _runs(~st):
-                any_unstable = True
-                sl = slice(max(j0 - 1, 0), j1 + 1)
-                ax.plot(fs[sl], as_[sl], "--", color=col, lw=1.4, label=label if first else None)
-                first = False
+            fs, as_, st = f[i0:i1], a[i0:i1], state[i0:i1]
+            n = i1 - i0
+            # stable runs solid; unstable (dashed) and not-computed (dotted) runs
+            # reach back to the point before and on to a stable point after, so the
+            # curve stays connected and every segment is drawn once
+            for s in (STABLE, UNSTABLE, NOT_COMPUTED):
+                for j0, j1 in _runs(st == s):
+                    if s != STABLE:
+                        j0 = max(j0 - 1, 0)
+                        j1 = j1 + 1 if j1 < n and st[j1] == STABLE else j1
+                    kw = dict(_STYLE[s])
+                    if lw is not None:
+                        kw["lw"] = lw
+                    ax.plot(fs[j0:j1], as_[j0:j1], color=col, label=label if first else None,
+                            gid=f"stability={s}", **kw, **style)
+                    first = False
+                    if s != STABLE:
+                        states_seen.add(s)
             folds = _fold_indices(fs)
             if folds.size:
                 any_fold = True
                 ax.plot(fs[folds], as_[folds], "o", mfc="none", mec=col, ms=6)
     handles, labels = ax.get_legend_handles_labels()
-    if any_unstable:
-        handles.append(ax.plot([], [], "k--", lw=1.4)[0])
-        labels.append("unstable")
+    for s in (UNSTABLE, NOT_COMPUTED):
+        if s in states_seen:
+            handles.append(ax.plot([], [], color="k", **_STYLE[s])[0])
+            labels.append(_STATE_LEGEND[s])
     if any_fold:
         handles.append(ax.plot([], [], "ko", mfc="none", ms=6)[0])
         labels.append("fold")
     ax.legend(handles, labels, fontsize=8, title=legend_title, title_fontsize=8)
     ax.set(xlabel=xlabel, ylabel=ylabel, title=title, yscale=yscale)
     ax.grid(alpha=0.3, which="both")
+    return fig
+
+
+def response_curves_figure(path, branches, **kwargs):
+    """Amplitude against frequency, one curve per branch (paper Figs. 2, 4, 6).
+
+    branches: [(label, frequency (P,), amplitude (P,), stable (P,), converged (P,))];
+    `stable` is bool (True stable) or float (1.0 stable, 0.0 unstable, NaN not
+    computed).  Stable parts solid, unstable parts dashed, parts whose stability was
+    not computed dotted and labelled so (same colour); folds (turning points of the
+    frequency) marked with open circles; non-converged points are gaps.  Keyword
+    arguments as `response_curves_plot`.
+    """
+    plt = _plt()
+    fig = response_curves_plot(branches, **kwargs)
     out = _atomic_savefig(fig, path)
     plt.close(fig)
     return out
+
+
+def sector_peaks_figure(path, sectors, series, tuned_peak, *, dof="x", title="",
+                        tuned_note=None):
+    """Peak amplitude per sector of a mistuned disk against the tuned disk's peak.
+
+    sectors: (N,) sector numbers; series: [(label, peaks (N,) [m])], one per
+    mistuning pattern; tuned_peak: the tuned disk's peak [m] (NaN if unknown, then
+    `tuned_note` says why).  Each sector's peak is a marker on a stem from the tuned
+    line; the legend gives each series' amplification factor max peak / tuned peak
+    and its sector, the title the largest; the right-hand axis reads peak / tuned peak."""
+    plt = _plt()
+    sectors = np.asarray(sectors)
+    fig, ax = plt.subplots(figsize=(7.5, 4.6))
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    markers = "osD^v<>p"
+    n = max(len(series), 1)
+    width = min(0.7 / n, 0.25)
+    tuned_ok = bool(np.isfinite(tuned_peak))
+    worst = None
+    for i, (label, pk) in enumerate(series):
+        pk = np.asarray(pk, float)
+        x = sectors + (i - (n - 1) / 2) * width
+        col = colours[i % len(colours)]
+        text = label or "mistuned"
+        if np.isfinite(pk).any():
+            k = int(np.nanargmax(pk))
+            if tuned_ok:
+                amp = pk[k] / tuned_peak
+                text += f": max / tuned = {amp:.3f} (sector {sectors[k]})"
+                if worst is None or amp > worst[0]:
+                    worst = (amp, label)
+                ax.vlines(x, tuned_peak, pk, color=col, lw=1.2)
+            else:
+                text += f": max {pk[k]:.4g} m (sector {sectors[k]})"
+        ax.plot(x, pk, markers[i % len(markers)], color=col, ms=6, label=text, zorder=3)
+    if tuned_ok:
+        ax.axhline(tuned_peak, color="k", lw=1.5, zorder=2,
+                   label=f"tuned disk: {tuned_peak:.4g} m (no mistuning: one sector by the "
+                         "cyclic reduction, same solver settings)")
+        sec = ax.secondary_yaxis("right", functions=(lambda y: y / tuned_peak,
+                                                     lambda r: r * tuned_peak))
+        sec.set_ylabel("peak / tuned peak [-]")
+    else:
+        ax.plot([], [], color="k", lw=1.5,
+                label="tuned disk: not available" + (f" ({tuned_note})" if tuned_note else ""))
+    head = f"peak of {dof} per sector"
+    if worst is not None:
+        head += f"; amplification max peak / tuned peak = {worst[0]:.3f}"
+        head += f" ({worst[1]})" if worst[1] and len(series) > 1 else ""
+    ax.set(xlabel="sector", ylabel=f"peak amplitude of {dof} [m]",
+           title=(title + "\n" if title else "") + head)
+    ax.title.set_fontsize(9)
+    if sectors.size <= 36:
+        ax.set_xticks(sectors)
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1,
+              frameon=False)
+    out = _atomic_savefig(fig, path)
+    plt.close(fig)
+    return out
+
+
+# ---------------------------------------------------------------------------
+# Log axes over a narrow range
+# ---------------------------------------------------------------------------
+
+_LOG_SUBS = ((1.0,), (1.0, 2.0, 5.0), (1.0, 2.0, 3.0, 5.0), (1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 7.0),
+             (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0))
+
+
+def log_ticks(lo: float, hi: float, at_least: int = 3) -> np.ndarray:
+    """Tick values for a log axis from lo to hi (> 0): the coarsest of the
+    1 / 1-2-5 / 1-2-3-5 / ... sequences per decade with at least `at_least` values
+    inside; over a range too narrow for any of them, evenly spaced round values."""
+    lo, hi = sorted((float(lo), float(hi)))
+    for subs in _LOG_SUBS:
+        decades = np.arange(np.floor(np.log10(lo)) - 1, np.ceil(np.log10(hi)) + 1)
+        t = np.unique(np.round((np.asarray(subs)[None, :] * 10.0 ** decades[:, None]).ravel(), 12))
+        t = t[(t >= lo * (1 - 1e-9)) & (t <= hi * (1 + 1e-9))]
+        if t.size >= at_least:
+            return t
+    from matplotlib.ticker import MaxNLocator
+    t = MaxNLocator(nbins=at_least + 1, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
+    return t[(t >= lo) & (t <= hi)]
+
+
+def label_log_axis(axis):
+    """Labelled major ticks (plain numbers, `log_ticks`) over the visible range of a
+    log-scaled matplotlib axis (ax.xaxis / ax.yaxis), unlabelled minor ticks."""
+    from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter
+    ax = axis.axes
+    get, set_ = (ax.get_xlim, ax.set_xlim) if axis.axis_name == "x" else (ax.get_ylim, ax.set_ylim)
+    lo, hi = get()          # autoscaled to the data drawn so far; kept from here on
+    set_(lo, hi)
+    axis.set_major_locator(FixedLocator(log_ticks(lo, hi)))
+    axis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
+    axis.set_minor_locator(LogLocator(base=10, subs=np.arange(1, 10), numticks=100))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def optimum_figure(path, result, dof, title=""):

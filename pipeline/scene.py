@@ -466,24 +466,23 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     description = ck.string(head.get("description", ""), "study.description")
     reference = ck.string(head.get("reference", ""), "study.reference")
 
+    # the main tables first (a typo there is reported as such), then [quick], and
+    # [quick] only when the quick variant is asked for: a full run never depends on it
     scene_tab = ck.table(data["scene"], "scene")
-    quick_tab = ck.table(data.get("quick"), "quick", required=False)
-    ck.keys(quick_tab, "quick", ("sweep", "solver"))
-    solver_tab, sweep_tab, q_solver, q_sweep = solver_sweep_tables(ck, data, quick_tab)
-
+    solver_tab, sweep_tab = solver_sweep_tables(ck, data)
     solver = _solver(ck, solver_tab, "solver")
     sweep_axes, freq = _sweep(ck, sweep_tab, "sweep")
-    q_solver_s = _solver(ck, q_solver, "quick.solver", base=solver)
-    q_axes, q_freq = _sweep(ck, q_sweep, "quick.sweep", partial=True)
-    q_axes = {k: q_axes.get(k, v) for k, v in sweep_axes.items()}
-    q_freq = q_freq or freq
-
     scene = _scene(ck, scene_tab)
     output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
-
     variants = [(False, solver, sweep_axes, freq, "solver", "sweep")]
-    variants.append((True, q_solver_s, q_axes, q_freq,
-                     "quick.solver" if q_solver else "solver", "quick.sweep" if q_sweep else "sweep"))
+    if quick:
+        q_solver, q_sweep = quick_tables(ck, data, sweep_tab)
+        q_solver_s = _solver(ck, q_solver, "quick.solver", base=solver)
+        q_axes, q_freq = _sweep(ck, q_sweep, "quick.sweep", partial=True)
+        q_axes = {k: q_axes.get(k, v) for k, v in sweep_axes.items()}
+        variants.append((True, q_solver_s, q_axes, q_freq or freq,
+                         "quick.solver" if q_solver else "solver",
+                         "quick.sweep" if q_sweep else "sweep"))
     chosen = None
     for is_quick, sv, axes, fr, spath, wpath in variants:
         _check_consistency(ck, scene, sv, axes, spath, wpath, data)
@@ -502,18 +501,25 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
 # Sections
 # ---------------------------------------------------------------------------
 
-def solver_sweep_tables(ck, data, quick_tab):
-    """[solver], [sweep], [quick.solver], [quick.sweep] of any response study; quick
-    mode may only override axes that [sweep] has."""
+def solver_sweep_tables(ck, data):
+    """[solver] and [sweep] of any response study."""
     solver_tab = ck.table(data.get("solver"), "solver", required=False)
     sweep_tab = ck.table(data["sweep"], "sweep")
+    return solver_tab, sweep_tab
+
+
+def quick_tables(ck, data, sweep_tab, allowed=("sweep", "solver")):
+    """[quick.solver] and [quick.sweep] of a response study, read only for `--quick`
+    (after the main tables); quick mode may only override axes that [sweep] has."""
+    quick_tab = ck.table(data.get("quick"), "quick", required=False)
+    ck.keys(quick_tab, "quick", allowed)
     q_sweep = ck.table(quick_tab.get("sweep"), "quick.sweep", required=False)
     q_solver = ck.table(quick_tab.get("solver"), "quick.solver", required=False)
     for k in q_sweep:
         if k not in sweep_tab:
             ck.fail(_join("quick.sweep", k), "quick mode may only override axes of [sweep] "
                                              f"(which has: {', '.join(sweep_tab) or 'none'})")
-    return solver_tab, sweep_tab, q_solver, q_sweep
+    return q_solver, q_sweep
 
 
 _SOLVER_KEYS = ("harmonics", "force_evaluation", "samples", "tolerance", "stability",
@@ -845,7 +851,7 @@ def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
         from .disk_scene import check_disk_rules
         check_disk_rules(ck, scene, axes, wpath, data)
     check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
-                      [c.kv for c in scene.contacts], any(np.any(c.bn) for c in scene.contacts),
+                      [c.kv for c in scene.contacts], [bool(np.any(c.bn)) for c in scene.contacts],
                       scene.forcing.shape[1] - 1, solver.harmonics, axes, spath, wpath, disk=disk)
 
 
@@ -855,7 +861,14 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     contact parameters have contacts to act on, a preload is given, and the
     declared effects match the scene (friction <=> contacts; normal-load variation
     <=> normal DOFs with kv > 0; separation <=> a gap or a varying normal load;
-    an engine order and "cyclic_coupling" only in a disk scene)."""
+    an engine order and "cyclic_coupling" only in a disk scene).
+
+    Separation must be declared wherever the declared data make it certain: a
+    negative preload (a gap), or a varying normal load n = n0 + kv v with a preload
+    n0 <= 0 (it reaches zero as soon as the contact moves).  A varying normal load
+    with every preload > 0 and no "separation" declares a contact that stays
+    closed; the run checks every solution against that (`pipeline.declared`).
+    `has_normal` is one flag for every contact or one per contact."""
     if not disk:
         for axis, what in (("eo", "has an engine order"), ("mistuning_seed", "can be mistuned")):
             if axis in axes:
@@ -879,8 +892,10 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     if has_contact != ("friction" in effects):
         ck.fail("scene.effects", "declare \"friction\" exactly when the scene has contacts"
                 if has_contact else "\"friction\" is declared but the scene has no [[scene.contact]]")
+    normal = (list(has_normal) if isinstance(has_normal, (list, tuple))
+              else [bool(has_normal)] * len(n0s))
     kv_vals = axes.get("kv") or tuple(kvs)
-    varies = has_normal and max(kv_vals, default=0.0) > 0
+    varies = any(normal) and max(kv_vals, default=0.0) > 0
     if varies != ("normal_load_variation" in effects):
         ck.fail("scene.effects", "normal DOFs with kv > 0 make the normal load vary: declare "
                                  "\"normal_load_variation\"" if varies else
@@ -890,6 +905,16 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     if gap and "separation" not in effects:
         ck.fail("scene.effects", "a negative preload (initial gap) means separation: declare "
                                  "\"separation\"")
+    if varies and "separation" not in effects:
+        for i, (n0, kv, nrm) in enumerate(zip(n0s, kvs, normal)):
+            kv_i = max(axes["kv"]) if "kv" in axes else kv
+            n0_i = min(axes["preload"]) if "preload" in axes else n0
+            if nrm and kv_i > 0 and n0_i is not None and n0_i <= 0:
+                where = f"{wpath}.preload" if "preload" in axes else f"scene.contact[{i}].n0"
+                ck.fail("scene.effects", f"contact {i} has a varying normal load (normal DOFs, "
+                                         f"kv = {kv_i:g} N/m) and a preload of {n0_i:g} N "
+                                         f"({where}): n = n0 + kv v reaches zero as soon as it "
+                                         "moves, so it separates: declare \"separation\"")
     if "separation" in effects and not (gap or varies):
         ck.fail("scene.effects", "\"separation\" is declared but cannot occur (constant normal "
                                  "load and no negative preload)")

@@ -9,7 +9,7 @@ scene (`pipeline.linear_response`).  Cases run in a process pool sized to the
 machine (`--workers`, 1 = this process) or on a Dask cluster (`--scheduler`).
 
 Nothing is lost: each finished case is kept at once in `DIR/.<name>.<key>.cases/`
-(atomic writes); a rerun after Ctrl-C, a killed worker or a restart computes only
+(atomic writes of small netCDF files, `pipeline.checkpoint`); a rerun after Ctrl-C, a killed worker or a restart computes only
 the missing cases.  The dataset `DIR/<name>.nc` is written atomically when all
 cases are done (then the checkpoints are removed), followed by the figures under
 `DIR/<name>/`.  A case that raises is logged and kept as an empty branch; the run
@@ -52,13 +52,42 @@ def is_linear_scene(scene) -> bool:
     return not ({"friction", "separation"} & set(getattr(scene, "effects", ()) or ()))
 
 
-def run_case(solver, system, H, omega_start, omega_stop, kwargs):
-    """One continuation; returns (ResponseCurve or None, error text or None)."""
+def run_case(solver, system, H, omega_start, omega_stop, kwargs, guard=None):
+    """One continuation; returns (ResponseCurve or None, error text or None).
+
+    guard: a `declared.SeparationGuard` when the scene's normal load varies but
+    separation is not declared: the continuation stops at the first point that
+    separates, and every point of the finished curve is checked, so such a case
+    fails instead of being solved with separation."""
+    from .declared import UndeclaredSeparation
+
     try:
-        return solver(system, H, omega_start, omega_stop, **kwargs), None
+        if guard is not None:
+            kwargs = dict(kwargs)
+            check, progress = guard.callback(system, H), kwargs.get("callback")
+            kwargs["callback"] = (check if progress is None else
+                                  lambda x, lam: check(x, lam) or progress(x, lam))
+        curve = solver(system, H, omega_start, omega_stop, **kwargs)
+        if guard is not None:
+            guard.check_curve(system, curve)
+        return curve, None
+    except UndeclaredSeparation as exc:
+        logging.getLogger(__name__).error("case stopped: %s", exc)
+        return None, f"{type(exc).__name__}: {exc}"
     except Exception as exc:  # numerical failures of one case must not lose the others
         logging.getLogger(__name__).exception("case failed")
         return None, f"{type(exc).__name__}: {exc}"
+
+
+def separation_guard(study):
+    """The `declared.SeparationGuard` of a study's cases, or None."""
+    from .declared import SeparationGuard, needs_guard
+
+    scene = getattr(study, "scene", None)
+    if scene is None or not needs_guard(scene):
+        return None
+    names = tuple(getattr(c, "name", "") for c in getattr(scene, "contacts", ()))
+    return SeparationGuard(unit=study.sweep.frequency.unit, names=names)
 
 
 SCHEDULER_TIMEOUT = "20s"   # connecting to a --scheduler address
@@ -79,27 +108,36 @@ class StudyResult:
     path: Path | None               # the netCDF file (None if nothing converged)
     figures: list = field(default_factory=list)
     failures: int = 0               # cases that raised
+    optimum_error: str | None = None  # why the optimum-preload search stopped
     reused: int = 0                 # cases taken from checkpoints of an interrupted run
     computed: int = 0               # cases computed in this run
     wall_time: float = 0.0          # [s]
 
     @property
     def ok(self) -> bool:
-        return self.path is not None and self.failures == 0
+        return self.path is not None and self.failures == 0 and self.optimum_error is None
 
 
 class _Progress:
-    """tqdm when it is installed (cases done, and the current case's frequency when
-    cases run in this process), otherwise one log line per finished case."""
+    """tqdm when it is installed (cases done, and the current case's frequency in the
+    study's unit when cases run in this process), otherwise one log line per
+    finished case.  While the bar is live, log records are written through tqdm
+    (`logging_redirect_tqdm`) so they do not break it."""
 
-    def __init__(self, total, desc, initial=0):
+    def __init__(self, total, desc, initial=0, unit="rad/s"):
         self.total, self.desc, self.done = total, desc, initial
+        self.unit, self.to_rad_s = unit, (2.0 * np.pi if unit == "Hz" else 1.0)
+        self._redirect = None
         try:
             from tqdm.auto import tqdm
             self.bar = tqdm(total=total, initial=initial, desc=desc, unit="case",
                             disable=None, file=sys.stderr)
         except ImportError:
             self.bar = None
+        if self.live:
+            from tqdm.contrib.logging import logging_redirect_tqdm
+            self._redirect = logging_redirect_tqdm()
+            self._redirect.__enter__()
 
     @property
     def live(self) -> bool:
@@ -108,7 +146,7 @@ class _Progress:
     def frequency(self, omega):
         """Callback of the continuation in this process: show where the case is."""
         if self.live:
-            self.bar.set_postfix_str(f"{omega:.5g} rad/s", refresh=False)
+            self.bar.set_postfix_str(f"{omega / self.to_rad_s:.5g} {self.unit}", refresh=False)
             self.bar.update(0)
         return False
 
@@ -126,6 +164,9 @@ class _Progress:
     def close(self):
         if self.bar is not None:
             self.bar.close()
+        if self._redirect is not None:
+            self._redirect.__exit__(None, None, None)
+            self._redirect = None
 
 
 # ---------------------------------------------------------------------------
@@ -147,42 +188,57 @@ def checkpoint_dir(study, out_dir, solver) -> Path:
     return Path(out_dir) / f".{study.name}.{key}.cases"
 
 
+def _checkpoint_file(cdir: Path, k) -> Path:
+    from .checkpoint import SUFFIX
+    return cdir / f"case-{k:05d}{SUFFIX}"
+
+
 def _load_checkpoints(cdir: Path, cases) -> dict:
-    """{case index: (curve, None)} of the finished cases kept in `cdir`."""
-    import pickle
+    """{case index: (curve, None)} of the finished cases kept in `cdir`.  The files
+    are read as data (`pipeline.checkpoint`); one that is not a complete case of
+    this grid position is ignored and that case computed again."""
+    from .checkpoint import NotACheckpoint, read, same_case
 
     found = {}
     for k, (_, case) in enumerate(cases):
-        f = cdir / f"case-{k:05d}.pkl"
+        f = _checkpoint_file(cdir, k)
         if not f.is_file():
             continue
         try:
-            with open(f, "rb") as fh:
-                rec = pickle.load(fh)
-            if rec["case"] == case and rec["curve"] is not None:
-                found[k] = (rec["curve"], None)
-        except Exception as exc:  # unreadable: recompute that case
-            log.warning("ignoring checkpoint %s (%s)", f, exc)
+            kept_case, curve = read(f)
+        except NotACheckpoint as exc:  # corrupt or foreign: recompute that case
+            log.warning("ignoring %s (%s); that case is computed again", f, exc)
+            continue
+        if same_case(kept_case, case):
+            found[k] = (curve, None)
+        else:
+            log.warning("ignoring %s (a different case); that case is computed again", f)
     return found
 
 
 def _save_checkpoint(cdir: Path, k, case, curve) -> bool:
-    """Write case k atomically (temporary file + os.replace); False if it failed."""
-    import os
-    import pickle
-    import uuid
+    """Write case k atomically (`checkpoint.write`); False if it failed."""
+    from .checkpoint import write
 
-    tmp = cdir / f".case-{k:05d}.{uuid.uuid4().hex[:8]}.tmp"
     try:
         cdir.mkdir(parents=True, exist_ok=True)
-        with open(tmp, "wb") as fh:
-            pickle.dump({"case": case, "curve": curve}, fh, protocol=pickle.HIGHEST_PROTOCOL)
-        os.replace(tmp, cdir / f"case-{k:05d}.pkl")
+        write(_checkpoint_file(cdir, k), curve, case)
         return True
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
+    except (OSError, TypeError) as exc:
         log.warning("cannot keep case %d on disk (%s); a rerun will recompute it", k, exc)
         return False
+
+
+def kept_cases(out_dir, name) -> tuple:
+    """(checkpoint folder, number of finished cases in it) of study `name` in
+    `out_dir`, or (None, 0) when no folder holds a case."""
+    from .checkpoint import SUFFIX
+
+    for d in sorted(Path(out_dir).glob(f".{name}.*.cases")):
+        n = len(list(d.glob(f"case-*{SUFFIX}")))
+        if d.is_dir() and n:
+            return d, n
+    return None, 0
 
 
 def _remove_stale(out_dir: Path, name: str, keep: Path):
@@ -194,7 +250,8 @@ def _remove_stale(out_dir: Path, name: str, keep: Path):
         if d != keep and d.is_dir():
             log.info("removing checkpoints of a different study version: %s", d)
             shutil.rmtree(d, ignore_errors=True)
-    stale = list(Path(out_dir).glob(f".{name}.nc.*.tmp")) + list(keep.glob(".case-*.tmp"))
+    stale = (list(Path(out_dir).glob(f".{name}.nc.*.tmp")) + list(keep.glob(".case-*.tmp"))
+             + list(keep.glob("case-*.pkl")))  # an older checkpoint format, never loaded
     for t in stale:
         t.unlink(missing_ok=True)
 
@@ -214,10 +271,12 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
     if reused:
         log.info("%s: resuming: %d of %d case(s) finished earlier (kept in %s), %d to compute",
                  study.name, len(reused), len(cases), cdir, len(todo))
-    bar = _Progress(len(cases), study.name, initial=len(reused)) if progress else None
+    bar = (_Progress(len(cases), study.name, initial=len(reused), unit=fr.unit)
+           if progress else None)
+    guard = separation_guard(study) if getattr(solver, "__module__", "") == "pipeline.response" else None
 
     def job(k):
-        return (solver, study.system(cases[k][1]), H, fr.omega_start, fr.omega_stop, kw)
+        return (solver, study.system(cases[k][1]), H, fr.omega_start, fr.omega_stop, kw, guard)
 
     def done(k, res):
         results[k] = res
@@ -262,8 +321,8 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
                 kwk = dict(kw)
                 if bar is not None and bar.live and getattr(solver, "__name__", "") == "frequency_response":
                     kwk["callback"] = lambda x, lam: bar.frequency(lam)
-                solver_k, system, *rest = job(k)
-                done(k, run_case(solver_k, system, *rest[:-1], kwk))
+                solver_k, system, H_k, a, b, _, g = job(k)
+                done(k, run_case(solver_k, system, H_k, a, b, kwk, g))
     finally:
         if bar is not None:
             bar.close()
@@ -280,13 +339,23 @@ def find_optimum(study: Study) -> dict:
     window = o["window"] or study.sweep.frequency
     dof = study.scene.dofs.index(o["dof"])
     kw = {k: v for k, v in sv.kwargs().items() if k not in ("stability",)}
+    guard, current = separation_guard(study), {}
+
+    def build(n0):
+        system = study.system({"preload": n0})
+        if guard is not None:  # each evaluation's continuation checked (declared.py)
+            current["check"] = guard.callback(system, sv.harmonics)
+        return system
+
+    if guard is not None:
+        kw["callback"] = lambda x, lam: current["check"](x, lam)
     t0 = time.perf_counter()
-    res = optimum_preload(lambda n0: study.system({"preload": n0}), sv.harmonics,
-                          window.omega_start, window.omega_stop, dof, o["bounds"],
-                          rtol=o["rtol"], **kw)
+    res = optimum_preload(build, sv.harmonics, window.omega_start, window.omega_stop, dof,
+                          o["bounds"], rtol=o["rtol"], **kw)
     res["wall_time"] = time.perf_counter() - t0
-    log.info("%s: optimum preload %.4g N (peak %.4g m at %.4g rad/s), %d evaluations, %.1f s",
-             study.name, res["preload"], res["peak"], res["peak_omega"],
+    fr = study.sweep.frequency
+    log.info("%s: optimum preload %.4g N (peak %.4g m at %.4g %s), %d evaluations, %.1f s",
+             study.name, res["preload"], res["peak"], res["peak_omega"] / fr.to_rad_s, fr.unit,
              len(res["evaluations"]), res["wall_time"])
     return res
 
@@ -349,10 +418,17 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     curves = [c for c, _ in results]
     errors = [e for _, e in results]
     failures = sum(c is None for c in curves)
-    optimum = find_optimum(study) if study.output.optimum is not None else None
+    optimum, optimum_error = None, None
+    if study.output.optimum is not None:
+        from .declared import UndeclaredSeparation
+        try:
+            optimum = find_optimum(study)
+        except UndeclaredSeparation as exc:  # the dataset is written without it
+            optimum_error = str(exc)
+            log.error("%s: optimum preload search stopped: %s", study.name, exc)
     ds = to_dataset(study, curves, errors, optimum=optimum)
     res = StudyResult(study=study, dataset=ds, path=None, failures=failures,
-                      reused=reused, computed=len(curves) - reused)
+                      reused=reused, computed=len(curves) - reused, optimum_error=optimum_error)
     if int(ds["converged"].sum()) == 0:
         log.error("%s: no converged point in any case; nothing written", study.name)
         if cdir is not None:  # nothing worth resuming
@@ -382,11 +458,16 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
 
 def write_figures(study: Study, ds, fig_dir) -> list:
     """Amplitude-frequency figures (one per response DOF and per combination of
-    the non-curve sweep axes); one curve per value of `preload` (or the first axis)."""
-    from .plots import response_curves_figure
+    the non-curve sweep axes); one curve per value of `preload` (or the first axis).
+    A mistuned disk gets its own figures (`disk_figures.write_sector_figures`)."""
+    from .dataset import dof_selection
+    from .disk_figures import is_sector_resolved, write_sector_figures
+    from .plots import response_curves_figure, stability_for_plot
 
     if "amplitude" not in study.output.figures:
         return []
+    if is_sector_resolved(study, ds):
+        return write_sector_figures(study, ds, fig_dir)
     axes = list(study.sweep.axes)
     curve_axis = "preload" if "preload" in axes else (axes[0] if axes else None)
     other = [a for a in axes if a != curve_axis]
@@ -399,7 +480,7 @@ def write_figures(study: Study, ds, fig_dir) -> list:
         sub = ds.isel(sel)
         suffix = "".join(f"_{a}={study.sweep.axes[a][i]:g}" for a, i in sel.items())
         for dof in study.output.dofs:
-            d = sub.sel(dof=dof)
+            d = sub.sel(dof_selection(study, dof))   # "x1@3": dof x1 of sector 3
             branches = []
             for j in range(ds.sizes[curve_axis] if curve_axis else 1):
                 b = d.isel({curve_axis: j}) if curve_axis else d
@@ -407,7 +488,7 @@ def write_figures(study: Study, ds, fig_dir) -> list:
                 label = (f"{curve_axis} = {float(b[curve_axis]):g}" + (f" {unit_c}" if unit_c != "1" else "")
                          if curve_axis else study.name)
                 branches.append((label, b["frequency"].values, b["amplitude"].values,
-                                 b["stable"].values, b["converged"].values))
+                                 stability_for_plot(b["stable"]), b["converged"].values))
             title = study.title + "".join(f", {a} = {study.sweep.axes[a][i]:g}" for a, i in sel.items())
             paths.append(response_curves_figure(
                 Path(fig_dir) / f"amplitude_{dof}{suffix}.png", branches,
@@ -459,6 +540,48 @@ def check_writable(file, out: Path):
                          f"({exc.strerror or type(exc).__name__})") from None
 
 
+class sigint_interrupts:
+    """Context manager: SIGINT raises KeyboardInterrupt for the whole block, also when
+    the process started with SIGINT ignored (`nohup`, `cmd &` in a script), so an
+    interrupt at any stage (cases, optimum search, final write, figures) stops the
+    run the same way; the previous handler is restored on exit.  No-op outside the
+    main thread (signal handlers can only be set there)."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self._old = None
+        if threading.current_thread() is threading.main_thread():
+            self._old = signal.signal(signal.SIGINT, signal.default_int_handler)
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+        return False
+
+
+def configure_logging(verbose: bool):
+    """Root logging for the command line; scikit-fem's per-step INFO lines and the
+    continuation's per-branch summary only with --verbose."""
+    logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
+                        format="%(levelname)s %(name)s: %(message)s")
+    quiet = logging.NOTSET if verbose else logging.WARNING
+    for name in ("skfem", "pipeline.continuation"):
+        logging.getLogger(name).setLevel(quiet)
+
+
+def _kept(out, name) -> str:
+    """Where the finished cases are, said only when a folder holds some."""
+    d, n = kept_cases(out, name)
+    if d is None:
+        return "no finished case was kept"
+    return f"{n} finished case(s) are kept in {d}, rerun the same command to resume"
+
+
 def cmd_run(args) -> int:
     """`python -m pipeline run`: 0 ok, 1 a case failed or nothing converged, 2 bad input."""
     try:
@@ -488,22 +611,21 @@ def cmd_run(args) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     try:
-        res = run_study(study, out, workers=workers, scheduler=scheduler, solver=solver,
-                        figures=getattr(args, "figures", True))
+        with sigint_interrupts():
+            res = run_study(study, out, workers=workers, scheduler=scheduler, solver=solver,
+                            figures=getattr(args, "figures", True))
     except OSError as exc:
-        print(f"error: {args.study}: --out: cannot write: {exc}; finished cases are kept "
-              f"in {out}/.{study.name}.*.cases, rerun to resume", file=sys.stderr)
+        print(f"error: {args.study}: --out: cannot write: {exc}; {_kept(out, study.name)}",
+              file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f"interrupted: finished cases are kept in {out}/.{study.name}.*.cases; "
-              "rerun the same command to resume", file=sys.stderr)
+        print(f"interrupted: {_kept(out, study.name)}", file=sys.stderr)
         return 130
     except SchedulerUnreachable as exc:
         print(f"error: {args.study}: --scheduler: {exc}", file=sys.stderr)
         return 2
     except WorkerLost as exc:
-        print(f"error: {args.study}: {exc}; finished cases are kept in "
-              f"{out}/.{study.name}.*.cases, rerun the same command to resume", file=sys.stderr)
+        print(f"error: {args.study}: {exc}; {_kept(out, study.name)}", file=sys.stderr)
         return 1
     if res.reused:
         log.info("%s: %d case(s) reused from the interrupted run, %d computed",
@@ -520,8 +642,7 @@ def main(argv=None) -> int:
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     configure_run_parser(p)
     args = p.parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
-                        format="%(levelname)s %(name)s: %(message)s")
+    configure_logging(args.verbose)
     try:
         return cmd_run(args)
     except KeyboardInterrupt:

@@ -1,9 +1,8 @@
-"""Study datasets: layout per DATASET.md, netCDF round trip, checker, atomic write,
-figures, and the study runner's plumbing (with a linear reference solver)."""
+"""Study datasets: layout per the dataset contract (README, Dataset), netCDF round
+trip, the contract checker (and that it catches departures), atomic write, figures,
+and the study runner's plumbing (with a linear reference solver)."""
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,13 +11,13 @@ import xarray as xr
 
 from pipeline import harmonics
 from pipeline.dataset import read_dataset, to_dataset, write_netcdf
+from pipeline.dataset_check import UnreadableDataset, main as check_main, problems
 from pipeline.response import ResponseCurve
 from pipeline.scene import load_study
 from pipeline.study import run_study, write_figures
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDIES = ROOT / "studies"
-CHECKER = Path("/work/shared/tools/check_dataset.py")
 
 
 # ---------------------------------------------------------------------------
@@ -101,7 +100,8 @@ def test_layout_padding_and_flags(ex1):
     assert ds["preload"].attrs["units"] == "N"
     assert ds["converged"].sum("point").values.tolist() == [30, 43, 20]
     assert np.isnan(ds["frequency"].values[0, 30:]).all()
-    assert not ds["converged"].values[2, 20:].any() and not ds["stable"].values[2, 20:].any()
+    assert not ds["converged"].values[2, 20:].any() and np.isnan(ds["stable"].values[2, 20:]).all()
+    assert np.isnan(ds["stable"].values[1, 7]) and ds["stable"].values[1, 6] == 1.0  # not converged
     assert (ds["newton_iterations"].values[0, 30:] == -1).all()
     conv = ds["converged"].values
     for name in ("frequency", "residual"):
@@ -190,9 +190,186 @@ def test_round_trip_and_checker(tmp_path, ex2):
     assert back["converged"].dtype == bool and back["dof"].values.tolist() == ["x1", "x2"]
     enc = xr.open_dataset(path).__enter__()["harmonic_amplitude"].encoding
     assert enc.get("zlib") is True
-    r = subprocess.run([sys.executable, str(CHECKER), str(path)], capture_output=True, text=True)
-    assert r.returncode == 0, r.stdout + r.stderr
+    assert problems(path) == []
     assert [p.name for p in path.parent.iterdir()] == ["ex2.nc"]
+
+
+# ---------------------------------------------------------------------------
+# The contract's layout: frequency coordinate, stable flag, sectors, checker
+# ---------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def ex3():
+    return load_study(STUDIES / "paper_example3.toml", quick=True)
+
+
+def test_frequency_is_a_coordinate_and_a_branch_plots_in_one_line(tmp_path, ex3):
+    """Branches are multivalued in frequency: a non-index coordinate on
+    (preload, point), so one line draws amplitude against frequency."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ds = read_dataset(write_netcdf(to_dataset(ex3, curves_for(ex3, lengths=[30, 45, 20])),
+                                   tmp_path / "ex3.nc"))
+    assert "frequency" in ds.coords and "frequency" not in ds.indexes
+    assert ds["frequency"].dims == ("preload", "point")
+    line, = ds.amplitude.sel(preload=10, dof="u").plot(x="frequency")
+    np.testing.assert_array_equal(line.get_xdata(), ds["frequency"].sel(preload=10).values)
+    np.testing.assert_array_equal(line.get_ydata(),
+                                  ds["amplitude"].sel(preload=10, dof="u").values)
+    plt.close("all")
+
+
+def test_fold_dimension_has_a_coordinate(ex2):
+    ds = to_dataset(ex2, curves_for(ex2, folds=[150.0, 160.0]))
+    assert ds["fold"].values.tolist() == [0, 1] and "long_name" in ds["fold"].attrs
+
+
+def test_stable_is_nan_where_stability_was_not_computed(tmp_path, ex1):
+    """solver.stability = false: the solver reports True everywhere; the dataset
+    says NaN (not computed), never True, and the checker accepts it."""
+    from dataclasses import replace
+
+    off = replace(ex1, solver=replace(ex1.solver, stability=False))
+    ds = to_dataset(off, curves_for(off))
+    assert ds["stable"].dtype == float and np.isnan(ds["stable"].values).all()
+    assert ds["stable"].attrs["stability_computed"] == 0
+    assert "NOT computed" in ds["stable"].attrs["long_name"]
+    assert ds.attrs["stability"].startswith("not computed")
+    on = to_dataset(ex1, curves_for(ex1))
+    assert on["stable"].attrs["stability_computed"] == 1
+    assert set(np.unique(on["stable"].values[on["converged"].values])) == {1.0}
+    assert on["stable"].attrs["flag_meanings"] == "unstable stable"
+    assert problems(write_netcdf(ds, tmp_path / "off.nc")) == []
+
+
+def test_mistuned_disk_reports_per_sector_on_a_sector_dimension(tmp_path):
+    """A mistuned disk: dof holds the sector's DOF names, sector the sector
+    numbers; peaks per sector and dof; the stiffness factors per seed and sector."""
+    import copy
+    import tomllib
+
+    from pipeline.scene import study_from_mapping
+    from pipeline.study import write_figures
+
+    path = STUDIES / "disk_mistuned.toml"
+    doc = tomllib.loads(path.read_text())
+    doc["output"]["dofs"] = ["x1@3", "x2@5"]
+    st = study_from_mapping(copy.deepcopy(doc), file=str(path), name="disk_mistuned",
+                            text=path.read_text(), quick=True)
+    curves = curves_for(st, lengths=[30, 25])
+    ds = to_dataset(st, curves)
+    assert ds["dof"].values.tolist() == ["x1", "x2"] and ds["sector"].values.tolist() == [3, 5]
+    assert ds["amplitude"].dims == ("mistuning_seed", "sector", "point", "dof")
+    assert ds["peak_amplitude"].dims == ("mistuning_seed", "sector", "dof")
+    sc = st.scene
+    for k, seed in enumerate(ds["mistuning_seed"].values):
+        np.testing.assert_array_equal(ds["mistuning_factor"].sel(mistuning_seed=seed),
+                                      sc.stiffness_factors({"mistuning_seed": int(seed)})[[3, 5]])
+        for j in (3, 5):
+            for d in ("x1", "x2"):
+                row = sc.dof_index(f"{d}@{j}")
+                pk = float(ds["peak_amplitude"][k].sel(sector=j, dof=d))
+                assert pk == curves[k].amplitude[:, row].max()
+    assert ds["mistuning_factor"].attrs["units"] == "1"
+    assert problems(write_netcdf(ds, tmp_path / "mis.nc")) == []
+    doc["sweep"]["mistuning_seed"] = [1]
+    st1 = study_from_mapping(copy.deepcopy(doc), file=str(path), name="disk_mistuned")
+    figs = write_figures(st1, to_dataset(st1, curves_for(st1, lengths=[30])), tmp_path / "fig")
+    assert sorted(p.name for p in figs) == ["amplitude_x1@3.png", "amplitude_x2@5.png"]
+
+
+def _conforming(tmp_path, ex2):
+    ds = to_dataset(ex2, curves_for(ex2, lengths=[50, 20, 35], folds=[150.0]))
+    assert problems(write_netcdf(ds, tmp_path / "good.nc")) == []
+    return ds
+
+
+def _without_units(ds):
+    del ds["amplitude"].attrs["units"]
+    return ds
+
+
+def _stable_true_not_computed(ds):
+    """The old layout: a boolean flag, True everywhere the solver did not check."""
+    ds["stable"] = ds["converged"].copy()
+    ds["stable"].attrs.update(long_name="stable", units="1", stability_computed=0)
+    return ds
+
+
+def _stable_one_not_computed(ds):
+    ds["stable"].values[:] = np.where(ds["converged"].values, 1.0, np.nan)
+    ds["stable"].attrs["stability_computed"] = 0
+    return ds
+
+
+def _stable_at_padding(ds):
+    ds["stable"].values[1, 30] = 1.0           # case 1 has 20 points
+    return ds
+
+
+def _double_peak(ds):
+    ds["peak_amplitude"].values *= 2
+    return ds
+
+
+def _without_attribute(ds):
+    del ds.attrs["force_evaluation"]
+    return ds
+
+
+BREAKS = {  # how a dataset departs from the contract -> what the checker must say
+    "missing units": (_without_units,
+                      "variable 'amplitude' holds numbers without a units attribute"),
+    "frequency as a data variable": (lambda ds: ds.reset_coords("frequency"),
+                                     "'frequency' is a data variable"),
+    "True stable, not computed": (_stable_true_not_computed, "variable 'stable' is a boolean"),
+    "1 stable, not computed": (_stable_one_not_computed, "stability_computed attribute is 0"),
+    "stable at a padded point": (_stable_at_padding,
+                                 "'stable' is 1 at a point that did not converge"),
+    "dof label with a sector": (lambda ds: ds.assign_coords(
+        dof=("dof", ["x1@0", "x1@1"], {"long_name": "dof"})), "dof label 'x1@0' encodes a sector"),
+    "fold without coordinate": (lambda ds: ds.drop_vars("fold"),
+                                "dimension 'fold' has no coordinate"),
+    "peak not the largest amplitude": (_double_peak, "'peak_amplitude' differs"),
+    "missing global attribute": (_without_attribute,
+                                 "global attribute 'force_evaluation' is missing"),
+}
+
+
+@pytest.mark.parametrize("name", list(BREAKS))
+def test_checker_reports_each_departure(tmp_path, ex2, name):
+    breaker, expected = BREAKS[name]
+    ds = breaker(_conforming(tmp_path, ex2).copy(deep=True))
+    path = write_netcdf(ds, tmp_path / "bad.nc")
+    found = problems(path)
+    assert any(expected in line for line in found), found
+    assert all(line.startswith(f"{path}: ") for line in found)
+
+
+def test_checker_command_line(tmp_path, ex2, capsys):
+    """0 and one summary line per conforming file; 1 and the problems otherwise; 2
+    and one line naming the file when it is missing or not netCDF."""
+    ds = _conforming(tmp_path, ex2)
+    good = tmp_path / "good.nc"
+    assert check_main([str(good)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert len(out) == 1 and out[0].startswith(f"{good}: ok: sweeps ['preload']")
+    broken = ds.copy(deep=True)
+    broken["frequency"].attrs.pop("units")
+    bad = write_netcdf(broken, tmp_path / "bad.nc")
+    assert check_main([str(good), str(bad)]) == 1
+    assert capsys.readouterr().out.splitlines() == [
+        f"{bad}: coordinate 'frequency' holds numbers without a units attribute"]
+    text = tmp_path / "notes.nc"
+    text.write_text("not netCDF")
+    for path in (tmp_path / "missing.nc", text):
+        assert check_main([str(path)]) == 2
+        out = capsys.readouterr().out.splitlines()
+        assert len(out) == 1 and out[0].startswith(f"{path}: "), out
+        with pytest.raises(UnreadableDataset, match="missing.nc: no such file|notes.nc: not a"):
+            problems(path)
 
 
 class Boom(Exception):
@@ -235,8 +412,7 @@ def test_run_study_writes_dataset_and_figures(tmp_path, ex2, workers):
                for p in res.figures)
     back = read_dataset(res.path)
     assert int(back["n_points"].sum()) == 3 * 40
-    r = subprocess.run([sys.executable, str(CHECKER), str(res.path)], capture_output=True, text=True)
-    assert r.returncode == 0, r.stdout
+    assert problems(res.path) == []
 
 
 def test_a_failing_case_is_kept_and_reported(tmp_path, ex1, caplog):
@@ -316,8 +492,7 @@ def test_example1_quick(quick_runs):
     assert 2.0 < float(ds["optimum_preload"]) < 5.0
     assert float(ds["optimum_peak_amplitude"]) <= float(ds["search_peak_amplitude"].min()) + 1e-15
     assert float(ds["optimum_peak_amplitude"]) < float(ds["peak_amplitude"].sel(preload=2.0, dof="x"))
-    r = subprocess.run([sys.executable, str(CHECKER), str(res.path)], capture_output=True, text=True)
-    assert r.returncode == 0, r.stdout
+    assert problems(res.path) == []
 
 
 def test_example2_quick_both_modes(quick_runs):
@@ -352,7 +527,8 @@ def test_example3_quick_separation_and_softening(quick_runs):
     folds = soft["fold_frequency"].values
     assert np.isfinite(folds).sum() == 2
     conv = soft["converged"].values
-    assert 0 < int((conv & ~soft["stable"].values).sum()) < int(conv.sum())
+    assert 0 < int((conv & (soft["stable"].values == 0)).sum()) < int(conv.sum())
+    assert np.isnan(soft["stable"].values[~conv]).all()
 
 
 def test_two_axis_grid_gives_one_figure_per_other_axis_value(tmp_path):

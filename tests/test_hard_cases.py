@@ -1,4 +1,4 @@
-"""Hard numerical cases stay stable (issue 6): each asserts numbers, not just "no exception".
+"""Hard numerical cases stay stable: each asserts numbers, not just "no exception".
 
 Every curve must reach its end (success), have every point's recomputed residual
 within tolerance, contain no NaN/Inf, stay within the Newton and residual-evaluation
@@ -171,7 +171,7 @@ def test_range_spanning_several_modes():
     assert a[(om > 45) & (om < 65)].max() > 3 * a[(om > 35) & (om < 45)].max()
 
 
-# ------------------------------------------------------------------ issue 6, second part
+# ------------------------- stiff impacts, preload into full stick, starts between folds
 def on_curve(c, ref, tol):
     """Largest distance of c's points from the polyline of ref, in the (Omega, amplitude)
     plane normalised by ref's ranges: 0 means every point lies on ref (no branch jump)."""

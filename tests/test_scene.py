@@ -30,6 +30,11 @@ def expected_field(path: Path) -> str:
     return re.match(rb"# field: (.*)\n", path.read_bytes()).group(1).decode()
 
 
+def needs_quick(path: Path) -> bool:
+    """A corpus file whose error is in its [quick] variant says `# run: --quick`."""
+    return b"\n# run: --quick\n" in path.read_bytes()[:400]
+
+
 # ---------------------------------------------------------------------------
 # The three paper examples (Sec. 6)
 # ---------------------------------------------------------------------------
@@ -152,10 +157,59 @@ def test_corpus_is_large_enough():
 def test_bad_study_is_rejected_with_its_field(path):
     field = expected_field(path)
     with pytest.raises(UsageError) as exc:
-        load_study(path)
+        load_study(path, quick=needs_quick(path))
     msg = str(exc.value)
     assert msg.startswith(f"{path}: {field}: "), msg
     assert "\n" not in msg and len(msg) > len(f"{path}: {field}: ") + 5
+
+
+@pytest.mark.parametrize("path", [p for p in BAD_FILES if needs_quick(p)], ids=lambda p: p.stem)
+def test_quick_section_is_read_only_with_quick(path):
+    """A full run never depends on [quick]: the same file loads without --quick
+    unless its main tables are wrong too (then that is the error reported)."""
+    if expected_field(path).startswith("quick"):
+        assert not load_study(path).quick
+    else:
+        with pytest.raises(UsageError, match=re.escape(f"{path}: {expected_field(path)}: ")):
+            load_study(path)
+
+
+def test_main_table_typo_is_reported_before_quick():
+    path = BAD / "sweep_misspelled_key_with_quick.toml"
+    for quick in (False, True):
+        with pytest.raises(UsageError, match=r"sweep\.prelod: unknown key .*did you mean "
+                                             r"'preload'\?$"):
+            load_study(path, quick=quick)
+
+
+def test_disk_full_run_ignores_an_invalid_quick_sweep():
+    """12 sectors with an untouched [quick.sweep] eo = [0, 12]: the full study runs,
+    only --quick is refused (with the quick field)."""
+    doc = tomllib.loads((STUDIES / "disk_cyclic.toml").read_text())
+    doc["scene"]["disk"]["sectors"] = 12
+    doc["sweep"]["eo"] = [0, 3, 6]
+    doc["quick"]["sweep"] = {"eo": [0, 12]}
+    s = study_from_mapping(copy.deepcopy(doc), file="disk12.toml")
+    assert s.sweep.axes["eo"] == (0, 3, 6) and not s.quick
+    with pytest.raises(UsageError, match=r"^disk12\.toml: quick\.sweep\.eo\[1\]: "):
+        study_from_mapping(doc, file="disk12.toml", quick=True)
+
+
+@pytest.mark.parametrize("preload, ok", [(0.0, False), (-5.0, False), (1e-3, True)])
+def test_varying_normal_load_that_must_separate_needs_separation(preload, ok):
+    """kv > 0 with normal DOFs: a preload <= 0 separates as soon as the contact moves,
+    so "separation" must be declared; a positive preload declares a closed contact."""
+    doc = tomllib.loads((STUDIES / "paper_example3.toml").read_text())
+    doc["scene"]["effects"] = ["friction", "normal_load_variation"]
+    doc["sweep"]["preload"] = [preload, 500.0]
+    doc.pop("quick")
+    doc["output"].pop("optimum_preload")
+    if ok:
+        assert study_from_mapping(doc, file="e3.toml").scene.effects == (
+            "friction", "normal_load_variation")
+    else:
+        with pytest.raises(UsageError, match=r"^e3\.toml: scene\.effects: .*declare \"separation\""):
+            study_from_mapping(doc, file="e3.toml")
 
 
 def _cli_has_run():

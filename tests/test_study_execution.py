@@ -1,12 +1,10 @@
-"""Running studies: serial = process pool = Dask, resume after a kill, output errors.
-
-Issue 5 acceptance 2 and 3; issue 6 "output directory not writable, disk full, an
-existing dataset from an older version".
+"""Running studies: serial = process pool = Dask, resume after a kill, output errors
+(output directory not writable, disk full, an existing dataset from an older version).
 """
 from __future__ import annotations
 
 import os
-import pickle
+import re
 import random
 import signal
 import subprocess
@@ -18,6 +16,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from pipeline import checkpoint
 from pipeline.dataset import read_dataset
 from pipeline.scene import parse_study
 from pipeline.study import checkpoint_dir, default_solver, run_study
@@ -87,7 +86,7 @@ def test_interrupted_study_resumes_without_recomputing(serial, study_file, tmp_p
     cdirs = lambda: list(out.glob(".six_preloads.*.cases"))  # noqa: E731
     t_end = time.time() + 120
     while time.time() < t_end and proc.poll() is None:
-        if cdirs() and list(cdirs()[0].glob("case-*.pkl")):
+        if cdirs() and list(cdirs()[0].glob("case-*.nc")):
             break
         assert not final.exists()
         time.sleep(0.02)
@@ -100,15 +99,15 @@ def test_interrupted_study_resumes_without_recomputing(serial, study_file, tmp_p
         assert b"rerun the same command to resume" in err and b"Traceback" not in err
     assert not final.exists()                       # never a partial dataset
     assert not list(out.glob("*.nc")) and not list(out.glob("*.nc.*"))
-    files = sorted(cdirs()[0].glob("case-*.pkl"))
+    files = sorted(cdirs()[0].glob("case-*.nc"))
     kept = len(files)
     assert 1 <= kept < N_CASES, "the signal must fall between the first and the last case"
     assert not list(cdirs()[0].glob(".case-*.tmp")) or sig == signal.SIGKILL
     for f in files:  # each kept case is complete and equals the uninterrupted run's
-        rec = pickle.loads(f.read_bytes())
+        case, curve = checkpoint.read(f)
         k = int(f.stem.split("-")[1])
-        assert rec["case"] == {"preload": float(serial["preload"][k])}
-        np.testing.assert_array_equal(rec["curve"].peak(0)[0],
+        assert case == {"preload": float(serial["preload"][k])}
+        np.testing.assert_array_equal(curve.peak(0)[0],
                                       serial["peak_amplitude"].isel(preload=k, dof=0).values)
 
     study = parse_study(STUDY, file=str(study_file), name="six_preloads")
@@ -129,7 +128,7 @@ def test_killed_pool_worker_loses_nothing(serial, study_file, tmp_path):
     t_end = time.time() + 120
     while time.time() < t_end and proc.poll() is None:
         cd = list(out.glob(".six_preloads.*.cases"))
-        if cd and list(cd[0].glob("case-*.pkl")):
+        if cd and list(cd[0].glob("case-*.nc")):
             break
         time.sleep(0.02)
     kids = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
@@ -140,7 +139,7 @@ def test_killed_pool_worker_loses_nothing(serial, study_file, tmp_path):
     assert proc.returncode == 1 and "Traceback" not in err
     assert "a worker process died" in err and "rerun the same command to resume" in err
     assert not (out / "six_preloads.nc").exists()
-    kept = len(list(next(out.glob(".six_preloads.*.cases")).glob("case-*.pkl")))
+    kept = len(list(next(out.glob(".six_preloads.*.cases")).glob("case-*.nc")))
     study = parse_study(STUDY, file=str(study_file), name="six_preloads")
     res = run_study(study, out, workers=2, figures=False, progress=False)
     assert res.ok and res.reused == kept and res.computed == N_CASES - kept
@@ -188,7 +187,11 @@ def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(serial, study_fi
     serial.to_netcdf(target)             # a previous result of the same version
     before = target.read_bytes()
 
+    real_to_netcdf = xr.Dataset.to_netcdf
+
     def full_disk(self, path, *a, **k):
+        if ".cases" in str(path):   # the case checkpoints fit; the final dataset does not
+            return real_to_netcdf(self, path, *a, **k)
         Path(path).write_bytes(b"\0" * 1000)   # something half-written, then ENOSPC
         raise OSError(28, "No space left on device")
 
@@ -198,7 +201,7 @@ def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(serial, study_fi
     assert target.read_bytes() == before                     # the old result intact
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
     cdir = checkpoint_dir(study, tmp_path, default_solver(study))
-    assert len(list(cdir.glob("case-*.pkl"))) == N_CASES     # nothing computed is lost
+    assert len(list(cdir.glob("case-*.nc"))) == N_CASES     # nothing computed is lost
     monkeypatch.undo()
     res = run_study(study, tmp_path, workers=1, figures=False, progress=False)
     assert res.ok and res.reused == N_CASES and res.computed == 0
@@ -241,3 +244,167 @@ def test_unreachable_scheduler_is_one_line_exit_2(study_file, tmp_path, monkeypa
     assert len(err) == 1 and err[0].startswith(
         f"error: {study_file}: --scheduler: cannot reach the Dask scheduler at tcp://127.0.0.1:{port}")
     assert not list((tmp_path / "out").glob("*.nc"))
+
+
+# ---------------------------------------------------------------------------
+# Checkpoints are data (netCDF), never code
+# ---------------------------------------------------------------------------
+
+def _curve_of(serial_study):
+    from pipeline.response import frequency_response
+    return frequency_response(serial_study.system({"preload": 2.0}), 3, 150.0, 250.0,
+                              stability=False, tol_rel=1e-9)
+
+
+def test_checkpoint_round_trip_keeps_every_field(study_file, tmp_path):
+    import dataclasses
+
+    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    curve = _curve_of(study)
+    curve = dataclasses.replace(curve, info={**curve.info, "note": "é", "big": float("inf")})
+    path = checkpoint.write(tmp_path / "case-00003.nc", curve, {"preload": 2.0})
+    case, back = checkpoint.read(path)
+    assert case == {"preload": 2.0} and type(back) is type(curve)
+    for f in dataclasses.fields(curve):
+        a, b = getattr(curve, f.name), getattr(back, f.name)
+        if isinstance(a, np.ndarray):
+            assert a.dtype == b.dtype and a.shape == b.shape, f.name
+            np.testing.assert_array_equal(a, b, err_msg=f.name)
+        else:
+            assert type(a) is type(b) and a == b, f.name
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+class _Payload:
+    """Would create `marker` if a checkpoint were ever unpickled."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return (Path.touch, (Path(self.marker),))
+
+
+def test_foreign_or_corrupt_checkpoints_are_recomputed_not_executed(serial, study_file, tmp_path):
+    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    cdir = checkpoint_dir(study, tmp_path, default_solver(study))
+    cdir.mkdir(parents=True)
+    marker = tmp_path / "executed"
+    payload = pickle_bytes = __import__("pickle").dumps({"case": {"preload": 0.5},
+                                                         "curve": _Payload(marker)})
+    (cdir / "case-00000.nc").write_bytes(payload)          # a pickle under the new name
+    (cdir / "case-00001.pkl").write_bytes(pickle_bytes)    # a checkpoint of the old format
+    (cdir / "case-00002.nc").write_bytes(b"CDF\x01 truncated")
+    good = _curve_of(study)
+    checkpoint.write(cdir / "case-00003.nc", good, {"preload": 999.0})   # another case's data
+    xr.Dataset({"frequency": ("p", [1.0])}).to_netcdf(cdir / "case-00004.nc")  # foreign netCDF
+    res = run_study(study, tmp_path, workers=1, figures=False, progress=False)
+    assert not marker.exists()
+    assert res.ok and res.reused == 0 and res.computed == N_CASES
+    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(serial))
+
+
+# ---------------------------------------------------------------------------
+# SIGINT at any stage, also when the process started with SIGINT ignored
+# ---------------------------------------------------------------------------
+
+def test_sigint_during_the_optimum_search_with_sigint_ignored_at_start(tmp_path):
+    """`cmd &` in a script starts the run with SIGINT ignored: an interrupt after the
+    cases (in the optimum search) still stops it with 130, the case kept, no dataset."""
+    text = (ROOT / "studies" / "paper_example1.toml").read_text()
+    text = text.replace("preload = [0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 1000.0]", "preload = [2.0]")
+    text = text.replace("harmonics = 7", "harmonics = 3").replace("stability = true",
+                                                                  "stability = false")
+    f = tmp_path / "one_case.toml"
+    f.write_text(text)
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "pipeline", "run", str(f), "--out", str(out),
+                             "--workers", "1", "--no-figures"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env=dict(os.environ, MPLBACKEND="Agg"),
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    t_end = time.time() + 120
+    while time.time() < t_end and proc.poll() is None:
+        if list(out.glob(".one_case.*.cases/case-*.nc")):
+            break
+        time.sleep(0.02)
+    time.sleep(0.5)                     # the optimum search (several seconds) is running
+    assert proc.poll() is None, "the run ended before the optimum search was interrupted"
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    err = err.decode()
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "1 finished case(s) are kept in" in err
+    assert not list(out.glob("*.nc")) and not list(out.glob(".*.tmp"))
+    assert len(list(out.glob(".one_case.*.cases/case-*.nc"))) == 1
+
+
+def test_interrupt_before_any_case_does_not_promise_kept_cases(study_file, tmp_path,
+                                                               monkeypatch, capsys):
+    import argparse
+    import signal as sg
+
+    import pipeline.study as study_mod
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(study_mod, "_execute", interrupted)
+    before = sg.getsignal(sg.SIGINT)
+    args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
+                              scheduler=None, quick=False, figures=False)
+    assert study_mod.cmd_run(args) == 130
+    err = capsys.readouterr().err
+    assert "kept in" not in err and "no finished case was kept" in err
+    assert sg.getsignal(sg.SIGINT) is before        # the handler is restored
+
+
+# ---------------------------------------------------------------------------
+# What is declared is solved: no silent separation
+# ---------------------------------------------------------------------------
+
+EX3_CLOSED = (ROOT / "studies" / "paper_example3.toml").read_text()
+EX3_CLOSED = EX3_CLOSED[:EX3_CLOSED.index("[quick.sweep]")]
+EX3_CLOSED = EX3_CLOSED.replace('effects = ["friction", "normal_load_variation", "separation"]',
+                                'effects = ["friction", "normal_load_variation"]')
+EX3_CLOSED = EX3_CLOSED.replace("preload = [-100.0, -20.0, 10.0, 500.0]", "preload = [10.0, 500.0]")
+EX3_CLOSED = EX3_CLOSED.replace("harmonics = 14", "harmonics = 3").replace("stability = true",
+                                                                           "stability = false")
+
+
+def test_separation_not_declared_fails_the_case_that_separates(tmp_path):
+    """Example 3 without "separation": n0 = 500 N stays closed and is solved; n0 = 10 N
+    separates near resonance, so that case fails (never stored as a solution with
+    separation) and the run exits 1 saying what to declare."""
+    from pipeline.declared import SeparationGuard, separating
+    from pipeline import hbm
+
+    study = parse_study(EX3_CLOSED, file="ex3_closed.toml", name="ex3_closed")
+    res = run_study(study, tmp_path, workers=1, figures=False, progress=False)
+    assert res.failures == 1 and not res.ok
+    ds = read_dataset(res.path)
+    assert int(ds["converged"].sel(preload=10.0).sum()) == 0
+    assert int(ds["converged"].sel(preload=500.0).sum()) > 10
+    assert "separation" not in ds.attrs["effects"]
+    assert "kept closed (a case that separates fails)" in ds.attrs["solution_method"]
+    assert "searched for separation" not in ds.attrs["solution_method"]
+    # the kept case really stays closed at every point
+    from pipeline.response import frequency_response
+    sysm = study.system({"preload": 500.0})
+    curve = frequency_response(sysm, 3, 0.5, 1.6, stability=False)
+    SeparationGuard().check_curve(sysm, curve)
+    prob = hbm.setup(sysm, 3)
+    assert not any(separating(prob, q[prob.c], sysm.contact).any() for q in curve.Q)
+    # and the same scene with separation declared solves n0 = 10 N with separation
+    sys10 = study.system({"preload": 10.0})
+    c10 = frequency_response(sys10, 3, 0.5, 1.6, stability=False)
+    assert any(separating(prob, q[prob.c], sys10.contact).any() for q in c10.Q)
+
+
+def test_separation_not_declared_is_one_error_line_from_the_cli(tmp_path):
+    f = tmp_path / "ex3_closed.toml"
+    f.write_text(EX3_CLOSED.replace("preload = [10.0, 500.0]", "preload = [10.0]"))
+    r = run_cli(f, "--out", tmp_path / "out", "--workers", "1", "--no-figures")
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert re.search(r"contact 'shroud' separates at [0-9.]+ rad/s .*does not declare "
+                     r"\"separation\"", r.stderr), r.stderr
