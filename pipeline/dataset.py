@@ -132,6 +132,7 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
              fold_frequency=full((F,), np.nan), n_points=full((), 0, np.int32),
              wall_time=full((), np.nan), residual_evaluations=full((), -1, np.int32),
              success=full((), False, bool), status=full((), -1, np.int32),
+             peaks_resolved=full((), False, bool),
              residual_tolerance=full((), np.nan),
              natural_frequency_stuck=full((n,), np.nan), natural_frequency_free=full((n,), np.nan),
              window_peak_amplitude=full((S, W, D), np.nan),
@@ -165,6 +166,8 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         v["wall_time"][idx] = c.wall_time
         v["residual_evaluations"][idx] = c.nfev
         v["success"][idx] = c.success
+        v["peaks_resolved"][idx] = (bool(c.info.get("resonance_guard", False))
+                                    and c.info.get("unresolved_resonance_steps", 1) == 0)
         v["status"][idx] = c.status
         v["residual_tolerance"][idx] = c.tolerance
         message[idx] = str(c.message)
@@ -190,6 +193,10 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         "residual_evaluations": ((), "1", "residual evaluations of the case (-1: case failed)"),
         "success": ((), "1", "continuation reached the end of the frequency interval"),
         "status": ((), "1", "continuation status code (-1: case failed)"),
+        "peaks_resolved": ((), "1",
+                           "1: every resonance the branch crosses has points inside its "
+                           "half-power band (no peak can hide between two points); "
+                           "0: not excluded (see the case's message)"),
         "residual_tolerance": ((), "N", "residual norm accepted as converged"),
         "natural_frequency_free": (("mode",), unit, "undamped natural frequency without contacts"),
         "natural_frequency_stuck": (("mode",), unit,

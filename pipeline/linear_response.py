@@ -135,4 +135,5 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
                  if n_bad == 0 else f"linear scene: {n_bad} point(s) above the residual tolerance"),
         H=int(H), tolerance=float(np.hypot(*tols)),
         info={"solver": "linear_direct", "peak_search_solves": n_search,
+              "resonance_guard": True, "unresolved_resonance_steps": 0,  # grid at every w_n
               "tol_static": tols[0], "tol_dynamic": tols[1]})

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .resonance import MAX_DENSE_DOF
+
 
 @dataclass(frozen=True)
 class ResponseCurve:
@@ -118,8 +120,9 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     fun = _weighted(lambda x, lam: hbm.residual(prob, x, lam, elem), w)
     tol = 1.0  # on the weighted residual: every block within its own tolerance [N]
     groups = np.repeat(np.arange(prob.c.size), prob.nh)
+    guard = step_guard(prob, lambda lam: elem)
     kw = dict(ds=ds, ds_max=ds_max, max_points=max_points, callback=callback,
-              segment_check=step_guard(prob, lambda lam: elem))
+              segment_check=guard)
 
     if initial is not None:
         initial = np.asarray(initial, dtype=float)
@@ -136,6 +139,7 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     if dense_output:
         pts = _densify(prob, pts, fun, tol, dofs)
     pts = _insert_peaks(prob, pts, fun, tol, elem, dofs)
+    pts["resonance_guard"] = guard is not None
     return _curve_from_points(prob, br, pts, lambda lam: elem, tols, stability, lambda lam: lam,
                               time.perf_counter() - t_start, spent)
 
@@ -599,16 +603,28 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
         newton_iterations=np.asarray(pts["nit"]),
         nfev=int(br.nfev + extra_nfev + pts["extra_nfev"] + pts.get("dense_nfev", 0)),
         wall_time=elapsed + time.perf_counter() - t0, success=bool(br.success),
-        status=int(br.status), message=str(br.message), H=prob.H,
+        status=int(br.status), message=str(br.message) + _guard_note(br, pts), H=prob.H,
         tolerance=float(np.hypot(*tols)),  # implied by both blocks within theirs
         info={"njev": int(br.njev), "n_rejected": int(br.n_rejected),
               "unresolved_resonance_steps": int(br.n_unresolved),
+              "resonance_guard": bool(pts.get("resonance_guard", False)),
               "min_step": float(br.min_step), "branch_points": int(br.lam.size),
               "tol_static": float(tols[0]), "tol_dynamic": float(tols[1]),
               "peak_nfev": int(pts["extra_nfev"]), "solve_time": elapsed,
               "dense_points": int(pts.get("dense_points", 0)),
               "dense_nfev": int(pts.get("dense_nfev", 0)),
               "postprocess_time": time.perf_counter() - t0})
+
+
+def _guard_note(br, pts) -> str:
+    """What the curve's message says when a peak between two points is not excluded."""
+    if not pts.get("resonance_guard", False):
+        return ("; resonances between points not checked (no excited harmonic, or more "
+                f"than {MAX_DENSE_DOF} DOFs)")
+    if br.n_unresolved:
+        return (f"; {br.n_unresolved} step(s) across a resonance could not be shortened to "
+                "its half-power band: a peak may hide there")
+    return ""
 
 
 def _with_preload(elem, lam, shape):
@@ -665,6 +681,7 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
                              np.repeat(np.arange(prob.c.size), prob.nh), ds=ds, ds_max=ds_max,
                              max_points=max_points, segment_check=guard)
     pts = _branch_points(br)
+    pts["resonance_guard"] = guard is not None
     return _curve_from_points(prob, br, pts, lambda lam: _with_preload(base, lam, shape), tols,
                               stability, lambda lam: omega, time.perf_counter() - t_start, spent)
 

@@ -54,6 +54,18 @@ def test_stuck_chain_peak_is_the_linear_resonance(tmp_path, normal):
     got_f = float(ds.peak_frequency.sel(dof="x3").squeeze())
     assert got_a == pytest.approx(amp, rel=1e-6)
     assert got_f == pytest.approx(freq, rel=1e-6)
+    assert bool(ds.peaks_resolved.all())
+
+
+def test_a_curve_that_cannot_exclude_a_hidden_peak_says_so(tmp_path, monkeypatch):
+    """Without the count (here: a structure declared too large for it) the dataset's
+    peaks_resolved is 0 and the case's message says why; never a silent 1."""
+    monkeypatch.setattr(resonance, "MAX_DENSE_DOF", 2)
+    f = tmp_path / "chain.toml"
+    f.write_text(CHAIN.read_text().replace("preload = [0.0, 5.0, 1.0e5]", "preload = [1.0e5]"))
+    ds = run_study(load_study(f), tmp_path / "out", figures=False, progress=False).dataset
+    assert not bool(ds.peaks_resolved.any())
+    assert "not checked" in str(ds.message.values.ravel()[0])
 
 
 @pytest.mark.parametrize("n0, added", [(1e5, (1e4, 1e3)), (-1.0, (0.0, 0.0))])
