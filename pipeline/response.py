@@ -395,7 +395,7 @@ def _local_maxima(amps, converged, rel=0.05):
     return sorted(idx, key=lambda i: -a[i])
 
 
-_PLOT_TURN = math.radians(10.0)  # largest turn of the drawn curve at a point
+_PLOT_TURN = math.radians(8.0)   # largest turn of the drawn curve at a point
 _PLOT_MIN_CHORD = 2e-3           # segments shorter than this (plot units) are not split
 _PLOT_MAX_POINTS = 400           # points `_densify` may add to one curve
 _PLOT_PASSES = 8
@@ -414,19 +414,20 @@ def _solve_on_plane(fun, p, d, scale, tol):
         return (np.append(R, d @ (z / scale - p)),
                 np.vstack([np.column_stack([Jx, Jl]), d / scale]))
 
-    r = newton(aug, p * scale, tol, max_iter=20)
-    ok = bool(r.success) and np.linalg.norm(fun(r.x[:-1], r.x[-1])[0]) <= tol
-    return r.x, ok, nfev[0] + 1
+    r = newton(aug, p * scale, tol, max_iter=20)  # converged: |R| <= tol at r.x
+    return r.x, bool(r.success), nfev[0]
 
 
 def _plot_coordinates(prob, X, L, dofs, omega_of):
-    """(P, 1 + D) points of the drawn curves: frequency over the range, log10 of each
-    DOF's amplitude over its decades (at least half a decade), so that one unit is
-    one axis length of a figure."""
+    """(P, 1 + 2D) points of the drawn curves in axis units (one unit is one axis
+    length of a figure): frequency over the range, then for each DOF its amplitude
+    over its range (a linear axis) and log10 of it over its decades (a log axis, at
+    least half a decade)."""
     om = np.array([omega_of(l) for l in L])
     cols = [om / max(np.ptp(om), 1e-300)]
     for dof in dofs:
         a = np.array([_dof_amplitude(prob, X[i], L[i], dof, omega_of) for i in range(L.size)])
+        cols.append(a / max(np.ptp(a), 1e-300))
         la = np.log10(np.maximum(a, 1e-300))
         la = np.maximum(la, la.max() - 12.0)  # amplitudes near zero: a floor, not -inf
         cols.append(la / max(np.ptp(la), 0.5))
@@ -436,7 +437,8 @@ def _plot_coordinates(prob, X, L, dofs, omega_of):
 def _densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
     """Add branch points where the drawn curves bend.
 
-    A chord of a drawn curve (frequency, log amplitude of one DOF, in axis units)
+    A chord of a drawn curve (frequency against the amplitude of one DOF on a
+    linear or a log axis, in axis units)
     that meets its neighbour at more than _PLOT_TURN is split at its middle: the
     new point solves R = 0 on the hyperplane through the middle of the chord of
     scaled [x; lam], normal to it.  Straight stretches get no point, and a point

@@ -277,7 +277,9 @@ def test_mistuned_disk_reports_per_sector_on_a_sector_dimension(tmp_path):
     doc["sweep"]["mistuning_seed"] = [1]
     st1 = study_from_mapping(copy.deepcopy(doc), file=str(path), name="disk_mistuned")
     figs = write_figures(st1, to_dataset(st1, curves_for(st1, lengths=[30])), tmp_path / "fig")
-    assert sorted(p.name for p in figs) == ["amplitude_x1@3.png", "amplitude_x2@5.png"]
+    assert sorted(p.name for p in figs) == [
+        "amplitude_x1_mistuning_seed=1.png", "amplitude_x2_mistuning_seed=1.png",
+        "peak_per_sector_x1.png", "peak_per_sector_x2.png"]
 
 
 def _conforming(tmp_path, ex2):
