@@ -396,6 +396,8 @@ def _local_maxima(amps, converged, rel=0.05):
 
 
 _PLOT_TURN = math.radians(8.0)   # largest turn of the drawn curve at a point
+_PLOT_TURN_LONG = math.radians(3.0)  # ... and at a point between long chords
+_PLOT_LONG_CHORD = 0.04          # a chord this long (plot units) shows a small corner
 _PLOT_MIN_CHORD = 2e-3           # segments shorter than this (plot units) are not split
 _PLOT_MAX_POINTS = 400           # points `_densify` may add to one curve
 _PLOT_PASSES = 8
@@ -439,7 +441,8 @@ def _densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
 
     A chord of a drawn curve (frequency against the amplitude of one DOF on a
     linear or a log axis, in axis units)
-    that meets its neighbour at more than _PLOT_TURN is split at its middle: the
+    that meets its neighbour at more than _PLOT_TURN (_PLOT_TURN_LONG if it is longer
+    than _PLOT_LONG_CHORD: a long chord shows a small corner) is split at its middle: the
     new point solves R = 0 on the hyperplane through the middle of the chord of
     scaled [x; lam], normal to it.  Straight stretches get no point, and a point
     on a linear stretch costs one Newton iteration.  Repeated until the curves
@@ -465,8 +468,10 @@ def _densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
             n2 = np.linalg.norm(c2, axis=1)
             cosang = np.einsum("ij,ij->i", c2[:-1], c2[1:]) / np.maximum(n2[:-1] * n2[1:], 1e-300)
             turn[1:-1] = np.maximum(turn[1:-1], np.arccos(np.clip(cosang, -1.0, 1.0)))
-        split = sorted({seg for i in np.flatnonzero(turn > _PLOT_TURN) for seg in (i - 1, i)
-                        if length[seg] > _PLOT_MIN_CHORD and (L[seg], L[seg + 1]) not in failed})
+        # a corner shows where chords turn sharply, or turn a little but are long
+        split = sorted({seg for i in np.flatnonzero(turn > _PLOT_TURN_LONG) for seg in (i - 1, i)
+                        if (length[seg] > _PLOT_MIN_CHORD and (L[seg], L[seg + 1]) not in failed
+                            and (turn[i] > _PLOT_TURN or length[seg] > _PLOT_LONG_CHORD))})
         if not split or added >= _PLOT_MAX_POINTS:
             break
         new = []
