@@ -99,23 +99,31 @@ def test_contact_stiffness_closed_forms():
     assert resonance.contact_stiffness(prob, Q, open_el, 1)[0, 0] == pytest.approx(0.0)
 
 
-def test_branch_has_points_inside_every_crossed_resonance():
-    """Every step across a natural frequency of the linearised structure has both
-    ends inside that resonance's half-power band."""
-    sys = chain_system(1e5)
-    c = frequency_response(sys, 5, 2 * np.pi * 4, 2 * np.pi * 25, stability=False)
-    prob = hbm.setup(sys, 5)
+@pytest.mark.parametrize("name, system, H, band, crossings", [
+    ("stuck chain", chain_system(1e5), 5, (2 * np.pi * 4, 2 * np.pi * 25), 2),
+    ("chain, slipping", chain_system(5.0), 5, (2 * np.pi * 4, 2 * np.pi * 25), 1),
+    ("Example 1, 2 N", example1(2.0), 7, (150.0, 250.0), 1),
+])
+def test_branch_has_points_inside_every_crossed_resonance(name, system, H, band, crossings):
+    """Every step across a natural frequency of the structure linearised along the
+    branch (linear or nonlinear) has both ends inside that resonance's half-power
+    band, and the peak equals a dense trace's (steps 10x finer) to 1e-8."""
+    c = frequency_response(system, H, *band, stability=False, peak_dofs=[0])
+    prob = hbm.setup(system, H)
     rc = resonance.prepare(prob)
-    w = [resonance.natural_frequencies(rc, prob, q[prob.c], sys.contact) for q in c.Q]
-    crossings = 0
+    w = [resonance.natural_frequencies(rc, prob, q[prob.c], system.contact) for q in c.Q]
+    n = 0
     for i in range(len(w) - 1):
         modes = resonance.crossed(rc, w[i], c.omega[i], w[i + 1], c.omega[i + 1])
         if modes:
-            crossings += 1
+            n += 1
             assert resonance.detuning_ratio(rc, modes, w[i], c.omega[i], w[i + 1],
                                             c.omega[i + 1]) <= 1 + 1e-12
-    assert crossings >= 2  # two stuck modes inside 4-25 Hz
+    assert n >= crossings
     assert c.info["unresolved_resonance_steps"] == 0
+    dense = frequency_response(system, H, *band, stability=False, peak_dofs=[0], ds=0.01,
+                               ds_max=0.01, max_points=5000, dense_output=False)
+    assert c.peak(0)[0] == pytest.approx(dense.peak(0)[0], rel=1e-8)
 
 
 def test_aft_peak_is_the_highest_ripple():
