@@ -476,40 +476,23 @@ class Metric:
             self.s[:x.size] = automatic_scale(self.xmax, self.groups)
 
 
-# ---------------------------------------------------------------------- the tracer
-class Tracer:
-    """One run of `continue_branch`: the state its steps share, and the steps.
-
-    State: the current point z = [x; lam] and its tangent t_phys (physical units),
-    the step ds, the metric, the accepted points and the costs.  `run` solves the
-    first point, then repeats `step` (predict, correct, assess, then accept or
-    reject, a rejection possibly passing a corner) until one returns the Branch.
-    """
+# ---------------------------------------------------------------------- the equations
+class ScaledEquations:
+    """R(x, lam) = 0 in the scaled unknowns y = [x; lam] / s: the evaluations, bordered
+    systems, tangents and Newton solves of a continuation run, and their costs
+    (nfev: fun calls; njev: Jacobians factorised, Newton steps and tangent solves)."""
 
     def __init__(self, fun, opts: ContinuationOptions):
-        self.fun, self.opts, self.n = fun, opts, opts.n
+        self.fun, self.n = fun, opts.n
+        self.thresh, self.max_newton = opts.thresh, opts.max_newton
         self.metric = Metric(opts.n, abs(opts.lam_end - opts.lam0), opts.groups, opts.scale)
         self.sparse = None  # dR_dx sparse? known from the first evaluation
-        self.ds = opts.ds
-        self.z = self.t_phys = None
-        self.points = []    # (z, t_phys, nit, nfev, ||R||) of each accepted point
         self.nfev = self.njev = 0
-        self.n_rejected = self.n_unresolved = 0
-        self.min_step = math.inf
-        self.spent = 0      # fun calls since the last accepted point
-        self.recent = {}    # turn / deviation of the rejections since the last acceptance
 
     @property
     def s(self):
         return self.metric.s
 
-    def run(self, x0) -> Branch:
-        done = self.first_point(x0)
-        while done is None:
-            done = self.step()
-        return done
-
-    # ---- linear algebra in the scaled unknowns
     def evaluate(self, x, lam):
         """fun(x, lam) with its shapes checked once; dense Jacobians as arrays."""
         n = self.n
@@ -555,6 +538,25 @@ class Tracer:
         t = w / nw
         return t, float(t @ tp), t * s
 
+    def null_vector(self, Jx, Jl):
+        """Unit null vector (sign arbitrary) of [Jx S_x, Jl s_lam]: by a dense QR
+        (robust even at a fold), or with a sparse Jx a bordered solve (needs Jx
+        regular); None if singular."""
+        n, s = self.n, self.s
+        if self.sparse:
+            e = np.zeros(n + 1)
+            e[n] = 1.0
+            try:
+                t = _solve(self.bordered(Jx, Jl, e), e)
+            except (np.linalg.LinAlgError, RuntimeError):
+                return None
+        else:
+            Q, _ = sla.qr(np.hstack([Jx * s[:n], (Jl * s[n])[:, None]]).T)
+            t = Q[:, -1].copy()
+        self.njev += 1
+        t /= np.linalg.norm(t)
+        return t
+
     def oriented_tangent(self, JJ, along):
         """Unit scaled tangent at a point (Jacobians JJ) oriented along `along` (scaled)."""
         tan = self.tangent_from(JJ[0], JJ[1], along * self.s)
@@ -567,8 +569,8 @@ class Tracer:
             R, Jx, Jl = self.evaluate(x, lam)
             return R, (R, Jx, Jl)
         z, st, nit, nfev, njev, r, RJJ, _ = _newton_core(
-            fx, xg, self.opts.thresh, _FIRST_POINT_ITER * self.opts.max_newton,
-            np.linalg.norm, lambda RJJ, rhs: _solve(RJJ[1], rhs))
+            fx, xg, self.thresh, _FIRST_POINT_ITER * self.max_newton, np.linalg.norm,
+            lambda RJJ, rhs: _solve(RJJ[1], rhs))
         self.nfev += nfev
         self.njev += njev
         return z, st, nit, nfev, r, RJJ
@@ -585,22 +587,101 @@ class Tracer:
         def scaled_step(JJ, rhs):  # Newton in the scaled unknowns: dz = S dy
             return s * _solve(self.bordered(JJ[0], JJ[1], normal), rhs)
 
-        out = _newton_core(aug, y * s, self.opts.thresh, self.opts.max_newton,
+        out = _newton_core(aug, y * s, self.thresh, self.max_newton,
                            lambda F: np.linalg.norm(F[:n]), scaled_step)
         self.nfev += out[3]
         self.njev += out[4]
         return out
 
+
+# ---------------------------------------------------------------------- folds
+def refine_fold(eq, i, u, seg, refine=True):
+    """Fold between points i, i+1: zero of the tangent's lam-component along the
+    branch by Illinois regula falsi on u, each value from a corrector on the
+    hyperplane through the Hermite point p(u) normal to p'(u) (`fold_corrector`).
+    Falls back to the Hermite point if a corrector fails."""
+    y0, y1, d0, d1 = seg
+    p, _ = _hermite(y0, y1, d0, d1, u)
+    best = p * eq.s
+    if not refine:
+        return i, best
+    a, b = 0.0, 1.0
+    ga, gb = d0[-1] / np.linalg.norm(d0), d1[-1] / np.linalg.norm(d1)
+    side = 0
+    for _ in range(12):
+        gu, zc = fold_corrector(eq, seg, u)
+        if gu is None:
+            break
+        best = zc
+        if abs(gu) < 1e-9:
+            break
+        if np.sign(gu) == np.sign(ga):
+            a, ga = u, gu
+            if side == -1:
+                gb *= 0.5
+            side = -1
+        else:
+            b, gb = u, gu
+            if side == 1:
+                ga *= 0.5
+            side = 1
+        u = (a * gb - b * ga) / (gb - ga)
+    return i, best
+
+
+def fold_corrector(eq, seg, u):
+    """(lam-component of the unit scaled tangent, point) of the branch point on
+    the hyperplane through the Hermite point p(u) normal to p'(u); (None, None)
+    if the corrector fails."""
+    p, dp = _hermite(*seg, u)
+    zc, st, _, _, _, _, JJ, _ = eq.solve_on_plane(p, dp / np.linalg.norm(dp))
+    eq.njev += 1
+    tan = eq.tangent_from(*JJ, dp * eq.s) if st == 0 else None
+    return (None, None) if tan is None else (tan[0][eq.n], zc)
+
+
+# ---------------------------------------------------------------------- the tracer
+class Tracer:
+    """One run of `continue_branch`: the state its steps share, and the steps.
+
+    State: the current point z = [x; lam] and its tangent t_phys (physical units),
+    the step ds, the accepted points, the rejections; the equations `eq` hold the
+    metric and count the costs.  `run` solves the
+    first point, then repeats `step` (predict, correct, assess, then accept or
+    reject, a rejection possibly passing a corner) until one returns the Branch.
+    """
+
+    def __init__(self, fun, opts: ContinuationOptions):
+        self.opts, self.n = opts, opts.n
+        self.eq = ScaledEquations(fun, opts)
+        self.ds = opts.ds
+        self.z = self.t_phys = None
+        self.points = []    # (z, t_phys, nit, nfev, ||R||) of each accepted point
+        self.n_rejected = self.n_unresolved = 0
+        self.min_step = math.inf
+        self.spent = 0      # fun calls since the last accepted point
+        self.recent = {}    # turn / deviation of the rejections since the last acceptance
+
+    @property
+    def s(self):
+        return self.eq.s
+
+    def run(self, x0) -> Branch:
+        done = self.first_point(x0)
+        while done is None:
+            done = self.step()
+        return done
+
     # ---- the first point
     def first_point(self, x0):
         """Newton at fixed lam0 and the first tangent; the Branch if the run ends there."""
         o = self.opts
-        x, st, nit, nfev, r, (R, Jx, Jl) = self.solve_fixed_lam(x0, o.lam0)
+        x, st, nit, nfev, r, (R, Jx, Jl) = self.eq.solve_fixed_lam(x0, o.lam0)
         if st != 0:
             return self.result(-2, f"first point at lam0 = {o.lam0} did not converge: "
                                    f"{_NEWTON_MESSAGES[st]} (||R|| = {r:.3e}, "
                                    f"tol = {o.thresh:.3e})")
-        self.metric.observe(x)  # from the solution, not from the caller's guess
+        self.eq.metric.observe(x)  # from the solution, not from the caller's guess
         t = self.first_tangent(x, Jx, Jl)
         if t is None:
             return self.result(-2, "tangent at the first point failed: singular dR_dx at lam0")
@@ -616,19 +697,9 @@ class Tracer:
         """Unit scaled tangent at the first point, towards lam_end times `direction`
         (at a fold, where its lam-component vanishes: towards growing |x|)."""
         n, s, o = self.n, self.s, self.opts
-        if self.sparse:
-            e = np.zeros(n + 1)
-            e[n] = 1.0
-            try:
-                t = _solve(self.bordered(Jx, Jl, e), e)
-            except (np.linalg.LinAlgError, RuntimeError):
-                return None
-        else:  # null vector of [Jx S_x, Jl s_lam]: robust even at a fold
-            A0 = np.hstack([Jx * s[:n], (Jl * s[n])[:, None]])
-            Q, _ = sla.qr(A0.T)
-            t = Q[:, -1].copy()
-        self.njev += 1
-        t /= np.linalg.norm(t)
+        t = self.eq.null_vector(Jx, Jl)
+        if t is None:
+            return None
         sgn = np.sign(t[n] * (o.lam_end - o.lam0))
         if abs(t[n]) < 1e-12:
             sgn = np.sign(t[:n] @ (x / s[:n])) or 1.0
@@ -655,7 +726,7 @@ class Tracer:
         """Corrector on the hyperplane through y_pred normal to `normal` (scaled):
         (z, status, nit, nfev, ||R||, (Jx, Jl)); status -1: the hyperplane condition
         is not met although ||R|| is."""
-        zn, st, nit, nfev, _, r, JJ, F = self.solve_on_plane(y_pred, normal)
+        zn, st, nit, nfev, _, r, JJ, F = self.eq.solve_on_plane(y_pred, normal)
         self.spent += nfev
         if st == 0 and abs(F[self.n]) > 1e-6 * max(
                 np.linalg.norm(y_pred - self.z / self.s), 1e-12):
@@ -673,8 +744,8 @@ class Tracer:
         reason = self.deviation_test(zn, y_pred)
         if reason is not None:
             return reason, True, None, 0.5
-        tan = self.tangent_from(JJ[0], JJ[1], self.t_phys)
-        self.njev += 1
+        tan = self.eq.tangent_from(JJ[0], JJ[1], self.t_phys)
+        self.eq.njev += 1
         if tan is None:
             return "singular tangent system", False, None, 0.5
         reason = self.turn_test(tan[1])
@@ -797,7 +868,7 @@ class Tracer:
         """(a, b, t_n, turn) of the corner c = y + a t = y_n - b t_n, or None if the
         two tangents do not meet like a corner's."""
         y0, yn = self.z / self.s, zn / self.s
-        tn = self.oriented_tangent(JJn, yn - y0)
+        tn = self.eq.oriented_tangent(JJn, yn - y0)
         if tn is None:
             return None
         (a, b), *_ = np.linalg.lstsq(np.column_stack([ts, tn]), yn - y0, rcond=None)
@@ -815,7 +886,7 @@ class Tracer:
         z1, st1, nit1, _, r1, JJ1 = self.correct(y1p, ts)
         if st1 != 0:
             return None
-        t1 = self.oriented_tangent(JJ1, ts)
+        t1 = self.eq.oriented_tangent(JJ1, ts)
         if (t1 is None or np.linalg.norm(z1 / self.s - y1p)
                 > self.opts.max_deviation * 0.98 * a):
             return None
@@ -831,7 +902,7 @@ class Tracer:
         for _ in range(2):
             y2p = c + d * tn
             z2, st2, nit2, _, r2, JJ2 = self.correct(y2p, tn)
-            t2 = self.oriented_tangent(JJ2, tn) if st2 == 0 else None
+            t2 = self.eq.oriented_tangent(JJ2, tn) if st2 == 0 else None
             if (t2 is not None and np.linalg.norm(z2 / self.s - y2p) <= o.max_deviation * d
                     and math.acos(min(1.0, float(t2 @ tn))) <= o.max_turn):
                 return z2, t2, nit2, r2
@@ -858,7 +929,7 @@ class Tracer:
         self.z, self.t_phys = zn, t_new_phys
         self.points.append((zn, t_new_phys, nit, self.spent, r))
         self.spent = 0
-        self.metric.observe(zn[:n])
+        self.eq.metric.observe(zn[:n])
         if o.callback is not None and o.callback(zn[:n].copy(), zn[n]):
             return self.result(3, "stopped by callback")
         if len(self.points) >= o.max_points:
@@ -874,11 +945,11 @@ class Tracer:
         frac = (bound - z[n]) / (zn[n] - z[n])
         xg = z[:n] + frac * (zn[:n] - z[:n])
         if not (bound == o.lam0 and len(self.points) == 1):
-            xb, stb, nitb, nfevb, rb, (R, Jx, Jl) = self.solve_fixed_lam(xg, bound)
+            xb, stb, nitb, nfevb, rb, (R, Jx, Jl) = self.eq.solve_fixed_lam(xg, bound)
             self.spent += nfevb
             if stb == 0:
-                tb = self.tangent_from(Jx, Jl, self.t_phys)
-                self.njev += 1
+                tb = self.eq.tangent_from(Jx, Jl, self.t_phys)
+                self.eq.njev += 1
                 if tb is not None:
                     zn, nit, t_new_phys = np.append(xb, bound), nitb, tb[2]
                     r = np.linalg.norm(R)
@@ -895,64 +966,21 @@ class Tracer:
         Ts = np.array(T, float).reshape(m, n + 1)
         if m:
             Ts = Ts / np.linalg.norm(Ts / s, axis=1, keepdims=True)
-        folds = [self.refine_fold(*f) for f in _fold_segments(Zs, Ts, s)]
+        folds = [refine_fold(self.eq, *f, refine=self.opts.refine_folds)
+                 for f in _fold_segments(Zs, Ts, s)]
         fi = np.array([f[0] for f in folds], int)
         fl = np.array([f[1][n] for f in folds], float)
         fx = np.array([f[1][:n] for f in folds], float).reshape(len(folds), n)
-        log.debug("continuation: %d points, %d folds, nfev=%d: %s", m, fi.size, self.nfev,
+        log.debug("continuation: %d points, %d folds, nfev=%d: %s", m, fi.size, self.eq.nfev,
                   message)
         return Branch(
             x=_frozen(Zs[:, :n]), lam=_frozen(Zs[:, n]), tangent=_frozen(Ts),
             converged=_frozen(np.ones(m, bool), bool), nit=_frozen(NIT, int),
             point_nfev=_frozen(PNFEV, int), residual_norm=_frozen(RN),
             fold_index=_frozen(fi, int), fold_lam=_frozen(fl), fold_x=_frozen(fx),
-            nfev=self.nfev, njev=self.njev, n_rejected=self.n_rejected,
+            nfev=self.eq.nfev, njev=self.eq.njev, n_rejected=self.n_rejected,
             min_step=self.min_step, scale=_frozen(s), success=status >= 0 and status != 2,
             status=status, message=message, n_unresolved=self.n_unresolved)
-
-    # ---- folds
-    def refine_fold(self, i, u, seg):
-        """Fold between points i, i+1: zero of the tangent's lam-component along the
-        branch by Illinois regula falsi on u, each value from a corrector on the
-        hyperplane through the Hermite point p(u) normal to p'(u) (`fold_corrector`).
-        Falls back to the Hermite point if a corrector fails."""
-        y0, y1, d0, d1 = seg
-        p, _ = _hermite(y0, y1, d0, d1, u)
-        best = p * self.s
-        if not self.opts.refine_folds:
-            return i, best
-        a, b = 0.0, 1.0
-        ga, gb = d0[-1] / np.linalg.norm(d0), d1[-1] / np.linalg.norm(d1)
-        side = 0
-        for _ in range(12):
-            gu, zc = self.fold_corrector(seg, u)
-            if gu is None:
-                break
-            best = zc
-            if abs(gu) < 1e-9:
-                break
-            if np.sign(gu) == np.sign(ga):
-                a, ga = u, gu
-                if side == -1:
-                    gb *= 0.5
-                side = -1
-            else:
-                b, gb = u, gu
-                if side == 1:
-                    ga *= 0.5
-                side = 1
-            u = (a * gb - b * ga) / (gb - ga)
-        return i, best
-
-    def fold_corrector(self, seg, u):
-        """(lam-component of the unit scaled tangent, point) of the branch point on
-        the hyperplane through the Hermite point p(u) normal to p'(u); (None, None)
-        if the corrector fails."""
-        p, dp = _hermite(*seg, u)
-        zc, st, _, _, _, _, JJ, _ = self.solve_on_plane(p, dp / np.linalg.norm(dp))
-        self.njev += 1
-        tan = self.tangent_from(*JJ, dp * self.s) if st == 0 else None
-        return (None, None) if tan is None else (tan[0][self.n], zc)
 
 
 def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None,
