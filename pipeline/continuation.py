@@ -62,6 +62,13 @@ control reads Newton counts, so with an inexact Jacobian (linear convergence) se
 target_newton to the count the solver needs, or steps keep shrinking.  The first
 tangent is the null vector of [J, J_lam] by a dense QR (O(n^3), robust at a fold);
 with a sparse J it is a bordered solve that needs dR/dx regular at lam0.
+
+Pieces: `continuation_options` checks the options once into a frozen
+`ContinuationOptions`; `Metric` holds the scale s (`automatic_scale`);
+`ScaledEquations` evaluates R and solves the bordered systems in y, counting the
+costs; a `Tracer` runs the steps (first point, predict, correct, assess, accept or
+reject, pass corner, commit) and returns the `Branch`, whose folds `refine_fold`
+locates.  `continue_branch` builds the options and runs a Tracer.
 """
 from __future__ import annotations
 
