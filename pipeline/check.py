@@ -9,13 +9,14 @@ and exit 2.  The estimate of a lumped or disk scene times a few residual
 evaluations (with Jacobian) of its first case at the study's H, at the middle of
 the frequency range from the linear response, and multiplies by the ratio of a
 whole case's wall time to that evaluation measured on the paper examples
-(`bench parallel` serial runs against the same timing: Example 1 at H = 7,
-1.5-1.8 s per case for 0.64 ms, Example 3 at H = 14, 1.6-2.0 s per case for
-1.05 ms: 1500-2800 evaluations' worth per case, continuation, recovery, Hill
-stability and peak refinement included).  It is a rough guide: a case with many
-more points or folds costs more.  An FE blade is not built for the estimate (that alone takes
-seconds to minutes); its figure is the measured time per case of
-studies/blade_shroud_contact.toml.  A dataset is checked by
+(serial runs against the same timing: Example 1 at H = 7, 1.0-2.0 s per case for
+0.72 ms, Example 3 at H = 14, 2.5-5 s per case for 1.05 ms: 1500-5000 evaluations'
+worth per case, continuation, dense output for the figures, recovery, Hill stability
+and peak refinement included).  An optimum-preload search traces about 10-15
+curves without dense output (Example 1: 9 s), counted as OPTIMUM_CURVES cases.  It
+is a rough guide: a case with many more points or folds costs more.  An FE blade is not built for the estimate
+(that alone takes seconds to minutes); its figure is the measured time per case of
+studies/blade_shroud_contact.toml (full or quick mesh).  A dataset is checked by
 `pipeline.dataset_check.problems`.
 """
 from __future__ import annotations
@@ -30,8 +31,10 @@ import numpy as np
 
 from .errors import UsageError
 
-EVALS_PER_CASE = (1500, 2800)  # a case's wall time / one residual evaluation (docstring)
-BLADE_CASE_S = (69.0, 91.0)  # studies/blade_shroud_contact.toml, H = 3, per case, 2 cores
+EVALS_PER_CASE = (1500, 5000)  # a case's wall time / one residual evaluation (docstring)
+OPTIMUM_CURVES = 6              # an optimum-preload search: about 6 cases' worth (docstring)
+BLADE_CASE_S = (90.0, 150.0)    # studies/blade_shroud_contact.toml, H = 3, per case, 2 cores
+BLADE_QUICK_CASE_S = (15.0, 30.0)  # the same with its [quick] mesh
 
 
 def check(path, quick: bool = False, workers: int | None = None, out=None) -> int:
@@ -161,17 +164,20 @@ def estimate(study, n_cases: int, workers: int, linear: bool) -> list:
         return [f"estimated cost: {n_cases} direct solve sweep(s), well under 1 s each"]
     bound = f"at most {n_cases * study.solver.max_points} points in all"
     if study.scene.model in ("beam_blade", "solid_blade"):
-        lo, hi = BLADE_CASE_S
+        lo, hi = BLADE_QUICK_CASE_S if study.quick else BLADE_CASE_S
         return [f"estimated cost: {n_cases} case(s) x {lo:.0f}-{hi:.0f} s (measured per case "
-                "of studies/blade_shroud_contact.toml at H = 3 on the 2-core machine; grows "
-                f"with H and the mesh) = {_range(n_cases * lo / w, n_cases * hi / w)} on "
-                f"{w} worker(s); {bound}"]
+                f"of studies/blade_shroud_contact.toml{' --quick' if study.quick else ''} at "
+                "H = 3 on the 2-core machine; grows with H and the mesh) = "
+                f"{_range(n_cases * lo / w, n_cases * hi / w)} on {w} worker(s); {bound}"]
     t_eval = time_residual(study)
     lo, hi = (k * t_eval for k in EVALS_PER_CASE)
+    extra = OPTIMUM_CURVES if study.output.optimum is not None else 0
+    search = (f", plus the optimum-preload search {_range(extra * lo, extra * hi)}"
+              if extra else "")
     return [f"estimated cost: one residual evaluation {t_eval * 1e3:.3g} ms (timed now), "
             f"a case {EVALS_PER_CASE[0]}-{EVALS_PER_CASE[1]} of them (measured on the paper "
             f"examples) = {_range(lo, hi)} per case, {_range(n_cases * lo / w, n_cases * hi / w)}"
-            f" for {n_cases} case(s) on {w} worker(s) (a rough guide; {bound})"]
+            f" for {n_cases} case(s) on {w} worker(s){search} (a rough guide; {bound})"]
 
 
 def _range(lo: float, hi: float) -> str:

@@ -62,6 +62,13 @@ control reads Newton counts, so with an inexact Jacobian (linear convergence) se
 target_newton to the count the solver needs, or steps keep shrinking.  The first
 tangent is the null vector of [J, J_lam] by a dense QR (O(n^3), robust at a fold);
 with a sparse J it is a bordered solve that needs dR/dx regular at lam0.
+
+Pieces: `continuation_options` checks the options once into a frozen
+`ContinuationOptions`; `Metric` holds the scale s (`automatic_scale`);
+`ScaledEquations` evaluates R and solves the bordered systems in y, counting the
+costs; a `Tracer` runs the steps (first point, predict, correct, assess, accept or
+reject, pass corner, commit) and returns the `Branch`, whose folds `refine_fold`
+locates.  `continue_branch` builds the options and runs a Tracer.
 """
 from __future__ import annotations
 
@@ -285,6 +292,7 @@ def _fold_segments(Z, T, s):
     return out
 
 
+# ---------------------------------------------------------------------- the options
 def _check_positive(name, value):
     if not (isinstance(value, (int, float, np.floating, np.integer))
             and np.isfinite(value) and value > 0):
@@ -298,29 +306,68 @@ def _check_count(name, value, minimum):
     return int(value)
 
 
-def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None,
-                    ds=0.05, ds_min=1e-6, ds_max=0.5, max_points=500, max_newton=10,
-                    target_newton=4, max_turn=math.pi / 4, scale=None, callback=None,
-                    direction=+1, refine_folds=True, groups=None,
-                    max_deviation=0.3, kink_ds=0.01, lam_back=None,
-                    segment_check=None) -> Branch:
-    """Trace the solution branch of R(x, lam) = 0 from (x0, lam0) towards lam_end.
+@dataclass(frozen=True, eq=False)
+class ContinuationOptions:
+    """The validated options of `continue_branch` (module docstring), for a branch of
+    n unknowns from lam0 towards lam_end.  Build it with `continuation_options`."""
 
-    See the module docstring for the equations and the options.  Numerical failure
-    is returned as a Branch with success False; bad arguments raise ValueError.
-    """
-    # ---- argument checks
-    if not callable(fun):
-        raise ValueError("fun must be callable: fun(x, lam) -> (R, dR_dx, dR_dlam)")
+    n: int
+    lam0: float
+    lam_end: float
+    tol: float
+    tol_rel: float
+    r_ref: float | None
+    ds: float
+    ds_min: float
+    ds_max: float
+    max_points: int
+    max_newton: int
+    target_newton: int
+    max_turn: float
+    scale: np.ndarray | None    # (n+1,) fixed scales, or None: automatic
+    callback: object
+    direction: int
+    refine_folds: bool
+    groups: np.ndarray | None
+    max_deviation: float
+    kink_ds: float
+    lam_back: float | None
+    segment_check: object
+
+    @property
+    def thresh(self) -> float:
+        """The residual bound of the convergence rule, tol + tol_rel * r_ref."""
+        return self.tol + self.tol_rel * (self.r_ref or 0.0)
+
+    @property
+    def cos_turn(self) -> float:
+        return math.cos(min(self.max_turn, math.pi))
+
+    @property
+    def bounds(self) -> tuple:
+        """(lo, hi): the run stops where lam leaves [lo, hi] (lam_back to lam_end)."""
+        far = self.lam0 if self.lam_back is None else self.lam_back
+        return min(far, self.lam_end), max(far, self.lam_end)
+
+
+def _check_start(x0):
     x0 = np.asarray(x0, dtype=float)
     if x0.ndim != 1 or x0.size == 0 or not np.all(np.isfinite(x0)):
         raise ValueError(f"x0 must be a non-empty finite 1-D array, got shape {x0.shape}")
+    return x0
+
+
+def _check_interval(lam0, lam_end):
     for name, v in (("lam0", lam0), ("lam_end", lam_end)):
         if not np.isfinite(v):
             raise ValueError(f"{name} must be finite, got {v!r}")
     lam0, lam_end = float(lam0), float(lam_end)
     if lam0 == lam_end:
         raise ValueError(f"lam_end must differ from lam0, both are {lam0}")
+    return lam0, lam_end
+
+
+def _check_tolerance(tol, tol_rel, r_ref):
     if tol is None:
         raise ValueError("tol must be given: an absolute residual tolerance in the units of R")
     tol = _check_positive("tol", tol)
@@ -330,7 +377,10 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         if r_ref is None:
             raise ValueError("r_ref (reference residual norm) is required when tol_rel > 0")
         r_ref = _check_positive("r_ref", r_ref)
-    thresh = tol + tol_rel * (r_ref or 0.0)
+    return tol, tol_rel, r_ref
+
+
+def _check_steps(ds, ds_min, ds_max):
     ds = _check_positive("ds", ds)
     ds_min = _check_positive("ds_min", ds_min)
     ds_max = _check_positive("ds_max", ds_max)
@@ -338,6 +388,42 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         raise ValueError(f"ds_min ({ds_min}) must not exceed ds_max ({ds_max})")
     if not ds_min <= ds <= ds_max:
         raise ValueError(f"ds ({ds}) must lie in [ds_min, ds_max] = [{ds_min}, {ds_max}]")
+    return ds, ds_min, ds_max
+
+
+def _check_metric(n, groups, scale):
+    if groups is not None:
+        groups = np.asarray(groups, dtype=int)
+        if groups.shape != (n,) or groups.min() < 0:
+            raise ValueError(f"groups must be {n} non-negative integers (one per unknown)")
+        groups = _frozen(groups, int)
+    if scale is not None:
+        s = np.array(scale, dtype=float)
+        if s.shape != (n + 1,) or not np.all(np.isfinite(s)) or np.any(s <= 0):
+            raise ValueError(f"scale must be a positive finite array of shape ({n + 1},) "
+                             f"[x scales..., lam scale], got {np.shape(scale)}")
+        scale = _frozen(s)
+    return groups, scale
+
+
+def _check_lam_back(lam_back, lam0, lam_end):
+    if lam_back is not None and not (
+            np.isfinite(lam_back) and (lam_back - lam0) * (lam_end - lam0) <= 0):
+        raise ValueError(f"lam_back must be finite and lie beyond lam0 = {lam0} away from "
+                         f"lam_end = {lam_end}, got {lam_back!r}")
+
+
+def continuation_options(n, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None, ds=0.05,
+                         ds_min=1e-6, ds_max=0.5, max_points=500, max_newton=10,
+                         target_newton=4, max_turn=math.pi / 4, scale=None, callback=None,
+                         direction=+1, refine_folds=True, groups=None, max_deviation=0.3,
+                         kink_ds=0.01, lam_back=None,
+                         segment_check=None) -> ContinuationOptions:
+    """The options of `continue_branch` for n unknowns, checked: a ValueError names
+    the first bad argument (in the order of the signature)."""
+    lam0, lam_end = _check_interval(lam0, lam_end)
+    tol, tol_rel, r_ref = _check_tolerance(tol, tol_rel, r_ref)
+    ds, ds_min, ds_max = _check_steps(ds, ds_min, ds_max)
     max_points = _check_count("max_points", max_points, 1)
     max_newton = _check_count("max_newton", max_newton, 1)
     target_newton = _check_count("target_newton", target_newton, 1)
@@ -346,60 +432,94 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         raise ValueError(f"direction must be +1 or -1, got {direction!r}")
     if callback is not None and not callable(callback):
         raise ValueError("callback must be callable or None")
-    n = x0.size
+    groups, scale = _check_metric(n, groups, scale)
+    _check_lam_back(lam_back, lam0, lam_end)
+    return ContinuationOptions(
+        n=n, lam0=lam0, lam_end=lam_end, tol=tol, tol_rel=tol_rel, r_ref=r_ref, ds=ds,
+        ds_min=ds_min, ds_max=ds_max, max_points=max_points, max_newton=max_newton,
+        target_newton=target_newton, max_turn=max_turn, scale=scale, callback=callback,
+        direction=int(direction), refine_folds=refine_folds, groups=groups,
+        max_deviation=max_deviation, kink_ds=kink_ds, lam_back=lam_back,
+        segment_check=segment_check)
+
+
+# ---------------------------------------------------------------------- the metric
+def automatic_scale(xmax, groups=None):
+    """s_x from the running maximum |x| per unknown: shared within a group (the
+    group's largest), floored at _SCALE_FLOOR times the largest entry; all ones
+    while x = 0."""
+    xm = xmax
     if groups is not None:
-        groups = np.asarray(groups, dtype=int)
-        if groups.shape != (x0.size,) or groups.min() < 0:
-            raise ValueError(f"groups must be {x0.size} non-negative integers (one per unknown)")
-    auto_scale = scale is None
-    if auto_scale:
-        xmax = np.zeros(n)
-        s = np.empty(n + 1)
-        s[n] = abs(lam_end - lam0)
-    else:
-        s = np.array(scale, dtype=float)
-        if s.shape != (n + 1,) or not np.all(np.isfinite(s)) or np.any(s <= 0):
-            raise ValueError(f"scale must be a positive finite array of shape ({n + 1},) "
-                             f"[x scales..., lam scale], got {np.shape(scale)}")
+        gmax = np.zeros(groups.max() + 1)
+        np.maximum.at(gmax, groups, xmax)
+        xm = gmax[groups]
+    top = xm.max()
+    return np.maximum(xm, _SCALE_FLOOR * top) if top > 0 else np.ones_like(xm)
 
-    def update_scale():
-        if auto_scale:
-            xm = xmax
-            if groups is not None:  # unknowns of one group share the group's scale
-                gmax = np.zeros(groups.max() + 1)
-                np.maximum.at(gmax, groups, xmax)
-                xm = gmax[groups]
-            top = xm.max()
-            s[:n] = np.maximum(xm, _SCALE_FLOOR * top) if top > 0 else 1.0
 
-    update_scale()
-    lo, hi = min(lam0, lam_end), max(lam0, lam_end)
-    if lam_back is not None:
-        if not (np.isfinite(lam_back) and (lam_back - lam0) * (lam_end - lam0) <= 0):
-            raise ValueError(f"lam_back must be finite and lie beyond lam0 = {lam0} away from "
-                             f"lam_end = {lam_end}, got {lam_back!r}")
-        lo, hi = min(lam_back, lam_end), max(lam_back, lam_end)
-    cos_turn = math.cos(min(max_turn, math.pi))
-    sparse = None
+class Metric:
+    """The scale s = [s_x, s_lam] of the unknowns y = [x; lam] / s.
 
-    def evaluate(x, lam):
-        nonlocal sparse
-        R, Jx, Jl = fun(x, lam)
+    Fixed: the caller's scale.  Automatic: s_lam = |lam_end - lam0| and s_x from the
+    points seen so far (`automatic_scale`).  `s` is updated in place, so every
+    holder of it sees the current scale.
+    """
+
+    def __init__(self, n, lam_span, groups=None, fixed=None):
+        self.groups = groups
+        self.automatic = fixed is None
+        if self.automatic:
+            self.xmax = np.zeros(n)
+            self.s = np.empty(n + 1)
+            self.s[n] = lam_span
+            self.s[:n] = automatic_scale(self.xmax, groups)
+        else:
+            self.s = np.array(fixed, dtype=float)
+
+    def observe(self, x):
+        """Widen the automatic x scale by a new point's |x|."""
+        if self.automatic:
+            self.xmax = np.maximum(self.xmax, np.abs(x))
+            self.s[:x.size] = automatic_scale(self.xmax, self.groups)
+
+
+# ---------------------------------------------------------------------- the equations
+class ScaledEquations:
+    """R(x, lam) = 0 in the scaled unknowns y = [x; lam] / s: the evaluations, bordered
+    systems, tangents and Newton solves of a continuation run, and their costs
+    (nfev: fun calls; njev: Jacobians factorised, Newton steps and tangent solves)."""
+
+    def __init__(self, fun, opts: ContinuationOptions):
+        self.fun, self.n = fun, opts.n
+        self.thresh, self.max_newton = opts.thresh, opts.max_newton
+        self.metric = Metric(opts.n, abs(opts.lam_end - opts.lam0), opts.groups, opts.scale)
+        self.sparse = None  # dR_dx sparse? known from the first evaluation
+        self.nfev = self.njev = 0
+
+    @property
+    def s(self):
+        return self.metric.s
+
+    def evaluate(self, x, lam):
+        """fun(x, lam) with its shapes checked once; dense Jacobians as arrays."""
+        n = self.n
+        R, Jx, Jl = self.fun(x, lam)
         R = np.asarray(R, dtype=float)
         Jl = np.asarray(Jl, dtype=float).reshape(-1)
-        if sparse is None:
+        if self.sparse is None:
             if R.shape != (n,) or Jx.shape != (n, n) or Jl.shape != (n,):
                 raise ValueError(
                     f"fun must return R ({n},), dR_dx ({n}, {n}), dR_dlam ({n},); got "
                     f"{R.shape}, {getattr(Jx, 'shape', None)}, {Jl.shape}")
-            sparse = sp.issparse(Jx)
-        if not sparse:
+            self.sparse = sp.issparse(Jx)
+        if not self.sparse:
             Jx = np.asarray(Jx, dtype=float)
         return R, Jx, Jl
 
-    def bordered(Jx, Jl, row):
+    def bordered(self, Jx, Jl, row):
         """[[Jx S_x, Jl s_lam], [row]] in the scaled unknowns."""
-        if sparse:
+        n, s = self.n, self.s
+        if self.sparse:
             return sp.bmat([[Jx @ sp.diags(s[:n]), (Jl * s[n])[:, None]],
                             [row[None, :n], row[None, n:]]], format="csc")
         A = np.empty((n + 1, n + 1))
@@ -408,14 +528,15 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         A[n] = row
         return A
 
-    def tangent_from(Jx, Jl, t_prev_phys):
+    def tangent_from(self, Jx, Jl, t_prev_phys):
         """Unit scaled tangent oriented along t_prev, its cosine with t_prev, physical t."""
+        n, s = self.n, self.s
         tp = t_prev_phys / s
         tp /= np.linalg.norm(tp)
         rhs = np.zeros(n + 1)
         rhs[n] = 1.0
         try:
-            w = _solve(bordered(Jx, Jl, tp), rhs)
+            w = _solve(self.bordered(Jx, Jl, tp), rhs)
         except (np.linalg.LinAlgError, RuntimeError):
             return None
         nw = np.linalg.norm(w)
@@ -424,184 +545,303 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         t = w / nw
         return t, float(t @ tp), t * s
 
-    counters = {"nfev": 0, "njev": 0}
-    Z, T, NIT, PNFEV, RN = [], [], [], [], []
+    def null_vector(self, Jx, Jl):
+        """Unit null vector (sign arbitrary) of [Jx S_x, Jl s_lam]: by a dense QR
+        (robust even at a fold), or with a sparse Jx a bordered solve (needs Jx
+        regular); None if singular."""
+        n, s = self.n, self.s
+        if self.sparse:
+            e = np.zeros(n + 1)
+            e[n] = 1.0
+            try:
+                t = _solve(self.bordered(Jx, Jl, e), e)
+            except (np.linalg.LinAlgError, RuntimeError):
+                return None
+        else:
+            Q, _ = sla.qr(np.hstack([Jx * s[:n], (Jl * s[n])[:, None]]).T)
+            t = Q[:, -1].copy()
+        self.njev += 1
+        t /= np.linalg.norm(t)
+        return t
 
-    def result(status, message):
-        m = len(Z)
-        Zs = np.array(Z, float).reshape(m, n + 1)
-        Ts = np.array(T, float).reshape(m, n + 1)
-        if m:
-            Ts = Ts / np.linalg.norm(Ts / s, axis=1, keepdims=True)
-        folds = [refine_fold(*f) for f in _fold_segments(Zs, Ts, s)]
-        fi = np.array([f[0] for f in folds], int)
-        fl = np.array([f[1][n] for f in folds], float)
-        fx = np.array([f[1][:n] for f in folds], float).reshape(len(folds), n)
-        success = status >= 0 and status != 2
-        log.debug("continuation: %d points, %d folds, nfev=%d: %s", m, fi.size,
-                 counters["nfev"], message)
-        return Branch(
-            x=_frozen(Zs[:, :n]), lam=_frozen(Zs[:, n]), tangent=_frozen(Ts),
-            converged=_frozen(np.ones(m, bool), bool), nit=_frozen(NIT, int),
-            point_nfev=_frozen(PNFEV, int), residual_norm=_frozen(RN),
-            fold_index=_frozen(fi, int), fold_lam=_frozen(fl), fold_x=_frozen(fx),
-            nfev=counters["nfev"], njev=counters["njev"], n_rejected=n_rejected,
-            min_step=min_step,
-            scale=_frozen(s), success=success, status=status, message=message,
-            n_unresolved=n_unresolved)
+    def oriented_tangent(self, JJ, along):
+        """Unit scaled tangent at a point (Jacobians JJ) oriented along `along` (scaled)."""
+        tan = self.tangent_from(JJ[0], JJ[1], along * self.s)
+        self.njev += 1
+        return None if tan is None else tan[0]
 
-    n_rejected = 0
-    n_unresolved = 0
-    min_step = math.inf
-
-    def refine_fold(i, u, seg):
-        """Fold between points i, i+1: zero of the tangent's lam-component along the
-        branch by Illinois regula falsi on u, each value from a corrector on the
-        hyperplane through the Hermite point p(u) normal to p'(u).  Falls back to the
-        Hermite point if a corrector fails."""
-        y0, y1, d0, d1 = seg
-        p, _ = _hermite(y0, y1, d0, d1, u)
-        best = p * s
-        if not refine_folds:
-            return i, best
-
-        def g(u):
-            p, dp = _hermite(y0, y1, d0, d1, u)
-            nrm = dp / np.linalg.norm(dp)
-
-            def aug(zz):
-                R, Jx, Jl = evaluate(zz[:n], zz[n])
-                return np.append(R, nrm @ (zz / s - p)), (Jx, Jl)
-
-            zc, st, _, nfev, njev, _, JJ, _ = _newton_core(
-                aug, p * s, thresh, max_newton, lambda F: np.linalg.norm(F[:n]),
-                lambda JJ, rhs: s * _solve(bordered(JJ[0], JJ[1], nrm), rhs))
-            counters["nfev"] += nfev
-            counters["njev"] += njev + 1
-            tan = tangent_from(*JJ, dp * s) if st == 0 else None
-            return (None, None) if tan is None else (tan[0][n], zc)
-
-        a, b = 0.0, 1.0
-        ga, gb = d0[-1] / np.linalg.norm(d0), d1[-1] / np.linalg.norm(d1)
-        side = 0
-        for _ in range(12):
-            gu, zc = g(u)
-            if gu is None:
-                break
-            best = zc
-            if abs(gu) < 1e-9:
-                break
-            if np.sign(gu) == np.sign(ga):
-                a, ga = u, gu
-                if side == -1:
-                    gb *= 0.5
-                side = -1
-            else:
-                b, gb = u, gu
-                if side == 1:
-                    ga *= 0.5
-                side = 1
-            u = (a * gb - b * ga) / (gb - ga)
-        return i, best
-
-    def solve_fixed_lam(xg, lam):
+    def solve_fixed_lam(self, xg, lam):
         """Newton at fixed lam; also returns (R, Jx, Jl) at the last iterate."""
         def fx(x):
-            R, Jx, Jl = evaluate(x, lam)
+            R, Jx, Jl = self.evaluate(x, lam)
             return R, (R, Jx, Jl)
         z, st, nit, nfev, njev, r, RJJ, _ = _newton_core(
-            fx, xg, thresh, _FIRST_POINT_ITER * max_newton, np.linalg.norm,
+            fx, xg, self.thresh, _FIRST_POINT_ITER * self.max_newton, np.linalg.norm,
             lambda RJJ, rhs: _solve(RJJ[1], rhs))
-        counters["nfev"] += nfev
-        counters["njev"] += njev
+        self.nfev += nfev
+        self.njev += njev
         return z, st, nit, nfev, r, RJJ
 
-    # ---- first point: Newton at fixed lam0
-    x, st, nit, nfev, r, (R, Jx, Jl) = solve_fixed_lam(x0, lam0)
-    if st != 0:
-        return result(-2, f"first point at lam0 = {lam0} did not converge: "
-                          f"{_NEWTON_MESSAGES[st]} (||R|| = {r:.3e}, tol = {thresh:.3e})")
-    if auto_scale:  # from the solution, not from the caller's guess
-        xmax = np.abs(x)
-        update_scale()
-    if sparse:
-        rhs = np.zeros(n + 1)
-        rhs[n] = 1.0
-        e = np.zeros(n + 1)
-        e[n] = 1.0
-        try:
-            t = _solve(bordered(Jx, Jl, e), rhs)
-        except (np.linalg.LinAlgError, RuntimeError):
-            return result(-2, "tangent at the first point failed: singular dR_dx at lam0")
-    else:  # null vector of [Jx S_x, Jl s_lam]: robust even at a fold
-        A0 = np.hstack([Jx * s[:n], (Jl * s[n])[:, None]])
-        Q, _ = sla.qr(A0.T)
-        t = Q[:, -1].copy()
-    counters["njev"] += 1
-    t /= np.linalg.norm(t)
-    sgn = np.sign(t[n] * (lam_end - lam0))
-    if abs(t[n]) < 1e-12:  # start at a fold: orient by the growth of |x|
-        sgn = np.sign(t[:n] @ (x / s[:n])) or 1.0
-    t *= sgn * direction
-    t_phys = t * s
-    z = np.append(x, lam0)
-    Z.append(z)
-    T.append(t_phys)
-    NIT.append(nit)
-    PNFEV.append(nfev)
-    RN.append(np.linalg.norm(R))
-    if callback is not None and callback(x.copy(), lam0):
-        return result(3, "stopped by callback")
-    if max_points == 1:
-        return result(2, "max_points reached before lam_end")
+    def solve_on_plane(self, y, normal):
+        """Newton on R(x, lam) = 0 and normal . (z / s - y) = 0 from z = y s (scaled
+        unknowns); the `_newton_core` tuple, its costs counted."""
+        n, s = self.n, self.s
 
-    # ---- predictor-corrector loop
-    spent = 0
-    last = {}
-    if not auto_scale:
-        xmax = None
+        def aug(zz):
+            R, Jx, Jl = self.evaluate(zz[:n], zz[n])
+            return np.append(R, normal @ (zz / s - y)), (Jx, Jl)
 
-    def is_kink(what, value):
+        def scaled_step(JJ, rhs):  # Newton in the scaled unknowns: dz = S dy
+            return s * _solve(self.bordered(JJ[0], JJ[1], normal), rhs)
+
+        out = _newton_core(aug, y * s, self.thresh, self.max_newton,
+                           lambda F: np.linalg.norm(F[:n]), scaled_step)
+        self.nfev += out[3]
+        self.njev += out[4]
+        return out
+
+
+# ---------------------------------------------------------------------- folds
+def refine_fold(eq, i, u, seg, refine=True):
+    """Fold between points i, i+1: zero of the tangent's lam-component along the
+    branch by Illinois regula falsi on u, each value from a corrector on the
+    hyperplane through the Hermite point p(u) normal to p'(u) (`fold_corrector`).
+    Falls back to the Hermite point if a corrector fails."""
+    y0, y1, d0, d1 = seg
+    p, _ = _hermite(y0, y1, d0, d1, u)
+    best = p * eq.s
+    if not refine:
+        return i, best
+    a, b = 0.0, 1.0
+    ga, gb = d0[-1] / np.linalg.norm(d0), d1[-1] / np.linalg.norm(d1)
+    side = 0
+    for _ in range(12):
+        gu, zc = fold_corrector(eq, seg, u)
+        if gu is None:
+            break
+        best = zc
+        if abs(gu) < 1e-9:
+            break
+        if np.sign(gu) == np.sign(ga):
+            a, ga = u, gu
+            if side == -1:
+                gb *= 0.5
+            side = -1
+        else:
+            b, gb = u, gu
+            if side == 1:
+                ga *= 0.5
+            side = 1
+        u = (a * gb - b * ga) / (gb - ga)
+    return i, best
+
+
+def fold_corrector(eq, seg, u):
+    """(lam-component of the unit scaled tangent, point) of the branch point on
+    the hyperplane through the Hermite point p(u) normal to p'(u); (None, None)
+    if the corrector fails."""
+    p, dp = _hermite(*seg, u)
+    zc, st, _, _, _, _, JJ, _ = eq.solve_on_plane(p, dp / np.linalg.norm(dp))
+    eq.njev += 1
+    tan = eq.tangent_from(*JJ, dp * eq.s) if st == 0 else None
+    return (None, None) if tan is None else (tan[0][eq.n], zc)
+
+
+# ---------------------------------------------------------------------- the tracer
+class Tracer:
+    """One run of `continue_branch`: the state its steps share, and the steps.
+
+    State: the current point z = [x; lam] and its tangent t_phys (physical units),
+    the step ds, the accepted points, the rejections; the equations `eq` hold the
+    metric and count the costs.  `run` solves the
+    first point, then repeats `step` (predict, correct, assess, then accept or
+    reject, a rejection possibly passing a corner) until one returns the Branch.
+    """
+
+    def __init__(self, fun, opts: ContinuationOptions):
+        self.opts, self.n = opts, opts.n
+        self.eq = ScaledEquations(fun, opts)
+        self.ds = opts.ds
+        self.z = self.t_phys = None
+        self.points = []    # (z, t_phys, nit, nfev, ||R||) of each accepted point
+        self.n_rejected = self.n_unresolved = 0
+        self.min_step = math.inf
+        self.spent = 0      # fun calls since the last accepted point
+        self.recent = {}    # turn / deviation of the rejections since the last acceptance
+
+    @property
+    def s(self):
+        return self.eq.s
+
+    def run(self, x0) -> Branch:
+        done = self.first_point(x0)
+        while done is None:
+            done = self.step()
+        return done
+
+    # ---- the first point
+    def first_point(self, x0):
+        """Newton at fixed lam0 and the first tangent; the Branch if the run ends there."""
+        o = self.opts
+        x, st, nit, nfev, r, (R, Jx, Jl) = self.eq.solve_fixed_lam(x0, o.lam0)
+        if st != 0:
+            return self.result(-2, f"first point at lam0 = {o.lam0} did not converge: "
+                                   f"{_NEWTON_MESSAGES[st]} (||R|| = {r:.3e}, "
+                                   f"tol = {o.thresh:.3e})")
+        self.eq.metric.observe(x)  # from the solution, not from the caller's guess
+        t = self.first_tangent(x, Jx, Jl)
+        if t is None:
+            return self.result(-2, "tangent at the first point failed: singular dR_dx at lam0")
+        self.z, self.t_phys = np.append(x, o.lam0), t * self.s
+        self.points.append((self.z, self.t_phys, nit, nfev, np.linalg.norm(R)))
+        if o.callback is not None and o.callback(x.copy(), o.lam0):
+            return self.result(3, "stopped by callback")
+        if o.max_points == 1:
+            return self.result(2, "max_points reached before lam_end")
+        return None
+
+    def first_tangent(self, x, Jx, Jl):
+        """Unit scaled tangent at the first point, towards lam_end times `direction`
+        (at a fold, where its lam-component vanishes: towards growing |x|)."""
+        n, s, o = self.n, self.s, self.opts
+        t = self.eq.null_vector(Jx, Jl)
+        if t is None:
+            return None
+        sgn = np.sign(t[n] * (o.lam_end - o.lam0))
+        if abs(t[n]) < 1e-12:
+            sgn = np.sign(t[:n] @ (x / s[:n])) or 1.0
+        t *= sgn * o.direction
+        return t
+
+    # ---- one step
+    def step(self):
+        """One predictor-corrector step; the Branch if the run ends with it, else None."""
+        ts, y_pred = self.predict()
+        zn, st, nit, _, r, JJ = self.correct(y_pred, ts)
+        reason, feature, tan, shrink = self.assess(zn, st, JJ, y_pred)
+        if reason is not None:
+            return self.reject(reason, feature, shrink, ts, zn, JJ)
+        return self.accept(zn, tan, nit, r)
+
+    def predict(self):
+        """(unit scaled tangent ts, predictor y_k + ds ts) in the scaled unknowns."""
+        ts = self.t_phys / self.s
+        ts /= np.linalg.norm(ts)
+        return ts, self.z / self.s + self.ds * ts
+
+    def correct(self, y_pred, normal):
+        """Corrector on the hyperplane through y_pred normal to `normal` (scaled):
+        (z, status, nit, nfev, ||R||, (Jx, Jl)); status -1: the hyperplane condition
+        is not met although ||R|| is."""
+        zn, st, nit, nfev, _, r, JJ, F = self.eq.solve_on_plane(y_pred, normal)
+        self.spent += nfev
+        if st == 0 and abs(F[self.n]) > 1e-6 * max(
+                np.linalg.norm(y_pred - self.z / self.s), 1e-12):
+            st = -1  # arclength condition not met
+        return zn, st, nit, nfev, r, JJ
+
+    def assess(self, zn, st, JJ, y_pred):
+        """The tests a corrected point must pass, in order: convergence, deviation
+        from the predictor, turn of the tangent, `segment_check`.  Returns (reason
+        for rejection or None, rejected for a feature (possibly a corner)?, tangent
+        triple of `tangent_from` or None, factor for the step if rejected)."""
+        if st != 0:
+            return ("arclength condition not met" if st == -1 else _NEWTON_MESSAGES[st],
+                    False, None, 0.5)
+        reason = self.deviation_test(zn, y_pred)
+        if reason is not None:
+            return reason, True, None, 0.5
+        tan = self.eq.tangent_from(JJ[0], JJ[1], self.t_phys)
+        self.eq.njev += 1
+        if tan is None:
+            return "singular tangent system", False, None, 0.5
+        reason = self.turn_test(tan[1])
+        if reason is not None:
+            return reason, True, tan, 0.5
+        reason, shrink = self.segment_test(zn)
+        return reason, False, tan, shrink
+
+    def deviation_test(self, zn, y_pred):
+        """The corrector must stay near the predictor: a large deviation of the secant
+        from the tangent means the step jumped over a feature (e.g. a resonance of a
+        branch Newton finds easy), even if the tangents agree."""
+        o = self.opts
+        dev = np.linalg.norm(zn / self.s - y_pred) / self.ds
+        if dev > o.max_deviation and self.ds > o.ds_min:
+            if not self.is_kink("deviation", dev):
+                return f"corrector moved {dev:.2f} step lengths from the predictor"
+            log.debug("kink passed: deviation %.2f persists as ds shrinks", dev)
+        return None
+
+    def turn_test(self, cos_angle):
+        """The tangent may turn by at most max_turn in one step (no branch jumping)."""
+        if cos_angle < self.opts.cos_turn and self.ds > self.opts.ds_min:
+            angle = math.acos(min(1.0, cos_angle))
+            if not self.is_kink("turn", angle):
+                return f"tangent turned by {math.degrees(angle):.1f} deg"
+            log.debug("kink passed: turn %.1f deg persists as ds shrinks", math.degrees(angle))
+        return None
+
+    def segment_test(self, zn):
+        """(reason or None, step factor) from the caller's `segment_check`."""
+        o, z, n = self.opts, self.z, self.n
+        if o.segment_check is None:
+            return None, 0.5
+        width = o.segment_check(z[:n], z[n], zn[:n], zn[n])
+        if width is not None and self.ds > o.ds_min:
+            step = abs(zn[n] - z[n])
+            return (f"a resonance inside the step (|dlam| = {step:.3g} > {width:.3g})",
+                    min(0.5, max(0.9 * width / step, 1e-3)))
+        if width is not None:
+            self.n_unresolved += 1
+            log.debug("step at ds_min taken although segment_check refused it")
+        return None, 0.5
+
+    def is_kink(self, what, value):
         """A smooth curve's turn and predictor deviation shrink in proportion to the
         step; once the step is small (< kink_ds, while crossing a resonance needs a
         step of order one in the scaled metric), a rejection that survives three
         halvings there is a corner of the branch (e.g. a change of the stick/slip
         pattern), not a jump: it is accepted."""
-        prev = last.get(what)
-        last[what] = value
-        if ds >= kink_ds:
+        prev = self.recent.get(what)
+        self.recent[what] = value
+        if self.ds >= self.opts.kink_ds:
             return False
-        last["small"] = last.get("small", 0) + 1
-        return last["small"] > 3 or (prev is not None and value > 0.75 * prev)
+        self.recent["small"] = self.recent.get("small", 0) + 1
+        return self.recent["small"] > 3 or (prev is not None and value > 0.75 * prev)
 
-    def correct(y_pred, normal):
-        """Corrector on the hyperplane through y_pred normal to `normal` (scaled)."""
-        nonlocal spent
+    def accept(self, zn, tan, nit, r):
+        """Take the corrected point; the next step aims at target_newton iterations."""
+        o = self.opts
+        self.recent.clear()
+        self.min_step = min(self.min_step, self.ds)
+        done = self.commit(zn, tan[2], nit, r)
+        if done is not None:
+            return done
+        factor = math.sqrt(o.target_newton / max(nit, 1))
+        self.ds = min(max(self.ds * min(max(factor, 0.5), 2.0), o.ds_min), o.ds_max)
+        return None
 
-        def aug(zz):
-            R, Jx, Jl = evaluate(zz[:n], zz[n])
-            return np.append(R, normal @ (zz / s - y_pred)), (Jx, Jl)
+    def reject(self, reason, feature, shrink, ts, zn, JJ):
+        """Pass a corner if the rejection may be one, else shorten the step; the
+        Branch (failure) once the step falls below ds_min."""
+        o = self.opts
+        self.n_rejected += 1
+        corner = self.pass_corner(ts, zn, JJ) if feature else None
+        if corner:
+            log.debug("corner passed with %d point(s) (%s)", len(corner), reason)
+            return self.commit_corner(corner)
+        self.ds *= shrink
+        log.debug("step rejected (%s); ds -> %.3e", reason, self.ds)
+        if shrink < 0.5 and self.ds < o.ds_min:  # try the smallest step before giving up
+            self.ds = o.ds_min
+        if self.ds < o.ds_min:
+            return self.result(-1, f"step size below ds_min = {o.ds_min:g} at lam = "
+                                   f"{self.z[self.n]:.6g} (last failure: {reason})")
+        return None
 
-        def scaled_step(JJ, rhs):  # Newton in the scaled unknowns: dz = S dy
-            return s * _solve(bordered(JJ[0], JJ[1], normal), rhs)
-
-        zn, st, nit, nfev, njev, r, JJ, F = _newton_core(
-            aug, y_pred * s, thresh, max_newton, lambda F: np.linalg.norm(F[:n]),
-            scaled_step)
-        counters["nfev"] += nfev
-        counters["njev"] += njev
-        spent += nfev
-        if st == 0 and abs(F[n]) > 1e-6 * max(np.linalg.norm(y_pred - z / s), 1e-12):
-            st = -1  # arclength condition not met
-        return zn, st, nit, nfev, r, JJ
-
-    def oriented_tangent(JJ, along):
-        """Unit scaled tangent at a point (Jacobians JJ) oriented along `along` (scaled)."""
-        tan = tangent_from(JJ[0], JJ[1], along * s)
-        counters["njev"] += 1
-        return None if tan is None else tan[0]
-
-    def pass_corner(ts, zn, JJn):
+    # ---- corners
+    def pass_corner(self, ts, zn, JJn):
         """A corner of the branch between z and the rejected corrector point zn.
 
         The branch is piecewise smooth (stick/slip/separation patterns change at
@@ -616,8 +856,26 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         tangents lie between t and t_n), so only genuine corners pass.  Returns the
         accepted points [(z, t_scaled, nit, r)] (possibly only y1), or None.
         """
-        y0, yn = z / s, zn / s
-        tn = oriented_tangent(JJn, yn - y0)
+        found = self.locate_corner(ts, zn, JJn)
+        if found is None:
+            return None
+        a, b, tn, turn = found
+        out = []
+        if a > 0.05 * self.ds:  # a point just before the corner
+            before = self.point_before_corner(ts, a, max(0.2 * turn, math.radians(2.0)))
+            if before is None:
+                return None
+            out.append(before)
+        beyond = self.point_beyond_corner(self.z / self.s + a * ts, tn, b)
+        if beyond is not None:
+            out.append(beyond)
+        return out or None
+
+    def locate_corner(self, ts, zn, JJn):
+        """(a, b, t_n, turn) of the corner c = y + a t = y_n - b t_n, or None if the
+        two tangents do not meet like a corner's."""
+        y0, yn = self.z / self.s, zn / self.s
+        tn = self.eq.oriented_tangent(JJn, yn - y0)
         if tn is None:
             return None
         (a, b), *_ = np.linalg.lstsq(np.column_stack([ts, tn]), yn - y0, rcond=None)
@@ -625,147 +883,132 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
             tn, b = -tn, -b
         turn = math.acos(float(np.clip(ts @ tn, -1.0, 1.0)))
         gap = np.linalg.norm(y0 + a * ts + b * tn - yn)
-        if not (turn > _CORNER_TURN and 0 < a <= ds and gap <= 0.25 * max(a, b)):
+        if not (turn > _CORNER_TURN and 0 < a <= self.ds and gap <= 0.25 * max(a, b)):
             return None
-        tol_angle = max(0.2 * turn, math.radians(2.0))
-        out = []
-        c = y0 + a * ts
-        if a > 0.05 * ds:  # a point just before the corner
-            y1p = y0 + 0.98 * a * ts
-            z1, st1, nit1, _, r1, JJ1 = correct(y1p, ts)
-            if st1 != 0:
-                return None
-            t1 = oriented_tangent(JJ1, ts)
-            if t1 is None or np.linalg.norm(z1 / s - y1p) > max_deviation * 0.98 * a:
-                return None
-            if math.acos(min(1.0, float(t1 @ ts))) > tol_angle:
-                return None
-            out.append((z1, t1, nit1, r1))
-        d = min(ds, b)
+        return a, b, tn, turn
+
+    def point_before_corner(self, ts, a, tol_angle):
+        """The point at 0.98 a along the tangent ts, if its tangent is still ts."""
+        y1p = self.z / self.s + 0.98 * a * ts
+        z1, st1, nit1, _, r1, JJ1 = self.correct(y1p, ts)
+        if st1 != 0:
+            return None
+        t1 = self.eq.oriented_tangent(JJ1, ts)
+        if (t1 is None or np.linalg.norm(z1 / self.s - y1p)
+                > self.opts.max_deviation * 0.98 * a):
+            return None
+        if math.acos(min(1.0, float(t1 @ ts))) > tol_angle:
+            return None
+        return z1, t1, nit1, r1
+
+    def point_beyond_corner(self, c, tn, b):
+        """The point at c + d tn, near its predictor with its tangent near tn
+        (d = min(ds, b), once more at d / 4), or None."""
+        o = self.opts
+        d = min(self.ds, b)
         for _ in range(2):
             y2p = c + d * tn
-            z2, st2, nit2, _, r2, JJ2 = correct(y2p, tn)
-            t2 = oriented_tangent(JJ2, tn) if st2 == 0 else None
-            if (t2 is not None and np.linalg.norm(z2 / s - y2p) <= max_deviation * d
-                    and math.acos(min(1.0, float(t2 @ tn))) <= max_turn):
-                out.append((z2, t2, nit2, r2))
-                break
+            z2, st2, nit2, _, r2, JJ2 = self.correct(y2p, tn)
+            t2 = self.eq.oriented_tangent(JJ2, tn) if st2 == 0 else None
+            if (t2 is not None and np.linalg.norm(z2 / self.s - y2p) <= o.max_deviation * d
+                    and math.acos(min(1.0, float(t2 @ tn))) <= o.max_turn):
+                return z2, t2, nit2, r2
             d *= 0.25
-        return out or None
-
-    def commit(zn, t_new_phys, nit, r):
-        """Append an accepted point; a Branch when the run ends there, else None."""
-        nonlocal z, t_phys, spent, xmax
-        lam_new = zn[n]
-        if not lo <= lam_new <= hi:
-            bound = hi if lam_new > hi else lo
-            frac = (bound - z[n]) / (lam_new - z[n])
-            xg = z[:n] + frac * (zn[:n] - z[:n])
-            if not (bound == lam0 and len(Z) == 1):
-                xb, stb, nitb, nfevb, rb, (R, Jx, Jl) = solve_fixed_lam(xg, bound)
-                spent += nfevb
-                if stb == 0:
-                    tb = tangent_from(Jx, Jl, t_phys)
-                    counters["njev"] += 1
-                    if tb is not None:
-                        zn, nit, t_new_phys = np.append(xb, bound), nitb, tb[2]
-                        r = np.linalg.norm(R)
-                Z.append(zn)
-                T.append(t_new_phys)
-                NIT.append(nit)
-                PNFEV.append(spent)
-                RN.append(r)
-            if bound == lam_end:
-                return result(0, f"reached lam_end = {lam_end}")
-            return result(1, f"left the interval at lam = {bound} (branch turned back)")
-        z, t_phys = zn, t_new_phys
-        Z.append(z)
-        T.append(t_phys)
-        NIT.append(nit)
-        PNFEV.append(spent)
-        RN.append(r)
-        spent = 0
-        if auto_scale:
-            xmax = np.maximum(xmax, np.abs(z[:n]))
-            update_scale()
-        if callback is not None and callback(z[:n].copy(), z[n]):
-            return result(3, "stopped by callback")
-        if len(Z) >= max_points:
-            return result(2, "max_points reached before lam_end")
         return None
 
-    while True:
-        ts = t_phys / s
-        ts /= np.linalg.norm(ts)
-        y_pred = z / s + ds * ts
-        zn, st, nit, nfev, r, JJ = correct(y_pred, ts)
-        reason = None
-        feature = False  # rejected for a turn or a deviation: possibly a corner
-        if st == -1:
-            reason = "arclength condition not met"
-        elif st != 0:
-            reason = _NEWTON_MESSAGES[st]
-        if reason is None:
-            # the corrector must stay near the predictor: a large deviation of the
-            # secant from the tangent means the step jumped over a feature (e.g. a
-            # resonance of a branch Newton finds easy), even if the tangents agree
-            dev = np.linalg.norm(zn / s - y_pred) / ds
-            if dev > max_deviation and ds > ds_min:
-                if is_kink("deviation", dev):
-                    log.debug("kink passed: deviation %.2f persists as ds shrinks", dev)
-                else:
-                    reason = f"corrector moved {dev:.2f} step lengths from the predictor"
-                    feature = True
-        if reason is None:
-            Jx, Jl = JJ
-            tan = tangent_from(Jx, Jl, t_phys)
-            counters["njev"] += 1
-            if tan is None:
-                reason = "singular tangent system"
-            elif tan[1] < cos_turn and ds > ds_min:
-                angle = math.acos(min(1.0, tan[1]))
-                if is_kink("turn", angle):
-                    log.debug("kink passed: turn %.1f deg persists as ds shrinks",
-                              math.degrees(angle))
-                else:
-                    reason = f"tangent turned by {math.degrees(angle):.1f} deg"
-                    feature = True
-        shrink = 0.5
-        if reason is None and segment_check is not None:
-            width = segment_check(z[:n], z[n], zn[:n], zn[n])
-            if width is not None and ds > ds_min:
-                step = abs(zn[n] - z[n])
-                reason = f"a resonance inside the step (|dlam| = {step:.3g} > {width:.3g})"
-                shrink = min(0.5, max(0.9 * width / step, 1e-3))
-            elif width is not None:
-                n_unresolved += 1
-                log.debug("step at ds_min taken although segment_check refused it")
-        if reason is not None:
-            n_rejected += 1
-            corner = pass_corner(ts, zn, JJ) if feature else None
-            if corner:
-                log.debug("corner passed with %d point(s) (%s)", len(corner), reason)
-                last.clear()
-                min_step = min(min_step, ds)
-                for zc, tc, nitc, rc in corner:
-                    done = commit(zc, tc * s, nitc, rc)
-                    if done is not None:
-                        return done
-                continue
-            ds *= shrink
-            log.debug("step rejected (%s); ds -> %.3e", reason, ds)
-            if shrink < 0.5 and ds < ds_min:  # try the smallest step before giving up
-                ds = ds_min
-            if ds < ds_min:
-                return result(-1, f"step size below ds_min = {ds_min:g} at lam = "
-                                  f"{z[n]:.6g} (last failure: {reason})")
-            continue
+    def commit_corner(self, corner):
+        """Commit the points of a passed corner; the Branch if the run ends there."""
+        self.recent.clear()
+        self.min_step = min(self.min_step, self.ds)
+        for zc, tc, nitc, rc in corner:
+            done = self.commit(zc, tc * self.s, nitc, rc)
+            if done is not None:
+                return done
+        return None
 
-        # accepted
-        last.clear()
-        min_step = min(min_step, ds)
-        done = commit(zn, tan[2], nit, r)
-        if done is not None:
-            return done
-        factor = math.sqrt(target_newton / max(nit, 1))
-        ds = min(max(ds * min(max(factor, 0.5), 2.0), ds_min), ds_max)
+    # ---- accepted points and the end of the run
+    def commit(self, zn, t_new_phys, nit, r):
+        """Append an accepted point; a Branch when the run ends there, else None."""
+        o, n = self.opts, self.n
+        lo, hi = o.bounds
+        if not lo <= zn[n] <= hi:
+            return self.finish_at_bound(zn, t_new_phys, nit, r)
+        self.z, self.t_phys = zn, t_new_phys
+        self.points.append((zn, t_new_phys, nit, self.spent, r))
+        self.spent = 0
+        self.eq.metric.observe(zn[:n])
+        if o.callback is not None and o.callback(zn[:n].copy(), zn[n]):
+            return self.result(3, "stopped by callback")
+        if len(self.points) >= o.max_points:
+            return self.result(2, "max_points reached before lam_end")
+        return None
+
+    def finish_at_bound(self, zn, t_new_phys, nit, r):
+        """The step left [lo, hi]: the last point is re-solved on the boundary it
+        crossed (from the linear interpolation) and the Branch returned."""
+        o, n, z = self.opts, self.n, self.z
+        lo, hi = o.bounds
+        bound = hi if zn[n] > hi else lo
+        frac = (bound - z[n]) / (zn[n] - z[n])
+        xg = z[:n] + frac * (zn[:n] - z[:n])
+        if not (bound == o.lam0 and len(self.points) == 1):
+            xb, stb, nitb, nfevb, rb, (R, Jx, Jl) = self.eq.solve_fixed_lam(xg, bound)
+            self.spent += nfevb
+            if stb == 0:
+                tb = self.eq.tangent_from(Jx, Jl, self.t_phys)
+                self.eq.njev += 1
+                if tb is not None:
+                    zn, nit, t_new_phys = np.append(xb, bound), nitb, tb[2]
+                    r = np.linalg.norm(R)
+            self.points.append((zn, t_new_phys, nit, self.spent, r))
+        if bound == o.lam_end:
+            return self.result(0, f"reached lam_end = {o.lam_end}")
+        return self.result(1, f"left the interval at lam = {bound} (branch turned back)")
+
+    def result(self, status, message) -> Branch:
+        """The Branch of the points so far, its folds located."""
+        n, s, m = self.n, self.s, len(self.points)
+        Z, T, NIT, PNFEV, RN = (list(c) for c in zip(*self.points)) if m else ([],) * 5
+        Zs = np.array(Z, float).reshape(m, n + 1)
+        Ts = np.array(T, float).reshape(m, n + 1)
+        if m:
+            Ts = Ts / np.linalg.norm(Ts / s, axis=1, keepdims=True)
+        folds = [refine_fold(self.eq, *f, refine=self.opts.refine_folds)
+                 for f in _fold_segments(Zs, Ts, s)]
+        fi = np.array([f[0] for f in folds], int)
+        fl = np.array([f[1][n] for f in folds], float)
+        fx = np.array([f[1][:n] for f in folds], float).reshape(len(folds), n)
+        log.debug("continuation: %d points, %d folds, nfev=%d: %s", m, fi.size, self.eq.nfev,
+                  message)
+        return Branch(
+            x=_frozen(Zs[:, :n]), lam=_frozen(Zs[:, n]), tangent=_frozen(Ts),
+            converged=_frozen(np.ones(m, bool), bool), nit=_frozen(NIT, int),
+            point_nfev=_frozen(PNFEV, int), residual_norm=_frozen(RN),
+            fold_index=_frozen(fi, int), fold_lam=_frozen(fl), fold_x=_frozen(fx),
+            nfev=self.eq.nfev, njev=self.eq.njev, n_rejected=self.n_rejected,
+            min_step=self.min_step, scale=_frozen(s), success=status >= 0 and status != 2,
+            status=status, message=message, n_unresolved=self.n_unresolved)
+
+
+def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None,
+                    ds=0.05, ds_min=1e-6, ds_max=0.5, max_points=500, max_newton=10,
+                    target_newton=4, max_turn=math.pi / 4, scale=None, callback=None,
+                    direction=+1, refine_folds=True, groups=None,
+                    max_deviation=0.3, kink_ds=0.01, lam_back=None,
+                    segment_check=None) -> Branch:
+    """Trace the solution branch of R(x, lam) = 0 from (x0, lam0) towards lam_end.
+
+    See the module docstring for the equations and the options.  Numerical failure
+    is returned as a Branch with success False; bad arguments raise ValueError.
+    """
+    if not callable(fun):
+        raise ValueError("fun must be callable: fun(x, lam) -> (R, dR_dx, dR_dlam)")
+    x0 = _check_start(x0)
+    opts = continuation_options(
+        x0.size, lam0, lam_end, tol=tol, tol_rel=tol_rel, r_ref=r_ref, ds=ds, ds_min=ds_min,
+        ds_max=ds_max, max_points=max_points, max_newton=max_newton,
+        target_newton=target_newton, max_turn=max_turn, scale=scale, callback=callback,
+        direction=direction, refine_folds=refine_folds, groups=groups,
+        max_deviation=max_deviation, kink_ds=kink_ds, lam_back=lam_back,
+        segment_check=segment_check)
+    return Tracer(fun, opts).run(x0)

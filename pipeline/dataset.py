@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import os
+import re
 import uuid
 from pathlib import Path
 
@@ -82,6 +83,19 @@ def _case_arrays(curve, rows, to_unit):
                 stable=np.where(conv, np.asarray(curve.stable, dtype=float), np.nan),
                 residual=np.asarray(curve.residual, dtype=float),
                 newton_iterations=np.asarray(curve.newton_iterations).astype(np.int32))
+
+
+_LAM = re.compile(r"\b(lam_end|lam0|lam) = ([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)")
+
+
+def readable_message(message: str, to_unit: float, unit: str) -> str:
+    """A continuation message in the study's words and unit: the continuation
+    parameter lam [rad/s] is the excitation frequency ("reached lam_end = 439.82..."
+    -> "reached the end of the range = 70 Hz")."""
+    names = {"lam_end": "the end of the range", "lam0": "the start of the range",
+             "lam": "the frequency"}
+    return _LAM.sub(lambda m: f"{names[m.group(1)]} = {float(m.group(2)) / to_unit:.6g} {unit}",
+                    message)
 
 
 def _peak(freq, amp, mask):
@@ -170,7 +184,7 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
                                     and c.info.get("unresolved_resonance_steps", 1) == 0)
         v["status"][idx] = c.status
         v["residual_tolerance"][idx] = c.tolerance
-        message[idx] = str(c.message)
+        message[idx] = readable_message(str(c.message), to_unit, unit)
 
     sw = tuple(study.sweep.axes)
     stable_name = ("asymptotically stable (Hill's method): 1 stable, 0 unstable, NaN not computed"

@@ -13,7 +13,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .continuation import continue_branch, newton
 from .resonance import MAX_DENSE_DOF
+from .restarts import cover_range
 
 
 @dataclass(frozen=True)
@@ -93,8 +95,8 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     open or stuck); then continuation in the excitation level, then in the contact
     stiffness (`_cold_start`, `_stiffness_start`).  A branch that turns back past
     omega_start (a start between two folds) is followed through its next fold and
-    its other side traced too (`_trace_range`); one that does not reach omega_end
-    at all is traced from omega_end instead.  A curve that does not cover the
+    its other side traced too (`restarts.trace_range`); one that does not reach
+    omega_end at all is traced from omega_end instead.  A curve that does not cover the
     range has success False and says why in its message.
 
     No step jumps over a resonance: `resonance.step_guard` shortens every step
@@ -133,7 +135,7 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     def first_point(Om, guess=None):
         return _first_point(prob, elem, Om, w, lambda x: fun(x, Om)[:2], guess)
 
-    br, spent = _cover_range(fun, first_point, omega_start, omega_end, tol, groups, initial, **kw)
+    br, spent = cover_range(fun, first_point, omega_start, omega_end, tol, groups, initial, **kw)
     dofs = peak_dofs if peak_dofs is not None else range(system.n_dof)
     pts = _branch_points(br)
     if dense_output:
@@ -148,8 +150,6 @@ def _first_point(prob, elem, Om, w, fun_x, guess=None):
     """The first point at fixed parameter: Newton (weighted residual `fun_x`, tol 1)
     from `guess` (all DOFs' coefficients) if given, else from the better linear
     guess; then the load and the stiffness homotopies.  (NewtonResult, nfev spent)."""
-    from .continuation import newton
-
     spent = 0
     if guess is not None:
         nr = newton(fun_x, guess[prob.c].ravel(), 1.0, max_iter=60)
@@ -166,144 +166,12 @@ def _first_point(prob, elem, Om, w, fun_x, guess=None):
     return nr, spent
 
 
-def _cover_range(fun, first_point, lam0, lam_end, tol, groups, guess=None, **kw):
-    """The branch across [lam0, lam_end]: from the first point at lam0 (`_trace_range`);
-    if that does not reach lam_end (an isolated arc, or no first point at lam0), from
-    a first point at lam_end backwards, returned in the order lam0 -> lam_end.  A
-    branch that still does not reach the other end is no success.
-    Returns (Branch-like, nfev spent on first points)."""
-    nr, spent = first_point(lam0, guess)
-    br = _trace_range(fun, nr.x, lam0, lam_end, tol, groups, **kw)
-    if br.status in (1, -2):
-        nr_end, spent_end = first_point(lam_end)
-        spent += spent_end
-        rb = _trace_range(fun, nr_end.x, lam_end, lam0, tol, groups, **kw)
-        if rb.status == 0:
-            br = _Merged([_Piece(rb, reverse=True)], f"reached {lam_end} (traced backwards from "
-                         f"there; from {lam0}: {br.message})", True, 0, discarded=[br])
-        else:
-            br = _Merged([br], br.message, False, br.status, discarded=[rb])
-    if br.status == 1:  # the range is not covered: an incomplete curve is no success
-        br = _Merged([br], f"{lam_end} not reached: {br.message}", False, 1)
-    return br, spent
-
-
-_BACK = 0.2  # how far (fraction of the range) a branch may be followed back past its start
-
-
-def _trace_range(fun, x0, lam0, lam_end, tol, groups, **kw):
-    """The branch through (x0, lam0) across [lam0, lam_end] (`_continue_past_corners`).
-
-    A start between two folds (e.g. on the unstable middle branch of an S-curve)
-    sends the branch back past lam0; it is followed there, up to _BACK of the range
-    beyond lam0 (staying positive), through its next fold.  If it still ends on the
-    lam0 side, the other side of the branch through the first point is traced too
-    (initial tangent reversed); when that reaches lam_end, the curve is both pieces
-    joined at the first point (with points beyond lam0).
-    """
-    span = lam_end - lam0
-    back = lam0 - _BACK * span
-    if span > 0 and lam0 > 0:
-        back = max(back, 0.5 * lam0)
-    br = _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, lam_back=back, **kw)
-    if br.status != 1 or br.lam.size < 2:
-        return br
-    other = _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, lam_back=back,
-                                   direction=-1, **kw)
-    if other.status != 0:
-        return _Merged([br], br.message, br.success, br.status, discarded=[other])
-    return _Merged([_Piece(br, reverse=True), _Piece(other, drop_first=True)],
-                   other.message + " (the branch through the first point traced both ways)",
-                   True, 0)
-
-
-class _Piece:
-    """A branch's points (Branch-like), reversed and/or without its first point."""
-
-    def __init__(self, br, reverse=False, drop_first=False):
-        k = 1 if drop_first else 0
-        order = slice(None, None, -1) if reverse else slice(None)
-        for a in ("x", "lam", "nit", "converged"):
-            setattr(self, a, np.asarray(getattr(br, a))[k:][order])
-        self.fold_lam = np.asarray(br.fold_lam)[order]
-        for a in ("nfev", "njev", "n_rejected", "n_unresolved", "min_step", "message",
-                  "success", "status"):
-            setattr(self, a, getattr(br, a))
-
-
-class _Merged:
-    """Branches of restarted continuations joined into one (Branch-like); the costs
-    of discarded attempts are counted too."""
-
-    def __init__(self, parts, message, success, status, discarded=()):
-        self.x = np.concatenate([p.x for p in parts])
-        self.lam = np.concatenate([p.lam for p in parts])
-        self.nit = np.concatenate([p.nit for p in parts])
-        self.converged = np.concatenate([p.converged for p in parts])
-        self.fold_lam = np.concatenate([p.fold_lam for p in parts])
-        every = list(parts) + list(discarded)
-        self.nfev = sum(p.nfev for p in every)
-        self.njev = sum(p.njev for p in every)
-        self.n_rejected = sum(p.n_rejected for p in every)
-        self.n_unresolved = sum(p.n_unresolved for p in parts)
-        self.min_step = min(p.min_step for p in parts)
-        self.message, self.success, self.status = message, success, status
-
-
-def _continue_past_corners(fun, x0, lam0, lam_end, tol, groups, max_restarts=4, lam_back=None,
-                           **kw):
-    """`continue_branch`, restarted where it stalls at a corner of the branch.
-
-    At a corner the one-sided tangents can alternate between accepted points so that
-    the step shrinks to its minimum without crossing.  Then the point just beyond is
-    solved at a fixed parameter a little further (damped Newton from the last point)
-    and the continuation resumes from it, but only if that point is continuous with
-    the last one (relative change below 5 %, so no jump to another branch) and the
-    parameter keeps its direction of travel.
-    """
-    from .continuation import continue_branch, newton
-
-    parts = []
-    x, lam = x0, lam0
-    back = lam0 if lam_back is None else lam_back
-    span = abs(lam_end - lam0)
-    for attempt in range(max_restarts + 1):
-        br = continue_branch(fun, x, lam, lam_end, tol=tol, groups=groups,
-                             lam_back=back if back != lam else None, **kw)
-        parts.append(br)
-        if br.success or br.status != -1 or br.lam.size < 2:
-            break
-        xl, ll = br.x[-1], br.lam[-1]
-        direction = np.sign(br.lam[-1] - br.lam[-2]) or np.sign(lam_end - lam0)
-        jumped = None
-        for frac in (1e-4, 1e-3, 1e-2):
-            lt = ll + direction * frac * span
-            if (lt - back) * (lt - lam_end) > 0:
-                break
-            r = newton(lambda y: fun(y, lt)[:2], xl, tol, max_iter=30)
-            if r.success and np.linalg.norm(r.x - xl) <= 0.05 * max(np.linalg.norm(xl), 1e-300):
-                jumped = (r.x, lt)
-                break
-        if jumped is None:
-            break
-        x, lam = jumped
-        # keep the direction of travel (towards or away from lam_end)
-        kw["direction"] = 1 if direction * (lam_end - lam) > 0 else -1
-    last = parts[-1]
-    if len(parts) == 1:
-        return last
-    return _Merged(parts, last.message + f" (after {len(parts) - 1} restart(s) past corners)",
-                   bool(last.success), int(last.status))
-
-
 def _cold_start(prob, elem, Om, w, failed):
     """First point by continuation in the load: R_s = R + (1 - s) P~ from s = 0 (no
     excitation: the static state under the preloads) to s = 1, at fixed Om.  Used
     when Newton from the linear guesses fails (strong impact, a gap that closes).
     Returns (NewtonResult, nfev spent); `failed` if the homotopy fails."""
     from . import hbm
-    from .continuation import continue_branch, newton
-
     _, _, Pt, _ = hbm.linear_part(prob, Om, derivatives=False)
     wP = w * hbm.real_vector(Pt, prob.nh).ravel()
 
@@ -333,8 +201,6 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
     from dataclasses import replace
 
     from . import hbm
-    from .continuation import continue_branch, newton
-
     def el(p):
         f = 10.0 ** p
         return replace(elem, ku=elem.ku * f, kv=elem.kv * f)
@@ -406,8 +272,6 @@ _PLOT_PASSES = 8
 def _solve_on_plane(fun, p, d, scale, tol):
     """The branch point on the hyperplane through p normal to d (scaled unknowns
     z / scale, d unit): Newton on R = 0 plus that condition.  (z, ok, nfev)."""
-    from .continuation import newton
-
     nfev = [0]
 
     def aug(z):
@@ -511,8 +375,6 @@ def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     Brent).  The maximum is then a converged solution, not a sample of the curve.
     """
     from scipy.optimize import minimize_scalar
-
-    from .continuation import newton
 
     X, L = pts["x"], pts["lam"]
     if L.size < 3:
@@ -684,7 +546,7 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
                             lambda x: fun(x, lam)[:2], guess)
 
     guard = step_guard(prob, lambda lam: _with_preload(base, lam, shape), lambda lam: omega)
-    br, spent = _cover_range(fun, first_point, preload_start, preload_end, 1.0,
+    br, spent = cover_range(fun, first_point, preload_start, preload_end, 1.0,
                              np.repeat(np.arange(prob.c.size), prob.nh), ds=ds, ds_max=ds_max,
                              max_points=max_points, segment_check=guard)
     pts = _branch_points(br)

@@ -71,8 +71,7 @@ def run_case(solver, system, H, omega_start, omega_stop, kwargs, guard=None):
         if guard is not None:
             guard.check_curve(system, curve)
         return curve, None
-    except UndeclaredSeparation as exc:
-        logging.getLogger(__name__).error("case stopped: %s", exc)
+    except UndeclaredSeparation as exc:  # reported once, in the case's progress line
         return None, f"{type(exc).__name__}: {exc}"
     except Exception as exc:  # numerical failures of one case must not lose the others
         logging.getLogger(__name__).exception("case failed")

@@ -1,9 +1,12 @@
 """Continuation against closed-form fold curves and the Duffing frequency response."""
+from dataclasses import FrozenInstanceError
+
 import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from pipeline.continuation import Branch, continue_branch, newton
+from pipeline.continuation import (Branch, ContinuationOptions, Metric, Tracer, automatic_scale,
+                                   continuation_options, continue_branch, newton)
 
 
 # ------------------------------------------------------------------ closed forms
@@ -322,3 +325,105 @@ def test_corner_passed_without_the_step_collapsing(lam0, lam_end):
     before = (b.lam - 1.0) * np.sign(lam_end - lam0) < 0  # incoming side of the corner
     assert np.abs(b.lam[before] - 1.0).min() < 0.01      # a point just before it
     assert np.abs(b.lam[~before] - 1.0).min() < 0.05
+
+
+# ------------------------------------------------------------------ the pieces
+def unit_circle(x, lam):
+    """x^2 + lam^2 = 1: from (1, 0) the corrector normal to the tangent (0, 1) at the
+    step ds lands on lam = ds, x = sqrt(1 - ds^2) (scale [1, 1])."""
+    return np.array([x[0] ** 2 + lam**2 - 1]), np.array([[2 * x[0]]]), np.array([2 * lam])
+
+
+def test_options_are_validated_once_and_frozen():
+    o = continuation_options(2, -1, 1, tol=1e-8, tol_rel=1e-6, r_ref=10.0, lam_back=-2.0,
+                             max_turn=4.0)
+    assert isinstance(o, ContinuationOptions) and (o.lam0, o.lam_end) == (-1.0, 1.0)
+    assert o.thresh == 1e-8 + 1e-6 * 10.0 and o.bounds == (-2.0, 1.0)
+    assert o.cos_turn == pytest.approx(-1.0)  # turns are capped at pi
+    assert continuation_options(2, 1.0, -1.0, tol=1.0).bounds == (-1.0, 1.0)
+    with pytest.raises(FrozenInstanceError):
+        o.ds = 0.1
+    with pytest.raises(ValueError, match="groups must be 2"):
+        continuation_options(2, 0.0, 1.0, tol=1.0, groups=[0])
+    with pytest.raises(ValueError, match="target_newton"):
+        continuation_options(2, 0.0, 1.0, tol=1.0, target_newton=0)
+
+
+def test_automatic_scale_groups_and_floor():
+    np.testing.assert_array_equal(automatic_scale(np.zeros(3)), np.ones(3))
+    np.testing.assert_array_equal(automatic_scale(np.array([1.0, 1e-5, 0.5])),
+                                  [1.0, 1e-2, 0.5])  # floored at 1e-2 of the largest
+    np.testing.assert_array_equal(
+        automatic_scale(np.array([1e-5, 2.0, 0.3, 1e-3]), np.array([0, 0, 1, 1])),
+        [2.0, 2.0, 0.3, 0.3])  # shared within a group
+
+
+def test_metric_keeps_the_running_maximum_in_place():
+    m = Metric(2, 4.0)
+    s = m.s
+    np.testing.assert_array_equal(s, [1.0, 1.0, 4.0])
+    m.observe(np.array([-2.0, 1.0]))
+    m.observe(np.array([0.5, -3.0]))
+    np.testing.assert_array_equal(s, [2.0, 3.0, 4.0])  # the same array, updated
+    fixed = Metric(2, 4.0, fixed=[1.0, 2.0, 3.0])
+    fixed.observe(np.array([10.0, 10.0]))
+    np.testing.assert_array_equal(fixed.s, [1.0, 2.0, 3.0])
+
+
+def circle_tracer(lam_end=0.5, **kw):
+    opts = continuation_options(1, 0.0, lam_end, tol=1e-13, scale=[1.0, 1.0], **kw)
+    tracer = Tracer(unit_circle, opts)
+    assert tracer.first_point(np.array([0.9])) is None
+    return tracer
+
+
+def test_first_point_and_one_step_on_the_circle():
+    tr = circle_tracer(ds=0.1)
+    np.testing.assert_allclose(tr.z, [1.0, 0.0], atol=1e-13)
+    np.testing.assert_allclose(tr.t_phys, [0.0, 1.0], atol=1e-12)
+    ts, y_pred = tr.predict()
+    np.testing.assert_allclose(y_pred, [1.0, 0.1], atol=1e-12)
+    assert tr.step() is None
+    np.testing.assert_allclose(tr.z, [np.sqrt(1 - 0.01), 0.1], rtol=1e-12)
+    np.testing.assert_allclose(tr.t_phys, [-0.1, np.sqrt(0.99)], rtol=1e-12)
+    nit = tr.points[-1][2]
+    assert len(tr.points) == 2 and nit <= 3 and tr.n_rejected == 0
+    assert tr.ds == pytest.approx(min(0.1 * min(np.sqrt(4 / nit), 2.0), 0.5))
+    assert tr.eq.nfev == sum(p[3] for p in tr.points)  # every call counted on a point
+
+
+def test_a_turn_too_large_is_rejected_and_the_step_halved():
+    tr = circle_tracer(ds=0.1, max_turn=0.06)  # a step ds turns the tangent by asin(ds)
+    assert tr.step() is None
+    assert len(tr.points) == 1 and tr.n_rejected == 1 and tr.ds == 0.05
+    assert tr.step() is None  # asin(0.05) is within the limit
+    assert len(tr.points) == 2
+
+
+def test_a_step_past_lam_end_is_resolved_on_it():
+    tr = circle_tracer(lam_end=0.3, ds=0.4)
+    b = tr.step()
+    assert isinstance(b, Branch) and b.status == 0 and b.lam[-1] == 0.3 and len(b) == 2
+    np.testing.assert_allclose(b.x[-1], [np.sqrt(0.91)], rtol=1e-13)
+
+
+def test_is_kink_needs_small_persistent_rejections():
+    tr = circle_tracer(ds=0.1, kink_ds=0.01)
+    assert not tr.is_kink("turn", 1.0)  # the step is not small
+    tr.ds = 0.005
+    assert not tr.is_kink("turn", 0.5)  # halved with the step: smooth
+    assert tr.is_kink("turn", 0.45)     # persists as the step shrinks: a corner
+    tr.recent.clear()
+    assert [tr.is_kink("deviation", 0.5 ** k) for k in range(4)] == [False] * 3 + [True]
+
+
+def test_segment_check_shortens_the_step_to_fit():
+    widths = []
+
+    def check(x0, lam0, x1, lam1):
+        widths.append(lam1 - lam0)
+        return 0.02 if lam1 - lam0 > 0.02 else None
+    tr = circle_tracer(ds=0.1, segment_check=check)
+    assert tr.step() is None and tr.n_rejected == 1 and len(tr.points) == 1
+    assert tr.ds == pytest.approx(0.1 * 0.9 * 0.02 / widths[0])
+    assert tr.step() is None and len(tr.points) == 2 and tr.z[1] <= 0.02
