@@ -572,7 +572,7 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
         raise ValueError(f"bounds must satisfy 0 < low < high for a log search, got {bounds}")
     evals = []
     kwargs.setdefault("stability", False)
-    kwargs.setdefault("dense_output", False)  # only the peak is read, no curve is drawn
+    kwargs["dense_output"] = False  # only the peak is read, no curve is drawn
 
     def peak(t):
         n0 = float(np.exp(t)) if log else float(t)

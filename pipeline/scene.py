@@ -140,11 +140,13 @@ class SolverSettings:
     initial_step: float | None = None   # None: the solver's default
     max_step: float | None = None
     max_points: int = 1000
+    dense_output: bool = True           # points where the drawn curve bends
 
     def kwargs(self) -> dict:
         """Keyword arguments of `pipeline.response.frequency_response`."""
         kw = dict(method=self.force_evaluation, n_samples=self.samples,
-                  stability=self.stability, tol_rel=self.tolerance, max_points=self.max_points)
+                  stability=self.stability, tol_rel=self.tolerance, max_points=self.max_points,
+                  dense_output=self.dense_output)
         if self.initial_step is not None:
             kw["ds"] = self.initial_step
         if self.max_step is not None:
@@ -523,7 +525,7 @@ def quick_tables(ck, data, sweep_tab, allowed=("sweep", "solver")):
 
 
 _SOLVER_KEYS = ("harmonics", "force_evaluation", "samples", "tolerance", "stability",
-                "initial_step", "max_step", "max_points")
+                "initial_step", "max_step", "max_points", "dense_output")
 
 
 def _solver(ck, tab, path, base=None) -> SolverSettings:
@@ -538,8 +540,9 @@ def _solver(ck, tab, path, base=None) -> SolverSettings:
         kw["samples"] = ck.integer(tab["samples"], f"{path}.samples", 3, 1 << 16)
     if "tolerance" in tab:
         kw["tolerance"] = ck.number(tab["tolerance"], f"{path}.tolerance", gt=0.0, lt=1.0)
-    if "stability" in tab:
-        kw["stability"] = ck.boolean(tab["stability"], f"{path}.stability")
+    for key in ("stability", "dense_output"):
+        if key in tab:
+            kw[key] = ck.boolean(tab[key], f"{path}.{key}")
     for key in ("initial_step", "max_step"):
         if key in tab:
             kw[key] = ck.number(tab[key], f"{path}.{key}", gt=0.0, le=10.0)

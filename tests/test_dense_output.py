@@ -55,3 +55,30 @@ def test_drawn_curve_turns_little_at_every_point(n):
     # inserted peak points may add a small kink at the top; everything else is smooth
     bad = (turn > _PLOT_TURN + math.radians(2)) & (ln[:-1] > _PLOT_MIN_CHORD) & (ln[1:] > _PLOT_MIN_CHORD)
     assert bad.sum() <= 2, np.degrees(turn[bad])
+
+
+def test_solver_key_turns_dense_output_off(tmp_path):
+    """`[solver] dense_output = false`: the continuation points only (a study that
+    draws nothing need not pay for smooth curves); a non-boolean is a one-line error."""
+    from pathlib import Path
+
+    from pipeline.errors import UsageError
+    from pipeline.scene import load_study
+    from pipeline.study import run_study
+
+    text = (Path(__file__).parent / "studies" / "chain_stuck_resonance.toml").read_text()
+    text = text.replace("preload = [0.0, 5.0, 1.0e5]", "preload = [1.0e5]")
+    n = {}
+    for flag in ("true", "false"):
+        f = tmp_path / f"chain_{flag}.toml"
+        f.write_text(text.replace("stability = false", f"stability = false\ndense_output = {flag}"))
+        st = load_study(f)
+        assert st.solver.kwargs()["dense_output"] is (flag == "true")
+        ds = run_study(st, tmp_path / flag, figures=False, progress=False).dataset
+        n[flag] = int(ds.n_points.item())
+        assert float(ds.peak_amplitude.sel(dof="x3").item()) == pytest.approx(3.9054e-3, rel=1e-4)
+    assert n["false"] < n["true"]
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("stability = false", 'stability = false\ndense_output = "yes"'))
+    with pytest.raises(UsageError, match=r"solver\.dense_output"):
+        load_study(bad)
