@@ -189,13 +189,13 @@ def time_residual(study, repeats: int = 5) -> float:
     """Median wall time [s] of one residual + Jacobian of the first case at the
     middle of the frequency range, from the linear response there."""
     from . import hbm
-    from .response import _initial_guess
+    from .response import initial_guess
 
     sv, fr = study.solver, study.sweep.frequency
     system = study.system(study.sweep.cases()[0][1])
     prob = hbm.setup(system, sv.harmonics, sv.force_evaluation, sv.samples)
     om = math.sqrt(fr.omega_start * fr.omega_stop)
-    x = _initial_guess(prob, om, system.contact)
+    x = initial_guess(prob, om, system.contact)
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()

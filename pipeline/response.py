@@ -51,8 +51,10 @@ class ResponseCurve:
         return float(a[i]), float(self.omega[i]), i
 
 
-def _initial_guess(prob, Om, contact):
-    """Linear solutions with the contacts open and stuck; Newton picks the better."""
+def initial_guess(prob, Om, contact):
+    """Starting vector x of the condensed HBM problem `prob` at Om [rad/s]: of the
+    linear solutions with the contacts open and fully stuck, the one with the smaller
+    nonlinear residual (`hbm.residual` with the elements `contact`)."""
     from .hbm import real_vector, linear_part, residual
     nh, nc = prob.nh, prob.c.size
     St, _, Pt, _ = linear_part(prob, Om, derivatives=False)
@@ -156,7 +158,7 @@ def _first_point(prob, elem, Om, w, fun_x, guess=None):
         spent += nr.nfev
         if nr.success:
             return nr, spent
-    nr = newton(fun_x, _initial_guess(prob, Om, elem), 1.0, max_iter=60)
+    nr = newton(fun_x, initial_guess(prob, Om, elem), 1.0, max_iter=60)
     spent += nr.nfev
     for start in (_cold_start, _stiffness_start):
         if nr.success:
@@ -217,7 +219,7 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
     spent = 0
     for dec in decades:
         p0 = -float(dec)
-        st = newton(lambda x: fun_p(x, p0)[:2], _initial_guess(prob, Om, el(p0)), 1.0,
+        st = newton(lambda x: fun_p(x, p0)[:2], initial_guess(prob, Om, el(p0)), 1.0,
                     max_iter=30)
         spent += st.nfev
         if not st.success:
@@ -261,12 +263,13 @@ def _local_maxima(amps, converged, rel=0.05):
     return sorted(idx, key=lambda i: -a[i])
 
 
-_PLOT_TURN = math.radians(8.0)   # largest turn of the drawn curve at a point
-_PLOT_TURN_LONG = math.radians(3.0)  # ... and at a point between long chords
-_PLOT_LONG_CHORD = 0.04          # a chord this long (plot units) shows a small corner
-_PLOT_MIN_CHORD = 2e-3           # segments shorter than this (plot units) are not split
-_PLOT_MAX_POINTS = 400           # points `_densify` may add to one curve
-_PLOT_PASSES = 8
+# how finely `_densify` draws a curve (`test_dense_output` asserts the result)
+PLOT_TURN = math.radians(8.0)   # largest turn of the drawn curve at a point
+PLOT_TURN_LONG = math.radians(3.0)  # ... and at a point between long chords
+PLOT_LONG_CHORD = 0.04          # a chord this long (plot units) shows a small corner
+PLOT_MIN_CHORD = 2e-3           # segments shorter than this (plot units) are not split
+PLOT_MAX_POINTS = 400           # points `_densify` may add to one curve
+PLOT_PASSES = 8
 
 
 def _solve_on_plane(fun, p, d, scale, tol):
@@ -305,13 +308,13 @@ def _densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
 
     A chord of a drawn curve (frequency against the amplitude of one DOF on a
     linear or a log axis, in axis units)
-    that meets its neighbour at more than _PLOT_TURN (_PLOT_TURN_LONG if it is longer
-    than _PLOT_LONG_CHORD: a long chord shows a small corner) is split at its middle: the
+    that meets its neighbour at more than PLOT_TURN (PLOT_TURN_LONG if it is longer
+    than PLOT_LONG_CHORD: a long chord shows a small corner) is split at its middle: the
     new point solves R = 0 on the hyperplane through the middle of the chord of
     scaled [x; lam], normal to it.  Straight stretches get no point, and a point
     on a linear stretch costs one Newton iteration.  Repeated until the curves
-    turn by less than _PLOT_TURN, chords are shorter than _PLOT_MIN_CHORD, or
-    _PLOT_MAX_POINTS were added.
+    turn by less than PLOT_TURN, chords are shorter than PLOT_MIN_CHORD, or
+    PLOT_MAX_POINTS were added.
     """
     X, L = np.array(pts["x"]), np.array(pts["lam"])
     nit = np.array(pts["nit"])
@@ -322,7 +325,7 @@ def _densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
                       max(np.ptp(L), abs(L).max() * 1e-9, 1e-300))
     added = 0
     failed = set()
-    for _ in range(_PLOT_PASSES):
+    for _ in range(PLOT_PASSES):
         Pc = _plot_coordinates(prob, X, L, dofs, omega_of)
         chord = np.diff(Pc, axis=0)
         length = np.linalg.norm(chord, axis=1)
@@ -333,13 +336,13 @@ def _densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
             cosang = np.einsum("ij,ij->i", c2[:-1], c2[1:]) / np.maximum(n2[:-1] * n2[1:], 1e-300)
             turn[1:-1] = np.maximum(turn[1:-1], np.arccos(np.clip(cosang, -1.0, 1.0)))
         # a corner shows where chords turn sharply, or turn a little but are long
-        split = sorted({seg for i in np.flatnonzero(turn > _PLOT_TURN_LONG) for seg in (i - 1, i)
-                        if (length[seg] > _PLOT_MIN_CHORD and (L[seg], L[seg + 1]) not in failed
-                            and (turn[i] > _PLOT_TURN or length[seg] > _PLOT_LONG_CHORD))})
-        if not split or added >= _PLOT_MAX_POINTS:
+        split = sorted({seg for i in np.flatnonzero(turn > PLOT_TURN_LONG) for seg in (i - 1, i)
+                        if (length[seg] > PLOT_MIN_CHORD and (L[seg], L[seg + 1]) not in failed
+                            and (turn[i] > PLOT_TURN or length[seg] > PLOT_LONG_CHORD))})
+        if not split or added >= PLOT_MAX_POINTS:
             break
         new = []
-        for seg in split[:_PLOT_MAX_POINTS - added]:
+        for seg in split[:PLOT_MAX_POINTS - added]:
             za = np.append(X[seg], L[seg]) / scale
             zb = np.append(X[seg + 1], L[seg + 1]) / scale
             d = zb - za
