@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .hbm import state_at_zero
 from .scene import Checker
 
 log = logging.getLogger(__name__)
@@ -571,19 +572,6 @@ def relative_errors(m: Measurement, ref: Measurement) -> dict:
     return e
 
 
-def _state_at_zero(system, Q, Om):
-    """q(0), q'(0) and the slider positions w(0) of an HBM solution Q (n, 2H+1)."""
-    from .contact_exact import history
-
-    H = (Q.shape[1] - 1) // 2
-    j = np.arange(1, H + 1)
-    q0 = Q[:, 0] + Q[:, 1::2].sum(1)
-    qd0 = Om * (Q[:, 2::2] * j).sum(1)
-    h = history(system.Bt @ Q, system.Bn @ Q, system.contact, np.array([0.0]))
-    w0 = np.where(h["state"][:, 0] == 0, h["u"][:, 0], h["u"][:, 0] - h["fu"][:, 0] / system.contact.ku)
-    return q0, qd0, w0
-
-
 def time_integration_check(ref: Measurement, dof: int, lo: float, rel_window: float = 1e-3) -> dict:
     """Event-driven time integration (`timesim.steady_state`, shooting from the HBM
     state) at the reference peak, and the peak frequency of the integrated response
@@ -594,7 +582,7 @@ def time_integration_check(ref: Measurement, dof: int, lo: float, rel_window: fl
     from . import timesim
 
     system, Q, Om = ref.peak_state
-    q0, qd0, w0 = _state_at_zero(system, Q, Om)
+    q0, qd0, w0 = state_at_zero(system, Q, Om)
     t0 = time.perf_counter()
     at_peak = timesim.steady_state(system, Om, q0=q0, qd0=qd0, w0=w0)
     periods = [at_peak.periods]
