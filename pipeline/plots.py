@@ -6,6 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .contact import STATE_NAMES, YangMenq
+from .contact_exact import history
+
 STATE_COLOURS = {0: "#9e9e9e", 1: "#1f77b4", 2: "#d62728", 3: "#2ca02c"}
 
 
@@ -42,9 +45,6 @@ def demo_motion(H: int = 3):
 
 def hysteresis_figure(path, mu=0.4, ku=1.0, kv=1.0, n0=1.0, U=None, V=None, n_points=2000):
     """Time history of f_u, f_v and the loop f_u(u) (paper Fig. 5), coloured by state."""
-    from .contact import STATE_NAMES, YangMenq
-    from .contact_exact import history
-
     if U is None:
         U, V = demo_motion()
     elem = YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)

@@ -8,14 +8,20 @@ dataset layer turns into xarray.
 """
 from __future__ import annotations
 
+import logging
 import math
-from dataclasses import dataclass, field
+import time
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
+from . import hbm
 from .continuation import continue_branch, newton
-from .resonance import MAX_DENSE_DOF
+from .harmonics import amplitude_half_peak_to_peak
+from .resonance import MAX_DENSE_DOF, step_guard
 from .restarts import cover_range
+from .stability import is_stable
 
 
 @dataclass(frozen=True)
@@ -55,9 +61,8 @@ def initial_guess(prob, Om, contact):
     """Starting vector x of the condensed HBM problem `prob` at Om [rad/s]: of the
     linear solutions with the contacts open and fully stuck, the one with the smaller
     nonlinear residual (`hbm.residual` with the elements `contact`)."""
-    from .hbm import real_vector, linear_part, residual
     nh, nc = prob.nh, prob.c.size
-    St, _, Pt, _ = linear_part(prob, Om, derivatives=False)
+    St, _, Pt, _ = hbm.linear_part(prob, Om, derivatives=False)
     guesses = []
     for stuck in (False, True):
         xs = []
@@ -75,8 +80,8 @@ def initial_guess(prob, Om, contact):
                 xs.append(np.linalg.solve(A, Pt[h]))
             except np.linalg.LinAlgError:
                 xs.append(np.linalg.lstsq(A, Pt[h], rcond=None)[0])
-        guesses.append(real_vector(np.array(xs), nh).ravel())
-    norms = [np.linalg.norm(residual(prob, g, Om, contact, jacobian=False)[0]) for g in guesses]
+        guesses.append(hbm.real_vector(np.array(xs), nh).ravel())
+    norms = [np.linalg.norm(hbm.residual(prob, g, Om, contact, jacobian=False)[0]) for g in guesses]
     return guesses[int(np.argmin(norms))]
 
 
@@ -110,11 +115,6 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     at their resolution.  The peaks of the `peak_dofs` are then located exactly
     (`_insert_peaks`).
     """
-    import time
-
-    from . import hbm
-    from .resonance import step_guard
-
     t_start = time.perf_counter()
     ds = min(ds, ds_max)  # a small max_step also bounds the first step
     prob = hbm.setup(system, H, method, n_samples)
@@ -173,7 +173,6 @@ def _cold_start(prob, elem, Om, w, failed):
     excitation: the static state under the preloads) to s = 1, at fixed Om.  Used
     when Newton from the linear guesses fails (strong impact, a gap that closes).
     Returns (NewtonResult, nfev spent); `failed` if the homotopy fails."""
-    from . import hbm
     _, _, Pt, _ = hbm.linear_part(prob, Om, derivatives=False)
     wP = w * hbm.real_vector(Pt, prob.nh).ravel()
 
@@ -200,9 +199,6 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
     spans decades).  Used when stiff impact defeats both Newton from the linear
     guesses and the load homotopy (whose branch then meets a cascade of folds).
     Returns (NewtonResult, nfev spent); `failed` if no decade leads to p = 0."""
-    from dataclasses import replace
-
-    from . import hbm
     def el(p):
         f = 10.0 ** p
         return replace(elem, ku=elem.ku * f, kv=elem.kv * f)
@@ -247,8 +243,6 @@ def _branch_points(br):
 
 
 def _dof_amplitude(prob, x, lam, dof, omega_of=lambda l: l):
-    from . import hbm
-    from .harmonics import amplitude_half_peak_to_peak
     Q = hbm.recover(prob, x.reshape(prob.c.size, prob.nh), omega_of(lam))
     return float(amplitude_half_peak_to_peak(Q[dof]))
 
@@ -377,8 +371,6 @@ def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     R = 0 plus that condition) and the amplitude is maximised over sigma (bounded
     Brent).  The maximum is then a converged solution, not a sample of the curve.
     """
-    from scipy.optimize import minimize_scalar
-
     X, L = pts["x"], pts["lam"]
     if L.size < 3:
         return pts
@@ -443,12 +435,6 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
     point recomputed and split into static and harmonic parts, each held to its
     tolerance [N]; Hill stability of the full system.  elem_at(lam) gives the
     contact elements at a parameter value (they change with it in preload mode)."""
-    import time
-
-    from . import hbm
-    from .harmonics import amplitude_half_peak_to_peak
-    from .stability import is_stable
-
     t0 = time.perf_counter()
     P = pts["lam"].size
     n, nh = prob.system.n_dof, prob.nh
@@ -500,7 +486,6 @@ def _guard_note(br, pts) -> str:
 
 
 def _with_preload(elem, lam, shape):
-    from dataclasses import replace
     return replace(elem, n0=lam * shape)
 
 
@@ -514,11 +499,6 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
     a central difference of the contact forces (the linear part does not depend on
     n0); dR/dQ stays exact.
     """
-    import time
-
-    from . import hbm
-    from .resonance import step_guard
-
     t_start = time.perf_counter()
     ds = min(ds, ds_max)
     prob = hbm.setup(system, H, method, n_samples)
@@ -568,8 +548,6 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     (preloads span decades), to a relative tolerance `rtol` in n0.
     Returns a dict: preload, peak, peak_omega, evaluations [(n0, peak, omega)].
     """
-    from scipy.optimize import minimize_scalar
-
     lo, hi = bounds
     if not (0 < lo < hi) and log:
         raise ValueError(f"bounds must satisfy 0 < low < high for a log search, got {bounds}")
@@ -581,7 +559,6 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
         n0 = float(np.exp(t)) if log else float(t)
         c = frequency_response(build(n0), H, omega_start, omega_end, peak_dofs=[dof], **kwargs)
         if not c.success:  # an incomplete curve may miss its peak: never a candidate
-            import logging
             logging.getLogger(__name__).warning("optimum search: curve at %.6g N incomplete "
                                                 "(%s); skipped", n0, c.message)
             return np.inf
