@@ -17,7 +17,8 @@ def _prog() -> str:
     return name
 
 
-def _parser() -> argparse.ArgumentParser:
+def build_parser() -> argparse.ArgumentParser:
+    """The command line: `run`, `check`, `hysteresis`, `optimise` and `bench`."""
     p = argparse.ArgumentParser(
         prog=_prog(),
         description="Shrouded bladed disks with dry friction: Yang-Menq contact, "
@@ -116,7 +117,7 @@ def _cmd_check(args) -> int:
 def main(argv=None) -> int:
     from .study import configure_logging
 
-    args = _parser().parse_args(argv)
+    args = build_parser().parse_args(argv)
     configure_logging(args.verbose)
     try:
         return args.func(args)

@@ -45,7 +45,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import _Checker
+from .hbm import state_at_zero
+from .scene import Checker
 
 log = logging.getLogger(__name__)
 
@@ -152,7 +153,7 @@ class AccuracyStudy:
 # Validation
 # ---------------------------------------------------------------------------
 
-class _Prefixed(_Checker):
+class _Prefixed(Checker):
     """Reports every field under a prefix (a scene nested in a case table)."""
 
     def __init__(self, file, prefix):
@@ -163,7 +164,7 @@ class _Prefixed(_Checker):
         super().fail(f"{self.prefix}.{field_}" if field_ else self.prefix, what)
 
 
-class _At(_Checker):
+class _At(Checker):
     """Reports every failure at one field (a value checked by code that names others)."""
 
     def __init__(self, file, at):
@@ -177,7 +178,7 @@ class _At(_Checker):
 def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study", text: str = "",
                        quick: bool = False) -> AccuracyStudy:
     """Validate an accuracy-cost study document (both the full and the quick variant)."""
-    ck = _Checker(file)
+    ck = Checker(file)
     ck.table(data, "(document)")
     ck.keys(data, "", ("study", "recommendation", "quick") + CASES, required=("study",))
     head = ck.table(data["study"], "study")
@@ -243,12 +244,12 @@ def _case_scene(ck, c, tab, base_dir, where):
     raw = ck.table(tab["scene"], f"{c}.scene")
     model = raw.get("model")
     if c == "lumped":
-        from .scene import _scene
+        from .scene import parse_scene
         if model != "lumped":
             ck.fail(f"{c}.scene.model", f"the [lumped] case needs model = \"lumped\", got {model!r}")
-        scene = _scene(pk, raw)
+        scene = parse_scene(pk, raw)
         return scene, scene.forcing.shape[1] - 1
-    from .blade_scene import _blade_scene
+    from .blade_scene import parse_blade_scene
     if model != "solid_blade":
         ck.fail(f"{c}.scene.model", f"the [blade] case needs model = \"solid_blade\", got {model!r}")
     for k in ("craig_bampton_modes",):
@@ -267,7 +268,7 @@ def _case_scene(ck, c, tab, base_dir, where):
     if "craig_bampton_modes" in ref:
         at["craig_bampton_modes"] = ck.integer(ref["craig_bampton_modes"],
                                                where("reference.craig_bampton_modes"), 0, 10_000)
-    scene = _blade_scene(pk, at, "response", base_dir, {})
+    scene = parse_blade_scene(pk, at, "response", base_dir, {})
     if not scene.contacts:
         ck.fail(f"{c}.scene.contact", "a blade case needs at least one [[blade.scene.contact]]")
     return scene, max(ld.harmonic for ld in scene.loads)
@@ -351,15 +352,15 @@ def _beyond(knob, value, ref: Settings) -> str | None:
 def _case(ck, c, tab, scene, h_excited, where) -> Case:
     """Validate one case table (full or quick variant); `where(path)` gives the
     dotted field of a path inside the case."""
-    from .scene import FrequencyRange, _sweep, check_scene_rules
+    from .scene import FrequencyRange, parse_sweep, check_scene_rules
 
     dofs = scene.dofs
     if "dof" not in tab:
         ck.fail(where("dof"), "missing (required): the response DOF whose peak is measured")
     dof = ck.string(tab["dof"], where("dof"))
     if c == "blade":
-        from .blade_scene import _OUT_DOF
-        if not _OUT_DOF.match(dof):
+        from .blade_scene import OUT_DOF_PATTERN
+        if not OUT_DOF_PATTERN.match(dof):
             ck.fail(where("dof"), f"{dof!r} is not '<set>.<component>' with set excitation or "
                                   "response and component x, y or z")
     elif dof not in dofs:
@@ -368,7 +369,7 @@ def _case(ck, c, tab, scene, h_excited, where) -> Case:
     fr = tab["frequency"]
     if not isinstance(fr, dict):
         ck.fail(where("frequency"), "must be a table {start, stop, unit}")
-    _, freq = _sweep(_Prefixed(ck.file, where("frequency").rsplit(".", 1)[0]),
+    _, freq = parse_sweep(_Prefixed(ck.file, where("frequency").rsplit(".", 1)[0]),
                      {"frequency": fr}, "", partial=True)
     if freq.start > freq.stop:
         ck.fail(where("frequency"), "start must be below stop")
@@ -433,14 +434,14 @@ def _case(ck, c, tab, scene, h_excited, where) -> Case:
 
 def _check_mesh(ck, scene, counts, field_):
     """A generated blade with these element counts must be valid and not too fine."""
-    from .blade_scene import _blade_params
+    from .blade_scene import parse_blade_params
 
     p = scene.params
     t = {k: getattr(p, k) for k in ("length", "chord", "thickness", "shroud_chord",
                                     "shroud_width", "shroud_height", "shroud_angle",
                                     "stagger_angle", "E", "nu", "rho")}
     t.update(dict(zip(_MESH_FIELDS, counts)))
-    _blade_params(_At(ck.file, field_), t, scene.model, {})
+    parse_blade_params(_At(ck.file, field_), t, scene.model, {})
 
 
 # ---------------------------------------------------------------------------
@@ -571,19 +572,6 @@ def relative_errors(m: Measurement, ref: Measurement) -> dict:
     return e
 
 
-def _state_at_zero(system, Q, Om):
-    """q(0), q'(0) and the slider positions w(0) of an HBM solution Q (n, 2H+1)."""
-    from .contact_exact import history
-
-    H = (Q.shape[1] - 1) // 2
-    j = np.arange(1, H + 1)
-    q0 = Q[:, 0] + Q[:, 1::2].sum(1)
-    qd0 = Om * (Q[:, 2::2] * j).sum(1)
-    h = history(system.Bt @ Q, system.Bn @ Q, system.contact, np.array([0.0]))
-    w0 = np.where(h["state"][:, 0] == 0, h["u"][:, 0], h["u"][:, 0] - h["fu"][:, 0] / system.contact.ku)
-    return q0, qd0, w0
-
-
 def time_integration_check(ref: Measurement, dof: int, lo: float, rel_window: float = 1e-3) -> dict:
     """Event-driven time integration (`timesim.steady_state`, shooting from the HBM
     state) at the reference peak, and the peak frequency of the integrated response
@@ -594,7 +582,7 @@ def time_integration_check(ref: Measurement, dof: int, lo: float, rel_window: fl
     from . import timesim
 
     system, Q, Om = ref.peak_state
-    q0, qd0, w0 = _state_at_zero(system, Q, Om)
+    q0, qd0, w0 = state_at_zero(system, Q, Om)
     t0 = time.perf_counter()
     at_peak = timesim.steady_state(system, Om, q0=q0, qd0=qd0, w0=w0)
     periods = [at_peak.periods]
@@ -999,11 +987,11 @@ def recommendation_lines(results: list, target: float) -> list:
 
 def pareto_figure(path, ds, title: str | None = None):
     """`pareto_plot` written to `path` (PNG)."""
-    from .plots import _atomic_savefig, _plt
+    from .plots import atomic_savefig, pyplot
 
     fig = pareto_plot(ds, title)
-    out = _atomic_savefig(fig, path)
-    _plt().close(fig)
+    out = atomic_savefig(fig, path)
+    pyplot().close(fig)
     return out
 
 
@@ -1015,9 +1003,9 @@ def pareto_plot(ds, title: str | None = None):
     reference's discrepancy to event-driven time integration (dash-dot).  An error of
     0 (the reference itself) is drawn on the bottom edge, a missed fold on the top.
     Returns the open figure."""
-    from .plots import _plt, label_log_axis
+    from .plots import pyplot, label_log_axis
 
-    plt = _plt()
+    plt = pyplot()
     cases = list(dict.fromkeys(ds["case"].values.tolist()))
     target = float(ds.attrs["target"])
     fig, axes = plt.subplots(1, len(cases), figsize=(6.0 * len(cases), 5.6), squeeze=False)

@@ -9,6 +9,12 @@ import time
 
 import numpy as np
 
+from . import timesim
+from .contact import YangMenq, forces
+from .harmonics import basis
+from .paper_systems import example1, example3
+from .response import frequency_response
+
 
 def _median_time(fn, repeat):
     fn()  # warm caches (index tables, imports)
@@ -24,8 +30,6 @@ def shroud_like_motions(E, H, seed=0):
     """Contact motions typical of a shroud interface: a dominant first harmonic,
     higher harmonics decaying by 0.3 per order, preloads spanning separation,
     stick-slip and full stick."""
-    from .contact import YangMenq
-
     rng = np.random.default_rng(seed)
     dec = np.repeat(0.3 ** np.arange(H), 2)
     U = np.zeros((E, 2 * H + 1))
@@ -38,9 +42,6 @@ def shroud_like_motions(E, H, seed=0):
 
 def contact(quick=False):
     """Exact vs AFT evaluations of the Yang-Menq element, with Jacobian."""
-    from .contact import forces
-    from .harmonics import basis
-
     rows = []
     for H in (1, 7, 21):
         for E in (100, 1000):
@@ -73,7 +74,6 @@ def contact(quick=False):
 
 
 def _paper_system(example, n):
-    from .paper_systems import example1, example3
     return example1(n) if example == 1 else example3(n)
 
 
@@ -81,9 +81,6 @@ def hbm(quick=False):
     """Frequency-response curves of paper Examples 1 and 3: HBM + continuation vs
     event-driven time integration of the same points (stepped, each started from
     the previous steady state)."""
-    from . import timesim
-    from .response import frequency_response
-
     cases = [("Example 1, n = 2 N", 1, 2.0, 7, 150.0, 250.0),
              ("Example 1, n = 10 N", 1, 10.0, 7, 150.0, 250.0),
              ("Example 3, n0 = 10 N (folds)", 3, 10.0, 14, 0.5, 1.6)]
@@ -121,7 +118,7 @@ def hbm(quick=False):
 
 
 def blade(quick=False):
-    from .bench_blade import run as run_blade
+    from .bench_blade import run as run_blade  # deferred: scikit-fem (slow import)
     return run_blade(quick)
 
 
@@ -134,6 +131,7 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
     from dataclasses import replace
     from pathlib import Path
 
+    # deferred: the study layer imports xarray (slow), which the other benches never use
     import xarray as xr
 
     from .scene import load_study

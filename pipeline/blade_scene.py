@@ -55,7 +55,8 @@ POINTS = ("excitation", "response")
 STIFFNESS = ("per_node", "per_face")  # how ku, kv of a face contact are given
 COMPONENTS = "xyz"
 DEFAULT_MODE_COUNTS = (0, 5, 10, 20, 40)
-_OUT_DOF = re.compile(r"^(excitation|response)\.([xyz])$")
+# an output DOF of a blade study: a direction at the excitation or response node set
+OUT_DOF_PATTERN = re.compile(r"^(excitation|response)\.([xyz])$")
 # BladeParams fields a study may set (kind comes from the model)
 _FLOAT_FIELDS = ("length", "chord", "thickness", "shroud_chord", "shroud_width", "shroud_height",
                  "shroud_angle", "stagger_angle", "E", "nu", "rho")
@@ -292,9 +293,9 @@ def is_blade_document(data) -> bool:
 
 def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quick: bool = False):
     """Validate a blade study document: a `ModesStudy` or a `scene.Study`."""
-    from .scene import _Checker
+    from .scene import Checker
 
-    ck = _Checker(file)
+    ck = Checker(file)
     top = ("study", "scene", "sweep", "solver", "output", "quick", "modes")
     ck.keys(data, "", top, required=("study", "scene"))
     head = ck.table(data["study"], "study")
@@ -319,7 +320,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     base_dir = Path(file).parent if file and not file.startswith("<") else Path(".")
 
     scene_tab = ck.table(data["scene"], "scene")
-    full_scene = _blade_scene(ck, scene_tab, kind, base_dir, {})
+    full_scene = parse_blade_scene(ck, scene_tab, kind, base_dir, {})
     ck.keys(qt, "quick", ("scene", "modes") if kind == "modes" else ("scene", "sweep", "solver"))
     q_scene = ck.table(qt.get("scene"), "quick.scene", required=False)
     ck.keys(q_scene, "quick.scene", ("blade", "craig_bampton_modes", "mesh"))
@@ -333,7 +334,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
         if k in q_scene:
             merged[k] = q_scene[k]
             origin[f"scene.{k}"] = f"quick.scene.{k}"
-    quick_scene = _blade_scene(ck, merged, kind, base_dir, origin) if q_scene else full_scene
+    quick_scene = parse_blade_scene(ck, merged, kind, base_dir, origin) if q_scene else full_scene
     scene = quick_scene if quick else full_scene
 
     if kind == "modes":
@@ -347,19 +348,19 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                           reference=reference, text=text, scene=scene, mode_counts=counts,
                           n_frequencies=nf, n_shapes=ns, quick=bool(quick))
 
-    from .scene import Study, Sweep, _solver, _sweep, quick_tables, solver_sweep_tables
+    from .scene import Study, Sweep, parse_solver, parse_sweep, quick_tables, solver_sweep_tables
 
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
-    solver = _solver(ck, solver_tab, "solver")
+    solver = parse_solver(ck, solver_tab, "solver")
     if "stability" not in solver_tab:
         solver = replace(solver, stability=False)  # Hill on hundreds of DOFs: opt in
-    axes, freq = _sweep(ck, sweep_tab, "sweep")
+    axes, freq = parse_sweep(ck, sweep_tab, "sweep")
     output = _output(ck, ck.table(data.get("output"), "output", required=False))
     variants = [(False, solver, axes, freq, "solver", "sweep", full_scene)]
     if quick:
         q_solver, q_sweep = quick_tables(ck, {"quick": qt}, sweep_tab, ("scene", "sweep", "solver"))
-        q_solver_s = _solver(ck, q_solver, "quick.solver", base=solver)
-        q_axes, q_freq = _sweep(ck, q_sweep, "quick.sweep", partial=True)
+        q_solver_s = parse_solver(ck, q_solver, "quick.solver", base=solver)
+        q_axes, q_freq = parse_sweep(ck, q_sweep, "quick.sweep", partial=True)
         q_axes = {k: q_axes.get(k, v) for k, v in axes.items()}
         variants.append((True, q_solver_s, q_axes, q_freq or freq,
                          "quick.solver" if q_solver else "solver",
@@ -377,7 +378,10 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     return chosen
 
 
-def _blade_params(ck, t, model, origin):
+def parse_blade_params(ck, t, model, origin):
+    """`fe_model.BladeParams` of the [scene.blade] table `t` for `model`, refusing a
+    mesh too fine to generate; `origin` maps a key to the field it came from (a quick
+    override), for the error message."""
     from .fe_model import BladeParams
 
     def where(k):
@@ -421,9 +425,12 @@ def _blade_params(ck, t, model, origin):
         ck.fail(where(key) if key in _BLADE_KEYS else "scene.blade", msg)
 
 
-def _blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
+def parse_blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
+    """The `BladeScene` of a [scene] table for a study of `kind` ("response" or
+    "modes"), mesh files relative to `base_dir`; the blade is built once to check
+    node sets, faces and mode counts.  `origin`: as in `parse_blade_params`."""
     from .reduction import DEFAULT_MODES
-    from .scene import EFFECTS, _NAME
+    from .scene import EFFECTS, NAME_PATTERN
 
     def fld(k):
         return origin.get(f"scene.{k}", f"scene.{k}")
@@ -437,7 +444,7 @@ def _blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
     for i, e in enumerate(effects):
         if e not in EFFECTS:
             ck.fail(f"scene.effects[{i}]", f"unknown effect {e!r} (known: {', '.join(EFFECTS)})")
-    params = _blade_params(ck, ck.table(tab.get("blade", {}), "scene.blade"), model, origin)
+    params = parse_blade_params(ck, ck.table(tab.get("blade", {}), "scene.blade"), model, origin)
     mesh = None
     if "mesh" in tab:
         if model != "solid_blade":
@@ -466,7 +473,7 @@ def _blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
                 ck.fail(f"scene.contact[{i}].face", f"face {c.face!r} has two contacts")
             if c.name in [d.name for d in contacts[:i]]:
                 ck.fail(f"scene.contact[{i}].name", f"duplicate contact name {c.name!r}")
-            ck.string(c.name, f"scene.contact[{i}].name", pattern=_NAME)
+            ck.string(c.name, f"scene.contact[{i}].name", pattern=NAME_PATTERN)
         if "excitation" not in tab:
             ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
         loads = _loads(ck, tab["excitation"])
@@ -573,7 +580,7 @@ def _output(ck, t):
     dofs = (ck.names(t["dofs"], "output.dofs") if "dofs" in t
             else tuple(f"response.{c}" for c in COMPONENTS))
     for i, d in enumerate(dofs):
-        if not _OUT_DOF.match(d):
+        if not OUT_DOF_PATTERN.match(d):
             ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>' with set excitation "
                                          "or response and component x, y or z")
     from .scene import output_common

@@ -29,7 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
+from . import hbm
 from .errors import UsageError
+from .response import initial_guess
 
 EVALS_PER_CASE = (1500, 5000)  # a case's wall time / one residual evaluation (docstring)
 OPTIMUM_CURVES = 6              # an optimum-preload search: about 6 cases' worth (docstring)
@@ -64,7 +66,7 @@ def check_dataset(path: Path, out) -> int:
     if not path.is_file():
         print(f"error: {path}: (file): no such file", file=sys.stderr)
         return 2
-    from .dataset_check import problems
+    from .dataset_check import problems  # deferred: xarray (slow import)
 
     found = list(problems(path))  # each line names the file
     for p in found:
@@ -188,14 +190,11 @@ def _range(lo: float, hi: float) -> str:
 def time_residual(study, repeats: int = 5) -> float:
     """Median wall time [s] of one residual + Jacobian of the first case at the
     middle of the frequency range, from the linear response there."""
-    from . import hbm
-    from .response import _initial_guess
-
     sv, fr = study.solver, study.sweep.frequency
     system = study.system(study.sweep.cases()[0][1])
     prob = hbm.setup(system, sv.harmonics, sv.force_evaluation, sv.samples)
     om = math.sqrt(fr.omega_start * fr.omega_stop)
-    x = _initial_guess(prob, om, system.contact)
+    x = initial_guess(prob, om, system.contact)
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()

@@ -1,4 +1,4 @@
-"""Yang-Menq contact element (paper Sec. 2, 4, 5; Eq. 1, 9, 10, 11).
+"""Yang-Menq contact forces (paper Sec. 2, 4, 5; Eq. 1, 9, 10, 11): `forces` and the element.
 
 One contact point with relative tangential displacement u and normal displacement
 v: a tangential spring ku in series with a Coulomb slider (coefficient mu), a normal
@@ -7,104 +7,21 @@ spring kv and a preload n0 (negative = initial gap).  Normal load n = n0 + kv v
 
 Parameters are arrays over E elements; displacements are real Fourier coefficients
 in the layout of `harmonics.py`, shape (E, 2H+1).
+
+Layered one way: `contact_element` (the element as data, its states, the result type)
+<- `contact_exact`, `contact_aft` (the two force evaluations) <- this module, which
+dispatches between them and re-exports the element, so `from pipeline.contact import
+YangMenq, forces` is the one import a caller needs.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from .contact_aft import aft_forces
+from .contact_element import (NSLIP, PSLIP, SEP, STATE_NAMES, STICK, ContactForces, YangMenq,
+                              check_coefficients)
+from .contact_exact import exact_forces
 
-import numpy as np
-
-
-def _as_param(name, value, E=None):
-    a = np.atleast_1d(np.asarray(value, dtype=float))
-    if a.ndim != 1:
-        raise ValueError(f"{name} must be a scalar or a 1-D array, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    if E is not None and a.size not in (1, E):
-        raise ValueError(f"{name} has {a.size} values, expected 1 or {E}")
-    return a
-
-
-@dataclass(frozen=True)
-class YangMenq:
-    """E Yang-Menq elements: ku, kv [N/m], mu [-], n0 [N] (arrays of length E).
-
-    slider_rest: where a fully stuck slider sits.  A fully stuck cycle is periodic
-    for any slider position w in [max lo, min hi], lo = u - mu n/ku, hi = u + mu n/ku.
-    None (default) takes the middle, w = (max lo + min hi)/2: for a constant normal
-    load the tangential spring is unstrained at the middle of the displacement range,
-    and the force is continuous where the cycle starts to slip (there max lo = min hi
-    is the only admissible w), which Newton needs.  An array takes those absolute
-    positions [m], clamped into the interval.  Cycles that slip or separate do not
-    depend on it.
-    """
-
-    ku: np.ndarray
-    kv: np.ndarray
-    mu: np.ndarray
-    n0: np.ndarray
-    slider_rest: np.ndarray | None = None
-
-    def __post_init__(self):
-        arrays = {k: _as_param(k, getattr(self, k)) for k in ("ku", "kv", "mu", "n0")}
-        sizes = {a.size for a in arrays.values()} - {1}
-        if len(sizes) > 1:
-            got = ", ".join(f"{k}: {a.size}" for k, a in arrays.items())
-            raise ValueError(f"ku, kv, mu, n0 must have one common length (or 1); got {got}")
-        E = sizes.pop() if sizes else 1
-        for k, a in arrays.items():
-            object.__setattr__(self, k, np.broadcast_to(a, (E,)).copy())
-        for k in ("ku", "kv"):
-            if np.any(getattr(self, k) < 0):
-                raise ValueError(f"{k} must be >= 0 (stiffness), got {getattr(self, k)}")
-        if np.any(self.mu < 0):
-            raise ValueError(f"mu must be >= 0, got {self.mu}")
-        if self.slider_rest is not None:
-            w = _as_param("slider_rest", self.slider_rest, E)
-            object.__setattr__(self, "slider_rest", np.broadcast_to(w, (E,)).copy())
-
-    @property
-    def size(self) -> int:
-        return self.ku.size
-
-
-# ---------------------------------------------------------------------------
-# Public evaluation
-# ---------------------------------------------------------------------------
-
-SEP, STICK, PSLIP, NSLIP = 0, 1, 2, 3
-STATE_NAMES = {SEP: "separation", STICK: "stick", PSLIP: "positive slip", NSLIP: "negative slip"}
-# where a stick phase took its slider position w from (for dw/dQ)
-_SRC_LO, _SRC_HI, _SRC_TD = 0, 1, 2
-
-
-@dataclass(frozen=True)
-class ContactForces:
-    """Fourier coefficients of the contact forces and their Jacobian.
-
-    Fu, Fv: (E, 2H+1) [N]; dFu_dU, dFu_dV, dFv_dV: (E, 2H+1, 2H+1) [N/m]
-    (dFv/dU = 0 identically).  `regimes` counts elements evaluated as fully
-    separated, fully stuck (both linear over the cycle, no transition search) and
-    with transitions; for the exact method also `normal_load_searched`, the
-    elements whose normal load varies and was searched for zeros (separation).
-    """
-
-    Fu: np.ndarray
-    Fv: np.ndarray
-    dFu_dU: np.ndarray | None
-    dFu_dV: np.ndarray | None
-    dFv_dV: np.ndarray | None
-    regimes: dict
-
-
-def check_coefficients(name, X, E):
-    X = np.asarray(X, dtype=float)
-    if X.ndim != 2 or X.shape[0] != E or X.shape[1] % 2 == 0:
-        raise ValueError(f"{name} must have shape (E={E}, 2H+1), got {X.shape}")
-    if not np.all(np.isfinite(X)):
-        raise ValueError(f"{name} contains NaN or Inf")
-    return X
+__all__ = ["NSLIP", "PSLIP", "SEP", "STATE_NAMES", "STICK", "ContactForces", "YangMenq",
+           "check_coefficients", "forces"]
 
 
 def forces(U, V, elem: YangMenq, method: str = "exact", n_samples: int = 1024,
@@ -121,41 +38,7 @@ def forces(U, V, elem: YangMenq, method: str = "exact", n_samples: int = 1024,
     if U.shape != V.shape:
         raise ValueError(f"U and V must have the same shape, got {U.shape} and {V.shape}")
     if method == "exact":
-        from .contact_exact import exact_forces
         return exact_forces(U, V, elem, jacobian)
     if method == "aft":
-        from .contact_aft import aft_forces
         return aft_forces(U, V, elem, int(n_samples), jacobian)
     raise ValueError(f"method must be 'exact' or 'aft', got {method!r}")
-
-
-def stuck_slider(elem: YangMenq, maxlo, minhi, s_lo, s_hi):
-    """Slider position w of fully stuck elements and its derivatives (see YangMenq).
-
-    maxlo, minhi: (E,) band extremes; s_lo, s_hi: (E, 2H+1) the basis where they
-    occur (lo, hi are stationary there, so d(max lo)/dQ = basis there).
-    Returns w (E,), dw/dU and dw/dV (E, 2H+1).
-    """
-    r = np.where(elem.ku > 0, elem.mu / np.where(elem.ku > 0, elem.ku, 1.0), 0.0)
-    rk = (r * elem.kv)[:, None]
-    if elem.slider_rest is None:
-        return 0.5 * (maxlo + minhi), 0.5 * (s_lo + s_hi), 0.5 * rk * (s_hi - s_lo)
-    ref = elem.slider_rest
-    low, high = ref < maxlo, ref > minhi
-    w = np.where(low, maxlo, np.where(high, minhi, ref))
-    dU = np.where(low[:, None], s_lo, np.where(high[:, None], s_hi, 0.0))
-    dV = np.where(low[:, None], -rk * s_lo, np.where(high[:, None], rk * s_hi, 0.0))
-    return w, dU, dV
-
-
-def stuck_forces(U, elem: YangMenq, w, dwdU, dwdV, rows):
-    """Fu = ku (U - w e0) and its Jacobian for the fully stuck elements `rows`."""
-    nc = U.shape[1]
-    ku = elem.ku[rows][:, None]
-    Fu = ku * U[rows]
-    Fu[:, 0] -= ku[:, 0] * w[rows]
-    e0 = np.zeros(nc)
-    e0[0] = 1.0
-    dU = ku[..., None] * (np.eye(nc) - e0[:, None] * dwdU[rows][:, None, :])
-    dV = -ku[..., None] * e0[:, None] * dwdV[rows][:, None, :]
-    return Fu, dU, dV

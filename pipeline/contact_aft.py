@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .contact import (ContactForces, YangMenq, _SRC_HI, _SRC_LO, _SRC_TD,
-                      stuck_forces, stuck_slider)
+from .contact_element import (SRC_HI, SRC_LO, SRC_TD, ContactForces, YangMenq, stuck_forces,
+                              stuck_slider)
 from .harmonics import harmonics_of, time_grid
 
 
@@ -44,7 +44,7 @@ def play_march(lo, hi, u, contact, i0, w0, k0):
         wc = np.where(low, L[i], np.where(high, Hh[i], np.where(sep, Uu[i], wc)))
         moved = low | high | sep
         sc[moved] = i
-        kc = np.where(low, _SRC_LO, np.where(high, _SRC_HI, np.where(sep, _SRC_TD, kc)))
+        kc = np.where(low, SRC_LO, np.where(high, SRC_HI, np.where(sep, SRC_TD, kc)))
         w[i], src[i], kind[i] = wc, sc, kc
     back = np.argsort(order, axis=1)
     src = np.take_along_axis(order, src.T, 1)  # rolled sample index -> true index
@@ -78,11 +78,11 @@ def aft_forces(U, V, elem: YangMenq, N: int, jacobian: bool = True) -> ContactFo
 
     i0 = np.where(any_sep, np.argmax(~contact, axis=1), i_hi)
     w0 = np.where(any_sep, u[rows, i0], minhi)
-    k0 = np.where(any_sep, _SRC_TD, _SRC_HI)
+    k0 = np.where(any_sep, SRC_TD, SRC_HI)
     mar = np.flatnonzero(tang & ~stuck & contact.any(1))
     w = np.broadcast_to(w_st[:, None], (E, N)).copy()
     src = np.broadcast_to(i_lo[:, None], (E, N)).copy()
-    kind = np.full((E, N), _SRC_LO)
+    kind = np.full((E, N), SRC_LO)
     if mar.size:
         w[mar], src[mar], kind[mar] = play_march(lo[mar], hi[mar], u[mar], contact[mar],
                                                  i0[mar], w0[mar], k0[mar])
@@ -97,7 +97,7 @@ def aft_forces(U, V, elem: YangMenq, N: int, jacobian: bool = True) -> ContactFo
         return ContactForces(Fu, Fv, None, None, None, regimes)
 
     # df_u,i/dU = ku (s_i - dw_i/dU), df_u,i/dV = -ku dw_i/dV, with dw_i = a * s_src
-    aV = np.where(kind == _SRC_LO, -(r * kv)[:, None], np.where(kind == _SRC_HI, (r * kv)[:, None], 0.0))
+    aV = np.where(kind == SRC_LO, -(r * kv)[:, None], np.where(kind == SRC_HI, (r * kv)[:, None], 0.0))
     Ssrc = S[src]  # (E, N, 2H+1)
     WA = W.T[None] * (act * ku[:, None])[..., None]  # (E, N, 2H+1): row weights
     dFu_dU = np.einsum("enk,nj->ekj", WA, S) - np.einsum("enk,enj->ekj", WA, Ssrc)

@@ -37,10 +37,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from .contact import (NSLIP, PSLIP, SEP, STICK, ContactForces, YangMenq,
-                      _SRC_HI, _SRC_LO, _SRC_TD, stuck_forces, stuck_slider)
+from .contact_element import (NSLIP, PSLIP, SEP, SRC_HI, SRC_LO, SRC_TD, STICK, ContactForces,
+                              YangMenq, check_coefficients, stuck_forces, stuck_slider)
 from .harmonics import basis, derivative, harmonics_of
-from .trigroots import TWO_PI, _polish, sign_changes
+from .trigroots import TWO_PI, polish_root, sign_changes
 
 
 # --------------------------------------------------------------------------
@@ -129,7 +129,7 @@ def _crossing(P, w, a, b):
     t = a.copy()
     idx = np.flatnonzero(~at_start)
     if idx.size:
-        t[idx] = _polish(Q[idx], a[idx].copy(), b[idx].copy(), -np.ones(idx.size, int))
+        t[idx] = polish_root(Q[idx], a[idx].copy(), b[idx].copy(), -np.ones(idx.size, int))
     return t
 
 
@@ -211,7 +211,7 @@ def periodic_segments(U, V, elem: YangMenq):
     # full stick: w in [max lo, min hi] by the convention of YangMenq.slider_rest
     w_st, dwdU, dwdV = stuck_slider(elem, maxlo, minhi, _extreme_basis(tlo, H),
                                     _extreme_basis(thi, H))
-    kind = np.full(E, _SRC_LO)
+    kind = np.full(E, SRC_LO)
     src_tau = np.nan_to_num(tlo)
     thi = np.nan_to_num(thi)
 
@@ -304,7 +304,7 @@ def _march(U, Lc, Hc, Nc, nr, ns, lr, hr, crosses, thi, minhi):
     state = np.where(crosses, SEP, NSLIP)
     w = np.where(crosses, 0.0, minhi)
     src_t = np.where(crosses, t0, thi)
-    src_k = np.where(crosses, _SRC_TD, _SRC_HI)
+    src_k = np.where(crosses, SRC_TD, SRC_HI)
     st1, w1, srt, srk = (np.empty((E, K), int), np.empty((E, K)), np.empty((E, K)),
                          np.empty((E, K), int))
     st2 = np.full((E, K), -1, dtype=int)
@@ -317,7 +317,7 @@ def _march(U, Lc, Hc, Nc, nr, ns, lr, hr, crosses, thi, minhi):
         end_ns = on & (state == NSLIP) & (hp >= 0)
         w = np.where(td, u_bp[:, k], np.where(end_ps, lo_bp[:, k], np.where(end_ns, hi_bp[:, k], w)))
         src_t = np.where(td | end_ps | end_ns, bp[:, k], src_t)
-        src_k = np.where(td, _SRC_TD, np.where(end_ps, _SRC_LO, np.where(end_ns, _SRC_HI, src_k)))
+        src_k = np.where(td, SRC_TD, np.where(end_ps, SRC_LO, np.where(end_ns, SRC_HI, src_k)))
         state = np.where(td, np.where(lp > 0, PSLIP, np.where(hp < 0, NSLIP, STICK)), state)
         state = np.where(end_ps | end_ns, STICK, state)
         state = np.where(act & ~contact, SEP, state)
@@ -427,8 +427,8 @@ def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
     kind, ts = seg["src_kind"][es, ss], seg["src_tau"][es, ss]
     r = np.where(tang, mu / np.where(ku > 0, ku, 1.0), 0.0)[es]
     Sx = basis(ts, H)                                          # (Nst, 2H+1)
-    aV = np.where(kind == _SRC_LO, -r * kv[es], np.where(kind == _SRC_HI, r * kv[es], 0.0))
-    td = np.flatnonzero(kind == _SRC_TD)
+    aV = np.where(kind == SRC_LO, -r * kv[es], np.where(kind == SRC_HI, r * kv[es], 0.0))
+    td = np.flatnonzero(kind == SRC_TD)
     if td.size:
         B1 = basis(ts[td], H, 1)
         ud = np.einsum("kc,kc->k", B1, U[es[td]])
@@ -453,8 +453,6 @@ def history(U, V, elem: YangMenq, tau) -> dict:
     `v` [m], `n` [N]; and `transitions`: per element a list of (tau, from, to)
     with tau in [0, 2 pi).
     """
-    from .contact import check_coefficients
-
     E = elem.size
     U = check_coefficients("U", U, E)
     V = check_coefficients("V", V, E)

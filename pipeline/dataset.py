@@ -270,7 +270,7 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         "reference": study.reference,
         "model": scene.model,
         "effects": ", ".join(scene.effects) or "none (linear)",
-        "solution_method": _solution_method(study),
+        "solution_method": solution_method(study),
         "harmonics": int(H),
         "force_evaluation": study.solver.force_evaluation,
         "aft_samples": int(study.solver.samples),
@@ -385,7 +385,7 @@ def _add_optimum(data_vars, coords, opt, study, to_unit, unit):
         "units": "s", "long_name": "wall time of the optimum search"})
 
 
-def _solution_method(study) -> str:
+def solution_method(study) -> str:
     """What the run composed for the scene's declared effects (a scene pays only
     for what it calls for), in words."""
     from .study import is_linear_scene

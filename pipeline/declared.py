@@ -20,6 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .harmonics import basis
+from .hbm import contact_motion, setup
+from .trigroots import sign_changes
+
 
 class UndeclaredSeparation(RuntimeError):
     """A solution separates although the scene does not declare "separation"."""
@@ -34,9 +38,6 @@ def needs_guard(scene) -> bool:
 def separating(prob, Qc, elem) -> np.ndarray:
     """(E,) bool: elements whose varying normal load reaches zero over the period,
     for the contact-DOF coefficients Qc (nc, 2H+1) of `prob` (`hbm.setup`)."""
-    from .harmonics import basis
-    from .hbm import contact_motion
-    from .trigroots import sign_changes
 
     _, V = contact_motion(prob, np.asarray(Qc, dtype=float))
     N = elem.kv[:, None] * V
@@ -76,8 +77,6 @@ class SeparationGuard:
         """callback(x, Omega) for the continuation: x are the contact-DOF
         coefficients of `hbm.setup(system, H)`; raises at the first point that
         separates."""
-        from .hbm import setup
-
         prob = setup(system, H)
         elem = system.contact
 
@@ -90,8 +89,6 @@ class SeparationGuard:
 
     def check_curve(self, system, curve):
         """Every converged point of a `ResponseCurve` (inserted peaks included)."""
-        from .hbm import setup
-
         prob = setup(system, curve.H)
         for i in np.flatnonzero(np.asarray(curve.converged)):
             sep = separating(prob, curve.Q[i][prob.c], system.contact)

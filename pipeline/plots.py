@@ -6,17 +6,25 @@ from pathlib import Path
 
 import numpy as np
 
+from .contact import STATE_NAMES, YangMenq
+from .contact_exact import history
+
 STATE_COLOURS = {0: "#9e9e9e", 1: "#1f77b4", 2: "#d62728", 3: "#2ca02c"}
 
 
-def _plt():
+# matplotlib is imported inside functions throughout: its import takes a noticeable
+# time that only code that draws should pay.
+def pyplot():
+    """matplotlib.pyplot on the Agg backend, imported on first use."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt
 
 
-def _atomic_savefig(fig, path):
+def atomic_savefig(fig, path):
+    """Write `fig` to `path` (format from the suffix) through a temporary file and a
+    rename, so a reader never sees half a figure; returns the Path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
@@ -37,16 +45,13 @@ def demo_motion(H: int = 3):
 
 def hysteresis_figure(path, mu=0.4, ku=1.0, kv=1.0, n0=1.0, U=None, V=None, n_points=2000):
     """Time history of f_u, f_v and the loop f_u(u) (paper Fig. 5), coloured by state."""
-    from .contact import STATE_NAMES, YangMenq
-    from .contact_exact import history
-
     if U is None:
         U, V = demo_motion()
     elem = YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)
     tau = np.linspace(0.0, 2 * np.pi, n_points + 1)
     h = history(U, V, elem, tau)
     st, fu, fv, u = h["state"][0], h["fu"][0], h["fv"][0], h["u"][0]
-    plt = _plt()
+    plt = pyplot()
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
     for s, name in STATE_NAMES.items():
         m = np.where(st == s, 1.0, np.nan)
@@ -66,7 +71,7 @@ def hysteresis_figure(path, mu=0.4, ku=1.0, kv=1.0, n0=1.0, U=None, V=None, n_po
     for a in (a1, a2):
         a.grid(alpha=0.3)
     fig.suptitle(f"Yang-Menq element: mu = {mu}, ku = {ku} N/m, kv = {kv} N/m, n0 = {n0} N")
-    out = _atomic_savefig(fig, path)
+    out = atomic_savefig(fig, path)
     plt.close(fig)
     return out
 
@@ -75,13 +80,13 @@ def hysteresis_figure(path, mu=0.4, ku=1.0, kv=1.0, n0=1.0, U=None, V=None, n_po
 # Response curves of a study (paper Figs. 2, 4, 6)
 # ---------------------------------------------------------------------------
 
-def _fold_indices(f):
+def fold_indices(f):
     """Interior points where the frequency turns back (turning points of the branch)."""
     d = np.diff(f)
     return np.flatnonzero(d[:-1] * d[1:] < 0) + 1
 
 
-def _runs(mask):
+def true_runs(mask):
     """(start, stop) index pairs of the runs of True in `mask`."""
     m = np.concatenate([[False], np.asarray(mask, bool), [False]])
     edges = np.flatnonzero(np.diff(m.astype(np.int8)))
@@ -124,7 +129,7 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
 
     A branch may carry a sixth element, a dict of Line2D properties (color, lw,
     alpha, zorder) that override its defaults; label None leaves it out of the legend."""
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     states_seen, any_fold = set(), False
@@ -136,14 +141,14 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
         col = style.pop("color", colours[k % len(colours)])
         lw = style.pop("lw", None)
         first = True
-        for i0, i1 in _runs(conv):
+        for i0, i1 in true_runs(conv):
             fs, as_, st = f[i0:i1], a[i0:i1], state[i0:i1]
             n = i1 - i0
             # stable runs solid; unstable (dashed) and not-computed (dotted) runs
             # reach back to the point before and on to a stable point after, so the
             # curve stays connected and every segment is drawn once
             for s in (STABLE, UNSTABLE, NOT_COMPUTED):
-                for j0, j1 in _runs(st == s):
+                for j0, j1 in true_runs(st == s):
                     if s != STABLE:
                         j0 = max(j0 - 1, 0)
                         j1 = j1 + 1 if j1 < n and st[j1] == STABLE else j1
@@ -155,7 +160,7 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
                     first = False
                     if s != STABLE:
                         states_seen.add(s)
-            folds = _fold_indices(fs)
+            folds = fold_indices(fs)
             if folds.size:
                 any_fold = True
                 ax.plot(fs[folds], as_[folds], "o", mfc="none", mec=col, ms=6)
@@ -183,9 +188,9 @@ def response_curves_figure(path, branches, **kwargs):
     frequency) marked with open circles; non-converged points are gaps.  Keyword
     arguments as `response_curves_plot`.
     """
-    plt = _plt()
+    plt = pyplot()
     fig = response_curves_plot(branches, **kwargs)
-    out = _atomic_savefig(fig, path)
+    out = atomic_savefig(fig, path)
     plt.close(fig)
     return out
 
@@ -199,7 +204,7 @@ def sector_peaks_figure(path, sectors, series, tuned_peak, *, dof="x", title="",
     `tuned_note` says why).  Each sector's peak is a marker on a stem from the tuned
     line; the legend gives each series' amplification factor max peak / tuned peak
     and its sector, the title the largest; the right-hand axis reads peak / tuned peak."""
-    plt = _plt()
+    plt = pyplot()
     sectors = np.asarray(sectors)
     fig, ax = plt.subplots(figsize=(7.5, 4.6))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -246,7 +251,7 @@ def sector_peaks_figure(path, sectors, series, tuned_peak, *, dof="x", title="",
     ax.grid(alpha=0.3, axis="y")
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1,
               frameon=False)
-    out = _atomic_savefig(fig, path)
+    out = atomic_savefig(fig, path)
     plt.close(fig)
     return out
 
@@ -292,7 +297,7 @@ def label_log_axis(axis):
 def optimum_figure(path, result, dof, title=""):
     """Resonant peak vs preload from the optimum search (log-log), optimum marked."""
     ev = np.array(result["evaluations"], dtype=float).reshape(-1, 3)
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.loglog(ev[:, 0], ev[:, 1], "o-", color="#1f77b4", label="evaluated by the search")
     ax.loglog([result["preload"]], [result["peak"]], "*", ms=14, color="#d62728",
@@ -301,6 +306,6 @@ def optimum_figure(path, result, dof, title=""):
            title=title or "Optimum preload")
     ax.grid(alpha=0.3, which="both")
     ax.legend()
-    out = _atomic_savefig(fig, path)
+    out = atomic_savefig(fig, path)
     plt.close(fig)
     return out

@@ -8,14 +8,20 @@ dataset layer turns into xarray.
 """
 from __future__ import annotations
 
+import logging
 import math
-from dataclasses import dataclass, field
+import time
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
+from . import hbm
 from .continuation import continue_branch, newton
-from .resonance import MAX_DENSE_DOF
+from .harmonics import amplitude_half_peak_to_peak
+from .resonance import MAX_DENSE_DOF, step_guard
 from .restarts import cover_range
+from .stability import is_stable
 
 
 @dataclass(frozen=True)
@@ -51,11 +57,12 @@ class ResponseCurve:
         return float(a[i]), float(self.omega[i]), i
 
 
-def _initial_guess(prob, Om, contact):
-    """Linear solutions with the contacts open and stuck; Newton picks the better."""
-    from .hbm import real_vector, linear_part, residual
+def initial_guess(prob, Om, contact):
+    """Starting vector x of the condensed HBM problem `prob` at Om [rad/s]: of the
+    linear solutions with the contacts open and fully stuck, the one with the smaller
+    nonlinear residual (`hbm.residual` with the elements `contact`)."""
     nh, nc = prob.nh, prob.c.size
-    St, _, Pt, _ = linear_part(prob, Om, derivatives=False)
+    St, _, Pt, _ = hbm.linear_part(prob, Om, derivatives=False)
     guesses = []
     for stuck in (False, True):
         xs = []
@@ -73,8 +80,8 @@ def _initial_guess(prob, Om, contact):
                 xs.append(np.linalg.solve(A, Pt[h]))
             except np.linalg.LinAlgError:
                 xs.append(np.linalg.lstsq(A, Pt[h], rcond=None)[0])
-        guesses.append(real_vector(np.array(xs), nh).ravel())
-    norms = [np.linalg.norm(residual(prob, g, Om, contact, jacobian=False)[0]) for g in guesses]
+        guesses.append(hbm.real_vector(np.array(xs), nh).ravel())
+    norms = [np.linalg.norm(hbm.residual(prob, g, Om, contact, jacobian=False)[0]) for g in guesses]
     return guesses[int(np.argmin(norms))]
 
 
@@ -108,11 +115,6 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     at their resolution.  The peaks of the `peak_dofs` are then located exactly
     (`_insert_peaks`).
     """
-    import time
-
-    from . import hbm
-    from .resonance import step_guard
-
     t_start = time.perf_counter()
     ds = min(ds, ds_max)  # a small max_step also bounds the first step
     prob = hbm.setup(system, H, method, n_samples)
@@ -156,7 +158,7 @@ def _first_point(prob, elem, Om, w, fun_x, guess=None):
         spent += nr.nfev
         if nr.success:
             return nr, spent
-    nr = newton(fun_x, _initial_guess(prob, Om, elem), 1.0, max_iter=60)
+    nr = newton(fun_x, initial_guess(prob, Om, elem), 1.0, max_iter=60)
     spent += nr.nfev
     for start in (_cold_start, _stiffness_start):
         if nr.success:
@@ -171,7 +173,6 @@ def _cold_start(prob, elem, Om, w, failed):
     excitation: the static state under the preloads) to s = 1, at fixed Om.  Used
     when Newton from the linear guesses fails (strong impact, a gap that closes).
     Returns (NewtonResult, nfev spent); `failed` if the homotopy fails."""
-    from . import hbm
     _, _, Pt, _ = hbm.linear_part(prob, Om, derivatives=False)
     wP = w * hbm.real_vector(Pt, prob.nh).ravel()
 
@@ -198,9 +199,6 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
     spans decades).  Used when stiff impact defeats both Newton from the linear
     guesses and the load homotopy (whose branch then meets a cascade of folds).
     Returns (NewtonResult, nfev spent); `failed` if no decade leads to p = 0."""
-    from dataclasses import replace
-
-    from . import hbm
     def el(p):
         f = 10.0 ** p
         return replace(elem, ku=elem.ku * f, kv=elem.kv * f)
@@ -217,7 +215,7 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
     spent = 0
     for dec in decades:
         p0 = -float(dec)
-        st = newton(lambda x: fun_p(x, p0)[:2], _initial_guess(prob, Om, el(p0)), 1.0,
+        st = newton(lambda x: fun_p(x, p0)[:2], initial_guess(prob, Om, el(p0)), 1.0,
                     max_iter=30)
         spent += st.nfev
         if not st.success:
@@ -245,8 +243,6 @@ def _branch_points(br):
 
 
 def _dof_amplitude(prob, x, lam, dof, omega_of=lambda l: l):
-    from . import hbm
-    from .harmonics import amplitude_half_peak_to_peak
     Q = hbm.recover(prob, x.reshape(prob.c.size, prob.nh), omega_of(lam))
     return float(amplitude_half_peak_to_peak(Q[dof]))
 
@@ -261,12 +257,13 @@ def _local_maxima(amps, converged, rel=0.05):
     return sorted(idx, key=lambda i: -a[i])
 
 
-_PLOT_TURN = math.radians(8.0)   # largest turn of the drawn curve at a point
-_PLOT_TURN_LONG = math.radians(3.0)  # ... and at a point between long chords
-_PLOT_LONG_CHORD = 0.04          # a chord this long (plot units) shows a small corner
-_PLOT_MIN_CHORD = 2e-3           # segments shorter than this (plot units) are not split
-_PLOT_MAX_POINTS = 400           # points `_densify` may add to one curve
-_PLOT_PASSES = 8
+# how finely `_densify` draws a curve (`test_dense_output` asserts the result)
+PLOT_TURN = math.radians(8.0)   # largest turn of the drawn curve at a point
+PLOT_TURN_LONG = math.radians(3.0)  # ... and at a point between long chords
+PLOT_LONG_CHORD = 0.04          # a chord this long (plot units) shows a small corner
+PLOT_MIN_CHORD = 2e-3           # segments shorter than this (plot units) are not split
+PLOT_MAX_POINTS = 400           # points `_densify` may add to one curve
+PLOT_PASSES = 8
 
 
 def _solve_on_plane(fun, p, d, scale, tol):
@@ -305,13 +302,13 @@ def _densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
 
     A chord of a drawn curve (frequency against the amplitude of one DOF on a
     linear or a log axis, in axis units)
-    that meets its neighbour at more than _PLOT_TURN (_PLOT_TURN_LONG if it is longer
-    than _PLOT_LONG_CHORD: a long chord shows a small corner) is split at its middle: the
+    that meets its neighbour at more than PLOT_TURN (PLOT_TURN_LONG if it is longer
+    than PLOT_LONG_CHORD: a long chord shows a small corner) is split at its middle: the
     new point solves R = 0 on the hyperplane through the middle of the chord of
     scaled [x; lam], normal to it.  Straight stretches get no point, and a point
     on a linear stretch costs one Newton iteration.  Repeated until the curves
-    turn by less than _PLOT_TURN, chords are shorter than _PLOT_MIN_CHORD, or
-    _PLOT_MAX_POINTS were added.
+    turn by less than PLOT_TURN, chords are shorter than PLOT_MIN_CHORD, or
+    PLOT_MAX_POINTS were added.
     """
     X, L = np.array(pts["x"]), np.array(pts["lam"])
     nit = np.array(pts["nit"])
@@ -322,7 +319,7 @@ def _densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
                       max(np.ptp(L), abs(L).max() * 1e-9, 1e-300))
     added = 0
     failed = set()
-    for _ in range(_PLOT_PASSES):
+    for _ in range(PLOT_PASSES):
         Pc = _plot_coordinates(prob, X, L, dofs, omega_of)
         chord = np.diff(Pc, axis=0)
         length = np.linalg.norm(chord, axis=1)
@@ -333,13 +330,13 @@ def _densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
             cosang = np.einsum("ij,ij->i", c2[:-1], c2[1:]) / np.maximum(n2[:-1] * n2[1:], 1e-300)
             turn[1:-1] = np.maximum(turn[1:-1], np.arccos(np.clip(cosang, -1.0, 1.0)))
         # a corner shows where chords turn sharply, or turn a little but are long
-        split = sorted({seg for i in np.flatnonzero(turn > _PLOT_TURN_LONG) for seg in (i - 1, i)
-                        if (length[seg] > _PLOT_MIN_CHORD and (L[seg], L[seg + 1]) not in failed
-                            and (turn[i] > _PLOT_TURN or length[seg] > _PLOT_LONG_CHORD))})
-        if not split or added >= _PLOT_MAX_POINTS:
+        split = sorted({seg for i in np.flatnonzero(turn > PLOT_TURN_LONG) for seg in (i - 1, i)
+                        if (length[seg] > PLOT_MIN_CHORD and (L[seg], L[seg + 1]) not in failed
+                            and (turn[i] > PLOT_TURN or length[seg] > PLOT_LONG_CHORD))})
+        if not split or added >= PLOT_MAX_POINTS:
             break
         new = []
-        for seg in split[:_PLOT_MAX_POINTS - added]:
+        for seg in split[:PLOT_MAX_POINTS - added]:
             za = np.append(X[seg], L[seg]) / scale
             zb = np.append(X[seg + 1], L[seg + 1]) / scale
             d = zb - za
@@ -374,8 +371,6 @@ def _insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     R = 0 plus that condition) and the amplitude is maximised over sigma (bounded
     Brent).  The maximum is then a converged solution, not a sample of the curve.
     """
-    from scipy.optimize import minimize_scalar
-
     X, L = pts["x"], pts["lam"]
     if L.size < 3:
         return pts
@@ -440,12 +435,6 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
     point recomputed and split into static and harmonic parts, each held to its
     tolerance [N]; Hill stability of the full system.  elem_at(lam) gives the
     contact elements at a parameter value (they change with it in preload mode)."""
-    import time
-
-    from . import hbm
-    from .harmonics import amplitude_half_peak_to_peak
-    from .stability import is_stable
-
     t0 = time.perf_counter()
     P = pts["lam"].size
     n, nh = prob.system.n_dof, prob.nh
@@ -497,7 +486,6 @@ def _guard_note(br, pts) -> str:
 
 
 def _with_preload(elem, lam, shape):
-    from dataclasses import replace
     return replace(elem, n0=lam * shape)
 
 
@@ -511,11 +499,6 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
     a central difference of the contact forces (the linear part does not depend on
     n0); dR/dQ stays exact.
     """
-    import time
-
-    from . import hbm
-    from .resonance import step_guard
-
     t_start = time.perf_counter()
     ds = min(ds, ds_max)
     prob = hbm.setup(system, H, method, n_samples)
@@ -565,8 +548,6 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     (preloads span decades), to a relative tolerance `rtol` in n0.
     Returns a dict: preload, peak, peak_omega, evaluations [(n0, peak, omega)].
     """
-    from scipy.optimize import minimize_scalar
-
     lo, hi = bounds
     if not (0 < lo < hi) and log:
         raise ValueError(f"bounds must satisfy 0 < low < high for a log search, got {bounds}")
@@ -578,7 +559,6 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
         n0 = float(np.exp(t)) if log else float(t)
         c = frequency_response(build(n0), H, omega_start, omega_end, peak_dofs=[dof], **kwargs)
         if not c.success:  # an incomplete curve may miss its peak: never a candidate
-            import logging
             logging.getLogger(__name__).warning("optimum search: curve at %.6g N incomplete "
                                                 "(%s); skipped", n0, c.message)
             return np.inf

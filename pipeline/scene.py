@@ -52,7 +52,8 @@ FREQUENCY_UNITS = ("rad/s", "Hz")
 FIGURES = ("amplitude",)
 MAX_HARMONICS = 200
 MAX_DOFS = 2000
-_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]{0,63}$")
+# a DOF, contact or study name (letters, digits, '_', '.'; at most 64 characters)
+NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]{0,63}$")
 _SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
 
 
@@ -284,7 +285,12 @@ def study_to_mapping(study: Study) -> dict:
 # Validation helpers: every failure names the file and the field
 # ---------------------------------------------------------------------------
 
-class _Checker:
+class Checker:
+    """Validation of one study file's parsed TOML: each method returns the checked
+    value or raises `UsageError("<file>: <field>: <what>")` (`fail`), with "did you
+    mean" for unknown keys.  Shared by every study parser (lumped, disk, blade,
+    accuracy/cost)."""
+
     def __init__(self, file: str):
         self.file = file
 
@@ -372,7 +378,7 @@ class _Checker:
 
     def names(self, value, field, min_length=1):
         vals = self.array(value, field, min_length=min_length)
-        out = [self.string(v, f"{field}[{i}]", pattern=_NAME) for i, v in enumerate(vals)]
+        out = [self.string(v, f"{field}[{i}]", pattern=NAME_PATTERN) for i, v in enumerate(vals)]
         for i, v in enumerate(out):
             if v in out[:i]:
                 self.fail(f"{field}[{i}]", f"duplicate {v!r}")
@@ -451,7 +457,7 @@ _TOP = ("study", "scene", "sweep", "solver", "output", "quick")
 def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study",
                        text: str = "", quick: bool = False) -> Study:
     """Validate an already-parsed study document (the dict `tomllib` returns)."""
-    ck = _Checker(file)
+    ck = Checker(file)
     ck.table(data, "(document)")
     head = data.get("study")
     if isinstance(head, dict) and head.get("kind") == "accuracy_cost":  # pipeline/accuracy_cost.py
@@ -472,15 +478,15 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     # [quick] only when the quick variant is asked for: a full run never depends on it
     scene_tab = ck.table(data["scene"], "scene")
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
-    solver = _solver(ck, solver_tab, "solver")
-    sweep_axes, freq = _sweep(ck, sweep_tab, "sweep")
-    scene = _scene(ck, scene_tab)
+    solver = parse_solver(ck, solver_tab, "solver")
+    sweep_axes, freq = parse_sweep(ck, sweep_tab, "sweep")
+    scene = parse_scene(ck, scene_tab)
     output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
     variants = [(False, solver, sweep_axes, freq, "solver", "sweep")]
     if quick:
         q_solver, q_sweep = quick_tables(ck, data, sweep_tab)
-        q_solver_s = _solver(ck, q_solver, "quick.solver", base=solver)
-        q_axes, q_freq = _sweep(ck, q_sweep, "quick.sweep", partial=True)
+        q_solver_s = parse_solver(ck, q_solver, "quick.solver", base=solver)
+        q_axes, q_freq = parse_sweep(ck, q_sweep, "quick.sweep", partial=True)
         q_axes = {k: q_axes.get(k, v) for k, v in sweep_axes.items()}
         variants.append((True, q_solver_s, q_axes, q_freq or freq,
                          "quick.solver" if q_solver else "solver",
@@ -528,7 +534,9 @@ _SOLVER_KEYS = ("harmonics", "force_evaluation", "samples", "tolerance", "stabil
                 "initial_step", "max_step", "max_points", "dense_output")
 
 
-def _solver(ck, tab, path, base=None) -> SolverSettings:
+def parse_solver(ck, tab, path, base=None) -> SolverSettings:
+    """`SolverSettings` from the table `tab` at field `path` (keys not given keep the
+    values of `base`, or the defaults); failures through the `Checker` ck."""
     ck.keys(tab, path, _SOLVER_KEYS)
     kw = {}
     if "harmonics" in tab:
@@ -561,7 +569,9 @@ def _solver(ck, tab, path, base=None) -> SolverSettings:
     return s
 
 
-def _sweep(ck, tab, path, partial=False):
+def parse_sweep(ck, tab, path, partial=False):
+    """(grid axes {name: values}, `FrequencyRange` or None) from the [sweep] table `tab`
+    at field `path`; `partial` (a quick override) may omit the frequency."""
     axes, freq = {}, None
     for key, value in tab.items():
         field = _join(path, key)
@@ -604,7 +614,8 @@ def _sweep(ck, tab, path, partial=False):
     return axes, freq
 
 
-def _scene(ck, tab) -> Scene:
+def parse_scene(ck, tab) -> Scene:
+    """The lumped `Scene` (or `DiskScene`) of a [scene] table; failures through ck."""
     ck.keys(tab, "scene", ("model", "effects", "dofs", "matrices", "modal", "contact",
                            "excitation", "disk"), required=("model",))
     model = ck.string(tab["model"], "scene.model", MODELS)
@@ -738,7 +749,7 @@ def _contact(ck, c, f, dofs, i) -> ContactSpec:
     c = ck.table(c, f)
     ck.keys(c, f, ("name", "tangential", "normal", "ku", "kv", "mu", "n0"),
             required=("tangential", "ku", "mu"))
-    name = ck.string(c.get("name", f"contact{i}"), f"{f}.name", pattern=_NAME)
+    name = ck.string(c.get("name", f"contact{i}"), f"{f}.name", pattern=NAME_PATTERN)
     bt = _signed_row(ck, c["tangential"], f"{f}.tangential", dofs, True)
     bn = _signed_row(ck, c.get("normal"), f"{f}.normal", dofs, False)
     ku = ck.number(c["ku"], f"{f}.ku", gt=0.0)
@@ -836,7 +847,7 @@ def _output(ck, t, scene) -> OutputSettings:
             w = o["frequency"]
             if not isinstance(w, dict):
                 ck.fail(f + ".frequency", f"must be a table {{start, stop, unit}}, got {_kind(w)}")
-            window = _sweep(ck, {"frequency": w}, f, partial=True)[1]
+            window = parse_sweep(ck, {"frequency": w}, f, partial=True)[1]
         rtol = ck.number(o.get("rtol", 1e-2), f + ".rtol", gt=0.0, lt=1.0)
         if not scene.contacts:
             ck.fail(f, "the scene has no contact: there is no preload to optimise")

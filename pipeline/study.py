@@ -117,7 +117,7 @@ class StudyResult:
         return self.path is not None and self.failures == 0 and self.optimum_error is None
 
 
-class _Progress:
+class Progress:
     """tqdm when it is installed (cases done, and the current case's frequency in the
     study's unit when cases run in this process), otherwise one log line per
     finished case.  While the bar is live, log records are written through tqdm
@@ -270,7 +270,7 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
     if reused:
         log.info("%s: resuming: %d of %d case(s) finished earlier (kept in %s), %d to compute",
                  study.name, len(reused), len(cases), cdir, len(todo))
-    bar = (_Progress(len(cases), study.name, initial=len(reused), unit=fr.unit)
+    bar = (Progress(len(cases), study.name, initial=len(reused), unit=fr.unit)
            if progress else None)
     guard = separation_guard(study) if getattr(solver, "__module__", "") == "pipeline.response" else None
 

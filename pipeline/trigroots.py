@@ -42,10 +42,12 @@ def _eval01(P, x):
         np.einsum("kj,kj->k", b * j, c) - np.einsum("kj,kj->k", a * j, s)
 
 
-def _polish(P, lo, hi, plo, flo=None, fhi=None):
-    """Root of p in [lo, hi] given a sign change (p(lo) has sign plo); Newton+bisection.
+def polish_root(P, lo, hi, plo, flo=None, fhi=None):
+    """Roots of the trigonometric polynomials P (K, 2H+1), one in each [lo, hi] (K,).
 
-    Starts from the secant point when the end values flo, fhi are given.
+    Each p changes sign on its interval, p(lo) having the sign plo (K,); safeguarded
+    Newton with bisection, to round-off.  Starts from the secant point when the end
+    values flo, fhi are given.  lo and hi are overwritten (the final brackets).
     """
     if flo is not None:
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -154,7 +156,7 @@ def sign_changes(P: np.ndarray, resolution: float = 1e-12, n_initial: int = 0):
     rows = np.concatenate(rows).astype(int)
     lo, hi, slo = np.concatenate(lo), np.concatenate(hi), np.concatenate(slo)
     flo, fhi = np.concatenate(flo), np.concatenate(fhi)
-    roots = _polish(P[rows], lo.copy(), hi.copy(), slo, flo, fhi) if rows.size else lo
+    roots = polish_root(P[rows], lo.copy(), hi.copy(), slo, flo, fhi) if rows.size else lo
     roots = np.mod(roots, TWO_PI)
     counts = np.bincount(rows, minlength=M)
     R = int(counts.max()) if rows.size else 0

@@ -69,7 +69,7 @@ def test_pareto_time_axis_is_labelled_over_its_range(quick):
     """The quick study's wall times span less than a decade: at least three labelled
     ticks inside each panel's time range."""
     from pipeline.accuracy_cost import pareto_plot
-    from pipeline.plots import _plt
+    from pipeline.plots import pyplot
 
     _, ds = quick
     fig = pareto_plot(ds)
@@ -81,7 +81,7 @@ def test_pareto_time_axis_is_labelled_over_its_range(quick):
                      if t.get_text() and lo <= t.get_position()[0] <= hi]
             assert len(shown) >= 3, (ax.get_title(), shown)
     finally:
-        _plt().close(fig)
+        pyplot().close(fig)
 
 def test_lumped_reference_numbers_and_time_integration(quick):
     _, ds = quick

@@ -18,7 +18,7 @@ from pipeline.dataset_check import problems
 from pipeline.errors import UsageError
 from pipeline.fe_model import BladeParams, build_blade, write_mesh
 from pipeline.harmonics import amplitude_half_peak_to_peak, evaluate
-from pipeline.response import _initial_guess
+from pipeline.response import initial_guess
 from pipeline.scene import load_study, parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -205,7 +205,7 @@ def _solve(system, Om, x0=None):
     prob = hbm.setup(system, H)
     w, tol_s, tol_d = _weights(prob)
     if x0 is None:
-        x0 = _initial_guess(prob, Om, system.contact)
+        x0 = initial_guess(prob, Om, system.contact)
 
     def fun(x):
         R, J, _ = hbm.residual(prob, x, Om)

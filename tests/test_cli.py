@@ -167,13 +167,13 @@ def test_check_dataset(tmp_path, capsys):
 def test_progress_shows_the_frequency_in_the_study_unit(monkeypatch):
     import tqdm.auto
 
-    from pipeline.study import _Progress
+    from pipeline.study import Progress
 
     stream = io.StringIO()
     real = tqdm.auto.tqdm
     monkeypatch.setattr(tqdm.auto, "tqdm", lambda *a, **k: real(*a, **{**k, "disable": False,
                                                                         "file": stream}))
-    p = _Progress(3, "ex2", unit="Hz")
+    p = Progress(3, "ex2", unit="Hz")
     try:
         assert p.live
         p.frequency(2 * math.pi * 137.7)
@@ -184,7 +184,7 @@ def test_progress_shows_the_frequency_in_the_study_unit(monkeypatch):
     finally:
         p.close()
     assert "_TqdmLoggingHandler" not in {type(h).__name__ for h in logging.getLogger().handlers}
-    q = _Progress(1, "ex1", unit="rad/s")
+    q = Progress(1, "ex1", unit="rad/s")
     try:
         q.frequency(150.0)
         assert q.bar.postfix == "150 rad/s"

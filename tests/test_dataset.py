@@ -435,15 +435,15 @@ def test_nothing_converged_writes_nothing(tmp_path, ex1):
 
 
 def test_figure_marks_folds_and_dashes_unstable_parts(tmp_path):
-    from pipeline.plots import _fold_indices, _runs, response_curves_figure
+    from pipeline.plots import fold_indices, true_runs, response_curves_figure
 
     s = np.linspace(0, 1, 61)                 # an S-shaped (folded) branch
     f = s + 0.25 * np.sin(2 * np.pi * s)
     a = 1 + s
     stable = ~((s > 0.36) & (s < 0.64))
     # df/ds = 0 where cos(2 pi s) = -2/pi: s = 0.360, 0.640 (points 21.6, 38.4)
-    assert _fold_indices(f).tolist() == [22, 38]
-    assert _runs(stable) == [(0, 22), (39, 61)]
+    assert fold_indices(f).tolist() == [22, 38]
+    assert true_runs(stable) == [(0, 22), (39, 61)]
     p = response_curves_figure(tmp_path / "fig.png", [("n0 = 10 N", f, a, stable, np.ones(61, bool))],
                                title="folded")
     assert p.exists() and p.stat().st_size > 5_000

@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from pipeline.paper_systems import example2
-from pipeline.response import _PLOT_MIN_CHORD, _PLOT_TURN, frequency_response
+from pipeline.response import PLOT_MIN_CHORD, PLOT_TURN, frequency_response
 from paper_systems import BETA, K_CHAIN, chain_system
 
 F_LO, F_HI = 4.0, 25.0  # Hz
@@ -53,7 +53,7 @@ def test_drawn_curve_turns_little_at_every_point(n):
     cos = np.einsum("ij,ij->i", ch[:-1], ch[1:]) / (ln[:-1] * ln[1:])
     turn = np.arccos(np.clip(cos, -1, 1))
     # inserted peak points may add a small kink at the top; everything else is smooth
-    bad = (turn > _PLOT_TURN + math.radians(2)) & (ln[:-1] > _PLOT_MIN_CHORD) & (ln[1:] > _PLOT_MIN_CHORD)
+    bad = (turn > PLOT_TURN + math.radians(2)) & (ln[:-1] > PLOT_MIN_CHORD) & (ln[1:] > PLOT_MIN_CHORD)
     assert bad.sum() <= 2, np.degrees(turn[bad])
 
 

@@ -7,7 +7,7 @@ import pytest
 import xarray as xr
 
 from pipeline.disk_figures import TunedCurve, by_sector, sector_and_dof, write_sector_figures
-from pipeline.plots import (NOT_COMPUTED, STABLE, UNSTABLE, _plt, label_log_axis, log_ticks,
+from pipeline.plots import (NOT_COMPUTED, STABLE, UNSTABLE, pyplot, label_log_axis, log_ticks,
                             response_curves_plot, stability_for_plot, stability_states)
 
 
@@ -36,7 +36,7 @@ def test_stability_not_computed_is_never_drawn_as_stable():
         legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
         assert "stability not computed" in legend and "unstable" in legend
     finally:
-        _plt().close(fig)
+        pyplot().close(fig)
 
 
 def test_bool_stability_is_solid_and_dashed_only():
@@ -49,7 +49,7 @@ def test_bool_stability_is_solid_and_dashed_only():
         legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
         assert "stability not computed" not in legend
     finally:
-        _plt().close(fig)
+        pyplot().close(fig)
 
 
 def test_stability_states_and_placeholder_stability():
@@ -66,7 +66,7 @@ def test_stability_states_and_placeholder_stability():
                                    (0.6, 25.0), (5.5, 6.5)])
 def test_log_axis_has_at_least_three_labelled_ticks(lo, hi):
     assert len(log_ticks(lo, hi)) >= 3
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots()
     try:
         ax.plot([lo, hi], [1.0, 2.0])

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from pipeline.contact import YangMenq
+from pipeline.hbm import state_at_zero
 from pipeline.response import frequency_response
 from pipeline.system import System
 from paper_systems import example1, example3
-from test_response import _state_at_zero
 
 DS_MIN = 1e-6  # continuation default
 
@@ -228,7 +228,7 @@ def amplitude_at(s, H, Om, Q, method="exact", N=256):
 def time_integration(s, c, i, **kw):
     """Event-driven periodic solution (shooting) started from the HBM point i."""
     from pipeline import timesim
-    q0, qd0, w0 = _state_at_zero(s, c.Q[i], c.omega[i])
+    q0, qd0, w0 = state_at_zero(s, c.Q[i], c.omega[i])
     return timesim.steady_state(s, c.omega[i], H=c.H, q0=q0, qd0=qd0, w0=w0,
                                 transient_periods=0, **kw)
 

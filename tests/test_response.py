@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from pipeline.contact_exact import history
+from pipeline.hbm import state_at_zero
 from pipeline.response import frequency_response, optimum_preload
 from pipeline.system import natural_frequencies
 from pipeline import timesim
@@ -88,20 +88,6 @@ def test_example3_regimes_and_folds(ex3_curves):
         assert c.stable[outside].all()
 
 
-def _state_at_zero(system, Q, Om):
-    """q(0), q'(0), slider positions w(0) of an HBM solution."""
-    H = (Q.shape[1] - 1) // 2
-    j = np.arange(1, H + 1)
-    q0 = Q[:, 0] + Q[:, 1::2].sum(1)
-    qd0 = Om * (Q[:, 2::2] * j).sum(1)
-    U = system.Bt @ Q
-    V = system.Bn @ Q
-    h = history(U, V, system.contact, np.array([0.0]))
-    el = system.contact
-    w0 = np.where(h["state"][:, 0] == 0, h["u"][:, 0], h["u"][:, 0] - h["fu"][:, 0] / el.ku)
-    return q0, qd0, w0
-
-
 @pytest.mark.parametrize("case,n", [("ex1", n) for n in (0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 1000.0)]
                          + [("ex3", n) for n in (-100.0, -20.0, 10.0, 500.0)])
 def test_hbm_peak_matches_event_driven_time_integration(case, n, ex3_curves):
@@ -111,7 +97,7 @@ def test_hbm_peak_matches_event_driven_time_integration(case, n, ex3_curves):
         system, c = example3(n), ex3_curves[n]
     a, om, i = c.peak(0)
     assert c.stable[i]
-    q0, qd0, w0 = _state_at_zero(system, c.Q[i], om)
+    q0, qd0, w0 = state_at_zero(system, c.Q[i], om)
     ts = timesim.steady_state(system, om, H=c.H, q0=q0, qd0=qd0, w0=w0)
     assert ts.converged
     assert ts.amplitude[0] == pytest.approx(a, rel=1e-2)
@@ -122,7 +108,7 @@ def test_unstable_hbm_point_is_left_by_time_integration(ex3_curves):
     i = int(np.flatnonzero(~c.stable)[len(np.flatnonzero(~c.stable)) // 2])
     om = c.omega[i]
     system = example3(-20.0)
-    q0, qd0, w0 = _state_at_zero(system, c.Q[i], om)
+    q0, qd0, w0 = state_at_zero(system, c.Q[i], om)
     ts = timesim.steady_state(system, om, H=c.H, q0=q0, qd0=qd0, w0=w0, method="integrate")
     # settles on one of the stable branches at the same frequency, not the unstable one
     assert abs(ts.amplitude[0] - c.amplitude[i, 0]) > 0.05 * c.amplitude[i, 0]

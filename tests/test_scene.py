@@ -213,10 +213,10 @@ def test_varying_normal_load_that_must_separate_needs_separation(preload, ok):
 
 
 def _cli_has_run():
-    from pipeline.__main__ import _parser
+    from pipeline.__main__ import build_parser
 
     try:
-        _parser().parse_args(["run", "x.toml"])
+        build_parser().parse_args(["run", "x.toml"])
         return True
     except SystemExit:
         return False

@@ -168,13 +168,13 @@ def test_linear_regimes_never_reach_the_transition_search(counted, system, H, lo
 
 
 def test_dataset_says_what_the_scene_included():
-    from pipeline.dataset import _solution_method
+    from pipeline.dataset import solution_method
     from pipeline.scene import load_study
 
     ex1 = load_study(ROOT / "studies" / "paper_example1.toml", quick=True)
     ex3 = load_study(ROOT / "studies" / "paper_example3.toml", quick=True)
-    assert "Jenkins path: no separation search" in _solution_method(ex1)
-    assert "searched for separation" in _solution_method(ex3)
+    assert "Jenkins path: no separation search" in solution_method(ex1)
+    assert "searched for separation" in solution_method(ex3)
 
 
 # -- 3. assembly: one blade builds no cyclic assembly; a disk builds one sector -----

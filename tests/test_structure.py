@@ -1,0 +1,165 @@
+"""The package's own import structure, read from its source with `ast`.
+
+Every `import` and `from ... import` of `pipeline` counts, at module level and inside
+functions, relative and absolute.  Asserted: no private name (leading underscore) is
+imported from another module, the contact modules form no circle, and no circle
+appears beyond the known scene/study one.  The failure message (and the summary test,
+with `pytest -s`) reports the remaining circles and the largest modules and functions.
+"""
+import ast
+from collections import defaultdict
+from pathlib import Path
+
+import pipeline
+
+PACKAGE = Path(pipeline.__file__).resolve().parent
+TESTS = Path(__file__).resolve().parent
+
+# The scene/study layer still imports itself in a circle; the scene redesign (one
+# `Scene` value, one `build_system`) removes it.  This set must only shrink, to empty.
+KNOWN_CIRCLE = {"pipeline.scene", "pipeline.blade_scene", "pipeline.disk_scene",
+                "pipeline.accuracy_cost", "pipeline.dataset", "pipeline.disk_figures",
+                "pipeline.study"}
+
+
+def module_name(path: Path, root: Path) -> str:
+    parts = list(path.relative_to(root.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def absolute(current: str, is_package: bool, node: ast.ImportFrom) -> str:
+    """The module a `from ... import` names, relative levels resolved."""
+    if node.level == 0:
+        return node.module or ""
+    base = current.split(".")
+    if not is_package:
+        base = base[:-1]
+    base = base[:len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def imports(path: Path, name: str):
+    """(imported module, imported name or None, line, at module level) of one file."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    top = {id(n) for n in tree.body}
+    is_package = path.name == "__init__.py"
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                yield a.name, None, node.lineno, id(node) in top
+        elif isinstance(node, ast.ImportFrom):
+            target = absolute(name, is_package, node)
+            for a in node.names:
+                yield target, a.name, node.lineno, id(node) in top
+
+
+def is_private(name) -> bool:
+    return bool(name) and name.startswith("_") and not name.startswith("__")
+
+
+def scan(root: Path = PACKAGE):
+    files = {module_name(f, root): f for f in sorted(root.rglob("*.py"))}
+    edges, private = defaultdict(set), []
+    for mod, path in files.items():
+        for target, name, line, _ in imports(path, mod):
+            hit = [m for m in (target, f"{target}.{name}") if m in files and m != mod]
+            # a package's __init__ importing its own submodules is no circle of design
+            edges[mod].update(m for m in hit
+                              if not (path.name == "__init__.py" and m.startswith(mod + ".")))
+            if target in files and target != mod and is_private(name):
+                private.append(f"{path.relative_to(root.parent)}:{line} imports {target}.{name}")
+    return files, edges, private
+
+
+def circles(nodes, edges):
+    """Strongly connected components of more than one module (Tarjan)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(edges.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = set()
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.add(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(comp)
+
+    for v in sorted(nodes):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def largest_units(files, n=5):
+    """The n longest modules and the n longest functions/classes, as text."""
+    sizes, units = [], []
+    for mod, path in files.items():
+        text = path.read_text(encoding="utf-8")
+        sizes.append((len(text.splitlines()), mod))
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                units.append((node.end_lineno - node.lineno + 1,
+                              f"{path.relative_to(PACKAGE.parent)}:{node.lineno} {node.name}"))
+    mods = ", ".join(f"{m} {k}" for k, m in sorted(sizes, reverse=True)[:n])
+    funcs = "; ".join(f"{u} ({k} lines)" for k, u in sorted(units, reverse=True)[:n])
+    return f"largest modules: {mods}\nlargest functions/classes: {funcs}"
+
+
+def report() -> str:
+    files, edges, private = scan()
+    lines = [f"{len(files)} modules", f"import circles: {len(circles(files, edges))}"]
+    lines += ["  - " + ", ".join(sorted(c)) for c in circles(files, edges)]
+    lines += [f"private names imported across modules: {len(private)}"]
+    lines += ["  - " + p for p in private]
+    return "\n".join(lines + [largest_units(files)])
+
+
+def test_no_private_name_is_imported_across_modules():
+    _, _, private = scan()
+    assert not private, ("a private name is imported from another module: make it public "
+                         "(clear name, docstring) or move it\n" + report())
+
+
+def test_contact_modules_form_no_circle():
+    files, edges, _ = scan()
+    contact = {m for m in files if m.split(".")[-1].startswith("contact")}
+    assert {"pipeline.contact", "pipeline.contact_exact", "pipeline.contact_aft"} <= contact
+    tangled = [c for c in circles(files, edges) if c & contact]
+    assert not tangled, "the contact modules import each other in a circle\n" + report()
+
+
+def test_no_new_import_circle():
+    files, edges, _ = scan()
+    in_circles = set().union(*circles(files, edges))
+    assert in_circles <= KNOWN_CIRCLE, (
+        f"new modules in import circles: {sorted(in_circles - KNOWN_CIRCLE)}\n" + report())
+
+
+def test_tests_use_public_names_and_no_other_test_module():
+    found = []
+    for path in sorted(TESTS.glob("*.py")):
+        for target, name, line, _ in imports(path, path.stem):
+            where = f"{path.name}:{line}"
+            if target.split(".")[0] == "pipeline" and is_private(name):
+                found.append(f"{where} imports the private {target}.{name}")
+            if target.split(".")[-1].startswith("test_") or (target in ("tests", "")
+                                                            and (name or "").startswith("test_")):
+                found.append(f"{where} imports from the test module {target}")
+    assert not found, "\n".join(found)
+
+
+def test_structure_summary():
+    """Not a check: the report, shown with `pytest -s` (or -rP)."""
+    print("\n" + report())
