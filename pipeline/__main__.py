@@ -27,7 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    from .study import add_run_parser
+    from .study.run import add_run_parser
     add_run_parser(sub)
 
     c = sub.add_parser("check", help="validate a study without computing (cases, solver, "
@@ -61,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _cmd_hysteresis(args) -> int:
-    from .plots import hysteresis_figure
+    from .study.plots import hysteresis_figure
 
     path = hysteresis_figure(args.out, mu=args.mu, ku=args.ku, kv=args.kv, n0=args.n0)
     print(f"wrote {path}")
@@ -72,10 +72,10 @@ def _cmd_optimise(args) -> int:
     """Optimum preload by a search on the exact peak (response.optimum_preload)."""
     from pathlib import Path
 
-    from .declared import UndeclaredSeparation
-    from .plots import optimum_figure
-    from .scene import load_study
-    from .study import find_optimum, sigint_interrupts
+    from .study.declared import UndeclaredSeparation
+    from .study.plots import optimum_figure
+    from .study.scene import load_study
+    from .study.run import find_optimum, sigint_interrupts
 
     study = load_study(args.study, quick=args.quick)
     if study.output.optimum is None:
@@ -109,13 +109,13 @@ def _cmd_bench(args) -> int:
 
 
 def _cmd_check(args) -> int:
-    from .check import check
+    from .study.check import check
 
     return check(args.file, quick=args.quick, workers=args.workers)
 
 
 def main(argv=None) -> int:
-    from .study import configure_logging
+    from .study.run import configure_logging
 
     args = build_parser().parse_args(argv)
     configure_logging(args.verbose)

@@ -6,7 +6,7 @@ that should not depend on the study-file layer.
 import numpy as np
 
 from .contact import YangMenq
-from .system import System
+from .model.system import System
 
 
 def example1(n):

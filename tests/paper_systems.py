@@ -4,7 +4,7 @@ import numpy as np
 
 from pipeline.contact import YangMenq
 from pipeline.paper_systems import example1, example2, example3  # noqa: F401
-from pipeline.system import System
+from pipeline.model.system import System
 
 # ground-1-2-3, 1 kg and 1e4 N/m each, C = BETA K (zeta = 0.5 % at the first open mode)
 K_CHAIN = 1e4 * np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]])

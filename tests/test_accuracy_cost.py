@@ -11,11 +11,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from pipeline.__main__ import main as cli
-from pipeline.accuracy_cost import AccuracyStudy
-from pipeline.dataset import read_dataset
-from pipeline.dataset_check import problems
+from pipeline.study.accuracy_cost import AccuracyStudy
+from pipeline.study.dataset import read_dataset
+from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError
-from pipeline.scene import load_study, parse_study
+from pipeline.study.scene import load_study, parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "accuracy_cost.toml"
@@ -68,8 +68,8 @@ def test_quick_study_writes_a_conforming_dataset_table_and_figure(quick):
 def test_pareto_time_axis_is_labelled_over_its_range(quick):
     """The quick study's wall times span less than a decade: at least three labelled
     ticks inside each panel's time range."""
-    from pipeline.accuracy_cost import pareto_plot
-    from pipeline.plots import pyplot
+    from pipeline.study.accuracy_cost import pareto_plot
+    from pipeline.study.plots import pyplot
 
     _, ds = quick
     fig = pareto_plot(ds)

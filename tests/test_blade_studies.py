@@ -8,18 +8,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline import hbm
+from pipeline.solve import hbm
 from pipeline.__main__ import main as cli
-from pipeline.blade_scene import ModesStudy
+from pipeline.study.blade_scene import ModesStudy
 from pipeline.contact import forces
-from pipeline.continuation import newton
-from pipeline.dataset import read_dataset
-from pipeline.dataset_check import problems
+from pipeline.solve.continuation import newton
+from pipeline.study.dataset import read_dataset
+from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError
-from pipeline.fe_model import BladeParams, build_blade, write_mesh
-from pipeline.harmonics import amplitude_half_peak_to_peak, evaluate
-from pipeline.response import initial_guess
-from pipeline.scene import load_study, parse_study
+from pipeline.structure.fe_model import BladeParams, build_blade, write_mesh
+from pipeline.fourier.harmonics import amplitude_half_peak_to_peak, evaluate
+from pipeline.solve.response import initial_guess
+from pipeline.study.scene import load_study, parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
 MODES = ROOT / "studies" / "blade_modes.toml"

@@ -116,7 +116,7 @@ def test_check_linear_and_modes_studies_need_no_solver(capsys):
 
 
 # ---------------------------------------------------------------------------
-# check FILE.nc (the contract checker is pipeline.dataset_check)
+# check FILE.nc (the contract checker is pipeline.study.dataset_check)
 # ---------------------------------------------------------------------------
 
 LINEAR = """
@@ -167,7 +167,7 @@ def test_check_dataset(tmp_path, capsys):
 def test_progress_shows_the_frequency_in_the_study_unit(monkeypatch):
     import tqdm.auto
 
-    from pipeline.study import Progress
+    from pipeline.study.run import Progress
 
     stream = io.StringIO()
     real = tqdm.auto.tqdm
@@ -195,18 +195,18 @@ def test_progress_shows_the_frequency_in_the_study_unit(monkeypatch):
 def test_default_log_level_hides_solver_noise(tmp_path):
     """No continuation summary ('reached lam_end = ...') and no scikit-fem INFO lines at
     the default level; -v shows the continuation's."""
-    from pipeline.study import configure_logging
+    from pipeline.study.run import configure_logging
 
     configure_logging(False)
     assert logging.getLogger("skfem").getEffectiveLevel() == logging.WARNING
-    assert not logging.getLogger("pipeline.continuation").isEnabledFor(logging.INFO)
+    assert not logging.getLogger("pipeline.solve.continuation").isEnabledFor(logging.INFO)
     text = (STUDIES / "paper_example1.toml").read_text()
     text = text[:text.index("[output.optimum_preload]")]
     f = tmp_path / "ex1.toml"
     f.write_text(text)
     quiet = run("run", f, "--quick", "--out", tmp_path / "a", "--workers", "1", "--no-figures")
     assert quiet.returncode == 0, quiet.stderr
-    assert "reached lam_end" not in quiet.stderr and "pipeline.continuation" not in quiet.stderr
+    assert "reached lam_end" not in quiet.stderr and "pipeline.solve.continuation" not in quiet.stderr
     loud = run("-v", "run", f, "--quick", "--out", tmp_path / "b", "--workers", "1",
                "--no-figures")
     assert loud.returncode == 0 and "reached lam_end" in loud.stderr

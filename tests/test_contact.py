@@ -4,7 +4,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from pipeline.contact import NSLIP, PSLIP, SEP, STICK, YangMenq, forces
-from pipeline.contact_exact import history
+from pipeline.contact.exact import history
 
 TWO_PI = 2 * np.pi
 
@@ -27,7 +27,7 @@ def random_case(seed, E=240, H=5):
 
 def mu_nmax(U, V, el):
     tau = np.linspace(0, TWO_PI, 4001)
-    from pipeline.harmonics import basis
+    from pipeline.fourier.harmonics import basis
     n = el.n0[:, None] + el.kv[:, None] * (V @ basis(tau, (U.shape[1] - 1) // 2).T)
     return el.mu * np.maximum(n.max(1), 1e-12), np.maximum(n.max(1), 1e-12)
 
@@ -166,7 +166,7 @@ def test_full_stick_is_linear_with_documented_slider_convention():
     assert f.regimes == {"separated": 0, "stuck": 1, "transitions": 0, "frictionless": 0,
                          "normal_load_searched": 1}  # n varies: searched, no root
     # convention: w = middle of the admissible interval [max lo, min hi] (dense check)
-    from pipeline.harmonics import basis
+    from pipeline.fourier.harmonics import basis
     tau = np.linspace(0, TWO_PI, 200_001)
     u, n = (U @ basis(tau, 3).T)[0], 10.0 + (V @ basis(tau, 3).T)[0]
     w = 0.5 * ((u - 0.25 * n).max() + (u + 0.25 * n).min())

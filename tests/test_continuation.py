@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from pipeline.continuation import (Branch, ContinuationOptions, Metric, Tracer, automatic_scale,
-                                   continuation_options, continue_branch, newton)
+from pipeline.solve.continuation import (Branch, ContinuationOptions, Metric, Tracer, automatic_scale,
+                                         continuation_options, continue_branch, newton)
 
 
 # ------------------------------------------------------------------ closed forms

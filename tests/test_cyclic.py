@@ -11,18 +11,18 @@ import pytest
 from scipy.linalg import eigh
 from scipy.optimize import minimize_scalar
 
-from pipeline import hbm
+from pipeline.solve import hbm
 from pipeline.contact import YangMenq
-from pipeline.continuation import newton
-from pipeline.cyclic import (Sector, aft_samples_ok, expand, full_assembly, isolated_system,
-                             sector_forcing, sector_system)
-from pipeline.dataset_check import problems
-from pipeline.harmonics import evaluate
-from pipeline.response import frequency_response
-from pipeline.stability import hill_eigenvalues, is_stable
-from pipeline.scene import load_study, study_from_mapping, study_to_mapping
-from pipeline.study import run_study
-from pipeline.system import System, natural_frequencies
+from pipeline.solve.continuation import newton
+from pipeline.model.cyclic import (Sector, aft_samples_ok, expand, full_assembly, isolated_system,
+                                   sector_forcing, sector_system)
+from pipeline.study.dataset_check import problems
+from pipeline.fourier.harmonics import evaluate
+from pipeline.solve.response import frequency_response
+from pipeline.solve.stability import hill_eigenvalues, is_stable
+from pipeline.study.scene import load_study, study_from_mapping, study_to_mapping
+from pipeline.study.run import run_study
+from pipeline.model.system import System, natural_frequencies
 
 KU, MU, N0 = 2.0, 0.3, 0.5
 
@@ -202,7 +202,7 @@ def test_bad_arguments_are_named():
         full_assembly(sector(), 1.5)
     with pytest.raises(ValueError, match="sectors"):
         sector(N=1)
-    from pipeline import timesim
+    from pipeline.solve import timesim
     with pytest.raises(ValueError, match="full_assembly"):
         timesim.simulate(sector_system(sector(), 1), 1.0, 1.0)
 
@@ -368,7 +368,7 @@ def test_disk_scene_builds_only_its_sector():
 def test_disk_study_quick_run(tmp_path, monkeypatch):
     """The quick variant end to end (EO = 0 and 12, H = 1) without ever building
     the 24-sector assembly; EO = 0 is the uncoupled blade's linear FRF."""
-    import pipeline.cyclic as cyclic
+    import pipeline.model.cyclic as cyclic
 
     def forbidden(*a, **k):
         raise AssertionError("a disk run must not assemble all sectors")

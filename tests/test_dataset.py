@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline import harmonics
-from pipeline.dataset import read_dataset, to_dataset, write_netcdf
-from pipeline.dataset_check import UnreadableDataset, main as check_main, problems
-from pipeline.response import ResponseCurve
-from pipeline.scene import load_study
-from pipeline.study import run_study, write_figures
+from pipeline.fourier import harmonics
+from pipeline.study.dataset import read_dataset, to_dataset, write_netcdf
+from pipeline.study.dataset_check import UnreadableDataset, main as check_main, problems
+from pipeline.solve.response import ResponseCurve
+from pipeline.study.scene import load_study
+from pipeline.study.run import run_study, write_figures
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDIES = ROOT / "studies"
@@ -250,8 +250,8 @@ def test_mistuned_disk_reports_per_sector_on_a_sector_dimension(tmp_path):
     import copy
     import tomllib
 
-    from pipeline.scene import study_from_mapping
-    from pipeline.study import write_figures
+    from pipeline.study.scene import study_from_mapping
+    from pipeline.study.run import write_figures
 
     path = STUDIES / "disk_mistuned.toml"
     doc = tomllib.loads(path.read_text())
@@ -435,7 +435,7 @@ def test_nothing_converged_writes_nothing(tmp_path, ex1):
 
 
 def test_figure_marks_folds_and_dashes_unstable_parts(tmp_path):
-    from pipeline.plots import fold_indices, true_runs, response_curves_figure
+    from pipeline.study.plots import fold_indices, true_runs, response_curves_figure
 
     s = np.linspace(0, 1, 61)                 # an S-shaped (folded) branch
     f = s + 0.25 * np.sin(2 * np.pi * s)
@@ -454,11 +454,11 @@ def test_figure_marks_folds_and_dashes_unstable_parts(tmp_path):
 # ---------------------------------------------------------------------------
 
 def _real_solver():
-    from pipeline import response
+    from pipeline.solve import response
 
     fn = getattr(response, "frequency_response", None)
     if fn is None:
-        pytest.skip("pipeline.response.frequency_response is not available yet")
+        pytest.skip("pipeline.solve.response.frequency_response is not available yet")
     return fn
 
 
@@ -537,7 +537,7 @@ def test_two_axis_grid_gives_one_figure_per_other_axis_value(tmp_path):
     import copy
     import tomllib
 
-    from pipeline.scene import study_from_mapping
+    from pipeline.study.scene import study_from_mapping
 
     doc = tomllib.loads((STUDIES / "paper_example3.toml").read_text())
     doc = copy.deepcopy(doc)

@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from pipeline.paper_systems import example2
-from pipeline.response import PLOT_MIN_CHORD, PLOT_TURN, frequency_response
+from pipeline.solve.response import PLOT_MIN_CHORD, PLOT_TURN, frequency_response
 from paper_systems import BETA, K_CHAIN, chain_system
 
 F_LO, F_HI = 4.0, 25.0  # Hz
@@ -63,8 +63,8 @@ def test_solver_key_turns_dense_output_off(tmp_path):
     from pathlib import Path
 
     from pipeline.errors import UsageError
-    from pipeline.scene import load_study
-    from pipeline.study import run_study
+    from pipeline.study.scene import load_study
+    from pipeline.study.run import run_study
 
     text = (Path(__file__).parent / "studies" / "chain_stuck_resonance.toml").read_text()
     text = text.replace("preload = [0.0, 5.0, 1.0e5]", "preload = [1.0e5]")

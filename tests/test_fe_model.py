@@ -9,10 +9,10 @@ import scipy.sparse.linalg as sla
 from skfem import Basis, BilinearForm, ElementHex2, ElementVector, MeshHex, MeshTet, asm
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
-from pipeline.fe_model import (BladeParams, assemble_elasticity, boundary_dofs, build_blade,
-                               euler_bernoulli_frequencies, load_blade, point_displacements,
-                               read_mesh, write_fields, write_mesh)
-from pipeline.reduction import eigenmodes
+from pipeline.structure.fe_model import (BladeParams, assemble_elasticity, boundary_dofs, build_blade,
+                                         euler_bernoulli_frequencies, load_blade, point_displacements,
+                                         read_mesh, write_fields, write_mesh)
+from pipeline.structure.reduction import eigenmodes
 
 COARSE = BladeParams(n_chord=4, n_thick=1, n_span=8)
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline.disk_figures import TunedCurve, by_sector, sector_and_dof, write_sector_figures
-from pipeline.plots import (NOT_COMPUTED, STABLE, UNSTABLE, pyplot, label_log_axis, log_ticks,
-                            response_curves_plot, stability_for_plot, stability_states)
+from pipeline.study.disk_figures import TunedCurve, by_sector, sector_and_dof, write_sector_figures
+from pipeline.study.plots import (NOT_COMPUTED, STABLE, UNSTABLE, pyplot, label_log_axis, log_ticks,
+                                  response_curves_plot, stability_for_plot, stability_states)
 
 
 def _lines(fig):
@@ -139,7 +139,7 @@ def test_peak_per_sector_figure_from_either_layout(tmp_path, layout, monkeypatch
     assert list(got) == ["x1"] and got["x1"].dims == ("mistuning_seed", "sector")
     np.testing.assert_array_equal(got["x1"].values, peak)
 
-    import pipeline.plots as plots
+    import pipeline.study.plots as plots
     drawn = {}
     real = plots.sector_peaks_figure
 
@@ -164,7 +164,7 @@ def test_peak_per_sector_figure_from_either_layout(tmp_path, layout, monkeypatch
 def test_peak_per_sector_figure_states_the_amplification(tmp_path, monkeypatch):
     import matplotlib.figure
 
-    from pipeline.plots import sector_peaks_figure
+    from pipeline.study.plots import sector_peaks_figure
 
     titles = []
     real_save = matplotlib.figure.Figure.savefig
@@ -190,9 +190,9 @@ def test_zero_mistuning_puts_every_sector_on_the_tuned_peak(tmp_path, monkeypatc
     import tomllib
     from pathlib import Path
 
-    import pipeline.plots as plots
-    from pipeline.scene import study_from_mapping
-    from pipeline.study import run_study
+    import pipeline.study.plots as plots
+    from pipeline.study.scene import study_from_mapping
+    from pipeline.study.run import run_study
 
     path = Path(__file__).resolve().parents[1] / "studies" / "disk_mistuned.toml"
     doc = copy.deepcopy(tomllib.loads(path.read_text()))

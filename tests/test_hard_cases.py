@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from pipeline.contact import YangMenq
-from pipeline.hbm import state_at_zero
-from pipeline.response import frequency_response
-from pipeline.system import System
+from pipeline.solve.hbm import state_at_zero
+from pipeline.solve.response import frequency_response
+from pipeline.model.system import System
 from paper_systems import example1, example3
 
 DS_MIN = 1e-6  # continuation default
@@ -56,7 +56,7 @@ def test_normal_load_that_just_touches_zero():
     c0 = frequency_response(s, 7, 1.0, 1.6, stability=False)
     sound(c0)
     # along the branch, min_t n(t) crosses zero somewhere: the curve passes grazing
-    from pipeline.harmonics import basis
+    from pipeline.fourier.harmonics import basis
     tau = np.linspace(0, 2 * np.pi, 721)
     nmin = [(5.0 + (s.Bn @ Q) @ basis(tau, 7).T).min() for Q in c0.Q]
     assert min(nmin) < 0 < max(nmin)
@@ -208,9 +208,9 @@ def stiff(k, n0=10.0):
 def amplitude_at(s, H, Om, Q, method="exact", N=256):
     """Amplitude of DOF 0 from Newton at fixed Om with H harmonics (and the given
     force evaluation), started from the coefficients Q (zero-padded or cut)."""
-    from pipeline import hbm
-    from pipeline.continuation import newton
-    from pipeline.harmonics import amplitude_half_peak_to_peak
+    from pipeline.solve import hbm
+    from pipeline.solve.continuation import newton
+    from pipeline.fourier.harmonics import amplitude_half_peak_to_peak
     p = hbm.setup(s, H, method, N)
     wts = hbm.row_weights(p, hbm.tolerances(p, 1e-10, s.contact))
     x0 = np.zeros((s.n_dof, 2 * H + 1))
@@ -227,7 +227,7 @@ def amplitude_at(s, H, Om, Q, method="exact", N=256):
 
 def time_integration(s, c, i, **kw):
     """Event-driven periodic solution (shooting) started from the HBM point i."""
-    from pipeline import timesim
+    from pipeline.solve import timesim
     q0, qd0, w0 = state_at_zero(s, c.Q[i], c.omega[i])
     return timesim.steady_state(s, c.omega[i], H=c.H, q0=q0, qd0=qd0, w0=w0,
                                 transient_periods=0, **kw)
@@ -242,7 +242,7 @@ def test_stiff_impact_in_the_mixed_regime_kv10():
     (the whole 0.5-1.6 range: test_stiff_impact_full_range).  H = 14 is within 1 %
     of the time integration; the error is truncation (H = 28: within 1e-4); AFT with
     4096 samples equals the exact forces to 4e-6."""
-    from pipeline.contact_exact import history
+    from pipeline.contact.exact import history
 
     s = stiff(10.0)
     c = frequency_response(s, 14, 0.7, 1.2, stability=False, peak_dofs=[0])
@@ -315,7 +315,7 @@ def test_preload_continuation_into_full_stick(start, end, max_points, max_reject
     (before the resonance guard, whose steps resolve the crossing of the linearised
     natural frequency through 200 rad/s near 2.6 N: 42 / 56 points, 1 / 10 rejected;
     before the corner steps: 51 / 67 points, 9 / 21 rejected, 6.4e-4 / 2.4e-5)."""
-    from pipeline.response import preload_response
+    from pipeline.solve.response import preload_response
     om = 200.0
     c = preload_response(example1(1.0), 7, om, start, end, stability=False)
     sound(c, max_nfev_per_point=5.0)

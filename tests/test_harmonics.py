@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from pipeline import harmonics as hm
+from pipeline.fourier import harmonics as hm
 
 
 @pytest.mark.parametrize("order", [1, 2, 3, 4])

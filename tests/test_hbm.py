@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from pipeline import hbm
-from pipeline.continuation import newton
+from pipeline.solve import hbm
+from pipeline.solve.continuation import newton
 from pipeline.contact import YangMenq
-from pipeline.system import System
+from pipeline.model.system import System
 
 
 def chain4(kv=1.5, n0=0.2, mu=0.3):

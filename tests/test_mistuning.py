@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import pipeline.cyclic as cyclic
-from pipeline import hbm
-from pipeline.dataset_check import problems
+import pipeline.model.cyclic as cyclic
+from pipeline.solve import hbm
+from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError
-from pipeline.response import frequency_response
-from pipeline.scene import load_study, study_from_mapping, study_to_mapping
+from pipeline.solve.response import frequency_response
+from pipeline.study.scene import load_study, study_from_mapping, study_to_mapping
 
 ROOT = Path(__file__).resolve().parents[1]
 MISTUNED = ROOT / "studies" / "disk_mistuned.toml"
@@ -192,7 +192,7 @@ def test_mistuned_study_dataset(tmp_path):
     """disk_mistuned.toml (one seed, a narrower band) end to end: the dataset reports
     x1 of every sector on the sector dimension, passes the contract checker, and its
     per-sector peaks differ; the mode dimension is that of the 24-DOF assembly."""
-    from pipeline.study import run_study
+    from pipeline.study.run import run_study
 
     doc = copy.deepcopy(DOC)
     doc["quick"]["sweep"] = {"mistuning_seed": [1],

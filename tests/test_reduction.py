@@ -7,10 +7,10 @@ import scipy.sparse as sp
 import scipy.linalg as la
 import scipy.sparse.linalg as sla
 
-from pipeline.fe_model import BladeParams, boundary_dofs, build_blade, write_fields
-from pipeline.reduction import (DEFAULT_MODES, eigenmodes, frf, modal_convergence,
-                                reconstruct, reduce, reduce_blade, reduce_map,
-                                reduced_modes)
+from pipeline.structure.fe_model import BladeParams, boundary_dofs, build_blade, write_fields
+from pipeline.structure.reduction import (DEFAULT_MODES, eigenmodes, frf, modal_convergence,
+                                          reconstruct, reduce, reduce_blade, reduce_map,
+                                          reduced_modes)
 
 SMALL = BladeParams(n_chord=6, n_thick=1, n_span=12)
 

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from pipeline import hbm, resonance
+from pipeline.solve import hbm, resonance
 from pipeline.paper_systems import example1
-from pipeline.response import frequency_response
-from pipeline.scene import load_study
-from pipeline.study import run_study
+from pipeline.solve.response import frequency_response
+from pipeline.study.scene import load_study
+from pipeline.study.run import run_study
 
 from paper_systems import BETA, K_CHAIN, chain_system
 

@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from pipeline.hbm import state_at_zero
-from pipeline.response import frequency_response, optimum_preload
-from pipeline.system import natural_frequencies
-from pipeline import timesim
+from pipeline.solve.hbm import state_at_zero
+from pipeline.solve.response import frequency_response, optimum_preload
+from pipeline.model.system import natural_frequencies
+from pipeline.solve import timesim
 from paper_systems import example1, example2, example3
 
 
@@ -156,7 +156,7 @@ def test_preload_continuation_agrees_with_frequency_sweeps():
     The range stops short of 3.636 N, where the damper becomes fully stuck at this
     frequency; the branch through that corner into full stick is checked in
     test_hard_cases.py."""
-    from pipeline.response import preload_response
+    from pipeline.solve.response import preload_response
     om = 200.0
     c = preload_response(example1(1.0), 7, om, 0.5, 3.5)
     assert c.success and c.converged.all()

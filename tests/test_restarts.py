@@ -3,8 +3,8 @@ tracing, restarts past a corner."""
 import numpy as np
 import pytest
 
-from pipeline.continuation import Branch, continue_branch, newton
-from pipeline.restarts import continue_past_corners, cover_range, join, piece, trace_range
+from pipeline.solve.continuation import Branch, continue_branch, newton
+from pipeline.solve.restarts import continue_past_corners, cover_range, join, piece, trace_range
 
 
 def scurve(x, lam):

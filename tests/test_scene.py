@@ -15,9 +15,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from pipeline.errors import UsageError
-from pipeline.scene import (build_system, load_study, parse_study, study_from_mapping,
-                            study_to_mapping)
-from pipeline.system import natural_frequencies
+from pipeline.study.scene import (build_system, load_study, parse_study, study_from_mapping,
+                                  study_to_mapping)
+from pipeline.model.system import natural_frequencies
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDIES = ROOT / "studies"
@@ -226,7 +226,7 @@ CLI_SAMPLE = ["syntax_unterminated_string", "encoding_latin1", "contact_negative
               "sweep_empty_preload", "frequency_equal_bounds", "scene_unknown_key"]
 
 
-@pytest.mark.parametrize("entry", ["pipeline.study", "pipeline run"])
+@pytest.mark.parametrize("entry", ["pipeline.study.run", "pipeline run"])
 @pytest.mark.parametrize("stem", CLI_SAMPLE)
 def test_cli_reports_one_line_and_writes_nothing(tmp_path, stem, entry):
     if entry == "pipeline run" and not _cli_has_run():

@@ -12,12 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import pipeline.contact_exact as ce
-import pipeline.hbm as hbm
+import pipeline.contact.exact as ce
+import pipeline.solve.hbm as hbm
 from pipeline.contact import YangMenq, forces
-from pipeline.response import frequency_response
-from pipeline.scene import parse_study
-from pipeline.study import default_solver, run_study
+from pipeline.solve.response import frequency_response
+from pipeline.study.scene import parse_study
+from pipeline.study.run import default_solver, run_study
 from tests.paper_systems import example1, example3
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -107,8 +107,8 @@ dofs = ["x"]
 
 
 def test_linear_scene_is_solved_directly_without_newton(tmp_path, monkeypatch):
-    import pipeline.continuation as cont
-    import pipeline.response as resp
+    import pipeline.solve.continuation as cont
+    import pipeline.solve.response as resp
 
     def forbidden(*a, **k):
         raise AssertionError("a linear scene must not run Newton, continuation or the HBM")
@@ -117,7 +117,7 @@ def test_linear_scene_is_solved_directly_without_newton(tmp_path, monkeypatch):
                       (hbm, "forces"), (resp, "frequency_response")):
         monkeypatch.setattr(mod, name, forbidden)
     study = parse_study(LINEAR, file="linear.toml")
-    assert default_solver(study).__module__ == "pipeline.linear_response"
+    assert default_solver(study).__module__ == "pipeline.solve.linear_response"
     res = run_study(study, tmp_path, figures=False, progress=False)
     assert res.ok
     ds = res.dataset
@@ -168,8 +168,8 @@ def test_linear_regimes_never_reach_the_transition_search(counted, system, H, lo
 
 
 def test_dataset_says_what_the_scene_included():
-    from pipeline.dataset import solution_method
-    from pipeline.scene import load_study
+    from pipeline.study.dataset import solution_method
+    from pipeline.study.scene import load_study
 
     ex1 = load_study(ROOT / "studies" / "paper_example1.toml", quick=True)
     ex3 = load_study(ROOT / "studies" / "paper_example3.toml", quick=True)
@@ -180,7 +180,7 @@ def test_dataset_says_what_the_scene_included():
 # -- 3. assembly: one blade builds no cyclic assembly; a disk builds one sector -----
 
 def test_one_blade_builds_no_cyclic_assembly_and_a_disk_only_one_sector():
-    from pipeline.scene import load_study
+    from pipeline.study.scene import load_study
 
     blade = load_study(ROOT / "studies" / "blade_shroud_contact.toml", quick=True)
     sb = blade.system(blade.sweep.cases()[0][1])

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from pipeline.continuation import continue_branch
-from pipeline.harmonics import derivative_matrix, time_grid
-from pipeline.stability import harmonic_centroid, hill_eigenvalues, is_stable
+from pipeline.solve.continuation import continue_branch
+from pipeline.fourier.harmonics import derivative_matrix, time_grid
+from pipeline.solve.stability import harmonic_centroid, hill_eigenvalues, is_stable
 
 
 def assert_same_eigenvalues(got, exact, atol):

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline import checkpoint
-from pipeline.dataset import read_dataset
-from pipeline.scene import parse_study
-from pipeline.study import checkpoint_dir, default_solver, run_study
+from pipeline.study import checkpoint
+from pipeline.study.dataset import read_dataset
+from pipeline.study.scene import parse_study
+from pipeline.study.run import checkpoint_dir, default_solver, run_study
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -180,7 +180,7 @@ def test_unwritable_output_directory_fails_before_computing(study_file, tmp_path
 
 def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(serial, study_file, tmp_path,
                                                                 monkeypatch):
-    import pipeline.dataset as dsmod
+    import pipeline.study.dataset as dsmod
 
     study = parse_study(STUDY, file=str(study_file), name="six_preloads")
     target = tmp_path / "six_preloads.nc"
@@ -230,7 +230,7 @@ def test_unreachable_scheduler_is_one_line_exit_2(study_file, tmp_path, monkeypa
     import argparse
     import socket
 
-    import pipeline.study as study_mod
+    import pipeline.study.run as study_mod
 
     pytest.importorskip("dask.distributed")
     with socket.socket() as sock:           # a local port nobody listens on
@@ -251,7 +251,7 @@ def test_unreachable_scheduler_is_one_line_exit_2(study_file, tmp_path, monkeypa
 # ---------------------------------------------------------------------------
 
 def _curve_of(serial_study):
-    from pipeline.response import frequency_response
+    from pipeline.solve.response import frequency_response
     return frequency_response(serial_study.system({"preload": 2.0}), 3, 150.0, 250.0,
                               stability=False, tol_rel=1e-9)
 
@@ -344,7 +344,7 @@ def test_interrupt_before_any_case_does_not_promise_kept_cases(study_file, tmp_p
     import argparse
     import signal as sg
 
-    import pipeline.study as study_mod
+    import pipeline.study.run as study_mod
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
@@ -376,8 +376,8 @@ def test_separation_not_declared_fails_the_case_that_separates(tmp_path):
     """Example 3 without "separation": n0 = 500 N stays closed and is solved; n0 = 10 N
     separates near resonance, so that case fails (never stored as a solution with
     separation) and the run exits 1 saying what to declare."""
-    from pipeline.declared import SeparationGuard, separating
-    from pipeline import hbm
+    from pipeline.study.declared import SeparationGuard, separating
+    from pipeline.solve import hbm
 
     study = parse_study(EX3_CLOSED, file="ex3_closed.toml", name="ex3_closed")
     res = run_study(study, tmp_path, workers=1, figures=False, progress=False)
@@ -389,7 +389,7 @@ def test_separation_not_declared_fails_the_case_that_separates(tmp_path):
     assert "kept closed (a case that separates fails)" in ds.attrs["solution_method"]
     assert "searched for separation" not in ds.attrs["solution_method"]
     # the kept case really stays closed at every point
-    from pipeline.response import frequency_response
+    from pipeline.solve.response import frequency_response
     sysm = study.system({"preload": 500.0})
     curve = frequency_response(sysm, 3, 0.5, 1.6, stability=False)
     SeparationGuard().check_curve(sysm, curve)

@@ -1,4 +1,4 @@
-"""Event-driven time integration (pipeline/timesim.py) against closed forms and physics.
+"""Event-driven time integration (pipeline/solve/timesim.py) against closed forms and physics.
 
 References: the linear FRF |(K - Om^2 M + i Om C)^-1 F| in the separated / stuck
 limits, the energy balance of a periodic cycle, the friction limit at detected events,
@@ -7,9 +7,9 @@ and the paper's Examples 1 and 3 (Sec. 6.1, 6.3).
 import numpy as np
 import pytest
 
-from pipeline import timesim as ts
+from pipeline.solve import timesim as ts
 from pipeline.contact import YangMenq
-from pipeline.system import System
+from pipeline.model.system import System
 
 
 def example1(n0=1.0, mu=0.5, ku=1e4):

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from pipeline.harmonics import basis
-from pipeline.trigroots import sign_changes
+from pipeline.fourier.harmonics import basis
+from pipeline.fourier.trigroots import sign_changes
 
 
 @pytest.mark.parametrize("H", [1, 4, 12, 40])

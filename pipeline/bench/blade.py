@@ -17,8 +17,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from .fe_model import BladeParams, build_blade, euler_bernoulli_frequencies
-from .reduction import eigenmodes, modal_convergence, reduce_blade
+from ..structure.fe_model import BladeParams, build_blade, euler_bernoulli_frequencies
+from ..structure.reduction import eigenmodes, modal_convergence, reduce_blade
 
 # (n_chord, n_thick, n_span) of the default blade giving ~10k, ~50k, ~100k DOFs
 SIZES = {"10k": (8, 2, 20), "50k": (12, 3, 40), "100k": (12, 3, 84)}

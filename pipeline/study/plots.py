@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .contact import STATE_NAMES, YangMenq
-from .contact_exact import history
+from ..contact import STATE_NAMES, YangMenq
+from ..contact.exact import history
 
 STATE_COLOURS = {0: "#9e9e9e", 1: "#1f77b4", 2: "#d62728", 3: "#2ca02c"}
 

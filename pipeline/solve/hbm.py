@@ -43,10 +43,10 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from .contact import YangMenq, forces
-from .contact_exact import history
-from .harmonics import derivative_matrix, shift_tables, turn
-from .system import System
+from ..contact import YangMenq, forces
+from ..contact.exact import history
+from ..fourier.harmonics import derivative_matrix, shift_tables, turn
+from ..model.system import System
 
 
 @dataclass(frozen=True)

@@ -30,9 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .contact import YangMenq
-from .errors import UsageError
-from .system import System
+from ..contact import YangMenq
+from ..errors import UsageError
+from ..model.system import System
 
 MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
 IMPLEMENTED_MODELS = ("lumped", "disk")
@@ -144,7 +144,7 @@ class SolverSettings:
     dense_output: bool = True           # points where the drawn curve bends
 
     def kwargs(self) -> dict:
-        """Keyword arguments of `pipeline.response.frequency_response`."""
+        """Keyword arguments of `pipeline.solve.response.frequency_response`."""
         kw = dict(method=self.force_evaluation, n_samples=self.samples,
                   stability=self.stability, tol_rel=self.tolerance, max_points=self.max_points,
                   dense_output=self.dense_output)
@@ -189,7 +189,7 @@ class Study:
 def build_system(scene: Scene, case: dict | None = None) -> System:
     """The `System` of a scene with one grid case applied: `preload` sets n0, `mu`,
     `ku`, `kv` set those of every contact, `excitation_scale` scales the forcing."""
-    if not isinstance(scene, Scene):  # a blade scene (pipeline/blade_scene.py) builds its own
+    if not isinstance(scene, Scene):  # a blade scene (pipeline/study/blade_scene.py) builds its own
         return scene.system(case)
     case = dict(case or {})
     unknown = set(case) - set(SWEEP_AXES)
@@ -460,11 +460,11 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     ck = Checker(file)
     ck.table(data, "(document)")
     head = data.get("study")
-    if isinstance(head, dict) and head.get("kind") == "accuracy_cost":  # pipeline/accuracy_cost.py
+    if isinstance(head, dict) and head.get("kind") == "accuracy_cost":  # pipeline/study/accuracy_cost.py
         from .accuracy_cost import study_from_mapping as accuracy_study
         return accuracy_study(data, file=file, name=name, text=text, quick=quick)
     from .blade_scene import is_blade_document
-    if is_blade_document(data):  # FE blade scenes: pipeline/blade_scene.py
+    if is_blade_document(data):  # FE blade scenes: pipeline/study/blade_scene.py
         from .blade_scene import study_from_mapping as blade_study
         return blade_study(data, file=file, name=name, text=text, quick=quick)
     ck.keys(data, "", _TOP, required=("study", "scene", "sweep"))
@@ -622,7 +622,7 @@ def parse_scene(ck, tab) -> Scene:
     if model not in IMPLEMENTED_MODELS:
         ck.fail("scene.model", f"{model!r} is not implemented yet (available: "
                                f"{', '.join(IMPLEMENTED_MODELS)})")
-    disk = model == "disk"  # one sector of a cyclic disk: pipeline/disk_scene.py
+    disk = model == "disk"  # one sector of a cyclic disk: pipeline/study/disk_scene.py
     if disk:
         from . import disk_scene
         sectors, engine_order, mistuning = disk_scene.parse_disk(ck, tab)
@@ -881,7 +881,7 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     negative preload (a gap), or a varying normal load n = n0 + kv v with a preload
     n0 <= 0 (it reaches zero as soon as the contact moves).  A varying normal load
     with every preload > 0 and no "separation" declares a contact that stays
-    closed; the run checks every solution against that (`pipeline.declared`).
+    closed; the run checks every solution against that (`pipeline.study.declared`).
     `has_normal` is one flag for every contact or one per contact."""
     if not disk:
         for axis, what in (("eo", "has an engine order"), ("mistuning_seed", "can be mistuned")):

@@ -18,7 +18,7 @@ from scipy.optimize import minimize_scalar
 
 from . import hbm
 from .continuation import continue_branch, newton
-from .harmonics import amplitude_half_peak_to_peak
+from ..fourier.harmonics import amplitude_half_peak_to_peak
 from .resonance import MAX_DENSE_DOF, step_guard
 from .restarts import cover_range
 from .stability import is_stable

@@ -20,9 +20,9 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import minimize_scalar
 
-from .harmonics import amplitude_half_peak_to_peak
+from ..fourier.harmonics import amplitude_half_peak_to_peak
 from .response import ResponseCurve
-from .system import System, natural_frequencies
+from ..model.system import System, natural_frequencies
 
 BASE_POINTS = 201                     # uniform part of the grid
 CLUSTER = np.array([-3e-2, -1e-2, -3e-3, -1e-3, 0.0, 1e-3, 3e-3, 1e-2, 3e-2])  # relative offsets

@@ -1,7 +1,7 @@
 """The physics a scene declares is the physics solved: separation.
 
 The Yang-Menq element separates wherever its normal load n(t) = n0 + kv v(t)
-reaches zero (`contact_exact`), whatever the scene declares.  The loader refuses
+reaches zero (`contact.exact`), whatever the scene declares.  The loader refuses
 the scenes where separation is certain from the data (a negative preload, or a
 varying normal load with a preload <= 0: `scene.check_scene_rules`).  A scene
 with a varying normal load, every preload > 0 and no "separation" in its effects
@@ -20,9 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .harmonics import basis
-from .hbm import contact_motion, setup
-from .trigroots import sign_changes
+from ..fourier.harmonics import basis
+from ..solve.hbm import contact_motion, setup
+from ..fourier.trigroots import sign_changes
 
 
 class UndeclaredSeparation(RuntimeError):

@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .hbm import state_at_zero
+from ..solve.hbm import state_at_zero
 from .scene import Checker
 
 log = logging.getLogger(__name__)
@@ -312,11 +312,11 @@ def _settings(ck, c, t, path, where, h_excited, base=None) -> Settings:
     kw = {k: _setting(ck, k, v, f"{where(f'{path}.{k}')}", h_excited) for k, v in t.items()}
     s = replace(base, **kw) if base is not None else Settings(**kw)
     if c == "blade" and base is None:
-        from .reduction import DEFAULT_MODES
+        from ..structure.reduction import DEFAULT_MODES
         if s.craig_bampton_modes is None:
             s = replace(s, craig_bampton_modes=DEFAULT_MODES)
         if s.mesh is None:
-            from .fe_model import BladeParams
+            from ..structure.fe_model import BladeParams
             p = BladeParams()
             s = replace(s, mesh=(p.n_chord, p.n_thick, p.n_span))
     _check_settings(ck, s, lambda k: where(f"{path}.{k}") if k in t else where(path))
@@ -502,7 +502,7 @@ def _system(case: Case, s: Settings, models: dict):
 def measure(case: Case, s: Settings, models: dict, solver=None) -> Measurement:
     """Trace the case once with settings s: the result and its cost (`retime` adds
     timing runs)."""
-    from .response import frequency_response
+    from ..solve.response import frequency_response
 
     solver = solver or frequency_response
     try:
@@ -540,7 +540,7 @@ def measure(case: Case, s: Settings, models: dict, solver=None) -> Measurement:
 def retime(case: Case, s: Settings, m: Measurement, models: dict, solver=None) -> None:
     """Run the continuation of `m` again and keep the shorter time (wall and CPU
     of the same run)."""
-    from .response import frequency_response
+    from ..solve.response import frequency_response
 
     if m.crashed:
         return
@@ -579,7 +579,7 @@ def time_integration_check(ref: Measurement, dof: int, lo: float, rel_window: fl
     the fold that ends the branch the peak sits on)."""
     from scipy.optimize import minimize_scalar
 
-    from . import timesim
+    from ..solve import timesim
 
     system, Q, Om = ref.peak_state
     q0, qd0, w0 = state_at_zero(system, Q, Om)
@@ -706,7 +706,7 @@ def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool
     """Run every case, write `out_dir/<name>.nc`, `out_dir/<name>/table.md` and
     `out_dir/<name>/pareto.png`; returns a `study.StudyResult`."""
     from .dataset import write_netcdf
-    from .study import StudyResult
+    from .run import StudyResult
 
     t0 = time.perf_counter()
     out_dir = Path(out_dir)
@@ -777,7 +777,7 @@ def to_dataset(study: AccuracyStudy, results: list):
 
     import xarray as xr
 
-    from . import __version__
+    from .. import __version__
     from .dataset import CONVENTIONS
 
     rows = [r for res in results for r in res["rows"]]

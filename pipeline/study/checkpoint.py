@@ -1,12 +1,12 @@
 """Finished cases on disk: one small netCDF file per case, read back without trust.
 
 An interrupted run keeps each finished case in `DIR/.<name>.<key>.cases/case-NNNNN.nc`
-(`pipeline.study`).  The output directory is not a trusted place, so a case file is
+(`pipeline.study.run`).  The output directory is not a trusted place, so a case file is
 data only: netCDF variables and attributes, no code runs when it is read.  A file
 that does not read back as a complete case of the expected kind (corrupt, foreign,
 from another layout) is ignored and its case is computed again.
 
-The `ResponseCurve` (`pipeline.response`) is serialised over its dataclass fields,
+The `ResponseCurve` (`pipeline.solve.response`) is serialised over its dataclass fields,
 whatever they are: numpy arrays become variables (dimensions `<field>_0`,
 `<field>_1`, ...; complex arrays as a trailing real/imaginary dimension), plain
 scalars and strings go into the JSON attribute `scalars`, dicts (`info`) into JSON
@@ -38,7 +38,7 @@ class NotACheckpoint(ValueError):
 
 
 def _curve_type():
-    from .response import ResponseCurve
+    from ..solve.response import ResponseCurve
     return ResponseCurve
 
 

@@ -39,8 +39,8 @@ from math import gcd
 
 import numpy as np
 
-from .contact import YangMenq
-from .harmonics import shift
+from ..contact import YangMenq
+from ..fourier.harmonics import shift
 from .system import CyclicCoupling, System
 
 

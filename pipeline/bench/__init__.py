@@ -9,11 +9,11 @@ import time
 
 import numpy as np
 
-from . import timesim
-from .contact import YangMenq, forces
-from .harmonics import basis
-from .paper_systems import example1, example3
-from .response import frequency_response
+from ..solve import timesim
+from ..contact import YangMenq, forces
+from ..fourier.harmonics import basis
+from ..paper_systems import example1, example3
+from ..solve.response import frequency_response
 
 
 def _median_time(fn, repeat):
@@ -118,7 +118,7 @@ def hbm(quick=False):
 
 
 def blade(quick=False):
-    from .bench_blade import run as run_blade  # deferred: scikit-fem (slow import)
+    from .blade import run as run_blade  # deferred: scikit-fem (slow import)
     return run_blade(quick)
 
 
@@ -134,12 +134,12 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
     # deferred: the study layer imports xarray (slow), which the other benches never use
     import xarray as xr
 
-    from .scene import load_study
-    from .study import run_study
+    from ..study.scene import load_study
+    from ..study.run import run_study
 
     for name in ("pipeline", "distributed"):
         logging.getLogger(name).setLevel(logging.WARNING)
-    root = Path(__file__).resolve().parents[1] / "studies"
+    root = Path(__file__).resolve().parents[2] / "studies"
 
     def same(a, b):
         a, b = (d.drop_vars(["wall_time", "search_wall_time"], errors="ignore") for d in (a, b))

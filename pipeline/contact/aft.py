@@ -2,7 +2,7 @@
 
 Samples u, v at N equispaced tau, marches the element law of Eq. 9-10 sample by
 sample, and projects the forces back with the discrete Fourier transform.  The
-law is the play operator of `contact_exact` on samples: in contact (n_i > 0)
+law is the play operator of `contact.exact` on samples: in contact (n_i > 0)
 w_i = clamp(w_{i-1}, lo_i, hi_i); separated samples reset w_i = u_i (spring
 unstrained at touchdown).  The periodic history is found the same way, discretely:
 start at a separated sample, or, in full contact, at argmin hi with w = min hi
@@ -18,9 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .contact_element import (SRC_HI, SRC_LO, SRC_TD, ContactForces, YangMenq, stuck_forces,
-                              stuck_slider)
-from .harmonics import harmonics_of, time_grid
+from .element import (SRC_HI, SRC_LO, SRC_TD, ContactForces, YangMenq, stuck_forces,
+                      stuck_slider)
+from ..fourier.harmonics import harmonics_of, time_grid
 
 
 def play_march(lo, hi, u, contact, i0, w0, k0):

@@ -32,10 +32,10 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from . import __version__
+from .. import __version__
 from .disk_scene import AT
 from .scene import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
-from .system import natural_frequencies
+from ..model.system import natural_frequencies
 
 CONVENTIONS = "CF-1.10"
 
@@ -388,7 +388,7 @@ def _add_optimum(data_vars, coords, opt, study, to_unit, unit):
 def solution_method(study) -> str:
     """What the run composed for the scene's declared effects (a scene pays only
     for what it calls for), in words."""
-    from .study import is_linear_scene
+    from .run import is_linear_scene
 
     if is_linear_scene(study.scene):
         return "direct linear solve per frequency (no contact elements: no Newton, no continuation)"

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-log = logging.getLogger("pipeline.disk_figures")
+log = logging.getLogger("pipeline.study.disk_figures")
 AT = "@"
 SEED_AXIS = "mistuning_seed"
 
@@ -91,7 +91,7 @@ def tuned_reference(study, case: dict, dofs, solver=None) -> TunedCurve:
     """The disk of `study` without mistuning, one sector by the cyclic reduction,
     with the study's harmonics, forces, tolerances and frequency range; `case`
     holds the sweep values other than `mistuning_seed`."""
-    from .study import default_solver, run_case
+    from .run import default_solver, run_case
 
     scene = replace(study.scene, mistuning=None)
     fr, kw = study.sweep.frequency, study.solver.kwargs()

@@ -10,7 +10,7 @@ in the layout of `harmonics.py`, shape (E, 2H+1).
 
 The leaf of the contact layer: the element, its states, the result type and the
 closed form of a fully stuck cycle, shared by both force evaluations
-(`contact_exact`, `contact_aft`); `contact.forces` chooses between them.
+(`contact.exact`, `contact.aft`); `contact.forces` chooses between them.
 """
 from __future__ import annotations
 

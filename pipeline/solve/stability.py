@@ -50,7 +50,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .harmonics import derivative_matrix
+from ..fourier.harmonics import derivative_matrix
 
 log = logging.getLogger(__name__)
 

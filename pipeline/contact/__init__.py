@@ -8,17 +8,17 @@ spring kv and a preload n0 (negative = initial gap).  Normal load n = n0 + kv v
 Parameters are arrays over E elements; displacements are real Fourier coefficients
 in the layout of `harmonics.py`, shape (E, 2H+1).
 
-Layered one way: `contact_element` (the element as data, its states, the result type)
-<- `contact_exact`, `contact_aft` (the two force evaluations) <- this module, which
+Layered one way: `contact.element` (the element as data, its states, the result type)
+<- `contact.exact`, `contact.aft` (the two force evaluations) <- this module, which
 dispatches between them and re-exports the element, so `from pipeline.contact import
 YangMenq, forces` is the one import a caller needs.
 """
 from __future__ import annotations
 
-from .contact_aft import aft_forces
-from .contact_element import (NSLIP, PSLIP, SEP, STATE_NAMES, STICK, ContactForces, YangMenq,
-                              check_coefficients)
-from .contact_exact import exact_forces
+from .aft import aft_forces
+from .element import (NSLIP, PSLIP, SEP, STATE_NAMES, STICK, ContactForces, YangMenq,
+                      check_coefficients)
+from .exact import exact_forces
 
 __all__ = ["NSLIP", "PSLIP", "SEP", "STATE_NAMES", "STICK", "ContactForces", "YangMenq",
            "check_coefficients", "forces"]

@@ -33,7 +33,7 @@ torsion (GJ, rho I_p) with P1; the four fields are uncoupled:
 
 Contact maps: at a face point k with displacement d_k (3 components),
 u_k = t . d_k (tangential) and v_k = n . d_k (normal, n outward: v > 0 closes the
-gap, as the Yang-Menq normal load n0 + kv v of contact.py).  The tangent
+gap, as the Yang-Menq normal load n0 + kv v of `pipeline.contact`).  The tangent
 t = n_R x e_Z / |n_R x e_Z| is the same for both faces of a blade so that the pair
 (right face of blade j, left face of blade j+1) shares one frame; t2 = t x n_R is the
 second (radial) tangent.  Rows of Bt, Bn (as in system.py) carry these direction

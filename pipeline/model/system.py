@@ -12,7 +12,7 @@ The excitation is F(t) = Re sum_h F_h exp(i h Omega t) with `forcing[:, h] = F_h
 (column 0 is a real static load), so any DOF and any harmonic can be excited.
 
 A System may be ONE SECTOR of a tuned cyclic structure (`cyclic`, see
-`CyclicCoupling` and `pipeline.cyclic`): its elements then also act on the next
+`CyclicCoupling` and `pipeline.model.cyclic`): its elements then also act on the next
 sector's DOFs, u = Bt q_j + Bt_next q_{j+1}, and the travelling wave
 q_{j+1}(tau) = q_j(tau + phi), phi = 2 pi EO / N, closes the equations on one
 sector (Petrov 2004).
@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .contact import YangMenq
+from ..contact import YangMenq
 
 
 @dataclass(frozen=True)
@@ -36,7 +36,7 @@ class CyclicCoupling:
 
     and the engine-order travelling wave is q_{j+1}(tau) = q_j(tau + phi),
     phi = 2 pi EO / N, i.e. Q_{j+1,h} = exp(i h phi) Q_{j,h} for every harmonic h
-    (Petrov, J. Turbomach. 126, 2004).  `pipeline.cyclic` builds such sectors and
+    (Petrov, J. Turbomach. 126, 2004).  `pipeline.model.cyclic` builds such sectors and
     their full N-sector assemblies.
     """
 

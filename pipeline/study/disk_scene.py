@@ -14,7 +14,7 @@ F_j(tau) = F_0(tau + j phi), phi = 2 pi EO / N (a first-harmonic load has the ph
 j phi).  EO is `[scene.disk] engine_order` or the sweep axis `eo`, an integer in
 0 <= EO <= N/2 (N - EO is the same wave travelling the other way; EO >= N repeats
 EO mod N).  Each case is solved on ONE sector by the cyclic reduction
-(`pipeline.cyclic.sector_system`, Petrov 2004): only the sector is built, never
+(`pipeline.model.cyclic.sector_system`, Petrov 2004): only the sector is built, never
 the N-sector assembly (`DiskScene.full_system` gives it, for checks).
 
 Mistuning (effect "mistuning", `[scene.disk] mistuning = {stiffness_std, seed}`,
@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .system import System
+from ..model.system import System
 
 NEXT = "next."
 AT = "@"                 # "<dof>@<sector>": a DOF of one sector of a mistuned disk
@@ -111,7 +111,7 @@ class DiskScene:
     def sector(self, case: dict | None = None):
         """The `cyclic.Sector` with one grid case applied (preload, mu, ku, kv,
         excitation_scale as in lumped scenes)."""
-        from .cyclic import Sector
+        from ..model.cyclic import Sector
         from .scene import SWEEP_AXES, contact_elements
 
         case = dict(case or {})
@@ -131,7 +131,7 @@ class DiskScene:
         """The sectors' stiffness factors 1 + delta_j of a case (None when tuned)."""
         if self.mistuning is None:
             return None
-        from .cyclic import mistuning_factors
+        from ..model.cyclic import mistuning_factors
         seed = (case or {}).get("mistuning_seed", self.mistuning.seed)
         if seed is None:
             raise ValueError("the mistuning seed is unset: give [scene.disk] mistuning.seed "
@@ -142,7 +142,7 @@ class DiskScene:
         """The `System` of a case: tuned, the one-sector cyclic reduction (n DOFs,
         `System.cyclic` set); mistuned, the full N-sector assembly (N n DOFs named
         as `dofs`, `System.cyclic` None)."""
-        from . import cyclic
+        from ..model import cyclic
         if self.mistuning is None:
             return cyclic.sector_system(self.sector(case), self.engine_order_of(case))
         full = cyclic.full_assembly(self.sector(case), self.engine_order_of(case),
@@ -152,7 +152,7 @@ class DiskScene:
     def full_system(self, case: dict | None = None) -> System:
         """All N sectors assembled (N n DOFs, with the case's mistuning if any): the
         reference for a tuned disk, never used by its runs."""
-        from .cyclic import full_assembly
+        from ..model.cyclic import full_assembly
         return full_assembly(self.sector(case), self.engine_order_of(case),
                              self.stiffness_factors(case))
 

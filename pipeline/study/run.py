@@ -3,13 +3,13 @@
     python -m pipeline run STUDY.toml [--out DIR] [--workers N] [--scheduler ADDRESS] [--quick]
 
 Each grid case (one combination of the `[sweep]` axes) is one frequency
-continuation `pipeline.response.frequency_response(system, H, omega_start,
+continuation `pipeline.solve.response.frequency_response(system, H, omega_start,
 omega_stop, **solver.kwargs())`, or one direct solve per frequency for a linear
-scene (`pipeline.linear_response`).  Cases run in a process pool sized to the
+scene (`pipeline.solve.linear_response`).  Cases run in a process pool sized to the
 machine (`--workers`, 1 = this process) or on a Dask cluster (`--scheduler`).
 
 Nothing is lost: each finished case is kept at once in `DIR/.<name>.<key>.cases/`
-(atomic writes of small netCDF files, `pipeline.checkpoint`); a rerun after Ctrl-C, a killed worker or a restart computes only
+(atomic writes of small netCDF files, `pipeline.study.checkpoint`); a rerun after Ctrl-C, a killed worker or a restart computes only
 the missing cases.  The dataset `DIR/<name>.nc` is written atomically when all
 cases are done (then the checkpoints are removed), followed by the figures under
 `DIR/<name>/`.  A case that raises is logged and kept as an empty branch; the run
@@ -25,10 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import UsageError
+from ..errors import UsageError
 from .scene import Study, load_study
 
-log = logging.getLogger("pipeline.study")
+log = logging.getLogger("pipeline.study.run")
 
 
 def default_solver(study: Study | None = None):
@@ -37,13 +37,13 @@ def default_solver(study: Study | None = None):
     else `response.frequency_response` (HBM continuation)."""
     scene = getattr(study, "scene", None)  # an accuracy-cost study has one scene per case
     if scene is not None and is_linear_scene(scene):
-        from .linear_response import frequency_response as linear_solver
+        from ..solve.linear_response import frequency_response as linear_solver
         return linear_solver
-    from . import response
+    from ..solve import response
 
     fn = getattr(response, "frequency_response", None)
     if fn is None:
-        raise RuntimeError("pipeline.response.frequency_response is not available yet")
+        raise RuntimeError("pipeline.solve.response.frequency_response is not available yet")
     return fn
 
 
@@ -177,7 +177,7 @@ def checkpoint_dir(study, out_dir, solver) -> Path:
     content), the quick flag, the solver function and the pipeline version, so a
     changed study or software never reuses old cases."""
     import hashlib
-    from . import __version__
+    from .. import __version__
 
     content = study.text or repr((study.scene, study.sweep, study.solver))
     ident = "\n".join([content, str(study.quick), repr(study.sweep), repr(study.solver),
@@ -194,7 +194,7 @@ def _checkpoint_file(cdir: Path, k) -> Path:
 
 def _load_checkpoints(cdir: Path, cases) -> dict:
     """{case index: (curve, None)} of the finished cases kept in `cdir`.  The files
-    are read as data (`pipeline.checkpoint`); one that is not a complete case of
+    are read as data (`pipeline.study.checkpoint`); one that is not a complete case of
     this grid position is ignored and that case computed again."""
     from .checkpoint import NotACheckpoint, read, same_case
 
@@ -272,7 +272,7 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
                  study.name, len(reused), len(cases), cdir, len(todo))
     bar = (Progress(len(cases), study.name, initial=len(reused), unit=fr.unit)
            if progress else None)
-    guard = separation_guard(study) if getattr(solver, "__module__", "") == "pipeline.response" else None
+    guard = separation_guard(study) if getattr(solver, "__module__", "") == "pipeline.solve.response" else None
 
     def job(k):
         return (solver, study.system(cases[k][1]), H, fr.omega_start, fr.omega_stop, kw, guard)
@@ -332,7 +332,7 @@ def find_optimum(study: Study) -> dict:
     """The preload that minimises the resonant peak (`response.optimum_preload`):
     bounded Brent on log(n0) over the exact peak of each frequency response; the
     other sweep axes keep the scene's own values."""
-    from .response import optimum_preload
+    from ..solve.response import optimum_preload
 
     o, sv = study.output.optimum, study.solver
     window = o["window"] or study.sweep.frequency
@@ -362,7 +362,7 @@ def find_optimum(study: Study) -> dict:
 def keep_older_dataset(target: Path):
     """A dataset at `target` written by another pipeline version (or not readable as
     ours) is renamed, never overwritten: `<name>.v<version>.nc` / `<name>.unreadable.nc`."""
-    from . import __version__
+    from .. import __version__
 
     if not target.exists():
         return None
@@ -400,7 +400,7 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     if getattr(study, "kind", "response") == "modes":  # blade modal study (blade_scene.py)
         from .blade_scene import run_modes_study
         return run_modes_study(study, out_dir, figures=figures)
-    if getattr(study, "kind", "response") == "accuracy_cost":  # pipeline/accuracy_cost.py
+    if getattr(study, "kind", "response") == "accuracy_cost":  # pipeline/study/accuracy_cost.py
         from .accuracy_cost import run_accuracy_study
         return run_accuracy_study(study, out_dir, figures=figures, progress=progress)
     t0 = time.perf_counter()
@@ -569,7 +569,7 @@ def configure_logging(verbose: bool):
     logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
                         format="%(levelname)s %(name)s: %(message)s")
     quiet = logging.NOTSET if verbose else logging.WARNING
-    for name in ("skfem", "pipeline.continuation"):
+    for name in ("skfem", "pipeline.solve.continuation"):
         logging.getLogger(name).setLevel(quiet)
 
 
@@ -634,10 +634,10 @@ def cmd_run(args) -> int:
 
 
 def main(argv=None) -> int:
-    """`python -m pipeline.study STUDY.toml ...` (same as `python -m pipeline run`)."""
+    """`python -m pipeline.study.run STUDY.toml ...` (same as `python -m pipeline run`)."""
     import argparse
 
-    p = argparse.ArgumentParser(prog="python -m pipeline.study", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m pipeline.study.run", description=__doc__.splitlines()[0])
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     configure_run_parser(p)
     args = p.parse_args(argv)

@@ -32,7 +32,7 @@ kv = 0 is a constant normal load n0 (Jenkins element); mu = 0 or ku = 0 gives no
 tangential force (the element is labelled stick with a zero spring).
 
 This module is the INDEPENDENT reference for the harmonic-balance code: it evaluates
-no force through `contact.py`, only reads the parameters.
+no force through `pipeline.contact`, only reads the parameters.
 
 Public API: `simulate` (time history), `steady_state` (periodic steady state by
 shooting on the Poincare map, or plain integration), `sweep` (stepped sine),
@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
-from .system import System
+from ..model.system import System
 
 log = logging.getLogger(__name__)
 
@@ -512,10 +512,10 @@ def _first_crossing(piece: _Piece, j, ts, g, gp, scale):
 
 def _check(system, Omega):
     if not isinstance(system, System):
-        raise ValueError(f"system must be a pipeline.system.System, got {type(system).__name__}")
+        raise ValueError(f"system must be a pipeline.model.system.System, got {type(system).__name__}")
     if system.cyclic is not None:
         raise ValueError("system is a cyclic sector (System.cyclic): integrate its N-sector "
-                         "assembly, pipeline.cyclic.full_assembly, instead")
+                         "assembly, pipeline.model.cyclic.full_assembly, instead")
     if not (np.isfinite(Omega) and Omega > 0):
         raise ValueError(f"Omega must be a positive finite frequency [rad/s], got {Omega!r}")
 

@@ -43,8 +43,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from .contact import YangMenq
-from .system import System
+from ..contact import YangMenq
+from ..model.system import System
 
 log = logging.getLogger(__name__)
 
@@ -111,7 +111,7 @@ class BladeScene:
     # -- models ------------------------------------------------------------
     def blade(self):
         if "blade" not in self._cache:
-            from .fe_model import build_blade, load_blade
+            from ..structure.fe_model import build_blade, load_blade
 
             self._cache["blade"] = (load_blade(self.mesh, self.params, required=("root",))
                                     if self.mesh else build_blade(self.params))
@@ -120,7 +120,7 @@ class BladeScene:
     def reduced(self):
         """Craig-Bampton model keeping contact faces, excitation and response DOFs."""
         if "reduced" not in self._cache:
-            from .reduction import reduce_blade
+            from ..structure.reduction import reduce_blade
 
             kw = {"rayleigh": self.rayleigh} if self.rayleigh is not None else {}
             t0 = time.perf_counter()
@@ -233,7 +233,7 @@ class BladeScene:
             a, b = self.rayleigh
             C = (a * blade.M + b * blade.K).tocsr()
             return System(M=blade.M, C=C, K=blade.K, Bt=Bt, Bn=Bn, contact=elem, forcing=F)
-        from .reduction import reduce_map
+        from ..structure.reduction import reduce_map
 
         red = self.reduced()
         Fr = np.zeros((red.M.shape[0], F.shape[1]), dtype=complex)
@@ -382,7 +382,7 @@ def parse_blade_params(ck, t, model, origin):
     """`fe_model.BladeParams` of the [scene.blade] table `t` for `model`, refusing a
     mesh too fine to generate; `origin` maps a key to the field it came from (a quick
     override), for the error message."""
-    from .fe_model import BladeParams
+    from ..structure.fe_model import BladeParams
 
     def where(k):
         return f"{origin.get(k, 'scene.blade')}.{k}"
@@ -429,7 +429,7 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
     """The `BladeScene` of a [scene] table for a study of `kind` ("response" or
     "modes"), mesh files relative to `base_dir`; the blade is built once to check
     node sets, faces and mode counts.  `origin`: as in `parse_blade_params`."""
-    from .reduction import DEFAULT_MODES
+    from ..structure.reduction import DEFAULT_MODES
     from .scene import EFFECTS, NAME_PATTERN
 
     def fld(k):
@@ -483,7 +483,7 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
         blade = scene.blade()
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # e.g. a degenerate mesh
         ck.fail(fld("mesh") if mesh else "scene.blade", str(exc))
-    from .fe_model import boundary_dofs
+    from ..structure.fe_model import boundary_dofs
 
     nb = boundary_dofs(blade)[0].size
     if n_modes > blade.n_dof - nb:
@@ -503,7 +503,7 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
 
 
 def _mesh(ck, value, field_, base_dir, tab, kind):
-    from .fe_model import read_mesh
+    from ..structure.fe_model import read_mesh
 
     s = ck.string(value, field_)
     path = Path(s) if Path(s).is_absolute() else base_dir / s
@@ -597,7 +597,7 @@ def _modes(ck, t, path, scene):
         if vals[i] <= vals[i - 1]:
             ck.fail(f"{path}.mode_counts[{i}]", f"must increase strictly, got {vals[i - 1]} "
                                                 f"then {vals[i]}")
-    from .fe_model import boundary_dofs
+    from ..structure.fe_model import boundary_dofs
 
     blade = scene.blade()
     n_int = blade.n_dof - boundary_dofs(blade)[0].size
@@ -641,8 +641,8 @@ def modal_study(scene: BladeScene, mode_counts, n_freqs: int, n_shapes: int = 0)
     (full eigen solve; total and per stage of each reduction), reduced sizes, MAC of
     the scene's mode count, and the first n_shapes mode shapes (full, reduced).
     """
-    from .fe_model import boundary_dofs
-    from .reduction import eigenmodes, reduce, reduced_modes
+    from ..structure.fe_model import boundary_dofs
+    from ..structure.reduction import eigenmodes, reduce, reduced_modes
 
     blade = scene.blade()
     b, labels = boundary_dofs(blade)
@@ -687,8 +687,8 @@ def run_modes_study(study: ModesStudy, out_dir="results", *, figures: bool = Tru
     """Run a modes study: `out_dir/<name>.nc`, then `out_dir/<name>/mode_shapes.vtu`
     and `out_dir/<name>/modal_convergence.png`."""
     from .dataset import modes_to_dataset, write_netcdf
-    from .fe_model import write_fields
-    from .study import StudyResult
+    from ..structure.fe_model import write_fields
+    from .run import StudyResult
 
     t0 = time.perf_counter()
     sc = study.scene

@@ -1,6 +1,6 @@
 """Check a study dataset (netCDF) against the pipeline's dataset contract.
 
-    python -m pipeline.dataset_check FILE.nc [FILE.nc ...]
+    python -m pipeline.study.dataset_check FILE.nc [FILE.nc ...]
 
 prints one line per problem and exits 1 if there are any, else one summary line
 per file and exit 0; a file that is missing or not netCDF is one line and exit 2.
@@ -40,7 +40,7 @@ import sys
 
 import numpy as np
 
-from .errors import UsageError
+from ..errors import UsageError
 
 CONVENTIONS = "CF-1.10"
 FREQUENCY_UNITS = ("rad/s", "rad s-1", "Hz", "s-1", "1/s")
@@ -265,12 +265,12 @@ def _check_stable(ds, say):
 
 
 def main(argv=None) -> int:
-    """`python -m pipeline.dataset_check FILE.nc ...`: 0 all conform, 1 problems
+    """`python -m pipeline.study.dataset_check FILE.nc ...`: 0 all conform, 1 problems
     found, 2 a file is missing or not netCDF (or no file given)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if not argv or argv[0] in ("-h", "--help"):
         print(__doc__.strip().split("\n\n")[0] + "\n\n"
-              "usage: python -m pipeline.dataset_check FILE.nc [FILE.nc ...]")
+              "usage: python -m pipeline.study.dataset_check FILE.nc [FILE.nc ...]")
         return 0 if argv else 2
     found, unreadable, summaries = [], False, []
     for path in argv:

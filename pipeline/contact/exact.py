@@ -37,10 +37,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from .contact_element import (NSLIP, PSLIP, SEP, SRC_HI, SRC_LO, SRC_TD, STICK, ContactForces,
-                              YangMenq, check_coefficients, stuck_forces, stuck_slider)
-from .harmonics import basis, derivative, harmonics_of
-from .trigroots import TWO_PI, polish_root, sign_changes
+from .element import (NSLIP, PSLIP, SEP, SRC_HI, SRC_LO, SRC_TD, STICK, ContactForces,
+                      YangMenq, check_coefficients, stuck_forces, stuck_slider)
+from ..fourier.harmonics import basis, derivative, harmonics_of
+from ..fourier.trigroots import TWO_PI, polish_root, sign_changes
 
 
 # --------------------------------------------------------------------------

@@ -17,7 +17,7 @@ curves without dense output (Example 1: 9 s), counted as OPTIMUM_CURVES cases.  
 is a rough guide: a case with many more points or folds costs more.  An FE blade is not built for the estimate
 (that alone takes seconds to minutes); its figure is the measured time per case of
 studies/blade_shroud_contact.toml (full or quick mesh).  A dataset is checked by
-`pipeline.dataset_check.problems`.
+`pipeline.study.dataset_check.problems`.
 """
 from __future__ import annotations
 
@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import hbm
-from .errors import UsageError
-from .response import initial_guess
+from ..solve import hbm
+from ..errors import UsageError
+from ..solve.response import initial_guess
 
 EVALS_PER_CASE = (1500, 5000)  # a case's wall time / one residual evaluation (docstring)
 OPTIMUM_CURVES = 6              # an optimum-preload search: about 6 cases' worth (docstring)
@@ -137,7 +137,7 @@ def describe(study, workers: int = 1, has_quick: bool = False) -> list:
         lines.append(f"  {a}{'' if unit == '1' else f' [{unit}]'}: {', '.join(_num(x) for x in v)}")
     fr = sw.frequency
     lines.append(f"frequency: {fr.start:g} to {fr.stop:g} {fr.unit} (continuation)")
-    from .study import is_linear_scene
+    from .run import is_linear_scene
     linear = is_linear_scene(sc)
     if linear:
         lines.append("solver: direct linear solve per frequency (no contact: no Newton, "

@@ -1,0 +1,1 @@
+"""Finite-element blades (scikit-fem) and their Craig-Bampton reduction."""

@@ -1,0 +1,1 @@
+"""Study files, their execution (sweeps, checkpoints, Dask), datasets and figures."""
