@@ -147,6 +147,27 @@ def test_no_new_import_circle():
         f"new modules in import circles: {sorted(in_circles - KNOWN_CIRCLE)}\n" + report())
 
 
+DATA_PATH = ("fourier", "contact", "structure", "model", "solve", "study", "bench")
+
+
+def stage(module: str) -> int:
+    """Position of a module's folder on the data path; top-level modules (errors,
+    paper_systems, the CLI) rank by what they are: errors first, the CLI last."""
+    parts = module.split(".")
+    if len(parts) >= 2 and parts[1] in DATA_PATH:
+        return DATA_PATH.index(parts[1])
+    return {"pipeline.errors": -1, "pipeline": -1, "pipeline.paper_systems": 3.5}.get(
+        module, len(DATA_PATH))
+
+
+def test_imports_flow_one_way_along_the_data_path():
+    """fourier -> contact -> structure -> model -> solve -> study -> bench / CLI: no
+    module imports from a folder further down the path (deferred imports included)."""
+    files, edges, _ = scan()
+    back = sorted(f"{m} imports {t}" for m in files for t in edges[m] if stage(t) > stage(m))
+    assert not back, "imports against the data path:\n" + "\n".join(back)
+
+
 def test_tests_use_public_names_and_no_other_test_module():
     found = []
     for path in sorted(TESTS.glob("*.py")):
