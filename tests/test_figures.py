@@ -62,7 +62,17 @@ def test_stability_states_and_placeholder_stability():
     assert stability_for_plot(computed).tolist() == [True, True, True]
 
 
-@pytest.mark.parametrize("lo,hi", [(0.52, 1.04), (0.55, 0.87), (1.2, 1.9), (4.6, 30.0),
+def test_log_ticks_never_fewer_than_three_over_any_range():
+    """Every range from 2 % wide to three decades, at every position in a decade,
+    gets at least three labelled ticks inside it."""
+    for lo in np.geomspace(0.01, 100.0, 97):
+        for ratio in np.geomspace(1.02, 1000.0, 61):
+            t = log_ticks(lo, lo * ratio)
+            assert t.size >= 3, (lo, lo * ratio, t)
+            assert t.min() >= lo * (1 - 1e-9) and t.max() <= lo * ratio * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("lo,hi", [(1.3, 1.79), (0.52, 1.04), (0.55, 0.87), (1.2, 1.9), (4.6, 30.0),
                                    (0.6, 25.0), (5.5, 6.5)])
 def test_log_axis_has_at_least_three_labelled_ticks(lo, hi):
     assert len(log_ticks(lo, hi)) >= 3

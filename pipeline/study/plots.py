@@ -276,8 +276,12 @@ def log_ticks(lo: float, hi: float, at_least: int = 3) -> np.ndarray:
         if t.size >= at_least:
             return t
     from matplotlib.ticker import MaxNLocator
-    t = MaxNLocator(nbins=at_least + 1, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
-    return t[(t >= lo) & (t <= hi)]
+    for nbins in range(at_least + 1, 4 * at_least + 8):
+        t = MaxNLocator(nbins=nbins, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
+        t = t[(t >= lo * (1 - 1e-12)) & (t <= hi * (1 + 1e-12))]
+        if t.size >= at_least:
+            return t
+    return np.linspace(lo, hi, at_least)
 
 
 def label_log_axis(axis):
