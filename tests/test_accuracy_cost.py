@@ -16,6 +16,7 @@ from pipeline.study.dataset import read_dataset
 from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError
 from pipeline.study.scene import load_study, parse_study
+from pipeline.model.scene import blade_contact_maps, blade_elements, blade_model
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "accuracy_cost.toml"
@@ -210,9 +211,9 @@ def test_bad_study_is_one_line_exit_2(tmp_path, case, capsys):
 
 def _stuck_flap_hz(scene, preload=50.0):
     """First natural frequency [Hz] of the unreduced blade with every contact stuck."""
-    blade = scene.blade()
-    Bt, Bn, _ = scene.contact_maps()
-    el = scene.elements({"preload": preload})
+    blade = blade_model(scene.structure)
+    Bt, Bn, _ = blade_contact_maps(scene)
+    el = blade_elements(scene, {"preload": preload})
     K = blade.K + Bt.T @ sp.diags(el.ku) @ Bt + Bn.T @ sp.diags(el.kv) @ Bn
     w2 = spla.eigsh(K.tocsc(), 1, blade.M.tocsc(), sigma=0, which="LM")[0]
     return float(np.sqrt(w2[0]) / (2 * np.pi))
@@ -232,13 +233,13 @@ def test_per_face_stiffness_is_mesh_independent():
     hz = {}
     for mesh in ((4, 1, 6), (6, 1, 10)):
         sc = _blade_scene(mesh, "per_face")
-        el = sc.elements({"preload": 50.0})
-        _, _, owner = sc.contact_maps()
+        el = blade_elements(sc, {"preload": 50.0})
+        _, _, owner = blade_contact_maps(sc)
         for i, c in enumerate(sc.contacts):       # face totals, split by nodal area
             on = owner == i
             assert el.ku[on].sum() == pytest.approx(1.5e5, rel=1e-12)
             assert el.n0[on].sum() == pytest.approx(50.0, rel=1e-12)
-            a = sc.blade().frames[c.face].weights
+            a = blade_model(sc.structure).frames[c.face].weights
             assert np.all(a > 0)
             assert a.sum() == pytest.approx(1.2185119e-4, rel=1e-6)   # face area [m^2]
             np.testing.assert_allclose(el.ku[on] / el.ku[on].sum(), a / a.sum(), rtol=1e-12)

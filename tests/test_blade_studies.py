@@ -20,6 +20,7 @@ from pipeline.structure.fe_model import BladeParams, build_blade, write_mesh
 from pipeline.fourier.harmonics import amplitude_half_peak_to_peak, evaluate
 from pipeline.solve.response import initial_guess
 from pipeline.study.scene import load_study, parse_study
+from pipeline.model.scene import blade_model, build_system, full_dof, reduced_model
 
 ROOT = Path(__file__).resolve().parents[1]
 MODES = ROOT / "studies" / "blade_modes.toml"
@@ -87,7 +88,7 @@ def test_modes_from_a_user_mesh_equal_the_generated_blade(tmp_path):
     text = text.replace("mode_counts = [0, 5, 10, 20, 40, 80]", "mode_counts = [0, 10]")
     (tmp_path / "user.toml").write_text(text)
     study = load_study(tmp_path / "user.toml")
-    assert isinstance(study, ModesStudy) and study.scene.mesh.endswith("blade.vtu")
+    assert isinstance(study, ModesStudy) and study.scene.structure.mesh.endswith("blade.vtu")
     assert cli(["run", str(tmp_path / "user.toml"), "--out", str(tmp_path / "out")]) == 0
     ds = read_dataset(tmp_path / "out" / "user.nc")
     assert ds["full_frequency"].values[0] == pytest.approx(250.318, rel=1e-4)
@@ -180,7 +181,7 @@ def test_contact_schema_errors():
 @pytest.fixture(scope="module")
 def scene():
     study = load_study(CONTACT, quick=True)
-    assert study.scene.blade().n_dof == 1458
+    assert blade_model(study.scene.structure).n_dof == 1458
     return study.scene
 
 
@@ -228,8 +229,8 @@ POINTS = {"stick": (1000.0, 400.0), "stick-slip": (30.0, 405.0), "separation": (
 def test_reduced_equals_unreduced_fe_model(scene, regime):
     n0, f = POINTS[regime]
     Om = 2 * np.pi * f
-    red_sys = scene.system({"preload": n0})
-    full_sys = scene.system({"preload": n0}, reduced=False)
+    red_sys = build_system(scene, {"preload": n0})
+    full_sys = build_system(scene, {"preload": n0}, reduced=False)
     assert full_sys.K.shape == (1458, 1458) and red_sys.K.shape == (208, 208)
     p_r, Q_r, _ = _solve(red_sys, Om)
     # the regime the point is meant to test
@@ -245,7 +246,7 @@ def test_reduced_equals_unreduced_fe_model(scene, regime):
     else:
         assert separated == 54, (reg, separated)
     # unreduced FE model (sparse), started from the reduced solution on its contact DOFs
-    red = scene.reduced()
+    red = reduced_model(scene.structure, scene.reduction)[0]
     p_f = hbm.setup(full_sys, H)
     phys = {d: k for k, d in enumerate(red.boundary[p_r.c])}
     assert set(phys) == set(p_f.c.tolist())
@@ -253,7 +254,7 @@ def test_reduced_equals_unreduced_fe_model(scene, regime):
     _, Q_f, _ = _solve(full_sys, Om, x0)
     for name in ("response.x", "response.y", "response.z"):
         a_r = amplitude_half_peak_to_peak(Q_r[scene.dof_index(name)])
-        a_f = amplitude_half_peak_to_peak(Q_f[scene.full_dof(name)])
+        a_f = amplitude_half_peak_to_peak(Q_f[full_dof(scene, name)])
         assert a_r == pytest.approx(a_f, rel=5e-3), name
     a_r = amplitude_half_peak_to_peak(Q_r[p_r.c])
     a_f = amplitude_half_peak_to_peak(Q_f[red.boundary[p_r.c]])

@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..model.scene import CraigBampton, build_system, reduced_model, timed_blade_model
 from ..solve.hbm import state_at_zero
 from .scene import Checker
 
@@ -248,7 +249,7 @@ def _case_scene(ck, c, tab, base_dir, where):
         if model != "lumped":
             ck.fail(f"{c}.scene.model", f"the [lumped] case needs model = \"lumped\", got {model!r}")
         scene = parse_scene(pk, raw)
-        return scene, scene.forcing.shape[1] - 1
+        return scene, scene.loads[0].amplitudes.shape[1] - 1
     from .blade_scene import parse_blade_scene
     if model != "solid_blade":
         ck.fail(f"{c}.scene.model", f"the [blade] case needs model = \"solid_blade\", got {model!r}")
@@ -415,7 +416,7 @@ def _case(ck, c, tab, scene, h_excited, where) -> Case:
     if c == "blade":
         for k, s in (("reference", reference), ("baseline", baseline)):
             _check_mesh(ck, scene, s.mesh, where(f"{k}.mesh"))
-        if scene.mesh is not None and ("mesh" in knobs_t or "mesh" in base_t):
+        if scene.structure.mesh is not None and ("mesh" in knobs_t or "mesh" in base_t):
             ck.fail(where("knobs.mesh" if "mesh" in knobs_t else "baseline.mesh"),
                     "the scene reads a mesh file: it cannot be refined")
     if preload is not None and not scene.contacts:
@@ -436,7 +437,7 @@ def _check_mesh(ck, scene, counts, field_):
     """A generated blade with these element counts must be valid and not too fine."""
     from .blade_scene import parse_blade_params
 
-    p = scene.params
+    p = scene.structure.params
     t = {k: getattr(p, k) for k in ("length", "chord", "thickness", "shroud_chord",
                                     "shroud_width", "shroud_height", "shroud_angle",
                                     "stagger_angle", "E", "nu", "rho")}
@@ -478,25 +479,15 @@ def _system(case: Case, s: Settings, models: dict):
     `models` caches FE blades per mesh and reductions per (mesh, modes)."""
     case_arg = {"preload": case.preload} if case.preload is not None else None
     if case.name == "lumped":
-        from .scene import build_system
         system = build_system(case.scene, case_arg)
         return system, case.scene.dof_index(case.dof), 0.0, system.n_dof
     sc = case.scene
-    if s.mesh not in models:
-        params = replace(sc.params, **dict(zip(_MESH_FIELDS, s.mesh)))
-        v = replace(sc, params=params, _cache={})
-        t0 = time.perf_counter()
-        blade = v.blade() if params != sc.params else sc.blade()
-        models[s.mesh] = (params, blade, time.perf_counter() - t0)
-    params, blade, t_fe = models[s.mesh]
-    key = (s.mesh, s.craig_bampton_modes)
-    if key not in models:
-        v = replace(sc, params=params, n_modes=s.craig_bampton_modes, _cache={"blade": blade})
-        t0 = time.perf_counter()
-        v.reduced()
-        models[key] = (v, time.perf_counter() - t0)
-    v, t_red = models[key]
-    return (v.system(case_arg), v.dof_index(case.dof), t_fe + t_red, blade.n_dof)
+    st = sc.structure if s.mesh is None else replace(
+        sc.structure, params=replace(sc.structure.params, **dict(zip(_MESH_FIELDS, s.mesh))))
+    v = replace(sc, structure=st, reduction=CraigBampton(s.craig_bampton_modes))
+    blade, t_fe = timed_blade_model(st)        # build and reduction times as measured
+    t_red = reduced_model(st, v.reduction)[1]  # when first made, cached or not
+    return (build_system(v, case_arg), v.dof_index(case.dof), t_fe + t_red, blade.n_dof)
 
 
 def measure(case: Case, s: Settings, models: dict, solver=None) -> Measurement:

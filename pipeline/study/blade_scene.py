@@ -27,7 +27,7 @@ else "response"):
 - "modes": full vs Craig-Bampton eigenfrequencies against the mode count, with
   timings, and the mode shapes as VTU (`run_modes_study`);
 - "response": frequency-response continuation per sweep case, the same command,
-  dataset and figures as the lumped scenes (`scene.Study` with a `BladeScene`).
+  dataset and figures as the lumped scenes (`scene.Study` with a `Scene`).
 
 Validation follows `scene.py`: every mistake is `UsageError("<file>: <field>: <what>")`.
 """
@@ -37,14 +37,12 @@ import logging
 import math
 import re
 import time
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
 
-from ..contact import YangMenq
-from ..model.system import System
+from ..model.scene import (Blade, CraigBampton, FaceContact, PointLoad, Scene, blade_model)
 
 log = logging.getLogger(__name__)
 
@@ -70,201 +68,6 @@ _MAX_ELEMENTS = 200_000
 # ---------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class FaceContact:
-    """Yang-Menq elements on every node of one contact face, against a rigid wall."""
-
-    name: str
-    face: str               # node set of the blade (shroud_left / shroud_right)
-    ku: float               # [N/m] per node (face total when stiffness = "per_face")
-    kv: float               # [N/m] per node (face total when stiffness = "per_face")
-    mu: float               # [-]
-    n0: float | None        # [N] total over the face; None: the sweep's preload
-    stiffness: str = "per_node"  # "per_face": ku, kv are face totals shared by area
-
-
-@dataclass(frozen=True)
-class PointLoad:
-    """F(t) = amplitude * direction * cos(h Omega t + phase) at the node of a point set."""
-
-    set: str
-    direction: tuple        # unit vector, global axes (blade DOF frame for beams)
-    amplitude: float        # [N]
-    harmonic: int
-    phase: float            # [rad]
-
-
-@dataclass(frozen=True, eq=False)
-class BladeScene:
-    """A validated blade scene.  The FE model and its reduction are built on first
-    use and cached (`blade()`, `reduced()`)."""
-
-    model: str
-    effects: tuple
-    params: object                      # fe_model.BladeParams
-    mesh: str | None                    # user mesh file (solid) or None: generated
-    n_modes: int                        # Craig-Bampton fixed-interface modes
-    rayleigh: tuple | None              # (alpha [1/s], beta [s]) or None: modal ratios
-    contacts: tuple = ()                # FaceContact, ...
-    loads: tuple = ()                   # PointLoad, ...
-    _cache: dict = field(default_factory=dict, repr=False, compare=False)
-
-    # -- models ------------------------------------------------------------
-    def blade(self):
-        if "blade" not in self._cache:
-            from ..structure.fe_model import build_blade, load_blade
-
-            self._cache["blade"] = (load_blade(self.mesh, self.params, required=("root",))
-                                    if self.mesh else build_blade(self.params))
-        return self._cache["blade"]
-
-    def reduced(self):
-        """Craig-Bampton model keeping contact faces, excitation and response DOFs."""
-        if "reduced" not in self._cache:
-            from ..structure.reduction import reduce_blade
-
-            kw = {"rayleigh": self.rayleigh} if self.rayleigh is not None else {}
-            t0 = time.perf_counter()
-            self._cache["reduced"] = reduce_blade(self.blade(), self.n_modes, **kw)
-            self._cache["reduce_time"] = time.perf_counter() - t0
-        return self._cache["reduced"]
-
-    # -- DOF names -----------------------------------------------------------
-    @property
-    def dofs(self) -> tuple:
-        """Names of the reduced coordinates: `<set>.<c>` (point sets), `<face>.<k>.<c>`,
-        `mode.<j>` (modal coordinates)."""
-        if "dofs" not in self._cache:
-            red = self.reduced()
-            names = [lab.replace(":", ".") for lab in red.labels]
-            for s in POINTS:
-                if s in red.sets:
-                    for c, pos in enumerate(red.sets[s][0]):
-                        names[pos] = f"{s}.{COMPONENTS[c]}"
-            self._cache["dofs"] = tuple(names)
-        return self._cache["dofs"]
-
-    def dof_index(self, name: str) -> int:
-        return self.dofs.index(name)
-
-    def full_dof(self, name: str) -> int:
-        """Free-DOF index in the unreduced blade of an output name `<set>.<c>`."""
-        s, c = name.split(".")
-        return int(self.blade().dof_sets[s][0, COMPONENTS.index(c)])
-
-    # -- contacts and loads on the full model ----------------------------------
-    def contact_maps(self):
-        """(Bt, Bn) sparse (E, n_full) over all face nodes, and the face of each element."""
-        blade = self.blade()
-        Bt, Bn, owner = [], [], []
-        for i, c in enumerate(self.contacts):
-            t, n, _ = blade.frames[c.face].maps(blade.n_dof)
-            # drop round-off direction cosines (~1e-17 from the SVD of the face): a
-            # zero column keeps its DOF out of the condensed HBM unknowns
-            for B in (t, n):
-                B.data[np.abs(B.data) < 1e-12] = 0.0
-                B.eliminate_zeros()
-            Bt.append(t)
-            Bn.append(n)
-            owner += [i] * t.shape[0]
-        n = blade.n_dof
-        if not Bt:
-            return sp.csr_matrix((0, n)), sp.csr_matrix((0, n)), np.zeros(0, int)
-        return sp.vstack(Bt).tocsr(), sp.vstack(Bn).tocsr(), np.asarray(owner)
-
-    def elements(self, case: dict | None = None) -> YangMenq:
-        """Yang-Menq parameters per face node; `preload` is the total per face, shared
-        equally ("per_node" contacts) or by area with ku, kv ("per_face" contacts)."""
-        case = dict(case or {})
-        _, _, owner = self.contact_maps()
-
-        def per(name, attr):
-            if name in case:
-                return np.full(owner.size, float(case[name]))
-            vals = [getattr(c, attr) for c in self.contacts]
-            if any(v is None for v in vals):
-                raise ValueError(f"{attr} of a contact is unset and the case gives no {name!r}")
-            return np.array(vals, dtype=float)[owner]
-
-        ku, kv, mu, n0 = per("ku", "ku"), per("kv", "kv"), per("mu", "mu"), per("preload", "n0")
-        for i, c in enumerate(self.contacts):
-            on = owner == i
-            if c.stiffness == "per_face":
-                a = self.blade().frames[c.face].weights
-                if a is None or not np.all(a > 0):
-                    raise ValueError(f"contact {c.name!r}: stiffness = 'per_face' needs a positive "
-                                     "area per face node")
-                share = a / a.sum()
-                ku[on], kv[on], n0[on] = ku[on] * share, kv[on] * share, n0[on] * share
-            else:
-                n0[on] = n0[on] / max(int(on.sum()), 1)
-        return YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)
-
-    def forcing_full(self, case: dict | None = None) -> np.ndarray:
-        """(n_full, Hf+1) complex load amplitudes [N] on the free DOFs."""
-        blade = self.blade()
-        hf = max([ld.harmonic for ld in self.loads] + [1])
-        F = np.zeros((blade.n_dof, hf + 1), dtype=complex)
-        for ld in self.loads:
-            local = blade.point_rotation.T @ np.asarray(ld.direction)
-            a = ld.amplitude * complex(math.cos(ld.phase), math.sin(ld.phase))
-            for c, d in enumerate(blade.dof_sets[ld.set][0]):
-                if d >= 0:
-                    F[d, ld.harmonic] += a * local[c]
-        return F * float((case or {}).get("excitation_scale", 1.0))
-
-    # -- systems ---------------------------------------------------------------
-    def system(self, case: dict | None = None, reduced: bool = True) -> System:
-        """The System of one sweep case: Craig-Bampton (dense) or, with
-        reduced=False, the unreduced FE model (sparse M, C, K; Rayleigh damping only)."""
-        from .scene import SWEEP_AXES
-
-        unknown = set(case or {}) - set(SWEEP_AXES)
-        if unknown:
-            raise ValueError(f"case has unknown axes {sorted(unknown)}; known: {sorted(SWEEP_AXES)}")
-        Bt, Bn, _ = self.contact_maps()
-        elem = self.elements(case) if self.contacts else YangMenq(ku=np.zeros(0), kv=np.zeros(0),
-                                                                  mu=np.zeros(0), n0=np.zeros(0))
-        F = self.forcing_full(case)
-        if not reduced:
-            if self.rayleigh is None:
-                raise ValueError("the unreduced system needs Rayleigh damping "
-                                 "(scene rayleigh = [alpha, beta]); modal damping is dense")
-            blade = self.blade()
-            a, b = self.rayleigh
-            C = (a * blade.M + b * blade.K).tocsr()
-            return System(M=blade.M, C=C, K=blade.K, Bt=Bt, Bn=Bn, contact=elem, forcing=F)
-        from ..structure.reduction import reduce_map
-
-        red = self.reduced()
-        Fr = np.zeros((red.M.shape[0], F.shape[1]), dtype=complex)
-        Fr[:red.n_boundary] = F[red.boundary]
-        if np.abs(F).sum() != np.abs(Fr).sum():
-            raise ValueError("a load acts on an interior DOF (keep it in the boundary)")
-        return System(M=red.M, C=red.C, K=red.K, Bt=reduce_map(red, Bt), Bn=reduce_map(red, Bn),
-                      contact=elem, forcing=Fr, dof_names=self.dofs)
-
-    def dataset_attrs(self) -> dict:
-        """Global attributes a response dataset of this scene adds."""
-        red, blade = self.reduced(), self.blade()
-        return {"blade_model": self.model, "mesh": self.mesh or "generated",
-                "n_dof_full": int(blade.n_dof), "n_boundary_dofs": int(red.n_boundary),
-                "craig_bampton_modes": int(red.n_modes),
-                "contact_nodes": int(self.contact_maps()[0].shape[0]),
-                "damping": (f"rayleigh alpha = {self.rayleigh[0]:g} 1/s, beta = "
-                            f"{self.rayleigh[1]:g} s" if self.rayleigh is not None else
-                            f"modal ratios {list(self.params.damping_ratios)}"),
-                "contact_parameters": "; ".join(
-                    f"{c.name}: " + ("ku, kv per contact node [N/m]; preload = total normal load "
-                                     "of the face [N], n0 per node = preload / nodes"
-                                     if c.stiffness == "per_node" else
-                                     "ku, kv [N/m] and preload [N] are face totals, shared by "
-                                     "the nodes in proportion to their area")
-                    for c in self.contacts),
-                "reduced_frequencies_hz": np.asarray(red.frequencies[:10], dtype=float),
-                "reduction_time_s": float(self._cache.get("reduce_time", np.nan))}
-
-
-@dataclass(frozen=True)
 class ModesStudy:
     """A "modes" study: reduced vs full eigenfrequencies against the mode count."""
 
@@ -274,7 +77,7 @@ class ModesStudy:
     description: str
     reference: str
     text: str
-    scene: BladeScene
+    scene: Scene
     mode_counts: tuple
     n_frequencies: int
     n_shapes: int
@@ -425,8 +228,8 @@ def parse_blade_params(ck, t, model, origin):
         ck.fail(where(key) if key in _BLADE_KEYS else "scene.blade", msg)
 
 
-def parse_blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
-    """The `BladeScene` of a [scene] table for a study of `kind` ("response" or
+def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
+    """The `Scene` of a [scene] table for a study of `kind` ("response" or
     "modes"), mesh files relative to `base_dir`; the blade is built once to check
     node sets, faces and mode counts.  `origin`: as in `parse_blade_params`."""
     from ..structure.reduction import DEFAULT_MODES
@@ -477,10 +280,10 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> BladeScene:
         if "excitation" not in tab:
             ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
         loads = _loads(ck, tab["excitation"])
-    scene = BladeScene(model=model, effects=effects, params=params, mesh=mesh, n_modes=n_modes,
-                       rayleigh=rayleigh, contacts=contacts, loads=loads)
+    scene = Scene(structure=Blade(params=params, mesh=mesh, rayleigh=rayleigh), contacts=contacts,
+                  loads=loads, reduction=CraigBampton(n_modes), effects=effects, model=model)
     try:
-        blade = scene.blade()
+        blade = blade_model(scene.structure)
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # e.g. a degenerate mesh
         ck.fail(fld("mesh") if mesh else "scene.blade", str(exc))
     from ..structure.fe_model import boundary_dofs
@@ -599,13 +402,13 @@ def _modes(ck, t, path, scene):
                                                 f"then {vals[i]}")
     from ..structure.fe_model import boundary_dofs
 
-    blade = scene.blade()
+    blade = blade_model(scene.structure)
     n_int = blade.n_dof - boundary_dofs(blade)[0].size
     if vals and vals[-1] > n_int:
         ck.fail(f"{path}.mode_counts[{len(vals) - 1}]", f"must be <= {n_int} (interior DOFs), "
                                                         f"got {vals[-1]}")
-    if scene.n_modes not in vals:  # the scene's own count is always reported
-        vals = sorted(vals + [scene.n_modes])
+    if scene.reduction.modes not in vals:  # the scene's own count is always reported
+        vals = sorted(vals + [scene.reduction.modes])
     nf = ck.integer(t.get("n_frequencies", 10), f"{path}.n_frequencies", 1, 200)
     if nf >= blade.n_dof - 1:
         ck.fail(f"{path}.n_frequencies", f"must be < {blade.n_dof - 1} (DOFs of the blade)")
@@ -633,7 +436,7 @@ def _normalise(X):
     return X / X[j, np.arange(X.shape[1])]
 
 
-def modal_study(scene: BladeScene, mode_counts, n_freqs: int, n_shapes: int = 0) -> dict:
+def modal_study(scene: Scene, mode_counts, n_freqs: int, n_shapes: int = 0) -> dict:
     """Full (shift-invert Lanczos) vs Craig-Bampton eigenfrequencies [Hz] per mode count.
 
     Returns plain arrays: full_hz (n_freqs,), reduced_hz (m, n_freqs) (NaN where the
@@ -644,14 +447,14 @@ def modal_study(scene: BladeScene, mode_counts, n_freqs: int, n_shapes: int = 0)
     from ..structure.fe_model import boundary_dofs
     from ..structure.reduction import eigenmodes, reduce, reduced_modes
 
-    blade = scene.blade()
+    blade = blade_model(scene.structure)
     b, labels = boundary_dofs(blade)
     t0 = time.perf_counter()
     w2, X = eigenmodes(blade.K, blade.M, n_freqs)
     t_full = time.perf_counter() - t0
     full = np.sqrt(np.maximum(w2, 0)) / (2 * np.pi)
-    kw = ({"rayleigh": scene.rayleigh} if scene.rayleigh is not None
-          else {"damping_ratios": scene.params.damping_ratios})
+    kw = ({"rayleigh": scene.structure.rayleigh} if scene.structure.rayleigh is not None
+          else {"damping_ratios": scene.structure.params.damping_ratios})
     stages = ("partition", "factorize", "normal_modes", "constraint_modes", "projection", "damping")
     m = len(mode_counts)
     red_hz = np.full((m, n_freqs), np.nan)
@@ -665,7 +468,7 @@ def modal_study(scene: BladeScene, mode_counts, n_freqs: int, n_shapes: int = 0)
         sizes[i] = red.M.shape[0]
         nk = min(n_freqs, red.frequencies.size)
         red_hz[i, :nk] = red.frequencies[:nk]
-        if k == scene.n_modes and nk == n_freqs:
+        if k == scene.reduction.modes and nk == n_freqs:
             _, U = reduced_modes(red, n_freqs)
             MX = blade.M @ X
             num = (MX.T @ U) ** 2
@@ -707,14 +510,14 @@ def run_modes_study(study: ModesStudy, out_dir="results", *, figures: bool = Tru
         if res["shapes_reduced"] is not None:
             fieldsd.update({f"reduced_mode_{j + 1}": res["shapes_reduced"][:, j]
                             for j in range(study.n_shapes)})
-        written.append(write_fields(sc.blade(), fig_dir / "mode_shapes.vtu", fieldsd))
+        written.append(write_fields(blade_model(sc.structure), fig_dir / "mode_shapes.vtu", fieldsd))
     if figures:
         written.append(_convergence_figure(fig_dir / "modal_convergence.png", res, study.title))
     for p in written:
         log.info("wrote %s", p)
-    i = list(res["mode_counts"]).index(sc.n_modes)
+    i = list(res["mode_counts"]).index(sc.reduction.modes)
     log.info("%s: f1 = %.6g Hz; max error at %d modes %.3g %%; done in %.1f s", study.name,
-             res["full_hz"][0], sc.n_modes, 100 * np.nanmax(res["rel_error"][i]),
+             res["full_hz"][0], sc.reduction.modes, 100 * np.nanmax(res["rel_error"][i]),
              time.perf_counter() - t0)
     return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=0,
                        wall_time=time.perf_counter() - t0)

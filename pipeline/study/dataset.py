@@ -33,9 +33,9 @@ import numpy as np
 import xarray as xr
 
 from .. import __version__
-from .disk_scene import AT
-from .scene import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
+from ..model.scene import AT, Blade, blade_contact_maps, reduced_model, stiffness_factors
 from ..model.system import natural_frequencies
+from .scene import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 
 CONVENTIONS = "CF-1.10"
 
@@ -48,7 +48,7 @@ def response_layout(study):
     "<dof>@<sector>" become the grid sectors x dofs); every other scene has one
     row of rows and `sectors` None (no sector dimension)."""
     scene, labels = study.scene, study.output.dofs
-    if getattr(scene, "mistuning", None) is None:
+    if scene.mistuning is None:
         return tuple(labels), None, np.array([[scene.dof_index(d) for d in labels]])
     pairs = [scene.split_dof(d) for d in labels]
     dofs = tuple(dict.fromkeys(d for d, _ in pairs))
@@ -60,7 +60,7 @@ def response_layout(study):
 def dof_selection(study, label: str) -> dict:
     """`Dataset.sel` arguments of an output DOF label: {"dof": "x1", "sector": 3}
     for "x1@3" of a mistuned disk, else {"dof": label}."""
-    if getattr(study.scene, "mistuning", None) is None:
+    if study.scene.mistuning is None:
         return {"dof": label}
     d, j = study.scene.split_dof(label)
     return {"dof": d, "sector": j}
@@ -282,13 +282,62 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         "source": "pipeline (harmonic balance with Yang-Menq contact, continuation, Hill stability)",
         "Conventions": CONVENTIONS,
     }
-    if hasattr(scene, "dataset_attrs"):  # FE blade and disk scenes describe their model
-        attrs.update(scene.dataset_attrs())
+    attrs.update(scene_attrs(scene))  # FE blade and disk scenes describe their model
     attrs["stability"] = ("Hill's method" if computed else
                           "not computed (solver.stability = false): stable is NaN everywhere")
     if optimum is not None:
         _add_optimum(data_vars, coords, optimum, study, to_unit, unit)
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+
+def scene_attrs(scene) -> dict:
+    """Global attributes that describe a scene's FE structure and its reduction
+    (blades), then its cyclic assembly (disks); none for a single lumped structure."""
+    attrs = blade_attrs(scene) if isinstance(scene.structure, Blade) else {}
+    return {**attrs, **(cyclic_attrs(scene) if scene.cyclic else {})}
+
+
+def blade_attrs(scene) -> dict:
+    """Attributes of an FE blade scene: model sizes, damping, contact parameters."""
+    st = scene.structure
+    red, reduce_time = reduced_model(st, scene.reduction)
+    return {"blade_model": scene.model, "mesh": st.mesh or "generated",
+            "n_dof_full": int(red.n_full), "n_boundary_dofs": int(red.n_boundary),
+            "craig_bampton_modes": int(red.n_modes),
+            "contact_nodes": int(blade_contact_maps(scene)[0].shape[0]),
+            "damping": (f"rayleigh alpha = {st.rayleigh[0]:g} 1/s, beta = "
+                        f"{st.rayleigh[1]:g} s" if st.rayleigh is not None else
+                        f"modal ratios {list(st.params.damping_ratios)}"),
+            "contact_parameters": "; ".join(
+                f"{c.name}: " + ("ku, kv per contact node [N/m]; preload = total normal load "
+                                 "of the face [N], n0 per node = preload / nodes"
+                                 if c.stiffness == "per_node" else
+                                 "ku, kv [N/m] and preload [N] are face totals, shared by "
+                                 "the nodes in proportion to their area")
+                for c in scene.contacts),
+            "reduced_frequencies_hz": np.asarray(red.frequencies[:10], dtype=float),
+            "reduction_time_s": float(reduce_time)}
+
+
+def cyclic_attrs(scene) -> dict:
+    """Attributes of a cyclic assembly: sectors, engine order, mistuning."""
+    asm, mis = scene.assembly, scene.mistuning
+    attrs = {"sectors": int(asm.sectors), "sector_dofs": int(len(scene.sector_dofs)),
+             "cyclic_reduction": "one sector, travelling wave Q_{j,h} = exp(i h j phi) "
+                                 "Q_{0,h}, phi = 2 pi EO / sectors (Petrov 2004)",
+             "excitation": "engine order EO: sector j loaded by sector 0's load "
+                           "shifted by j phi (phase j phi in the first harmonic)"}
+    if asm.engine_order is not None:
+        attrs["engine_order"] = int(asm.engine_order)
+    if mis is not None:
+        attrs["cyclic_reduction"] = ("none: mistuned, the full assembly of all sectors "
+                                     "(responses per sector on the sector dimension)")
+        attrs["mistuning"] = ("sector j stiffness (1 + delta_j) K, delta_j ~ N(0, std^2) "
+                              "from numpy default_rng(seed), truncated at 3 std and -0.9")
+        attrs["mistuning_stiffness_std"] = float(mis.stiffness_std)
+        if mis.seed is not None:
+            attrs["mistuning_seed"] = int(mis.seed)
+    return attrs
 
 
 def _add_mistuning_factors(data_vars, study, sectors):
@@ -297,7 +346,7 @@ def _add_mistuning_factors(data_vars, study, sectors):
     scene, axes = study.scene, study.sweep.axes
     seeds = axes.get("mistuning_seed")
     cases = [{}] if seeds is None else [{"mistuning_seed": s} for s in seeds]
-    f = np.array([np.asarray(scene.stiffness_factors(c), dtype=float)[list(sectors)]
+    f = np.array([np.asarray(stiffness_factors(scene, c), dtype=float)[list(sectors)]
                   for c in cases])
     dims = ("sector",) if seeds is None else ("mistuning_seed", "sector")
     data_vars["mistuning_factor"] = (dims, f[0] if seeds is None else f, {
@@ -310,7 +359,7 @@ def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset
     Craig-Bampton eigenfrequencies against the mode count, errors and timings."""
     counts = np.asarray(res["mode_counts"], dtype=np.int32)
     nf = len(res["full_hz"])
-    ci = list(counts).index(study.scene.n_modes)
+    ci = list(counts).index(study.scene.reduction.modes)
 
     def var(dims, data, units, long_name):
         return (dims, np.asarray(data), {"units": units, "long_name": long_name})
@@ -333,7 +382,7 @@ def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset
         "full_eigen_time": var((), float(res["time_full_s"]), "s",
                                "wall time of the unreduced eigen solve (factorisation included)"),
         "mac": var(("mode",), res["mac"], "1", "modal assurance criterion, full vs reduced "
-                                               f"mode at {study.scene.n_modes} modes"),
+                                               f"mode at {study.scene.reduction.modes} modes"),
         "n_dof": var((), np.int32(res["n_dof"]), "1", "free DOFs of the unreduced blade"),
         "n_boundary": var((), np.int32(res["n_boundary"]), "1",
                           "boundary DOFs kept physical (contact faces, excitation, response)"),
@@ -350,9 +399,9 @@ def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset
     attrs = {
         "title": study.title, "study": study.text, "study_name": study.name,
         "description": study.description, "reference": study.reference,
-        "kind": "modes", "model": sc.model, "mesh": sc.mesh or "generated",
-        "blade_parameters": repr(sc.params),
-        "default_mode_count": int(sc.n_modes),
+        "kind": "modes", "model": sc.model, "mesh": sc.structure.mesh or "generated",
+        "blade_parameters": repr(sc.structure.params),
+        "default_mode_count": int(sc.reduction.modes),
         "max_relative_error_at_default": float(np.nanmax(res["rel_error"][ci])),
         "mode_shapes": mode_shapes_file,
         "quick": int(study.quick),

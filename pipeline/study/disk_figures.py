@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..model.scene import build_system
+
 log = logging.getLogger("pipeline.study.disk_figures")
 AT = "@"
 SEED_AXIS = "mistuning_seed"
@@ -93,13 +95,13 @@ def tuned_reference(study, case: dict, dofs, solver=None) -> TunedCurve:
     holds the sweep values other than `mistuning_seed`."""
     from .run import default_solver, run_case
 
-    scene = replace(study.scene, mistuning=None)
+    scene = replace(study.scene, assembly=replace(study.scene.assembly, mistuning=None))
     fr, kw = study.sweep.frequency, study.solver.kwargs()
     idx = [scene.sector_dofs.index(d) for d in dofs]
     kw["peak_dofs"] = idx
     case = {a: v for a, v in case.items() if a != SEED_AXIS}
     t0 = time.perf_counter()
-    curve, err = run_case(solver or default_solver(study), scene.system(case),
+    curve, err = run_case(solver or default_solver(study), build_system(scene, case),
                           study.solver.harmonics, fr.omega_start, fr.omega_stop, kw)
     if curve is None:
         nan = {d: np.nan for d in dofs}

@@ -15,7 +15,7 @@ j phi).  EO is `[scene.disk] engine_order` or the sweep axis `eo`, an integer in
 0 <= EO <= N/2 (N - EO is the same wave travelling the other way; EO >= N repeats
 EO mod N).  Each case is solved on ONE sector by the cyclic reduction
 (`pipeline.model.cyclic.sector_system`, Petrov 2004): only the sector is built, never
-the N-sector assembly (`DiskScene.full_system` gives it, for checks).
+the N-sector assembly (`pipeline.model.scene.full_system` gives it, for checks).
 
 Mistuning (effect "mistuning", `[scene.disk] mistuning = {stiffness_std, seed}`,
 seed or the sweep axis `mistuning_seed`): sector j has the stiffness
@@ -29,151 +29,10 @@ per sector on a `sector` dimension, with the sector's DOF names on `dof`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-
-import numpy as np
-
-from ..model.system import System
-
-NEXT = "next."
-AT = "@"                 # "<dof>@<sector>": a DOF of one sector of a mistuned disk
+from ..model.scene import AT, NEXT, Mistuning, Scene
 MAX_SECTORS = 10_000
 MAX_MISTUNED_SECTORS = 200   # the full assembly is dense: (N n)^2 per matrix
 MAX_STIFFNESS_STD = 0.5
-
-
-@dataclass(frozen=True)
-class Mistuning:
-    """Random sector stiffness: K_j = (1 + delta_j) K, delta_j ~ N(0, stiffness_std^2)."""
-
-    stiffness_std: float     # relative standard deviation [-], 0 <= std < 0.5
-    seed: int | None = None  # None: the sweep's `mistuning_seed` sets it
-
-
-@dataclass(frozen=True)
-class DiskScene:
-    """A validated disk scene: one sector (SI units) and the number of sectors."""
-
-    model: str              # "disk"
-    effects: tuple
-    sector_dofs: tuple      # the sector's DOF names, one per row of M
-    M: np.ndarray           # (n, n) [kg]
-    C: np.ndarray           # (n, n) [N s/m]
-    K: np.ndarray           # (n, n) [N/m]
-    contacts: tuple         # scene.ContactSpec with rows over `contact_dofs` (2n)
-    forcing: np.ndarray     # (n, Hf+1) complex load of sector 0 [N]
-    sectors: int            # N
-    engine_order: int | None = None   # None: the sweep's `eo` sets it
-    mistuning: Mistuning | None = None  # None: a tuned disk (one-sector reduction)
-
-    @property
-    def dofs(self) -> tuple:
-        """The DOF names of a case's `System`: the sector's (tuned), or every
-        sector's as `<dof>@<sector>`, sector-major (mistuned)."""
-        if self.mistuning is None:
-            return self.sector_dofs
-        return tuple(f"{d}{AT}{j}" for j in range(self.sectors) for d in self.sector_dofs)
-
-    @property
-    def contact_dofs(self) -> tuple:
-        """Names the contact rows refer to: the sector's DOFs, then `next.<dof>`."""
-        return self.sector_dofs + tuple(NEXT + d for d in self.sector_dofs)
-
-    def split_dof(self, name: str) -> tuple:
-        """("x1", 3) of the label "x1@3": the sector's DOF name and the sector number."""
-        d, _, j = name.rpartition(AT)
-        if not d or not j.isdigit() or int(j) >= self.sectors:
-            raise ValueError(f"{name!r} is not '<dof>{AT}<sector>' with a sector below "
-                             f"{self.sectors}")
-        return d, int(j)
-
-    def dof_index(self, name: str) -> int:
-        """Row of DOF `name` in a case's `System` ("x1@3" = j n + i in a mistuned disk)."""
-        if self.mistuning is None:
-            return self.sector_dofs.index(name)
-        d, j = self.split_dof(name)
-        return j * len(self.sector_dofs) + self.sector_dofs.index(d)
-
-    @property
-    def coupled(self) -> bool:
-        """True if an element reaches the next sector (effect "cyclic_coupling")."""
-        n = len(self.sector_dofs)
-        return any(np.any(c.bt[n:]) or np.any(c.bn[n:]) for c in self.contacts)
-
-    def engine_order_of(self, case: dict | None = None) -> int:
-        case = case or {}
-        eo = case.get("eo", self.engine_order)
-        if eo is None:
-            raise ValueError("the engine order is unset: give [scene.disk] engine_order or "
-                             "the sweep axis eo")
-        return int(eo)
-
-    def sector(self, case: dict | None = None):
-        """The `cyclic.Sector` with one grid case applied (preload, mu, ku, kv,
-        excitation_scale as in lumped scenes)."""
-        from ..model.cyclic import Sector
-        from .scene import SWEEP_AXES, contact_elements
-
-        case = dict(case or {})
-        unknown = set(case) - set(SWEEP_AXES)
-        if unknown:
-            raise ValueError(f"case has unknown axes {sorted(unknown)}; known: {sorted(SWEEP_AXES)}")
-        n, E = len(self.sector_dofs), len(self.contacts)
-        Bt = np.array([c.bt for c in self.contacts], dtype=float).reshape(E, 2 * n)
-        Bn = np.array([c.bn for c in self.contacts], dtype=float).reshape(E, 2 * n)
-        return Sector(M=self.M, C=self.C, K=self.K, Bt=Bt[:, :n], Bn=Bn[:, :n],
-                      Bt_next=Bt[:, n:], Bn_next=Bn[:, n:],
-                      contact=contact_elements(self.contacts, case),
-                      forcing=self.forcing * float(case.get("excitation_scale", 1.0)),
-                      sectors=self.sectors, dof_names=tuple(self.sector_dofs))
-
-    def stiffness_factors(self, case: dict | None = None):
-        """The sectors' stiffness factors 1 + delta_j of a case (None when tuned)."""
-        if self.mistuning is None:
-            return None
-        from ..model.cyclic import mistuning_factors
-        seed = (case or {}).get("mistuning_seed", self.mistuning.seed)
-        if seed is None:
-            raise ValueError("the mistuning seed is unset: give [scene.disk] mistuning.seed "
-                             "or the sweep axis mistuning_seed")
-        return mistuning_factors(self.sectors, self.mistuning.stiffness_std, int(seed))
-
-    def system(self, case: dict | None = None) -> System:
-        """The `System` of a case: tuned, the one-sector cyclic reduction (n DOFs,
-        `System.cyclic` set); mistuned, the full N-sector assembly (N n DOFs named
-        as `dofs`, `System.cyclic` None)."""
-        from ..model import cyclic
-        if self.mistuning is None:
-            return cyclic.sector_system(self.sector(case), self.engine_order_of(case))
-        full = cyclic.full_assembly(self.sector(case), self.engine_order_of(case),
-                                    self.stiffness_factors(case))
-        return replace(full, dof_names=self.dofs)
-
-    def full_system(self, case: dict | None = None) -> System:
-        """All N sectors assembled (N n DOFs, with the case's mistuning if any): the
-        reference for a tuned disk, never used by its runs."""
-        from ..model.cyclic import full_assembly
-        return full_assembly(self.sector(case), self.engine_order_of(case),
-                             self.stiffness_factors(case))
-
-    def dataset_attrs(self) -> dict:
-        """Global attributes a response dataset of this scene adds."""
-        attrs = {"sectors": int(self.sectors), "sector_dofs": int(len(self.sector_dofs)),
-                 "cyclic_reduction": "one sector, travelling wave Q_{j,h} = exp(i h j phi) "
-                                     "Q_{0,h}, phi = 2 pi EO / sectors (Petrov 2004)",
-                 "excitation": "engine order EO: sector j loaded by sector 0's load "
-                               "shifted by j phi (phase j phi in the first harmonic)"}
-        if self.engine_order is not None:
-            attrs["engine_order"] = int(self.engine_order)
-        if self.mistuning is not None:
-            attrs["cyclic_reduction"] = ("none: mistuned, the full assembly of all sectors "
-                                         "(responses per sector on the sector dimension)")
-            attrs["mistuning"] = ("sector j stiffness (1 + delta_j) K, delta_j ~ N(0, std^2) "
-                                  "from numpy default_rng(seed), truncated at 3 std and -0.9")
-            attrs["mistuning_stiffness_std"] = float(self.mistuning.stiffness_std)
-            if self.mistuning.seed is not None:
-                attrs["mistuning_seed"] = int(self.mistuning.seed)
-        return attrs
 
 
 # ---------------------------------------------------------------------------
@@ -241,17 +100,17 @@ def check_engine_order(ck, value, field, N) -> int:
     return int(value)
 
 
-def check_disk_rules(ck, scene: DiskScene, axes, wpath, data):
+def check_disk_rules(ck, scene: Scene, axes, wpath, data):
     """EO given once (scene or sweep) and within 0..N/2; "cyclic_coupling" declared
     exactly when an element reaches the next sector; the optimum-preload search
     needs a fixed engine order."""
     if "eo" in axes:
         for i, eo in enumerate(axes["eo"]):
-            check_engine_order(ck, eo, f"{wpath}.eo[{i}]", scene.sectors)
-        if scene.engine_order is not None:
+            check_engine_order(ck, eo, f"{wpath}.eo[{i}]", scene.assembly.sectors)
+        if scene.assembly.engine_order is not None:
             ck.fail(f"{wpath}.eo", "the engine order is set twice: [scene.disk] engine_order "
                                    "and the sweep axis eo")
-    elif scene.engine_order is None:
+    elif scene.assembly.engine_order is None:
         ck.fail("scene.disk.engine_order", "missing: give [scene.disk] engine_order or the "
                                            "sweep axis eo = [...]")
     if scene.coupled != ("cyclic_coupling" in scene.effects):
@@ -260,13 +119,13 @@ def check_disk_rules(ck, scene: DiskScene, axes, wpath, data):
                 "\"cyclic_coupling\" is declared but no contact reaches the next sector "
                 "(DOF names next.<dof>)")
     out = data.get("output") if isinstance(data, dict) else None
-    if isinstance(out, dict) and "optimum_preload" in out and scene.engine_order is None:
+    if isinstance(out, dict) and "optimum_preload" in out and scene.assembly.engine_order is None:
         ck.fail("output.optimum_preload", "the optimum search runs at one engine order: "
                                           "give [scene.disk] engine_order")
     check_mistuning_rules(ck, scene, axes, wpath, out)
 
 
-def check_mistuning_rules(ck, scene: DiskScene, axes, wpath, out):
+def check_mistuning_rules(ck, scene: Scene, axes, wpath, out):
     """"mistuning" declared exactly when `[scene.disk] mistuning` is given; its seed
     given once (table or sweep axis `mistuning_seed`)."""
     mis = scene.mistuning
@@ -296,7 +155,7 @@ def check_mistuning_rules(ck, scene: DiskScene, axes, wpath, out):
                                           "mistuned disk")
 
 
-def output_dofs(ck, t, scene: DiskScene) -> tuple:
+def output_dofs(ck, t, scene: Scene) -> tuple:
     """`[output] dofs` of a mistuned disk: a sector DOF name ("x1") stands for that
     DOF in every sector ("x1@0" ... "x1@<N-1>"); "x1@3" names one sector's."""
     raw = t["dofs"] if "dofs" in t else list(scene.sector_dofs)
@@ -305,7 +164,7 @@ def output_dofs(ck, t, scene: DiskScene) -> tuple:
     for i, d in enumerate(vals):
         d = ck.string(d, f"output.dofs[{i}]")
         if d in scene.sector_dofs:
-            out.extend(f"{d}{AT}{j}" for j in range(scene.sectors))
+            out.extend(f"{d}{AT}{j}" for j in range(scene.assembly.sectors))
         elif d in scene.dofs:
             out.append(d)
         else:

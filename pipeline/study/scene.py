@@ -30,8 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..contact import YangMenq
 from ..errors import UsageError
+from ..model.scene import (Cyclic, DofContact, Forcing, Lumped, Scene, Single,
+                           build_system)
 from ..model.system import System
 
 MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
@@ -60,36 +61,6 @@ _SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
 # ---------------------------------------------------------------------------
 # Plain data
 # ---------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class ContactSpec:
-    """One Yang-Menq element: u = bt . q, v = bn . q (rows of Bt, Bn)."""
-
-    name: str
-    bt: np.ndarray          # (n,) [-]
-    bn: np.ndarray          # (n,) [-], zeros when the normal load is constant
-    ku: float               # [N/m]
-    kv: float               # [N/m]
-    mu: float               # [-]
-    n0: float | None        # [N]; None when the sweep's `preload` sets it
-
-
-@dataclass(frozen=True)
-class Scene:
-    """A validated lumped scene: matrices, contacts and excitation (SI units)."""
-
-    model: str
-    effects: tuple
-    dofs: tuple             # DOF names, one per row of M
-    M: np.ndarray           # (n, n) [kg]
-    C: np.ndarray           # (n, n) [N s/m]
-    K: np.ndarray           # (n, n) [N/m]
-    contacts: tuple         # ContactSpec, ...
-    forcing: np.ndarray     # (n, Hf+1) complex amplitudes F_h [N]
-
-    def dof_index(self, name: str) -> int:
-        return self.dofs.index(name)
-
 
 @dataclass(frozen=True)
 class FrequencyRange:
@@ -182,54 +153,12 @@ class Study:
         return build_system(self.scene, case)
 
 
-# ---------------------------------------------------------------------------
-# Building a System
-# ---------------------------------------------------------------------------
-
-def build_system(scene: Scene, case: dict | None = None) -> System:
-    """The `System` of a scene with one grid case applied: `preload` sets n0, `mu`,
-    `ku`, `kv` set those of every contact, `excitation_scale` scales the forcing."""
-    if not isinstance(scene, Scene):  # a blade scene (pipeline/study/blade_scene.py) builds its own
-        return scene.system(case)
-    case = dict(case or {})
-    unknown = set(case) - set(SWEEP_AXES)
-    if unknown:
-        raise ValueError(f"case has unknown axes {sorted(unknown)}; known: {sorted(SWEEP_AXES)}")
-    for a in ("eo", "mistuning_seed"):
-        if a in case:
-            raise ValueError(f"case has the disk axis {a!r} but the scene is not a disk")
-    n, E = len(scene.dofs), len(scene.contacts)
-    Bt = np.array([c.bt for c in scene.contacts], dtype=float).reshape(E, n)
-    Bn = np.array([c.bn for c in scene.contacts], dtype=float).reshape(E, n)
-    forcing = scene.forcing * float(case.get("excitation_scale", 1.0))
-    return System(M=scene.M, C=scene.C, K=scene.K, Bt=Bt, Bn=Bn,
-                  contact=contact_elements(scene.contacts, case),
-                  forcing=forcing, dof_names=tuple(scene.dofs))
-
-
-def contact_elements(contacts, case: dict) -> YangMenq:
-    """The Yang-Menq parameters of `contacts` (ContactSpec) with a case applied:
-    `preload` sets n0, `mu`, `ku`, `kv` those of every contact."""
-    E = len(contacts)
-
-    def param(name, attr):
-        if name in case:
-            return np.full(E, float(case[name]))
-        vals = [getattr(c, attr) for c in contacts]
-        if any(v is None for v in vals):
-            raise ValueError(f"{attr} of a contact is unset and the case gives no {name!r}")
-        return np.array(vals, dtype=float)
-
-    return YangMenq(ku=param("ku", "ku"), kv=param("kv", "kv"), mu=param("mu", "mu"),
-                    n0=param("preload", "n0"))
-
-
 def study_to_mapping(study: Study) -> dict:
     """The canonical document of a validated study: explicit M, C, K, coefficient
     rows for contacts, every default spelt out, no [quick] table (the variant that
     was loaded).  `study_from_mapping(study_to_mapping(s))` rebuilds the same study."""
     sc = study.scene
-    cdofs = getattr(sc, "contact_dofs", sc.dofs)  # disk scenes: also next.<dof>
+    cdofs = sc.contact_dofs  # disk scenes: also next.<dof>
 
     def row(r):
         return {d: float(c) for d, c in zip(cdofs, r) if c != 0}
@@ -242,10 +171,11 @@ def study_to_mapping(study: Study) -> dict:
         if c.n0 is not None:
             e["n0"] = c.n0
         contacts.append(e)
-    sector_dofs = getattr(sc, "sector_dofs", sc.dofs)  # disk scenes: the sector's names
+    sector_dofs = sc.sector_dofs  # disk scenes: the sector's names
+    forcing = sc.loads[0].amplitudes
     excitation = [{"dof": sector_dofs[j], "amplitude": float(abs(F)), "harmonic": int(h),
                    "phase": float(np.angle(F)) if h else 0.0}
-                  for j, h in zip(*np.nonzero(sc.forcing)) for F in [sc.forcing[j, h]]]
+                  for j, h in zip(*np.nonzero(forcing)) for F in [forcing[j, h]]]
     fr = study.sweep.frequency
     sweep = {a: list(v) for a, v in study.sweep.axes.items()}
     sweep["frequency"] = {"start": fr.start, "stop": fr.stop, "unit": fr.unit}
@@ -260,12 +190,12 @@ def study_to_mapping(study: Study) -> dict:
             w = o["window"]
             output["optimum_preload"]["frequency"] = {"start": w.start, "stop": w.stop, "unit": w.unit}
     scene = {"model": sc.model, "effects": list(sc.effects), "dofs": list(sector_dofs),
-             "matrices": {k: getattr(sc, k).tolist() for k in ("M", "C", "K")},
+             "matrices": {k: getattr(sc.structure, k).tolist() for k in ("M", "C", "K")},
              "contact": contacts, "excitation": excitation}
     if sc.model == "disk":
-        scene["disk"] = {"sectors": sc.sectors}
-        if sc.engine_order is not None:
-            scene["disk"]["engine_order"] = sc.engine_order
+        scene["disk"] = {"sectors": sc.assembly.sectors}
+        if sc.assembly.engine_order is not None:
+            scene["disk"]["engine_order"] = sc.assembly.engine_order
         if sc.mistuning is not None:
             mis = {"stiffness_std": sc.mistuning.stiffness_std}
             if sc.mistuning.seed is not None:
@@ -615,7 +545,8 @@ def parse_sweep(ck, tab, path, partial=False):
 
 
 def parse_scene(ck, tab) -> Scene:
-    """The lumped `Scene` (or `DiskScene`) of a [scene] table; failures through ck."""
+    """The `Scene` of a lumped or disk [scene] table (a `Lumped` structure, single or
+    `Cyclic`); failures through ck."""
     ck.keys(tab, "scene", ("model", "effects", "dofs", "matrices", "modal", "contact",
                            "excitation", "disk"), required=("model",))
     model = ck.string(tab["model"], "scene.model", MODELS)
@@ -666,12 +597,10 @@ def parse_scene(ck, tab) -> Scene:
     if "excitation" not in tab:
         ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
     forcing = _excitation(ck, tab["excitation"], dofs)
-    if disk:
-        return disk_scene.DiskScene(model=model, effects=effects, sector_dofs=dofs, M=M, C=C,
-                                    K=K, contacts=contacts, forcing=forcing, sectors=sectors,
-                                    engine_order=engine_order, mistuning=mistuning)
-    return Scene(model=model, effects=effects, dofs=dofs, M=M, C=C, K=K,
-                 contacts=contacts, forcing=forcing)
+    assembly = (Cyclic(sectors=sectors, engine_order=engine_order, mistuning=mistuning)
+                if disk else Single())
+    return Scene(structure=Lumped(M=M, C=C, K=K, dofs=dofs), contacts=contacts,
+                 loads=(Forcing(forcing),), assembly=assembly, effects=effects, model=model)
 
 
 def _matrices(ck, t, n):
@@ -745,7 +674,7 @@ def _signed_row(ck, value, field, dofs, required):
     return row
 
 
-def _contact(ck, c, f, dofs, i) -> ContactSpec:
+def _contact(ck, c, f, dofs, i) -> DofContact:
     c = ck.table(c, f)
     ck.keys(c, f, ("name", "tangential", "normal", "ku", "kv", "mu", "n0"),
             required=("tangential", "ku", "mu"))
@@ -758,7 +687,7 @@ def _contact(ck, c, f, dofs, i) -> ContactSpec:
     n0 = ck.number(c["n0"], f"{f}.n0") if "n0" in c else None
     if kv > 0 and not np.any(bn):
         ck.fail(f"{f}.kv", f"kv = {kv:g} N/m needs normal DOFs (`normal = [...]`)")
-    return ContactSpec(name=name, bt=bt, bn=bn, ku=ku, kv=kv, mu=mu, n0=n0)
+    return DofContact(name=name, bt=bt, bn=bn, ku=ku, kv=kv, mu=mu, n0=n0)
 
 
 def _excitation(ck, raw, dofs) -> np.ndarray:
@@ -818,7 +747,7 @@ def output_common(ck, t):
 
 def _output(ck, t, scene) -> OutputSettings:
     ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload"))
-    if getattr(scene, "mistuning", None) is not None:  # every sector's DOFs, "x1@3"
+    if scene.mistuning is not None:  # every sector's DOFs, "x1@3"
         from .disk_scene import output_dofs
         dofs = output_dofs(ck, t, scene)
         if "optimum_preload" in t:
@@ -866,7 +795,8 @@ def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
         check_disk_rules(ck, scene, axes, wpath, data)
     check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
                       [c.kv for c in scene.contacts], [bool(np.any(c.bn)) for c in scene.contacts],
-                      scene.forcing.shape[1] - 1, solver.harmonics, axes, spath, wpath, disk=disk)
+                      scene.loads[0].amplitudes.shape[1] - 1, solver.harmonics, axes, spath, wpath,
+                      disk=disk)
 
 
 def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spath, wpath,

@@ -1,0 +1,516 @@
+"""One scene: structure x reduction x contacts x loads x assembly.
+
+A `Scene` is plain frozen data that composes independent parts; `build_system`
+turns it, with one parameter case applied, into the `System` of paper Eq. 4-6
+that every solver takes:
+
+    structure   `Lumped` (M, C, K over named DOFs) | `Blade` (a scikit-fem FE blade,
+                generated or read through meshio, `pipeline.structure.fe_model`)
+    reduction   None | `CraigBampton` (fixed-interface modes; keeps contact faces,
+                excitation and response DOFs, `pipeline.structure.reduction`)
+    contacts    `DofContact` (a row over named DOFs; in a cyclic assembly also over
+                the next sector's, `next.<dof>`) | `FaceContact` (every node of an FE
+                face against a rigid wall, in the face's frame)
+    loads       `Forcing` (complex amplitudes F_h over the structure's DOFs) |
+                `PointLoad` (at an FE node set)
+    assembly    `Single` | `Cyclic` (N sectors, engine-order travelling wave solved
+                on one sector, Petrov 2004; with `Mistuning`, the full N-sector
+                assembly, `pipeline.model.cyclic`)
+
+So an FE blade in a cyclic disk is `Scene(Blade(...), CraigBampton(m), contacts,
+loads, Cyclic(N, EO))`: no other code path.  A case is a dict of overrides
+(`CASE_KEYS`): `preload` sets n0 of every contact, `mu`, `ku`, `kv` those of every
+contact, `excitation_scale` scales every load, `eo` the engine order and
+`mistuning_seed` the mistuning draw of a cyclic assembly.
+
+Built FE models and reductions are cached on the frozen specs (`blade_model`,
+`reduced_model`, `functools.lru_cache`): scenes that share a structure share its
+model, and a scene value never changes.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from functools import lru_cache
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..contact import YangMenq
+from . import cyclic
+from .system import System
+
+CASE_KEYS = ("preload", "mu", "ku", "kv", "excitation_scale", "eo", "mistuning_seed")
+CYCLIC_CASE_KEYS = ("eo", "mistuning_seed")
+NEXT = "next."          # a DOF of the next sector in a cyclic contact row
+AT = "@"                # "<dof>@<sector>": a DOF of one sector of a mistuned assembly
+POINT_SETS = ("excitation", "response")   # FE node sets named by direction in DOF names
+COMPONENTS = "xyz"
+
+
+# ---------------------------------------------------------------------------
+# Parts
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class Lumped:
+    """A lumped linear structure: M, C, K over named DOFs (SI units)."""
+
+    M: np.ndarray            # (n, n) [kg]
+    C: np.ndarray            # (n, n) [N s/m]
+    K: np.ndarray            # (n, n) [N/m]
+    dofs: tuple              # n DOF names
+
+
+@dataclass(frozen=True)
+class Blade:
+    """A clamped FE blade (`fe_model.BladeParams`), generated or read from `mesh`
+    (meshio; node sets root, shroud_left, shroud_right, excitation, response).
+    Damping: Rayleigh (alpha [1/s], beta [s]) or, when None, the params' modal ratios."""
+
+    params: object           # fe_model.BladeParams
+    mesh: str | None = None
+    rayleigh: tuple | None = None
+
+
+@dataclass(frozen=True)
+class CraigBampton:
+    """Craig-Bampton reduction with `modes` fixed-interface modes."""
+
+    modes: int
+
+
+@dataclass(frozen=True, eq=False)
+class DofContact:
+    """One Yang-Menq element (paper Eq. 1, 9, 10): u = bt . q, v = bn . q over the
+    scene's contact DOFs (the system's DOFs; in a cyclic assembly followed by the
+    next sector's)."""
+
+    name: str
+    bt: np.ndarray          # [-]
+    bn: np.ndarray          # [-], zeros when the normal load is constant
+    ku: float               # [N/m]
+    kv: float               # [N/m]
+    mu: float               # [-]
+    n0: float | None        # [N]; None when the case's `preload` sets it
+
+
+@dataclass(frozen=True)
+class FaceContact:
+    """Yang-Menq elements on every node of one FE contact face, against a rigid wall."""
+
+    name: str
+    face: str               # node set of the blade (shroud_left / shroud_right)
+    ku: float               # [N/m] per node (face total when stiffness = "per_face")
+    kv: float               # [N/m] per node (face total when stiffness = "per_face")
+    mu: float               # [-]
+    n0: float | None        # [N] total over the face; None: the case's preload
+    stiffness: str = "per_node"  # "per_face": ku, kv are face totals shared by area
+
+
+@dataclass(frozen=True, eq=False)
+class Forcing:
+    """F(t) = Re sum_h F_h exp(i h Omega t) over the structure's DOFs."""
+
+    amplitudes: np.ndarray  # (n, Hf+1) complex [N]; column 0 a static load
+
+
+@dataclass(frozen=True)
+class PointLoad:
+    """F(t) = amplitude * direction * cos(h Omega t + phase) at the node of an FE set."""
+
+    set: str
+    direction: tuple        # unit vector, global axes (blade DOF frame for beams)
+    amplitude: float        # [N]
+    harmonic: int
+    phase: float            # [rad]
+
+
+@dataclass(frozen=True)
+class Single:
+    """One structure, no symmetry."""
+
+
+@dataclass(frozen=True)
+class Mistuning:
+    """Random sector stiffness: K_j = (1 + delta_j) K, delta_j ~ N(0, stiffness_std^2)."""
+
+    stiffness_std: float     # relative standard deviation [-], 0 <= std < 0.5
+    seed: int | None = None  # None: the case's `mistuning_seed` sets it
+
+
+@dataclass(frozen=True)
+class Cyclic:
+    """N identical sectors excited by engine order EO (None: the case's `eo`);
+    with `mistuning`, every sector's stiffness scaled and the full assembly solved."""
+
+    sectors: int
+    engine_order: int | None = None
+    mistuning: Mistuning | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """Structure x reduction x contacts x loads x assembly, and the physical effects
+    the study declares (`model` is the study file's name for this combination)."""
+
+    structure: Lumped | Blade
+    contacts: tuple = ()
+    loads: tuple = ()
+    assembly: Single | Cyclic = Single()
+    reduction: CraigBampton | None = None
+    effects: tuple = ()
+    model: str = ""
+
+    # -- DOF names -----------------------------------------------------------
+    @property
+    def sector_dofs(self) -> tuple:
+        """Names of one structure's (one sector's) system DOFs."""
+        if isinstance(self.structure, Lumped):
+            return tuple(self.structure.dofs)
+        if self.reduction is None:
+            return ()
+        return reduced_dof_names(reduced_model(self.structure, self.reduction)[0])
+
+    @property
+    def dofs(self) -> tuple:
+        """Names of a case's `System` DOFs: the structure's (single or tuned cyclic),
+        or every sector's as `<dof>@<sector>`, sector-major (mistuned)."""
+        if self.mistuning is None:
+            return self.sector_dofs
+        return tuple(f"{d}{AT}{j}" for j in range(self.assembly.sectors) for d in self.sector_dofs)
+
+    @property
+    def contact_dofs(self) -> tuple:
+        """Names the rows of `DofContact`s refer to: the system's DOFs, then (cyclic)
+        the next sector's as `next.<dof>`."""
+        own = self.sector_dofs
+        return own + tuple(NEXT + d for d in own) if self.cyclic else own
+
+    @property
+    def cyclic(self) -> bool:
+        return isinstance(self.assembly, Cyclic)
+
+    @property
+    def mistuning(self) -> Mistuning | None:
+        return self.assembly.mistuning if self.cyclic else None
+
+    @property
+    def coupled(self) -> bool:
+        """True if an element reaches the next sector (effect "cyclic_coupling")."""
+        n = len(self.sector_dofs)
+        return self.cyclic and any(np.any(c.bt[n:]) or np.any(c.bn[n:])
+                                   for c in self.contacts if isinstance(c, DofContact))
+
+    def dof_index(self, name: str) -> int:
+        """Row of DOF `name` in a case's `System` ("x1@3" = 3 n + i when mistuned)."""
+        if self.mistuning is None:
+            return self.sector_dofs.index(name)
+        d, j = self.split_dof(name)
+        return j * len(self.sector_dofs) + self.sector_dofs.index(d)
+
+    def split_dof(self, name: str) -> tuple:
+        """("x1", 3) of the label "x1@3": the sector's DOF name and the sector number."""
+        d, _, j = name.rpartition(AT)
+        sectors = self.assembly.sectors if self.cyclic else 1
+        if not d or not j.isdigit() or int(j) >= sectors:
+            raise ValueError(f"{name!r} is not '<dof>{AT}<sector>' with a sector below {sectors}")
+        return d, int(j)
+
+
+# ---------------------------------------------------------------------------
+# Built models, cached on the frozen specs
+# ---------------------------------------------------------------------------
+
+def blade_model(structure: Blade):
+    """The `fe_model.BladeModel` of a `Blade` spec (built once per spec)."""
+    return timed_blade_model(structure)[0]
+
+
+@lru_cache(maxsize=4)
+def timed_blade_model(structure: Blade) -> tuple:
+    """(`fe_model.BladeModel` of a `Blade` spec, the wall time [s] its build took)."""
+    # deferred: fe_model imports scikit-fem and meshio (about a second); lumped
+    # scenes never need them
+    from ..structure.fe_model import build_blade, load_blade
+
+    t0 = time.perf_counter()
+    if structure.mesh:
+        blade = load_blade(structure.mesh, structure.params, required=("root",))
+    else:
+        blade = build_blade(structure.params)
+    return blade, time.perf_counter() - t0
+
+
+@lru_cache(maxsize=8)
+def reduced_model(structure: Blade, reduction: CraigBampton) -> tuple:
+    """(Craig-Bampton `ReducedModel` keeping contact faces, excitation and response
+    DOFs, its wall time [s]) of a blade (built once per spec pair)."""
+    from ..structure.reduction import reduce_blade
+
+    kw = {"rayleigh": structure.rayleigh} if structure.rayleigh is not None else {}
+    blade = blade_model(structure)
+    t0 = time.perf_counter()
+    red = reduce_blade(blade, reduction.modes, **kw)
+    return red, time.perf_counter() - t0
+
+
+def reduced_dof_names(red) -> tuple:
+    """Names of reduced coordinates: `<set>.<c>` (point sets), `<face>.<k>.<c>`,
+    `mode.<j>` (modal coordinates)."""
+    names = [lab.replace(":", ".") for lab in red.labels]
+    for s in POINT_SETS:
+        if s in red.sets:
+            for c, pos in enumerate(red.sets[s][0]):
+                names[pos] = f"{s}.{COMPONENTS[c]}"
+    return tuple(names)
+
+
+def full_dof(scene: Scene, name: str) -> int:
+    """Free-DOF index in the unreduced FE blade of an output name `<set>.<c>`."""
+    s, c = name.split(".")
+    return int(blade_model(scene.structure).dof_sets[s][0, COMPONENTS.index(c)])
+
+
+# ---------------------------------------------------------------------------
+# Contacts and loads on the unreduced structure
+# ---------------------------------------------------------------------------
+
+def face_maps(blade, contacts) -> tuple:
+    """(Bt, Bn) sparse (E, n_full) over all nodes of the `FaceContact`s, and the
+    contact of each element."""
+    Bt, Bn, owner = [], [], []
+    for i, c in enumerate(contacts):
+        t, n, _ = blade.frames[c.face].maps(blade.n_dof)
+        # drop round-off direction cosines (~1e-17 from the SVD of the face): a
+        # zero column keeps its DOF out of the condensed HBM unknowns
+        for B in (t, n):
+            B.data[np.abs(B.data) < 1e-12] = 0.0
+            B.eliminate_zeros()
+        Bt.append(t)
+        Bn.append(n)
+        owner += [i] * t.shape[0]
+    if not Bt:
+        return sp.csr_matrix((0, blade.n_dof)), sp.csr_matrix((0, blade.n_dof)), np.zeros(0, int)
+    return sp.vstack(Bt).tocsr(), sp.vstack(Bn).tocsr(), np.asarray(owner)
+
+
+def _parameter(contacts, owner, case, name, attr):
+    if name in case:
+        return np.full(owner.size, float(case[name]))
+    vals = [getattr(c, attr) for c in contacts]
+    if any(v is None for v in vals):
+        raise ValueError(f"{attr} of a contact is unset and the case gives no {name!r}")
+    return np.array(vals, dtype=float)[owner]
+
+
+def contact_elements(contacts, case: dict, owner=None, weights=None) -> YangMenq:
+    """Yang-Menq parameters of `contacts` with a case applied, one element per row of
+    `owner` (the contact of each element; default one per contact).  A `FaceContact`'s
+    preload is the total of its face: shared equally ("per_node") or, with ku and kv,
+    by node area ("per_face"; `weights[i]` the areas of contact i's nodes)."""
+    case = dict(case or {})
+    owner = np.arange(len(contacts)) if owner is None else np.asarray(owner)
+    ku, kv, mu, n0 = (_parameter(contacts, owner, case, *p) for p in
+                      (("ku", "ku"), ("kv", "kv"), ("mu", "mu"), ("preload", "n0")))
+    for i, c in enumerate(contacts):
+        if not isinstance(c, FaceContact):
+            continue
+        on = owner == i
+        if c.stiffness == "per_face":
+            a = weights[i]
+            if a is None or not np.all(a > 0):
+                raise ValueError(f"contact {c.name!r}: stiffness = 'per_face' needs a positive "
+                                 "area per face node")
+            share = a / a.sum()
+            ku[on], kv[on], n0[on] = ku[on] * share, kv[on] * share, n0[on] * share
+        else:
+            n0[on] = n0[on] / max(int(on.sum()), 1)
+    return YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)
+
+
+def point_forcing(blade, loads) -> np.ndarray:
+    """(n_full, Hf+1) complex load amplitudes [N] of `PointLoad`s on an FE blade."""
+    hf = max([ld.harmonic for ld in loads] + [1])
+    F = np.zeros((blade.n_dof, hf + 1), dtype=complex)
+    for ld in loads:
+        local = blade.point_rotation.T @ np.asarray(ld.direction)
+        a = ld.amplitude * complex(math.cos(ld.phase), math.sin(ld.phase))
+        for c, d in enumerate(blade.dof_sets[ld.set][0]):
+            if d >= 0:
+                F[d, ld.harmonic] += a * local[c]
+    return F
+
+
+def blade_elements(scene: Scene, case: dict | None = None) -> YangMenq:
+    """The Yang-Menq parameters of an FE scene's face contacts, one per face node."""
+    blade = blade_model(scene.structure)
+    _, _, owner = face_maps(blade, scene.contacts)
+    weights = [blade.frames[c.face].weights for c in scene.contacts]
+    return contact_elements(scene.contacts, case, owner, weights)
+
+
+def blade_contact_maps(scene: Scene) -> tuple:
+    """(Bt, Bn, owner) of an FE scene's face contacts on the unreduced blade."""
+    return face_maps(blade_model(scene.structure), scene.contacts)
+
+
+def blade_forcing(scene: Scene, case: dict | None = None) -> np.ndarray:
+    """(n_full, Hf+1) complex load amplitudes [N] of an FE scene on the unreduced blade."""
+    F = point_forcing(blade_model(scene.structure), scene.loads)
+    return F * float((case or {}).get("excitation_scale", 1.0))
+
+
+# ---------------------------------------------------------------------------
+# One sector (or the single structure) with a case applied
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class Parts:
+    """The linear part, contact maps (own and next sector's) and load of one
+    structure with a case applied, before assembly."""
+
+    M: object
+    C: object
+    K: object
+    Bt: object
+    Bn: object
+    Bt_next: np.ndarray
+    Bn_next: np.ndarray
+    contact: YangMenq
+    forcing: np.ndarray
+    dofs: tuple
+
+
+def check_case(scene: Scene, case: dict | None) -> dict:
+    """The case as a dict; ValueError for a key that is not a case key, or a cyclic
+    key on a scene that is not cyclic."""
+    case = dict(case or {})
+    unknown = set(case) - set(CASE_KEYS)
+    if unknown:
+        raise ValueError(f"case has unknown axes {sorted(unknown)}; known: {sorted(CASE_KEYS)}")
+    if not scene.cyclic:
+        for a in CYCLIC_CASE_KEYS:
+            if a in case:
+                raise ValueError(f"case has the disk axis {a!r} but the scene is not a disk")
+    return case
+
+
+def dof_parts(scene: Scene, case: dict) -> Parts:
+    """`Parts` of a lumped structure with `DofContact`s and `Forcing`."""
+    st = scene.structure
+    n, E = len(st.dofs), len(scene.contacts)
+    m = 2 * n if scene.cyclic else n
+    Bt = np.array([c.bt for c in scene.contacts], dtype=float).reshape(E, m)
+    Bn = np.array([c.bn for c in scene.contacts], dtype=float).reshape(E, m)
+    (load,) = scene.loads
+    return Parts(M=st.M, C=st.C, K=st.K, Bt=Bt[:, :n], Bn=Bn[:, :n], Bt_next=Bt[:, n:],
+                 Bn_next=Bn[:, n:], contact=contact_elements(scene.contacts, case),
+                 forcing=load.amplitudes * float(case.get("excitation_scale", 1.0)),
+                 dofs=tuple(st.dofs))
+
+
+def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
+    """`Parts` of an FE blade: face contacts on the full model, then Craig-Bampton
+    (dense, `scene.reduction`) or, with reduced=False, the unreduced sparse model
+    (Rayleigh damping only).  `DofContact`s name reduced DOFs and follow the faces."""
+    faces = tuple(c for c in scene.contacts if isinstance(c, FaceContact))
+    rows = tuple(c for c in scene.contacts if isinstance(c, DofContact))
+    if rows and faces:
+        raise ValueError("a scene mixes face contacts and DOF contacts; give one kind")
+    sub = replace(scene, contacts=faces)
+    Bt, Bn, _ = blade_contact_maps(sub)
+    elem = blade_elements(sub, case) if faces else YangMenq(ku=np.zeros(0), kv=np.zeros(0),
+                                                            mu=np.zeros(0), n0=np.zeros(0))
+    F = blade_forcing(scene, case)
+    if not reduced or scene.reduction is None:
+        st = scene.structure
+        if rows:
+            raise ValueError("DOF contacts on an FE blade name reduced DOFs: give a reduction")
+        if st.rayleigh is None:
+            raise ValueError("the unreduced system needs Rayleigh damping "
+                             "(scene rayleigh = [alpha, beta]); modal damping is dense")
+        blade = blade_model(st)
+        a, b = st.rayleigh
+        C = (a * blade.M + b * blade.K).tocsr()
+        z = sp.csr_matrix(Bt.shape)
+        return Parts(M=blade.M, C=C, K=blade.K, Bt=Bt, Bn=Bn, Bt_next=z, Bn_next=z,
+                     contact=elem, forcing=F, dofs=())
+    from ..structure.reduction import reduce_map  # deferred like blade_model's imports
+
+    red = reduced_model(scene.structure, scene.reduction)[0]
+    Fr = np.zeros((red.M.shape[0], F.shape[1]), dtype=complex)
+    Fr[:red.n_boundary] = F[red.boundary]
+    if np.abs(F).sum() != np.abs(Fr).sum():
+        raise ValueError("a load acts on an interior DOF (keep it in the boundary)")
+    Bt, Bn = reduce_map(red, Bt), reduce_map(red, Bn)
+    if rows:
+        rows_parts = dof_parts(replace(scene, structure=Lumped(red.M, red.C, red.K,
+                                                               reduced_dof_names(red)),
+                                       loads=(Forcing(Fr),)), case)
+        return replace(rows_parts, forcing=Fr)
+    z = np.zeros_like(Bt)
+    return Parts(M=red.M, C=red.C, K=red.K, Bt=Bt, Bn=Bn, Bt_next=z, Bn_next=z,
+                 contact=elem, forcing=Fr, dofs=reduced_dof_names(red))
+
+
+def scene_parts(scene: Scene, case: dict | None = None, reduced: bool = True) -> Parts:
+    """`Parts` of the scene's structure (one sector) with a case applied."""
+    case = check_case(scene, case)
+    if isinstance(scene.structure, Lumped):
+        return dof_parts(scene, case)
+    return blade_parts(scene, case, reduced)
+
+
+# ---------------------------------------------------------------------------
+# Assembly
+# ---------------------------------------------------------------------------
+
+def engine_order(scene: Scene, case: dict | None = None) -> int:
+    eo = (case or {}).get("eo", scene.assembly.engine_order)
+    if eo is None:
+        raise ValueError("the engine order is unset: give [scene.disk] engine_order or "
+                         "the sweep axis eo")
+    return int(eo)
+
+
+def stiffness_factors(scene: Scene, case: dict | None = None):
+    """The sectors' stiffness factors 1 + delta_j of a case (None when tuned)."""
+    mt = scene.mistuning
+    if mt is None:
+        return None
+    seed = (case or {}).get("mistuning_seed", mt.seed)
+    if seed is None:
+        raise ValueError("the mistuning seed is unset: give [scene.disk] mistuning.seed "
+                         "or the sweep axis mistuning_seed")
+    return cyclic.mistuning_factors(scene.assembly.sectors, mt.stiffness_std, int(seed))
+
+
+def sector(scene: Scene, case: dict | None = None) -> cyclic.Sector:
+    """The `cyclic.Sector` of a cyclic scene with a case applied."""
+    p = scene_parts(scene, case)
+    return cyclic.Sector(M=p.M, C=p.C, K=p.K, Bt=p.Bt, Bn=p.Bn, Bt_next=p.Bt_next,
+                         Bn_next=p.Bn_next, contact=p.contact, forcing=p.forcing,
+                         sectors=scene.assembly.sectors, dof_names=p.dofs)
+
+
+def build_system(scene: Scene, case: dict | None = None, reduced: bool = True) -> System:
+    """The `System` of a scene with one case applied.  Single: the structure itself
+    (reduced=False: an FE blade unreduced, sparse).  Cyclic, tuned: the one-sector
+    cyclic reduction (`System.cyclic` set); mistuned: the full N-sector assembly with
+    DOFs named as `scene.dofs`."""
+    if not scene.cyclic:
+        p = scene_parts(scene, case, reduced)
+        return System(M=p.M, C=p.C, K=p.K, Bt=p.Bt, Bn=p.Bn, contact=p.contact,
+                      forcing=p.forcing, dof_names=p.dofs)
+    if scene.mistuning is None:
+        return cyclic.sector_system(sector(scene, case), engine_order(scene, case))
+    return replace(full_system(scene, case), dof_names=scene.dofs)
+
+
+def full_system(scene: Scene, case: dict | None = None) -> System:
+    """All N sectors of a cyclic scene assembled (N n DOFs, the case's mistuning if
+    any): the reference for the one-sector reduction, never used by tuned runs."""
+    return cyclic.full_assembly(sector(scene, case), engine_order(scene, case),
+                                stiffness_factors(scene, case))
