@@ -74,7 +74,7 @@ def _cmd_optimise(args) -> int:
 
     from .study.declared import UndeclaredSeparation
     from .study.plots import optimum_figure
-    from .study.scene import load_study
+    from .study.documents import load_study
     from .study.run import find_optimum, sigint_interrupts
 
     study = load_study(args.study, quick=args.quick)

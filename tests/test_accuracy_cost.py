@@ -15,7 +15,7 @@ from pipeline.study.accuracy_cost import AccuracyStudy
 from pipeline.study.dataset import read_dataset
 from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError
-from pipeline.study.scene import load_study, parse_study
+from pipeline.study.documents import load_study, parse_study
 from pipeline.model.scene import blade_contact_maps, blade_elements, blade_model
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -19,7 +19,7 @@ from pipeline.errors import UsageError
 from pipeline.structure.fe_model import BladeParams, build_blade, write_mesh
 from pipeline.fourier.harmonics import amplitude_half_peak_to_peak, evaluate
 from pipeline.solve.response import initial_guess
-from pipeline.study.scene import load_study, parse_study
+from pipeline.study.documents import load_study, parse_study
 from pipeline.model.scene import blade_model, build_system, full_dof, reduced_model
 
 ROOT = Path(__file__).resolve().parents[1]

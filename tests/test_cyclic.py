@@ -20,7 +20,8 @@ from pipeline.study.dataset_check import problems
 from pipeline.fourier.harmonics import evaluate
 from pipeline.solve.response import frequency_response
 from pipeline.solve.stability import hill_eigenvalues, is_stable
-from pipeline.study.scene import load_study, study_from_mapping, study_to_mapping
+from pipeline.study.documents import load_study, study_from_document
+from pipeline.study.scene import study_to_mapping
 from pipeline.study.run import run_study
 from pipeline.model.system import System, natural_frequencies
 from pipeline.model.scene import full_system
@@ -359,9 +360,9 @@ def test_disk_scene_builds_only_its_sector():
     # dotted-key and signed-list rows agree; the canonical document round-trips
     doc = tomllib.loads(DISK.read_text())
     doc["scene"]["contact"][0]["tangential"] = {"x2": -1.0, "next": {"x2": 1.0}}
-    t = study_from_mapping(copy.deepcopy(doc), file="dict.toml")
+    t = study_from_document(copy.deepcopy(doc), file="dict.toml")
     np.testing.assert_array_equal(t.system({"eo": 3}).cyclic.Bt_next, s.cyclic.Bt_next)
-    u = study_from_mapping(study_to_mapping(st), file="canonical.toml")
+    u = study_from_document(study_to_mapping(st), file="canonical.toml")
     assert (u.sweep, u.solver, u.output) == (st.sweep, st.solver, st.output)
     assert study_to_mapping(u) == study_to_mapping(st)
 

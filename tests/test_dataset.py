@@ -13,7 +13,7 @@ from pipeline.fourier import harmonics
 from pipeline.study.dataset import read_dataset, to_dataset, write_netcdf
 from pipeline.study.dataset_check import UnreadableDataset, main as check_main, problems
 from pipeline.solve.response import ResponseCurve
-from pipeline.study.scene import load_study
+from pipeline.study.documents import load_study
 from pipeline.study.run import run_study, write_figures
 from pipeline.model.scene import stiffness_factors
 
@@ -251,13 +251,13 @@ def test_mistuned_disk_reports_per_sector_on_a_sector_dimension(tmp_path):
     import copy
     import tomllib
 
-    from pipeline.study.scene import study_from_mapping
+    from pipeline.study.documents import study_from_document
     from pipeline.study.run import write_figures
 
     path = STUDIES / "disk_mistuned.toml"
     doc = tomllib.loads(path.read_text())
     doc["output"]["dofs"] = ["x1@3", "x2@5"]
-    st = study_from_mapping(copy.deepcopy(doc), file=str(path), name="disk_mistuned",
+    st = study_from_document(copy.deepcopy(doc), file=str(path), name="disk_mistuned",
                             text=path.read_text(), quick=True)
     curves = curves_for(st, lengths=[30, 25])
     ds = to_dataset(st, curves)
@@ -276,7 +276,7 @@ def test_mistuned_disk_reports_per_sector_on_a_sector_dimension(tmp_path):
     assert ds["mistuning_factor"].attrs["units"] == "1"
     assert problems(write_netcdf(ds, tmp_path / "mis.nc")) == []
     doc["sweep"]["mistuning_seed"] = [1]
-    st1 = study_from_mapping(copy.deepcopy(doc), file=str(path), name="disk_mistuned")
+    st1 = study_from_document(copy.deepcopy(doc), file=str(path), name="disk_mistuned")
     figs = write_figures(st1, to_dataset(st1, curves_for(st1, lengths=[30])), tmp_path / "fig")
     assert sorted(p.name for p in figs) == [
         "amplitude_x1_mistuning_seed=1.png", "amplitude_x2_mistuning_seed=1.png",
@@ -538,13 +538,13 @@ def test_two_axis_grid_gives_one_figure_per_other_axis_value(tmp_path):
     import copy
     import tomllib
 
-    from pipeline.study.scene import study_from_mapping
+    from pipeline.study.documents import study_from_document
 
     doc = tomllib.loads((STUDIES / "paper_example3.toml").read_text())
     doc = copy.deepcopy(doc)
     doc["sweep"] = {"mu": [0.2, 0.4], "preload": [-100.0, 10.0],
                     "frequency": {"start": 0.5, "stop": 1.6}}
-    study = study_from_mapping(doc, file="grid.toml", name="grid")
+    study = study_from_document(doc, file="grid.toml", name="grid")
     ds = to_dataset(study, curves_for(study))
     assert ds["amplitude"].dims == ("mu", "preload", "point", "dof")
     paths = write_figures(study, ds, tmp_path / "grid")

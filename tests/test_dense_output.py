@@ -63,7 +63,7 @@ def test_solver_key_turns_dense_output_off(tmp_path):
     from pathlib import Path
 
     from pipeline.errors import UsageError
-    from pipeline.study.scene import load_study
+    from pipeline.study.documents import load_study
     from pipeline.study.run import run_study
 
     text = (Path(__file__).parent / "studies" / "chain_stuck_resonance.toml").read_text()

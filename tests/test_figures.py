@@ -201,7 +201,7 @@ def test_zero_mistuning_puts_every_sector_on_the_tuned_peak(tmp_path, monkeypatc
     from pathlib import Path
 
     import pipeline.study.plots as plots
-    from pipeline.study.scene import study_from_mapping
+    from pipeline.study.documents import study_from_document
     from pipeline.study.run import run_study
 
     path = Path(__file__).resolve().parents[1] / "studies" / "disk_mistuned.toml"
@@ -211,7 +211,7 @@ def test_zero_mistuning_puts_every_sector_on_the_tuned_peak(tmp_path, monkeypatc
     doc["sweep"] = {"mistuning_seed": [1],
                     "frequency": {"start": 400.0, "stop": 470.0, "unit": "Hz"}}
     doc.pop("quick")
-    st = study_from_mapping(doc, file=str(tmp_path / "zero.toml"), name="zero")
+    st = study_from_document(doc, file=str(tmp_path / "zero.toml"), name="zero")
     drawn = {}
     real = plots.sector_peaks_figure
 

@@ -14,7 +14,8 @@ from pipeline.solve import hbm
 from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError
 from pipeline.solve.response import frequency_response
-from pipeline.study.scene import load_study, study_from_mapping, study_to_mapping
+from pipeline.study.documents import load_study, study_from_document
+from pipeline.study.scene import study_to_mapping
 from pipeline.model.scene import stiffness_factors
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,7 +40,7 @@ def study(N=6, eo=2, std=0.02, seed=None, n0=None, mistuned=True, H=1):
     else:
         del doc["scene"]["disk"]["mistuning"], doc["sweep"]["mistuning_seed"]
         doc["scene"]["effects"].remove("mistuning")
-    return study_from_mapping(doc, file="mistuned.toml")
+    return study_from_document(doc, file="mistuned.toml")
 
 
 def curve(st, lo_hz, hi_hz, peak_dofs):
@@ -166,7 +167,7 @@ def test_mistuned_scene_labels_every_sector():
     f = stiffness_factors(sc, {"mistuning_seed": 2})
     np.testing.assert_array_equal(f, 1 + np.random.default_rng(2).normal(0, 0.02, 12))
     # the canonical document round-trips (explicit labels are accepted back)
-    u = study_from_mapping(study_to_mapping(st), file="canonical.toml")
+    u = study_from_document(study_to_mapping(st), file="canonical.toml")
     assert (u.sweep, u.solver, u.output) == (st.sweep, st.solver, st.output)
     assert u.scene.mistuning == sc.mistuning
     assert study_to_mapping(u) == study_to_mapping(st)
@@ -177,7 +178,7 @@ def test_stiffness_std_bounds(std, match):
     doc = copy.deepcopy(DOC)
     doc["scene"]["disk"]["mistuning"]["stiffness_std"] = std
     with pytest.raises(UsageError, match=r"scene\.disk\.mistuning\.stiffness_std: .*" + match):
-        study_from_mapping(doc, file="m.toml")
+        study_from_document(doc, file="m.toml")
 
 
 def test_mistuning_factors_arguments_are_named():
@@ -198,7 +199,7 @@ def test_mistuned_study_dataset(tmp_path):
     doc = copy.deepcopy(DOC)
     doc["quick"]["sweep"] = {"mistuning_seed": [1],
                              "frequency": {"start": 400.0, "stop": 460.0, "unit": "Hz"}}
-    st = study_from_mapping(doc, file=str(tmp_path / "disk_mistuned.toml"),
+    st = study_from_document(doc, file=str(tmp_path / "disk_mistuned.toml"),
                             name="disk_mistuned", text=MISTUNED.read_text(), quick=True)
     res = run_study(st, tmp_path, workers=1, figures=False, progress=False)
     assert res.ok

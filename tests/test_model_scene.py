@@ -14,7 +14,7 @@ from pipeline.model.system import natural_frequencies
 from pipeline.solve import hbm
 from pipeline.solve.response import frequency_response
 from pipeline.structure.fe_model import BladeParams
-from pipeline.study.scene import SWEEP_AXES
+from pipeline.study.spec import SWEEP_AXES
 
 PARAMS = BladeParams(n_chord=2, n_thick=1, n_span=4)   # 100 reduced DOFs with 4 modes
 KU = 5e4          # [N/m] per node pair

@@ -14,7 +14,7 @@ from scipy.optimize import minimize_scalar
 from pipeline.solve import hbm, resonance
 from pipeline.paper_systems import example1
 from pipeline.solve.response import frequency_response
-from pipeline.study.scene import load_study
+from pipeline.study.documents import load_study
 from pipeline.study.run import run_study
 
 from paper_systems import BETA, K_CHAIN, chain_system

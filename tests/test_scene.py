@@ -15,8 +15,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from pipeline.errors import UsageError
-from pipeline.study.scene import (build_system, load_study, parse_study, study_from_mapping,
-                                  study_to_mapping)
+from pipeline.model.scene import build_system
+from pipeline.study.documents import load_study, parse_study, study_from_document
+from pipeline.study.scene import study_to_mapping
 from pipeline.model.system import natural_frequencies
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -100,7 +101,7 @@ def test_schema_round_trip(path):
     """file -> Study -> canonical document -> Study: the same scene, sweep, solver."""
     s = load_study(path)
     doc = study_to_mapping(s)
-    t = study_from_mapping(copy.deepcopy(doc), file="canonical", name=s.name, text=s.text)
+    t = study_from_document(copy.deepcopy(doc), file="canonical", name=s.name, text=s.text)
     assert (t.sweep, t.solver, t.output, t.title) == (s.sweep, s.solver, s.output, s.title)
     for case in (c for _, c in s.sweep.cases()):
         a, b = s.system(case), t.system(case)
@@ -116,9 +117,9 @@ def test_schema_round_trip(path):
 def test_signed_dofs_and_coefficient_rows_agree():
     base = tomllib.loads((STUDIES / "paper_example2.toml").read_text())
     base["scene"]["contact"][0]["tangential"] = ["x1", "-x2"]
-    a = study_from_mapping(copy.deepcopy(base)).system({"preload": 1.0})
+    a = study_from_document(copy.deepcopy(base)).system({"preload": 1.0})
     base["scene"]["contact"][0]["tangential"] = {"x1": 1.0, "x2": -1.0}
-    b = study_from_mapping(base).system({"preload": 1.0})
+    b = study_from_document(base).system({"preload": 1.0})
     np.testing.assert_array_equal(a.Bt, [[1.0, -1.0]])
     np.testing.assert_array_equal(a.Bt, b.Bt)
 
@@ -138,7 +139,7 @@ def test_grid_cases_in_file_order():
     doc = tomllib.loads((STUDIES / "paper_example3.toml").read_text())
     doc["sweep"] = {"mu": [0.1, 0.2], "preload": [10.0, 20.0, 30.0],
                     "frequency": {"start": 0.5, "stop": 1.6}}
-    s = study_from_mapping(doc)
+    s = study_from_document(doc)
     assert s.sweep.shape == (2, 3)
     cases = s.sweep.cases()
     assert cases[0] == ((0, 0), {"mu": 0.1, "preload": 10.0})
@@ -189,10 +190,10 @@ def test_disk_full_run_ignores_an_invalid_quick_sweep():
     doc["scene"]["disk"]["sectors"] = 12
     doc["sweep"]["eo"] = [0, 3, 6]
     doc["quick"]["sweep"] = {"eo": [0, 12]}
-    s = study_from_mapping(copy.deepcopy(doc), file="disk12.toml")
+    s = study_from_document(copy.deepcopy(doc), file="disk12.toml")
     assert s.sweep.axes["eo"] == (0, 3, 6) and not s.quick
     with pytest.raises(UsageError, match=r"^disk12\.toml: quick\.sweep\.eo\[1\]: "):
-        study_from_mapping(doc, file="disk12.toml", quick=True)
+        study_from_document(doc, file="disk12.toml", quick=True)
 
 
 @pytest.mark.parametrize("preload, ok", [(0.0, False), (-5.0, False), (1e-3, True)])
@@ -205,11 +206,11 @@ def test_varying_normal_load_that_must_separate_needs_separation(preload, ok):
     doc.pop("quick")
     doc["output"].pop("optimum_preload")
     if ok:
-        assert study_from_mapping(doc, file="e3.toml").scene.effects == (
+        assert study_from_document(doc, file="e3.toml").scene.effects == (
             "friction", "normal_load_variation")
     else:
         with pytest.raises(UsageError, match=r"^e3\.toml: scene\.effects: .*declare \"separation\""):
-            study_from_mapping(doc, file="e3.toml")
+            study_from_document(doc, file="e3.toml")
 
 
 def _cli_has_run():
@@ -298,7 +299,7 @@ def _mutate(doc, path, op, value):
 
 def _loads_or_usage_error(doc):
     try:
-        s = study_from_mapping(doc, file="fuzz.toml")
+        s = study_from_document(doc, file="fuzz.toml")
     except UsageError as exc:
         msg = str(exc)
         assert msg.startswith("fuzz.toml: ") and "\n" not in msg
@@ -337,7 +338,7 @@ def test_huge_integer_is_a_usage_error():
     doc = copy.deepcopy(VALID_DOCS[0])
     doc["scene"]["contact"][0]["ku"] = 10**400
     with pytest.raises(UsageError, match=r"scene\.contact\[0\]\.ku: number too large"):
-        study_from_mapping(doc, file="f")
+        study_from_document(doc, file="f")
     assert math.isinf(float("inf"))
 
 

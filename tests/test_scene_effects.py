@@ -16,8 +16,9 @@ import pipeline.contact.exact as ce
 import pipeline.solve.hbm as hbm
 from pipeline.contact import YangMenq, forces
 from pipeline.solve.response import frequency_response
-from pipeline.study.scene import parse_study
-from pipeline.study.run import default_solver, run_study
+from pipeline.study.documents import parse_study
+from pipeline.study.cases import default_solver
+from pipeline.study.run import run_study
 from pipeline.model.scene import reduced_model
 from tests.paper_systems import example1, example3
 
@@ -170,7 +171,7 @@ def test_linear_regimes_never_reach_the_transition_search(counted, system, H, lo
 
 def test_dataset_says_what_the_scene_included():
     from pipeline.study.dataset import solution_method
-    from pipeline.study.scene import load_study
+    from pipeline.study.documents import load_study
 
     ex1 = load_study(ROOT / "studies" / "paper_example1.toml", quick=True)
     ex3 = load_study(ROOT / "studies" / "paper_example3.toml", quick=True)
@@ -181,7 +182,7 @@ def test_dataset_says_what_the_scene_included():
 # -- 3. assembly: one blade builds no cyclic assembly; a disk builds one sector -----
 
 def test_one_blade_builds_no_cyclic_assembly_and_a_disk_only_one_sector():
-    from pipeline.study.scene import load_study
+    from pipeline.study.documents import load_study
 
     blade = load_study(ROOT / "studies" / "blade_shroud_contact.toml", quick=True)
     sb = blade.system(blade.sweep.cases()[0][1])

@@ -18,8 +18,9 @@ import xarray as xr
 
 from pipeline.study import checkpoint
 from pipeline.study.dataset import read_dataset
-from pipeline.study.scene import parse_study
-from pipeline.study.run import checkpoint_dir, default_solver, run_study
+from pipeline.study.documents import parse_study
+from pipeline.study.run import checkpoint_dir, run_study
+from pipeline.study.cases import default_solver
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -134,7 +134,7 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
     # deferred: the study layer imports xarray (slow), which the other benches never use
     import xarray as xr
 
-    from ..study.scene import load_study
+    from ..study.documents import load_study
     from ..study.run import run_study
 
     for name in ("pipeline", "distributed"):

@@ -47,7 +47,7 @@ import numpy as np
 
 from ..model.scene import CraigBampton, build_system, reduced_model, timed_blade_model
 from ..solve.hbm import state_at_zero
-from .scene import Checker
+from .checker import Checker
 
 log = logging.getLogger(__name__)
 
@@ -282,7 +282,7 @@ def _mesh_value(ck, value, field_):
 
 def _setting(ck, key, value, field_, h_excited):
     """One validated setting value."""
-    from .scene import MAX_HARMONICS
+    from .spec import MAX_HARMONICS
 
     if key == "harmonics":
         H = ck.integer(value, field_, 1, MAX_HARMONICS)
@@ -353,7 +353,8 @@ def _beyond(knob, value, ref: Settings) -> str | None:
 def _case(ck, c, tab, scene, h_excited, where) -> Case:
     """Validate one case table (full or quick variant); `where(path)` gives the
     dotted field of a path inside the case."""
-    from .scene import FrequencyRange, parse_sweep, check_scene_rules
+    from .scene import parse_sweep, check_scene_rules
+    from .spec import FrequencyRange
 
     dofs = scene.dofs
     if "dof" not in tab:
@@ -697,7 +698,7 @@ def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool
     """Run every case, write `out_dir/<name>.nc`, `out_dir/<name>/table.md` and
     `out_dir/<name>/pareto.png`; returns a `study.StudyResult`."""
     from .dataset import write_netcdf
-    from .run import StudyResult
+    from .spec import StudyResult
 
     t0 = time.perf_counter()
     out_dir = Path(out_dir)

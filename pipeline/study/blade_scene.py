@@ -37,12 +37,18 @@ import logging
 import math
 import re
 import time
-from dataclasses import dataclass, fields, replace
+from dataclasses import fields, replace
 from pathlib import Path
 
 import numpy as np
 
-from ..model.scene import (Blade, CraigBampton, FaceContact, PointLoad, Scene, blade_model)
+from ..model.scene import Blade, CraigBampton, FaceContact, PointLoad, Scene, blade_model
+from .checker import Checker
+from .dataset import modes_to_dataset, write_netcdf
+from .scene import (check_scene_rules, check_windows, output_common, parse_solver, parse_sweep,
+                    quick_tables, solver_sweep_tables)
+from .spec import (EFFECTS, MAX_HARMONICS, NAME_PATTERN, ModesStudy, OutputSettings, Study,
+                   StudyResult, Sweep)
 
 log = logging.getLogger(__name__)
 
@@ -67,23 +73,6 @@ _MAX_ELEMENTS = 200_000
 # Plain data
 # ---------------------------------------------------------------------------
 
-@dataclass(frozen=True)
-class ModesStudy:
-    """A "modes" study: reduced vs full eigenfrequencies against the mode count."""
-
-    file: str
-    name: str
-    title: str
-    description: str
-    reference: str
-    text: str
-    scene: Scene
-    mode_counts: tuple
-    n_frequencies: int
-    n_shapes: int
-    quick: bool = False
-    kind: str = "modes"
-
 
 # ---------------------------------------------------------------------------
 # Validation
@@ -96,7 +85,6 @@ def is_blade_document(data) -> bool:
 
 def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quick: bool = False):
     """Validate a blade study document: a `ModesStudy` or a `scene.Study`."""
-    from .scene import Checker
 
     ck = Checker(file)
     top = ("study", "scene", "sweep", "solver", "output", "quick", "modes")
@@ -151,8 +139,6 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                           reference=reference, text=text, scene=scene, mode_counts=counts,
                           n_frequencies=nf, n_shapes=ns, quick=bool(quick))
 
-    from .scene import Study, Sweep, parse_solver, parse_sweep, quick_tables, solver_sweep_tables
-
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
     solver = parse_solver(ck, solver_tab, "solver")
     if "stability" not in solver_tab:
@@ -176,7 +162,6 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                    solver=sv, output=output, quick=is_quick)
         if is_quick == bool(quick):
             chosen = st
-    from .scene import check_windows
     check_windows(ck, output.peak_windows, freq)
     return chosen
 
@@ -233,7 +218,6 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
     "modes"), mesh files relative to `base_dir`; the blade is built once to check
     node sets, faces and mode counts.  `origin`: as in `parse_blade_params`."""
     from ..structure.reduction import DEFAULT_MODES
-    from .scene import EFFECTS, NAME_PATTERN
 
     def fld(k):
         return origin.get(f"scene.{k}", f"scene.{k}")
@@ -345,7 +329,6 @@ def _face_contact(ck, c, f, i) -> FaceContact:
 
 
 def _loads(ck, raw) -> tuple:
-    from .scene import MAX_HARMONICS
 
     if isinstance(raw, dict):
         ck.fail("scene.excitation", "must be an array of tables: write [[scene.excitation]]")
@@ -377,7 +360,6 @@ def _loads(ck, raw) -> tuple:
 
 
 def _output(ck, t):
-    from .scene import OutputSettings
 
     ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows"))
     dofs = (ck.names(t["dofs"], "output.dofs") if "dofs" in t
@@ -386,7 +368,6 @@ def _output(ck, t):
         if not OUT_DOF_PATTERN.match(d):
             ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>' with set excitation "
                                          "or response and component x, y or z")
-    from .scene import output_common
     figs, yscale, windows = output_common(ck, t)
     return OutputSettings(dofs=tuple(dofs), figures=figs, yscale=yscale, peak_windows=windows)
 
@@ -418,7 +399,6 @@ def _modes(ck, t, path, scene):
 
 def _consistency(ck, scene, solver, axes, spath, wpath):
     """Cross-field rules (scene.check_scene_rules); every face contact has a normal."""
-    from .scene import check_scene_rules
     check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
                       [c.kv for c in scene.contacts], bool(scene.contacts),
                       max([ld.harmonic for ld in scene.loads] + [0]), solver.harmonics,
@@ -489,9 +469,7 @@ def modal_study(scene: Scene, mode_counts, n_freqs: int, n_shapes: int = 0) -> d
 def run_modes_study(study: ModesStudy, out_dir="results", *, figures: bool = True):
     """Run a modes study: `out_dir/<name>.nc`, then `out_dir/<name>/mode_shapes.vtu`
     and `out_dir/<name>/modal_convergence.png`."""
-    from .dataset import modes_to_dataset, write_netcdf
     from ..structure.fe_model import write_fields
-    from .run import StudyResult
 
     t0 = time.perf_counter()
     sc = study.scene

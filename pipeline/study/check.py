@@ -45,7 +45,7 @@ def check(path, quick: bool = False, workers: int | None = None, out=None) -> in
     path = Path(path)
     if path.suffix == ".nc":
         return check_dataset(path, out)
-    from .scene import load_study
+    from .documents import load_study
 
     try:
         study = load_study(path, quick=quick)
@@ -131,13 +131,13 @@ def describe(study, workers: int = 1, has_quick: bool = False) -> list:
                  f"{', '.join(sc.effects) or 'none (linear)'}")
     grid = " x ".join(f"{a} ({len(v)})" for a, v in sw.axes.items()) or "one case"
     lines.append(f"cases: {n_cases} = {grid}")
-    from .scene import SWEEP_AXES
+    from .spec import SWEEP_AXES
     for a, v in sw.axes.items():
         unit = SWEEP_AXES[a][0]
         lines.append(f"  {a}{'' if unit == '1' else f' [{unit}]'}: {', '.join(_num(x) for x in v)}")
     fr = sw.frequency
     lines.append(f"frequency: {fr.start:g} to {fr.stop:g} {fr.unit} (continuation)")
-    from .run import is_linear_scene
+    from .spec import is_linear_scene
     linear = is_linear_scene(sc)
     if linear:
         lines.append("solver: direct linear solve per frequency (no contact: no Newton, "

@@ -35,7 +35,7 @@ import xarray as xr
 from .. import __version__
 from ..model.scene import AT, Blade, blade_contact_maps, reduced_model, stiffness_factors
 from ..model.system import natural_frequencies
-from .scene import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
+from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study, is_linear_scene
 
 CONVENTIONS = "CF-1.10"
 
@@ -437,7 +437,6 @@ def _add_optimum(data_vars, coords, opt, study, to_unit, unit):
 def solution_method(study) -> str:
     """What the run composed for the scene's declared effects (a scene pays only
     for what it calls for), in words."""
-    from .run import is_linear_scene
 
     if is_linear_scene(study.scene):
         return "direct linear solve per frequency (no contact elements: no Newton, no continuation)"

@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from ..model.scene import build_system
+from .cases import default_solver, run_case
+from .spec import SWEEP_AXES
 
 log = logging.getLogger("pipeline.study.disk_figures")
 AT = "@"
@@ -93,7 +95,6 @@ def tuned_reference(study, case: dict, dofs, solver=None) -> TunedCurve:
     """The disk of `study` without mistuning, one sector by the cyclic reduction,
     with the study's harmonics, forces, tolerances and frequency range; `case`
     holds the sweep values other than `mistuning_seed`."""
-    from .run import default_solver, run_case
 
     scene = replace(study.scene, assembly=replace(study.scene.assembly, mistuning=None))
     fr, kw = study.sweep.frequency, study.solver.kwargs()
@@ -136,7 +137,6 @@ def _case_text(case: dict) -> str:
 
 
 def _axis_unit(axis: str) -> str:
-    from .scene import SWEEP_AXES
     return SWEEP_AXES.get(axis, ("",))[0]
 
 

@@ -20,73 +20,16 @@ from __future__ import annotations
 import logging
 import sys
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import UsageError
-from .scene import Study, load_study
+from .cases import default_solver, run_case, separation_guard
+from .documents import load_study
+from .spec import Study, StudyResult
 
 log = logging.getLogger("pipeline.study.run")
-
-
-def default_solver(study: Study | None = None):
-    """The solver of a study's cases: `linear_response.frequency_response` (direct
-    solve per frequency) when the scene calls for neither friction nor separation,
-    else `response.frequency_response` (HBM continuation)."""
-    scene = getattr(study, "scene", None)  # an accuracy-cost study has one scene per case
-    if scene is not None and is_linear_scene(scene):
-        from ..solve.linear_response import frequency_response as linear_solver
-        return linear_solver
-    from ..solve import response
-
-    fn = getattr(response, "frequency_response", None)
-    if fn is None:
-        raise RuntimeError("pipeline.solve.response.frequency_response is not available yet")
-    return fn
-
-
-def is_linear_scene(scene) -> bool:
-    """A scene without friction and separation has no nonlinear force to solve for."""
-    return not ({"friction", "separation"} & set(getattr(scene, "effects", ()) or ()))
-
-
-def run_case(solver, system, H, omega_start, omega_stop, kwargs, guard=None):
-    """One continuation; returns (ResponseCurve or None, error text or None).
-
-    guard: a `declared.SeparationGuard` when the scene's normal load varies but
-    separation is not declared: the continuation stops at the first point that
-    separates, and every point of the finished curve is checked, so such a case
-    fails instead of being solved with separation."""
-    from .declared import UndeclaredSeparation
-
-    try:
-        if guard is not None:
-            kwargs = dict(kwargs)
-            check, progress = guard.callback(system, H), kwargs.get("callback")
-            kwargs["callback"] = (check if progress is None else
-                                  lambda x, lam: check(x, lam) or progress(x, lam))
-        curve = solver(system, H, omega_start, omega_stop, **kwargs)
-        if guard is not None:
-            guard.check_curve(system, curve)
-        return curve, None
-    except UndeclaredSeparation as exc:  # reported once, in the case's progress line
-        return None, f"{type(exc).__name__}: {exc}"
-    except Exception as exc:  # numerical failures of one case must not lose the others
-        logging.getLogger(__name__).exception("case failed")
-        return None, f"{type(exc).__name__}: {exc}"
-
-
-def separation_guard(study):
-    """The `declared.SeparationGuard` of a study's cases, or None."""
-    from .declared import SeparationGuard, needs_guard
-
-    scene = getattr(study, "scene", None)
-    if scene is None or not needs_guard(scene):
-        return None
-    names = tuple(getattr(c, "name", "") for c in getattr(scene, "contacts", ()))
-    return SeparationGuard(unit=study.sweep.frequency.unit, names=names)
 
 
 SCHEDULER_TIMEOUT = "20s"   # connecting to a --scheduler address
@@ -98,23 +41,6 @@ class SchedulerUnreachable(RuntimeError):
 
 class WorkerLost(RuntimeError):
     """A worker process of the local pool died; the finished cases are kept."""
-
-
-@dataclass
-class StudyResult:
-    study: Study
-    dataset: object                 # xarray.Dataset
-    path: Path | None               # the netCDF file (None if nothing converged)
-    figures: list = field(default_factory=list)
-    failures: int = 0               # cases that raised
-    optimum_error: str | None = None  # why the optimum-preload search stopped
-    reused: int = 0                 # cases taken from checkpoints of an interrupted run
-    computed: int = 0               # cases computed in this run
-    wall_time: float = 0.0          # [s]
-
-    @property
-    def ok(self) -> bool:
-        return self.path is not None and self.failures == 0 and self.optimum_error is None
 
 
 class Progress:

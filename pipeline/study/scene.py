@@ -1,4 +1,5 @@
-"""Study files (`studies/*.toml`): schema, strict validation, and the `System` of a scene.
+"""Lumped and disk study files (`studies/*.toml`): schema and strict validation into
+a `pipeline.model.scene.Scene` value (a `Lumped` structure, single or `Cyclic`).
 
 A study is a scene (model + physical effects), sweeps (grid axes and one
 continuation axis) and solver settings (README "Study files" documents the schema).
@@ -19,138 +20,25 @@ solved by the one-sector cyclic reduction (`cyclic.py`).
 """
 from __future__ import annotations
 
-import difflib
-import itertools
-import json
 import math
 import re
-import tomllib
-from dataclasses import dataclass, replace
-from pathlib import Path
+from dataclasses import replace
 
 import numpy as np
 
-from ..errors import UsageError
-from ..model.scene import (Cyclic, DofContact, Forcing, Lumped, Scene, Single,
-                           build_system)
-from ..model.system import System
+from ..model.scene import Cyclic, DofContact, Forcing, Lumped, Scene, Single, build_system
+from . import disk_scene
+from .checker import Checker, join_field, kind_of
+from .spec import (EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
+                   MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, SWEEP_AXES, FrequencyRange,
+                   OutputSettings, SolverSettings, Study, Sweep)
 
-MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
-IMPLEMENTED_MODELS = ("lumped", "disk")
-EFFECTS = ("friction", "normal_load_variation", "separation", "cyclic_coupling", "mistuning")
-# grid axes of [sweep]: name -> (units, long_name)
-SWEEP_AXES = {
-    "preload": ("N", "normal preload n0 of every contact"),
-    "mu": ("1", "friction coefficient of every contact"),
-    "ku": ("N/m", "tangential contact stiffness of every contact"),
-    "kv": ("N/m", "normal contact stiffness of every contact"),
-    "excitation_scale": ("1", "factor on every excitation amplitude"),
-    "eo": ("1", "engine order EO of the excitation (disk scenes)"),
-    "mistuning_seed": ("1", "seed of the random sector stiffness mistuning (disk scenes)"),
-}
-INTEGER_SWEEP_AXES = ("eo", "mistuning_seed")
-FREQUENCY_UNITS = ("rad/s", "Hz")
-FIGURES = ("amplitude",)
-MAX_HARMONICS = 200
-MAX_DOFS = 2000
-# a DOF, contact or study name (letters, digits, '_', '.'; at most 64 characters)
-NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]{0,63}$")
 _SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
 
 
 # ---------------------------------------------------------------------------
 # Plain data
 # ---------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class FrequencyRange:
-    """Continuation interval of the excitation frequency, in `unit`."""
-
-    start: float
-    stop: float
-    unit: str = "rad/s"
-
-    @property
-    def to_rad_s(self) -> float:
-        return 2.0 * math.pi if self.unit == "Hz" else 1.0
-
-    @property
-    def omega_start(self) -> float:
-        return self.start * self.to_rad_s
-
-    @property
-    def omega_stop(self) -> float:
-        return self.stop * self.to_rad_s
-
-
-@dataclass(frozen=True)
-class Sweep:
-    """Grid axes (ordered as in the file; their product is the set of cases) and
-    the continuation axis (frequency)."""
-
-    axes: dict                  # name -> tuple of float
-    frequency: FrequencyRange
-
-    @property
-    def shape(self) -> tuple:
-        return tuple(len(v) for v in self.axes.values())
-
-    def cases(self) -> list:
-        """[(index tuple, {axis: value})] in C order over the grid."""
-        names = list(self.axes)
-        idx = itertools.product(*(range(len(v)) for v in self.axes.values()))
-        return [(i, {a: self.axes[a][k] for a, k in zip(names, i)}) for i in idx]
-
-
-@dataclass(frozen=True)
-class SolverSettings:
-    harmonics: int = 5
-    force_evaluation: str = "exact"
-    samples: int = 256
-    tolerance: float = 1e-9
-    stability: bool = True
-    initial_step: float | None = None   # None: the solver's default
-    max_step: float | None = None
-    max_points: int = 1000
-    dense_output: bool = True           # points where the drawn curve bends
-
-    def kwargs(self) -> dict:
-        """Keyword arguments of `pipeline.solve.response.frequency_response`."""
-        kw = dict(method=self.force_evaluation, n_samples=self.samples,
-                  stability=self.stability, tol_rel=self.tolerance, max_points=self.max_points,
-                  dense_output=self.dense_output)
-        if self.initial_step is not None:
-            kw["ds"] = self.initial_step
-        if self.max_step is not None:
-            kw["ds_max"] = self.max_step
-        return kw
-
-
-@dataclass(frozen=True)
-class OutputSettings:
-    dofs: tuple                  # response DOF names
-    figures: tuple = FIGURES
-    yscale: str = "linear"
-    peak_windows: tuple = ()     # ((lo, hi), ...) in the sweep's frequency unit
-    optimum: dict | None = None  # {dof, bounds (N), window (rad/s) | None, rtol}
-
-
-@dataclass(frozen=True)
-class Study:
-    file: str
-    name: str                    # the file's stem: output DIR/<name>.nc
-    title: str
-    description: str
-    reference: str
-    text: str                    # the study file's text (dataset attribute `study`)
-    scene: Scene
-    sweep: Sweep
-    solver: SolverSettings
-    output: OutputSettings
-    quick: bool = False
-
-    def system(self, case: dict | None = None) -> System:
-        return build_system(self.scene, case)
 
 
 def study_to_mapping(study: Study) -> dict:
@@ -215,170 +103,10 @@ def study_to_mapping(study: Study) -> dict:
 # Validation helpers: every failure names the file and the field
 # ---------------------------------------------------------------------------
 
-class Checker:
-    """Validation of one study file's parsed TOML: each method returns the checked
-    value or raises `UsageError("<file>: <field>: <what>")` (`fail`), with "did you
-    mean" for unknown keys.  Shared by every study parser (lumped, disk, blade,
-    accuracy/cost)."""
-
-    def __init__(self, file: str):
-        self.file = file
-
-    def fail(self, field: str, what: str):
-        raise UsageError(f"{self.file}: {_printable(field)}: {_printable(what)}")
-
-    def table(self, value, field, required=True):
-        if value is None:
-            if required:
-                self.fail(field, "missing table (required)")
-            return {}
-        if not isinstance(value, dict):
-            self.fail(field, f"must be a table, got {_kind(value)}")
-        return value
-
-    def keys(self, table: dict, field: str, allowed, required=()):
-        for k in table:
-            if k not in allowed:
-                near = difflib.get_close_matches(str(k), list(allowed), n=1)
-                hint = f"; did you mean {near[0]!r}?" if near else ""
-                self.fail(_join(field, k), f"unknown key (allowed: {', '.join(allowed)}){hint}")
-        for k in required:
-            if k not in table:
-                self.fail(_join(field, k), "missing (required)")
-
-    def number(self, value, field, *, gt=None, ge=None, lt=None, le=None):
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(field, f"must be a number, got {_kind(value)}")
-        try:
-            x = float(value)
-        except OverflowError:
-            self.fail(field, f"number too large: {value}")
-        if not math.isfinite(x):
-            self.fail(field, f"must be finite, got {x}")
-        if gt is not None and not x > gt:
-            self.fail(field, f"must be > {gt:g}, got {x:g}")
-        if ge is not None and not x >= ge:
-            self.fail(field, f"must be >= {ge:g}, got {x:g}")
-        if lt is not None and not x < lt:
-            self.fail(field, f"must be < {lt:g}, got {x:g}")
-        if le is not None and not x <= le:
-            self.fail(field, f"must be <= {le:g}, got {x:g}")
-        return x
-
-    def integer(self, value, field, lo, hi):
-        if isinstance(value, bool) or not isinstance(value, int):
-            self.fail(field, f"must be an integer, got {_kind(value)}")
-        if not lo <= value <= hi:
-            self.fail(field, f"must be in [{lo}, {hi}], got {value}")
-        return int(value)
-
-    def string(self, value, field, choices=None, pattern=None):
-        if not isinstance(value, str):
-            self.fail(field, f"must be a string, got {_kind(value)}")
-        if choices is not None and value not in choices:
-            self.fail(field, f"must be one of {', '.join(map(repr, choices))}, got {value!r}")
-        if pattern is not None and not pattern.match(value):
-            self.fail(field, f"{value!r} is not a valid name (letters, digits, '_', '.'; "
-                             "starting with a letter or '_'; at most 64 characters)")
-        return value
-
-    def boolean(self, value, field):
-        if not isinstance(value, bool):
-            self.fail(field, f"must be true or false, got {_kind(value)}")
-        return value
-
-    def array(self, value, field, length=None, min_length=1):
-        if not isinstance(value, list):
-            self.fail(field, f"must be a list, got {_kind(value)}")
-        if length is not None and len(value) != length:
-            self.fail(field, f"must have {length} {'entry' if length == 1 else 'entries'}, "
-                             f"got {len(value)}")
-        if len(value) < min_length:
-            self.fail(field, "must not be empty" if min_length == 1
-                      else f"must have at least {min_length} entries")
-        return value
-
-    def numbers(self, value, field, length=None, **bounds):
-        vals = self.array(value, field, length)
-        return np.array([self.number(v, f"{field}[{i}]", **bounds) for i, v in enumerate(vals)])
-
-    def matrix(self, value, field, n):
-        rows = self.array(value, field, n)
-        return np.array([self.numbers(r, f"{field}[{i}]", n) for i, r in enumerate(rows)])
-
-    def names(self, value, field, min_length=1):
-        vals = self.array(value, field, min_length=min_length)
-        out = [self.string(v, f"{field}[{i}]", pattern=NAME_PATTERN) for i, v in enumerate(vals)]
-        for i, v in enumerate(out):
-            if v in out[:i]:
-                self.fail(f"{field}[{i}]", f"duplicate {v!r}")
-        return tuple(out)
-
-
-def _printable(text: str) -> str:
-    """Escape control and other non-printable characters: the message is one line."""
-    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii")
-                   for c in str(text))
-
-
-def _kind(value) -> str:
-    if isinstance(value, bool):
-        return "a boolean"
-    return {dict: "a table", list: "a list", str: "a string", int: "an integer",
-            float: "a float"}.get(type(value), type(value).__name__)
-
-
-def _join(field, key):
-    """Dotted path; keys that are not plain words are quoted (JSON escapes keep
-    control characters out of the one-line message)."""
-    key = str(key)
-    if not re.fullmatch(r"[A-Za-z0-9_\-]+", key):
-        key = json.dumps(key)
-    return f"{field}.{key}" if field else key
-
 
 # ---------------------------------------------------------------------------
 # Loading
 # ---------------------------------------------------------------------------
-
-def load_study(path, quick: bool = False) -> Study:
-    """Read, parse and validate a study file (UsageError on any problem).
-
-    Both the full study and its `[quick]` variant are validated; `quick` selects
-    which one is returned.
-    """
-    path = Path(path)
-    file = str(path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise UsageError(f"{file}: (file): no such file") from None
-    except OSError as exc:
-        raise UsageError(f"{file}: (file): cannot read: {exc.strerror or exc}") from None
-    return parse_study(raw, file=file, name=path.stem, quick=quick)
-
-
-def parse_study(text, file: str = "<study>", name: str | None = None, quick: bool = False) -> Study:
-    """Parse study text (str or UTF-8 bytes) and validate it."""
-    if isinstance(text, (bytes, bytearray)):
-        try:
-            text = bytes(text).decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise UsageError(f"{file}: (file): not UTF-8 text (byte 0x{text[exc.start]:02x} "
-                             f"at offset {exc.start})") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc)
-        m = re.search(r"\(at line (\d+), column (\d+)\)", msg)
-        where = f"line {m.group(1)}" if m else "(syntax)"
-        what = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", msg)
-        raise UsageError(f"{file}: {where}: TOML syntax: {what}") from None
-    except (ValueError, RecursionError) as exc:  # e.g. absurdly nested or huge input
-        raise UsageError(f"{file}: (syntax): cannot parse: {type(exc).__name__}") from None
-    if name is None:
-        name = Path(file).stem
-    return study_from_mapping(data, file=file, name=name, text=text, quick=quick)
 
 
 _TOP = ("study", "scene", "sweep", "solver", "output", "quick")
@@ -386,17 +114,10 @@ _TOP = ("study", "scene", "sweep", "solver", "output", "quick")
 
 def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study",
                        text: str = "", quick: bool = False) -> Study:
-    """Validate an already-parsed study document (the dict `tomllib` returns)."""
+    """Validate an already-parsed lumped or disk study document (the dict `tomllib`
+    returns); `documents.study_from_document` dispatches every kind."""
     ck = Checker(file)
     ck.table(data, "(document)")
-    head = data.get("study")
-    if isinstance(head, dict) and head.get("kind") == "accuracy_cost":  # pipeline/study/accuracy_cost.py
-        from .accuracy_cost import study_from_mapping as accuracy_study
-        return accuracy_study(data, file=file, name=name, text=text, quick=quick)
-    from .blade_scene import is_blade_document
-    if is_blade_document(data):  # FE blade scenes: pipeline/study/blade_scene.py
-        from .blade_scene import study_from_mapping as blade_study
-        return blade_study(data, file=file, name=name, text=text, quick=quick)
     ck.keys(data, "", _TOP, required=("study", "scene", "sweep"))
     head = ck.table(data["study"], "study")
     ck.keys(head, "study", ("title", "description", "reference"), required=("title",))
@@ -455,7 +176,7 @@ def quick_tables(ck, data, sweep_tab, allowed=("sweep", "solver")):
     q_solver = ck.table(quick_tab.get("solver"), "quick.solver", required=False)
     for k in q_sweep:
         if k not in sweep_tab:
-            ck.fail(_join("quick.sweep", k), "quick mode may only override axes of [sweep] "
+            ck.fail(join_field("quick.sweep", k), "quick mode may only override axes of [sweep] "
                                              f"(which has: {', '.join(sweep_tab) or 'none'})")
     return q_solver, q_sweep
 
@@ -504,7 +225,7 @@ def parse_sweep(ck, tab, path, partial=False):
     at field `path`; `partial` (a quick override) may omit the frequency."""
     axes, freq = {}, None
     for key, value in tab.items():
-        field = _join(path, key)
+        field = join_field(path, key)
         if key == "frequency":
             if isinstance(value, list):
                 ck.fail(field, "a frequency grid (continuation in preload) is not supported yet; "
@@ -555,7 +276,6 @@ def parse_scene(ck, tab) -> Scene:
                                f"{', '.join(IMPLEMENTED_MODELS)})")
     disk = model == "disk"  # one sector of a cyclic disk: pipeline/study/disk_scene.py
     if disk:
-        from . import disk_scene
         sectors, engine_order, mistuning = disk_scene.parse_disk(ck, tab)
     elif "disk" in tab:
         ck.fail("scene.disk", "only a disk scene (model = \"disk\") has a [scene.disk] table")
@@ -652,8 +372,8 @@ def _signed_row(ck, value, field, dofs, required):
             ck.fail(field, "must not be empty")
         for name, coef in value.items():
             if name not in dofs:
-                ck.fail(_join(field, name), f"unknown DOF (DOFs: {', '.join(dofs)})")
-            row[dofs.index(name)] = ck.number(coef, _join(field, name))
+                ck.fail(join_field(field, name), f"unknown DOF (DOFs: {', '.join(dofs)})")
+            row[dofs.index(name)] = ck.number(coef, join_field(field, name))
     else:
         items = ck.array(value, field)
         for i, item in enumerate(items):
@@ -748,8 +468,7 @@ def output_common(ck, t):
 def _output(ck, t, scene) -> OutputSettings:
     ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload"))
     if scene.mistuning is not None:  # every sector's DOFs, "x1@3"
-        from .disk_scene import output_dofs
-        dofs = output_dofs(ck, t, scene)
+        dofs = disk_scene.output_dofs(ck, t, scene)
         if "optimum_preload" in t:
             ck.fail("output.optimum_preload", "the optimum-preload search is not available for "
                                               "a mistuned disk")
@@ -763,7 +482,7 @@ def _output(ck, t, scene) -> OutputSettings:
     if "optimum_preload" in t:
         o, f = t["optimum_preload"], "output.optimum_preload"
         if not isinstance(o, dict):
-            ck.fail(f, f"must be a table, got {_kind(o)}")
+            ck.fail(f, f"must be a table, got {kind_of(o)}")
         ck.keys(o, f, ("dof", "bounds", "frequency", "rtol"))
         if "dof" not in o or "bounds" not in o:
             ck.fail(f, "needs dof and bounds = [low, high] (N)")
@@ -775,7 +494,7 @@ def _output(ck, t, scene) -> OutputSettings:
         if "frequency" in o:
             w = o["frequency"]
             if not isinstance(w, dict):
-                ck.fail(f + ".frequency", f"must be a table {{start, stop, unit}}, got {_kind(w)}")
+                ck.fail(f + ".frequency", f"must be a table {{start, stop, unit}}, got {kind_of(w)}")
             window = parse_sweep(ck, {"frequency": w}, f, partial=True)[1]
         rtol = ck.number(o.get("rtol", 1e-2), f + ".rtol", gt=0.0, lt=1.0)
         if not scene.contacts:
@@ -791,8 +510,7 @@ def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
     `disk_scene.check_disk_rules`)."""
     disk = scene.model == "disk"
     if disk:
-        from .disk_scene import check_disk_rules
-        check_disk_rules(ck, scene, axes, wpath, data)
+        disk_scene.check_disk_rules(ck, scene, axes, wpath, data)
     check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
                       [c.kv for c in scene.contacts], [bool(np.any(c.bn)) for c in scene.contacts],
                       scene.loads[0].amplitudes.shape[1] - 1, solver.harmonics, axes, spath, wpath,

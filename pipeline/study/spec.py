@@ -1,0 +1,169 @@
+"""Study specifications as plain frozen data: what a study file declares once it is
+validated (`Study`: a `pipeline.model.scene.Scene`, sweeps, solver and output
+settings) and what a run returns (`StudyResult`).  A leaf of the study layer: the
+parsers (`scene`, `blade_scene`, `accuracy_cost`) build these, `run` and `dataset`
+read them.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..model.scene import Scene, build_system
+from ..model.system import System
+
+
+MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
+IMPLEMENTED_MODELS = ("lumped", "disk")
+EFFECTS = ("friction", "normal_load_variation", "separation", "cyclic_coupling", "mistuning")
+# grid axes of [sweep]: name -> (units, long_name)
+SWEEP_AXES = {
+    "preload": ("N", "normal preload n0 of every contact"),
+    "mu": ("1", "friction coefficient of every contact"),
+    "ku": ("N/m", "tangential contact stiffness of every contact"),
+    "kv": ("N/m", "normal contact stiffness of every contact"),
+    "excitation_scale": ("1", "factor on every excitation amplitude"),
+    "eo": ("1", "engine order EO of the excitation (disk scenes)"),
+    "mistuning_seed": ("1", "seed of the random sector stiffness mistuning (disk scenes)"),
+}
+INTEGER_SWEEP_AXES = ("eo", "mistuning_seed")
+FREQUENCY_UNITS = ("rad/s", "Hz")
+FIGURES = ("amplitude",)
+MAX_HARMONICS = 200
+MAX_DOFS = 2000
+# a DOF, contact or study name (letters, digits, '_', '.'; at most 64 characters)
+NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]{0,63}$")
+
+
+@dataclass(frozen=True)
+class FrequencyRange:
+    """Continuation interval of the excitation frequency, in `unit`."""
+
+    start: float
+    stop: float
+    unit: str = "rad/s"
+
+    @property
+    def to_rad_s(self) -> float:
+        return 2.0 * math.pi if self.unit == "Hz" else 1.0
+
+    @property
+    def omega_start(self) -> float:
+        return self.start * self.to_rad_s
+
+    @property
+    def omega_stop(self) -> float:
+        return self.stop * self.to_rad_s
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """Grid axes (ordered as in the file; their product is the set of cases) and
+    the continuation axis (frequency)."""
+
+    axes: dict                  # name -> tuple of float
+    frequency: FrequencyRange
+
+    @property
+    def shape(self) -> tuple:
+        return tuple(len(v) for v in self.axes.values())
+
+    def cases(self) -> list:
+        """[(index tuple, {axis: value})] in C order over the grid."""
+        names = list(self.axes)
+        idx = itertools.product(*(range(len(v)) for v in self.axes.values()))
+        return [(i, {a: self.axes[a][k] for a, k in zip(names, i)}) for i in idx]
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    harmonics: int = 5
+    force_evaluation: str = "exact"
+    samples: int = 256
+    tolerance: float = 1e-9
+    stability: bool = True
+    initial_step: float | None = None   # None: the solver's default
+    max_step: float | None = None
+    max_points: int = 1000
+    dense_output: bool = True           # points where the drawn curve bends
+
+    def kwargs(self) -> dict:
+        """Keyword arguments of `pipeline.solve.response.frequency_response`."""
+        kw = dict(method=self.force_evaluation, n_samples=self.samples,
+                  stability=self.stability, tol_rel=self.tolerance, max_points=self.max_points,
+                  dense_output=self.dense_output)
+        if self.initial_step is not None:
+            kw["ds"] = self.initial_step
+        if self.max_step is not None:
+            kw["ds_max"] = self.max_step
+        return kw
+
+
+@dataclass(frozen=True)
+class OutputSettings:
+    dofs: tuple                  # response DOF names
+    figures: tuple = FIGURES
+    yscale: str = "linear"
+    peak_windows: tuple = ()     # ((lo, hi), ...) in the sweep's frequency unit
+    optimum: dict | None = None  # {dof, bounds (N), window (rad/s) | None, rtol}
+
+
+@dataclass(frozen=True)
+class Study:
+    file: str
+    name: str                    # the file's stem: output DIR/<name>.nc
+    title: str
+    description: str
+    reference: str
+    text: str                    # the study file's text (dataset attribute `study`)
+    scene: Scene
+    sweep: Sweep
+    solver: SolverSettings
+    output: OutputSettings
+    quick: bool = False
+
+    def system(self, case: dict | None = None) -> System:
+        return build_system(self.scene, case)
+
+
+def is_linear_scene(scene) -> bool:
+    """A scene without friction and separation has no nonlinear force to solve for."""
+    return not ({"friction", "separation"} & set(getattr(scene, "effects", ()) or ()))
+
+
+@dataclass
+class StudyResult:
+    study: Study
+    dataset: object                 # xarray.Dataset
+    path: Path | None               # the netCDF file (None if nothing converged)
+    figures: list = field(default_factory=list)
+    failures: int = 0               # cases that raised
+    optimum_error: str | None = None  # why the optimum-preload search stopped
+    reused: int = 0                 # cases taken from checkpoints of an interrupted run
+    computed: int = 0               # cases computed in this run
+    wall_time: float = 0.0          # [s]
+
+    @property
+    def ok(self) -> bool:
+        return self.path is not None and self.failures == 0 and self.optimum_error is None
+
+
+@dataclass(frozen=True)
+class ModesStudy:
+    """A "modes" study: reduced vs full eigenfrequencies against the mode count."""
+
+    file: str
+    name: str
+    title: str
+    description: str
+    reference: str
+    text: str
+    scene: Scene
+    mode_counts: tuple
+    n_frequencies: int
+    n_shapes: int
+    quick: bool = False
+    kind: str = "modes"
