@@ -20,8 +20,7 @@ from pipeline.study.dataset_check import problems
 from pipeline.fourier.harmonics import evaluate
 from pipeline.solve.response import frequency_response
 from pipeline.solve.stability import hill_eigenvalues, is_stable
-from pipeline.study.documents import load_study, study_from_document
-from pipeline.study.scene import study_to_mapping
+from pipeline.study.documents import load_study, study_from_document, study_to_mapping
 from pipeline.study.run import run_study
 from pipeline.model.system import System, natural_frequencies
 from pipeline.model.scene import full_system

@@ -14,8 +14,7 @@ from pipeline.solve import hbm
 from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError
 from pipeline.solve.response import frequency_response
-from pipeline.study.documents import load_study, study_from_document
-from pipeline.study.scene import study_to_mapping
+from pipeline.study.documents import load_study, study_from_document, study_to_mapping
 from pipeline.model.scene import stiffness_factors
 
 ROOT = Path(__file__).resolve().parents[1]

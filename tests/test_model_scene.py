@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 from pipeline.model.cyclic import expand
-from pipeline.model.scene import (CASE_KEYS, Blade, CraigBampton, Cyclic, DofContact, Forcing, Lumped,
-                                  Mistuning, PointLoad, Scene, Single, blade_model, build_system,
-                                  full_system, stiffness_factors)
+from pipeline.model.contacts import DofContact
+from pipeline.model.loads import Forcing, PointLoad
+from pipeline.model.scene import (CASE_KEYS, Blade, CraigBampton, Cyclic, Lumped, Mistuning, Scene,
+                                  Single, blade_model, build_system, full_system, stiffness_factors)
 from pipeline.model.system import natural_frequencies
 from pipeline.solve import hbm
 from pipeline.solve.response import frequency_response

@@ -16,8 +16,7 @@ from hypothesis import strategies as st
 
 from pipeline.errors import UsageError
 from pipeline.model.scene import build_system
-from pipeline.study.documents import load_study, parse_study, study_from_document
-from pipeline.study.scene import study_to_mapping
+from pipeline.study.documents import load_study, parse_study, study_from_document, study_to_mapping
 from pipeline.model.system import natural_frequencies
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -19,7 +19,8 @@ import xarray as xr
 from pipeline.study import checkpoint
 from pipeline.study.dataset import read_dataset
 from pipeline.study.documents import parse_study
-from pipeline.study.run import checkpoint_dir, run_study
+from pipeline.study.checkpoint import checkpoint_dir
+from pipeline.study.run import run_study
 from pipeline.study.cases import default_solver
 
 ROOT = Path(__file__).resolve().parents[1]

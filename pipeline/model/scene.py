@@ -29,7 +29,6 @@ model, and a scene value never changes.
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, replace
 from functools import lru_cache
@@ -39,6 +38,8 @@ import scipy.sparse as sp
 
 from ..contact import YangMenq
 from . import cyclic
+from .contacts import DofContact, FaceContact, contact_elements, face_maps
+from .loads import Forcing, point_forcing
 from .system import System
 
 CASE_KEYS = ("preload", "mu", "ku", "kv", "excitation_scale", "eo", "mistuning_seed")
@@ -79,52 +80,6 @@ class CraigBampton:
     """Craig-Bampton reduction with `modes` fixed-interface modes."""
 
     modes: int
-
-
-@dataclass(frozen=True, eq=False)
-class DofContact:
-    """One Yang-Menq element (paper Eq. 1, 9, 10): u = bt . q, v = bn . q over the
-    scene's contact DOFs (the system's DOFs; in a cyclic assembly followed by the
-    next sector's)."""
-
-    name: str
-    bt: np.ndarray          # [-]
-    bn: np.ndarray          # [-], zeros when the normal load is constant
-    ku: float               # [N/m]
-    kv: float               # [N/m]
-    mu: float               # [-]
-    n0: float | None        # [N]; None when the case's `preload` sets it
-
-
-@dataclass(frozen=True)
-class FaceContact:
-    """Yang-Menq elements on every node of one FE contact face, against a rigid wall."""
-
-    name: str
-    face: str               # node set of the blade (shroud_left / shroud_right)
-    ku: float               # [N/m] per node (face total when stiffness = "per_face")
-    kv: float               # [N/m] per node (face total when stiffness = "per_face")
-    mu: float               # [-]
-    n0: float | None        # [N] total over the face; None: the case's preload
-    stiffness: str = "per_node"  # "per_face": ku, kv are face totals shared by area
-
-
-@dataclass(frozen=True, eq=False)
-class Forcing:
-    """F(t) = Re sum_h F_h exp(i h Omega t) over the structure's DOFs."""
-
-    amplitudes: np.ndarray  # (n, Hf+1) complex [N]; column 0 a static load
-
-
-@dataclass(frozen=True)
-class PointLoad:
-    """F(t) = amplitude * direction * cos(h Omega t + phase) at the node of an FE set."""
-
-    set: str
-    direction: tuple        # unit vector, global axes (blade DOF frame for beams)
-    amplitude: float        # [N]
-    harmonic: int
-    phase: float            # [rad]
 
 
 @dataclass(frozen=True)
@@ -276,71 +231,6 @@ def full_dof(scene: Scene, name: str) -> int:
 # ---------------------------------------------------------------------------
 # Contacts and loads on the unreduced structure
 # ---------------------------------------------------------------------------
-
-def face_maps(blade, contacts) -> tuple:
-    """(Bt, Bn) sparse (E, n_full) over all nodes of the `FaceContact`s, and the
-    contact of each element."""
-    Bt, Bn, owner = [], [], []
-    for i, c in enumerate(contacts):
-        t, n, _ = blade.frames[c.face].maps(blade.n_dof)
-        # drop round-off direction cosines (~1e-17 from the SVD of the face): a
-        # zero column keeps its DOF out of the condensed HBM unknowns
-        for B in (t, n):
-            B.data[np.abs(B.data) < 1e-12] = 0.0
-            B.eliminate_zeros()
-        Bt.append(t)
-        Bn.append(n)
-        owner += [i] * t.shape[0]
-    if not Bt:
-        return sp.csr_matrix((0, blade.n_dof)), sp.csr_matrix((0, blade.n_dof)), np.zeros(0, int)
-    return sp.vstack(Bt).tocsr(), sp.vstack(Bn).tocsr(), np.asarray(owner)
-
-
-def _parameter(contacts, owner, case, name, attr):
-    if name in case:
-        return np.full(owner.size, float(case[name]))
-    vals = [getattr(c, attr) for c in contacts]
-    if any(v is None for v in vals):
-        raise ValueError(f"{attr} of a contact is unset and the case gives no {name!r}")
-    return np.array(vals, dtype=float)[owner]
-
-
-def contact_elements(contacts, case: dict, owner=None, weights=None) -> YangMenq:
-    """Yang-Menq parameters of `contacts` with a case applied, one element per row of
-    `owner` (the contact of each element; default one per contact).  A `FaceContact`'s
-    preload is the total of its face: shared equally ("per_node") or, with ku and kv,
-    by node area ("per_face"; `weights[i]` the areas of contact i's nodes)."""
-    case = dict(case or {})
-    owner = np.arange(len(contacts)) if owner is None else np.asarray(owner)
-    ku, kv, mu, n0 = (_parameter(contacts, owner, case, *p) for p in
-                      (("ku", "ku"), ("kv", "kv"), ("mu", "mu"), ("preload", "n0")))
-    for i, c in enumerate(contacts):
-        if not isinstance(c, FaceContact):
-            continue
-        on = owner == i
-        if c.stiffness == "per_face":
-            a = weights[i]
-            if a is None or not np.all(a > 0):
-                raise ValueError(f"contact {c.name!r}: stiffness = 'per_face' needs a positive "
-                                 "area per face node")
-            share = a / a.sum()
-            ku[on], kv[on], n0[on] = ku[on] * share, kv[on] * share, n0[on] * share
-        else:
-            n0[on] = n0[on] / max(int(on.sum()), 1)
-    return YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)
-
-
-def point_forcing(blade, loads) -> np.ndarray:
-    """(n_full, Hf+1) complex load amplitudes [N] of `PointLoad`s on an FE blade."""
-    hf = max([ld.harmonic for ld in loads] + [1])
-    F = np.zeros((blade.n_dof, hf + 1), dtype=complex)
-    for ld in loads:
-        local = blade.point_rotation.T @ np.asarray(ld.direction)
-        a = ld.amplitude * complex(math.cos(ld.phase), math.sin(ld.phase))
-        for c, d in enumerate(blade.dof_sets[ld.set][0]):
-            if d >= 0:
-                F[d, ld.harmonic] += a * local[c]
-    return F
 
 
 def blade_elements(scene: Scene, case: dict | None = None) -> YangMenq:

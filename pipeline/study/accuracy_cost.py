@@ -353,7 +353,8 @@ def _beyond(knob, value, ref: Settings) -> str | None:
 def _case(ck, c, tab, scene, h_excited, where) -> Case:
     """Validate one case table (full or quick variant); `where(path)` gives the
     dotted field of a path inside the case."""
-    from .scene import parse_sweep, check_scene_rules
+    from .rules import check_scene_rules
+    from .scene import parse_sweep
     from .spec import FrequencyRange
 
     dofs = scene.dofs

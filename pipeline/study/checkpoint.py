@@ -17,14 +17,18 @@ a change here; a file written before it existed reads back with the field's defa
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import logging
 import math
 import os
+import shutil
 import uuid
 from pathlib import Path
 
 import numpy as np
+
+from .. import __version__
 
 log = logging.getLogger(__name__)
 
@@ -169,3 +173,76 @@ def same_case(a: dict, b: dict) -> bool:
         elif x != y:
             return False
     return True
+
+
+def checkpoint_dir(study, out_dir, solver) -> Path:
+    """`DIR/.<name>.<key>.cases`: the key hashes the study text (or its parsed
+    content), the quick flag, the solver function and the pipeline version, so a
+    changed study or software never reuses old cases."""
+    content = study.text or repr((study.scene, study.sweep, study.solver))
+    ident = "\n".join([content, str(study.quick), repr(study.sweep), repr(study.solver),
+                       f"{getattr(solver, '__module__', '')}.{getattr(solver, '__qualname__', solver)}",
+                       __version__])
+    key = hashlib.sha256(ident.encode()).hexdigest()[:16]
+    return Path(out_dir) / f".{study.name}.{key}.cases"
+
+
+def case_file(cdir: Path, k) -> Path:
+    """The file of case k in the checkpoint folder `cdir`."""
+    return cdir / f"case-{k:05d}{SUFFIX}"
+
+
+def load_cases(cdir: Path, cases) -> dict:
+    """{case index: (curve, None)} of the finished cases kept in `cdir`.  The files
+    are read as data (`pipeline.study.checkpoint`); one that is not a complete case of
+    this grid position is ignored and that case computed again."""
+    found = {}
+    for k, (_, case) in enumerate(cases):
+        f = case_file(cdir, k)
+        if not f.is_file():
+            continue
+        try:
+            kept_case, curve = read(f)
+        except NotACheckpoint as exc:  # corrupt or foreign: recompute that case
+            log.warning("ignoring %s (%s); that case is computed again", f, exc)
+            continue
+        if same_case(kept_case, case):
+            found[k] = (curve, None)
+        else:
+            log.warning("ignoring %s (a different case); that case is computed again", f)
+    return found
+
+
+def save_case(cdir: Path, k, case, curve) -> bool:
+    """Write case k atomically (`checkpoint.write`); False if it failed."""
+    try:
+        cdir.mkdir(parents=True, exist_ok=True)
+        write(case_file(cdir, k), curve, case)
+        return True
+    except (OSError, TypeError) as exc:
+        log.warning("cannot keep case %d on disk (%s); a rerun will recompute it", k, exc)
+        return False
+
+
+def kept_cases(out_dir, name) -> tuple:
+    """(checkpoint folder, number of finished cases in it) of study `name` in
+    `out_dir`, or (None, 0) when no folder holds a case."""
+
+    for d in sorted(Path(out_dir).glob(f".{name}.*.cases")):
+        n = len(list(d.glob(f"case-*{SUFFIX}")))
+        if d.is_dir() and n:
+            return d, n
+    return None, 0
+
+
+def remove_stale(out_dir: Path, name: str, keep: Path):
+    """Checkpoints of an older version of the same study (other key) and temporary
+    files of killed writers are removed."""
+    for d in Path(out_dir).glob(f".{name}.*.cases"):
+        if d != keep and d.is_dir():
+            log.info("removing checkpoints of a different study version: %s", d)
+            shutil.rmtree(d, ignore_errors=True)
+    stale = (list(Path(out_dir).glob(f".{name}.nc.*.tmp")) + list(keep.glob(".case-*.tmp"))
+             + list(keep.glob("case-*.pkl")))  # an older checkpoint format, never loaded
+    for t in stale:
+        t.unlink(missing_ok=True)

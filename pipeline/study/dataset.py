@@ -355,7 +355,7 @@ def _add_mistuning_factors(data_vars, study, sectors):
 
 
 def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset:
-    """Dataset of a blade modes study (`blade_scene.modal_study` result `res`): full and
+    """Dataset of a blade modes study (`modes.modal_study` result `res`): full and
     Craig-Bampton eigenfrequencies against the mode count, errors and timings."""
     counts = np.asarray(res["mode_counts"], dtype=np.int32)
     nf = len(res["full_hz"])

@@ -313,3 +313,31 @@ def optimum_figure(path, result, dof, title=""):
     out = atomic_savefig(fig, path)
     plt.close(fig)
     return out
+
+
+def modal_convergence_figure(path, res, title):
+    """Relative error of each Craig-Bampton eigenfrequency against the mode count
+    (modes study result `res`), log scale, the 0.1 % line dashed."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    err = np.abs(res["rel_error"])
+    for j in range(err.shape[1]):
+        ax.semilogy(res["mode_counts"], np.maximum(err[:, j], 1e-16), "o-", ms=3,
+                    label=f"f{j + 1} = {res['full_hz'][j]:.4g} Hz")
+    ax.axhline(1e-3, color="k", lw=0.8, ls="--")
+    ax.set_xlabel("Craig-Bampton fixed-interface modes")
+    ax.set_ylabel("relative frequency error (reduced/full - 1)")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    tmp.replace(path)
+    return path

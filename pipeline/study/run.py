@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import UsageError
 from .cases import default_solver, run_case, separation_guard
+from .checkpoint import checkpoint_dir, kept_cases, load_cases, remove_stale, save_case
 from .documents import load_study
 from .spec import Study, StudyResult
 
@@ -94,92 +95,6 @@ class Progress:
             self._redirect = None
 
 
-# ---------------------------------------------------------------------------
-# Checkpoints: every finished case is kept on disk until the dataset is written
-# ---------------------------------------------------------------------------
-
-def checkpoint_dir(study, out_dir, solver) -> Path:
-    """`DIR/.<name>.<key>.cases`: the key hashes the study text (or its parsed
-    content), the quick flag, the solver function and the pipeline version, so a
-    changed study or software never reuses old cases."""
-    import hashlib
-    from .. import __version__
-
-    content = study.text or repr((study.scene, study.sweep, study.solver))
-    ident = "\n".join([content, str(study.quick), repr(study.sweep), repr(study.solver),
-                       f"{getattr(solver, '__module__', '')}.{getattr(solver, '__qualname__', solver)}",
-                       __version__])
-    key = hashlib.sha256(ident.encode()).hexdigest()[:16]
-    return Path(out_dir) / f".{study.name}.{key}.cases"
-
-
-def _checkpoint_file(cdir: Path, k) -> Path:
-    from .checkpoint import SUFFIX
-    return cdir / f"case-{k:05d}{SUFFIX}"
-
-
-def _load_checkpoints(cdir: Path, cases) -> dict:
-    """{case index: (curve, None)} of the finished cases kept in `cdir`.  The files
-    are read as data (`pipeline.study.checkpoint`); one that is not a complete case of
-    this grid position is ignored and that case computed again."""
-    from .checkpoint import NotACheckpoint, read, same_case
-
-    found = {}
-    for k, (_, case) in enumerate(cases):
-        f = _checkpoint_file(cdir, k)
-        if not f.is_file():
-            continue
-        try:
-            kept_case, curve = read(f)
-        except NotACheckpoint as exc:  # corrupt or foreign: recompute that case
-            log.warning("ignoring %s (%s); that case is computed again", f, exc)
-            continue
-        if same_case(kept_case, case):
-            found[k] = (curve, None)
-        else:
-            log.warning("ignoring %s (a different case); that case is computed again", f)
-    return found
-
-
-def _save_checkpoint(cdir: Path, k, case, curve) -> bool:
-    """Write case k atomically (`checkpoint.write`); False if it failed."""
-    from .checkpoint import write
-
-    try:
-        cdir.mkdir(parents=True, exist_ok=True)
-        write(_checkpoint_file(cdir, k), curve, case)
-        return True
-    except (OSError, TypeError) as exc:
-        log.warning("cannot keep case %d on disk (%s); a rerun will recompute it", k, exc)
-        return False
-
-
-def kept_cases(out_dir, name) -> tuple:
-    """(checkpoint folder, number of finished cases in it) of study `name` in
-    `out_dir`, or (None, 0) when no folder holds a case."""
-    from .checkpoint import SUFFIX
-
-    for d in sorted(Path(out_dir).glob(f".{name}.*.cases")):
-        n = len(list(d.glob(f"case-*{SUFFIX}")))
-        if d.is_dir() and n:
-            return d, n
-    return None, 0
-
-
-def _remove_stale(out_dir: Path, name: str, keep: Path):
-    """Checkpoints of an older version of the same study (other key) and temporary
-    files of killed writers are removed."""
-    import shutil
-
-    for d in Path(out_dir).glob(f".{name}.*.cases"):
-        if d != keep and d.is_dir():
-            log.info("removing checkpoints of a different study version: %s", d)
-            shutil.rmtree(d, ignore_errors=True)
-    stale = (list(Path(out_dir).glob(f".{name}.nc.*.tmp")) + list(keep.glob(".case-*.tmp"))
-             + list(keep.glob("case-*.pkl")))  # an older checkpoint format, never loaded
-    for t in stale:
-        t.unlink(missing_ok=True)
-
 
 def _execute(study, solver, workers, scheduler, progress, cdir=None):
     """Run the cases not found in `cdir`; each finished case is kept there at once.
@@ -189,7 +104,7 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
     if study.scene.model != "lumped":  # FE scenes: exact peaks of the reported DOFs only
         kw["peak_dofs"] = [study.scene.dof_index(d) for d in study.output.dofs]
     results = [None] * len(cases)
-    reused = _load_checkpoints(cdir, cases) if cdir is not None else {}
+    reused = load_cases(cdir, cases) if cdir is not None else {}
     for k, res in reused.items():
         results[k] = res
     todo = [k for k in range(len(cases)) if k not in reused]
@@ -206,7 +121,7 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
     def done(k, res):
         results[k] = res
         if cdir is not None and res[0] is not None:
-            _save_checkpoint(cdir, k, cases[k][1], res[0])
+            save_case(cdir, k, cases[k][1], res[0])
         if bar is not None:
             bar.update(cases[k][1], *res)
 
@@ -324,7 +239,7 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     from .dataset import to_dataset, write_netcdf
 
     if getattr(study, "kind", "response") == "modes":  # blade modal study (blade_scene.py)
-        from .blade_scene import run_modes_study
+        from .modes import run_modes_study
         return run_modes_study(study, out_dir, figures=figures)
     if getattr(study, "kind", "response") == "accuracy_cost":  # pipeline/study/accuracy_cost.py
         from .accuracy_cost import run_accuracy_study
@@ -338,7 +253,7 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     fresh_out = not out_dir.exists()
     cdir = checkpoint_dir(study, out_dir, solver) if checkpoints else None
     if cdir is not None:
-        _remove_stale(out_dir, study.name, cdir)
+        remove_stale(out_dir, study.name, cdir)
     results, reused = _execute(study, solver, workers, scheduler, progress, cdir)
     curves = [c for c, _ in results]
     errors = [e for _, e in results]

@@ -26,9 +26,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..model.scene import Cyclic, DofContact, Forcing, Lumped, Scene, Single, build_system
+from ..model.contacts import DofContact
+from ..model.loads import Forcing
+from ..model.scene import Cyclic, Lumped, Scene, Single, build_system
 from . import disk_scene
 from .checker import Checker, join_field, kind_of
+from .rules import check_scene_rules
 from .spec import (EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
                    MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, SWEEP_AXES, FrequencyRange,
                    OutputSettings, SolverSettings, Study, Sweep)
@@ -39,64 +42,6 @@ _SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
 # ---------------------------------------------------------------------------
 # Plain data
 # ---------------------------------------------------------------------------
-
-
-def study_to_mapping(study: Study) -> dict:
-    """The canonical document of a validated study: explicit M, C, K, coefficient
-    rows for contacts, every default spelt out, no [quick] table (the variant that
-    was loaded).  `study_from_mapping(study_to_mapping(s))` rebuilds the same study."""
-    sc = study.scene
-    cdofs = sc.contact_dofs  # disk scenes: also next.<dof>
-
-    def row(r):
-        return {d: float(c) for d, c in zip(cdofs, r) if c != 0}
-
-    contacts = []
-    for c in sc.contacts:
-        e = {"name": c.name, "tangential": row(c.bt), "ku": c.ku, "kv": c.kv, "mu": c.mu}
-        if np.any(c.bn):
-            e["normal"] = row(c.bn)
-        if c.n0 is not None:
-            e["n0"] = c.n0
-        contacts.append(e)
-    sector_dofs = sc.sector_dofs  # disk scenes: the sector's names
-    forcing = sc.loads[0].amplitudes
-    excitation = [{"dof": sector_dofs[j], "amplitude": float(abs(F)), "harmonic": int(h),
-                   "phase": float(np.angle(F)) if h else 0.0}
-                  for j, h in zip(*np.nonzero(forcing)) for F in [forcing[j, h]]]
-    fr = study.sweep.frequency
-    sweep = {a: list(v) for a, v in study.sweep.axes.items()}
-    sweep["frequency"] = {"start": fr.start, "stop": fr.stop, "unit": fr.unit}
-    solver = {k: v for k, v in vars(study.solver).items() if v is not None}
-    out = study.output
-    output = {"dofs": list(out.dofs), "figures": list(out.figures), "yscale": out.yscale,
-              "peak_windows": [list(w) for w in out.peak_windows]}
-    if out.optimum is not None:
-        o = out.optimum
-        output["optimum_preload"] = {"dof": o["dof"], "bounds": list(o["bounds"]), "rtol": o["rtol"]}
-        if o["window"] is not None:
-            w = o["window"]
-            output["optimum_preload"]["frequency"] = {"start": w.start, "stop": w.stop, "unit": w.unit}
-    scene = {"model": sc.model, "effects": list(sc.effects), "dofs": list(sector_dofs),
-             "matrices": {k: getattr(sc.structure, k).tolist() for k in ("M", "C", "K")},
-             "contact": contacts, "excitation": excitation}
-    if sc.model == "disk":
-        scene["disk"] = {"sectors": sc.assembly.sectors}
-        if sc.assembly.engine_order is not None:
-            scene["disk"]["engine_order"] = sc.assembly.engine_order
-        if sc.mistuning is not None:
-            mis = {"stiffness_std": sc.mistuning.stiffness_std}
-            if sc.mistuning.seed is not None:
-                mis["seed"] = sc.mistuning.seed
-            scene["disk"]["mistuning"] = mis
-    return {
-        "study": {"title": study.title, "description": study.description,
-                  "reference": study.reference},
-        "scene": scene,
-        "sweep": sweep,
-        "solver": solver,
-        "output": output,
-    }
 
 
 # ---------------------------------------------------------------------------
@@ -515,71 +460,6 @@ def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
                       [c.kv for c in scene.contacts], [bool(np.any(c.bn)) for c in scene.contacts],
                       scene.loads[0].amplitudes.shape[1] - 1, solver.harmonics, axes, spath, wpath,
                       disk=disk)
-
-
-def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spath, wpath,
-                      disk=False):
-    """Cross-field rules shared by every scene: harmonics cover the excitation, swept
-    contact parameters have contacts to act on, a preload is given, and the
-    declared effects match the scene (friction <=> contacts; normal-load variation
-    <=> normal DOFs with kv > 0; separation <=> a gap or a varying normal load;
-    an engine order and "cyclic_coupling" only in a disk scene).
-
-    Separation must be declared wherever the declared data make it certain: a
-    negative preload (a gap), or a varying normal load n = n0 + kv v with a preload
-    n0 <= 0 (it reaches zero as soon as the contact moves).  A varying normal load
-    with every preload > 0 and no "separation" declares a contact that stays
-    closed; the run checks every solution against that (`pipeline.study.declared`).
-    `has_normal` is one flag for every contact or one per contact."""
-    if not disk:
-        for axis, what in (("eo", "has an engine order"), ("mistuning_seed", "can be mistuned")):
-            if axis in axes:
-                ck.fail(f"{wpath}.{axis}", f"only a disk scene (scene.model = \"disk\") {what}")
-        for effect in ("cyclic_coupling", "mistuning"):
-            if effect in effects:
-                ck.fail("scene.effects", f"\"{effect}\" needs a disk scene (scene.model = "
-                                         "\"disk\"); this scene is one structure")
-    if h_excited > H:
-        ck.fail(f"{spath}.harmonics", f"H = {H} is below the excited harmonic {h_excited} "
-                                      "(scene.excitation)")
-    has_contact = bool(n0s)
-    for a in ("preload", "mu", "ku", "kv"):
-        if a in axes and not has_contact:
-            ck.fail(f"{wpath}.{a}", "the scene has no [[scene.contact]] to apply it to")
-    if has_contact and "preload" not in axes:
-        for i, n0 in enumerate(n0s):
-            if n0 is None:
-                ck.fail(f"scene.contact[{i}].n0", "missing (required unless sweep.preload is given)")
-    effects = set(effects)
-    if has_contact != ("friction" in effects):
-        ck.fail("scene.effects", "declare \"friction\" exactly when the scene has contacts"
-                if has_contact else "\"friction\" is declared but the scene has no [[scene.contact]]")
-    normal = (list(has_normal) if isinstance(has_normal, (list, tuple))
-              else [bool(has_normal)] * len(n0s))
-    kv_vals = axes.get("kv") or tuple(kvs)
-    varies = any(normal) and max(kv_vals, default=0.0) > 0
-    if varies != ("normal_load_variation" in effects):
-        ck.fail("scene.effects", "normal DOFs with kv > 0 make the normal load vary: declare "
-                                 "\"normal_load_variation\"" if varies else
-                "\"normal_load_variation\" is declared but no contact has normal DOFs with kv > 0")
-    n0_vals = axes.get("preload") or tuple(n0 for n0 in n0s if n0 is not None)
-    gap = min(n0_vals, default=0.0) < 0
-    if gap and "separation" not in effects:
-        ck.fail("scene.effects", "a negative preload (initial gap) means separation: declare "
-                                 "\"separation\"")
-    if varies and "separation" not in effects:
-        for i, (n0, kv, nrm) in enumerate(zip(n0s, kvs, normal)):
-            kv_i = max(axes["kv"]) if "kv" in axes else kv
-            n0_i = min(axes["preload"]) if "preload" in axes else n0
-            if nrm and kv_i > 0 and n0_i is not None and n0_i <= 0:
-                where = f"{wpath}.preload" if "preload" in axes else f"scene.contact[{i}].n0"
-                ck.fail("scene.effects", f"contact {i} has a varying normal load (normal DOFs, "
-                                         f"kv = {kv_i:g} N/m) and a preload of {n0_i:g} N "
-                                         f"({where}): n = n0 + kv v reaches zero as soon as it "
-                                         "moves, so it separates: declare \"separation\"")
-    if "separation" in effects and not (gap or varies):
-        ck.fail("scene.effects", "\"separation\" is declared but cannot occur (constant normal "
-                                 "load and no negative preload)")
 
 
 def _check_build(ck, study: Study):
