@@ -209,7 +209,7 @@ def amplitude_at(s, H, Om, Q, method="exact", N=256):
     """Amplitude of DOF 0 from Newton at fixed Om with H harmonics (and the given
     force evaluation), started from the coefficients Q (zero-padded or cut)."""
     from pipeline.solve import hbm
-    from pipeline.solve.continuation import newton
+    from pipeline.solve.newton import newton
     from pipeline.fourier.harmonics import amplitude_half_peak_to_peak
     p = hbm.setup(s, H, method, N)
     wts = hbm.row_weights(p, hbm.tolerances(p, 1e-10, s.contact))

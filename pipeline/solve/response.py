@@ -17,9 +17,10 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from . import hbm
-from .continuation import continue_branch, newton
+from .continuation import continue_branch
 from ..fourier.harmonics import amplitude_half_peak_to_peak
 from .resonance import MAX_DENSE_DOF, step_guard
+from .newton import newton
 from .restarts import cover_range
 from .stability import is_stable
 
