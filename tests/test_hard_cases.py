@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from pipeline.contact import YangMenq
-from pipeline.solve.hbm import state_at_zero
+from pipeline.solve.hbm_state import state_at_zero
 from pipeline.solve.response import frequency_response
 from pipeline.model.system import System
 from paper_systems import example1, example3

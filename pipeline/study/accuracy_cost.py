@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..solve.hbm import state_at_zero
+from ..solve.hbm_state import state_at_zero
 from .scene import Checker
 
 log = logging.getLogger(__name__)
