@@ -97,7 +97,12 @@ class _Mode:
             Xh[:n, k] = Q
             Xh[n:, k] = 1j * h * Om * Q
         self.Xh = Xh
-        # switching functions g_j(x, w) = c_j . x + d0_j + dw_j w_e ; event when g_j > 0
+        self._switching_functions(mdl, s)
+
+    def _switching_functions(self, mdl: "PiecewiseModel", s):
+        """The switching functions g_j(x, w) = c_j . x + d0_j + dw_j w_e of the state s
+        (element states); the event of g_j when it becomes > 0, its `kind`."""
+        n, E = mdl.n, mdl.E
         rows, d0, dw, elem, kind = [], [], [], [], []
 
         def add(e, kd, cq, cqd, d, dwe):
@@ -128,8 +133,8 @@ class _Mode:
         self.Csw = np.array(rows).reshape(J, 2 * n)
         self.d0, self.dw = np.array(d0, float), np.array(dw, float)
         self.elem, self.kind = np.array(elem, int), np.array(kind, int)
-        self.CV = self.Csw @ V
-        self.CXh = self.Csw @ Xh
+        self.CV = self.Csw @ self.V
+        self.CXh = self.Csw @ self.Xh
         self.cabs = np.abs(self.Csw)
 
 

@@ -1,16 +1,21 @@
 """The periodic steady state by shooting on the Poincare map of one period.
 
 z = [q, q'/Omega, w_stuck] (`poincare_vector`) is mapped over one period by the
-event-driven integration (`period_map`); `newton_step` solves P(z) - z = 0 with a
-finite-difference monodromy, `rest_sliders` moves the stuck sliders of an
+event-driven integration (`period_map`, counted by a `PoincareMap`); `shoot`
+alternates plain periods and Newton phases, `newton_step` solving P(z) - z = 0
+with a finite-difference monodromy; `rest_sliders` moves the stuck sliders of an
 event-free cycle to the slider_rest convention.  `timesim.steady_state` drives them.
 """
 from __future__ import annotations
+
+import logging
 
 import numpy as np
 
 from .events import integrate
 from .piecewise import STICK
+
+log = logging.getLogger(__name__)
 
 
 def poincare_vector(mdl, x, w, st):
@@ -28,6 +33,70 @@ def period_map(mdl, x, w, st, t0=0.0):
 def relative_defect(dz, z):
     """|dz| / |z| (z = 0 counts as tiny, not as zero)."""
     return float(np.linalg.norm(dz) / max(np.linalg.norm(z), 1e-300))
+
+
+class PoincareMap:
+    """P(x, w, st) -> (x, w, st, status, message) one period later (`period_map`),
+    counting the periods integrated and the events met; `plain` iterates it.
+    tol and periods_max: when plain iteration stops."""
+
+    def __init__(self, mdl, tol, periods_max):
+        self.mdl, self.tol, self.periods_max = mdl, tol, periods_max
+        self.periods = self.n_events = 0
+
+    def __call__(self, x, w, st):
+        self.periods += 1
+        xe, we, se, ne, stt, mm = period_map(self.mdl, x, w, st)
+        self.n_events += ne
+        return xe, we, se, stt, mm
+
+    def plain(self, x, w, st, k):
+        """Up to k plain periods, until the map changes z by less than tol (relative)
+        or periods_max periods are spent: (x, w, st, last change, status, message)."""
+        mdl = self.mdl
+        r = np.inf
+        for _ in range(k):
+            xe, we, se, stt, mm = self(x, w, st)
+            if stt != 0:
+                return x, w, st, r, stt, mm
+            r = relative_defect(poincare_vector(mdl, xe, we, se) - poincare_vector(mdl, x, w, st),
+                                poincare_vector(mdl, xe, we, se))
+            x, w, st = xe, we, se
+            if r < self.tol or self.periods >= self.periods_max:
+                break
+        return x, w, st, r, 0, ""
+
+
+def shoot(P: PoincareMap, x, w, st, transient_periods, newton_max, accept_unstable):
+    """A fixed point of P from (x, w, st): transient periods, then Newton phases
+    (`newton_step`).  Newton phases start from the physical trajectory; when a phase
+    stalls (no orbit nearby: past a fold, long transient) or lands on an unstable
+    orbit (unless accept_unstable), integration goes on from the physical state for
+    twice as long as before.  (x, w, st, multipliers or None, status, message)."""
+    mdl, tol = P.mdl, P.tol
+    mult = None
+    x, w, st, r, status, msg = P.plain(x, w, st, transient_periods)
+    n_plain = 8
+    while status == 0 and r >= tol and P.periods < P.periods_max:
+        xn, wn, sn, rn, mult_n = x, w, st, r, None
+        for it in range(newton_max):
+            ok, xn, wn, sn, rn, mult_n, status, msg = newton_step(mdl, P, xn, wn, sn, rn, tol)
+            log.debug("Omega=%g Newton %d: ok=%s residual=%.3e periods=%d", mdl.Om, it, ok,
+                      rn, P.periods)
+            if not ok or status or rn < tol or P.periods >= P.periods_max:
+                break
+        if status:
+            break
+        if rn < tol and (accept_unstable or mult_n is None
+                         or np.abs(mult_n).max() <= 1 + 1e-6):
+            x, w, st, r, mult = xn, wn, sn, rn, mult_n
+            break
+        if rn < tol:
+            log.info("Omega=%g: shooting found an unstable orbit (|mult| = %.4g)",
+                     mdl.Om, np.abs(mult_n).max())
+        x, w, st, r, status, msg = P.plain(x, w, st, n_plain)
+        n_plain *= 2
+    return x, w, st, mult, status, msg
 
 
 def rest_sliders(mdl, rest, x, w, st, per):

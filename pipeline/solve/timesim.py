@@ -30,7 +30,7 @@ from scipy.optimize import brentq
 from ..model.system import System
 from .events import EVENT_DTYPE, integrate
 from .piecewise import NS, PS, PiecewiseModel
-from .shooting import newton_step, period_map, poincare_vector, relative_defect, rest_sliders
+from .shooting import PoincareMap, poincare_vector, relative_defect, rest_sliders, shoot
 
 log = logging.getLogger(__name__)
 
@@ -226,71 +226,16 @@ def steady_state(system: System, Omega: float, H: int | None = None, periods_max
     mdl = PiecewiseModel(system, Omega)
     H = max(7, int(mdl.hs.max()) if mdl.hs.size else 0) if H is None else int(H)
     x, w, st = _initial(mdl, q0, qd0, w0)
-    periods, n_ev_total, status, msg = 0, 0, 0, ""
-    mult = None
-
-    def P(x, w, st):
-        nonlocal periods, n_ev_total
-        periods += 1
-        xe, we, se, ne, stt, mm = period_map(mdl, x, w, st)
-        n_ev_total += ne
-        return xe, we, se, stt, mm
-
-    def plain(x, w, st, k):
-        r = np.inf
-        for _ in range(k):
-            xe, we, se, stt, mm = P(x, w, st)
-            if stt != 0:
-                return x, w, st, r, stt, mm
-            r = relative_defect(poincare_vector(mdl, xe, we, se) - poincare_vector(mdl, x, w, st),
-                                poincare_vector(mdl, xe, we, se))
-            x, w, st = xe, we, se
-            if r < tol or periods >= periods_max:
-                break
-        return x, w, st, r, 0, ""
-
-    r = np.inf
+    P = PoincareMap(mdl, tol, periods_max)
     if method == "integrate":
-        x, w, st, r, status, msg = plain(x, w, st, periods_max)
+        x, w, st, _, status, msg = P.plain(x, w, st, periods_max)
+        mult = None
     else:
-        # Newton phases from the physical trajectory; when a phase stalls (no orbit
-        # nearby: past a fold, long transient) or lands on an unstable orbit, go on
-        # integrating from the physical state for twice as long as before.
-        x, w, st, r, status, msg = plain(x, w, st, transient_periods)
-        n_plain = 8
-        while status == 0 and r >= tol and periods < periods_max:
-            xn, wn, sn, rn, mult_n = x, w, st, r, None
-            for it in range(newton_max):
-                ok, xn, wn, sn, rn, mult_n, status, msg = newton_step(mdl, P, xn, wn, sn, rn, tol)
-                log.debug("Omega=%g Newton %d: ok=%s residual=%.3e periods=%d", Omega, it, ok,
-                          rn, periods)
-                if not ok or status or rn < tol or periods >= periods_max:
-                    break
-            if status:
-                break
-            if rn < tol and (accept_unstable or mult_n is None
-                             or np.abs(mult_n).max() <= 1 + 1e-6):
-                x, w, st, r, mult = xn, wn, sn, rn, mult_n
-                break
-            if rn < tol:
-                log.info("Omega=%g: shooting found an unstable orbit (|mult| = %.4g)",
-                         Omega, np.abs(mult_n).max())
-            x, w, st, r, status, msg = plain(x, w, st, n_plain)
-            n_plain *= 2
+        x, w, st, mult, status, msg = shoot(P, x, w, st, transient_periods, newton_max,
+                                            accept_unstable)
     # the returned period, recorded densely; its defect is the reported residual
-    t_eval = np.linspace(0, mdl.T, n_samples + 1)
-    per = _run(mdl, 0.0, x, w, st, mdl.T, t_eval=t_eval,
-               max_events_per_period=max_events_per_period)
-    periods += 1
-    if slider_rest and status == 0 and per.success and per.n_events == 0:
-        xr, wr = rest_sliders(mdl, system.contact.slider_rest, x, w, st, per)
-        per_r = _run(mdl, 0.0, xr, wr, st, mdl.T, t_eval=t_eval,
-                     max_events_per_period=max_events_per_period)
-        periods += 1
-        if per_r.success and per_r.n_events == 0:      # else keep the unshifted cycle
-            x, w, per = xr, wr, per_r
-        else:
-            log.info("Omega=%g: slider_rest position not admissible; slider kept", Omega)
+    x, w, per = _recorded_period(mdl, x, w, st, P, n_samples, max_events_per_period,
+                                 slider_rest and status == 0, system.contact.slider_rest)
     ze = poincare_vector(mdl, np.concatenate([per.q_final, per.qdot_final]), per.w_final,
                          per.state_final)
     res = relative_defect(ze - poincare_vector(mdl, x, w, st), ze)
@@ -300,16 +245,37 @@ def steady_state(system: System, Omega: float, H: int | None = None, periods_max
     elif status == 0:
         status = 0 if converged else 2
         msg = ("converged" if converged else
-               f"not converged: periodicity residual {res:.2e} >= tol {tol:.1e} after {periods} periods")
+               f"not converged: periodicity residual {res:.2e} >= tol {tol:.1e} after {P.periods} periods")
     stable = True if mult is None else bool(np.abs(mult).max() <= 1 + 1e-6)
     amp, Q = _amplitude(per, mdl), fourier_coefficients(per, H)
     return SteadyResult(
         Omega=mdl.Om, t=per.t, q=per.q, qdot=per.qdot, w=per.w, state=per.state, amplitude=amp,
         Q=Q, H=H, q0=x[: mdl.n].copy(), qd0=x[mdl.n:].copy(), w0=w.copy(), residual=res,
-        converged=converged, multipliers=mult, stable=stable, periods=periods,
-        n_events=per.n_events, n_events_total=n_ev_total + per.n_events, events=per.events,
+        converged=converged, multipliers=mult, stable=stable, periods=P.periods,
+        n_events=per.n_events, n_events_total=P.n_events + per.n_events, events=per.events,
         wall_time=time.perf_counter() - tic, success=converged, status=status, message=msg,
         period=per)
+
+
+def _recorded_period(mdl, x, w, st, P, n_samples, max_events_per_period, shift, rest):
+    """The period from (x, w, st), recorded at n_samples + 1 times; with `shift`, an
+    event-free cycle gets its stuck sliders moved to the slider_rest convention
+    `rest` (`shooting.rest_sliders`) if the shifted cycle stays event-free.  The
+    periods integrated are counted in P.  Returns (x, w, TimeResult)."""
+    t_eval = np.linspace(0, mdl.T, n_samples + 1)
+    per = _run(mdl, 0.0, x, w, st, mdl.T, t_eval=t_eval,
+               max_events_per_period=max_events_per_period)
+    P.periods += 1
+    if shift and per.success and per.n_events == 0:
+        xr, wr = rest_sliders(mdl, rest, x, w, st, per)
+        per_r = _run(mdl, 0.0, xr, wr, st, mdl.T, t_eval=t_eval,
+                     max_events_per_period=max_events_per_period)
+        P.periods += 1
+        if per_r.success and per_r.n_events == 0:      # else keep the unshifted cycle
+            x, w, per = xr, wr, per_r
+        else:
+            log.info("Omega=%g: slider_rest position not admissible; slider kept", mdl.Om)
+    return x, w, per
 
 
 def _quadrature(res: TimeResult, t0, t1, nodes=12):
