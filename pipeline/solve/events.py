@@ -19,7 +19,10 @@ EVENT_DTYPE = np.dtype([("t", float), ("element", int), ("old", int), ("new", in
 
 def integrate(mdl: PiecewiseModel, t0, x0, w0, st0, t_end, record, t_eval=None,
               max_events_per_period=2000, max_zero_length=50):
-    """Event loop from (t0, x0, w0, st0) to t_end; returns a dict."""
+    """Event loop from (t0, x0, w0, st0) to t_end; returns a dict: the final t, x, w,
+    st; with `record`, the pieces and the events (t, element, old, new) with the
+    state at each (evq, evqd, evw: w before the switch); n_events, status (0 reached
+    t_end, 1 event cap, -1 unsupported linear piece) and message."""
     T = mdl.T
     x, w, st, t = np.array(x0, float), np.array(w0, float), np.array(st0, int), float(t0)
     pieces, events, evq, evqd, evw = [], [], [], [], []
