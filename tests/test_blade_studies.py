@@ -12,7 +12,7 @@ from pipeline.solve import hbm
 from pipeline.__main__ import main as cli
 from pipeline.study.blade_scene import ModesStudy
 from pipeline.contact import forces
-from pipeline.solve.continuation import newton
+from pipeline.solve.newton import newton
 from pipeline.study.dataset import read_dataset
 from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError

@@ -5,8 +5,11 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from pipeline.solve.continuation import (Branch, ContinuationOptions, Metric, Tracer, automatic_scale,
-                                         continuation_options, continue_branch, newton)
+from pipeline.solve.arclength import ContinuationOptions, Metric, automatic_scale, continuation_options
+from pipeline.solve.branch import Branch
+from pipeline.solve.continuation import continue_branch
+from pipeline.solve.newton import newton
+from pipeline.solve.tracer import Tracer
 
 
 # ------------------------------------------------------------------ closed forms

@@ -13,7 +13,7 @@ from scipy.optimize import minimize_scalar
 
 from pipeline.solve import hbm
 from pipeline.contact import YangMenq
-from pipeline.solve.continuation import newton
+from pipeline.solve.newton import newton
 from pipeline.model.cyclic import (Sector, aft_samples_ok, expand, full_assembly, isolated_system,
                                    sector_forcing, sector_system)
 from pipeline.study.dataset_check import problems

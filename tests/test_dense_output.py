@@ -10,7 +10,8 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from pipeline.paper_systems import example2
-from pipeline.solve.response import PLOT_MIN_CHORD, PLOT_TURN, frequency_response
+from pipeline.solve.branch_refinement import PLOT_MIN_CHORD, PLOT_TURN
+from pipeline.solve.response import frequency_response
 from paper_systems import BETA, K_CHAIN, chain_system
 
 F_LO, F_HI = 4.0, 25.0  # Hz

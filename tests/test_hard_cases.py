@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from pipeline.contact import YangMenq
-from pipeline.solve.hbm import state_at_zero
+from pipeline.solve.hbm_state import state_at_zero
 from pipeline.solve.response import frequency_response
 from pipeline.model.system import System
 from paper_systems import example1, example3
@@ -209,7 +209,7 @@ def amplitude_at(s, H, Om, Q, method="exact", N=256):
     """Amplitude of DOF 0 from Newton at fixed Om with H harmonics (and the given
     force evaluation), started from the coefficients Q (zero-padded or cut)."""
     from pipeline.solve import hbm
-    from pipeline.solve.continuation import newton
+    from pipeline.solve.newton import newton
     from pipeline.fourier.harmonics import amplitude_half_peak_to_peak
     p = hbm.setup(s, H, method, N)
     wts = hbm.row_weights(p, hbm.tolerances(p, 1e-10, s.contact))

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from pipeline.solve import hbm
-from pipeline.solve.continuation import newton
+from pipeline.solve.newton import newton
 from pipeline.contact import YangMenq
 from pipeline.model.system import System
 

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from pipeline.solve.hbm import state_at_zero
+from pipeline.solve.hbm_state import state_at_zero
 from pipeline.solve.response import frequency_response, optimum_preload
 from pipeline.model.system import natural_frequencies
 from pipeline.solve import timesim

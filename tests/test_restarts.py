@@ -3,7 +3,9 @@ tracing, restarts past a corner."""
 import numpy as np
 import pytest
 
-from pipeline.solve.continuation import Branch, continue_branch, newton
+from pipeline.solve.branch import Branch
+from pipeline.solve.continuation import continue_branch
+from pipeline.solve.newton import newton
 from pipeline.solve.restarts import continue_past_corners, cover_range, join, piece, trace_range
 
 

@@ -110,12 +110,13 @@ dofs = ["x"]
 
 def test_linear_scene_is_solved_directly_without_newton(tmp_path, monkeypatch):
     import pipeline.solve.continuation as cont
+    import pipeline.solve.newton as nwt
     import pipeline.solve.response as resp
 
     def forbidden(*a, **k):
         raise AssertionError("a linear scene must not run Newton, continuation or the HBM")
 
-    for mod, name in ((cont, "newton"), (cont, "continue_branch"), (hbm, "residual"),
+    for mod, name in ((nwt, "newton"), (cont, "continue_branch"), (hbm, "residual"),
                       (hbm, "forces"), (resp, "frequency_response")):
         monkeypatch.setattr(mod, name, forbidden)
     study = parse_study(LINEAR, file="linear.toml")

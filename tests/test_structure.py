@@ -5,6 +5,8 @@ functions, relative and absolute.  Asserted: no private name (leading underscore
 imported from another module, the contact modules form no circle, and no circle
 appears beyond the known scene/study one.  The failure message (and the summary test,
 with `pytest -s`) reports the remaining circles and the largest modules and functions.
+Also asserted: the solvers (`pipeline/solve/`) stay readable, no module longer than
+SOLVE_MAX_MODULE lines and no function or method longer than SOLVE_MAX_FUNCTION.
 """
 import ast
 from collections import defaultdict
@@ -118,7 +120,9 @@ def report() -> str:
     lines += ["  - " + ", ".join(sorted(c)) for c in circles(files, edges)]
     lines += [f"private names imported across modules: {len(private)}"]
     lines += ["  - " + p for p in private]
-    return "\n".join(lines + [largest_units(files)])
+    (k, m), (kf, f) = (sizes[0] for sizes in solve_sizes())
+    solve = f"pipeline/solve: largest module {m} ({k} lines), largest function {f} ({kf} lines)"
+    return "\n".join(lines + [largest_units(files), solve])
 
 
 def test_no_private_name_is_imported_across_modules():
@@ -174,6 +178,39 @@ def test_tests_use_public_names_and_no_other_test_module():
                                                             and (name or "").startswith("test_")):
                 found.append(f"{where} imports from the test module {target}")
     assert not found, "\n".join(found)
+
+
+SOLVE_MAX_MODULE = 500    # lines of one module in pipeline/solve
+SOLVE_MAX_FUNCTION = 80   # lines of one function or method there (decorators aside)
+
+
+def solve_sizes():
+    """([(lines, module)], [(lines, "path:line name")]) of the modules and of the
+    functions and methods in pipeline/solve, largest first."""
+    modules, functions = [], []
+    for path in sorted((PACKAGE / "solve").rglob("*.py")):
+        text = path.read_text(encoding="utf-8")
+        where = path.relative_to(PACKAGE.parent)
+        modules.append((len(text.splitlines()), str(where)))
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                functions.append((node.end_lineno - node.lineno + 1,
+                                  f"{where}:{node.lineno} {node.name}"))
+    return sorted(modules, reverse=True), sorted(functions, reverse=True)
+
+
+def test_solve_modules_are_short():
+    modules, _ = solve_sizes()
+    over = [f"{m} ({k} lines)" for k, m in modules if k > SOLVE_MAX_MODULE]
+    assert not over, (f"modules in pipeline/solve longer than {SOLVE_MAX_MODULE} lines "
+                      f"(largest first): " + ", ".join(over))
+
+
+def test_solve_functions_are_short():
+    _, functions = solve_sizes()
+    over = [f"{u} ({k} lines)" for k, u in functions if k > SOLVE_MAX_FUNCTION]
+    assert not over, (f"functions or methods in pipeline/solve longer than "
+                      f"{SOLVE_MAX_FUNCTION} lines (largest first): " + ", ".join(over))
 
 
 def test_structure_summary():

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from pipeline.solve import timesim as ts
+from pipeline.solve.piecewise import NS, PS, SEP, STICK
 from pipeline.contact import YangMenq
 from pipeline.model.system import System
 
@@ -71,7 +72,7 @@ def test_linear_limit_stuck(case, Om):
         s, Kadd = example3(n0=500.0), np.diag([1.0, 1.0])
     r = ts.steady_state(s, Om)
     assert_linear(r, frf(s, Om, Kadd))
-    assert r.n_events == 0 and np.all(r.state == ts.STICK)
+    assert r.n_events == 0 and np.all(r.state == STICK)
 
 
 @pytest.mark.parametrize("Om", [180.0, 188.0, 200.0, 215.0])
@@ -83,7 +84,7 @@ def test_example1_energy_balance_and_events(Om):
     assert wk["friction"] > 0.1 * wk["input"]            # friction really works here
     assert abs(wk["input"] - wk["viscous"] - wk["friction"]) < 1e-6 * wk["input"]
     ev = r.events
-    slip = (ev["old"] == ts.STICK) & np.isin(ev["new"], (ts.PS, ts.NS))
+    slip = (ev["old"] == STICK) & np.isin(ev["new"], (PS, NS))
     assert slip.sum() == 2 and len(ev) == 4                # stick-slip-stick-slip
     mu_n = 0.5 * 1.0
     u = r.period.event_q[slip, 0]
@@ -106,10 +107,10 @@ def test_example3_n0_10_visits_all_states():
     r = ts.steady_state(s, 1.3)
     assert r.converged, r.message
     seen = set(r.events["old"]) | set(r.events["new"])
-    assert seen == {ts.SEP, ts.STICK, ts.PS, ts.NS}
+    assert seen == {SEP, STICK, PS, NS}
     # touchdown restarts unstrained and goes to positive slip (Sec. 4.1 rule here)
-    td = r.events[r.events["old"] == ts.SEP]
-    assert len(td) == 1 and td["new"][0] == ts.PS
+    td = r.events[r.events["old"] == SEP]
+    assert len(td) == 1 and td["new"][0] == PS
     wk = ts.work_per_period(r.period)
     assert abs(wk["input"] - wk["viscous"] - wk["friction"]) < 1e-6 * wk["input"]
     assert r.amplitude[0] == pytest.approx(8.1626, rel=1e-4)
@@ -120,7 +121,7 @@ def test_example3_n0_minus20_contact_interval():
     r = ts.steady_state(example3(n0=-20.0), 1.0)
     assert r.converged
     pairs = {(int(a), int(b)) for a, b in zip(r.events["old"], r.events["new"])}
-    assert pairs == {(ts.SEP, ts.PS), (ts.PS, ts.STICK), (ts.STICK, ts.NS), (ts.NS, ts.SEP)}
+    assert pairs == {(SEP, PS), (PS, STICK), (STICK, NS), (NS, SEP)}
     assert r.amplitude[0] < 0.6 * np.abs(frf(example3(-20.0), 1.0))[0]   # contact limits it
 
 
@@ -191,7 +192,7 @@ def test_simulate_history_and_event_cap():
     assert np.all(np.diff(r.events["t"]) >= 0)
     # in stick the slider does not move; in slip |ku (u - w)| = mu n
     f = 1e4 * (r.q[:, 0] - r.w[:, 0])
-    slip = np.isin(r.state[:, 0], (ts.PS, ts.NS))
+    slip = np.isin(r.state[:, 0], (PS, NS))
     np.testing.assert_allclose(np.abs(f[slip]), 0.5, rtol=1e-12)
     assert np.all(np.abs(f) <= 0.5 * (1 + 1e-12))
     capped = ts.simulate(s, 200.0, 5 * T, max_events_per_period=1)

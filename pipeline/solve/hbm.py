@@ -44,7 +44,6 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..contact import YangMenq, forces
-from ..contact.exact import history
 from ..fourier.harmonics import derivative_matrix, shift_tables, turn
 from ..model.system import System
 
@@ -497,15 +496,3 @@ def row_weights(prob: HBMProblem, tols) -> np.ndarray:
 def residual_parts(R_full) -> tuple:
     """(static, harmonic) norms [N] of a full residual (n, 2H+1)."""
     return float(np.linalg.norm(R_full[:, 0])), float(np.linalg.norm(R_full[:, 1:]))
-
-
-def state_at_zero(system: System, Q, Om):
-    """q(0), q'(0) and the slider positions w(0) of an HBM solution Q (n, 2H+1) at
-    Om [rad/s]: the state from which `timesim` integrates on from an HBM point."""
-    H = (Q.shape[1] - 1) // 2
-    j = np.arange(1, H + 1)
-    q0 = Q[:, 0] + Q[:, 1::2].sum(1)
-    qd0 = Om * (Q[:, 2::2] * j).sum(1)
-    h = history(system.Bt @ Q, system.Bn @ Q, system.contact, np.array([0.0]))
-    w0 = np.where(h["state"][:, 0] == 0, h["u"][:, 0], h["u"][:, 0] - h["fu"][:, 0] / system.contact.ku)
-    return q0, qd0, w0

@@ -25,7 +25,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from .continuation import Branch, continue_branch, newton
+from .branch import Branch
+from .continuation import continue_branch
+from .newton import newton
 
 _BACK = 0.2  # how far (fraction of the range) a branch may be followed back past its start
 

@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from ..model.scene import CraigBampton, build_system, reduced_model, timed_blade_model
-from ..solve.hbm import state_at_zero
+from ..solve.hbm_state import state_at_zero
 from .checker import Checker
 
 log = logging.getLogger(__name__)

@@ -1,0 +1,149 @@
+"""The result of a continuation run, `Branch`, and the location of its folds.
+
+A fold is a sign change of the lam-component of the tangent between two points:
+`fold_segments` finds it on the cubic Hermite curve through them, and `refine_fold`
+locates it by correctors of the run's `arclength.ScaledEquations`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, eq=False)
+class Branch:
+    """A traced branch (SciPy-style result; arrays are read-only).
+
+    x (m, n), lam (m,)          accepted points, in order along the branch
+    tangent (m, n+1)            unit tangents d[x; lam]/ds in physical units,
+                                normalised in the final scaled metric
+    converged (m,)              True for every returned point (the convergence rule of
+                                `continuation` holds)
+    nit (m,)                    Newton iterations of the accepted corrector
+    point_nfev (m,)             fun calls spent on each point, rejected attempts included
+    residual_norm (m,)          ||R(x, lam)||_2 at each point
+    fold_index (k,)             i such that a fold lies between points i and i+1
+                                (sign change of the lam-component of the tangent)
+    fold_lam (k,), fold_x (k, n)  fold location (refined, see `refine_folds`; not
+                                one of the returned points)
+    nfev, njev                  total fun calls; Jacobians factorised (Newton steps
+                                and tangent solves)
+    n_rejected                  rejected step attempts
+    n_unresolved                steps taken at ds_min that `segment_check` refused
+    scale (n+1,)                final scale [s_x, s_lam]
+    status  0 reached lam_end, 1 left the interval on the lam0 side (at lam_back),
+            2 max_points, 3 stopped by callback, -1 step below ds_min, -2 first point failed
+    """
+
+    x: np.ndarray
+    lam: np.ndarray
+    tangent: np.ndarray
+    converged: np.ndarray
+    nit: np.ndarray
+    point_nfev: np.ndarray
+    residual_norm: np.ndarray
+    fold_index: np.ndarray
+    fold_lam: np.ndarray
+    fold_x: np.ndarray
+    nfev: int
+    njev: int
+    n_rejected: int
+    min_step: float          # smallest accepted step (scaled arclength); inf if none
+    scale: np.ndarray
+    success: bool
+    status: int
+    message: str
+    n_unresolved: int = 0    # steps accepted at ds_min although segment_check refused them
+
+    def __len__(self):
+        return self.lam.size
+
+
+def frozen_array(a, dtype=float):
+    """A read-only copy of `a` as `dtype` (the arrays of a `Branch` and of the options)."""
+    a = np.array(a, dtype=dtype)
+    a.setflags(write=False)
+    return a
+
+
+def _hermite(y0, y1, d0, d1, u):
+    """Cubic Hermite point and derivative at u in [0, 1]."""
+    h = (2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2)
+    dh = (6 * u**2 - 6 * u, 3 * u**2 - 4 * u + 1, -6 * u**2 + 6 * u, 3 * u**2 - 2 * u)
+    p = h[0] * y0 + h[1] * d0 + h[2] * y1 + h[3] * d1
+    dp = dh[0] * y0 + dh[1] * d0 + dh[2] * y1 + dh[3] * d1
+    return p, dp
+
+
+def fold_segments(Z, T, s):
+    """Folds between scaled points: list of (i, u*, (y0, y1, d0, d1)) from Hermite cubics.
+
+    A fold is a sign change of the lam-component of the tangent; u* is the root in
+    [0, 1] of the derivative of the lam-component of the cubic through the two points.
+    """
+    out = []
+    if len(Z) < 2:
+        return out
+    Y = Z / s
+    Ts = T / s
+    Ts /= np.linalg.norm(Ts, axis=1, keepdims=True)
+    tl = Ts[:, -1]
+    for i in np.nonzero(tl[:-1] * tl[1:] < 0)[0]:
+        L = np.linalg.norm(Y[i + 1] - Y[i])
+        seg = (Y[i], Y[i + 1], L * Ts[i], L * Ts[i + 1])
+        y0, y1, d0, d1 = (v[-1] for v in seg)
+        a = 6 * y0 + 3 * d0 - 6 * y1 + 3 * d1
+        b = -6 * y0 - 4 * d0 + 6 * y1 - 2 * d1
+        roots = np.roots([a, b, d0]) if abs(a) > 1e-14 * (abs(b) + abs(d0)) else (
+            np.array([-d0 / b]) if b != 0 else np.array([0.5]))
+        roots = roots[np.isreal(roots)].real
+        roots = roots[(roots >= 0) & (roots <= 1)]
+        u = roots[0] if roots.size else tl[i] / (tl[i] - tl[i + 1])
+        out.append((int(i), float(u), seg))
+    return out
+
+
+def refine_fold(eq, i, u, seg, refine=True):
+    """Fold between points i, i+1: zero of the tangent's lam-component along the
+    branch by Illinois regula falsi on u, each value from a corrector on the
+    hyperplane through the Hermite point p(u) normal to p'(u) (`fold_corrector`).
+    Falls back to the Hermite point if a corrector fails."""
+    y0, y1, d0, d1 = seg
+    p, _ = _hermite(y0, y1, d0, d1, u)
+    best = p * eq.s
+    if not refine:
+        return i, best
+    a, b = 0.0, 1.0
+    ga, gb = d0[-1] / np.linalg.norm(d0), d1[-1] / np.linalg.norm(d1)
+    side = 0
+    for _ in range(12):
+        gu, zc = fold_corrector(eq, seg, u)
+        if gu is None:
+            break
+        best = zc
+        if abs(gu) < 1e-9:
+            break
+        if np.sign(gu) == np.sign(ga):
+            a, ga = u, gu
+            if side == -1:
+                gb *= 0.5
+            side = -1
+        else:
+            b, gb = u, gu
+            if side == 1:
+                ga *= 0.5
+            side = 1
+        u = (a * gb - b * ga) / (gb - ga)
+    return i, best
+
+
+def fold_corrector(eq, seg, u):
+    """(lam-component of the unit scaled tangent, point) of the branch point on
+    the hyperplane through the Hermite point p(u) normal to p'(u); (None, None)
+    if the corrector fails."""
+    p, dp = _hermite(*seg, u)
+    zc, st, _, _, _, _, JJ, _ = eq.solve_on_plane(p, dp / np.linalg.norm(dp))
+    eq.njev += 1
+    tan = eq.tangent_from(*JJ, dp * eq.s) if st == 0 else None
+    return (None, None) if tan is None else (tan[0][eq.n], zc)
