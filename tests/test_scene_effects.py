@@ -171,7 +171,7 @@ def test_linear_regimes_never_reach_the_transition_search(counted, system, H, lo
 
 
 def test_dataset_says_what_the_scene_included():
-    from pipeline.study.dataset import solution_method
+    from pipeline.study.describe import solution_method
     from pipeline.study.documents import load_study
 
     ex1 = load_study(ROOT / "studies" / "paper_example1.toml", quick=True)

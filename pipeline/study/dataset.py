@@ -27,15 +27,17 @@ import datetime as _dt
 import os
 import re
 import uuid
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
 from .. import __version__
-from ..model.scene import AT, Blade, blade_contact_maps, reduced_model, stiffness_factors
+from ..model.scene import AT, stiffness_factors
 from ..model.system import natural_frequencies
-from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study, is_linear_scene
+from .describe import scene_attrs, solution_method
+from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 
 CONVENTIONS = "CF-1.10"
 
@@ -109,88 +111,104 @@ def _peak(freq, amp, mask):
     return np.take_along_axis(a, i[:, None, :], axis=1)[:, 0, :], freq[i]
 
 
-def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
-    """Build the study dataset from one ResponseCurve per grid case.
+def provenance(source: str) -> dict:
+    """The provenance attributes every dataset of the pipeline carries."""
+    return {"pipeline_version": __version__,
+            "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "source": source, "Conventions": CONVENTIONS}
 
-    curves: sequence aligned with `study.sweep.cases()`; None for a case that
-    raised (then all its points are padding and `message` holds `errors[k]`).
-    `stable` is NaN wherever Hill's method was not run: at every point when the
-    study's `solver.stability` is off (the solver then reports True everywhere),
-    and at points that did not converge.
-    """
-    cases = study.sweep.cases()
-    curves = list(curves)
-    if len(curves) != len(cases):
-        raise ValueError(f"curves has {len(curves)} entries, the study has {len(cases)} cases")
-    errors = list(errors) if errors is not None else [None] * len(cases)
-    scene, out, fr = study.scene, study.output, study.sweep.frequency
-    unit, to_unit = fr.unit, fr.to_rad_s
+
+@dataclass(frozen=True)
+class Layout:
+    """Sizes of a response dataset: grid `shape`, reported DOFs and sectors (`rows`,
+    `response_layout`), harmonics H, points P, folds F, peak windows W, modes n."""
+
+    shape: tuple
+    dofs: tuple
+    sectors: tuple | None
+    rows: np.ndarray
+    H: int
+    P: int
+    F: int
+    W: int
+    n: int
+    unit: str
+    to_unit: float
+    computed: bool            # stability computed (solver.stability)
+
+
+def response_sizes(study: Study, curves) -> Layout:
     dofs, sectors, rows = response_layout(study)
-    computed = bool(study.solver.stability)
-    H = max([study.solver.harmonics] + [(c.Q.shape[-1] - 1) // 2 for c in curves if c is not None])
-    shape = study.sweep.shape
-    S, D = rows.shape
-    P = max([1] + [c.n_points for c in curves if c is not None])
-    F = max([1] + [np.size(c.fold_parameter) for c in curves if c is not None])
-    W = len(out.peak_windows)
-    n = len(scene.dofs)
+    fr, done = study.sweep.frequency, [c for c in curves if c is not None]
+    return Layout(shape=study.sweep.shape, dofs=dofs, sectors=sectors, rows=rows,
+                  H=max([study.solver.harmonics] + [(c.Q.shape[-1] - 1) // 2 for c in done]),
+                  P=max([1] + [c.n_points for c in done]),
+                  F=max([1] + [np.size(c.fold_parameter) for c in done]),
+                  W=len(study.output.peak_windows), n=len(study.scene.dofs), unit=fr.unit,
+                  to_unit=fr.to_rad_s, computed=bool(study.solver.stability))
+
+
+def empty_arrays(lay: Layout) -> dict:
+    """Every per-case array of a response dataset, all padding."""
+    S, D = lay.rows.shape
+    P, H, F, W, n = lay.P, lay.H, lay.F, lay.W, lay.n
 
     def full(tail, fill, dtype=float):
-        return np.full(shape + tail, fill, dtype=dtype)
+        return np.full(lay.shape + tail, fill, dtype=dtype)
 
-    v = dict(frequency=full((P,), np.nan), amplitude=full((S, P, D), np.nan),
-             harmonic_amplitude=full((S, P, D, H + 1), np.nan),
-             converged=full((P,), False, bool), stable=full((P,), np.nan),
-             residual=full((P,), np.nan), newton_iterations=full((P,), -1, np.int32),
-             peak_amplitude=full((S, D), np.nan), peak_frequency=full((S, D), np.nan),
-             fold_frequency=full((F,), np.nan), n_points=full((), 0, np.int32),
-             wall_time=full((), np.nan), residual_evaluations=full((), -1, np.int32),
-             success=full((), False, bool), status=full((), -1, np.int32),
-             peaks_resolved=full((), False, bool),
-             residual_tolerance=full((), np.nan),
-             natural_frequency_stuck=full((n,), np.nan), natural_frequency_free=full((n,), np.nan),
-             window_peak_amplitude=full((S, W, D), np.nan),
-             window_peak_frequency=full((S, W, D), np.nan))
-    message = np.full(shape, "", dtype=object)
-    for (idx, case), c, err in zip(cases, curves, errors):
-        sysc = study.system(case)
-        v["natural_frequency_stuck"][idx] = natural_frequencies(sysc, "stuck") / to_unit
-        v["natural_frequency_free"][idx] = natural_frequencies(sysc, "open") / to_unit  # per case: mistuning
-        if c is None:
-            message[idx] = f"failed: {err}" if err else "failed"
-            continue
-        a = _case_arrays(c, rows, to_unit)
-        p, h1 = c.n_points, a["harmonic_amplitude"].shape[-1]
-        for k in ("frequency", "converged", "residual", "newton_iterations"):
-            v[k][idx][:p] = a[k]
-        if computed:
-            v["stable"][idx][:p] = a["stable"]
-        v["amplitude"][idx][:, :p] = a["amplitude"]
-        v["harmonic_amplitude"][idx][:, :p, :, :h1] = a["harmonic_amplitude"]
-        v["harmonic_amplitude"][idx][:, :p, :, h1:] = 0.0
-        v["peak_amplitude"][idx], v["peak_frequency"][idx] = _peak(
-            a["frequency"], a["amplitude"], a["converged"])
-        for w, (lo, hi) in enumerate(out.peak_windows):
-            inside = a["converged"] & (a["frequency"] >= lo) & (a["frequency"] <= hi)
-            v["window_peak_amplitude"][idx][:, w], v["window_peak_frequency"][idx][:, w] = _peak(
-                a["frequency"], a["amplitude"], inside)
-        folds = np.asarray(c.fold_parameter, dtype=float).ravel() / to_unit
-        v["fold_frequency"][idx][:folds.size] = folds
-        v["n_points"][idx] = p
-        v["wall_time"][idx] = c.wall_time
-        v["residual_evaluations"][idx] = c.nfev
-        v["success"][idx] = c.success
-        v["peaks_resolved"][idx] = (bool(c.info.get("resonance_guard", False))
-                                    and c.info.get("unresolved_resonance_steps", 1) == 0)
-        v["status"][idx] = c.status
-        v["residual_tolerance"][idx] = c.tolerance
-        message[idx] = readable_message(str(c.message), to_unit, unit)
+    return dict(frequency=full((P,), np.nan), amplitude=full((S, P, D), np.nan),
+                harmonic_amplitude=full((S, P, D, H + 1), np.nan),
+                converged=full((P,), False, bool), stable=full((P,), np.nan),
+                residual=full((P,), np.nan), newton_iterations=full((P,), -1, np.int32),
+                peak_amplitude=full((S, D), np.nan), peak_frequency=full((S, D), np.nan),
+                fold_frequency=full((F,), np.nan), n_points=full((), 0, np.int32),
+                wall_time=full((), np.nan), residual_evaluations=full((), -1, np.int32),
+                success=full((), False, bool), status=full((), -1, np.int32),
+                peaks_resolved=full((), False, bool),
+                residual_tolerance=full((), np.nan),
+                natural_frequency_stuck=full((n,), np.nan),
+                natural_frequency_free=full((n,), np.nan),
+                window_peak_amplitude=full((S, W, D), np.nan),
+                window_peak_frequency=full((S, W, D), np.nan))
 
-    sw = tuple(study.sweep.axes)
+
+def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
+    """Write one finished curve `c` into the arrays `v` at grid index `idx`; returns
+    its message in the study's words."""
+    a = _case_arrays(c, lay.rows, lay.to_unit)
+    p, h1 = c.n_points, a["harmonic_amplitude"].shape[-1]
+    for k in ("frequency", "converged", "residual", "newton_iterations"):
+        v[k][idx][:p] = a[k]
+    if lay.computed:
+        v["stable"][idx][:p] = a["stable"]
+    v["amplitude"][idx][:, :p] = a["amplitude"]
+    v["harmonic_amplitude"][idx][:, :p, :, :h1] = a["harmonic_amplitude"]
+    v["harmonic_amplitude"][idx][:, :p, :, h1:] = 0.0
+    v["peak_amplitude"][idx], v["peak_frequency"][idx] = _peak(
+        a["frequency"], a["amplitude"], a["converged"])
+    for w, (lo, hi) in enumerate(windows):
+        inside = a["converged"] & (a["frequency"] >= lo) & (a["frequency"] <= hi)
+        v["window_peak_amplitude"][idx][:, w], v["window_peak_frequency"][idx][:, w] = _peak(
+            a["frequency"], a["amplitude"], inside)
+    folds = np.asarray(c.fold_parameter, dtype=float).ravel() / lay.to_unit
+    v["fold_frequency"][idx][:folds.size] = folds
+    v["n_points"][idx] = p
+    v["wall_time"][idx] = c.wall_time
+    v["residual_evaluations"][idx] = c.nfev
+    v["success"][idx] = c.success
+    v["peaks_resolved"][idx] = (bool(c.info.get("resonance_guard", False))
+                                and c.info.get("unresolved_resonance_steps", 1) == 0)
+    v["status"][idx] = c.status
+    v["residual_tolerance"][idx] = c.tolerance
+    return readable_message(str(c.message), lay.to_unit, lay.unit)
+
+
+def response_meta(unit: str, computed: bool) -> dict:
+    """name -> (dims after the sweep axes, units, long_name) of every per-case variable."""
     stable_name = ("asymptotically stable (Hill's method): 1 stable, 0 unstable, NaN not computed"
                    if computed else
                    "stability NOT computed (solver.stability = false): NaN everywhere")
-    meta = {
+    return {
         "amplitude": (("sector", "point", "dof"), "m",
                       "response amplitude, half peak-to-peak (max x - min x)/2"),
         "harmonic_amplitude": (("sector", "point", "dof", "harmonic"), "m",
@@ -221,123 +239,108 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
         "window_peak_frequency": (("sector", "peak_window", "dof"), unit,
                                   "frequency of the largest amplitude inside the peak window"),
     }
+
+
+def response_variables(study: Study, v: dict, message, lay: Layout) -> dict:
+    """The data variables of a response dataset from the filled arrays `v`."""
+    sw = tuple(study.sweep.axes)
     data_vars = {}
-    for k, (dims, units, long_name) in meta.items():
-        if "peak_window" in dims and not W:
+    for k, (dims, units, long_name) in response_meta(lay.unit, lay.computed).items():
+        if "peak_window" in dims and not lay.W:
             continue
         data = v[k]
-        if "sector" in dims and sectors is None:  # one row of DOFs: no sector dimension
+        if "sector" in dims and lay.sectors is None:  # one row of DOFs: no sector dimension
             data, dims = data.take(0, axis=len(sw)), dims[1:]
         data_vars[k] = (sw + dims, data, {"units": units, "long_name": long_name})
     data_vars["stable"][2].update(
         flag_values=np.array([0.0, 1.0]), flag_meanings="unstable stable",
         comment="NaN where stability was not computed: points that did not converge"
-                + ("" if computed else ", and every point since solver.stability = false"),
-        stability_computed=int(computed))
+                + ("" if lay.computed else ", and every point since solver.stability = false"),
+        stability_computed=int(lay.computed))
     data_vars["message"] = (sw, message.astype(str), {"long_name": "continuation message"})
+    return data_vars
 
+
+def index_coord(name, values, long_name, units="1"):
+    return (name, np.asarray(values, dtype=np.int32), {"units": units, "long_name": long_name})
+
+
+def response_coords(study: Study, frequency, lay: Layout) -> dict:
+    """The coordinates of a response dataset, `frequency` (grid..., point) included."""
+    sw = tuple(study.sweep.axes)
     coords = {a: (a, np.asarray(vals, dtype=np.int32 if a in INTEGER_SWEEP_AXES else float),
                   {"units": SWEEP_AXES[a][0], "long_name": SWEEP_AXES[a][1]})
               for a, vals in study.sweep.axes.items()}
-    coords["frequency"] = (sw + ("point",), v["frequency"],
-                           {"units": unit, "long_name": "excitation frequency"})
-    coords["dof"] = ("dof", np.asarray(dofs, dtype=str), {"long_name": "response degree of freedom"})
-    if sectors is not None:
-        coords["sector"] = ("sector", np.asarray(sectors, dtype=np.int32),
-                            {"units": "1", "long_name": "sector number j (0 ... sectors - 1)"})
-        _add_mistuning_factors(data_vars, study, sectors)
-    coords["harmonic"] = ("harmonic", np.arange(H + 1, dtype=np.int32),
-                          {"units": "1", "long_name": "harmonic index h (0: static part)"})
-    coords["point"] = ("point", np.arange(P, dtype=np.int32),
-                       {"units": "1", "long_name": "index along the continuation branch"})
-    coords["fold"] = ("fold", np.arange(F, dtype=np.int32),
-                      {"units": "1", "long_name": "index of a fold (turning point) on the branch"})
-    coords["mode"] = ("mode", np.arange(1, n + 1, dtype=np.int32),
-                      {"units": "1", "long_name": "mode number"})
-    if W:
-        lo, hi = np.array(out.peak_windows, dtype=float).T
-        coords["peak_window"] = ("peak_window", np.arange(W, dtype=np.int32),
-                                 {"units": "1", "long_name": "peak window index"})
-        coords["peak_window_low"] = ("peak_window", lo, {"units": unit,
-                                                         "long_name": "lower bound of the peak window"})
-        coords["peak_window_high"] = ("peak_window", hi, {"units": unit,
-                                                          "long_name": "upper bound of the peak window"})
-    attrs = {
-        "title": study.title,
-        "study": study.text,
-        "study_name": study.name,
-        "description": study.description,
-        "reference": study.reference,
-        "model": scene.model,
-        "effects": ", ".join(scene.effects) or "none (linear)",
-        "solution_method": solution_method(study),
-        "harmonics": int(H),
-        "force_evaluation": study.solver.force_evaluation,
-        "aft_samples": int(study.solver.samples),
-        "tolerance": float(study.solver.tolerance),
-        "frequency_unit": unit,
-        "quick": int(study.quick),
-        "pipeline_version": __version__,
-        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "source": "pipeline (harmonic balance with Yang-Menq contact, continuation, Hill stability)",
-        "Conventions": CONVENTIONS,
-    }
+    coords["frequency"] = (sw + ("point",), frequency,
+                           {"units": lay.unit, "long_name": "excitation frequency"})
+    coords["dof"] = ("dof", np.asarray(lay.dofs, dtype=str),
+                     {"long_name": "response degree of freedom"})
+    if lay.sectors is not None:
+        coords["sector"] = index_coord("sector", lay.sectors, "sector number j (0 ... sectors - 1)")
+    coords["harmonic"] = index_coord("harmonic", np.arange(lay.H + 1),
+                                     "harmonic index h (0: static part)")
+    coords["point"] = index_coord("point", np.arange(lay.P), "index along the continuation branch")
+    coords["fold"] = index_coord("fold", np.arange(lay.F),
+                                 "index of a fold (turning point) on the branch")
+    coords["mode"] = index_coord("mode", np.arange(1, lay.n + 1), "mode number")
+    if lay.W:
+        lo, hi = np.array(study.output.peak_windows, dtype=float).T
+        coords["peak_window"] = index_coord("peak_window", np.arange(lay.W), "peak window index")
+        coords["peak_window_low"] = ("peak_window", lo, {
+            "units": lay.unit, "long_name": "lower bound of the peak window"})
+        coords["peak_window_high"] = ("peak_window", hi, {
+            "units": lay.unit, "long_name": "upper bound of the peak window"})
+    return coords
+
+
+def response_attrs(study: Study, lay: Layout) -> dict:
+    """Global attributes of a response dataset: the study, its method, provenance, the
+    scene's model, stability."""
+    scene, sv = study.scene, study.solver
+    attrs = {"title": study.title, "study": study.text, "study_name": study.name,
+             "description": study.description, "reference": study.reference,
+             "model": scene.model, "effects": ", ".join(scene.effects) or "none (linear)",
+             "solution_method": solution_method(study), "harmonics": int(lay.H),
+             "force_evaluation": sv.force_evaluation, "aft_samples": int(sv.samples),
+             "tolerance": float(sv.tolerance), "frequency_unit": lay.unit,
+             "quick": int(study.quick),
+             **provenance("pipeline (harmonic balance with Yang-Menq contact, continuation, "
+                          "Hill stability)")}
     attrs.update(scene_attrs(scene))  # FE blade and disk scenes describe their model
-    attrs["stability"] = ("Hill's method" if computed else
+    attrs["stability"] = ("Hill's method" if lay.computed else
                           "not computed (solver.stability = false): stable is NaN everywhere")
-    if optimum is not None:
-        _add_optimum(data_vars, coords, optimum, study, to_unit, unit)
-    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
-
-
-def scene_attrs(scene) -> dict:
-    """Global attributes that describe a scene's FE structure and its reduction
-    (blades), then its cyclic assembly (disks); none for a single lumped structure."""
-    attrs = blade_attrs(scene) if isinstance(scene.structure, Blade) else {}
-    return {**attrs, **(cyclic_attrs(scene) if scene.cyclic else {})}
-
-
-def blade_attrs(scene) -> dict:
-    """Attributes of an FE blade scene: model sizes, damping, contact parameters."""
-    st = scene.structure
-    red, reduce_time = reduced_model(st, scene.reduction)
-    return {"blade_model": scene.model, "mesh": st.mesh or "generated",
-            "n_dof_full": int(red.n_full), "n_boundary_dofs": int(red.n_boundary),
-            "craig_bampton_modes": int(red.n_modes),
-            "contact_nodes": int(blade_contact_maps(scene)[0].shape[0]),
-            "damping": (f"rayleigh alpha = {st.rayleigh[0]:g} 1/s, beta = "
-                        f"{st.rayleigh[1]:g} s" if st.rayleigh is not None else
-                        f"modal ratios {list(st.params.damping_ratios)}"),
-            "contact_parameters": "; ".join(
-                f"{c.name}: " + ("ku, kv per contact node [N/m]; preload = total normal load "
-                                 "of the face [N], n0 per node = preload / nodes"
-                                 if c.stiffness == "per_node" else
-                                 "ku, kv [N/m] and preload [N] are face totals, shared by "
-                                 "the nodes in proportion to their area")
-                for c in scene.contacts),
-            "reduced_frequencies_hz": np.asarray(red.frequencies[:10], dtype=float),
-            "reduction_time_s": float(reduce_time)}
-
-
-def cyclic_attrs(scene) -> dict:
-    """Attributes of a cyclic assembly: sectors, engine order, mistuning."""
-    asm, mis = scene.assembly, scene.mistuning
-    attrs = {"sectors": int(asm.sectors), "sector_dofs": int(len(scene.sector_dofs)),
-             "cyclic_reduction": "one sector, travelling wave Q_{j,h} = exp(i h j phi) "
-                                 "Q_{0,h}, phi = 2 pi EO / sectors (Petrov 2004)",
-             "excitation": "engine order EO: sector j loaded by sector 0's load "
-                           "shifted by j phi (phase j phi in the first harmonic)"}
-    if asm.engine_order is not None:
-        attrs["engine_order"] = int(asm.engine_order)
-    if mis is not None:
-        attrs["cyclic_reduction"] = ("none: mistuned, the full assembly of all sectors "
-                                     "(responses per sector on the sector dimension)")
-        attrs["mistuning"] = ("sector j stiffness (1 + delta_j) K, delta_j ~ N(0, std^2) "
-                              "from numpy default_rng(seed), truncated at 3 std and -0.9")
-        attrs["mistuning_stiffness_std"] = float(mis.stiffness_std)
-        if mis.seed is not None:
-            attrs["mistuning_seed"] = int(mis.seed)
     return attrs
+
+
+def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
+    """Build the study dataset from one ResponseCurve per grid case.
+
+    curves: sequence aligned with `study.sweep.cases()`; None for a case that
+    raised (then all its points are padding and `message` holds `errors[k]`).
+    `stable` is NaN wherever Hill's method was not run: at every point when the
+    study's `solver.stability` is off (the solver then reports True everywhere),
+    and at points that did not converge.
+    """
+    cases = study.sweep.cases()
+    curves = list(curves)
+    if len(curves) != len(cases):
+        raise ValueError(f"curves has {len(curves)} entries, the study has {len(cases)} cases")
+    errors = list(errors) if errors is not None else [None] * len(cases)
+    lay = response_sizes(study, curves)
+    v, message = empty_arrays(lay), np.full(lay.shape, "", dtype=object)
+    for (idx, case), c, err in zip(cases, curves, errors):
+        sysc = study.system(case)                 # per case: mistuning changes them
+        v["natural_frequency_stuck"][idx] = natural_frequencies(sysc, "stuck") / lay.to_unit
+        v["natural_frequency_free"][idx] = natural_frequencies(sysc, "open") / lay.to_unit
+        message[idx] = (fill_case(v, idx, c, lay, study.output.peak_windows) if c is not None
+                        else f"failed: {err}" if err else "failed")
+    data_vars = response_variables(study, v, message, lay)
+    coords = response_coords(study, v["frequency"], lay)
+    if lay.sectors is not None:
+        _add_mistuning_factors(data_vars, study, lay.sectors)
+    if optimum is not None:
+        _add_optimum(data_vars, coords, optimum, study, lay.to_unit, lay.unit)
+    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=response_attrs(study, lay))
 
 
 def _add_mistuning_factors(data_vars, study, sectors):
@@ -405,10 +408,7 @@ def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset
         "max_relative_error_at_default": float(np.nanmax(res["rel_error"][ci])),
         "mode_shapes": mode_shapes_file,
         "quick": int(study.quick),
-        "pipeline_version": __version__,
-        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "source": "pipeline (scikit-fem blade, sparse Craig-Bampton reduction)",
-        "Conventions": CONVENTIONS,
+        **provenance("pipeline (scikit-fem blade, sparse Craig-Bampton reduction)"),
     }
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
 
@@ -432,19 +432,6 @@ def _add_optimum(data_vars, coords, opt, study, to_unit, unit):
         "units": "m", "long_name": f"resonant peak of {dof} at that preload"})
     data_vars["search_wall_time"] = ((), float(opt.get("wall_time", np.nan)), {
         "units": "s", "long_name": "wall time of the optimum search"})
-
-
-def solution_method(study) -> str:
-    """What the run composed for the scene's declared effects (a scene pays only
-    for what it calls for), in words."""
-
-    if is_linear_scene(study.scene):
-        return "direct linear solve per frequency (no contact elements: no Newton, no continuation)"
-    eff = set(study.scene.effects)
-    normal = ("variable normal load, " + ("searched for separation" if "separation" in eff else "kept closed (a case that separates fails)") if "normal_load_variation" in eff
-              else "constant normal load (Jenkins path: no separation search)")
-    return (f"harmonic balance with pseudo-arclength continuation; Yang-Menq contacts: {normal}; "
-            "fully stuck or open elements evaluated as linear springs")
 
 
 def _encoding(ds: xr.Dataset) -> dict:
