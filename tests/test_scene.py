@@ -134,6 +134,19 @@ def test_build_system_applies_every_axis():
         build_system(s.scene, {"temperature": 1.0})
 
 
+@pytest.mark.parametrize("method,ok", [("exact", True), ("aft", False)])
+def test_samples_rule_applies_only_where_samples_are_taken(method, ok):
+    """H = 150 with the default 256 samples: exact forces sample nothing and run; AFT
+    needs 2H+1 = 301 samples and is refused, naming the field."""
+    doc = tomllib.loads(EXAMPLES[0].read_text())
+    doc["solver"] = {"harmonics": 150, "force_evaluation": method}
+    if ok:
+        assert study_from_document(doc, file="h150.toml").solver.harmonics == 150
+    else:
+        with pytest.raises(UsageError, match=r"h150.toml: solver.harmonics: must be >= 2H\+1 = 301"):
+            study_from_document(doc, file="h150.toml")
+
+
 def test_grid_cases_in_file_order():
     doc = tomllib.loads((STUDIES / "paper_example3.toml").read_text())
     doc["sweep"] = {"mu": [0.1, 0.2], "preload": [10.0, 20.0, 30.0],

@@ -34,7 +34,7 @@ from .checker import Checker, join_field, kind_of
 from .rules import check_scene_rules
 from .spec import (EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
                    MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, SWEEP_AXES, FrequencyRange,
-                   OutputSettings, SolverSettings, Study, Sweep)
+                   OutputSettings, SolverSettings, Study, Sweep, solver_rule_violations)
 
 _SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
 
@@ -153,15 +153,12 @@ def parse_solver(ck, tab, path, base=None) -> SolverSettings:
     if "max_points" in tab:
         kw["max_points"] = ck.integer(tab["max_points"], f"{path}.max_points", 2, 1_000_000)
     s = replace(base, **kw) if base is not None else SolverSettings(**kw)
-    if s.initial_step is not None and s.max_step is not None and s.initial_step > s.max_step:
-        key = "initial_step" if "initial_step" in tab else "max_step"
-        ck.fail(f"{path}.{key}", f"initial_step {s.initial_step:g} exceeds max_step {s.max_step:g}")
-    if s.samples < 2 * s.harmonics + 1:
-        # blame the key of this table that broke the rule
-        field = (f"{path}.samples" if "samples" in tab or "harmonics" not in tab
-                 else f"{path}.harmonics")
-        ck.fail(field, f"must be >= 2H+1 = {2 * s.harmonics + 1} for H = {s.harmonics}, "
-                       f"got {s.samples}")
+    # blame a key of this table that takes part in the broken rule
+    partner = {"initial_step": "max_step", "samples": "harmonics"}
+    for key, what in solver_rule_violations(s):
+        if key not in tab and partner[key] in tab:
+            key = partner[key]
+        ck.fail(f"{path}.{key}", what)
     return s
 
 

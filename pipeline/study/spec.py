@@ -102,6 +102,21 @@ class SolverSettings:
         return kw
 
 
+def solver_rule_violations(s) -> list:
+    """[(setting to blame, what)] for every cross-field rule that solver settings `s`
+    (`SolverSettings` or the accuracy study's `Settings`) break: the first step within
+    the largest, and with AFT at least 2H+1 samples per period (exact forces sample
+    nothing).  The one place these rules live; parsers name the field."""
+    out = []
+    if s.initial_step is not None and s.max_step is not None and s.initial_step > s.max_step:
+        out.append(("initial_step", f"initial_step {s.initial_step:g} exceeds max_step "
+                                    f"{s.max_step:g}"))
+    if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
+        out.append(("samples", f"must be >= 2H+1 = {2 * s.harmonics + 1} for H = "
+                               f"{s.harmonics}, got {s.samples}"))
+    return out
+
+
 @dataclass(frozen=True)
 class OutputSettings:
     dofs: tuple                  # response DOF names
