@@ -231,9 +231,9 @@ def blade_model(structure: Blade):
 @lru_cache(maxsize=4)
 def timed_blade_model(structure: Blade) -> tuple:
     """(`fe_model.BladeModel` of a `Blade` spec, the wall time [s] its build took)."""
-    # deferred: fe_model imports scikit-fem and meshio (about a second); lumped
+    # deferred: blades imports scikit-fem and meshio (about a second); lumped
     # scenes never need them
-    from ..structure.fe_model import build_blade, load_blade
+    from ..structure.blades import build_blade, load_blade
 
     t0 = time.perf_counter()
     if structure.mesh:

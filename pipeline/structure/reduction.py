@@ -34,6 +34,8 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from .fe_model import boundary_dofs
+
 log = logging.getLogger(__name__)
 
 DEFAULT_MODES = 40
@@ -220,8 +222,6 @@ def reduce_blade(blade, n_modes: int = DEFAULT_MODES, names=None, **kw) -> Reduc
     """Reduce a `fe_model.BladeModel`, keeping its contact faces, excitation and
     response DOFs (or the sets `names`); modal damping from its parameters.
     `sets` of the result give each set's positions in q, shaped like the blade's."""
-    from .fe_model import boundary_dofs  # deferred: fe_model imports scikit-fem (slow)
-
     b, labels = boundary_dofs(blade, names)
     kw.setdefault("damping_ratios", blade.params.damping_ratios)
     red = reduce(blade.K, blade.M, b, n_modes, labels=labels, **kw)
@@ -288,7 +288,7 @@ def modal_convergence(blade_params, mode_counts, n_freqs: int = 10) -> dict:
     (m, n_freqs), rel_error (m, n_freqs) = reduced/full - 1, time_full_s (scalar
     array), time_reduce_s (m,), n_dof, n_boundary.
     """
-    from .fe_model import boundary_dofs, build_blade  # deferred: scikit-fem (slow import)
+    from .blades import build_blade  # deferred: scikit-fem and meshio (slow imports)
 
     counts = np.asarray(mode_counts, dtype=int)
     if counts.ndim != 1 or counts.size == 0 or np.any(counts < 0):

@@ -290,7 +290,7 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
 
 
 def _mesh(ck, value, field_, base_dir, tab, kind):
-    from ..structure.fe_model import read_mesh
+    from ..structure.mesh_io import read_mesh
 
     s = ck.string(value, field_)
     path = Path(s) if Path(s).is_absolute() else base_dir / s
@@ -469,7 +469,7 @@ def modal_study(scene: Scene, mode_counts, n_freqs: int, n_shapes: int = 0) -> d
 def run_modes_study(study: ModesStudy, out_dir="results", *, figures: bool = True):
     """Run a modes study: `out_dir/<name>.nc`, then `out_dir/<name>/mode_shapes.vtu`
     and `out_dir/<name>/modal_convergence.png`."""
-    from ..structure.fe_model import write_fields
+    from ..structure.mesh_io import write_fields
 
     t0 = time.perf_counter()
     sc = study.scene
