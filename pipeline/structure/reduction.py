@@ -129,6 +129,43 @@ def _damping(Kr, Mr, damping_ratios, rayleigh):
     return (MX * (2 * zeta * w)) @ MX.T, w
 
 
+def _constraint_modes(lu, Kib, block):
+    """Static constraint modes Psi = -K_ii^{-1} K_ib (dense n_i x n_b) from the factor
+    `lu` of K_ii, solved `block` right-hand sides at a time."""
+    nb = Kib.shape[1]
+    Psi = np.empty((Kib.shape[0], nb))
+    for lo in range(0, nb, block):
+        j = slice(lo, min(lo + block, nb))
+        Psi[:, j] = -lu.solve(Kib[:, j].toarray())
+    return Psi
+
+
+def _project(Kbb, Mbb, Kib, Mib, Mii, Psi, Phi, w2, block):
+    """Dense reduced (K_r, M_r) = T^T (K, M) T of u = T q, T = [[I, 0], [Psi, Phi]]
+    (module doc), from the partitioned blocks, the fixed-interface eigenvalues w2
+    and modes Phi (M_ii-normalised); boundary blocks symmetrised.  M_ii Psi is
+    formed `block` columns at a time."""
+    nb = Psi.shape[1]
+    Kr_bb = Kbb + Kib.T @ Psi
+    MiiPsi = np.empty_like(Psi)
+    for lo in range(0, nb, block):
+        j = slice(lo, min(lo + block, nb))
+        MiiPsi[:, j] = Mii @ Psi[:, j]
+    Mr_bb = Mbb + Mib.T @ Psi
+    Mr_bb += Mr_bb.T - Mbb + Psi.T @ MiiPsi
+    del MiiPsi
+    Mr_bm = (Mib.T @ Phi) + Psi.T @ (Mii @ Phi)
+    nr = nb + Phi.shape[1]
+    Kr, Mr = np.zeros((nr, nr)), np.zeros((nr, nr))
+    Kr[:nb, :nb] = (Kr_bb + Kr_bb.T) / 2
+    Kr[nb:, nb:] = np.diag(w2)
+    Mr[:nb, :nb] = (Mr_bb + Mr_bb.T) / 2
+    Mr[:nb, nb:] = Mr_bm
+    Mr[nb:, :nb] = Mr_bm.T
+    Mr[nb:, nb:] = np.eye(Phi.shape[1])
+    return Kr, Mr
+
+
 def reduce(K, M, boundary, n_modes: int = DEFAULT_MODES, *, damping_ratios=(0.0,),
            rayleigh=None, labels=None, block: int = 256) -> ReducedModel:
     """Craig-Bampton reduction of (K, M) keeping the DOFs `boundary` (module doc).
@@ -179,30 +216,11 @@ def reduce(K, M, boundary, n_modes: int = DEFAULT_MODES, *, damping_ratios=(0.0,
     times["normal_modes"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    Psi = np.empty((i.size, nb))
-    for lo in range(0, nb, block):
-        j = slice(lo, min(lo + block, nb))
-        Psi[:, j] = -lu.solve(Kib[:, j].toarray())
+    Psi = _constraint_modes(lu, Kib, block)
     times["constraint_modes"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    Kr_bb = Kbb + Kib.T @ Psi
-    MiiPsi = np.empty_like(Psi)
-    for lo in range(0, nb, block):
-        j = slice(lo, min(lo + block, nb))
-        MiiPsi[:, j] = Mii @ Psi[:, j]
-    Mr_bb = Mbb + Mib.T @ Psi
-    Mr_bb += Mr_bb.T - Mbb + Psi.T @ MiiPsi
-    del MiiPsi
-    Mr_bm = (Mib.T @ Phi) + Psi.T @ (Mii @ Phi)
-    nr = nb + Phi.shape[1]
-    Kr, Mr = np.zeros((nr, nr)), np.zeros((nr, nr))
-    Kr[:nb, :nb] = (Kr_bb + Kr_bb.T) / 2
-    Kr[nb:, nb:] = np.diag(w2)
-    Mr[:nb, :nb] = (Mr_bb + Mr_bb.T) / 2
-    Mr[:nb, nb:] = Mr_bm
-    Mr[nb:, :nb] = Mr_bm.T
-    Mr[nb:, nb:] = np.eye(Phi.shape[1])
+    Kr, Mr = _project(Kbb, Mbb, Kib, Mib, Mii, Psi, Phi, w2, block)
     times["projection"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
