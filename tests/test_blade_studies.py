@@ -16,7 +16,9 @@ from pipeline.solve.newton import newton
 from pipeline.study.dataset import read_dataset
 from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError
-from pipeline.structure.fe_model import BladeParams, build_blade, write_mesh
+from pipeline.structure.blades import build_blade
+from pipeline.structure.fe_model import BladeParams
+from pipeline.structure.mesh_io import write_mesh
 from pipeline.fourier.harmonics import amplitude_half_peak_to_peak, evaluate
 from pipeline.solve.response import initial_guess
 from pipeline.study.documents import load_study, parse_study

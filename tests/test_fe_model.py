@@ -9,9 +9,11 @@ import scipy.sparse.linalg as sla
 from skfem import Basis, BilinearForm, ElementHex2, ElementVector, MeshHex, MeshTet, asm
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
-from pipeline.structure.fe_model import (BladeParams, assemble_elasticity, boundary_dofs, build_blade,
-                                         euler_bernoulli_frequencies, load_blade, point_displacements,
-                                         read_mesh, write_fields, write_mesh)
+from pipeline.structure.beam import euler_bernoulli_frequencies
+from pipeline.structure.blades import build_blade, load_blade
+from pipeline.structure.fe_model import BladeParams, boundary_dofs, point_displacements
+from pipeline.structure.mesh_io import read_mesh, write_fields, write_mesh
+from pipeline.structure.solid import assemble_elasticity
 from pipeline.structure.reduction import eigenmodes
 
 COARSE = BladeParams(n_chord=4, n_thick=1, n_span=8)

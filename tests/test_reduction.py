@@ -7,7 +7,9 @@ import scipy.sparse as sp
 import scipy.linalg as la
 import scipy.sparse.linalg as sla
 
-from pipeline.structure.fe_model import BladeParams, boundary_dofs, build_blade, write_fields
+from pipeline.structure.blades import build_blade
+from pipeline.structure.fe_model import BladeParams, boundary_dofs
+from pipeline.structure.mesh_io import write_fields
 from pipeline.structure.reduction import (DEFAULT_MODES, eigenmodes, frf, modal_convergence,
                                           reconstruct, reduce, reduce_blade, reduce_map,
                                           reduced_modes)

@@ -17,7 +17,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..structure.fe_model import BladeParams, build_blade, euler_bernoulli_frequencies
+from ..structure.beam import euler_bernoulli_frequencies
+from ..structure.blades import build_blade
+from ..structure.fe_model import BladeParams
 from ..structure.reduction import eigenmodes, modal_convergence, reduce_blade
 
 # (n_chord, n_thick, n_span) of the default blade giving ~10k, ~50k, ~100k DOFs

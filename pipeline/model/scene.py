@@ -5,7 +5,7 @@ turns it, with one parameter case applied, into the `System` of paper Eq. 4-6
 that every solver takes:
 
     structure   `Lumped` (M, C, K over named DOFs) | `Blade` (a scikit-fem FE blade,
-                generated or read through meshio, `pipeline.structure.fe_model`)
+                generated or read through meshio, `pipeline.structure.blades`)
     reduction   None | `CraigBampton` (fixed-interface modes; keeps contact faces,
                 excitation and response DOFs, `pipeline.structure.reduction`)
     contacts    `DofContact` (a row over named DOFs; in a cyclic assembly also over
@@ -186,9 +186,9 @@ def blade_model(structure: Blade):
 @lru_cache(maxsize=4)
 def timed_blade_model(structure: Blade) -> tuple:
     """(`fe_model.BladeModel` of a `Blade` spec, the wall time [s] its build took)."""
-    # deferred: fe_model imports scikit-fem and meshio (about a second); lumped
+    # deferred: blades imports scikit-fem and meshio (about a second); lumped
     # scenes never need them
-    from ..structure.fe_model import build_blade, load_blade
+    from ..structure.blades import build_blade, load_blade
 
     t0 = time.perf_counter()
     if structure.mesh:

@@ -34,6 +34,8 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from .fe_model import boundary_dofs
+
 log = logging.getLogger(__name__)
 
 DEFAULT_MODES = 40
@@ -127,6 +129,43 @@ def _damping(Kr, Mr, damping_ratios, rayleigh):
     return (MX * (2 * zeta * w)) @ MX.T, w
 
 
+def _constraint_modes(lu, Kib, block):
+    """Static constraint modes Psi = -K_ii^{-1} K_ib (dense n_i x n_b) from the factor
+    `lu` of K_ii, solved `block` right-hand sides at a time."""
+    nb = Kib.shape[1]
+    Psi = np.empty((Kib.shape[0], nb))
+    for lo in range(0, nb, block):
+        j = slice(lo, min(lo + block, nb))
+        Psi[:, j] = -lu.solve(Kib[:, j].toarray())
+    return Psi
+
+
+def _project(Kbb, Mbb, Kib, Mib, Mii, Psi, Phi, w2, block):
+    """Dense reduced (K_r, M_r) = T^T (K, M) T of u = T q, T = [[I, 0], [Psi, Phi]]
+    (module doc), from the partitioned blocks, the fixed-interface eigenvalues w2
+    and modes Phi (M_ii-normalised); boundary blocks symmetrised.  M_ii Psi is
+    formed `block` columns at a time."""
+    nb = Psi.shape[1]
+    Kr_bb = Kbb + Kib.T @ Psi
+    MiiPsi = np.empty_like(Psi)
+    for lo in range(0, nb, block):
+        j = slice(lo, min(lo + block, nb))
+        MiiPsi[:, j] = Mii @ Psi[:, j]
+    Mr_bb = Mbb + Mib.T @ Psi
+    Mr_bb += Mr_bb.T - Mbb + Psi.T @ MiiPsi
+    del MiiPsi
+    Mr_bm = (Mib.T @ Phi) + Psi.T @ (Mii @ Phi)
+    nr = nb + Phi.shape[1]
+    Kr, Mr = np.zeros((nr, nr)), np.zeros((nr, nr))
+    Kr[:nb, :nb] = (Kr_bb + Kr_bb.T) / 2
+    Kr[nb:, nb:] = np.diag(w2)
+    Mr[:nb, :nb] = (Mr_bb + Mr_bb.T) / 2
+    Mr[:nb, nb:] = Mr_bm
+    Mr[nb:, :nb] = Mr_bm.T
+    Mr[nb:, nb:] = np.eye(Phi.shape[1])
+    return Kr, Mr
+
+
 def reduce(K, M, boundary, n_modes: int = DEFAULT_MODES, *, damping_ratios=(0.0,),
            rayleigh=None, labels=None, block: int = 256) -> ReducedModel:
     """Craig-Bampton reduction of (K, M) keeping the DOFs `boundary` (module doc).
@@ -177,30 +216,11 @@ def reduce(K, M, boundary, n_modes: int = DEFAULT_MODES, *, damping_ratios=(0.0,
     times["normal_modes"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    Psi = np.empty((i.size, nb))
-    for lo in range(0, nb, block):
-        j = slice(lo, min(lo + block, nb))
-        Psi[:, j] = -lu.solve(Kib[:, j].toarray())
+    Psi = _constraint_modes(lu, Kib, block)
     times["constraint_modes"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    Kr_bb = Kbb + Kib.T @ Psi
-    MiiPsi = np.empty_like(Psi)
-    for lo in range(0, nb, block):
-        j = slice(lo, min(lo + block, nb))
-        MiiPsi[:, j] = Mii @ Psi[:, j]
-    Mr_bb = Mbb + Mib.T @ Psi
-    Mr_bb += Mr_bb.T - Mbb + Psi.T @ MiiPsi
-    del MiiPsi
-    Mr_bm = (Mib.T @ Phi) + Psi.T @ (Mii @ Phi)
-    nr = nb + Phi.shape[1]
-    Kr, Mr = np.zeros((nr, nr)), np.zeros((nr, nr))
-    Kr[:nb, :nb] = (Kr_bb + Kr_bb.T) / 2
-    Kr[nb:, nb:] = np.diag(w2)
-    Mr[:nb, :nb] = (Mr_bb + Mr_bb.T) / 2
-    Mr[:nb, nb:] = Mr_bm
-    Mr[nb:, :nb] = Mr_bm.T
-    Mr[nb:, nb:] = np.eye(Phi.shape[1])
+    Kr, Mr = _project(Kbb, Mbb, Kib, Mib, Mii, Psi, Phi, w2, block)
     times["projection"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -220,8 +240,6 @@ def reduce_blade(blade, n_modes: int = DEFAULT_MODES, names=None, **kw) -> Reduc
     """Reduce a `fe_model.BladeModel`, keeping its contact faces, excitation and
     response DOFs (or the sets `names`); modal damping from its parameters.
     `sets` of the result give each set's positions in q, shaped like the blade's."""
-    from .fe_model import boundary_dofs  # deferred: fe_model imports scikit-fem (slow)
-
     b, labels = boundary_dofs(blade, names)
     kw.setdefault("damping_ratios", blade.params.damping_ratios)
     red = reduce(blade.K, blade.M, b, n_modes, labels=labels, **kw)
@@ -288,7 +306,7 @@ def modal_convergence(blade_params, mode_counts, n_freqs: int = 10) -> dict:
     (m, n_freqs), rel_error (m, n_freqs) = reduced/full - 1, time_full_s (scalar
     array), time_reduce_s (m,), n_dof, n_boundary.
     """
-    from .fe_model import boundary_dofs, build_blade  # deferred: scikit-fem (slow import)
+    from .blades import build_blade  # deferred: scikit-fem and meshio (slow imports)
 
     counts = np.asarray(mode_counts, dtype=int)
     if counts.ndim != 1 or counts.size == 0 or np.any(counts < 0):

@@ -44,6 +44,8 @@ import numpy as np
 from ..model.contacts import FaceContact
 from ..model.loads import PointLoad
 from ..model.scene import Blade, CraigBampton, Scene, blade_model
+from ..structure.fe_model import BladeParams, boundary_dofs
+from ..structure.reduction import DEFAULT_MODES
 from .checker import Checker
 from .rules import check_scene_rules
 from .scene import (check_windows, output_common, parse_solver, parse_sweep, quick_tables,
@@ -170,8 +172,6 @@ def parse_blade_params(ck, t, model, origin):
     """`fe_model.BladeParams` of the [scene.blade] table `t` for `model`, refusing a
     mesh too fine to generate; `origin` maps a key to the field it came from (a quick
     override), for the error message."""
-    from ..structure.fe_model import BladeParams
-
     def where(k):
         return f"{origin.get(k, 'scene.blade')}.{k}"
 
@@ -217,7 +217,6 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
     """The `Scene` of a [scene] table for a study of `kind` ("response" or
     "modes"), mesh files relative to `base_dir`; the blade is built once to check
     node sets, faces and mode counts.  `origin`: as in `parse_blade_params`."""
-    from ..structure.reduction import DEFAULT_MODES
 
     def fld(k):
         return origin.get(f"scene.{k}", f"scene.{k}")
@@ -270,8 +269,6 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
         blade = blade_model(scene.structure)
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # e.g. a degenerate mesh
         ck.fail(fld("mesh") if mesh else "scene.blade", str(exc))
-    from ..structure.fe_model import boundary_dofs
-
     nb = boundary_dofs(blade)[0].size
     if n_modes > blade.n_dof - nb:
         ck.fail(fld("craig_bampton_modes"), f"must be <= {blade.n_dof - nb} (free DOFs "
@@ -290,7 +287,7 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
 
 
 def _mesh(ck, value, field_, base_dir, tab, kind):
-    from ..structure.fe_model import read_mesh
+    from ..structure.mesh_io import read_mesh  # deferred: meshio is slow to import
 
     s = ck.string(value, field_)
     path = Path(s) if Path(s).is_absolute() else base_dir / s
@@ -381,8 +378,6 @@ def _modes(ck, t, path, scene):
         if vals[i] <= vals[i - 1]:
             ck.fail(f"{path}.mode_counts[{i}]", f"must increase strictly, got {vals[i - 1]} "
                                                 f"then {vals[i]}")
-    from ..structure.fe_model import boundary_dofs
-
     blade = blade_model(scene.structure)
     n_int = blade.n_dof - boundary_dofs(blade)[0].size
     if vals and vals[-1] > n_int:

@@ -11,6 +11,9 @@ from pathlib import Path
 import numpy as np
 
 from ..model.scene import Scene, blade_model
+from ..structure.fe_model import boundary_dofs
+from ..structure.mesh_io import write_fields
+from ..structure.reduction import eigenmodes, reduce, reduced_modes
 from .dataset import modes_to_dataset, write_netcdf
 from .plots import modal_convergence_figure
 from .spec import ModesStudy, StudyResult
@@ -33,9 +36,6 @@ def modal_study(scene: Scene, mode_counts, n_freqs: int, n_shapes: int = 0) -> d
     (full eigen solve; total and per stage of each reduction), reduced sizes, MAC of
     the scene's mode count, and the first n_shapes mode shapes (full, reduced).
     """
-    from ..structure.fe_model import boundary_dofs
-    from ..structure.reduction import eigenmodes, reduce, reduced_modes
-
     blade = blade_model(scene.structure)
     b, labels = boundary_dofs(blade)
     t0 = time.perf_counter()
@@ -78,8 +78,6 @@ def modal_study(scene: Scene, mode_counts, n_freqs: int, n_shapes: int = 0) -> d
 def run_modes_study(study: ModesStudy, out_dir="results", *, figures: bool = True):
     """Run a modes study: `out_dir/<name>.nc`, then `out_dir/<name>/mode_shapes.vtu`
     and `out_dir/<name>/modal_convergence.png`."""
-    from ..structure.fe_model import write_fields
-
     t0 = time.perf_counter()
     sc = study.scene
     log.info("%s: %s, mode counts %s, %d frequencies%s", study.name, sc.model,

@@ -1,0 +1,22 @@
+"""Blades from parameters or mesh files: `build_blade` (beam or generated solid) and
+`load_blade` (solid from a mesh file with named node sets)."""
+from __future__ import annotations
+
+from .beam import beam_blade
+from .fe_model import CONTACT_SETS, REQUIRED_SETS, BladeModel, BladeParams
+from .mesh_io import read_mesh
+from .solid import solid_blade, solid_from_mesh
+
+
+def build_blade(p: BladeParams) -> BladeModel:
+    """Beam or solid blade according to `p.kind`."""
+    return beam_blade(p) if p.kind == "beam" else solid_blade(p)
+
+
+def load_blade(path, p: BladeParams = BladeParams(),
+               required=("root",) + CONTACT_SETS) -> BladeModel:
+    """Solid blade from a mesh file (.msh/.vtu/.xdmf) with named node sets; material
+    and damping from `p`.  A missing set raises ValueError naming file and set."""
+    mesh, sets = read_mesh(path, required)
+    keep = {k: v for k, v in sets.items() if k in REQUIRED_SETS}
+    return solid_from_mesh(mesh, keep, p, str(path))

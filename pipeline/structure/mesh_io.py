@@ -1,0 +1,111 @@
+"""Mesh files (meshio): blade meshes with named node sets, displacement fields.
+
+Node sets are stored as 0/1 point-data masks; read back from masks, meshio point
+sets, cell sets or gmsh physical groups.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import meshio
+import numpy as np
+from skfem import MeshHex, MeshTet
+from skfem.io.meshio import HEX_MAPPING
+
+from .fe_model import REQUIRED_SETS, BladeModel, point_displacements
+
+_INV_HEX = [HEX_MAPPING.index(i) for i in range(8)]
+
+
+def write_mesh(model: BladeModel, path, point_data: dict | None = None) -> Path:
+    """Write the blade mesh with its named node sets (as 0/1 point-data masks) and
+    optional extra point fields; the format follows the suffix (.vtu, .msh, .xdmf)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data = {}
+    for name, nodes in model.node_sets.items():
+        mask = np.zeros(len(model.points), dtype=np.int32)
+        mask[nodes] = 1
+        data[name] = mask
+    data.update(point_data or {})
+    kw = {"file_format": "gmsh22", "binary": True} if path.suffix == ".msh" else {}
+    if path.suffix == ".msh":
+        # gmsh needs a physical/geometrical tag per cell
+        cd = {"gmsh:physical": [np.ones(len(c[1]), dtype=np.int32) for c in model.cells],
+              "gmsh:geometrical": [np.ones(len(c[1]), dtype=np.int32) for c in model.cells]}
+    else:
+        cd = None
+    meshio.write(path, meshio.Mesh(model.points, list(model.cells), point_data=data,
+                                   cell_data=cd), **kw)
+    return path
+
+
+def read_mesh(path, required=REQUIRED_SETS):
+    """Read a volume mesh and its named node sets: (skfem mesh, {name: vertex indices}).
+
+    A set is found as (in order) a point-data mask, a meshio point set, or a cell
+    set (its cells' nodes, e.g. gmsh physical surfaces).  Quadratic cells are read
+    by their corner nodes; unused points are dropped.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"mesh file {path} does not exist")
+    m = meshio.read(path)
+    kinds = {"hexahedron": 8, "hexahedron27": 8, "hexahedron20": 8,
+             "tetra": 4, "tetra10": 4}
+    blocks = [(i, c) for i, c in enumerate(m.cells) if c.type in kinds]
+    if not blocks:
+        raise ValueError(f"{path}: no hexahedral or tetrahedral cells "
+                         f"(found {[c.type for c in m.cells]})")
+    hexa = blocks[0][1].type.startswith("hexa")
+    conn = np.concatenate([c.data[:, :kinds[c.type]] for _, c in blocks
+                           if c.type.startswith("hexa") == hexa])
+    sets = {}
+    for name, arr in m.point_data.items():
+        a = np.asarray(arr).ravel()
+        if a.size == len(m.points):
+            sets[name] = np.nonzero(a > 0.5)[0]
+    for name, idx in (getattr(m, "point_sets", None) or {}).items():
+        sets.setdefault(name, np.asarray(idx).ravel())
+    for name, per_block in (m.cell_sets or {}).items():
+        nodes = [m.cells[j].data[np.asarray(ix, dtype=np.int64)].ravel()
+                 for j, ix in enumerate(per_block) if ix is not None and len(ix)]
+        if nodes:
+            sets.setdefault(name, np.unique(np.concatenate(nodes)))
+    if "gmsh:physical" in m.cell_data and m.field_data:
+        for name, (tag, _) in m.field_data.items():
+            nodes = [c.data[np.asarray(m.cell_data["gmsh:physical"][j]) == tag].ravel()
+                     for j, c in enumerate(m.cells)]
+            nodes = np.concatenate(nodes) if nodes else np.array([], int)
+            if nodes.size:
+                sets.setdefault(name, np.unique(nodes))
+    for name in required:
+        if name not in sets or len(sets[name]) == 0:
+            raise ValueError(f"mesh file {path} has no node set {name!r} "
+                             f"(found: {sorted(sets) or 'none'})")
+    used = np.unique(conn)
+    renum = -np.ones(len(m.points), dtype=np.int64)
+    renum[used] = np.arange(used.size)
+    X = np.ascontiguousarray(m.points[used, :3].T, dtype=float)
+    t = renum[conn].T
+    mesh = MeshHex(X, np.ascontiguousarray(t[_INV_HEX])) if hexa else MeshTet(X, t)
+    node_sets = {}
+    for k, v in sets.items():
+        r = renum[np.asarray(v, dtype=np.int64)]
+        node_sets[k] = r[r >= 0]
+    return mesh, node_sets
+
+
+def write_fields(model: BladeModel, path, fields: dict) -> Path:
+    """Write displacement fields (free-DOF vectors (n,)) as VTU point data for
+    ParaView; complex fields (operating deflection shapes) as `<name>_re`,
+    `<name>_im` and `<name>_abs`."""
+    data = {}
+    for name, u in fields.items():
+        d = point_displacements(model, u)
+        if np.iscomplexobj(d):
+            data[f"{name}_re"], data[f"{name}_im"] = d.real, d.imag
+            data[f"{name}_abs"] = np.abs(d)
+        else:
+            data[name] = d
+    return write_mesh(model, path, data)
