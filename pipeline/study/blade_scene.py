@@ -86,8 +86,7 @@ def is_blade_document(data) -> bool:
 
 
 def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quick: bool = False):
-    """Validate a blade study document: a `ModesStudy` or a `scene.Study`."""
-
+    """Validate a blade study document: a `ModesStudy` or a `spec.Study`."""
     ck = Checker(file)
     top = ("study", "scene", "sweep", "solver", "output", "quick", "modes")
     ck.keys(data, "", top, required=("study", "scene"))
@@ -112,22 +111,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     qt = ck.table(data.get("quick"), "quick", required=False) if quick else {}
     base_dir = Path(file).parent if file and not file.startswith("<") else Path(".")
 
-    scene_tab = ck.table(data["scene"], "scene")
-    full_scene = parse_blade_scene(ck, scene_tab, kind, base_dir, {})
-    ck.keys(qt, "quick", ("scene", "modes") if kind == "modes" else ("scene", "sweep", "solver"))
-    q_scene = ck.table(qt.get("scene"), "quick.scene", required=False)
-    ck.keys(q_scene, "quick.scene", ("blade", "craig_bampton_modes", "mesh"))
-    merged = dict(scene_tab)
-    origin = {}
-    if "blade" in q_scene:
-        ck.table(q_scene["blade"], "quick.scene.blade")
-        merged["blade"] = {**ck.table(scene_tab.get("blade", {}), "scene.blade"), **q_scene["blade"]}
-        origin = {k: "quick.scene.blade" for k in q_scene["blade"]}
-    for k in ("craig_bampton_modes", "mesh"):
-        if k in q_scene:
-            merged[k] = q_scene[k]
-            origin[f"scene.{k}"] = f"quick.scene.{k}"
-    quick_scene = parse_blade_scene(ck, merged, kind, base_dir, origin) if q_scene else full_scene
+    full_scene, quick_scene = blade_scenes(ck, data, qt, kind, base_dir)
     scene = quick_scene if quick else full_scene
 
     if kind == "modes":
@@ -166,6 +150,28 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
             chosen = st
     check_windows(ck, output.peak_windows, freq)
     return chosen
+
+
+def blade_scenes(ck, data, qt, kind, base_dir) -> tuple:
+    """(scene of the full study, scene of its [quick] variant: the [quick.scene]
+    overrides of blade, craig_bampton_modes and mesh merged in, errors naming them)."""
+    scene_tab = ck.table(data["scene"], "scene")
+    full_scene = parse_blade_scene(ck, scene_tab, kind, base_dir, {})
+    ck.keys(qt, "quick", ("scene", "modes") if kind == "modes" else ("scene", "sweep", "solver"))
+    q_scene = ck.table(qt.get("scene"), "quick.scene", required=False)
+    ck.keys(q_scene, "quick.scene", ("blade", "craig_bampton_modes", "mesh"))
+    merged = dict(scene_tab)
+    origin = {}
+    if "blade" in q_scene:
+        ck.table(q_scene["blade"], "quick.scene.blade")
+        merged["blade"] = {**ck.table(scene_tab.get("blade", {}), "scene.blade"), **q_scene["blade"]}
+        origin = {k: "quick.scene.blade" for k in q_scene["blade"]}
+    for k in ("craig_bampton_modes", "mesh"):
+        if k in q_scene:
+            merged[k] = q_scene[k]
+            origin[f"scene.{k}"] = f"quick.scene.{k}"
+    quick_scene = parse_blade_scene(ck, merged, kind, base_dir, origin) if q_scene else full_scene
+    return full_scene, quick_scene
 
 
 def parse_blade_params(ck, t, model, origin):
