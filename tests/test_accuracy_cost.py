@@ -11,7 +11,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from pipeline.__main__ import main as cli
-from pipeline.study.accuracy_cost import AccuracyStudy
+from pipeline.study.accuracy_spec import AccuracyStudy
 from pipeline.study.dataset import read_dataset
 from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError

@@ -46,6 +46,8 @@ from pathlib import Path
 import numpy as np
 
 from ..solve.hbm import state_at_zero
+from .accuracy_spec import (AccuracyStudy, Case, Settings, beyond_reference,
+                            check_settings, merge_quick, mesh_value)
 from .plots import pareto_figure
 from .scene import Checker
 
@@ -64,90 +66,6 @@ _QUICK_KEYS = ("dof", "preload", "frequency", "repeats", "time_integration", "re
                "baseline", "knobs")
 _MESH_FIELDS = ("n_chord", "n_thick", "n_span")
 METRICS = ("peak_amplitude", "peak_frequency", "fold_frequency")
-
-
-# ---------------------------------------------------------------------------
-# Plain data
-# ---------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Settings:
-    """Solver and model accuracy settings of one run."""
-
-    harmonics: int = 14
-    force_evaluation: str = "exact"
-    samples: int = 256                  # AFT samples per period (force_evaluation = "aft")
-    tolerance: float = 1e-9             # relative residual tolerance (hbm.tolerances)
-    max_step: float = 0.1               # largest continuation step (scaled arclength)
-    initial_step: float = 0.02          # first continuation step
-    craig_bampton_modes: int | None = None   # blades: fixed-interface modes
-    mesh: tuple | None = None           # blades: (n_chord, n_thick, n_span)
-
-    def with_knob(self, knob: str, value) -> "Settings":
-        """These settings with one knob changed (`samples` switches to AFT; a max_step
-        below the initial step lowers the initial step too)."""
-        if knob == "samples":
-            return replace(self, force_evaluation="aft", samples=int(value))
-        if knob == "max_step":
-            return replace(self, max_step=float(value), initial_step=min(self.initial_step, value))
-        return replace(self, **{knob: value})
-
-    def value_of(self, knob: str):
-        if knob == "samples":
-            return self.samples if self.force_evaluation == "aft" else "exact"
-        return getattr(self, knob)
-
-    def solver_kwargs(self) -> dict:
-        """Keyword arguments of `response.frequency_response`."""
-        return dict(method=self.force_evaluation, n_samples=self.samples, tol_rel=self.tolerance,
-                    ds=self.initial_step, ds_max=self.max_step, stability=False)
-
-    def describe(self) -> str:
-        parts = [f"H = {self.harmonics}",
-                 "exact forces" if self.force_evaluation == "exact" else f"AFT N = {self.samples}",
-                 f"tolerance {self.tolerance:g}", f"max_step {self.max_step:g}"]
-        if self.craig_bampton_modes is not None:
-            parts.append(f"{self.craig_bampton_modes} CB modes")
-        if self.mesh is not None:
-            parts.append("mesh " + "x".join(map(str, self.mesh)))
-        return ", ".join(parts)
-
-
-@dataclass(frozen=True)
-class Case:
-    """One scene with its reference, baseline and knob values."""
-
-    name: str                   # "lumped" or "blade"
-    scene: object               # scene.Scene or blade_scene.BladeScene
-    dof: str                    # response DOF whose peak is measured
-    preload: float | None       # [N] every contact's n0 (blades: total per face); None: the scene's
-    frequency: object           # scene.FrequencyRange
-    repeats: int
-    time_integration: bool      # lumped only: reference vs event-driven integration
-    reference: Settings
-    baseline: Settings
-    knobs: tuple                # ((knob, (value, ...)), ...) in file order
-
-    def runs(self) -> list:
-        """[(knob, value, Settings)]: reference, baseline, then every knob value."""
-        out = [("reference", None, self.reference), ("baseline", None, self.baseline)]
-        for k, values in self.knobs:
-            out += [(k, v, self.baseline.with_knob(k, v)) for v in values]
-        return out
-
-
-@dataclass(frozen=True)
-class AccuracyStudy:
-    file: str
-    name: str
-    title: str
-    description: str
-    reference: str
-    text: str
-    cases: tuple                # Case, ...
-    target: float               # relative error the recommendation must meet
-    quick: bool = False
-    kind: str = "accuracy_cost"
 
 
 # ---------------------------------------------------------------------------
@@ -204,7 +122,7 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
         ck.keys(tab, c, _CASE_KEYS, required=("scene", "reference", "frequency"))
         q = ck.table(qt.get(c), f"quick.{c}", required=False)
         ck.keys(q, f"quick.{c}", _QUICK_KEYS)
-        merged, origin = _merge_quick(ck, c, tab, q)
+        merged, origin = merge_quick(ck, c, tab, q)
         w_full, w_quick = (lambda p, c=c: f"{c}.{p}"), (lambda p, o=origin: f"{o(p)}.{p}")
         # the FE blade is built (validated) once, on the chosen variant's reference mesh
         scene, h_excited = _case_scene(ck, c, merged if quick else tab, base_dir,
@@ -214,28 +132,6 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     return AccuracyStudy(file=file, name=name, title=title, description=description,
                          reference=reference, text=text, cases=tuple(short if quick else full),
                          target=float(target), quick=bool(quick))
-
-
-def _merge_quick(ck, c, tab, q):
-    """The case table with `[quick.<case>]` applied: reference and baseline are merged
-    key by key, every other key (knobs included) is replaced.  Returns (table,
-    origin(path) -> "quick.<case>" or "<case>")."""
-    merged, from_quick = dict(tab), set()
-    for k, v in q.items():
-        if k in ("reference", "baseline"):
-            sub = ck.table(v, f"quick.{c}.{k}")
-            merged[k] = {**ck.table(tab.get(k, {}), f"{c}.{k}"), **sub}
-            from_quick |= {f"{k}.{s}" for s in sub}
-        else:
-            merged[k] = v
-            from_quick.add(k)
-
-    def origin(path):
-        parts = path.split(".")
-        heads = {".".join(parts[:i]) for i in range(1, len(parts) + 1)}
-        head = parts[0].split("[")[0]
-        return f"quick.{c}" if (heads & from_quick or head in from_quick) else c
-    return merged, origin
 
 
 def _case_scene(ck, c, tab, base_dir, where):
@@ -264,7 +160,7 @@ def _case_scene(ck, c, tab, base_dir, where):
     ref = ck.table(tab["reference"], where("reference"))
     at = dict(raw)
     if "mesh" in ref:  # build (and so validate) the scene on the reference mesh
-        counts = _mesh_value(ck, ref["mesh"], where("reference.mesh"))
+        counts = mesh_value(ck, ref["mesh"], where("reference.mesh"))
         at["blade"] = {**blade_tab, **dict(zip(_MESH_FIELDS, counts))}
     if "craig_bampton_modes" in ref:
         at["craig_bampton_modes"] = ck.integer(ref["craig_bampton_modes"],
@@ -273,11 +169,6 @@ def _case_scene(ck, c, tab, base_dir, where):
     if not scene.contacts:
         ck.fail(f"{c}.scene.contact", "a blade case needs at least one [[blade.scene.contact]]")
     return scene, max(ld.harmonic for ld in scene.loads)
-
-
-def _mesh_value(ck, value, field_):
-    vals = ck.array(value, field_, length=3)
-    return tuple(ck.integer(v, f"{field_}[{i}]", 1, 1000) for i, v in enumerate(vals))
 
 
 def _setting(ck, key, value, field_, h_excited):
@@ -300,7 +191,7 @@ def _setting(ck, key, value, field_, h_excited):
     if key == "craig_bampton_modes":
         return ck.integer(value, field_, 0, 10_000)
     if key == "mesh":
-        return _mesh_value(ck, value, field_)
+        return mesh_value(ck, value, field_)
     raise AssertionError(key)
 
 
@@ -320,34 +211,8 @@ def _settings(ck, c, t, path, where, h_excited, base=None) -> Settings:
             from ..structure.fe_model import BladeParams
             p = BladeParams()
             s = replace(s, mesh=(p.n_chord, p.n_thick, p.n_span))
-    _check_settings(ck, s, lambda k: where(f"{path}.{k}") if k in t else where(path))
+    check_settings(ck, s, lambda k: where(f"{path}.{k}") if k in t else where(path))
     return s
-
-
-def _check_settings(ck, s, field_of):
-    if s.initial_step > s.max_step:
-        ck.fail(field_of("initial_step"), f"initial_step {s.initial_step:g} exceeds max_step "
-                                          f"{s.max_step:g}")
-    if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
-        ck.fail(field_of("samples"), f"must be >= 2H+1 = {2 * s.harmonics + 1} for H = "
-                                     f"{s.harmonics}, got {s.samples}")
-
-
-def _beyond(knob, value, ref: Settings) -> str | None:
-    """Why `value` of `knob` is more accurate than the reference (None if it is not)."""
-    if knob == "harmonics" and value > ref.harmonics:
-        return f"H = {value} exceeds the reference's H = {ref.harmonics}"
-    if knob == "samples" and ref.force_evaluation == "aft" and value > ref.samples:
-        return f"N = {value} exceeds the reference's N = {ref.samples}"
-    if knob == "tolerance" and value < ref.tolerance:
-        return f"{value:g} is below the reference's tolerance {ref.tolerance:g}"
-    if knob == "max_step" and value < ref.max_step:
-        return f"{value:g} is below the reference's max_step {ref.max_step:g}"
-    if knob == "craig_bampton_modes" and value > ref.craig_bampton_modes:
-        return f"{value} modes exceed the reference's {ref.craig_bampton_modes}"
-    if knob == "mesh" and any(a > b for a, b in zip(value, ref.mesh)):
-        return f"mesh {list(value)} is finer than the reference's {list(ref.mesh)}"
-    return None
 
 
 def _case(ck, c, tab, scene, h_excited, where) -> Case:
@@ -384,7 +249,7 @@ def _case(ck, c, tab, scene, h_excited, where) -> Case:
     base_t = ck.table(tab.get("baseline", {}), where("baseline"))
     baseline = _settings(ck, c, base_t, "baseline", where, h_excited, base=reference)
     for k in base_t:
-        why = _beyond(k, baseline.value_of(k), reference) if k in KNOBS[c] else None
+        why = beyond_reference(k, baseline.value_of(k), reference) if k in KNOBS[c] else None
         if why:
             ck.fail(where(f"baseline.{k}"), why + ": the reference must be the most accurate")
     knobs_t = ck.table(tab.get("knobs", {}), where("knobs"))
@@ -402,7 +267,7 @@ def _case(ck, c, tab, scene, h_excited, where) -> Case:
             x = _setting(ck, k, v, f, h_excited)
             if x in out:
                 ck.fail(f, f"duplicate value {v}")
-            why = _beyond(k, x, reference)
+            why = beyond_reference(k, x, reference)
             if why:
                 ck.fail(f, why + ": the reference must be the most accurate setting")
             s = baseline.with_knob(k, x)
