@@ -44,12 +44,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ..structure.reduction import DEFAULT_MODES
 from .accuracy_dataset import recommendation_lines, results_table, to_dataset
 from .accuracy_measure import run_case
 from .accuracy_spec import (AccuracyStudy, Case, Settings, beyond_reference,
                             check_settings, merge_quick, mesh_value)
+from .blade_scene import OUT_DOF_PATTERN, parse_blade_params, parse_blade_scene
 from .plots import pareto_figure
-from .scene import Checker
+from .scene import (MAX_HARMONICS, Checker, FrequencyRange, build_system, check_scene_rules,
+                    parse_scene, parse_sweep)
 
 log = logging.getLogger(__name__)
 
@@ -140,12 +143,10 @@ def _case_scene(ck, c, tab, base_dir, where):
     raw = ck.table(tab["scene"], f"{c}.scene")
     model = raw.get("model")
     if c == "lumped":
-        from .scene import parse_scene
         if model != "lumped":
             ck.fail(f"{c}.scene.model", f"the [lumped] case needs model = \"lumped\", got {model!r}")
         scene = parse_scene(pk, raw)
         return scene, scene.forcing.shape[1] - 1
-    from .blade_scene import parse_blade_scene
     if model != "solid_blade":
         ck.fail(f"{c}.scene.model", f"the [blade] case needs model = \"solid_blade\", got {model!r}")
     for k in ("craig_bampton_modes",):
@@ -172,8 +173,6 @@ def _case_scene(ck, c, tab, base_dir, where):
 
 def _setting(ck, key, value, field_, h_excited):
     """One validated setting value."""
-    from .scene import MAX_HARMONICS
-
     if key == "harmonics":
         H = ck.integer(value, field_, 1, MAX_HARMONICS)
         if H < h_excited:
@@ -203,10 +202,10 @@ def _settings(ck, c, t, path, where, h_excited, base=None) -> Settings:
     kw = {k: _setting(ck, k, v, f"{where(f'{path}.{k}')}", h_excited) for k, v in t.items()}
     s = replace(base, **kw) if base is not None else Settings(**kw)
     if c == "blade" and base is None:
-        from ..structure.reduction import DEFAULT_MODES
         if s.craig_bampton_modes is None:
             s = replace(s, craig_bampton_modes=DEFAULT_MODES)
         if s.mesh is None:
+            # fe_model imports scikit-fem (slow to import): only a blade case needs it
             from ..structure.fe_model import BladeParams
             p = BladeParams()
             s = replace(s, mesh=(p.n_chord, p.n_thick, p.n_span))
@@ -217,27 +216,9 @@ def _settings(ck, c, t, path, where, h_excited, base=None) -> Settings:
 def _case(ck, c, tab, scene, h_excited, where) -> Case:
     """Validate one case table (full or quick variant); `where(path)` gives the
     dotted field of a path inside the case."""
-    from .scene import FrequencyRange, parse_sweep, check_scene_rules
-
-    dofs = scene.dofs
-    if "dof" not in tab:
-        ck.fail(where("dof"), "missing (required): the response DOF whose peak is measured")
-    dof = ck.string(tab["dof"], where("dof"))
-    if c == "blade":
-        from .blade_scene import OUT_DOF_PATTERN
-        if not OUT_DOF_PATTERN.match(dof):
-            ck.fail(where("dof"), f"{dof!r} is not '<set>.<component>' with set excitation or "
-                                  "response and component x, y or z")
-    elif dof not in dofs:
-        ck.fail(where("dof"), f"unknown DOF {dof!r} (DOFs: {', '.join(dofs)})")
+    dof = _case_dof(ck, c, tab, scene.dofs, where)
     preload = ck.number(tab["preload"], where("preload")) if "preload" in tab else None
-    fr = tab["frequency"]
-    if not isinstance(fr, dict):
-        ck.fail(where("frequency"), "must be a table {start, stop, unit}")
-    _, freq = parse_sweep(_Prefixed(ck.file, where("frequency").rsplit(".", 1)[0]),
-                     {"frequency": fr}, "", partial=True)
-    if freq.start > freq.stop:
-        ck.fail(where("frequency"), "start must be below stop")
+    freq = _case_frequency(ck, tab, where)
     repeats = ck.integer(tab.get("repeats", 1), where("repeats"), 1, 100)
     ti = ck.boolean(tab.get("time_integration", False), where("time_integration"))
     if ti and c != "lumped":
@@ -252,6 +233,56 @@ def _case(ck, c, tab, scene, h_excited, where) -> Case:
         if why:
             ck.fail(where(f"baseline.{k}"), why + ": the reference must be the most accurate")
     knobs_t = ck.table(tab.get("knobs", {}), where("knobs"))
+    knobs = _knobs(ck, c, knobs_t, scene, reference, baseline, h_excited, where)
+    if c == "blade":
+        for k, s in (("reference", reference), ("baseline", baseline)):
+            _check_mesh(ck, scene, s.mesh, where(f"{k}.mesh"))
+        if scene.mesh is not None and ("mesh" in knobs_t or "mesh" in base_t):
+            ck.fail(where("knobs.mesh" if "mesh" in knobs_t else "baseline.mesh"),
+                    "the scene reads a mesh file: it cannot be refined")
+    if preload is not None and not scene.contacts:
+        ck.fail(where("preload"), "the scene has no contact to apply it to")
+    n0s = [cc.n0 for cc in scene.contacts]
+    kvs = [cc.kv for cc in scene.contacts]
+    has_normal = (any(np.any(cc.bn) for cc in scene.contacts) if c == "lumped"
+                  else bool(scene.contacts))
+    axes = {"preload": (preload,)} if preload is not None else {}
+    check_scene_rules(_Prefixed(ck.file, c), scene.effects, n0s, kvs, has_normal, h_excited,
+                      reference.harmonics, axes, "reference", "")
+    return Case(name=c, scene=scene, dof=dof, preload=preload,
+                frequency=FrequencyRange(freq.start, freq.stop, freq.unit), repeats=repeats,
+                time_integration=ti, reference=reference, baseline=baseline, knobs=tuple(knobs))
+
+
+def _case_dof(ck, c, tab, dofs, where) -> str:
+    """The case's response DOF: a DOF of the lumped scene, '<set>.<component>' of a blade."""
+    if "dof" not in tab:
+        ck.fail(where("dof"), "missing (required): the response DOF whose peak is measured")
+    dof = ck.string(tab["dof"], where("dof"))
+    if c == "blade":
+        if not OUT_DOF_PATTERN.match(dof):
+            ck.fail(where("dof"), f"{dof!r} is not '<set>.<component>' with set excitation or "
+                                  "response and component x, y or z")
+    elif dof not in dofs:
+        ck.fail(where("dof"), f"unknown DOF {dof!r} (DOFs: {', '.join(dofs)})")
+    return dof
+
+
+def _case_frequency(ck, tab, where):
+    """The case's frequency window {start, stop, unit} (a continuation sweep's)."""
+    fr = tab["frequency"]
+    if not isinstance(fr, dict):
+        ck.fail(where("frequency"), "must be a table {start, stop, unit}")
+    _, freq = parse_sweep(_Prefixed(ck.file, where("frequency").rsplit(".", 1)[0]),
+                     {"frequency": fr}, "", partial=True)
+    if freq.start > freq.stop:
+        ck.fail(where("frequency"), "start must be below stop")
+    return freq
+
+
+def _knobs(ck, c, knobs_t, scene, reference, baseline, h_excited, where) -> list:
+    """[(knob, (value, ...))] of the `knobs` table: known knobs, values valid, distinct,
+    no more accurate than the reference, and AFT samples >= 2H+1 at the baseline's H."""
     if not knobs_t:
         ck.fail(where("knobs"), f"no knob to vary (knobs: {', '.join(KNOBS[c])})")
     knobs = []
@@ -277,30 +308,11 @@ def _case(ck, c, tab, scene, h_excited, where) -> Case:
                 _check_mesh(ck, scene, x, f)
             out.append(x)
         knobs.append((k, tuple(out)))
-    if c == "blade":
-        for k, s in (("reference", reference), ("baseline", baseline)):
-            _check_mesh(ck, scene, s.mesh, where(f"{k}.mesh"))
-        if scene.mesh is not None and ("mesh" in knobs_t or "mesh" in base_t):
-            ck.fail(where("knobs.mesh" if "mesh" in knobs_t else "baseline.mesh"),
-                    "the scene reads a mesh file: it cannot be refined")
-    if preload is not None and not scene.contacts:
-        ck.fail(where("preload"), "the scene has no contact to apply it to")
-    n0s = [cc.n0 for cc in scene.contacts]
-    kvs = [cc.kv for cc in scene.contacts]
-    has_normal = (any(np.any(cc.bn) for cc in scene.contacts) if c == "lumped"
-                  else bool(scene.contacts))
-    axes = {"preload": (preload,)} if preload is not None else {}
-    check_scene_rules(_Prefixed(ck.file, c), scene.effects, n0s, kvs, has_normal, h_excited,
-                      reference.harmonics, axes, "reference", "")
-    return Case(name=c, scene=scene, dof=dof, preload=preload,
-                frequency=FrequencyRange(freq.start, freq.stop, freq.unit), repeats=repeats,
-                time_integration=ti, reference=reference, baseline=baseline, knobs=tuple(knobs))
+    return knobs
 
 
 def _check_mesh(ck, scene, counts, field_):
     """A generated blade with these element counts must be valid and not too fine."""
-    from .blade_scene import parse_blade_params
-
     p = scene.params
     t = {k: getattr(p, k) for k in ("length", "chord", "thickness", "shroud_chord",
                                     "shroud_width", "shroud_height", "shroud_angle",
@@ -318,7 +330,6 @@ def _system(case: Case, s: Settings, models: dict):
     `models` caches FE blades per mesh and reductions per (mesh, modes)."""
     case_arg = {"preload": case.preload} if case.preload is not None else None
     if case.name == "lumped":
-        from .scene import build_system
         system = build_system(case.scene, case_arg)
         return system, case.scene.dof_index(case.dof), 0.0, system.n_dof
     sc = case.scene
@@ -355,6 +366,8 @@ def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool
                        progress: bool = True, solver=None):
     """Run every case, write `out_dir/<name>.nc`, `out_dir/<name>/table.md` and
     `out_dir/<name>/pareto.png`; returns a `study.StudyResult`."""
+    # dataset.py (xarray) and run.py are imported when a study runs: reading or checking
+    # one needs neither
     from .dataset import write_netcdf
     from .run import StudyResult
 
