@@ -34,6 +34,12 @@ Output: `DIR/<name>.nc` (one `run` dimension, the response variables of
 the dataset contract per run, the settings, times and errors), `DIR/<name>/pareto.png`
 (error against wall time, log-log, one series per knob) and
 `DIR/<name>/table.md`.
+
+This module reads a study document (`study_from_mapping`, the scenes through scene.py
+and blade_scene.py) and runs it (`run_accuracy_study`); scene.py and run.py hand an
+accuracy-cost study to these two.  The plain data is in accuracy_spec.py, the runs,
+errors and recommendation in accuracy_measure.py, the Dataset and the table in
+accuracy_dataset.py, the figure in plots.py (`pareto_figure`).
 """
 from __future__ import annotations
 
