@@ -23,9 +23,9 @@ from .dataset_check import CONVENTIONS
 
 
 class Variable(NamedTuple):
-    """One variable of the Dataset.  `units` None: text or flags, no units; `dtype` and
-    `value` (a row of results -> its value) for a variable with one value per run,
-    None for the arrays `to_dataset` computes from the branches."""
+    """One variable of the Dataset.  `units` None: no units attribute (text and
+    booleans); `dtype` and `value` (a row of results -> its value) for a variable with
+    one value per run, None for the arrays `to_dataset` computes from the branches."""
 
     name: str
     dims: tuple
