@@ -11,7 +11,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from pipeline.__main__ import main as cli
-from pipeline.study.accuracy_cost import AccuracyStudy
+from pipeline.study.accuracy_spec import AccuracyStudy
 from pipeline.study.dataset import read_dataset
 from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError
@@ -69,8 +69,7 @@ def test_quick_study_writes_a_conforming_dataset_table_and_figure(quick):
 def test_pareto_time_axis_is_labelled_over_its_range(quick):
     """The quick study's wall times span less than a decade: at least three labelled
     ticks inside each panel's time range."""
-    from pipeline.study.accuracy_cost import pareto_plot
-    from pipeline.study.plots import pyplot
+    from pipeline.study.plots import pareto_plot, pyplot
 
     _, ds = quick
     fig = pareto_plot(ds)

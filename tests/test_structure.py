@@ -2,11 +2,11 @@
 
 Every `import` and `from ... import` of `pipeline` counts, at module level and inside
 functions, relative and absolute.  Asserted: no private name (leading underscore) is
-imported from another module, the contact modules form no circle, and no circle
-appears beyond the known scene/study one.  The failure message (and the summary test,
-with `pytest -s`) reports the remaining circles and the largest modules and functions.
-Also asserted: the solvers (`pipeline/solve/`) stay readable, no module longer than
-SOLVE_MAX_MODULE lines and no function or method longer than SOLVE_MAX_FUNCTION.
+imported from another module, no import circle anywhere, imports flow one way along
+the data path.  The failure message (and the summary test, with `pytest -s`) reports
+the largest modules and functions.  Also asserted: every unit of the package stays
+readable, no module longer than MAX_MODULE lines and no function or method longer
+than MAX_FUNCTION.
 """
 import ast
 from collections import defaultdict
@@ -120,9 +120,9 @@ def report() -> str:
     lines += ["  - " + ", ".join(sorted(c)) for c in circles(files, edges)]
     lines += [f"private names imported across modules: {len(private)}"]
     lines += ["  - " + p for p in private]
-    (k, m), (kf, f) = (sizes[0] for sizes in solve_sizes())
-    solve = f"pipeline/solve: largest module {m} ({k} lines), largest function {f} ({kf} lines)"
-    return "\n".join(lines + [largest_units(files), solve])
+    (k, m), (kf, f) = (sizes[0] for sizes in unit_sizes())
+    sizes = f"pipeline: largest module {m} ({k} lines), largest function {f} ({kf} lines)"
+    return "\n".join(lines + [largest_units(files), sizes])
 
 
 def test_no_private_name_is_imported_across_modules():
@@ -180,15 +180,15 @@ def test_tests_use_public_names_and_no_other_test_module():
     assert not found, "\n".join(found)
 
 
-SOLVE_MAX_MODULE = 500    # lines of one module in pipeline/solve
-SOLVE_MAX_FUNCTION = 80   # lines of one function or method there (decorators aside)
+MAX_MODULE = 500    # lines of one module in pipeline/
+MAX_FUNCTION = 80   # lines of one function or method there (decorators aside)
 
 
-def solve_sizes():
+def unit_sizes():
     """([(lines, module)], [(lines, "path:line name")]) of the modules and of the
-    functions and methods in pipeline/solve, largest first."""
+    functions and methods in pipeline/, largest first."""
     modules, functions = [], []
-    for path in sorted((PACKAGE / "solve").rglob("*.py")):
+    for path in sorted(PACKAGE.rglob("*.py")):
         text = path.read_text(encoding="utf-8")
         where = path.relative_to(PACKAGE.parent)
         modules.append((len(text.splitlines()), str(where)))
@@ -199,18 +199,18 @@ def solve_sizes():
     return sorted(modules, reverse=True), sorted(functions, reverse=True)
 
 
-def test_solve_modules_are_short():
-    modules, _ = solve_sizes()
-    over = [f"{m} ({k} lines)" for k, m in modules if k > SOLVE_MAX_MODULE]
-    assert not over, (f"modules in pipeline/solve longer than {SOLVE_MAX_MODULE} lines "
+def test_modules_are_short():
+    modules, _ = unit_sizes()
+    over = [f"{m} ({k} lines)" for k, m in modules if k > MAX_MODULE]
+    assert not over, (f"modules in pipeline longer than {MAX_MODULE} lines "
                       f"(largest first): " + ", ".join(over))
 
 
-def test_solve_functions_are_short():
-    _, functions = solve_sizes()
-    over = [f"{u} ({k} lines)" for k, u in functions if k > SOLVE_MAX_FUNCTION]
-    assert not over, (f"functions or methods in pipeline/solve longer than "
-                      f"{SOLVE_MAX_FUNCTION} lines (largest first): " + ", ".join(over))
+def test_functions_are_short():
+    _, functions = unit_sizes()
+    over = [f"{u} ({k} lines)" for k, u in functions if k > MAX_FUNCTION]
+    assert not over, (f"functions or methods in pipeline longer than "
+                      f"{MAX_FUNCTION} lines (largest first): " + ", ".join(over))
 
 
 def test_structure_summary():

@@ -34,20 +34,34 @@ Output: `DIR/<name>.nc` (one `run` dimension, the response variables of
 the dataset contract per run, the settings, times and errors), `DIR/<name>/pareto.png`
 (error against wall time, log-log, one series per knob) and
 `DIR/<name>/table.md`.
+
+This module reads a study document (`study_from_mapping`, the scenes through scene.py
+and blade_scene.py) and runs it (`run_accuracy_study`); scene.py and run.py hand an
+accuracy-cost study to these two.  The plain data is in accuracy_spec.py, the runs,
+errors and recommendation in accuracy_measure.py, the Dataset and the table in
+accuracy_dataset.py, the figure in plots.py (`pareto_figure`).
 """
 from __future__ import annotations
 
 import logging
-import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from ..model.scene import CraigBampton, build_system, reduced_model, timed_blade_model
-from ..solve.hbm_state import state_at_zero
+from ..structure.reduction import DEFAULT_MODES
+from .accuracy_dataset import recommendation_lines, results_table, to_dataset
+from .accuracy_measure import run_case
+from .accuracy_spec import (AccuracyStudy, Case, Settings, beyond_reference,
+                            check_settings, merge_quick, mesh_value)
+from .blade_scene import OUT_DOF_PATTERN, parse_blade_params, parse_blade_scene
 from .checker import Checker
+from .plots import pareto_figure
+from .rules import check_scene_rules
+from .scene import parse_scene, parse_sweep
+from .spec import MAX_HARMONICS, FrequencyRange
 
 log = logging.getLogger(__name__)
 
@@ -63,91 +77,6 @@ _CASE_KEYS = ("dof", "preload", "frequency", "repeats", "time_integration", "sce
 _QUICK_KEYS = ("dof", "preload", "frequency", "repeats", "time_integration", "reference",
                "baseline", "knobs")
 _MESH_FIELDS = ("n_chord", "n_thick", "n_span")
-METRICS = ("peak_amplitude", "peak_frequency", "fold_frequency")
-
-
-# ---------------------------------------------------------------------------
-# Plain data
-# ---------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Settings:
-    """Solver and model accuracy settings of one run."""
-
-    harmonics: int = 14
-    force_evaluation: str = "exact"
-    samples: int = 256                  # AFT samples per period (force_evaluation = "aft")
-    tolerance: float = 1e-9             # relative residual tolerance (hbm.tolerances)
-    max_step: float = 0.1               # largest continuation step (scaled arclength)
-    initial_step: float = 0.02          # first continuation step
-    craig_bampton_modes: int | None = None   # blades: fixed-interface modes
-    mesh: tuple | None = None           # blades: (n_chord, n_thick, n_span)
-
-    def with_knob(self, knob: str, value) -> "Settings":
-        """These settings with one knob changed (`samples` switches to AFT; a max_step
-        below the initial step lowers the initial step too)."""
-        if knob == "samples":
-            return replace(self, force_evaluation="aft", samples=int(value))
-        if knob == "max_step":
-            return replace(self, max_step=float(value), initial_step=min(self.initial_step, value))
-        return replace(self, **{knob: value})
-
-    def value_of(self, knob: str):
-        if knob == "samples":
-            return self.samples if self.force_evaluation == "aft" else "exact"
-        return getattr(self, knob)
-
-    def solver_kwargs(self) -> dict:
-        """Keyword arguments of `response.frequency_response`."""
-        return dict(method=self.force_evaluation, n_samples=self.samples, tol_rel=self.tolerance,
-                    ds=self.initial_step, ds_max=self.max_step, stability=False)
-
-    def describe(self) -> str:
-        parts = [f"H = {self.harmonics}",
-                 "exact forces" if self.force_evaluation == "exact" else f"AFT N = {self.samples}",
-                 f"tolerance {self.tolerance:g}", f"max_step {self.max_step:g}"]
-        if self.craig_bampton_modes is not None:
-            parts.append(f"{self.craig_bampton_modes} CB modes")
-        if self.mesh is not None:
-            parts.append("mesh " + "x".join(map(str, self.mesh)))
-        return ", ".join(parts)
-
-
-@dataclass(frozen=True)
-class Case:
-    """One scene with its reference, baseline and knob values."""
-
-    name: str                   # "lumped" or "blade"
-    scene: object               # scene.Scene or blade_scene.BladeScene
-    dof: str                    # response DOF whose peak is measured
-    preload: float | None       # [N] every contact's n0 (blades: total per face); None: the scene's
-    frequency: object           # scene.FrequencyRange
-    repeats: int
-    time_integration: bool      # lumped only: reference vs event-driven integration
-    reference: Settings
-    baseline: Settings
-    knobs: tuple                # ((knob, (value, ...)), ...) in file order
-
-    def runs(self) -> list:
-        """[(knob, value, Settings)]: reference, baseline, then every knob value."""
-        out = [("reference", None, self.reference), ("baseline", None, self.baseline)]
-        for k, values in self.knobs:
-            out += [(k, v, self.baseline.with_knob(k, v)) for v in values]
-        return out
-
-
-@dataclass(frozen=True)
-class AccuracyStudy:
-    file: str
-    name: str
-    title: str
-    description: str
-    reference: str
-    text: str
-    cases: tuple                # Case, ...
-    target: float               # relative error the recommendation must meet
-    quick: bool = False
-    kind: str = "accuracy_cost"
 
 
 # ---------------------------------------------------------------------------
@@ -204,7 +133,7 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
         ck.keys(tab, c, _CASE_KEYS, required=("scene", "reference", "frequency"))
         q = ck.table(qt.get(c), f"quick.{c}", required=False)
         ck.keys(q, f"quick.{c}", _QUICK_KEYS)
-        merged, origin = _merge_quick(ck, c, tab, q)
+        merged, origin = merge_quick(ck, c, tab, q)
         w_full, w_quick = (lambda p, c=c: f"{c}.{p}"), (lambda p, o=origin: f"{o(p)}.{p}")
         # the FE blade is built (validated) once, on the chosen variant's reference mesh
         scene, h_excited = _case_scene(ck, c, merged if quick else tab, base_dir,
@@ -216,28 +145,6 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
                          target=float(target), quick=bool(quick))
 
 
-def _merge_quick(ck, c, tab, q):
-    """The case table with `[quick.<case>]` applied: reference and baseline are merged
-    key by key, every other key (knobs included) is replaced.  Returns (table,
-    origin(path) -> "quick.<case>" or "<case>")."""
-    merged, from_quick = dict(tab), set()
-    for k, v in q.items():
-        if k in ("reference", "baseline"):
-            sub = ck.table(v, f"quick.{c}.{k}")
-            merged[k] = {**ck.table(tab.get(k, {}), f"{c}.{k}"), **sub}
-            from_quick |= {f"{k}.{s}" for s in sub}
-        else:
-            merged[k] = v
-            from_quick.add(k)
-
-    def origin(path):
-        parts = path.split(".")
-        heads = {".".join(parts[:i]) for i in range(1, len(parts) + 1)}
-        head = parts[0].split("[")[0]
-        return f"quick.{c}" if (heads & from_quick or head in from_quick) else c
-    return merged, origin
-
-
 def _case_scene(ck, c, tab, base_dir, where):
     """(scene, highest excited harmonic) of a case: a lumped `Scene` or a `BladeScene`
     (built on the reference mesh with the reference mode count of `tab`)."""
@@ -245,12 +152,10 @@ def _case_scene(ck, c, tab, base_dir, where):
     raw = ck.table(tab["scene"], f"{c}.scene")
     model = raw.get("model")
     if c == "lumped":
-        from .scene import parse_scene
         if model != "lumped":
             ck.fail(f"{c}.scene.model", f"the [lumped] case needs model = \"lumped\", got {model!r}")
         scene = parse_scene(pk, raw)
         return scene, scene.loads[0].amplitudes.shape[1] - 1
-    from .blade_scene import parse_blade_scene
     if model != "solid_blade":
         ck.fail(f"{c}.scene.model", f"the [blade] case needs model = \"solid_blade\", got {model!r}")
     for k in ("craig_bampton_modes",):
@@ -264,7 +169,7 @@ def _case_scene(ck, c, tab, base_dir, where):
     ref = ck.table(tab["reference"], where("reference"))
     at = dict(raw)
     if "mesh" in ref:  # build (and so validate) the scene on the reference mesh
-        counts = _mesh_value(ck, ref["mesh"], where("reference.mesh"))
+        counts = mesh_value(ck, ref["mesh"], where("reference.mesh"))
         at["blade"] = {**blade_tab, **dict(zip(_MESH_FIELDS, counts))}
     if "craig_bampton_modes" in ref:
         at["craig_bampton_modes"] = ck.integer(ref["craig_bampton_modes"],
@@ -275,15 +180,8 @@ def _case_scene(ck, c, tab, base_dir, where):
     return scene, max(ld.harmonic for ld in scene.loads)
 
 
-def _mesh_value(ck, value, field_):
-    vals = ck.array(value, field_, length=3)
-    return tuple(ck.integer(v, f"{field_}[{i}]", 1, 1000) for i, v in enumerate(vals))
-
-
 def _setting(ck, key, value, field_, h_excited):
     """One validated setting value."""
-    from .spec import MAX_HARMONICS
-
     if key == "harmonics":
         H = ck.integer(value, field_, 1, MAX_HARMONICS)
         if H < h_excited:
@@ -300,7 +198,7 @@ def _setting(ck, key, value, field_, h_excited):
     if key == "craig_bampton_modes":
         return ck.integer(value, field_, 0, 10_000)
     if key == "mesh":
-        return _mesh_value(ck, value, field_)
+        return mesh_value(ck, value, field_)
     raise AssertionError(key)
 
 
@@ -313,69 +211,23 @@ def _settings(ck, c, t, path, where, h_excited, base=None) -> Settings:
     kw = {k: _setting(ck, k, v, f"{where(f'{path}.{k}')}", h_excited) for k, v in t.items()}
     s = replace(base, **kw) if base is not None else Settings(**kw)
     if c == "blade" and base is None:
-        from ..structure.reduction import DEFAULT_MODES
         if s.craig_bampton_modes is None:
             s = replace(s, craig_bampton_modes=DEFAULT_MODES)
         if s.mesh is None:
+            # fe_model imports scikit-fem (slow to import): only a blade case needs it
             from ..structure.fe_model import BladeParams
             p = BladeParams()
             s = replace(s, mesh=(p.n_chord, p.n_thick, p.n_span))
-    _check_settings(ck, s, lambda k: where(f"{path}.{k}") if k in t else where(path))
+    check_settings(ck, s, lambda k: where(f"{path}.{k}") if k in t else where(path))
     return s
-
-
-def _check_settings(ck, s, field_of):
-    if s.initial_step > s.max_step:
-        ck.fail(field_of("initial_step"), f"initial_step {s.initial_step:g} exceeds max_step "
-                                          f"{s.max_step:g}")
-    if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
-        ck.fail(field_of("samples"), f"must be >= 2H+1 = {2 * s.harmonics + 1} for H = "
-                                     f"{s.harmonics}, got {s.samples}")
-
-
-def _beyond(knob, value, ref: Settings) -> str | None:
-    """Why `value` of `knob` is more accurate than the reference (None if it is not)."""
-    if knob == "harmonics" and value > ref.harmonics:
-        return f"H = {value} exceeds the reference's H = {ref.harmonics}"
-    if knob == "samples" and ref.force_evaluation == "aft" and value > ref.samples:
-        return f"N = {value} exceeds the reference's N = {ref.samples}"
-    if knob == "tolerance" and value < ref.tolerance:
-        return f"{value:g} is below the reference's tolerance {ref.tolerance:g}"
-    if knob == "max_step" and value < ref.max_step:
-        return f"{value:g} is below the reference's max_step {ref.max_step:g}"
-    if knob == "craig_bampton_modes" and value > ref.craig_bampton_modes:
-        return f"{value} modes exceed the reference's {ref.craig_bampton_modes}"
-    if knob == "mesh" and any(a > b for a, b in zip(value, ref.mesh)):
-        return f"mesh {list(value)} is finer than the reference's {list(ref.mesh)}"
-    return None
 
 
 def _case(ck, c, tab, scene, h_excited, where) -> Case:
     """Validate one case table (full or quick variant); `where(path)` gives the
     dotted field of a path inside the case."""
-    from .rules import check_scene_rules
-    from .scene import parse_sweep
-    from .spec import FrequencyRange
-
-    dofs = scene.dofs
-    if "dof" not in tab:
-        ck.fail(where("dof"), "missing (required): the response DOF whose peak is measured")
-    dof = ck.string(tab["dof"], where("dof"))
-    if c == "blade":
-        from .blade_scene import OUT_DOF_PATTERN
-        if not OUT_DOF_PATTERN.match(dof):
-            ck.fail(where("dof"), f"{dof!r} is not '<set>.<component>' with set excitation or "
-                                  "response and component x, y or z")
-    elif dof not in dofs:
-        ck.fail(where("dof"), f"unknown DOF {dof!r} (DOFs: {', '.join(dofs)})")
+    dof = _case_dof(ck, c, tab, scene.dofs, where)
     preload = ck.number(tab["preload"], where("preload")) if "preload" in tab else None
-    fr = tab["frequency"]
-    if not isinstance(fr, dict):
-        ck.fail(where("frequency"), "must be a table {start, stop, unit}")
-    _, freq = parse_sweep(_Prefixed(ck.file, where("frequency").rsplit(".", 1)[0]),
-                     {"frequency": fr}, "", partial=True)
-    if freq.start > freq.stop:
-        ck.fail(where("frequency"), "start must be below stop")
+    freq = _case_frequency(ck, tab, where)
     repeats = ck.integer(tab.get("repeats", 1), where("repeats"), 1, 100)
     ti = ck.boolean(tab.get("time_integration", False), where("time_integration"))
     if ti and c != "lumped":
@@ -386,35 +238,11 @@ def _case(ck, c, tab, scene, h_excited, where) -> Case:
     base_t = ck.table(tab.get("baseline", {}), where("baseline"))
     baseline = _settings(ck, c, base_t, "baseline", where, h_excited, base=reference)
     for k in base_t:
-        why = _beyond(k, baseline.value_of(k), reference) if k in KNOBS[c] else None
+        why = beyond_reference(k, baseline.value_of(k), reference) if k in KNOBS[c] else None
         if why:
             ck.fail(where(f"baseline.{k}"), why + ": the reference must be the most accurate")
     knobs_t = ck.table(tab.get("knobs", {}), where("knobs"))
-    if not knobs_t:
-        ck.fail(where("knobs"), f"no knob to vary (knobs: {', '.join(KNOBS[c])})")
-    knobs = []
-    for k, values in knobs_t.items():
-        path = where(f"knobs.{k}")
-        if k not in KNOBS[c]:
-            ck.keys({k: None}, where("knobs"), KNOBS[c])
-        vals = ck.array(values, path)
-        out = []
-        for i, v in enumerate(vals):
-            f = f"{path}[{i}]"
-            x = _setting(ck, k, v, f, h_excited)
-            if x in out:
-                ck.fail(f, f"duplicate value {v}")
-            why = _beyond(k, x, reference)
-            if why:
-                ck.fail(f, why + ": the reference must be the most accurate setting")
-            s = baseline.with_knob(k, x)
-            if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
-                ck.fail(f, f"must be >= 2H+1 = {2 * s.harmonics + 1} for the baseline's H = "
-                           f"{s.harmonics}, got {s.samples}")
-            if k == "mesh":
-                _check_mesh(ck, scene, x, f)
-            out.append(x)
-        knobs.append((k, tuple(out)))
+    knobs = _knobs(ck, c, knobs_t, scene, reference, baseline, h_excited, where)
     if c == "blade":
         for k, s in (("reference", reference), ("baseline", baseline)):
             _check_mesh(ck, scene, s.mesh, where(f"{k}.mesh"))
@@ -435,10 +263,65 @@ def _case(ck, c, tab, scene, h_excited, where) -> Case:
                 time_integration=ti, reference=reference, baseline=baseline, knobs=tuple(knobs))
 
 
+def _case_dof(ck, c, tab, dofs, where) -> str:
+    """The case's response DOF: a DOF of the lumped scene, '<set>.<component>' of a blade."""
+    if "dof" not in tab:
+        ck.fail(where("dof"), "missing (required): the response DOF whose peak is measured")
+    dof = ck.string(tab["dof"], where("dof"))
+    if c == "blade":
+        if not OUT_DOF_PATTERN.match(dof):
+            ck.fail(where("dof"), f"{dof!r} is not '<set>.<component>' with set excitation or "
+                                  "response and component x, y or z")
+    elif dof not in dofs:
+        ck.fail(where("dof"), f"unknown DOF {dof!r} (DOFs: {', '.join(dofs)})")
+    return dof
+
+
+def _case_frequency(ck, tab, where):
+    """The case's frequency window {start, stop, unit} (a continuation sweep's)."""
+    fr = tab["frequency"]
+    if not isinstance(fr, dict):
+        ck.fail(where("frequency"), "must be a table {start, stop, unit}")
+    _, freq = parse_sweep(_Prefixed(ck.file, where("frequency").rsplit(".", 1)[0]),
+                     {"frequency": fr}, "", partial=True)
+    if freq.start > freq.stop:
+        ck.fail(where("frequency"), "start must be below stop")
+    return freq
+
+
+def _knobs(ck, c, knobs_t, scene, reference, baseline, h_excited, where) -> list:
+    """[(knob, (value, ...))] of the `knobs` table: known knobs, values valid, distinct,
+    no more accurate than the reference, and AFT samples >= 2H+1 at the baseline's H."""
+    if not knobs_t:
+        ck.fail(where("knobs"), f"no knob to vary (knobs: {', '.join(KNOBS[c])})")
+    knobs = []
+    for k, values in knobs_t.items():
+        path = where(f"knobs.{k}")
+        if k not in KNOBS[c]:
+            ck.keys({k: None}, where("knobs"), KNOBS[c])
+        vals = ck.array(values, path)
+        out = []
+        for i, v in enumerate(vals):
+            f = f"{path}[{i}]"
+            x = _setting(ck, k, v, f, h_excited)
+            if x in out:
+                ck.fail(f, f"duplicate value {v}")
+            why = beyond_reference(k, x, reference)
+            if why:
+                ck.fail(f, why + ": the reference must be the most accurate setting")
+            s = baseline.with_knob(k, x)
+            if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
+                ck.fail(f, f"must be >= 2H+1 = {2 * s.harmonics + 1} for the baseline's H = "
+                           f"{s.harmonics}, got {s.samples}")
+            if k == "mesh":
+                _check_mesh(ck, scene, x, f)
+            out.append(x)
+        knobs.append((k, tuple(out)))
+    return knobs
+
+
 def _check_mesh(ck, scene, counts, field_):
     """A generated blade with these element counts must be valid and not too fine."""
-    from .blade_scene import parse_blade_params
-
     p = scene.structure.params
     t = {k: getattr(p, k) for k in ("length", "chord", "thickness", "shroud_chord",
                                     "shroud_width", "shroud_height", "shroud_angle",
@@ -448,33 +331,8 @@ def _check_mesh(ck, scene, counts, field_):
 
 
 # ---------------------------------------------------------------------------
-# Measurements
+# The systems of a case's runs (measured by accuracy_measure)
 # ---------------------------------------------------------------------------
-
-@dataclass
-class Measurement:
-    """What one run gives: its cost, its peak and folds, and its curve."""
-
-    success: bool
-    message: str
-    crashed: bool = False               # raised an exception (a bug or a bad model)
-    wall_time: float = math.nan         # [s] continuation (best of repeats) + model time
-    cpu_time: float = math.nan          # [s] process time of that best continuation
-    model_time: float = 0.0             # [s] blades: FE assembly + Craig-Bampton reduction
-    peak_amplitude: float = math.nan    # [m]
-    peak_frequency: float = math.nan    # [rad/s]
-    folds: np.ndarray = field(default_factory=lambda: np.zeros(0))   # [rad/s], ascending
-    repeats: int = 1                    # timing runs (the shortest counts)
-    n_points: int = 0
-    nfev: int = 0
-    n_dof: int = 0                      # DOFs of the model solved (reduced for blades)
-    n_dof_full: int = 0                 # DOFs of the unreduced model
-    omega: np.ndarray = field(default_factory=lambda: np.zeros(0))          # (P,) [rad/s]
-    amplitude: np.ndarray = field(default_factory=lambda: np.zeros(0))      # (P,) [m]
-    harmonic_amplitude: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
-    converged: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
-    peak_state: tuple | None = None     # (system, Q (n, 2H+1), omega) at the peak
-
 
 def _system(case: Case, s: Settings, models: dict):
     """(System, index of the case's DOF, model time [s], n_dof_full) for settings s.
@@ -492,212 +350,24 @@ def _system(case: Case, s: Settings, models: dict):
     return (build_system(v, case_arg), v.dof_index(case.dof), t_fe + t_red, blade.n_dof)
 
 
-def measure(case: Case, s: Settings, models: dict, solver=None) -> Measurement:
-    """Trace the case once with settings s: the result and its cost (`retime` adds
-    timing runs)."""
-    from ..solve.response import frequency_response
-
-    solver = solver or frequency_response
-    try:
-        system, dof, t_model, n_full = _system(case, s, models)
-        t0, c0 = time.perf_counter(), time.process_time()
-        curve = solver(system, s.harmonics, case.frequency.omega_start, case.frequency.omega_stop,
-                       peak_dofs=[dof], **s.solver_kwargs())
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    except Exception as exc:  # a failing setting is a finding, not the end of the study
-        log.exception("%s: %s failed", case.name, s.describe())
-        return Measurement(success=False, message=f"{type(exc).__name__}: {exc}", crashed=True)
-    conv = np.asarray(curve.converged, bool)
-    m = Measurement(success=bool(curve.success and conv.any()), message=str(curve.message),
-                    wall_time=wall + t_model, cpu_time=cpu, model_time=t_model,
-                    n_points=int(curve.n_points), nfev=int(curve.nfev), n_dof=int(system.n_dof),
-                    n_dof_full=int(n_full))
-    if not conv.any():
-        m.message = "no converged point: " + m.message
-        return m
-    amp, om, i = curve.peak(dof)
-    m.peak_amplitude, m.peak_frequency = amp, om
-    if i in (0, curve.n_points - 1):
-        m.success = False
-        m.message = "peak at the edge of the frequency window; " + m.message
-    m.folds = np.sort(np.asarray(curve.fold_parameter, float))
-    m.omega = np.asarray(curve.omega, float)
-    m.amplitude = np.asarray(curve.amplitude, float)[:, dof]
-    Q = np.asarray(curve.Q, float)[:, dof, :]
-    m.harmonic_amplitude = np.column_stack([np.abs(Q[:, 0]), np.hypot(Q[:, 1::2], Q[:, 2::2])])
-    m.converged = conv
-    m.peak_state = (system, np.asarray(curve.Q[i], float), om)
-    return m
-
-
-def retime(case: Case, s: Settings, m: Measurement, models: dict, solver=None) -> None:
-    """Run the continuation of `m` again and keep the shorter time (wall and CPU
-    of the same run)."""
-    from ..solve.response import frequency_response
-
-    if m.crashed:
-        return
-    solver = solver or frequency_response
-    system, dof, t_model, _ = _system(case, s, models)
-    t0, c0 = time.perf_counter(), time.process_time()
-    solver(system, s.harmonics, case.frequency.omega_start, case.frequency.omega_stop,
-           peak_dofs=[dof], **s.solver_kwargs())
-    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    if wall + t_model < m.wall_time:
-        m.wall_time, m.cpu_time = wall + t_model, cpu
-    m.repeats += 1
-
-
-def relative_errors(m: Measurement, ref: Measurement) -> dict:
-    """e_A, e_W, e_F and error = max of them (NaN parts ignored) against `ref`."""
-    if not ref.success or not np.isfinite(m.peak_amplitude):
-        return {k: math.nan for k in METRICS + ("error",)}
-    e = {"peak_amplitude": abs(m.peak_amplitude / ref.peak_amplitude - 1.0),
-         "peak_frequency": abs(m.peak_frequency / ref.peak_frequency - 1.0)}
-    if m.folds.size != ref.folds.size:
-        e["fold_frequency"] = math.inf
-    elif ref.folds.size == 0:
-        e["fold_frequency"] = math.nan
-    else:
-        e["fold_frequency"] = float(np.max(np.abs(m.folds / ref.folds - 1.0)))
-    vals = [v for v in e.values() if not math.isnan(v)]
-    e["error"] = max(vals) if vals and m.success else math.nan
-    return e
-
-
-def time_integration_check(ref: Measurement, dof: int, lo: float, rel_window: float = 1e-3) -> dict:
-    """Event-driven time integration (`timesim.steady_state`, shooting from the HBM
-    state) at the reference peak, and the peak frequency of the integrated response
-    (bounded Brent on the amplitude in Omega_ref (1 -+ rel_window), kept above `lo`,
-    the fold that ends the branch the peak sits on)."""
-    from scipy.optimize import minimize_scalar
-
-    from ..solve import timesim
-
-    system, Q, Om = ref.peak_state
-    q0, qd0, w0 = state_at_zero(system, Q, Om)
-    t0 = time.perf_counter()
-    at_peak = timesim.steady_state(system, Om, q0=q0, qd0=qd0, w0=w0)
-    periods = [at_peak.periods]
-
-    def neg_amp(W):
-        r = timesim.steady_state(system, W, q0=q0, qd0=qd0, w0=w0)
-        periods.append(r.periods)
-        return -r.amplitude[dof] if r.converged else math.inf
-
-    bounds = (max(Om * (1 - rel_window), lo), Om * (1 + rel_window))
-    res = minimize_scalar(neg_amp, bounds=bounds, method="bounded", options={"xatol": 1e-10 * Om})
-    return {"amplitude_at_peak": float(at_peak.amplitude[dof]), "converged": bool(at_peak.converged),
-            "peak_amplitude": float(-res.fun), "peak_frequency": float(res.x),
-            "amplitude_error": abs(ref.peak_amplitude / at_peak.amplitude[dof] - 1.0),
-            "peak_amplitude_error": abs(ref.peak_amplitude / -res.fun - 1.0),
-            "peak_frequency_error": abs(ref.peak_frequency / res.x - 1.0),
-            "wall_time": time.perf_counter() - t0, "periods": int(sum(periods)),
-            "evaluations": len(periods)}
-
-
-# ---------------------------------------------------------------------------
-# Recommendation
-# ---------------------------------------------------------------------------
-
-TIE = 0.1   # wall times within 10 % of the cheapest count as equal (timing noise)
-
-
-def recommend(rows: list, knobs, target: float) -> dict:
-    """Per knob, the cheapest run (its series or the baseline) whose errors all meet
-    the target: {knob: (value, row, met)}.  Runs within `TIE` of the cheapest time
-    count as equally cheap, and the most accurate of them is taken.  If no run
-    meets the target, the most accurate one (met False)."""
-    base = next(r for r in rows if r["knob"] == "baseline")
-    out = {}
-    for k, _ in knobs:
-        cand = [base] + [r for r in rows if r["knob"] == k]
-        ok = [r for r in cand if _meets(r, target)]
-        if ok:
-            t_min = min(r["m"].wall_time for r in ok)
-            near = [r for r in ok if r["m"].wall_time <= (1 + TIE) * t_min]
-            best = min(near, key=lambda r: r["errors"]["error"])
-        else:
-            best = min(cand, key=lambda r: (r["errors"]["error"] if np.isfinite(r["errors"]["error"])
-                                           else math.inf))
-        out[k] = (best["settings"].value_of(k), best, bool(ok))
-    return out
-
-
-def _meets(row, target):
-    e = row["errors"]
-    return bool(row["m"].success and all(not (e[k] > target) for k in METRICS)
-                and np.isfinite(e["error"]))
-
-
-def recommended_settings(baseline: Settings, rec: dict) -> Settings:
-    s = baseline
-    for k, (value, _, _) in rec.items():
-        s = replace(s, force_evaluation="exact") if (k == "samples" and value == "exact") \
-            else s.with_knob(k, value)
-    if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
-        s = replace(s, force_evaluation="exact")  # that N was measured at a lower H only
-    return s
+def case_systems(case: Case):
+    """`system_for` of `accuracy_measure.run_case`: settings -> (System, index of the
+    case's DOF, model time [s], n_dof_full), FE blades cached per mesh and their
+    reductions per (mesh, modes) for the case's runs."""
+    models = {}
+    return lambda s: _system(case, s, models)
 
 
 # ---------------------------------------------------------------------------
 # Running the study
 # ---------------------------------------------------------------------------
 
-def run_case(case: Case, target: float, solver=None) -> dict:
-    """All runs of one case: rows [{case, knob, value, settings, m, errors,
-    errors_baseline}], the recommendation, and the time-integration check."""
-    models, cache = {}, {}
-
-    def get(settings):
-        """Measure every new setting once, then time them again `repeats - 1` times,
-        round-robin, so that a burst of load on a shared machine does not hit all
-        the timings of one setting."""
-        new = [s for s in dict.fromkeys(settings) if s not in cache]
-        for s in new:
-            cache[s] = m = measure(case, s, models, solver)
-            log.info("%s: %s: %s, %.3g s%s", case.name, s.describe(),
-                     f"peak {m.peak_amplitude:.8g} at {m.peak_frequency:.8g} rad/s, "
-                     f"folds {np.round(m.folds, 6).tolist()}" if m.success else "FAILED",
-                     m.wall_time, "" if m.success else f" ({m.message})")
-        for _ in range(case.repeats - 1):
-            for s in new:
-                retime(case, s, cache[s], models, solver)
-        return [cache[s] for s in settings]
-
-    get([s for _, _, s in case.runs()])
-    rows = []
-    for knob, value, s in case.runs():
-        rows.append({"case": case.name, "knob": knob, "value": value, "settings": s,
-                     "m": cache[s]})
-    ref = rows[0]["m"]
-    base = rows[1]["m"]
-    for r in rows:
-        r["errors"] = relative_errors(r["m"], ref)
-        r["errors_baseline"] = relative_errors(r["m"], base)
-    rec = recommend(rows, case.knobs, target)
-    s_rec = recommended_settings(case.baseline, rec)
-    m_rec = get([s_rec])[0]
-    row = {"case": case.name, "knob": "recommended", "value": None, "settings": s_rec, "m": m_rec,
-           "errors": relative_errors(m_rec, ref), "errors_baseline": relative_errors(m_rec, base)}
-    rows.append(row)
-    ti = None
-    if case.time_integration and ref.success:
-        lo = float(ref.folds[ref.folds < ref.peak_frequency].max()) if np.any(
-            ref.folds < ref.peak_frequency) else 0.0
-        dof = case.scene.dof_index(case.dof)
-        ti = time_integration_check(ref, dof, lo * (1 + 1e-9))
-        log.info("%s: reference vs event-driven time integration: amplitude at the peak %.3g, "
-                 "peak amplitude %.3g, peak frequency %.3g (relative; %.2f s)", case.name,
-                 ti["amplitude_error"], ti["peak_amplitude_error"], ti["peak_frequency_error"],
-                 ti["wall_time"])
-    return {"case": case, "rows": rows, "recommendation": rec, "recommended": row, "ti": ti}
-
-
 def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool = True,
                        progress: bool = True, solver=None):
     """Run every case, write `out_dir/<name>.nc`, `out_dir/<name>/table.md` and
     `out_dir/<name>/pareto.png`; returns a `study.StudyResult`."""
+    # dataset.py (xarray) and run.py are imported when a study runs: reading or checking
+    # one needs neither
     from .dataset import write_netcdf
     from .spec import StudyResult
 
@@ -708,7 +378,7 @@ def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool
         n = len({s for _, _, s in case.runs()})
         log.info("%s: case %s, %d distinct settings%s", study.name, case.name, n,
                  " (quick)" if study.quick else "")
-        results.append(run_case(case, study.target, solver))
+        results.append(run_case(case, study.target, case_systems(case), solver))
     ds = to_dataset(study, results)
     res = StudyResult(study=study, dataset=ds, path=None)
     # a knob value whose continuation fails is a finding; a failed reference or a crash is not
@@ -734,370 +404,3 @@ def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool
         log.info("wrote %s", p)
     res.wall_time = time.perf_counter() - t0
     return res
-
-
-# ---------------------------------------------------------------------------
-# Dataset, table, figure
-# ---------------------------------------------------------------------------
-
-def _value_text(row) -> str:
-    k, s = row["knob"], row["settings"]
-    if k in ("reference", "baseline", "recommended"):
-        return s.describe()
-    v = s.value_of(k)
-    if k == "mesh":
-        return "x".join(map(str, v)) + f" ({row['m'].n_dof_full:,} DOFs)"
-    if k == "samples":
-        return f"AFT N = {v}"
-    return f"{v:g}" if isinstance(v, float) else str(v)
-
-
-def _run_label(row) -> str:
-    k = row["knob"]
-    if k in ("reference", "baseline", "recommended"):
-        return f"{row['case']}/{k}"
-    v = row["settings"].value_of(k)
-    v = "x".join(map(str, v)) if k == "mesh" else (f"{v:g}" if isinstance(v, float) else v)
-    return f"{row['case']}/{k}={v}"
-
-
-def to_dataset(study: AccuracyStudy, results: list):
-    """One `run` per measured setting (references, baselines, knob values, the
-    recommended combinations); per run the contract's response variables (README,
-    Dataset) of the case's DOF (frequency in rad/s), the settings, times, peaks,
-    folds and errors."""
-    import datetime as _dt
-
-    import xarray as xr
-
-    from .. import __version__
-    from .dataset import CONVENTIONS
-
-    rows = [r for res in results for r in res["rows"]]
-    R = len(rows)
-    P = max([1] + [r["m"].omega.size for r in rows])
-    Hmax = max(r["settings"].harmonics for r in rows)
-    F = max([1] + [r["m"].folds.size for r in rows])
-
-    def pad(get, shape, fill=np.nan, dtype=float):
-        a = np.full((R,) + shape, fill, dtype=dtype)
-        for i, r in enumerate(rows):
-            v = np.asarray(get(r))
-            a[(i,) + tuple(slice(0, n) for n in v.shape)] = v
-        return a
-
-    def var(dims, data, units, long_name, **extra):
-        attrs = {"long_name": long_name, **extra}
-        if units is not None:
-            attrs["units"] = units
-        return (dims, data, attrs)
-
-    conv = pad(lambda r: r["m"].converged, (P,), False, bool)
-    freq = pad(lambda r: r["m"].omega, (P,))
-    amp = pad(lambda r: r["m"].amplitude, (P,))
-    freq[~conv], amp[~conv] = np.nan, np.nan
-    hamp = pad(lambda r: r["m"].harmonic_amplitude, (P, Hmax + 1))
-    for i, r in enumerate(rows):  # harmonics above a run's H are not in its ansatz: zero
-        hamp[i, :, np.shape(r["m"].harmonic_amplitude)[-1]:] = 0.0
-    hamp[~conv] = np.nan
-    num = lambda f: np.array([f(r) for r in rows], dtype=float)        # noqa: E731
-    err = lambda key, k: np.array([r[key][k] for r in rows], dtype=float)  # noqa: E731
-    s_ = [r["settings"] for r in rows]
-    data_vars = {
-        "amplitude": var(("run", "point", "dof"), amp[..., None], "m",
-                         "half peak-to-peak amplitude of the case's response DOF"),
-        "harmonic_amplitude": var(("run", "point", "dof", "harmonic"), hamp[:, :, None, :], "m",
-                                  "sqrt(a_h^2 + b_h^2) of the response DOF (|a_0| at h = 0)"),
-        "converged": var(("run", "point"), conv, None, "full residual within its tolerance"),
-        "stable": var(("run", "point"), np.full(conv.shape, np.nan), "1",
-                      "stability NOT computed (accuracy study): NaN everywhere",
-                      flag_values=np.array([0.0, 1.0]), flag_meanings="unstable stable",
-                      comment="NaN: stability not computed (the runs measure accuracy and time)",
-                      stability_computed=0),
-        "peak_amplitude": var(("run", "dof"), num(lambda r: r["m"].peak_amplitude)[:, None], "m",
-                              "largest amplitude on the branch (exact peak)"),
-        "peak_frequency": var(("run", "dof"), num(lambda r: r["m"].peak_frequency)[:, None],
-                              "rad/s", "frequency of that peak"),
-        "fold_frequency": var(("run", "fold"), pad(lambda r: r["m"].folds, (F,)), "rad/s",
-                              "frequencies of the folds, ascending (NaN: fewer folds)"),
-        "n_folds": var(("run",), np.array([r["m"].folds.size for r in rows], np.int32), "1",
-                       "folds detected on the branch"),
-        "wall_time": var(("run",), num(lambda r: r["m"].wall_time), "s",
-                         "wall time: shortest continuation of the repeats + model time"),
-        "cpu_time": var(("run",), num(lambda r: r["m"].cpu_time), "s",
-                        "process (CPU) time of that continuation"),
-        "repeats": var(("run",), np.array([r["m"].repeats for r in rows], np.int32), "1",
-                       "timing runs of the setting (interleaved; the shortest counts)"),
-        "model_time": var(("run",), num(lambda r: r["m"].model_time), "s",
-                          "FE assembly + Craig-Bampton reduction (blades; 0 for lumped)"),
-        "n_points": var(("run",), np.array([r["m"].n_points for r in rows], np.int32), "1",
-                        "points on the branch"),
-        "residual_evaluations": var(("run",), np.array([r["m"].nfev for r in rows], np.int32),
-                                    "1", "residual evaluations of the continuation"),
-        "n_dof": var(("run",), np.array([r["m"].n_dof for r in rows], np.int32), "1",
-                     "DOFs of the model solved (reduced for blades)"),
-        "n_dof_full": var(("run",), np.array([r["m"].n_dof_full for r in rows], np.int32), "1",
-                          "DOFs of the unreduced model"),
-        "success": var(("run",), np.array([r["m"].success for r in rows]), None,
-                       "the branch reached the end of the window and its peak is interior"),
-        "message": var(("run",), np.array([r["m"].message for r in rows], dtype=str), None,
-                       "continuation message"),
-        "case": var(("run",), np.array([r["case"] for r in rows], dtype=str), None, "case"),
-        "knob": var(("run",), np.array([r["knob"] for r in rows], dtype=str), None,
-                    "knob varied (or reference / baseline / recommended)"),
-        "value": var(("run",), np.array([_value_text(r) for r in rows], dtype=str), None,
-                     "value of the knob (settings of reference / baseline / recommended)"),
-        "harmonics": var(("run",), np.array([s.harmonics for s in s_], np.int32), "1",
-                         "harmonics H"),
-        "force_evaluation": var(("run",), np.array([s.force_evaluation for s in s_], dtype=str),
-                                None, "contact forces: exact or aft"),
-        "samples": var(("run",), np.array([s.samples if s.force_evaluation == "aft" else -1
-                                           for s in s_], np.int32), "1",
-                       "AFT samples per period (-1: exact forces)"),
-        "tolerance": var(("run",), np.array([s.tolerance for s in s_]), "1",
-                         "Newton residual tolerance, relative to the force scale"),
-        "max_step": var(("run",), np.array([s.max_step for s in s_]), "1",
-                        "largest continuation step (scaled arclength)"),
-        "craig_bampton_modes": var(("run",), np.array([-1 if s.craig_bampton_modes is None else
-                                                       s.craig_bampton_modes for s in s_],
-                                                      np.int32), "1",
-                                   "Craig-Bampton fixed-interface modes (-1: lumped)"),
-        "mesh": var(("run",), np.array(["" if s.mesh is None else "x".join(map(str, s.mesh))
-                                        for s in s_], dtype=str), None,
-                    "blade mesh n_chord x n_thick x n_span ('' : lumped)"),
-    }
-    for key, what in (("errors", "the case's reference"), ("errors_baseline", "its baseline")):
-        sfx = "" if key == "errors" else "_vs_baseline"
-        for k, text in (("peak_amplitude", "peak amplitude"), ("peak_frequency", "peak frequency"),
-                        ("fold_frequency", "fold frequencies (largest; inf: other fold count)"),
-                        ("error", "largest of the three")):
-            data_vars[f"{k}_error{sfx}" if k != "error" else f"error{sfx}"] = var(
-                ("run",), err(key, k), "1", f"relative error of the {text} against {what}")
-    attrs = {"title": study.title, "study": study.text, "study_name": study.name,
-             "description": study.description, "reference": study.reference,
-             "kind": "accuracy_cost", "quick": int(study.quick),
-             "harmonics": int(Hmax), "force_evaluation": "per run (variable force_evaluation)",
-             "target": float(study.target),
-             "frequency_note": "every frequency in rad/s (blade: Hz = rad/s / 2 pi)",
-             "pipeline_version": __version__,
-             "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-             "source": "pipeline (accuracy-cost study: harmonic balance, continuation)",
-             "Conventions": CONVENTIONS}
-    for res in results:
-        c = res["case"].name
-        rr = res["recommended"]
-        attrs[f"{c}_reference"] = res["case"].reference.describe()
-        if res["case"].preload is not None:
-            attrs[f"{c}_preload"] = float(res["case"].preload)
-        attrs[f"{c}_baseline"] = res["case"].baseline.describe()
-        attrs[f"{c}_recommended"] = rr["settings"].describe()
-        attrs[f"{c}_recommended_error"] = float(rr["errors"]["error"])
-        attrs[f"{c}_recommended_wall_time"] = float(rr["m"].wall_time)
-        attrs[f"{c}_recommended_meets_target"] = int(_meets(rr, study.target))
-        for k, (v, _, met) in res["recommendation"].items():
-            attrs[f"{c}_recommended_{k}"] = ("x".join(map(str, v)) if k == "mesh" else v
-                                            if isinstance(v, str) else
-                                            int(v) if isinstance(v, (int, np.integer)) else float(v))
-            attrs[f"{c}_recommended_{k}_meets_target"] = int(met)
-        ti = res["ti"]
-        if ti is not None:
-            for k in ("amplitude_at_peak", "peak_amplitude", "peak_frequency", "amplitude_error",
-                      "peak_amplitude_error", "peak_frequency_error", "wall_time"):
-                units = {"amplitude_at_peak": "m", "peak_amplitude": "m", "peak_frequency": "rad/s",
-                         "wall_time": "s"}.get(k, "1")
-                text = {"amplitude_at_peak": "amplitude at the reference peak frequency",
-                        "peak_amplitude": "largest amplitude near the reference peak",
-                        "peak_frequency": "frequency of that largest amplitude",
-                        "amplitude_error": "|A_ref / A_ti(W_ref) - 1| at the reference peak",
-                        "peak_amplitude_error": "|A_ref / A_ti,peak - 1|",
-                        "peak_frequency_error": "|W_ref / W_ti,peak - 1|",
-                        "wall_time": "wall time of the time integration check"}[k]
-                data_vars[f"{c}_time_integration_{k}"] = var(
-                    (), float(ti[k]), units, f"{c}: event-driven time integration: {text}")
-    labels = np.array([_run_label(r) for r in rows], dtype=str)
-    coords = {"run": ("run", labels, {"long_name": "run: case/knob=value"}),
-              "dof": ("dof", np.array(["response"], dtype=str),
-                      {"long_name": "the case's response DOF (see response_dof)"}),
-              "harmonic": ("harmonic", np.arange(Hmax + 1, dtype=np.int32),
-                           {"units": "1", "long_name": "harmonic index h"}),
-              "point": ("point", np.arange(P, dtype=np.int32),
-                        {"units": "1", "long_name": "index along the branch"}),
-              "fold": ("fold", np.arange(F, dtype=np.int32),
-                       {"units": "1", "long_name": "index of a fold, in ascending frequency"}),
-              "frequency": (("run", "point"), freq, {"units": "rad/s",
-                                                     "long_name": "excitation frequency"})}
-    dofs = {res["case"].name: res["case"].dof for res in results}
-    data_vars["response_dof"] = var(("run",), np.array([dofs[r["case"]] for r in rows], dtype=str),
-                                    None, "the case's response DOF (dof = 'response')")
-    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
-
-
-def _fmt(x) -> str:
-    if x is None or (isinstance(x, float) and math.isnan(x)):
-        return "–"
-    if math.isinf(x):
-        return "fold missed"
-    return "0" if x == 0 else f"{x:.1e}"
-
-
-def results_table(results: list, target: float) -> str:
-    """Markdown table: case, knob, value, wall time, residual evaluations, the three
-    errors against the reference, the largest against the baseline."""
-    lines = ["| case | knob | value | wall time [s] | residual evaluations | peak amplitude "
-             "| peak frequency | folds | largest vs baseline |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for res in results:
-        for r in res["rows"]:
-            e, m = r["errors"], r["m"]
-            ok = "" if m.success else " (failed)"
-            lines.append(f"| {r['case']} | {r['knob']} | {_value_text(r)}{ok} | "
-                         f"{m.wall_time:.3g} | {m.nfev} | {_fmt(e['peak_amplitude'])} | "
-                         f"{_fmt(e['peak_frequency'])} | {_fmt(e['fold_frequency'])} | "
-                         f"{_fmt(r['errors_baseline']['error'])} |")
-    return "\n".join(lines)
-
-
-def recommendation_lines(results: list, target: float) -> list:
-    out = []
-    for res in results:
-        c, rr, ref = res["case"].name, res["recommended"], res["rows"][0]["m"]
-        parts = []
-        for k, (v, _, met) in res["recommendation"].items():
-            txt = "x".join(map(str, v)) if k == "mesh" else (f"{v:g}" if isinstance(v, float) else v)
-            parts.append(f"{k} = {txt}" + ("" if met else f" (none meets {target:g})"))
-        verdict = "meets" if _meets(rr, target) else "MISSES"
-        out.append(f"{c}: recommended {', '.join(parts)} -> error {_fmt(rr['errors']['error'])} "
-                   f"({verdict} the target {target:g}) in {rr['m'].wall_time:.3g} s; reference "
-                   f"{ref.wall_time:.3g} s")
-        ti = res["ti"]
-        if ti is not None:
-            out.append(f"{c}: reference vs event-driven time integration: amplitude at the peak "
-                       f"{_fmt(ti['amplitude_error'])}, peak amplitude "
-                       f"{_fmt(ti['peak_amplitude_error'])}, peak frequency "
-                       f"{_fmt(ti['peak_frequency_error'])}")
-    return out
-
-
-def pareto_figure(path, ds, title: str | None = None):
-    """`pareto_plot` written to `path` (PNG)."""
-    from .plots import atomic_savefig, pyplot
-
-    fig = pareto_plot(ds, title)
-    out = atomic_savefig(fig, path)
-    pyplot().close(fig)
-    return out
-
-
-def pareto_plot(ds, title: str | None = None):
-    """Error against wall time (log-log) from an accuracy dataset: one panel per case,
-    one series per knob (through the baseline, from the cheapest to the most accurate
-    value), the baseline (open square), the recommended combination (star), the
-    target (dashed), the reference's wall time (dotted) and, for the lumped case, the
-    reference's discrepancy to event-driven time integration (dash-dot).  An error of
-    0 (the reference itself) is drawn on the bottom edge, a missed fold on the top.
-    Returns the open figure."""
-    from .plots import pyplot, label_log_axis
-
-    plt = pyplot()
-    cases = list(dict.fromkeys(ds["case"].values.tolist()))
-    target = float(ds.attrs["target"])
-    fig, axes = plt.subplots(1, len(cases), figsize=(6.0 * len(cases), 5.6), squeeze=False)
-    markers = "osD^v<>p"
-    for ax, c in zip(axes[0], cases):
-        sub = ds.isel(run=np.flatnonzero(ds["case"].values == c))
-        knob = sub["knob"].values.tolist()
-        t, err = sub["wall_time"].values, sub["error"].values
-        i_ref, i_base, i_rec = (knob.index(k) for k in ("reference", "baseline", "recommended"))
-        ti = None
-        if f"{c}_time_integration_amplitude_error" in ds:
-            ti = max(float(ds[f"{c}_time_integration_amplitude_error"]),
-                     float(ds[f"{c}_time_integration_peak_frequency_error"]))
-        pos = [e for e in list(err) + [ti or np.nan, target] if np.isfinite(e) and e > 0]
-        lo = 10 ** np.floor(np.log10(min(pos))) / 10
-
-        def shown(e):
-            return lo if e == 0 else 2.0 if np.isinf(e) else e
-
-        series = [k for k in dict.fromkeys(knob) if k not in ("reference", "baseline",
-                                                               "recommended")]
-        for j, k in enumerate(series):
-            idx = sorted([i_base] + [i for i, kk in enumerate(knob) if kk == k],
-                         key=lambda i: _order(sub, i, k))
-            ax.plot(t[idx], [shown(err[i]) for i in idx], marker=markers[j % len(markers)],
-                    ms=5, lw=1, label=_KNOB_LABELS.get(k, k))
-            dense = k in ("tolerance", "max_step")   # values on one level: label the ends
-            ends = [i for i in idx if i != i_base]
-            for i in idx:
-                if i == i_base or (dense and i not in (ends[0], ends[-1])):
-                    continue
-                ax.annotate(_short(sub, i, k), (t[i], shown(err[i])), fontsize=6,
-                            xytext=(3, 3), textcoords="offset points")
-        val = sub["value"].values
-        ax.plot([t[i_base]], [shown(err[i_base])], "ks", mfc="none", ms=10,
-                label="baseline: " + _wrap(str(val[i_base])))
-        ax.plot([t[i_rec]], [shown(err[i_rec])], "*", color="gold", mec="k", ms=14,
-                label="recommended: " + _wrap(str(val[i_rec])))
-        ax.axvline(t[i_ref], color="k", ls=":", lw=1,
-                   label="reference: " + _wrap(str(val[i_ref])))
-        ax.axhline(target, color="grey", ls="--", lw=1, label=f"target {target:g}")
-        if ti is not None:
-            ax.axhline(shown(ti), color="tab:purple", ls="-.", lw=1,
-                       label=f"reference vs event-driven time integration: {ti:.1e}")
-        if np.isinf(err).any():
-            ax.text(0.99, 0.985, "top edge: a fold missed", transform=ax.transAxes, fontsize=6,
-                    ha="right", va="top")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_ylim(lo / 1.5, 3.0)
-        label_log_axis(ax.xaxis)   # 1-2-5 (or finer) seconds over the range drawn
-        ax.set_xlabel("wall time [s]")
-        ax.set_ylabel("largest relative error (bottom edge: the reference itself)")
-        dof = str(sub["response_dof"].values[0])
-        pre = ds.attrs.get(f"{c}_preload")
-        ax.set_title(f"{c}: peak of {dof}" + (f", preload {pre:g} N" if pre is not None else "")
-                     + "\nerror of peak amplitude, peak and fold frequencies vs the reference",
-                     fontsize=8)
-        ax.grid(True, which="major", lw=0.3)
-        ax.legend(fontsize=6, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2,
-                  frameon=False)
-    fig.suptitle(title if title is not None else ds.attrs.get("title", ""), fontsize=10)
-    fig.tight_layout()
-    return fig
-
-
-_KNOB_LABELS = {"harmonics": "harmonics H", "samples": "AFT samples N (then exact)",
-                "tolerance": "Newton tolerance", "max_step": "largest continuation step",
-                "craig_bampton_modes": "Craig-Bampton modes", "mesh": "mesh (chord x thickness x span)"}
-
-
-def _wrap(text: str) -> str:
-    return text.replace(", tolerance", "\ntolerance")
-
-
-def _knob_value(sub, i, knob):
-    """The value of `knob` in run i of a dataset (from its settings variables)."""
-    if knob == "samples":
-        n = int(sub["samples"].values[i])
-        return "exact" if n < 0 else n
-    if knob == "mesh":
-        return str(sub["mesh"].values[i])
-    v = sub[knob].values[i]
-    return float(v) if knob in ("tolerance", "max_step") else int(v)
-
-
-def _order(sub, i, knob):
-    """Sort key along a knob's series: from the cheapest to the most accurate value."""
-    v = _knob_value(sub, i, knob)
-    if knob == "samples":
-        return math.inf if v == "exact" else v
-    if knob in ("tolerance", "max_step"):
-        return -v
-    if knob == "mesh":
-        counts = tuple(int(x) for x in v.split("x"))
-        return (int(np.prod(counts)), counts)
-    return v
-
-
-def _short(sub, i, knob) -> str:
-    v = _knob_value(sub, i, knob)
-    return f"{v:g}" if isinstance(v, float) else str(v)

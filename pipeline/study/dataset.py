@@ -23,7 +23,6 @@ the study's unit (rad/s or Hz).
 """
 from __future__ import annotations
 
-import datetime as _dt
 import os
 import re
 import uuid
@@ -33,14 +32,10 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from .. import __version__
 from ..model.scene import AT, stiffness_factors
 from ..model.system import natural_frequencies
-from .describe import scene_attrs, solution_method
+from .describe import provenance, scene_attrs, solution_method
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
-
-CONVENTIONS = "CF-1.10"
-
 
 def response_layout(study):
     """(dof labels, sector numbers or None, rows) of the reported response DOFs.
@@ -109,13 +104,6 @@ def _peak(freq, amp, mask):
     a = np.where(mask[None, :, None], amp, -np.inf)
     i = np.argmax(a, axis=1)
     return np.take_along_axis(a, i[:, None, :], axis=1)[:, 0, :], freq[i]
-
-
-def provenance(source: str) -> dict:
-    """The provenance attributes every dataset of the pipeline carries."""
-    return {"pipeline_version": __version__,
-            "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-            "source": source, "Conventions": CONVENTIONS}
 
 
 @dataclass(frozen=True)

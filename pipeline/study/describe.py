@@ -3,9 +3,14 @@ an FE blade (model sizes, damping, contact parameters) and of a cyclic assembly
 (sectors, engine order, mistuning), and the solution method of a study."""
 from __future__ import annotations
 
+import datetime as _dt
+
 import numpy as np
 
+from .. import __version__
+
 from ..model.scene import Blade, blade_contact_maps, reduced_model
+from .dataset_check import CONVENTIONS
 from .spec import is_linear_scene
 
 
@@ -69,3 +74,10 @@ def solution_method(study) -> str:
               else "constant normal load (Jenkins path: no separation search)")
     return (f"harmonic balance with pseudo-arclength continuation; Yang-Menq contacts: {normal}; "
             "fully stuck or open elements evaluated as linear springs")
+
+
+def provenance(source: str) -> dict:
+    """The provenance attributes every dataset of the pipeline carries."""
+    return {"pipeline_version": __version__,
+            "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "source": source, "Conventions": CONVENTIONS}
