@@ -61,7 +61,7 @@ from .checker import Checker
 from .plots import pareto_figure
 from .rules import check_scene_rules
 from .scene import parse_scene, parse_sweep
-from .spec import MAX_HARMONICS, FrequencyRange
+from .spec import MAX_HARMONICS, FrequencyRange, solver_rule_violations
 
 log = logging.getLogger(__name__)
 
@@ -310,7 +310,7 @@ def _knobs(ck, c, knobs_t, scene, reference, baseline, h_excited, where) -> list
             if why:
                 ck.fail(f, why + ": the reference must be the most accurate setting")
             s = baseline.with_knob(k, x)
-            if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
+            if "samples" in dict(solver_rule_violations(s)):
                 ck.fail(f, f"must be >= 2H+1 = {2 * s.harmonics + 1} for the baseline's H = "
                            f"{s.harmonics}, got {s.samples}")
             if k == "mesh":

@@ -24,6 +24,7 @@ from ..solve import timesim
 from ..solve.hbm_state import state_at_zero
 from ..solve.response import frequency_response
 from .accuracy_spec import Case, Settings
+from .spec import solver_rule_violations
 
 log = logging.getLogger(__name__)
 
@@ -199,7 +200,7 @@ def recommended_settings(baseline: Settings, rec: dict) -> Settings:
     for k, (value, _, _) in rec.items():
         s = replace(s, force_evaluation="exact") if (k == "samples" and value == "exact") \
             else s.with_knob(k, value)
-    if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
+    if "samples" in dict(solver_rule_violations(s)):
         s = replace(s, force_evaluation="exact")  # that N was measured at a lower H only
     return s
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+from .spec import solver_rule_violations
+
 
 # ---------------------------------------------------------------------------
 # Plain data
@@ -132,12 +134,8 @@ def mesh_value(ck, value, field_):
 def check_settings(ck, s, field_of):
     """Rules between the settings of one run: initial_step <= max_step, and N >= 2H+1
     AFT samples; `field_of(key)` is the field a failure names."""
-    if s.initial_step > s.max_step:
-        ck.fail(field_of("initial_step"), f"initial_step {s.initial_step:g} exceeds max_step "
-                                          f"{s.max_step:g}")
-    if s.force_evaluation == "aft" and s.samples < 2 * s.harmonics + 1:
-        ck.fail(field_of("samples"), f"must be >= 2H+1 = {2 * s.harmonics + 1} for H = "
-                                     f"{s.harmonics}, got {s.samples}")
+    for key, what in solver_rule_violations(s):
+        ck.fail(field_of(key), what)
 
 
 def beyond_reference(knob, value, ref: Settings) -> str | None:
