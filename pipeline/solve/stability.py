@@ -51,6 +51,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..fourier.harmonics import derivative_matrix
+from ..structure.reduction import start_vector
 
 log = logging.getLogger(__name__)
 
@@ -188,7 +189,8 @@ def _sparse_eigs(J, M, C, Omega, H, n, N, k, sigma):
     lu = spla.splu((A - sigma * B).astype(complex if np.iscomplex(sigma) else float).tocsc())
     op = spla.LinearOperator((2 * N, 2 * N), matvec=lambda v: lu.solve(B @ v),
                              dtype=complex if np.iscomplex(sigma) else float)
-    mu, Z = spla.eigs(op, k=k, which="LM")
+    v0 = start_vector(2 * N).astype(op.dtype)  # repeatable, as the reduction's modes
+    mu, Z = spla.eigs(op, k=k, which="LM", v0=v0)
     # infinite eigenvalues (singular M) map to mu = 0: drop them at rounding level
     ok = np.abs(mu) > 1e-11 * np.abs(mu).max()
     return sigma + 1.0 / mu[ok], Z[:N, ok]

@@ -101,6 +101,12 @@ def factorize(A):
                     options={"SymmetricMode": True})
 
 
+def start_vector(n: int) -> np.ndarray:
+    """The fixed ARPACK start vector of length n (seeded normal draws): repeatable
+    eigen solutions, and generic enough to have a part along every eigenvector."""
+    return np.random.default_rng(0).standard_normal(n)
+
+
 def eigenmodes(K, M, k: int, lu=None):
     """Lowest k eigenpairs of K x = w^2 M x (shift-invert about 0, OPinv = K^-1 from
     `lu`, factorised here if None): (omega^2 ascending, X with X^T M X = I)."""
@@ -110,7 +116,9 @@ def eigenmodes(K, M, k: int, lu=None):
         return w[:k], X[:, :k]
     lu = lu or factorize(K)
     op = sla.LinearOperator((n, n), matvec=lu.solve, dtype=float)
-    w, X = sla.eigsh(K, k, M, sigma=0.0, which="LM", OPinv=op)
+    # a fixed start vector: the same model gives the same modes (signs included) on
+    # every run; ARPACK would otherwise draw a random one
+    w, X = sla.eigsh(K, k, M, sigma=0.0, which="LM", OPinv=op, v0=start_vector(n))
     order = np.argsort(w)
     w, X = w[order], X[:, order]
     X /= np.sqrt(np.einsum("ij,ij->j", X, M @ X))
