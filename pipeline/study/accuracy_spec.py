@@ -65,7 +65,7 @@ class Case:
     """One scene with its reference, baseline and knob values."""
 
     name: str                   # "lumped" or "blade"
-    scene: object               # scene.Scene or blade_scene.BladeScene
+    scene: object               # pipeline.model.scene.Scene (lumped or FE blade)
     dof: str                    # response DOF whose peak is measured
     preload: float | None       # [N] every contact's n0 (blades: total per face); None: the scene's
     frequency: object           # scene.FrequencyRange
