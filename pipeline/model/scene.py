@@ -89,10 +89,12 @@ class Single:
 
 @dataclass(frozen=True)
 class Mistuning:
-    """Random sector stiffness: K_j = (1 + delta_j) K, delta_j ~ N(0, stiffness_std^2)."""
+    """Sector stiffness K_j = f_j K: random, f_j = 1 + delta_j with
+    delta_j ~ N(0, stiffness_std^2) drawn from `seed`, or the N factors given."""
 
-    stiffness_std: float     # relative standard deviation [-], 0 <= std < 0.5
-    seed: int | None = None  # None: the case's `mistuning_seed` sets it
+    stiffness_std: float = 0.0   # relative standard deviation [-], 0 <= std < 0.5
+    seed: int | None = None      # None: the case's `mistuning_seed` sets it
+    factors: tuple | None = None  # f_0 ... f_{N-1} > 0 given: no draw
 
 
 @dataclass(frozen=True)
@@ -370,6 +372,8 @@ def stiffness_factors(scene: Scene, case: dict | None = None):
     mt = scene.mistuning
     if mt is None:
         return None
+    if mt.factors is not None:
+        return np.asarray(mt.factors, dtype=float)
     seed = (case or {}).get("mistuning_seed", mt.seed)
     if seed is None:
         raise ValueError("the mistuning seed is unset: give [scene.disk] mistuning.seed "

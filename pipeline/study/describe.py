@@ -56,6 +56,10 @@ def cyclic_attrs(scene) -> dict:
     if mis is not None:
         attrs["cyclic_reduction"] = ("none: mistuned, the full assembly of all sectors "
                                      "(responses per sector on the sector dimension)")
+        if mis.factors is not None:
+            attrs["mistuning"] = ("sector j stiffness f_j K with the factors f_j given in the "
+                                  "study (variable mistuning_factor)")
+            return attrs
         attrs["mistuning"] = ("sector j stiffness (1 + delta_j) K, delta_j ~ N(0, std^2) "
                               "from numpy default_rng(seed), truncated at 3 std and -0.9")
         attrs["mistuning_stiffness_std"] = float(mis.stiffness_std)

@@ -73,17 +73,34 @@ def parse_mistuning(ck, value, N) -> Mistuning:
     f = "scene.disk.mistuning"
     if not isinstance(value, dict):
         ck.fail(f, "must be a table, e.g. mistuning = { stiffness_std = 0.02, seed = 1 }")
-    ck.keys(value, f, ("stiffness_std", "seed"), required=("stiffness_std",))
+    ck.keys(value, f, ("stiffness_std", "seed", "factors"))
+    if N > MAX_MISTUNED_SECTORS:
+        ck.fail(f, f"a mistuned disk is solved as one dense assembly of all sectors: at most "
+                   f"{MAX_MISTUNED_SECTORS} sectors, got {N}")
+    if "factors" in value:
+        return given_factors(ck, value, f, N)
+    if "stiffness_std" not in value:
+        ck.fail(f"{f}.stiffness_std", "missing: give stiffness_std (random factors from a seed) "
+                                      f"or factors = [f_0, ..., f_{N - 1}]")
     std = ck.number(value["stiffness_std"], f"{f}.stiffness_std", ge=0.0)
     if std >= MAX_STIFFNESS_STD:
         ck.fail(f"{f}.stiffness_std", f"relative standard deviation {std:g} is too large "
                                       "(sector stiffnesses could turn negative); give "
                                       f"0 <= std < {MAX_STIFFNESS_STD:g}")
     seed = ck.integer(value["seed"], f"{f}.seed", 0, 1 << 30) if "seed" in value else None
-    if N > MAX_MISTUNED_SECTORS:
-        ck.fail(f, f"a mistuned disk is solved as one dense assembly of all sectors: at most "
-                   f"{MAX_MISTUNED_SECTORS} sectors, got {N}")
     return Mistuning(stiffness_std=std, seed=seed)
+
+
+def given_factors(ck, value, f, N) -> Mistuning:
+    """`mistuning = { factors = [...] }`: N positive stiffness factors, sector order."""
+    for k in ("stiffness_std", "seed"):
+        if k in value:
+            ck.fail(f"{f}.{k}", "the factors are given: no random draw (give factors, or "
+                                "stiffness_std and a seed)")
+    vals = ck.numbers(value["factors"], f"{f}.factors", gt=0.0)
+    if len(vals) != N:
+        ck.fail(f"{f}.factors", f"one factor per sector: {N} values, got {len(vals)}")
+    return Mistuning(factors=tuple(float(v) for v in vals))
 
 
 def check_engine_order(ck, value, field, N) -> int:
@@ -142,7 +159,11 @@ def check_mistuning_rules(ck, scene: Scene, axes, wpath, out):
     if not declared:
         ck.fail("scene.effects", "[scene.disk] mistuning breaks cyclic symmetry: declare "
                                  "\"mistuning\"")
-    if "mistuning_seed" in axes:
+    if mis.factors is not None:
+        if "mistuning_seed" in axes:
+            ck.fail(f"{wpath}.mistuning_seed", "the mistuning factors are given "
+                                               "([scene.disk] mistuning.factors): nothing to draw")
+    elif "mistuning_seed" in axes:
         if mis.seed is not None:
             ck.fail(f"{wpath}.mistuning_seed", "the mistuning seed is set twice: [scene.disk] "
                                                "mistuning.seed and the sweep axis "

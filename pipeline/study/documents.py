@@ -120,7 +120,9 @@ def study_to_mapping(study: Study) -> dict:
         scene["disk"] = {"sectors": sc.assembly.sectors}
         if sc.assembly.engine_order is not None:
             scene["disk"]["engine_order"] = sc.assembly.engine_order
-        if sc.mistuning is not None:
+        if sc.mistuning is not None and sc.mistuning.factors is not None:
+            scene["disk"]["mistuning"] = {"factors": list(sc.mistuning.factors)}
+        elif sc.mistuning is not None:
             mis = {"stiffness_std": sc.mistuning.stiffness_std}
             if sc.mistuning.seed is not None:
                 mis["seed"] = sc.mistuning.seed
