@@ -102,6 +102,8 @@ def test_lumped_single_scene_is_its_matrices_rows_and_load():
         build_system(scene, {"temperature": 1.0})
     with pytest.raises(ValueError, match="not a disk"):
         build_system(scene, {"preload": 1.0, "eo": 1})
+    with pytest.raises(ValueError, match="one Forcing"):
+        build_system(replace(scene, loads=()), {"preload": 1.0})
 
 
 def test_equal_structure_specs_share_one_built_model():

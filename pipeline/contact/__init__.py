@@ -1,12 +1,5 @@
-"""Yang-Menq contact forces (paper Sec. 2, 4, 5; Eq. 1, 9, 10, 11): `forces` and the element.
-
-One contact point with relative tangential displacement u and normal displacement
-v: a tangential spring ku in series with a Coulomb slider (coefficient mu), a normal
-spring kv and a preload n0 (negative = initial gap).  Normal load n = n0 + kv v
-(Eq. 1).  States: stick, positive slip, negative slip, separation.
-
-Parameters are arrays over E elements; displacements are real Fourier coefficients
-in the layout of `harmonics.py`, shape (E, 2H+1).
+"""Yang-Menq contact forces (paper Sec. 2, 4, 5; Eq. 1, 9, 10, 11): `forces` and the
+element (`contact.element` describes the element, its states and the layout).
 
 Layered one way: `contact.element` (the element as data, its states, the result type)
 <- `contact.exact`, `contact.aft` (the two force evaluations) <- this module, which

@@ -185,7 +185,7 @@ def blade_model(structure: Blade):
     return timed_blade_model(structure)[0]
 
 
-@lru_cache(maxsize=4)
+@lru_cache(maxsize=8)
 def timed_blade_model(structure: Blade) -> tuple:
     """(`fe_model.BladeModel` of a `Blade` spec, the wall time [s] its build took)."""
     # deferred: blades imports scikit-fem and meshio (about a second); lumped
@@ -200,7 +200,7 @@ def timed_blade_model(structure: Blade) -> tuple:
     return blade, time.perf_counter() - t0
 
 
-@lru_cache(maxsize=8)
+@lru_cache(maxsize=16)
 def reduced_model(structure: Blade, reduction: CraigBampton) -> tuple:
     """(Craig-Bampton `ReducedModel` keeping contact faces, excitation and response
     DOFs, its wall time [s]) of a blade (built once per spec pair)."""
@@ -289,41 +289,47 @@ def check_case(scene: Scene, case: dict | None) -> dict:
     return case
 
 
+def dof_rows(contacts, n: int, cyclic: bool) -> tuple:
+    """(Bt, Bn, Bt_next, Bn_next) of `DofContact`s whose rows run over n DOFs, then (in
+    a cyclic assembly) over the next sector's n."""
+    E, m = len(contacts), 2 * n if cyclic else n
+    Bt = np.array([c.bt for c in contacts], dtype=float).reshape(E, m)
+    Bn = np.array([c.bn for c in contacts], dtype=float).reshape(E, m)
+    return Bt[:, :n], Bn[:, :n], Bt[:, n:], Bn[:, n:]
+
+
 def dof_parts(scene: Scene, case: dict) -> Parts:
-    """`Parts` of a lumped structure with `DofContact`s and `Forcing`."""
+    """`Parts` of a lumped structure with `DofContact`s and one `Forcing`."""
     st = scene.structure
-    n, E = len(st.dofs), len(scene.contacts)
-    m = 2 * n if scene.cyclic else n
-    Bt = np.array([c.bt for c in scene.contacts], dtype=float).reshape(E, m)
-    Bn = np.array([c.bn for c in scene.contacts], dtype=float).reshape(E, m)
-    (load,) = scene.loads
-    return Parts(M=st.M, C=st.C, K=st.K, Bt=Bt[:, :n], Bn=Bn[:, :n], Bt_next=Bt[:, n:],
-                 Bn_next=Bn[:, n:], contact=contact_elements(scene.contacts, case),
-                 forcing=load.amplitudes * float(case.get("excitation_scale", 1.0)),
+    if len(scene.loads) != 1 or not isinstance(scene.loads[0], Forcing):
+        raise ValueError("a lumped structure is loaded by one Forcing (amplitudes over its DOFs)")
+    Bt, Bn, Bt_next, Bn_next = dof_rows(scene.contacts, len(st.dofs), scene.cyclic)
+    return Parts(M=st.M, C=st.C, K=st.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next, Bn_next=Bn_next,
+                 contact=contact_elements(scene.contacts, case),
+                 forcing=scene.loads[0].amplitudes * float(case.get("excitation_scale", 1.0)),
                  dofs=tuple(st.dofs))
 
 
 def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
     """`Parts` of an FE blade: face contacts on the full model, then Craig-Bampton
     (dense, `scene.reduction`) or, with reduced=False, the unreduced sparse model
-    (Rayleigh damping only).  `DofContact`s name reduced DOFs and follow the faces."""
+    (Rayleigh damping only).  `DofContact`s name reduced DOFs (one sector's, then the
+    next sector's in a cyclic assembly)."""
+    st = scene.structure
     faces = tuple(c for c in scene.contacts if isinstance(c, FaceContact))
     rows = tuple(c for c in scene.contacts if isinstance(c, DofContact))
     if rows and faces:
         raise ValueError("a scene mixes face contacts and DOF contacts; give one kind")
-    sub = replace(scene, contacts=faces)
-    Bt, Bn, _ = blade_contact_maps(sub)
-    elem = blade_elements(sub, case) if faces else YangMenq(ku=np.zeros(0), kv=np.zeros(0),
-                                                            mu=np.zeros(0), n0=np.zeros(0))
+    blade = blade_model(st)
+    Bt, Bn, owner = face_maps(blade, faces)
+    elem = contact_elements(faces, case, owner, [blade.frames[c.face].weights for c in faces])
     F = blade_forcing(scene, case)
     if not reduced or scene.reduction is None:
-        st = scene.structure
         if rows:
             raise ValueError("DOF contacts on an FE blade name reduced DOFs: give a reduction")
         if st.rayleigh is None:
             raise ValueError("the unreduced system needs Rayleigh damping "
                              "(scene rayleigh = [alpha, beta]); modal damping is dense")
-        blade = blade_model(st)
         a, b = st.rayleigh
         C = (a * blade.M + b * blade.K).tocsr()
         z = sp.csr_matrix(Bt.shape)
@@ -331,20 +337,20 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
                      contact=elem, forcing=F, dofs=())
     from ..structure.reduction import reduce_map  # deferred like blade_model's imports
 
-    red = reduced_model(scene.structure, scene.reduction)[0]
+    red = reduced_model(st, scene.reduction)[0]
     Fr = np.zeros((red.M.shape[0], F.shape[1]), dtype=complex)
     Fr[:red.n_boundary] = F[red.boundary]
     if np.abs(F).sum() != np.abs(Fr).sum():
         raise ValueError("a load acts on an interior DOF (keep it in the boundary)")
-    Bt, Bn = reduce_map(red, Bt), reduce_map(red, Bn)
+    dofs = reduced_dof_names(red)
     if rows:
-        rows_parts = dof_parts(replace(scene, structure=Lumped(red.M, red.C, red.K,
-                                                               reduced_dof_names(red)),
-                                       loads=(Forcing(Fr),)), case)
-        return replace(rows_parts, forcing=Fr)
-    z = np.zeros_like(Bt)
-    return Parts(M=red.M, C=red.C, K=red.K, Bt=Bt, Bn=Bn, Bt_next=z, Bn_next=z,
-                 contact=elem, forcing=Fr, dofs=reduced_dof_names(red))
+        Bt, Bn, Bt_next, Bn_next = dof_rows(rows, len(dofs), scene.cyclic)
+        elem = contact_elements(rows, case)
+    else:
+        Bt, Bn = reduce_map(red, Bt), reduce_map(red, Bn)
+        Bt_next = Bn_next = np.zeros_like(Bt)
+    return Parts(M=red.M, C=red.C, K=red.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next, Bn_next=Bn_next,
+                 contact=elem, forcing=Fr, dofs=dofs)
 
 
 def scene_parts(scene: Scene, case: dict | None = None, reduced: bool = True) -> Parts:

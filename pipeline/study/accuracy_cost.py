@@ -334,9 +334,10 @@ def _check_mesh(ck, scene, counts, field_):
 # The systems of a case's runs (measured by accuracy_measure)
 # ---------------------------------------------------------------------------
 
-def _system(case: Case, s: Settings, models: dict):
+def _system(case: Case, s: Settings):
     """(System, index of the case's DOF, model time [s], n_dof_full) for settings s.
-    `models` caches FE blades per mesh and reductions per (mesh, modes)."""
+    FE blades and their reductions are cached on their specs (`model.scene`); the
+    model time is what building and reducing took when first done."""
     case_arg = {"preload": case.preload} if case.preload is not None else None
     if case.name == "lumped":
         system = build_system(case.scene, case_arg)
@@ -354,8 +355,7 @@ def case_systems(case: Case):
     """`system_for` of `accuracy_measure.run_case`: settings -> (System, index of the
     case's DOF, model time [s], n_dof_full), FE blades cached per mesh and their
     reductions per (mesh, modes) for the case's runs."""
-    models = {}
-    return lambda s: _system(case, s, models)
+    return lambda s: _system(case, s)
 
 
 # ---------------------------------------------------------------------------

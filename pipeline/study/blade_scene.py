@@ -332,7 +332,6 @@ def _face_contact(ck, c, f, i) -> FaceContact:
 
 
 def _loads(ck, raw) -> tuple:
-
     if isinstance(raw, dict):
         ck.fail("scene.excitation", "must be an array of tables: write [[scene.excitation]]")
     items = ck.array(raw, "scene.excitation")
