@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from .spec import solver_rule_violations
+from .spec import StudyHeader, solver_rule_violations
 
 
 # ---------------------------------------------------------------------------
@@ -84,15 +84,9 @@ class Case:
 
 
 @dataclass(frozen=True)
-class AccuracyStudy:
+class AccuracyStudy(StudyHeader):
     """A validated accuracy-cost study (`accuracy_cost.study_from_mapping`)."""
 
-    file: str
-    name: str
-    title: str
-    description: str
-    reference: str
-    text: str
     cases: tuple                # Case, ...
     target: float               # relative error the recommendation must meet
     quick: bool = False

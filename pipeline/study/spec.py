@@ -127,13 +127,21 @@ class OutputSettings:
 
 
 @dataclass(frozen=True)
-class Study:
+class StudyHeader:
+    """What every study kind carries: where it came from and how it describes itself."""
+
     file: str
     name: str                    # the file's stem: output DIR/<name>.nc
     title: str
     description: str
     reference: str
     text: str                    # the study file's text (dataset attribute `study`)
+
+
+@dataclass(frozen=True)
+class Study(StudyHeader):
+    """A response study: a scene, its sweep, solver and output settings."""
+
     scene: Scene
     sweep: Sweep
     solver: SolverSettings
@@ -167,15 +175,9 @@ class StudyResult:
 
 
 @dataclass(frozen=True)
-class ModesStudy:
+class ModesStudy(StudyHeader):
     """A "modes" study: reduced vs full eigenfrequencies against the mode count."""
 
-    file: str
-    name: str
-    title: str
-    description: str
-    reference: str
-    text: str
     scene: Scene
     mode_counts: tuple
     n_frequencies: int
