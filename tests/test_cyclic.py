@@ -11,7 +11,7 @@ import pytest
 from scipy.linalg import eigh
 from scipy.optimize import minimize_scalar
 
-from pipeline.solve import hbm
+from pipeline.solve import full_operators, hbm
 from pipeline.contact import YangMenq
 from pipeline.solve.newton import newton
 from pipeline.model.cyclic import (Sector, aft_samples_ok, expand, full_assembly, isolated_system,
@@ -75,7 +75,7 @@ def test_sector_jacobians_match_finite_differences(eo, method, normal):
     assert np.max(np.abs(Jfd - J)) < 1e-6 * np.max(np.abs(J))
     assert np.max(np.abs(dfd - dOm)) < 1e-6 * np.max(np.abs(dOm))
     Q = np.random.default_rng(10 + eo).normal(size=(2, 7)) * 0.3  # uncondensed (Hill's method)
-    Jf = hbm.full_jacobian(prob, Q, 1.3)
+    Jf = full_operators.full_jacobian(prob, Q, 1.3)
     Jffd = fd(lambda q: hbm.full_residual(prob, q.reshape(2, -1), 1.3).ravel(), Q.ravel())
     assert np.max(np.abs(Jffd - Jf)) < 1e-6 * np.max(np.abs(Jf))
 
@@ -132,24 +132,24 @@ def test_aft_sector_equals_aft_assembly_only_for_shift_invariant_samples(samples
 
 @pytest.mark.parametrize("N,eo", [(4, 1), (5, 2), (6, 3)])
 def test_wave_families_decompose_the_assembly_hill_problem(N, eo):
-    """The sector's Hill problems for the wave numbers r = 0..N/2 (`hbm.wave_jacobians`)
+    """The sector's Hill problems for the wave numbers r = 0..N/2 (`full_operators.wave_jacobians`)
     have together exactly the eigenvalues of the N-sector assembly's Hill problem,
     so the stability of a travelling wave against every perturbation (not only
     those with its own symmetry) needs no assembly."""
     sec = sector(N=N, kv=3.0, n0=0.1, normal=True, static=True)
     prob, Q = solve_sector(sec, eo, 1.6)
-    fam = hbm.wave_jacobians(prob, Q, 1.6)
+    fam = full_operators.wave_jacobians(prob, Q, 1.6)
     assert [r for r, *_ in fam] == list(range(N // 2 + 1))
     lam = np.concatenate([hill_eigenvalues(J, M, C, 1.6, 3, full_output=True).eigenvalues
                           for _, J, M, C in fam])
     full = hbm.setup(full_assembly(sec, eo), 3)
-    ref = hill_eigenvalues(hbm.full_jacobian(full, expand(Q, N, eo), 1.6), full.system.M,
+    ref = hill_eigenvalues(full_operators.full_jacobian(full, expand(Q, N, eo), 1.6), full.system.M,
                            full.system.C, 1.6, 3, full_output=True).eigenvalues
     assert lam.size == ref.size == 2 * N * 2 * 7
     assert np.abs(ref[:, None] - lam[None, :]).min(1).max() < 1e-10 * np.abs(ref).max()
-    J0 = hbm.full_jacobian(prob, Q, 1.6)  # r = 0: the sector's own symmetry
+    J0 = full_operators.full_jacobian(prob, Q, 1.6)  # r = 0: the sector's own symmetry
     np.testing.assert_allclose(fam[0][1], J0, rtol=0, atol=1e-12 * np.abs(J0).max())
-    assert len(hbm.wave_jacobians(hbm.setup(isolated_system(sec), 3), Q, 1.6)) == 1
+    assert len(full_operators.wave_jacobians(hbm.setup(isolated_system(sec), 3), Q, 1.6)) == 1
 
 
 def test_a_travelling_wave_can_lose_stability_to_another_wave_number():
@@ -158,10 +158,10 @@ def test_a_travelling_wave_can_lose_stability_to_another_wave_number():
     r = 2, as the 8-DOF assembly's Hill problem says too."""
     sec = sector(N=4, kv=3.0, n0=0.1, normal=True, static=True)
     prob, Q = solve_sector(sec, 1, 1.7)
-    verdict = [is_stable(J, M, C, 1.7, 3)[0] for _, J, M, C in hbm.wave_jacobians(prob, Q, 1.7)]
+    verdict = [is_stable(J, M, C, 1.7, 3)[0] for _, J, M, C in full_operators.wave_jacobians(prob, Q, 1.7)]
     assert verdict == [True, True, False]
     full = hbm.setup(full_assembly(sec, 1), 3)
-    assert not is_stable(hbm.full_jacobian(full, expand(Q, 4, 1), 1.7), full.system.M,
+    assert not is_stable(full_operators.full_jacobian(full, expand(Q, 4, 1), 1.7), full.system.M,
                          full.system.C, 1.7, 3)[0]
 
 
@@ -322,7 +322,7 @@ def test_travelling_wave_with_separation_sector_equals_full_assembly():
     near = np.flatnonzero(a.converged & (np.abs(a.omega - 1.7) < 0.01))
     assert near.size >= 1
     for i in near:
-        own = is_stable(hbm.full_jacobian(prob, a.Q[i], a.omega[i]), s.M, s.C, a.omega[i], 3)[0]
+        own = is_stable(full_operators.full_jacobian(prob, a.Q[i], a.omega[i]), s.M, s.C, a.omega[i], 3)[0]
         assert own and not a.stable[i]
     assert a.peak(1)[0] == pytest.approx(2.39190129, rel=1e-7)
     assert a.peak(1)[1] == pytest.approx(1.7371435, rel=1e-6)

@@ -29,7 +29,7 @@ assembly: `full_assembly(..., stiffness_factors)` with per-sector stiffness fact
 the symmetry of the solution (wave number 0 relative to it); a travelling wave can
 lose stability to other wave numbers r = 1..N/2 (measured: N = 4, EO = 1 with
 separation, stable by the sector's Hill problem, unstable by the assembly's).
-`hbm.wave_jacobians` gives the Hill problem of every wave number from the sector
+`full_operators.wave_jacobians` gives the Hill problem of every wave number from the sector
 alone (together exactly the assembly's eigenvalues).
 """
 from __future__ import annotations
@@ -59,6 +59,8 @@ class Sector:
     forcing: np.ndarray      # (n, Hf+1) complex load of sector 0, F_{0,h} [N]
     sectors: int             # N >= 2
     dof_names: tuple = field(default=())
+    K_spring: np.ndarray | None = None   # (n, n) inter-sector springs on own DOFs [N/m]
+    K_next: np.ndarray | None = None     # (n, n) inter-sector springs to the next [N/m]
 
     def __post_init__(self):
         n = np.shape(self.M)[0]
@@ -75,6 +77,22 @@ class Sector:
     @property
     def n_dof(self) -> int:
         return np.shape(self.M)[0]
+
+    @property
+    def K_own(self):
+        """The sector's stiffness with the inter-sector springs' own part [N/m]."""
+        return self.K if self.K_spring is None else np.asarray(self.K, float) + self.K_spring
+
+
+def spring_stiffness(rows, k, n: int) -> tuple:
+    """(K_spring, K_next) of linear springs between neighbouring sectors [N/m]: spring s
+    stretches by d_s = a_s . q_j + b_s . q_{j+1} (rows (S, 2n): a then b), so its
+    energy 1/2 k_s d_s^2 gives sector j the stiffness a^T k a + b^T k b on its own DOFs
+    (from the springs to j+1 and from j-1) and a^T k b towards q_{j+1} (b^T k a, its
+    transpose, towards q_{j-1})."""
+    R = np.asarray(rows, dtype=float).reshape(-1, 2 * n)
+    a, b, k = R[:, :n], R[:, n:], np.asarray(k, dtype=float)
+    return a.T @ (k[:, None] * a) + b.T @ (k[:, None] * b), a.T @ (k[:, None] * b)
 
 
 def phase(sectors: int, engine_order: int) -> float:
@@ -102,8 +120,8 @@ def sector_system(sector: Sector, engine_order: int) -> System:
     eo = check_engine_order(sector.sectors, engine_order)
     cy = CyclicCoupling(Bt_next=np.asarray(sector.Bt_next, float),
                         Bn_next=np.asarray(sector.Bn_next, float),
-                        sectors=int(sector.sectors), engine_order=eo)
-    return System(M=sector.M, C=sector.C, K=sector.K, Bt=np.asarray(sector.Bt, float),
+                        sectors=int(sector.sectors), engine_order=eo, K_next=sector.K_next)
+    return System(M=sector.M, C=sector.C, K=sector.K_own, Bt=np.asarray(sector.Bt, float),
                   Bn=np.asarray(sector.Bn, float), contact=sector.contact,
                   forcing=np.asarray(sector.forcing, complex), dof_names=tuple(sector.dof_names),
                   cyclic=cy)
@@ -111,12 +129,14 @@ def sector_system(sector: Sector, engine_order: int) -> System:
 
 def isolated_system(sector: Sector) -> System:
     """The sector alone, its interblade elements removed (rows of Bt, Bn with a
-    `_next` part dropped): the linear limit of EO = 0 for pure pair contacts."""
+    `_next` part dropped): the linear limit of EO = 0 for pure pair contacts
+    (inter-sector springs in their EO = 0 state, K + K_next + K_next^T)."""
     keep = ~(np.any(sector.Bt_next != 0, 1) | np.any(sector.Bn_next != 0, 1))
     el = sector.contact
     sub = YangMenq(el.ku[keep], el.kv[keep], el.mu[keep], el.n0[keep],
                    None if el.slider_rest is None else el.slider_rest[keep])
-    return System(M=sector.M, C=sector.C, K=sector.K, Bt=np.asarray(sector.Bt)[keep],
+    K = sector.K_own if sector.K_next is None else sector.K_own + sector.K_next + sector.K_next.T
+    return System(M=sector.M, C=sector.C, K=K, Bt=np.asarray(sector.Bt)[keep],
                   Bn=np.asarray(sector.Bn)[keep], contact=sub,
                   forcing=np.asarray(sector.forcing, complex), dof_names=tuple(sector.dof_names))
 
@@ -171,6 +191,12 @@ def full_assembly(sector: Sector, engine_order: int, stiffness_factors=None) -> 
     F = np.concatenate([sector_forcing(sector, eo, j) for j in range(N)])
     names = tuple(f"s{j}.{d}" for j in range(N) for d in sector.dof_names)
     K = np.kron(np.diag(kf), np.asarray(sector.K, float))
+    if sector.K_spring is not None:   # inter-sector springs (disk), never mistuned
+        K += np.kron(np.eye(N), sector.K_spring)
+        for j in range(N):
+            a, b = slice(j * n, (j + 1) * n), slice((j + 1) % N * n, ((j + 1) % N + 1) * n)
+            K[a, b] += sector.K_next
+            K[b, a] += sector.K_next.T
     return System(M=blk(sector.M), C=blk(sector.C), K=K, Bt=Bt, Bn=Bn,
                   contact=contact, forcing=F, dof_names=names)
 

@@ -15,7 +15,8 @@ that every solver takes:
                 `PointLoad` (at an FE node set)
     assembly    `Single` | `Cyclic` (N sectors, engine-order travelling wave solved
                 on one sector, Petrov 2004; with `Mistuning`, the full N-sector
-                assembly, `pipeline.model.cyclic`)
+                assembly, `pipeline.model.cyclic`; `Spring`s between neighbouring
+                sectors for a flexible disk)
 
 So an FE blade in a cyclic disk is `Scene(Blade(...), CraigBampton(m), contacts,
 loads, Cyclic(N, EO))`: no other code path.  A case is a dict of overrides
@@ -97,14 +98,27 @@ class Mistuning:
     factors: tuple | None = None  # f_0 ... f_{N-1} > 0 given: no draw
 
 
+@dataclass(frozen=True, eq=False)
+class Spring:
+    """A linear spring between neighbouring sectors (disk flexibility): it stretches
+    by d = row . (q_j, q_{j+1}) (row over the scene's contact DOFs, this sector's then
+    the next one's, `next.<dof>`) with the stiffness k [N/m]."""
+
+    name: str
+    row: np.ndarray          # (2n,) [-]
+    k: float                 # [N/m]
+
+
 @dataclass(frozen=True)
 class Cyclic:
     """N identical sectors excited by engine order EO (None: the case's `eo`);
-    with `mistuning`, every sector's stiffness scaled and the full assembly solved."""
+    with `mistuning`, every sector's stiffness scaled and the full assembly solved;
+    `springs` couple neighbouring sectors linearly (a flexible disk)."""
 
     sectors: int
     engine_order: int | None = None
     mistuning: Mistuning | None = None
+    springs: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -390,9 +404,13 @@ def stiffness_factors(scene: Scene, case: dict | None = None):
 def sector(scene: Scene, case: dict | None = None) -> cyclic.Sector:
     """The `cyclic.Sector` of a cyclic scene with a case applied."""
     p = scene_parts(scene, case)
+    springs = scene.assembly.springs
+    Ks, Kn = (cyclic.spring_stiffness([s.row for s in springs], [s.k for s in springs],
+                                      len(p.dofs)) if springs else (None, None))
     return cyclic.Sector(M=p.M, C=p.C, K=p.K, Bt=p.Bt, Bn=p.Bn, Bt_next=p.Bt_next,
                          Bn_next=p.Bn_next, contact=p.contact, forcing=p.forcing,
-                         sectors=scene.assembly.sectors, dof_names=p.dofs)
+                         sectors=scene.assembly.sectors, dof_names=p.dofs, K_spring=Ks,
+                         K_next=Kn)
 
 
 def build_system(scene: Scene, case: dict | None = None, reduced: bool = True) -> System:

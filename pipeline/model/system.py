@@ -38,12 +38,18 @@ class CyclicCoupling:
     phi = 2 pi EO / N, i.e. Q_{j+1,h} = exp(i h phi) Q_{j,h} for every harmonic h
     (Petrov, J. Turbomach. 126, 2004).  `pipeline.model.cyclic` builds such sectors and
     their full N-sector assemblies.
+
+    `K_next` is a LINEAR coupling to the neighbours (disk flexibility, e.g. springs
+    between neighbouring disk masses): the elastic force on sector j is
+    K q_j + K_next q_{j+1} + K_next^T q_{j-1}, so harmonic h of the travelling
+    wave sees the Hermitian stiffness `coupled_stiffness(system, h phi)`.
     """
 
     Bt_next: np.ndarray      # (E, n) tangential map on the next sector's DOFs [-]
     Bn_next: np.ndarray      # (E, n) normal map on the next sector's DOFs [-]
     sectors: int             # N
     engine_order: int        # EO
+    K_next: np.ndarray | None = None   # (n, n) linear coupling to the next sector [N/m]
 
     @property
     def phase(self) -> float:
@@ -84,23 +90,41 @@ class System:
         return F
 
 
+def coupled_stiffness(system: System, angle: float):
+    """K + exp(i angle) K_next + exp(-i angle) K_next^T [N/m]: the stiffness a wave with
+    the inter-sector phase `angle` [rad] sees (harmonic h of the engine-order wave:
+    angle = h phi; Hill's perturbation of wave number r adds 2 pi r / N).  K itself
+    (real, dense or sparse as given) when the system has no linear inter-sector
+    coupling."""
+    cy = system.cyclic
+    if cy is None or cy.K_next is None:
+        return system.K
+    Kn = np.asarray(cy.K_next, dtype=float)
+    K = system.K.toarray() if hasattr(system.K, "toarray") else np.asarray(system.K, float)
+    z = np.exp(1j * angle)
+    out = K + z * Kn + np.conj(z) * Kn.T
+    return out.real if abs(z.imag) < 1e-15 else out
+
+
 def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     """Undamped natural frequencies [rad/s] with the contacts open or stuck.
 
     "stuck" adds ku along Bt and kv along Bn of every element in contact (n0 > 0 or
     kv = 0): the linear limits the nonlinear response tends to.  For a cyclic
     sector the maps of the first harmonic, B = Bt + exp(i phi) Bt_next, give the
-    Hermitian stiffness K + B^H ku B + ...: the frequencies of the engine-order
-    family (nodal diameter EO).
+    Hermitian stiffness K + B^H ku B + ... (with a linear inter-sector coupling,
+    `coupled_stiffness(system, phi)` in place of K): the frequencies of the
+    engine-order family (nodal diameter EO).
     """
     import scipy.linalg as sla
 
-    K = np.asarray(system.K.toarray() if hasattr(system.K, "toarray") else system.K, float)
+    cy = system.cyclic
+    K = coupled_stiffness(system, cy.phase if cy is not None else 0.0)
+    K = K.toarray() if hasattr(K, "toarray") else np.asarray(K)
     M = np.asarray(system.M.toarray() if hasattr(system.M, "toarray") else system.M, float)
     if contacts == "stuck":
         el = system.contact
         Bt, Bn = np.asarray(system.Bt, float), np.asarray(system.Bn, float)
-        cy = system.cyclic
         if cy is not None:
             z = np.exp(1j * cy.phase)
             Bt = Bt + z * np.asarray(cy.Bt_next, float)

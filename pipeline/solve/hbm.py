@@ -33,7 +33,10 @@ carries a weight b_a and a shift theta_a (0 on the own sector, phi on the next):
 the back-projection being the transpose of the motion map (the force of the
 previous sector's element reaches this sector shifted by -phi), so the Jacobian
 stays exact.  The linear part, the condensation and the recovery are unchanged.
-Without `System.cyclic` no shift is stored and nothing is rotated.
+Without `System.cyclic` no shift is stored and nothing is rotated.  A linear
+inter-sector coupling (`CyclicCoupling.K_next`) enters the linear part per harmonic,
+K + e^{i h phi} K_next + e^{-i h phi} K_next^T (`stiffness_stack`).  The operators of
+all DOFs (no condensation, for Hill's method) are in `full_operators`.
 """
 from __future__ import annotations
 
@@ -45,7 +48,8 @@ import scipy.sparse as sp
 
 from ..contact import YangMenq, forces
 from ..fourier.harmonics import derivative_matrix, shift_tables, turn
-from ..model.system import System
+from ..fourier.harmonics import shift as time_shift
+from ..model.system import System, coupled_stiffness
 
 
 @dataclass(frozen=True)
@@ -75,7 +79,7 @@ class HBMProblem:
         return self.c.size * self.nh
 
 
-def _dense(A):
+def as_dense(A):
     return A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
 
 
@@ -85,12 +89,12 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
         raise ValueError(f"H must be >= 1, got {H}")
     if method not in ("exact", "aft"):
         raise ValueError(f"method must be 'exact' or 'aft', got {method!r}")
-    Bt, Bn = _dense(system.Bt), _dense(system.Bn)
+    Bt, Bn = as_dense(system.Bt), as_dense(system.Bn)
     n = system.n_dof
     maps = [(Bt, Bn, 0.0)]
     cy = system.cyclic
     if cy is not None:  # slots on the next sector's DOFs, shifted by phi
-        maps.append((_dense(cy.Bt_next), _dense(cy.Bn_next), cy.phase))
+        maps.append((as_dense(cy.Bt_next), as_dense(cy.Bn_next), cy.phase))
     used = np.flatnonzero(np.any([(T != 0).any(0) | (N_ != 0).any(0) for T, N_, _ in maps], 0))
     c = used
     o = np.setdiff1d(np.arange(n), c)
@@ -124,8 +128,21 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
 # linear part, condensed
 # --------------------------------------------------------------------------
 
+def _phase(sys) -> float:
+    """Inter-sector phase phi [rad] of a cyclic sector (0 otherwise)."""
+    return sys.cyclic.phase if sys.cyclic is not None else 0.0
+
+
+def stiffness_stack(sys, H: int) -> np.ndarray:
+    """(H+1, n, n) stiffness of each harmonic h: K, or for a cyclic sector with a
+    linear inter-sector coupling K + e^{i h phi} K_next + e^{-i h phi} K_next^T."""
+    phi = _phase(sys)
+    Ks = [coupled_stiffness(sys, h * phi) for h in range(H + 1)]
+    return np.stack([as_dense(K) if np.isrealobj(K) else K for K in Ks])
+
+
 def _S(sys, h, Om):
-    K, M, C = sys.K, sys.M, sys.C
+    K, M, C = coupled_stiffness(sys, h * _phase(sys)), sys.M, sys.C
     if sp.issparse(K):
         return (K - (h * Om) ** 2 * M + 1j * h * Om * C).tocsc()
     return np.asarray(K) - (h * Om) ** 2 * np.asarray(M) + 1j * h * Om * np.asarray(C)
@@ -203,9 +220,9 @@ def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True):
 def _linear_part_dense(prob: HBMProblem, Om: float, derivatives: bool):
     """`linear_part` for dense matrices: all harmonics in batched numpy calls."""
     sys, c, o, H = prob.system, prob.c, prob.o, prob.H
-    K, M, C = (np.asarray(A, dtype=float) for A in (sys.K, sys.M, sys.C))
+    M, C = (np.asarray(A, dtype=float) for A in (sys.M, sys.C))
     h = np.arange(H + 1)[:, None, None]
-    S = K - (h * Om) ** 2 * M + 1j * h * Om * C                       # (H+1, n, n)
+    S = stiffness_stack(sys, H) - (h * Om) ** 2 * M + 1j * h * Om * C   # (H+1, n, n)
     P = np.stack([_complex_forcing(prob.P, k) for k in range(H + 1)])  # (H+1, n)
     dS = -2 * h * h * Om * M + 1j * h * C if derivatives else None
     if o.size == 0:
@@ -349,9 +366,9 @@ def recover(prob: HBMProblem, Qc, Om):
     if o.size == 0:
         return Q
     if not sp.issparse(sys.K):
-        K, M, C = (np.asarray(A, dtype=float) for A in (sys.K, sys.M, sys.C))
+        M, C = (np.asarray(A, dtype=float) for A in (sys.M, sys.C))
         h = np.arange(H + 1)[:, None, None]
-        S = (K - (h * Om) ** 2 * M + 1j * h * Om * C)[:, o]
+        S = (stiffness_stack(sys, H) - (h * Om) ** 2 * M + 1j * h * Om * C)[:, o]
         Qh = np.concatenate([Qc[:, :1].T.astype(complex), (Qc[:, 1::2] - 1j * Qc[:, 2::2]).T])
         rhs = np.stack([_complex_forcing(prob.P, k)[o] for k in range(H + 1)])
         rhs = rhs - (S[:, :, c] @ Qh[..., None])[..., 0]
@@ -371,12 +388,6 @@ def recover(prob: HBMProblem, Qc, Om):
     return Q
 
 
-def full_linear_operator(sys: System, Om: float, H: int):
-    """K (x) I + Om C (x) D + Om^2 M (x) D^2 acting on Q (n, 2H+1) row-major (dense)."""
-    D = derivative_matrix(H)
-    I = np.eye(2 * H + 1)
-    K, C, M = _dense(sys.K), _dense(sys.C), _dense(sys.M)
-    return np.kron(K, I) + Om * np.kron(C, D) + Om**2 * np.kron(M, D @ D)
 
 
 def full_residual(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
@@ -385,74 +396,16 @@ def full_residual(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
     K, C, M = sys.K, sys.C, sys.M
     D = derivative_matrix(prob.H)
     lin = K @ Q + Om * (C @ Q) @ D.T + Om**2 * (M @ Q) @ (D @ D).T
+    cy = sys.cyclic
+    if cy is not None and cy.K_next is not None:
+        Kn = np.asarray(cy.K_next, dtype=float)
+        lin = lin + Kn @ time_shift(Q, cy.phase) + Kn.T @ time_shift(Q, -cy.phase)
     G, _, _ = contact_terms(prob, Q[prob.c], contact, jacobian=False)
     R = np.asarray(lin) - prob.P
     R[prob.c] += G
     return R
 
 
-def full_jacobian(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
-    """dR/dQ of the full (uncondensed) system, dense (n nh)^2: for Hill's method."""
-    nh, n = prob.nh, prob.system.n_dof
-    J = full_linear_operator(prob.system, Om, prob.H).reshape(n, nh, n, nh)
-    _, Jnl, _ = contact_terms(prob, Q[prob.c], contact, jacobian=True)
-    nc = prob.c.size
-    J[np.ix_(prob.c, np.arange(nh), prob.c, np.arange(nh))] += Jnl.reshape(nc, nh, nc, nh)
-    return J.reshape(n * nh, n * nh)
-
-
-def wave_jacobians(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
-    """Hill's problems [(r, J, M, C), ...] of a solution Q (n, nh) for every family of
-    perturbations, so that the travelling wave is stable iff each one is.
-
-    Non-cyclic: the one problem (0, full_jacobian, M, C).  A cyclic sector's own
-    Jacobian only sees perturbations with the symmetry of the solution; the
-    N-sector assembly also has perturbations with a wave number r: dQ_j =
-    z^j T(j phi) dQ_0, z = exp(2 pi i r / N).  With that ansatz the contact
-    Jacobian becomes (from the equivariance of the contact law under time shifts)
-
-        J_r = L + J_ss + J_nn + z J_sn + conj(z) J_ns
-
-    (s: slots on this sector, n: on the next; J_sn = rows s, columns n).  For
-    r = 0 and r = N/2 z is real; the pairs r, N - r are conjugate and are solved
-    together as the real problem of twice the size
-
-        [[L + A + c S, -s D], [s D, L + A + c S]],  A = J_ss + J_nn, S = J_sn + J_ns,
-        D = J_sn - J_ns, c + i s = z,   with M, C doubled.
-
-    The union of their exponents is the Hill spectrum of the full assembly."""
-    sysm, nh, n = prob.system, prob.nh, prob.system.n_dof
-    M, C = _dense(sysm.M), _dense(sysm.C)
-    if prob.nxt is None:
-        return [(0, full_jacobian(prob, Q, Om, contact), M, C)]
-    N = sysm.cyclic.sectors
-    L = full_linear_operator(sysm, Om, prob.H).reshape(n, nh, n, nh)
-    _, Je, _ = contact_terms(prob, Q[prob.c], contact, jacobian=True, blocks=True)
-    nxt = prob.nxt
-
-    def part(rows, cols):
-        mask = (nxt[:, :, None] == rows) & (nxt[:, None, :] == cols)
-        out = np.zeros((n, nh, n, nh))
-        nc = prob.c.size
-        out[np.ix_(prob.c, np.arange(nh), prob.c, np.arange(nh))] = assemble(
-            prob, Je * mask[..., None, None]).reshape(nc, nh, nc, nh)
-        return out.reshape(n * nh, n * nh)
-
-    L = L.reshape(n * nh, n * nh)
-    A = L + part(False, False) + part(True, True)
-    Jsn, Jns = part(False, True), part(True, False)
-    out = []
-    for r in range(N // 2 + 1):
-        a = 2 * np.pi * r / N
-        if r == 0 or 2 * r == N:
-            out.append((r, A + np.cos(a) * (Jsn + Jns), M, C))
-            continue
-        c, s = np.cos(a), np.sin(a)
-        B, D = A + c * (Jsn + Jns), s * (Jsn - Jns)
-        J2 = np.block([[B, -D], [D, B]])
-        # real and imaginary parts of the perturbation as two blocks of DOFs
-        out.append((r, J2, np.kron(np.eye(2), M), np.kron(np.eye(2), C)))
-    return out
 
 
 def force_scale(prob: HBMProblem, contact: YangMenq | None = None) -> float:

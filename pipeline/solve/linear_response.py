@@ -22,7 +22,7 @@ from scipy.optimize import minimize_scalar
 
 from ..fourier.harmonics import amplitude_half_peak_to_peak
 from .response import ResponseCurve
-from ..model.system import System, natural_frequencies
+from ..model.system import System, coupled_stiffness, natural_frequencies
 
 BASE_POINTS = 201                     # uniform part of the grid
 CLUSTER = np.array([-3e-2, -1e-2, -3e-3, -1e-3, 0.0, 1e-3, 3e-3, 1e-2, 3e-2])  # relative offsets
@@ -37,9 +37,11 @@ def _dense(A):
     return np.asarray(A.toarray() if hasattr(A, "toarray") else A, dtype=float)
 
 
-def _solve(M, C, K, F, H, omega):
-    """Q (n, 2H+1) in the real layout and the residual parts (static, harmonic) [N]."""
+def _solve(M, C, Ks, F, H, omega):
+    """Q (n, 2H+1) in the real layout and the residual parts (static, harmonic) [N];
+    Ks[h] the stiffness of harmonic h (`harmonic_stiffnesses`)."""
     n = M.shape[0]
+    K = Ks[0]
     Q = np.zeros((n, 2 * H + 1))
     r_static = r_dyn = 0.0
     if np.any(F[:, 0]):
@@ -50,11 +52,32 @@ def _solve(M, C, K, F, H, omega):
         if not np.any(F[:, h]):
             continue
         w = h * omega
-        D = K - w * w * M + 1j * w * C
+        D = Ks[h] - w * w * M + 1j * w * C
         X = np.linalg.solve(D, F[:, h])
         Q[:, 2 * h - 1], Q[:, 2 * h] = X.real, -X.imag
         r_dyn += float(np.linalg.norm(D @ X - F[:, h]) ** 2)
     return Q, r_static, float(np.sqrt(r_dyn))
+
+
+def harmonic_stiffnesses(system: System, H: int) -> list:
+    """Dense stiffness [N/m] of each harmonic h = 0..H: K, or for a cyclic sector with a
+    linear inter-sector coupling its Hermitian K_h (`coupled_stiffness`, angle h phi)."""
+    phi = system.cyclic.phase if system.cyclic is not None else 0.0
+    return [_dense_any(coupled_stiffness(system, h * phi)) for h in range(H + 1)]
+
+
+def wave_stiffnesses(system: System) -> list:
+    """Stiffness of every wave number r = 0..N/2 of perturbation of a cyclic sector
+    (angle 2 pi r / N; just K otherwise): the linear structure is stable iff each is."""
+    cy = system.cyclic
+    if cy is None or cy.K_next is None:
+        return [_dense(system.K)]
+    return [_dense_any(coupled_stiffness(system, 2 * np.pi * r / cy.sectors))
+            for r in range(cy.sectors // 2 + 1)]
+
+
+def _dense_any(A):
+    return A.toarray() if hasattr(A, "toarray") else np.asarray(A)
 
 
 def _asymptotically_stable(M, C, K) -> bool:
@@ -89,7 +112,7 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
         raise ValueError(f"the system has {system.n_elements} contact element(s): "
                          "use response.frequency_response")
     t0 = time.perf_counter()
-    M, C, K = _dense(system.M), _dense(system.C), _dense(system.K)
+    M, C, Ks = _dense(system.M), _dense(system.C), harmonic_stiffnesses(system, H)
     F = np.zeros((system.n_dof, H + 1), complex)
     Fh = np.asarray(system.forcing, complex)
     F[:, :min(H + 1, Fh.shape[1])] = Fh[:, :H + 1]
@@ -98,7 +121,7 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
     tols = (tol_rel * s, tol_rel * (d or s))
 
     def amp(om, dof):
-        return amplitude_half_peak_to_peak(_solve(M, C, K, F, H, om)[0][None])[0, dof]
+        return amplitude_half_peak_to_peak(_solve(M, C, Ks, F, H, om)[0][None])[0, dof]
 
     grid = list(frequency_grid(system, omega_start, omega_end))
     dofs = range(system.n_dof) if peak_dofs is None else peak_dofs
@@ -120,11 +143,12 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
     residual = np.zeros(P)
     ok = np.zeros(P, bool)
     for i, w in enumerate(om):
-        Q[i], rs, rd = _solve(M, C, K, F, H, w)
+        Q[i], rs, rd = _solve(M, C, Ks, F, H, w)
         residual[i] = np.hypot(rs, rd)
         ok[i] = rs <= tols[0] and rd <= tols[1]
     ok &= np.isfinite(Q).all(axis=(1, 2))
-    stable = np.full(P, _asymptotically_stable(M, C, K) if stability else True)
+    stable = np.full(P, all(_asymptotically_stable(M, C, Kr) for Kr in wave_stiffnesses(system))
+                     if stability else True)
     n_bad = int(P - ok.sum())
     return ResponseCurve(
         parameter=om.copy(), omega=om, Q=Q, converged=ok, residual=residual, stable=stable,

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from ..model.system import coupled_stiffness
 from . import hbm
 
 MAX_DENSE_DOF = 3000   # above this the count (a dense eigen-solve per point) is skipped
@@ -90,7 +91,11 @@ def prepare(prob: hbm.HBMProblem) -> ResonanceCount | None:
     if not harmonics or sys.n_dof > MAX_DENSE_DOF:
         return None
     K, M, C = _dense(sys.K), _dense(sys.M), _dense(sys.C)
-    zeta = np.minimum(modal_damping(M, C, K), modal_damping(M, C, closed_stiffness(sys)))
+    # with a linear inter-sector coupling: its first harmonic's real part for the
+    # damping estimate (the count below uses each harmonic's Hermitian stiffness)
+    coupled = sys.cyclic is not None and sys.cyclic.K_next is not None
+    K1 = np.real(coupled_stiffness(sys, sys.cyclic.phase)) if coupled else K
+    zeta = np.minimum(modal_damping(M, C, K1), modal_damping(M, C, closed_stiffness(sys) + K1 - K))
     return ResonanceCount(K, M, harmonics, np.maximum(zeta, 0.0))
 
 
@@ -117,9 +122,11 @@ def natural_frequencies(rc: ResonanceCount, prob: hbm.HBMProblem, x, contact) ->
     Qc = np.asarray(x, float).reshape(prob.c.size, prob.nh)
     cc = np.ix_(prob.c, prob.c)
     out = []
+    cy = prob.system.cyclic
     for h in rc.harmonics:
         Z = contact_stiffness(prob, Qc, contact, h)
-        K = rc.K.astype(complex)
+        K = (rc.K if cy is None or cy.K_next is None
+             else coupled_stiffness(prob.system, h * cy.phase)).astype(complex)
         K[cc] += 0.5 * (Z + Z.conj().T)
         lam = sla.eigh(K, rc.M, eigvals_only=True)
         out.append(np.sign(lam) * np.sqrt(np.abs(lam)))

@@ -18,6 +18,7 @@ from scipy.optimize import minimize_scalar
 from . import hbm
 from .branch_refinement import densify, insert_peaks
 from .continuation import continue_branch
+from .full_operators import wave_jacobians
 from ..fourier.harmonics import amplitude_half_peak_to_peak
 from .newton import newton
 from .resonance import MAX_DENSE_DOF, step_guard
@@ -262,9 +263,9 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
         rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q[i], omega[i], el))
         res[i] = np.hypot(rs, rd)
         ok[i] = rs <= tols[0] and rd <= tols[1]
-        if stability:  # a cyclic sector: every wave number r of perturbation (hbm.wave_jacobians)
+        if stability:  # a cyclic sector: every wave number r (`wave_jacobians`)
             stable[i] = all(is_stable(J, Mr, Cr, omega[i], prob.H)[0]
-                            for _, J, Mr, Cr in hbm.wave_jacobians(prob, Q[i], omega[i], el))
+                            for _, J, Mr, Cr in wave_jacobians(prob, Q[i], omega[i], el))
     converged = pts["converged"] & ok & np.isfinite(res)
     return ResponseCurve(
         parameter=np.asarray(pts["lam"], float), omega=omega, Q=Q, converged=converged,
