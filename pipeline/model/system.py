@@ -110,7 +110,8 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     """Undamped natural frequencies [rad/s] with the contacts open or stuck.
 
     "stuck" adds ku along Bt and kv along Bn of every element in contact (n0 > 0 or
-    kv = 0): the linear limits the nonlinear response tends to.  For a cyclic
+    kv = 0): the linear limits the nonlinear response tends to; "tied" adds them
+    for every element, whatever its preload (all contacts closed and stuck).  For a cyclic
     sector the maps of the first harmonic, B = Bt + exp(i phi) Bt_next, give the
     Hermitian stiffness K + B^H ku B + ... (with a linear inter-sector coupling,
     `coupled_stiffness(system, phi)` in place of K): the frequencies of the
@@ -122,15 +123,16 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     K = coupled_stiffness(system, cy.phase if cy is not None else 0.0)
     K = K.toarray() if hasattr(K, "toarray") else np.asarray(K)
     M = np.asarray(system.M.toarray() if hasattr(system.M, "toarray") else system.M, float)
-    if contacts == "stuck":
+    if contacts in ("stuck", "tied"):
         el = system.contact
+        closed = np.ones(el.size, bool) if contacts == "tied" else el.n0 > 0
         Bt, Bn = np.asarray(system.Bt, float), np.asarray(system.Bn, float)
         if cy is not None:
             z = np.exp(1j * cy.phase)
             Bt = Bt + z * np.asarray(cy.Bt_next, float)
             Bn = Bn + z * np.asarray(cy.Bn_next, float)
         K = K + (Bt.conj().T @ (el.ku[:, None] * Bt)
-                 + Bn.conj().T @ ((el.kv * (el.n0 > 0))[:, None] * Bn))
+                 + Bn.conj().T @ ((el.kv * closed)[:, None] * Bn))
     elif contacts != "open":
-        raise ValueError(f"contacts must be 'open' or 'stuck', got {contacts!r}")
+        raise ValueError(f"contacts must be 'open', 'stuck' or 'tied', got {contacts!r}")
     return np.sqrt(np.abs(sla.eigh(K, M, eigvals_only=True)))

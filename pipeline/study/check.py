@@ -114,6 +114,14 @@ def describe(study, workers: int = 1, has_quick: bool = False) -> list:
         lines.append("estimated cost: one full and one reduced eigen-solve per mode count "
                      "(no timing without building the mesh)")
         return lines
+    if kind == "disk_modes":
+        sc = study.scene
+        lines.append(f"scene: disk of {sc.assembly.sectors} sectors, {len(sc.sector_dofs)} DOF(s) "
+                     f"per sector, {len(sc.contacts)} contact(s); nodal diameters "
+                     f"{', '.join(map(str, study.nodal_diameters))}; {study.n_frequencies} "
+                     "frequencies each, contacts open and stuck")
+        lines.append(f"estimated cost: {2 * len(study.nodal_diameters)} sector eigen-solves")
+        return lines
     if kind == "accuracy_cost":
         for c in study.cases:
             runs = c.runs()

@@ -451,3 +451,29 @@ def read_dataset(path) -> xr.Dataset:
     """Load a study dataset fully into memory (the file is closed on return)."""
     with xr.open_dataset(path, engine="netcdf4") as ds:
         return ds.load()
+
+
+def disk_modes_to_dataset(study, res: dict) -> xr.Dataset:
+    """Dataset of a disk modes study (`disk_modes.nodal_diameter_frequencies` result):
+    natural frequencies per nodal diameter with the contacts open and stuck."""
+    def var(data, long_name):
+        return (("nodal_diameter", "mode"), np.asarray(data, float),
+                {"units": "Hz", "long_name": long_name})
+
+    nd, nf = np.asarray(study.nodal_diameters, np.int32), res["open"].shape[1]
+    sc = study.scene
+    return xr.Dataset(
+        {"frequency_open": var(res["open"], "natural frequency, contacts open"),
+         "frequency_stuck": var(res["stuck"], "natural frequency, every contact closed and "
+                                              "stuck (ku, kv)"),
+         "solve_time": ((), float(res["time_s"]), {"units": "s", "long_name": "wall time of "
+                                                   "the eigen-solves"})},
+        coords={"nodal_diameter": ("nodal_diameter", nd, {"units": "1", "long_name":
+                                                          "nodal diameter ND (EO = ND excites it)"}),
+                "mode": ("mode", np.arange(1, nf + 1, dtype=np.int32),
+                         {"units": "1", "long_name": "mode number within the family"})},
+        attrs={"title": study.title, "study": study.text, "study_name": study.name,
+               "description": study.description, "reference": study.reference,
+               "kind": "modes", "quick": int(study.quick), **scene_attrs(sc),
+               **provenance("pipeline (cyclic eigenproblem of one sector per nodal diameter)")})
+

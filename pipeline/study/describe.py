@@ -53,6 +53,11 @@ def cyclic_attrs(scene) -> dict:
                            "shifted by j phi (phase j phi in the first harmonic)"}
     if asm.engine_order is not None:
         attrs["engine_order"] = int(asm.engine_order)
+    if asm.springs:
+        attrs["disk_springs"] = "; ".join(
+            f"{s.name}: k = {s.k:g} N/m on " + " ".join(
+                f"{c:+g} {d}" for d, c in zip(scene.contact_dofs, s.row) if c)
+            for s in asm.springs)
     if mis is not None:
         attrs["cyclic_reduction"] = ("none: mistuned, the full assembly of all sectors "
                                      "(responses per sector on the sector dimension)")

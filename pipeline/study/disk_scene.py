@@ -17,6 +17,12 @@ EO mod N).  Each case is solved on ONE sector by the cyclic reduction
 (`pipeline.model.cyclic.sector_system`, Petrov 2004): only the sector is built, never
 the N-sector assembly (`pipeline.model.scene.full_system` gives it, for checks).
 
+Linear springs between neighbouring sectors (a flexible disk; effect
+"disk_coupling"): `[[scene.disk.spring]] elongation = ["next.xd", "-xd"], k = ...`
+[N/m], a row over this sector's and the next sector's DOFs like a contact's; they
+enter each harmonic's stiffness, K + e^{i h phi} K_next + e^{-i h phi} K_next^T
+(`cyclic.spring_stiffness`), and add no nonlinear unknown.
+
 Mistuning (effect "mistuning", `[scene.disk] mistuning = {stiffness_std, seed}`,
 seed or the sweep axis `mistuning_seed`): sector j has the stiffness
 (1 + delta_j) K, delta_j ~ N(0, stiffness_std^2) from `numpy.random.default_rng(seed)`
@@ -61,7 +67,8 @@ def parse_disk(ck, tab) -> tuple:
         ck.fail("scene.disk", "missing table (required for model = \"disk\"): "
                               "[scene.disk] sectors = N")
     t = ck.table(tab["disk"], "scene.disk")
-    ck.keys(t, "scene.disk", ("sectors", "engine_order", "mistuning"), required=("sectors",))
+    ck.keys(t, "scene.disk", ("sectors", "engine_order", "mistuning", "spring"),
+            required=("sectors",))
     N = ck.integer(t["sectors"], "scene.disk.sectors", 2, MAX_SECTORS)
     eo = check_engine_order(ck, t["engine_order"], "scene.disk.engine_order", N) \
         if "engine_order" in t else None
@@ -135,6 +142,11 @@ def check_disk_rules(ck, scene: Scene, axes, wpath, data):
                                  "\"cyclic_coupling\"" if scene.coupled else
                 "\"cyclic_coupling\" is declared but no contact reaches the next sector "
                 "(DOF names next.<dof>)")
+    springs = bool(scene.assembly.springs)
+    if springs != ("disk_coupling" in scene.effects):
+        ck.fail("scene.effects", "[[scene.disk.spring]] couples neighbouring sectors "
+                                 "linearly: declare \"disk_coupling\"" if springs else
+                "\"disk_coupling\" is declared but [scene.disk] has no [[scene.disk.spring]]")
     out = data.get("output") if isinstance(data, dict) else None
     if isinstance(out, dict) and "optimum_preload" in out and scene.assembly.engine_order is None:
         ck.fail("output.optimum_preload", "the optimum search runs at one engine order: "

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
-from . import accuracy_cost, blade_scene, scene
+from . import accuracy_cost, blade_scene, disk_modes, scene
 from .checker import Checker
 from .spec import Study
 
@@ -64,6 +64,7 @@ def is_accuracy_document(data) -> bool:
 
 # study kinds: (recognises a document, validates it); the first match parses it
 KINDS = ((is_accuracy_document, accuracy_cost.study_from_mapping),
+         (disk_modes.is_disk_modes_document, disk_modes.study_from_mapping),
          (blade_scene.is_blade_document, blade_scene.study_from_mapping),
          (lambda data: True, scene.study_from_mapping))
 
@@ -120,6 +121,9 @@ def study_to_mapping(study: Study) -> dict:
         scene["disk"] = {"sectors": sc.assembly.sectors}
         if sc.assembly.engine_order is not None:
             scene["disk"]["engine_order"] = sc.assembly.engine_order
+        if sc.assembly.springs:
+            scene["disk"]["spring"] = [{"name": s.name, "elongation": row(s.row), "k": s.k}
+                                       for s in sc.assembly.springs]
         if sc.mistuning is not None and sc.mistuning.factors is not None:
             scene["disk"]["mistuning"] = {"factors": list(sc.mistuning.factors)}
         elif sc.mistuning is not None:

@@ -23,7 +23,7 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
         for axis, what in (("eo", "has an engine order"), ("mistuning_seed", "can be mistuned")):
             if axis in axes:
                 ck.fail(f"{wpath}.{axis}", f"only a disk scene (scene.model = \"disk\") {what}")
-        for effect in ("cyclic_coupling", "mistuning"):
+        for effect in ("cyclic_coupling", "mistuning", "disk_coupling"):
             if effect in effects:
                 ck.fail("scene.effects", f"\"{effect}\" needs a disk scene (scene.model = "
                                          "\"disk\"); this scene is one structure")

@@ -238,6 +238,9 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     the directory is removed once the dataset is written."""
     from .dataset import to_dataset, write_netcdf
 
+    if getattr(study, "kind", "response") == "disk_modes":  # per nodal diameter (disk_modes.py)
+        from .disk_modes import run_disk_modes_study
+        return run_disk_modes_study(study, out_dir, figures=figures)
     if getattr(study, "kind", "response") == "modes":  # blade modal study (modes.py)
         from .modes import run_modes_study
         return run_modes_study(study, out_dir, figures=figures)

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..model.contacts import DofContact
 from ..model.loads import Forcing
-from ..model.scene import Cyclic, Lumped, Scene, Single, build_system
+from ..model.scene import Cyclic, Lumped, Scene, Single, Spring, build_system
 from . import disk_scene
 from .checker import Checker, join_field, kind_of
 from .rules import check_scene_rules
@@ -207,9 +207,9 @@ def parse_sweep(ck, tab, path, partial=False):
     return axes, freq
 
 
-def parse_scene(ck, tab) -> Scene:
+def parse_scene(ck, tab, loaded: bool = True) -> Scene:
     """The `Scene` of a lumped or disk [scene] table (a `Lumped` structure, single or
-    `Cyclic`); failures through ck."""
+    `Cyclic`); failures through ck.  loaded=False (modes): the excitation is optional."""
     ck.keys(tab, "scene", ("model", "effects", "dofs", "matrices", "modal", "contact",
                            "excitation", "disk"), required=("model",))
     model = ck.string(tab["model"], "scene.model", MODELS)
@@ -252,15 +252,17 @@ def parse_scene(ck, tab) -> Scene:
         cdofs = dofs
     contacts = tuple(_contact(ck, c, f"scene.contact[{i}]", cdofs, i)
                      for i, c in enumerate(contacts_raw))
+    springs = _springs(ck, tab["disk"].get("spring", []), cdofs) if disk else ()
     names = [c.name for c in contacts]
     for i, nm in enumerate(names):
         if nm in names[:i]:
             ck.fail(f"scene.contact[{i}].name", f"duplicate contact name {nm!r}")
-    if "excitation" not in tab:
+    if "excitation" not in tab and loaded:
         ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
-    forcing = _excitation(ck, tab["excitation"], dofs)
-    assembly = (Cyclic(sectors=sectors, engine_order=engine_order, mistuning=mistuning)
-                if disk else Single())
+    forcing = (_excitation(ck, tab["excitation"], dofs) if "excitation" in tab
+               else np.zeros((n, 2), complex))
+    assembly = (Cyclic(sectors=sectors, engine_order=engine_order, mistuning=mistuning,
+                       springs=springs) if disk else Single())
     return Scene(structure=Lumped(M=M, C=C, K=K, dofs=dofs), contacts=contacts,
                  loads=(Forcing(forcing),), assembly=assembly, effects=effects, model=model)
 
@@ -350,6 +352,27 @@ def _contact(ck, c, f, dofs, i) -> DofContact:
     if kv > 0 and not np.any(bn):
         ck.fail(f"{f}.kv", f"kv = {kv:g} N/m needs normal DOFs (`normal = [...]`)")
     return DofContact(name=name, bt=bt, bn=bn, ku=ku, kv=kv, mu=mu, n0=n0)
+
+
+def _springs(ck, raw, cdofs) -> tuple:
+    """`[[scene.disk.spring]]`: linear springs between neighbouring sectors, each
+    stretching by a row over this sector's and the next sector's DOFs."""
+    f = "scene.disk.spring"
+    if isinstance(raw, dict):
+        ck.fail(f, "must be an array of tables: write [[scene.disk.spring]]")
+    out = []
+    for i, c in enumerate(ck.array(raw, f, min_length=0)):
+        c = ck.table(c, f"{f}[{i}]")
+        ck.keys(c, f"{f}[{i}]", ("name", "elongation", "k"), required=("elongation", "k"))
+        name = ck.string(c.get("name", f"spring{i}"), f"{f}[{i}].name", pattern=NAME_PATTERN)
+        row = _signed_row(ck, disk_scene.contact_rows(c["elongation"]),
+                          f"{f}[{i}].elongation", cdofs, True)
+        if not np.any(row[len(cdofs) // 2:]):
+            ck.fail(f"{f}[{i}].elongation", "a spring between sectors names a DOF of the next "
+                                            "sector (next.<dof>); one within a sector "
+                                            "belongs in K")
+        out.append(Spring(name=name, row=row, k=ck.number(c["k"], f"{f}[{i}].k", gt=0.0)))
+    return tuple(out)
 
 
 def _excitation(ck, raw, dofs) -> np.ndarray:

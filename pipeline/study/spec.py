@@ -18,7 +18,8 @@ from ..model.system import System
 
 MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
 IMPLEMENTED_MODELS = ("lumped", "disk")
-EFFECTS = ("friction", "normal_load_variation", "separation", "cyclic_coupling", "mistuning")
+EFFECTS = ("friction", "normal_load_variation", "separation", "cyclic_coupling", "mistuning",
+           "disk_coupling")
 # grid axes of [sweep]: name -> (units, long_name)
 SWEEP_AXES = {
     "preload": ("N", "normal preload n0 of every contact"),
