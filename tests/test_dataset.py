@@ -14,7 +14,8 @@ from pipeline.study.dataset import read_dataset, to_dataset, write_netcdf
 from pipeline.study.dataset_check import UnreadableDataset, main as check_main, problems
 from pipeline.solve.response import ResponseCurve
 from pipeline.study.documents import load_study
-from pipeline.study.run import run_study, write_figures
+from pipeline.study.response_figures import write_figures
+from pipeline.study.run import run_study
 from pipeline.model.scene import stiffness_factors
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -252,7 +253,7 @@ def test_mistuned_disk_reports_per_sector_on_a_sector_dimension(tmp_path):
     import tomllib
 
     from pipeline.study.documents import study_from_document
-    from pipeline.study.run import write_figures
+    from pipeline.study.response_figures import write_figures
 
     path = STUDIES / "disk_mistuned.toml"
     doc = tomllib.loads(path.read_text())

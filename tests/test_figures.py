@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline.study.disk_figures import TunedCurve, by_sector, sector_and_dof, write_sector_figures
+from pipeline.study.disk_figures import by_sector, sector_and_dof, write_sector_figures
+from pipeline.study.mistuned import TunedCurve
 from pipeline.study.plots import (NOT_COMPUTED, STABLE, UNSTABLE, pyplot, label_log_axis, log_ticks,
                                   response_curves_plot, stability_for_plot, stability_states)
 
@@ -221,7 +222,8 @@ def test_zero_mistuning_puts_every_sector_on_the_tuned_peak(tmp_path, monkeypatc
     monkeypatch.setattr(plots, "sector_peaks_figure", spy)
     res = run_study(st, tmp_path, workers=1, progress=False)
     assert res.ok
-    assert sorted(p.name for p in res.figures) == ["amplitude_x1_mistuning_seed=1.png",
+    assert sorted(p.name for p in res.figures) == ["amplification_x1.png",
+                                                   "amplitude_x1_mistuning_seed=1.png",
                                                    "peak_per_sector_x1.png"]
     (label, peaks), = drawn["series"]
     assert label == "seed 1" and len(peaks) == 6

@@ -23,6 +23,7 @@ the study's unit (rad/s or Hz).
 """
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import uuid
@@ -300,14 +301,16 @@ def response_attrs(study: Study, lay: Layout) -> dict:
     return attrs
 
 
-def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
+def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> xr.Dataset:
     """Build the study dataset from one ResponseCurve per grid case.
 
     curves: sequence aligned with `study.sweep.cases()`; None for a case that
     raised (then all its points are padding and `message` holds `errors[k]`).
     `stable` is NaN wherever Hill's method was not run: at every point when the
     study's `solver.stability` is off (the solver then reports True everywhere),
-    and at points that did not converge.
+    and at points that did not converge.  `tuned` (a mistuned disk: the tuned
+    references of `mistuned.tuned_references`) adds `tuned_peak_amplitude` and
+    `amplification_factor`.
     """
     cases = study.sweep.cases()
     curves = list(curves)
@@ -326,6 +329,8 @@ def to_dataset(study: Study, curves, errors=None, optimum=None) -> xr.Dataset:
     coords = response_coords(study, v["frequency"], lay)
     if lay.sectors is not None:
         _add_mistuning_factors(data_vars, study, lay.sectors)
+    if tuned is not None and "sector" in data_vars["peak_amplitude"][0]:
+        _add_amplification(data_vars, study, tuned, lay)
     if optimum is not None:
         _add_optimum(data_vars, coords, optimum, study, lay.to_unit, lay.unit)
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=response_attrs(study, lay))
@@ -345,60 +350,28 @@ def _add_mistuning_factors(data_vars, study, sectors):
                                    "(mistuned stiffness (1 + delta_j) K)"})
 
 
-def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset:
-    """Dataset of a blade modes study (`modes.modal_study` result `res`): full and
-    Craig-Bampton eigenfrequencies against the mode count, errors and timings."""
-    counts = np.asarray(res["mode_counts"], dtype=np.int32)
-    nf = len(res["full_hz"])
-    ci = list(counts).index(study.scene.reduction.modes)
 
-    def var(dims, data, units, long_name):
-        return (dims, np.asarray(data), {"units": units, "long_name": long_name})
 
-    data_vars = {
-        "full_frequency": var(("mode",), res["full_hz"], "Hz",
-                              "eigenfrequency of the unreduced FE model (shift-invert Lanczos)"),
-        "reduced_frequency": var(("mode_count", "mode"), res["reduced_hz"], "Hz",
-                                 "eigenfrequency of the Craig-Bampton model"),
-        "relative_error": var(("mode_count", "mode"), res["rel_error"], "1",
-                              "reduced/full - 1 (Rayleigh-Ritz: >= 0)"),
-        "max_relative_error": var(("mode_count",), np.nanmax(res["rel_error"], axis=1), "1",
-                                  "largest relative frequency error over the modes"),
-        "reduction_time": var(("mode_count",), res["time_reduce_s"], "s",
-                              "wall time of the Craig-Bampton reduction (all stages)"),
-        "reduction_stage_time": var(("mode_count", "stage"), res["time_stage_s"], "s",
-                                    "wall time of each stage of the reduction"),
-        "reduced_size": var(("mode_count",), np.asarray(res["reduced_size"], np.int32), "1",
-                            "reduced coordinates: boundary DOFs + modes"),
-        "full_eigen_time": var((), float(res["time_full_s"]), "s",
-                               "wall time of the unreduced eigen solve (factorisation included)"),
-        "mac": var(("mode",), res["mac"], "1", "modal assurance criterion, full vs reduced "
-                                               f"mode at {study.scene.reduction.modes} modes"),
-        "n_dof": var((), np.int32(res["n_dof"]), "1", "free DOFs of the unreduced blade"),
-        "n_boundary": var((), np.int32(res["n_boundary"]), "1",
-                          "boundary DOFs kept physical (contact faces, excitation, response)"),
-    }
-    coords = {
-        "mode_count": ("mode_count", counts, {"units": "1",
-                                              "long_name": "Craig-Bampton fixed-interface modes"}),
-        "mode": ("mode", np.arange(1, nf + 1, dtype=np.int32), {"units": "1",
-                                                              "long_name": "mode number"}),
-        "stage": ("stage", np.asarray(res["stage_names"], dtype=str),
-                  {"long_name": "stage of the reduction"}),
-    }
-    sc = study.scene
-    attrs = {
-        "title": study.title, "study": study.text, "study_name": study.name,
-        "description": study.description, "reference": study.reference,
-        "kind": "modes", "model": sc.model, "mesh": sc.structure.mesh or "generated",
-        "blade_parameters": repr(sc.structure.params),
-        "default_mode_count": int(sc.reduction.modes),
-        "max_relative_error_at_default": float(np.nanmax(res["rel_error"][ci])),
-        "mode_shapes": mode_shapes_file,
-        "quick": int(study.quick),
-        **provenance("pipeline (scikit-fem blade, sparse Craig-Bampton reduction)"),
-    }
-    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+def _add_amplification(data_vars, study, tuned: dict, lay: Layout):
+    """`tuned_peak_amplitude` (other axes..., dof) [m] and `amplification_factor`
+    (grid axes..., dof) [-] = max over the sectors of the peak / the tuned peak."""
+    axes = study.sweep.axes
+    other = [a for a in axes if a != "mistuning_seed"]
+    dims, peak, attrs = data_vars["peak_amplitude"]
+    dofs = list(lay.dofs)
+    ref = np.array([[tuned[combo].peak.get(d, np.nan) for d in dofs]
+                    for combo in itertools.product(*(axes[a] for a in other))])
+    ref = ref.reshape(tuple(len(axes[a]) for a in other) + (len(dofs),))
+    data_vars["tuned_peak_amplitude"] = (tuple(other) + ("dof",), ref, {
+        "units": "m", "long_name": "peak amplitude of the tuned disk (no mistuning; one "
+                                   "sector by the cyclic reduction)"})
+    top = np.nanmax(peak, axis=dims.index("sector")) if np.isfinite(peak).any() else peak.max(
+        axis=dims.index("sector"))
+    rest = [d for d in dims if d != "sector"]
+    ref_b = np.expand_dims(ref, axis=rest.index("mistuning_seed")) if "mistuning_seed" in rest \
+        else ref
+    data_vars["amplification_factor"] = (tuple(rest), top / ref_b, {
+        "units": "1", "long_name": "amplification factor: largest sector peak / tuned peak"})
 
 
 def _add_optimum(data_vars, coords, opt, study, to_unit, unit):
@@ -451,29 +424,3 @@ def read_dataset(path) -> xr.Dataset:
     """Load a study dataset fully into memory (the file is closed on return)."""
     with xr.open_dataset(path, engine="netcdf4") as ds:
         return ds.load()
-
-
-def disk_modes_to_dataset(study, res: dict) -> xr.Dataset:
-    """Dataset of a disk modes study (`disk_modes.nodal_diameter_frequencies` result):
-    natural frequencies per nodal diameter with the contacts open and stuck."""
-    def var(data, long_name):
-        return (("nodal_diameter", "mode"), np.asarray(data, float),
-                {"units": "Hz", "long_name": long_name})
-
-    nd, nf = np.asarray(study.nodal_diameters, np.int32), res["open"].shape[1]
-    sc = study.scene
-    return xr.Dataset(
-        {"frequency_open": var(res["open"], "natural frequency, contacts open"),
-         "frequency_stuck": var(res["stuck"], "natural frequency, every contact closed and "
-                                              "stuck (ku, kv)"),
-         "solve_time": ((), float(res["time_s"]), {"units": "s", "long_name": "wall time of "
-                                                   "the eigen-solves"})},
-        coords={"nodal_diameter": ("nodal_diameter", nd, {"units": "1", "long_name":
-                                                          "nodal diameter ND (EO = ND excites it)"}),
-                "mode": ("mode", np.arange(1, nf + 1, dtype=np.int32),
-                         {"units": "1", "long_name": "mode number within the family"})},
-        attrs={"title": study.title, "study": study.text, "study_name": study.name,
-               "description": study.description, "reference": study.reference,
-               "kind": "modes", "quick": int(study.quick), **scene_attrs(sc),
-               **provenance("pipeline (cyclic eigenproblem of one sector per nodal diameter)")})
-

@@ -5,11 +5,10 @@ dimension (DOF labels plain, `x1`) or in the DOF labels themselves (`x1@4`: x1 o
 sector 4); `sector_and_dof` reads a label, `by_sector` gives one array with a
 `sector` dimension per sector DOF in either layout.
 
-The tuned reference is not in the dataset: `tuned_reference` solves the same disk
-without mistuning (delta_j = 0) with the study's solver settings, on one sector by
-the cyclic reduction (one small continuation per combination of the sweep axes other
-than `mistuning_seed`, about a second each).  A tuned disk's sectors all have the
-same amplitude, so its peak is one number per sector DOF.
+The tuned reference (`mistuned.tuned_reference`: the same disk without mistuning, on
+one sector by the cyclic reduction) is computed by the run, which stores its peak
+and the amplification factors in the dataset; the figures take the run's tuned
+curves, or solve them again when drawn from a dataset alone.
 
 Figures (`write_sector_figures`):
 - `peak_per_sector_<dof>[_<axis>=<value>...].png`: the peak amplitude of each sector,
@@ -19,25 +18,24 @@ Figures (`write_sector_figures`):
 - `amplitude_<dof>_<axis>=<value>....png`, one per case: every sector's response
   curve (the sectors with the largest and the smallest peak in colour, the others
   thin grey) and the tuned disk's curve (black).  They replace one figure per
-  sector, which spreads what belongs together over N files.
+  sector, which spreads what belongs together over N files;
+- `amplification_<dof>.png` (with a `mistuning_seed` axis): the distribution of the
+  amplification factor over the seeds (a Monte-Carlo sample) per preload (or per
+  value of the first other axis), `amplification_figure`.
 """
 from __future__ import annotations
 
 import itertools
 import logging
-import time
-from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from ..model.scene import build_system
-from .cases import default_solver, run_case
+from .mistuned import SEED_AXIS, TunedCurve, tuned_reference
 from .spec import SWEEP_AXES
 
 log = logging.getLogger("pipeline.study.disk_figures")
 AT = "@"
-SEED_AXIS = "mistuning_seed"
 
 
 def sector_and_dof(label: str):
@@ -77,52 +75,6 @@ def by_sector(da) -> dict:
         out[d] = (xr.concat(parts, dim="sector").assign_coords(sector=[j for j, _ in pairs])
                   .transpose(*("sector" if x == "dof" else x for x in da.dims)))
     return out
-
-
-@dataclass
-class TunedCurve:
-    """The tuned disk's response at one combination of the non-seed sweep axes."""
-
-    frequency: np.ndarray    # (P,) in the study's frequency unit
-    amplitude: dict          # sector DOF -> (P,) [m]
-    stable: np.ndarray       # (P,) float: 1 stable, 0 unstable, NaN not computed
-    converged: np.ndarray    # (P,) bool
-    peak: dict               # sector DOF -> peak amplitude [m] (NaN if nothing converged)
-    error: str | None = None
-
-
-def tuned_reference(study, case: dict, dofs, solver=None) -> TunedCurve:
-    """The disk of `study` without mistuning, one sector by the cyclic reduction,
-    with the study's harmonics, forces, tolerances and frequency range; `case`
-    holds the sweep values other than `mistuning_seed`."""
-
-    scene = replace(study.scene, assembly=replace(study.scene.assembly, mistuning=None))
-    fr, kw = study.sweep.frequency, study.solver.kwargs()
-    idx = [scene.sector_dofs.index(d) for d in dofs]
-    kw["peak_dofs"] = idx
-    case = {a: v for a, v in case.items() if a != SEED_AXIS}
-    t0 = time.perf_counter()
-    curve, err = run_case(solver or default_solver(study), build_system(scene, case),
-                          study.solver.harmonics, fr.omega_start, fr.omega_stop, kw)
-    if curve is None:
-        nan = {d: np.nan for d in dofs}
-        return TunedCurve(np.empty(0), {d: np.empty(0) for d in dofs}, np.empty(0),
-                          np.empty(0, bool), nan, err or "failed")
-    om = np.asarray(curve.omega, float) / fr.to_rad_s
-    amp = np.asarray(curve.amplitude, float)
-    conv = np.asarray(curve.converged, bool) & np.isfinite(om)
-    stable = (np.asarray(curve.stable, bool).astype(float) if study.solver.stability
-              else np.full(om.shape, np.nan))
-    amps, peaks = {}, {}
-    for d, i in zip(dofs, idx):
-        a = amp[:, i]
-        ok = conv & np.isfinite(a)
-        amps[d] = a
-        peaks[d] = float(a[ok].max()) if ok.any() else np.nan
-    log.info("%s: tuned reference%s: peak %s in %.1f s", study.name,
-             f" ({case})" if case else "",
-             ", ".join(f"{d} {p:.4g} m" for d, p in peaks.items()), time.perf_counter() - t0)
-    return TunedCurve(om, amps, stable, conv, peaks)
 
 
 def _case_text(case: dict) -> str:
@@ -199,7 +151,49 @@ def write_sector_figures(study, ds, fig_dir, tuned=None) -> list:
                     ylabel=f"amplitude of {d} [m]",
                     title=f"{study.title}, {_case_text(case)}: every sector",
                     yscale=study.output.yscale))
+    if SEED_AXIS in axes and "amplification_factor" in ds:
+        for d in dofs:
+            paths.append(amplification_figure(fig_dir / f"amplification_{d}.png", ds, d,
+                                              study.title))
     return paths
+
+
+def amplification_figure(path, ds, dof: str, title: str = ""):
+    """The amplification factor's distribution over the mistuning seeds (a Monte-Carlo
+    sample) at each value of the first other sweep axis (preload if swept): one
+    box per value (quartiles, whiskers to the extremes) over the seeds' points."""
+    from .plots import atomic_savefig, pyplot   # deferred: matplotlib on first figure
+
+    a = ds["amplification_factor"].sel(dof=dof)
+    other = [x for x in a.dims if x != SEED_AXIS]
+    axis = other[0] if other else None
+    a = a.transpose(*([axis] if axis else []), SEED_AXIS, *other[1:])
+    values = a[axis].values if axis else [None]
+    samples = [np.ravel(a.isel({axis: i}).values) if axis else np.ravel(a.values)
+               for i in range(len(values))]
+    samples = [x[np.isfinite(x)] for x in samples]
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    pos = np.arange(len(values))
+    keep = [i for i, x in enumerate(samples) if x.size]
+    if keep:
+        ax.boxplot([samples[i] for i in keep], positions=pos[keep], widths=0.5, whis=(0, 100))
+    rng = np.random.default_rng(0)
+    for i in keep:
+        ax.plot(pos[i] + rng.uniform(-0.12, 0.12, samples[i].size), samples[i], ".",
+                color="tab:red", alpha=0.6, ms=5)
+    ax.axhline(1.0, color="k", lw=1, ls="--", label="tuned disk")
+    unit = _axis_unit(axis) if axis else ""
+    ax.set_xticks(pos, [f"{v:g}" for v in values] if axis else [""])
+    ax.set_xlabel(f"{axis} [{unit}]" if axis else "")
+    ax.set_ylabel(f"amplification factor of {dof} [-]")
+    n = a.sizes[SEED_AXIS]
+    ax.set_title(f"{title}\n{n} mistuning seeds: largest sector peak / tuned peak", fontsize=9)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    out = atomic_savefig(fig, path)
+    plt.close(fig)
+    return out
 
 
 def _tuned_branch(ref: TunedCurve, d: str):

@@ -120,7 +120,8 @@ def nodal_diameter_frequencies(scene: Scene, nodal_diameters, n_frequencies: int
 def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: bool = True):
     """`out_dir/<name>.nc` and `out_dir/<name>/nodal_diameter_diagram.png`."""
     # deferred: xarray and matplotlib cost a second to import; validation needs neither
-    from .dataset import disk_modes_to_dataset, write_netcdf
+    from .dataset import write_netcdf
+    from .modes_dataset import disk_modes_to_dataset
     from .disk_figures import nodal_diameter_figure
 
     t0 = time.perf_counter()

@@ -14,7 +14,8 @@ from ..model.scene import Scene, blade_model
 from ..structure.fe_model import boundary_dofs
 from ..structure.mesh_io import write_fields
 from ..structure.reduction import eigenmodes, reduce, reduced_modes
-from .dataset import modes_to_dataset, write_netcdf
+from .dataset import write_netcdf
+from .modes_dataset import modes_to_dataset
 from .plots import modal_convergence_figure
 from .spec import ModesStudy, StudyResult
 

@@ -28,6 +28,7 @@ from ..errors import UsageError
 from .cases import default_solver, run_case, separation_guard
 from .checkpoint import checkpoint_dir, kept_cases, load_cases, remove_stale, save_case
 from .documents import load_study
+from .response_figures import sector_output_dofs, write_figures
 from .spec import Study, StudyResult
 
 log = logging.getLogger("pipeline.study.run")
@@ -269,7 +270,12 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
         except UndeclaredSeparation as exc:  # the dataset is written without it
             optimum_error = str(exc)
             log.error("%s: optimum preload search stopped: %s", study.name, exc)
-    ds = to_dataset(study, curves, errors, optimum=optimum)
+    tuned = None
+    if getattr(study.scene, "mistuning", None) is not None and int(sum(
+            c is not None for c in curves)):   # the tuned disk the mistuning is read against
+        from .mistuned import tuned_references
+        tuned = tuned_references(study, sector_output_dofs(study), solver)
+    ds = to_dataset(study, curves, errors, optimum=optimum, tuned=tuned)
     res = StudyResult(study=study, dataset=ds, path=None, failures=failures,
                       reused=reused, computed=len(curves) - reused, optimum_error=optimum_error)
     if int(ds["converged"].sum()) == 0:
@@ -292,63 +298,15 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
         log.info("%s: %d case(s) failed; the finished ones stay in %s, a rerun retries "
                  "only the failed ones", study.name, failures, cdir)
     if figures:
-        res.figures = write_figures(study, ds, out_dir / study.name)
+        res.figures = write_figures(study, ds, out_dir / study.name, tuned)
         for p in res.figures:
             log.info("wrote %s", p)
     res.wall_time = time.perf_counter() - t0
     return res
 
 
-def write_figures(study: Study, ds, fig_dir) -> list:
-    """Amplitude-frequency figures (one per response DOF and per combination of
-    the non-curve sweep axes); one curve per value of `preload` (or the first axis).
-    A mistuned disk gets its own figures (`disk_figures.write_sector_figures`)."""
-    from .dataset import dof_selection
-    from .disk_figures import is_sector_resolved, write_sector_figures
-    from .plots import response_curves_figure, stability_for_plot
-
-    if "amplitude" not in study.output.figures:
-        return []
-    if is_sector_resolved(study, ds):
-        return write_sector_figures(study, ds, fig_dir)
-    axes = list(study.sweep.axes)
-    curve_axis = "preload" if "preload" in axes else (axes[0] if axes else None)
-    other = [a for a in axes if a != curve_axis]
-    unit = ds["frequency"].attrs["units"]
-    paths = []
-    import itertools
-
-    for combo in itertools.product(*(range(len(study.sweep.axes[a])) for a in other)):
-        sel = dict(zip(other, combo))
-        sub = ds.isel(sel)
-        suffix = "".join(f"_{a}={study.sweep.axes[a][i]:g}" for a, i in sel.items())
-        for dof in study.output.dofs:
-            d = sub.sel(dof_selection(study, dof))   # "x1@3": dof x1 of sector 3
-            branches = []
-            for j in range(ds.sizes[curve_axis] if curve_axis else 1):
-                b = d.isel({curve_axis: j}) if curve_axis else d
-                unit_c = ds[curve_axis].attrs["units"] if curve_axis else ""
-                label = (f"{curve_axis} = {float(b[curve_axis]):g}" + (f" {unit_c}" if unit_c != "1" else "")
-                         if curve_axis else study.name)
-                branches.append((label, b["frequency"].values, b["amplitude"].values,
-                                 stability_for_plot(b["stable"]), b["converged"].values))
-            title = study.title + "".join(f", {a} = {study.sweep.axes[a][i]:g}" for a, i in sel.items())
-            paths.append(response_curves_figure(
-                Path(fig_dir) / f"amplitude_{dof}{suffix}.png", branches,
-                xlabel=f"excitation frequency [{unit}]", ylabel=f"amplitude of {dof} [m]",
-                title=title, yscale=study.output.yscale))
-    return paths
 
 
-# ---------------------------------------------------------------------------
-# Command line
-# ---------------------------------------------------------------------------
-
-def add_run_parser(subparsers):
-    """Register `run` on the CLI's subparsers (`pipeline/__main__.py`)."""
-    r = subparsers.add_parser("run", help="run a study file: dataset (netCDF) and figures")
-    configure_run_parser(r)
-    return r
 
 
 def configure_run_parser(r):
@@ -495,3 +453,14 @@ def main(argv=None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+# ---------------------------------------------------------------------------
+# Command line
+# ---------------------------------------------------------------------------
+
+def add_run_parser(subparsers):
+    """Register `run` on the CLI's subparsers (`pipeline/__main__.py`)."""
+    r = subparsers.add_parser("run", help="run a study file: dataset (netCDF) and figures")
+    configure_run_parser(r)
+    return r
