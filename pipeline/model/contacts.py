@@ -178,8 +178,9 @@ def case_parameter(contacts, owner, case, name, attr):
 def contact_elements(contacts, case: dict, owner=None, weights=None) -> YangMenq:
     """Yang-Menq parameters of `contacts` with a case applied, one element per row of
     `owner` (the contact of each element; default one per contact).  A `FaceContact`'s
-    (or `ShroudPair`'s) preload is the total of its face: shared equally ("per_node") or, with ku and kv,
-    by node area ("per_face"; `weights[i]` the areas of contact i's nodes)."""
+    (or `ShroudPair`'s) preload is the total of its face: shared equally ("per_node")
+    or, with ku and kv, by node area ("per_face"; `weights[i]` the areas of contact
+    i's nodes)."""
     case = dict(case or {})
     owner = np.arange(len(contacts)) if owner is None else np.asarray(owner)
     ku, kv, mu, n0 = (case_parameter(contacts, owner, case, *p) for p in

@@ -20,10 +20,10 @@ that every solver takes:
                 assembly, `pipeline.model.cyclic`)
 
 So an FE blade in a cyclic disk is `Scene(Blade(..., disk=DiskPlacement(R, N)),
-(ShroudPair(...),), loads, Cyclic(N, EO), CraigBampton(m))`: no other code path.  A case is a dict of overrides
-(`CASE_KEYS`): `preload` sets n0 of every contact, `mu`, `ku`, `kv` those of every
-contact, `excitation_scale` scales every load, `eo` the engine order and
-`mistuning_seed` the mistuning draw of a cyclic assembly.
+(ShroudPair(...),), loads, Cyclic(N, EO), CraigBampton(m))`: no other code path.
+A case is a dict of overrides (`CASE_KEYS`): `preload` sets n0 of every contact,
+`mu`, `ku`, `kv` those of every contact, `excitation_scale` scales every load,
+`eo` the engine order and `mistuning_seed` the mistuning draw of a cyclic assembly.
 
 Built FE models and reductions are cached on the frozen specs (`blade_model`,
 `reduced_model`, `functools.lru_cache`): scenes that share a structure share its

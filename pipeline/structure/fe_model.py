@@ -28,6 +28,12 @@ t = n_R x e_Z / |n_R x e_Z| is the same for both faces of a blade so that the pa
 second (radial) tangent.  Rows of Bt, Bn (as in system.py) carry these direction
 cosines on the DOFs of the point; against a rigid neighbour they are the relative
 displacements.
+
+A blade in a disk (`DiskPlacement`): the disk axis is parallel to X through
+(0, 0, -R), the root at radius R; blade j+1 is blade j turned by 2 pi / N about it.
+`disk.wheel_params` derives the shroud width of such a wheel, `solid.solid_mesh`
+shapes the left face as the right face turned by -2 pi / N, and `disk.pair_faces`
+pairs the faces of neighbours node by node.
 """
 from __future__ import annotations
 
