@@ -1,7 +1,19 @@
 """Contacts of a scene: Yang-Menq elements (paper Eq. 1, 9, 10) given as rows over
-named DOFs (`DofContact`; in a cyclic assembly also over the next sector's) or on
-every node of an FE contact face against a rigid wall (`FaceContact`), and their
-parameters with a case applied (`contact_elements`)."""
+named DOFs (`DofContact`; in a cyclic assembly also over the next sector's), on
+every node of an FE contact face against a rigid wall (`FaceContact`), or on every
+node pair of the right shroud face of a blade in a disk and the left face of the
+next blade (`ShroudPair`), and their parameters with a case applied
+(`contact_elements`).
+
+Shroud pairs (`shroud_pair_maps`): the neighbour's displacement is a vector of ITS
+frame, turned by the pitch alpha = 2 pi / N into this sector's, so the relative
+displacement of the pair (x_R of blade j, x_L of blade j+1) is
+
+    d = R(alpha) q^L_{j+1} - q^R_j,   u = t . d,   v = -n . d,
+
+n the outward normal of the right face (v > 0 closes the gap), t a tangent in the
+face: Bt = -t^T S_R, Bt_next = t^T R(alpha) S_L, Bn = n^T S_R,
+Bn_next = -n^T R(alpha) S_L (S: the selection of a node's 3 DOFs)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -10,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contact import YangMenq
+from ..structure.disk import pair_faces
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,6 +51,98 @@ class FaceContact:
     mu: float               # [-]
     n0: float | None        # [N] total over the face; None: the case's preload
     stiffness: str = "per_node"  # "per_face": ku, kv are face totals shared by area
+
+
+@dataclass(frozen=True)
+class ShroudPair:
+    """Yang-Menq elements on every node pair of the right shroud face of this sector
+    and the left face of the next one (a blade in a disk, paired by the pitch
+    rotation).  tangent: the slip direction (3-vector, global axes of this blade,
+    projected into the face); None: the disk's circumferential direction at the face
+    centre projected into the face (the axial direction X if that is degenerate)."""
+
+    name: str
+    ku: float               # [N/m] per node pair (face total when stiffness = "per_face")
+    kv: float               # [N/m] per node pair (face total when stiffness = "per_face")
+    mu: float               # [-]
+    n0: float | None        # [N] total over the face; None: the case's preload
+    tangent: tuple | None = None   # [-] direction, global axes
+    stiffness: str = "per_node"    # "per_face": ku, kv are face totals shared by area
+
+
+def in_face(e, n) -> np.ndarray | None:
+    """The unit projection of e into the plane of unit normal n (None if degenerate)."""
+    e = np.asarray(e, float)
+    t = e - (e @ n) * n
+    norm = np.linalg.norm(t)
+    return t / norm if norm > 1e-6 * np.linalg.norm(e) else None
+
+
+def pair_frame(blade, pair: ShroudPair, disk) -> tuple:
+    """(t, n) of a shroud pair: n the outward unit normal of the right face, t the
+    pair's tangent (module doc) projected into the face."""
+    fr = blade.frames["shroud_right"]
+    n = np.asarray(fr.normal, float)
+    if pair.tangent is not None:
+        t = in_face(pair.tangent, n)
+        if t is None:
+            raise ValueError(f"contact {pair.name!r}: tangent {pair.tangent!r} is normal to "
+                             "the shroud face (no slip direction in the face)")
+        return t, n
+    t = in_face(disk.circumferential(np.mean(fr.points, axis=0)), n)
+    return (t if t is not None else in_face([1.0, 0.0, 0.0], n)), n
+
+
+def shroud_pair_maps(blade, pair: ShroudPair, disk) -> tuple:
+    """(Bt, Bn, Bt_next, Bn_next) sparse (k, n_full) of one `ShroudPair` on the
+    unreduced blade: one row per right-face node and its left-face partner
+    (`structure.disk.pair_faces`), the maps of the module doc."""
+    for face in ("shroud_right", "shroud_left"):
+        if face not in blade.frames:
+            raise ValueError(f"contact {pair.name!r}: the blade has no face {face!r}")
+    t, n = pair_frame(blade, pair, disk)
+    left = pair_faces(blade.set_points["shroud_right"], blade.set_points["shroud_left"], disk)
+    dr, dl = blade.dof_sets["shroud_right"], blade.dof_sets["shroud_left"][left]
+    if np.any(dr < 0) or np.any(dl < 0):
+        raise ValueError(f"contact {pair.name!r}: a shroud face node is clamped")
+    Ra = disk.rotation(disk.pitch_angle)
+    k = dr.shape[0]
+    rows = np.repeat(np.arange(k), 3)
+
+    def rows_of(dofs, vec):
+        vals = np.tile(vec, k)
+        vals[np.abs(vals) < 1e-12] = 0.0    # round-off cosines from the face's SVD
+        B = sp.csr_matrix((vals, (rows, dofs.ravel())), shape=(k, blade.n_dof))
+        B.eliminate_zeros()
+        return B
+
+    return (rows_of(dr, -t), rows_of(dr, n), rows_of(dl, Ra.T @ t), rows_of(dl, -(Ra.T @ n)))
+
+
+def fe_contact_maps(blade, contacts, disk=None) -> tuple:
+    """(Bt, Bn, Bt_next, Bn_next, owner, weights) of the `FaceContact`s and
+    `ShroudPair`s of an FE blade, in the given order: sparse (E, n_full) maps (zero
+    `_next` rows for faces against a wall), the contact of each element and each
+    contact's node areas [m^2] (for stiffness = "per_face")."""
+    maps, owner, weights = [], [], []
+    for i, c in enumerate(contacts):
+        if isinstance(c, ShroudPair):
+            if disk is None:
+                raise ValueError(f"contact {c.name!r}: a shroud pair needs the blade's disk "
+                                 "placement (Blade(..., disk=DiskPlacement(R, N)))")
+            maps.append(shroud_pair_maps(blade, c, disk))
+            weights.append(blade.frames["shroud_right"].weights)
+        else:
+            Bt, Bn, _ = face_maps(blade, (c,))
+            z = sp.csr_matrix(Bt.shape)
+            maps.append((Bt, Bn, z, z))
+            weights.append(blade.frames[c.face].weights)
+        owner += [i] * maps[-1][0].shape[0]
+    if not maps:
+        z = sp.csr_matrix((0, blade.n_dof))
+        return z, z, z, z, np.zeros(0, int), []
+    out = tuple(sp.vstack([m[j] for m in maps]).tocsr() for j in range(4))
+    return out + (np.asarray(owner), weights)
 
 
 def face_maps(blade, contacts) -> tuple:
@@ -73,14 +178,15 @@ def case_parameter(contacts, owner, case, name, attr):
 def contact_elements(contacts, case: dict, owner=None, weights=None) -> YangMenq:
     """Yang-Menq parameters of `contacts` with a case applied, one element per row of
     `owner` (the contact of each element; default one per contact).  A `FaceContact`'s
-    preload is the total of its face: shared equally ("per_node") or, with ku and kv,
-    by node area ("per_face"; `weights[i]` the areas of contact i's nodes)."""
+    (or `ShroudPair`'s) preload is the total of its face: shared equally ("per_node")
+    or, with ku and kv, by node area ("per_face"; `weights[i]` the areas of contact
+    i's nodes)."""
     case = dict(case or {})
     owner = np.arange(len(contacts)) if owner is None else np.asarray(owner)
     ku, kv, mu, n0 = (case_parameter(contacts, owner, case, *p) for p in
                       (("ku", "ku"), ("kv", "kv"), ("mu", "mu"), ("preload", "n0")))
     for i, c in enumerate(contacts):
-        if not isinstance(c, FaceContact):
+        if not isinstance(c, (FaceContact, ShroudPair)):
             continue
         on = owner == i
         if c.stiffness == "per_face":

@@ -10,7 +10,9 @@ that every solver takes:
                 excitation and response DOFs, `pipeline.structure.reduction`)
     contacts    `DofContact` (a row over named DOFs; in a cyclic assembly also over
                 the next sector's, `next.<dof>`) | `FaceContact` (every node of an FE
-                face against a rigid wall, in the face's frame)
+                face against a rigid wall, in the face's frame) | `ShroudPair` (every
+                node pair of the right shroud face and the next blade's left face, for
+                a `Blade` placed in a disk)
     loads       `Forcing` (complex amplitudes F_h over the structure's DOFs) |
                 `PointLoad` (at an FE node set)
     assembly    `Single` | `Cyclic` (N sectors, engine-order travelling wave solved
@@ -18,11 +20,11 @@ that every solver takes:
                 assembly, `pipeline.model.cyclic`; `Spring`s between neighbouring
                 sectors for a flexible disk)
 
-So an FE blade in a cyclic disk is `Scene(Blade(...), CraigBampton(m), contacts,
-loads, Cyclic(N, EO))`: no other code path.  A case is a dict of overrides
-(`CASE_KEYS`): `preload` sets n0 of every contact, `mu`, `ku`, `kv` those of every
-contact, `excitation_scale` scales every load, `eo` the engine order and
-`mistuning_seed` the mistuning draw of a cyclic assembly.
+So an FE blade in a cyclic disk is `Scene(Blade(..., disk=DiskPlacement(R, N)),
+(ShroudPair(...),), loads, Cyclic(N, EO), CraigBampton(m))`: no other code path.
+A case is a dict of overrides (`CASE_KEYS`): `preload` sets n0 of every contact,
+`mu`, `ku`, `kv` those of every contact, `excitation_scale` scales every load,
+`eo` the engine order and `mistuning_seed` the mistuning draw of a cyclic assembly.
 
 Built FE models and reductions are cached on the frozen specs (`blade_model`,
 `reduced_model`, `functools.lru_cache`): scenes that share a structure share its
@@ -35,11 +37,10 @@ from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..contact import YangMenq
 from . import cyclic
-from .contacts import DofContact, FaceContact, contact_elements, face_maps
+from .contacts import DofContact, FaceContact, ShroudPair, contact_elements, fe_contact_maps
 from .loads import Forcing, point_forcing
 from .system import System
 
@@ -69,11 +70,14 @@ class Lumped:
 class Blade:
     """A clamped FE blade (`fe_model.BladeParams`), generated or read from `mesh`
     (meshio; node sets root, shroud_left, shroud_right, excitation, response).
-    Damping: Rayleigh (alpha [1/s], beta [s]) or, when None, the params' modal ratios."""
+    Damping: Rayleigh (alpha [1/s], beta [s]) or, when None, the params' modal ratios.
+    disk: where the blade sits in a wheel (`fe_model.DiskPlacement`; a generated
+    blade is then shaped for it, `solid.solid_mesh`), needed by `ShroudPair`s."""
 
     params: object           # fe_model.BladeParams
     mesh: str | None = None
     rayleigh: tuple | None = None
+    disk: object = None      # fe_model.DiskPlacement | None
 
 
 @dataclass(frozen=True)
@@ -134,6 +138,12 @@ class Scene:
     effects: tuple = ()
     model: str = ""
 
+    def __post_init__(self):
+        disk = getattr(self.structure, "disk", None)
+        if disk is not None and self.cyclic and self.assembly.sectors != disk.sectors:
+            raise ValueError(f"assembly.sectors ({self.assembly.sectors}) must equal the blade's "
+                             f"disk.sectors ({disk.sectors})")
+
     # -- DOF names -----------------------------------------------------------
     @property
     def sector_dofs(self) -> tuple:
@@ -171,8 +181,10 @@ class Scene:
     def coupled(self) -> bool:
         """True if an element reaches the next sector (effect "cyclic_coupling")."""
         n = len(self.sector_dofs)
-        return self.cyclic and any(np.any(c.bt[n:]) or np.any(c.bn[n:])
-                                   for c in self.contacts if isinstance(c, DofContact))
+        return self.cyclic and any(isinstance(c, ShroudPair) or
+                                   (isinstance(c, DofContact) and (np.any(c.bt[n:]) or
+                                                                   np.any(c.bn[n:])))
+                                   for c in self.contacts)
 
     def dof_index(self, name: str) -> int:
         """Row of DOF `name` in a case's `System` ("x1@3" = 3 n + i when mistuned)."""
@@ -210,7 +222,7 @@ def timed_blade_model(structure: Blade) -> tuple:
     if structure.mesh:
         blade = load_blade(structure.mesh, structure.params, required=("root",))
     else:
-        blade = build_blade(structure.params)
+        blade = build_blade(structure.params, structure.disk)
     return blade, time.perf_counter() - t0
 
 
@@ -250,16 +262,18 @@ def full_dof(scene: Scene, name: str) -> int:
 
 
 def blade_elements(scene: Scene, case: dict | None = None) -> YangMenq:
-    """The Yang-Menq parameters of an FE scene's face contacts, one per face node."""
-    blade = blade_model(scene.structure)
-    _, _, owner = face_maps(blade, scene.contacts)
-    weights = [blade.frames[c.face].weights for c in scene.contacts]
+    """The Yang-Menq parameters of an FE scene's face contacts and shroud pairs, one
+    per face node (node pair)."""
+    *_, owner, weights = blade_contact_maps(scene, full=True)
     return contact_elements(scene.contacts, case, owner, weights)
 
 
-def blade_contact_maps(scene: Scene) -> tuple:
-    """(Bt, Bn, owner) of an FE scene's face contacts on the unreduced blade."""
-    return face_maps(blade_model(scene.structure), scene.contacts)
+def blade_contact_maps(scene: Scene, full: bool = False) -> tuple:
+    """(Bt, Bn, owner) of an FE scene's face contacts and shroud pairs on the
+    unreduced blade; full=True: (Bt, Bn, Bt_next, Bn_next, owner, weights),
+    `contacts.fe_contact_maps`."""
+    out = fe_contact_maps(blade_model(scene.structure), scene.contacts, scene.structure.disk)
+    return out if full else (out[0], out[1], out[4])
 
 
 def blade_forcing(scene: Scene, case: dict | None = None) -> np.ndarray:
@@ -330,13 +344,15 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
     (Rayleigh damping only).  `DofContact`s name reduced DOFs (one sector's, then the
     next sector's in a cyclic assembly)."""
     st = scene.structure
-    faces = tuple(c for c in scene.contacts if isinstance(c, FaceContact))
+    faces = tuple(c for c in scene.contacts if isinstance(c, (FaceContact, ShroudPair)))
     rows = tuple(c for c in scene.contacts if isinstance(c, DofContact))
     if rows and faces:
         raise ValueError("a scene mixes face contacts and DOF contacts; give one kind")
+    if any(isinstance(c, ShroudPair) for c in faces) and not scene.cyclic:
+        raise ValueError("a shroud pair couples neighbouring blades: give a Cyclic assembly")
     blade = blade_model(st)
-    Bt, Bn, owner = face_maps(blade, faces)
-    elem = contact_elements(faces, case, owner, [blade.frames[c.face].weights for c in faces])
+    Bt, Bn, Bt_next, Bn_next, owner, weights = fe_contact_maps(blade, faces, st.disk)
+    elem = contact_elements(faces, case, owner, weights)
     F = blade_forcing(scene, case)
     if not reduced or scene.reduction is None:
         if rows:
@@ -346,9 +362,8 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
                              "(scene rayleigh = [alpha, beta]); modal damping is dense")
         a, b = st.rayleigh
         C = (a * blade.M + b * blade.K).tocsr()
-        z = sp.csr_matrix(Bt.shape)
-        return Parts(M=blade.M, C=C, K=blade.K, Bt=Bt, Bn=Bn, Bt_next=z, Bn_next=z,
-                     contact=elem, forcing=F, dofs=())
+        return Parts(M=blade.M, C=C, K=blade.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next,
+                     Bn_next=Bn_next, contact=elem, forcing=F, dofs=())
     from ..structure.reduction import reduce_map  # deferred like blade_model's imports
 
     red = reduced_model(st, scene.reduction)[0]
@@ -361,8 +376,7 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
         Bt, Bn, Bt_next, Bn_next = dof_rows(rows, len(dofs), scene.cyclic)
         elem = contact_elements(rows, case)
     else:
-        Bt, Bn = reduce_map(red, Bt), reduce_map(red, Bn)
-        Bt_next = Bn_next = np.zeros_like(Bt)
+        Bt, Bn, Bt_next, Bn_next = (reduce_map(red, B) for B in (Bt, Bn, Bt_next, Bn_next))
     return Parts(M=red.M, C=red.C, K=red.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next, Bn_next=Bn_next,
                  contact=elem, forcing=Fr, dofs=dofs)
 

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 from .beam import beam_blade
-from .fe_model import CONTACT_SETS, REQUIRED_SETS, BladeModel, BladeParams
+from .fe_model import CONTACT_SETS, REQUIRED_SETS, BladeModel, BladeParams, DiskPlacement
 from .mesh_io import read_mesh
 from .solid import solid_blade, solid_from_mesh
 
 
-def build_blade(p: BladeParams) -> BladeModel:
-    """Beam or solid blade according to `p.kind`."""
+def build_blade(p: BladeParams, disk: DiskPlacement | None = None) -> BladeModel:
+    """Beam or solid blade according to `p.kind`; a solid blade shaped for a wheel
+    when `disk` is given (`solid.solid_mesh`)."""
+    if disk is not None:
+        return solid_blade(p, disk)
     return beam_blade(p) if p.kind == "beam" else solid_blade(p)
 
 

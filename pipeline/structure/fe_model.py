@@ -28,6 +28,12 @@ t = n_R x e_Z / |n_R x e_Z| is the same for both faces of a blade so that the pa
 second (radial) tangent.  Rows of Bt, Bn (as in system.py) carry these direction
 cosines on the DOFs of the point; against a rigid neighbour they are the relative
 displacements.
+
+A blade in a disk (`DiskPlacement`): the disk axis is parallel to X through
+(0, 0, -R), the root at radius R; blade j+1 is blade j turned by 2 pi / N about it.
+`disk.wheel_params` derives the shroud width of such a wheel, `solid.solid_mesh`
+shapes the left face as the right face turned by -2 pi / N, and `disk.pair_faces`
+pairs the faces of neighbours node by node.
 """
 from __future__ import annotations
 
@@ -113,6 +119,62 @@ class BladeParams:
     @property
     def G(self) -> float:
         return self.E / (2 * (1 + self.nu))
+
+
+@dataclass(frozen=True)
+class DiskPlacement:
+    """Where a blade sits in a disk of N identical sectors (a wheel).
+
+    The disk axis is the line parallel to X through (Y, Z) = (0, -hub_radius) in the
+    blade's frame, so the blade root (Z = 0) sits at radius R = hub_radius [m].
+    Blade j+1 is blade j turned by the pitch angle alpha = 2 pi / N [rad] about
+    that axis, towards +Y: a point x maps to R(a) (x - c) + c, c = (0, 0, -R), and a
+    displacement vector d to R(a) d, with `rotation(a)` turning +Z towards +Y.
+    """
+
+    hub_radius: float        # R [m]
+    sectors: int             # N [-]
+
+    def __post_init__(self):
+        if not (np.isfinite(self.hub_radius) and self.hub_radius > 0):
+            raise ValueError(f"hub_radius must be a finite number > 0 [m], got {self.hub_radius!r}")
+        if isinstance(self.sectors, bool) or int(self.sectors) != self.sectors or self.sectors < 3:
+            raise ValueError(f"sectors must be an integer >= 3, got {self.sectors!r}")
+        object.__setattr__(self, "sectors", int(self.sectors))
+
+    @property
+    def pitch_angle(self) -> float:
+        """alpha = 2 pi / N [rad]."""
+        return 2.0 * np.pi / self.sectors
+
+    @property
+    def centre(self) -> np.ndarray:
+        """c = (0, 0, -R) [m], a point of the disk axis."""
+        return np.array([0.0, 0.0, -self.hub_radius])
+
+    @staticmethod
+    def rotation(angle: float) -> np.ndarray:
+        """R(a) (3, 3): rotation by `angle` [rad] about the X axis turning +Z towards +Y
+        (a right-handed rotation by -angle about +X)."""
+        c, s = np.cos(angle), np.sin(angle)
+        return np.array([[1.0, 0.0, 0.0], [0.0, c, s], [0.0, -s, c]])
+
+    def rotate(self, points, angle: float) -> np.ndarray:
+        """Points (k, 3) [m] turned by `angle` [rad] about the disk axis."""
+        c = self.centre
+        return (np.asarray(points, float) - c) @ self.rotation(angle).T + c
+
+    def polar_angle(self, points) -> np.ndarray:
+        """Angle [rad] of points (k, 3) about the disk axis, 0 on the blade's radial
+        line (Y = 0), positive towards +Y."""
+        x = np.atleast_2d(np.asarray(points, float))
+        return np.arctan2(x[:, 1], x[:, 2] + self.hub_radius)
+
+    def circumferential(self, point) -> np.ndarray:
+        """Unit circumferential direction (towards +Y, increasing polar angle) at a point."""
+        x = np.asarray(point, float) - self.centre
+        d = np.array([0.0, x[2], -x[1]])
+        return d / np.linalg.norm(d)
 
 
 # ---------------------------------------------------------------------------

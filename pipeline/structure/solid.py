@@ -20,7 +20,9 @@ from skfem import Basis, ElementHex2, ElementTetP2, FacetBasis, LinearForm, Mesh
 from skfem.io.meshio import HEX_MAPPING
 from skfem.models.elasticity import lame_parameters
 
-from .fe_model import CONTACT_SETS, POINT_SETS, BladeModel, BladeParams, ContactFrame, rotation_z
+from .disk import wheel_params
+from .fe_model import (CONTACT_SETS, POINT_SETS, BladeModel, BladeParams, ContactFrame,
+                       DiskPlacement, rotation_z)
 
 log = logging.getLogger(__name__)
 
@@ -38,14 +40,24 @@ def _grid(bounds, h, counts=None):
     return np.asarray(pts)
 
 
-def solid_mesh(p: BladeParams):
+def solid_mesh(p: BladeParams, disk: DiskPlacement | None = None):
     """Structured hexahedral blade (+ shroud): (MeshHex, node sets by vertex index).
 
     Built in the section frame (xi, eta, z), the shroud overhang |eta| > t/2 is
     sheared, eta' = eta + s(eta) xi tan(a - gamma) with s ramping 0 -> 1 across the
     overhang, so the side faces are planes tilted by a - gamma; the whole blade is
     then turned by the stagger gamma about Z.  The airfoil is not distorted.
+
+    With a `disk` placement (a wheel of N blades, hub radius R) the shroud width is
+    derived (`disk.wheel_params`: the right face centre at the polar angle alpha/2,
+    alpha = 2 pi / N) and the left overhang is rebuilt (`wheel_left_overhang`) so
+    that the left face is the right face turned by -alpha about the disk axis, node
+    for node: the left face of blade j+1 is the right face of blade j.  Chord,
+    thickness, span, shroud chord and height, angles and mesh counts are the given
+    ones.  Without a placement the mesh is the plain blade's.
     """
+    if disk is not None:
+        p = wheel_params(p, disk)
     c, t, L = p.chord, p.thickness, p.length
     cs, ws, hs = p.shroud_chord, p.shroud_width, p.shroud_height
     hx, hz = c / p.n_chord, L / p.n_span
@@ -81,8 +93,59 @@ def solid_mesh(p: BladeParams):
         s = np.clip((abs(X[1]) - t / 2) / ((ws - t) / 2), 0.0, 1.0)
         X[1] = np.where(over, X[1] + s * X[0] * np.tan(p.shroud_angle - p.stagger_angle), X[1])
     X = rotation_z(p.stagger_angle) @ X
+    if disk is not None:
+        X = wheel_left_overhang(mesh.p, X, (x, y, z), p, disk)
+        check_orientation(mesh, X)
     mesh = replace(mesh, doflocs=X)
     return mesh, sets
+
+
+def grid_index(X0, grids) -> np.ndarray:
+    """(i_xi, i_eta, i_z) (3, Np) of tensor-grid vertices X0 (3, Np) in the grids."""
+    return np.array([np.abs(X0[k][:, None] - g[None, :]).argmin(axis=1)
+                     for k, g in enumerate(grids)])
+
+
+def wheel_left_overhang(X0, X, grids, p: BladeParams, disk: DiskPlacement) -> np.ndarray:
+    """Vertices X (3, Np) [m] with the left shroud overhang rebuilt for a wheel.
+
+    A left-overhang vertex with the grid indices (i, k, l) (eta index k from 0 at
+    the face to n_o at the airfoil edge eta = -t/2) moves to
+
+        x = (1 - s) x(i, n_o, l) + s [R(-alpha) (x_R(i, l) - c) + c],  s = (n_o - k) / n_o,
+
+    x_R(i, l) the right-face vertex with the same chord and span indices: the left
+    face (s = 1) is exactly the right face turned by -alpha about the disk axis.
+    X0 (3, Np): the undistorted tensor-grid vertices giving the indices.
+    """
+    x, y, z = grids
+    idx = grid_index(X0, grids)
+    at = -np.ones((len(x), len(y), len(z)), dtype=np.int64)
+    at[idx[0], idx[1], idx[2]] = np.arange(X0.shape[1])
+    n_o = int(np.abs(y + p.thickness / 2).argmin())
+    shroud = idx[2] >= int(np.abs(z - p.length).argmin())
+    left = np.nonzero(shroud & (idx[1] < n_o))[0]
+    i, k, m = idx[:, left]
+    edge, right = at[i, n_o, m], at[i, len(y) - 1, m]
+    if np.any(edge < 0) or np.any(right < 0):
+        raise ValueError("disk: the shroud grid has no vertex beside a left-overhang vertex")
+    s = (n_o - k) / n_o
+    image = disk.rotate(X[:, right].T, -disk.pitch_angle).T
+    X = X.copy()
+    X[:, left] = (1.0 - s) * X[:, edge] + s * image
+    return X
+
+
+def check_orientation(mesh, X) -> None:
+    """ValueError naming disk.sectors if a hexahedron of `mesh` moved to the vertices
+    X (3, Np) is turned inside out (its corner Jacobians change sign)."""
+    corners = np.array(np.meshgrid([0.0, 1.0], [0.0, 1.0], [0.0, 1.0])).reshape(3, -1)
+    ref = np.sign(mesh.mapping().detDF(corners))
+    det = replace(mesh, doflocs=X).mapping().detDF(corners)
+    bad = np.nonzero(np.any(det * ref <= 0, axis=1))[0]
+    if bad.size:
+        raise ValueError(f"disk.sectors: the wheel's shroud turns {bad.size} hexahedra inside out "
+                         f"(first: element {bad[0]}); use more sectors or a larger hub radius")
 
 
 # ---------------------------------------------------------------------------
@@ -256,7 +319,8 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
                       {k: np.asarray(v) for k, v in node_sets.items()})
 
 
-def solid_blade(p: BladeParams) -> BladeModel:
-    """Generated solid blade (see `solid_mesh`)."""
-    mesh, sets = solid_mesh(p)
-    return solid_from_mesh(mesh, sets, p)
+def solid_blade(p: BladeParams, disk: DiskPlacement | None = None) -> BladeModel:
+    """Generated solid blade (see `solid_mesh`); in a disk, its params carry the
+    derived shroud width."""
+    mesh, sets = solid_mesh(p, disk)
+    return solid_from_mesh(mesh, sets, p if disk is None else wheel_params(p, disk))

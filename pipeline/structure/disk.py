@@ -1,0 +1,96 @@
+"""Blades in a disk: the shroud width of a wheel and the pairing of neighbouring faces.
+
+A `fe_model.DiskPlacement` (hub radius R [m], N sectors) puts the blade in a wheel:
+blade j+1 is blade j turned by alpha = 2 pi / N about the disk axis (parallel to X
+through (0, 0, -R)).  The right shroud face of blade j then touches the left face of
+blade j+1, and a node x_R of the right face meets the left-face node x_L whose image
+R(alpha) (x_L - c) + c is x_R (`pair_faces`).  Generated blades are built so that
+this holds node for node (`solid.solid_mesh`); a user mesh must satisfy it within
+the tolerance.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .fe_model import BladeParams, DiskPlacement
+
+PAIR_TOLERANCE = 1e-6   # default pairing tolerance, relative to the face size [-]
+
+
+def wheel_shroud_width(p: BladeParams, disk: DiskPlacement) -> float:
+    """Shroud width w_s [m] that puts the centre of the right face (xi = 0,
+    eta = w_s / 2, z = L + h_s / 2 in the section frame) at the polar angle alpha / 2
+    about the disk axis, half way to the next blade:
+
+        (w_s / 2) cos(gamma) = (R + L + h_s / 2) tan(alpha / 2).
+    """
+    r = disk.hub_radius + p.length + p.shroud_height / 2
+    return 2.0 * r * np.tan(disk.pitch_angle / 2) / np.cos(p.stagger_angle)
+
+
+def airfoil_angle(p: BladeParams, disk: DiskPlacement) -> float:
+    """Angular extent [rad] of the airfoil section at the hub about the disk axis
+    (the stagger-turned chord x thickness rectangle at Z = 0)."""
+    xi = np.array([-1, 1, 1, -1]) * p.chord / 2
+    eta = np.array([-1, -1, 1, 1]) * p.thickness / 2
+    g = p.stagger_angle
+    y = xi * np.sin(g) + eta * np.cos(g)
+    a = disk.polar_angle(np.column_stack([np.zeros(4), y, np.zeros(4)]))
+    return float(a.max() - a.min())
+
+
+def wheel_params(p: BladeParams, disk: DiskPlacement) -> BladeParams:
+    """The blade parameters of a wheel: `p` with the shroud width derived from the disk
+    (`wheel_shroud_width`; the given width is not used).  ValueError naming the disk
+    field when neighbouring blades would overlap: the airfoil spans the pitch angle
+    at the hub, or the derived shroud is not wider than the airfoil, or its overhang
+    is too narrow for the shroud-angle shear."""
+    if not (p.kind == "solid" and p.shroud):
+        raise ValueError("disk: a blade in a disk needs a solid blade with a shroud "
+                         f"(kind = {p.kind!r}, shroud = {p.shroud!r})")
+    span = airfoil_angle(p, disk)
+    if span >= disk.pitch_angle:
+        raise ValueError(
+            f"disk.hub_radius: {disk.hub_radius!r} m is too small for {disk.sectors} blades: "
+            f"the airfoil spans {np.rad2deg(span):.3g} deg at the hub, the pitch is "
+            f"{np.rad2deg(disk.pitch_angle):.3g} deg (neighbouring blades overlap)")
+    ws = wheel_shroud_width(p, disk)
+    shear = abs(np.tan(p.shroud_angle - p.stagger_angle)) * p.shroud_chord / 2
+    if ws <= p.thickness or shear > 0.5 * (ws - p.thickness) / 2:
+        raise ValueError(
+            f"disk.hub_radius: the wheel's shroud width {ws:.4g} m (R = {disk.hub_radius!r} m, "
+            f"N = {disk.sectors}) leaves no valid overhang beside the airfoil (thickness "
+            f"{p.thickness!r} m, shroud-angle shear {shear:.3g} m): use fewer sectors or a "
+            "larger hub radius")
+    return replace(p, shroud_width=float(ws))
+
+
+def pair_faces(points_right, points_left, placement: DiskPlacement, tol: float | None = None
+               ) -> np.ndarray:
+    """Index of the left-face partner of every right-face point: left[k] is the point
+    of `points_left` (m, 3) [m] whose image under the pitch rotation,
+    R(alpha) (x_L - c) + c, coincides with `points_right[k]` (m, 3) within `tol` [m]
+    (default `PAIR_TOLERANCE` x the right face's size).  ValueError in one line naming
+    the first unmatched right point (index, coordinates) and its distance."""
+    xr = np.asarray(points_right, float).reshape(-1, 3)
+    xl = np.asarray(points_left, float).reshape(-1, 3)
+    size = float(np.ptp(xr, axis=0).max()) if len(xr) else 0.0
+    tol = PAIR_TOLERANCE * size if tol is None else float(tol)
+    if len(xr) != len(xl) or not len(xr):
+        raise ValueError(f"shroud faces do not pair: shroud_right has {len(xr)} points, "
+                         f"shroud_left {len(xl)}")
+    dist, left = cKDTree(placement.rotate(xl, placement.pitch_angle)).query(xr)
+    bad = np.nonzero(dist > tol)[0]
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(
+            f"shroud faces do not pair: shroud_right point {k} at ({xr[k, 0]:.6g}, {xr[k, 1]:.6g}, "
+            f"{xr[k, 2]:.6g}) m has no shroud_left point turned by 2 pi / {placement.sectors} "
+            f"onto it (nearest {dist[k]:.3g} m away, tolerance {tol:.3g} m)")
+    if np.unique(left).size != left.size:
+        raise ValueError("shroud faces do not pair: two shroud_right points meet the same "
+                         "shroud_left point")
+    return left
