@@ -45,7 +45,7 @@ import scipy.sparse as sp
 
 from ..contact import YangMenq, forces
 from ..fourier.harmonics import derivative_matrix, shift_tables, turn
-from ..model.system import System
+from ..model.system import System, dense, element_rows
 
 
 @dataclass(frozen=True)
@@ -75,49 +75,38 @@ class HBMProblem:
         return self.c.size * self.nh
 
 
-def _dense(A):
-    return A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
-
-
 def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -> HBMProblem:
-    """Find the contact DOFs and the element -> DOF maps (rows of Bt, Bn)."""
+    """Find the contact DOFs and the element -> DOF maps (rows of Bt, Bn; dense or
+    scipy.sparse, never densified)."""
     if H < 1:
         raise ValueError(f"H must be >= 1, got {H}")
     if method not in ("exact", "aft"):
         raise ValueError(f"method must be 'exact' or 'aft', got {method!r}")
-    Bt, Bn = _dense(system.Bt), _dense(system.Bn)
-    n = system.n_dof
-    maps = [(Bt, Bn, 0.0)]
+    n, E = system.n_dof, system.Bt.shape[0]
+    maps = [(element_rows(system.Bt, system.Bn), 0.0, False)]
     cy = system.cyclic
     if cy is not None:  # slots on the next sector's DOFs, shifted by phi
-        maps.append((_dense(cy.Bt_next), _dense(cy.Bn_next), cy.phase))
-    used = np.flatnonzero(np.any([(T != 0).any(0) | (N_ != 0).any(0) for T, N_, _ in maps], 0))
-    c = used
+        maps.append((element_rows(cy.Bt_next, cy.Bn_next), cy.phase, True))
+    cols = [r for rows, *_ in maps for r, *_ in rows]
+    c = np.unique(np.concatenate(cols)).astype(int) if cols else np.zeros(0, int)
     o = np.setdiff1d(np.arange(n), c)
-    pos = {d: i for i, d in enumerate(c)}
-    E = Bt.shape[0]
-    rows = [[(T, N_, th, r) for T, N_, th in maps
-             for r in [np.flatnonzero((T[e] != 0) | (N_[e] != 0))] if r.size] for e in range(E)]
-    m = max([sum(r.size for *_, r in slots) for slots in rows] + [1])
+    m = max([sum(rows[e][0].size for rows, *_ in maps) for e in range(E)] + [1])
     idx = np.zeros((E, m), int)
-    bt = np.zeros((E, m))
-    bn = np.zeros((E, m))
-    shift = np.zeros((E, m))
+    bt, bn, shift = np.zeros((E, m)), np.zeros((E, m)), np.zeros((E, m))
     nxt = np.zeros((E, m), bool)
-    for e, slots in enumerate(rows):
+    for e in range(E):
         k = 0
-        for T, N_, th, r in slots:
+        for rows, th, is_next in maps:
+            r, vt, vn = rows[e]
             sl = slice(k, k + r.size)
-            idx[e, sl] = [pos[d] for d in r]
-            bt[e, sl], bn[e, sl], shift[e, sl] = T[e, r], N_[e, r], th
-            nxt[e, sl] = T is not Bt
+            idx[e, sl] = np.searchsorted(c, r)
+            bt[e, sl], bn[e, sl], shift[e, sl], nxt[e, sl] = vt, vn, th, is_next
             k += r.size
     if cy is None:
         return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                           system.forcing_coefficients(H))
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                       system.forcing_coefficients(H), shift, np.stack(shift_tables(shift, H)), nxt)
-
 
 
 # --------------------------------------------------------------------------
@@ -375,7 +364,10 @@ def full_linear_operator(sys: System, Om: float, H: int):
     """K (x) I + Om C (x) D + Om^2 M (x) D^2 acting on Q (n, 2H+1) row-major (dense)."""
     D = derivative_matrix(H)
     I = np.eye(2 * H + 1)
-    K, C, M = _dense(sys.K), _dense(sys.C), _dense(sys.M)
+    if sp.issparse(sys.K):  # only the (n nh)^2 result is dense, no (n, n) copies
+        return (sp.kron(sys.K, I) + Om * sp.kron(sys.C, D) + Om**2 * sp.kron(sys.M, D @ D)
+                ).toarray()
+    K, C, M = dense(sys.K), dense(sys.C), dense(sys.M)
     return np.kron(K, I) + Om * np.kron(C, D) + Om**2 * np.kron(M, D @ D)
 
 
@@ -422,7 +414,7 @@ def wave_jacobians(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
 
     The union of their exponents is the Hill spectrum of the full assembly."""
     sysm, nh, n = prob.system, prob.nh, prob.system.n_dof
-    M, C = _dense(sysm.M), _dense(sysm.C)
+    M, C = dense(sysm.M), dense(sysm.C)
     if prob.nxt is None:
         return [(0, full_jacobian(prob, Q, Om, contact), M, C)]
     N = sysm.cyclic.sectors

@@ -22,7 +22,7 @@ from scipy.optimize import minimize_scalar
 
 from ..fourier.harmonics import amplitude_half_peak_to_peak
 from .response import ResponseCurve
-from ..model.system import System, natural_frequencies
+from ..model.system import System, dense, natural_frequencies
 
 BASE_POINTS = 201                     # uniform part of the grid
 CLUSTER = np.array([-3e-2, -1e-2, -3e-3, -1e-3, 0.0, 1e-3, 3e-3, 1e-2, 3e-2])  # relative offsets
@@ -31,10 +31,6 @@ CLUSTER = np.array([-3e-2, -1e-2, -3e-3, -1e-3, 0.0, 1e-3, 3e-3, 1e-2, 3e-2])  #
 def is_linear(system: System) -> bool:
     """True when the system has no contact element: nothing nonlinear to solve."""
     return system.n_elements == 0
-
-
-def _dense(A):
-    return np.asarray(A.toarray() if hasattr(A, "toarray") else A, dtype=float)
 
 
 def _solve(M, C, K, F, H, omega):
@@ -89,7 +85,9 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
         raise ValueError(f"the system has {system.n_elements} contact element(s): "
                          "use response.frequency_response")
     t0 = time.perf_counter()
-    M, C, K = _dense(system.M), _dense(system.C), _dense(system.K)
+    # dense even for sparse input: the grid needs every natural frequency and the
+    # stability every eigenvalue of the state matrix (dense eigen-solves anyway)
+    M, C, K = dense(system.M), dense(system.C), dense(system.K)
     F = np.zeros((system.n_dof, H + 1), complex)
     Fh = np.asarray(system.forcing, complex)
     F[:, :min(H + 1, Fh.shape[1])] = Fh[:, :H + 1]
