@@ -158,7 +158,15 @@ def full_assembly(sector: Sector, engine_order: int, stiffness_factors=None,
     j n + i), the N E elements as ordinary rows of Bt, Bn, travelling-wave load.
     No symmetry is used: the reference for `sector_system`, and the model of a
     mistuned disk, sector j with the stiffness `stiffness_factors[j]` K (N positive
-    factors, `mistuning_factors`; None: tuned, all 1).
+    factors, `mistuning_factors`; None: tuned, all 1).  M and the damping C are NOT
+    scaled (C stays the tuned sector's, so modal damping ratios change by 1/sqrt(f_j)).
+
+    For a Craig-Bampton-reduced FE blade, f K_r is exactly the reduction of the blade
+    with Young's modulus f E: K(f E) = f K(E), so the constraint modes -K_ii^-1 K_ib
+    are unchanged and the fixed-interface modes keep their shapes (frequencies times
+    sqrt(f)); the basis is the same, the reduced stiffness f K_r, M_r unchanged
+    (tests/test_reduction_mistuning.py; the directly reduced blade's modal damping
+    would be sqrt(f) C_r).
 
     The disk is rigid: sectors interact only through the elements, so M, C, K are
     block diagonal, blockdiag(M), blockdiag(C), blockdiag(f_j K), and Bt, Bn
