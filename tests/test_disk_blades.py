@@ -16,7 +16,7 @@ from pipeline.model.loads import PointLoad
 from pipeline.model.scene import (Blade, CraigBampton, Cyclic, Scene, Single, blade_contact_maps,
                                   blade_model, build_system, full_system, reduced_model,
                                   scene_parts, sector)
-from pipeline.model.system import natural_frequencies
+from pipeline.model.system import dense, natural_frequencies
 from pipeline.solve import hbm
 from pipeline.solve.newton import newton
 from pipeline.structure.blades import build_blade
@@ -134,12 +134,12 @@ def frequencies(K, M):
 def stuck_stiffness(s):
     """K + B^H ku B + B_n^H kv B_n of a system (B = Bt + exp(i phi) Bt_next for a
     cyclic sector), the elements in contact (n0 > 0) stuck."""
-    Bt, Bn = s.Bt, s.Bn
+    Bt, Bn = dense(s.Bt), dense(s.Bn)     # the full wheel is stored sparse
     if s.cyclic is not None:
         z = np.exp(1j * s.cyclic.phase)
         Bt, Bn = Bt + z * s.cyclic.Bt_next, Bn + z * s.cyclic.Bn_next
     el = s.contact
-    return (s.K + Bt.conj().T @ (el.ku[:, None] * Bt)
+    return (dense(s.K) + Bt.conj().T @ (el.ku[:, None] * Bt)
             + Bn.conj().T @ ((el.kv * (el.n0 > 0))[:, None] * Bn))
 
 
@@ -155,7 +155,7 @@ def test_stuck_sector_frequencies_are_the_tied_wheel_frequencies():
     cyc = np.sort(np.concatenate([w for nd, w in enumerate(parts)
                                   for _ in range(1 if nd in (0, N // 2) else 2)]))
     f = full_system(scene, case)
-    full = frequencies(stuck_stiffness(f), f.M)
+    full = frequencies(stuck_stiffness(f), dense(f.M))
     assert full.size == N * sec.n_dof == cyc.size
     assert np.abs(cyc / full - 1).max() < 1e-9        # measured 3.0e-11
     # the system's own (one-formulation) solver agrees within its round-off

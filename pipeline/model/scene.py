@@ -402,7 +402,10 @@ def engine_order(scene: Scene, case: dict | None = None) -> int:
 
 
 def stiffness_factors(scene: Scene, case: dict | None = None):
-    """The sectors' stiffness factors 1 + delta_j of a case (None when tuned)."""
+    """The sectors' stiffness factors 1 + delta_j of a case [-] (None when tuned):
+    sector j's stiffness f_j K, mass and damping unchanged (`cyclic.full_assembly`).
+    On a Craig-Bampton-reduced blade f_j K_r is the reduction of the blade with
+    Young's modulus f_j E exactly (same basis; see `cyclic.full_assembly`)."""
     mt = scene.mistuning
     if mt is None:
         return None

@@ -22,8 +22,19 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..contact import YangMenq
+
+
+def dense(A) -> np.ndarray:
+    """A as a float ndarray (a scipy.sparse matrix densified: (rows x columns) x 8 bytes).
+    For the consumers that need a whole matrix (full eigen-solves, Hill's method, the
+    event-driven integrator); the harmonic balance itself keeps sparse input sparse."""
+    if sp.issparse(A):
+        return A.toarray()
+    A = np.asarray(A)
+    return A if np.iscomplexobj(A) else A.astype(float, copy=False)
 
 
 @dataclass(frozen=True)
@@ -66,6 +77,8 @@ class System:
     K: np.ndarray            # (n, n) stiffness [N/m]
     Bt: np.ndarray           # (E, n) tangential relative displacement map [-]
     Bn: np.ndarray           # (E, n) normal relative displacement map [-]
+    # M, C, K, Bt, Bn: ndarrays or scipy.sparse matrices (an unreduced FE blade, a
+    # large N-sector assembly); `dense` gives an ndarray where one is needed
     contact: YangMenq        # E element parameter sets
     forcing: np.ndarray      # (n, Hf+1) complex harmonic load amplitudes [N]
     dof_names: tuple = field(default=())
@@ -120,19 +133,42 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     import scipy.linalg as sla
 
     cy = system.cyclic
-    K = coupled_stiffness(system, cy.phase if cy is not None else 0.0)
-    K = K.toarray() if hasattr(K, "toarray") else np.asarray(K)
-    M = np.asarray(system.M.toarray() if hasattr(system.M, "toarray") else system.M, float)
+    K = dense(coupled_stiffness(system, cy.phase if cy is not None else 0.0))
     if contacts in ("stuck", "tied"):
         el = system.contact
         closed = np.ones(el.size, bool) if contacts == "tied" else el.n0 > 0
-        Bt, Bn = np.asarray(system.Bt, float), np.asarray(system.Bn, float)
+        Bt, Bn = system.Bt, system.Bn
         if cy is not None:
             z = np.exp(1j * cy.phase)
-            Bt = Bt + z * np.asarray(cy.Bt_next, float)
-            Bn = Bn + z * np.asarray(cy.Bn_next, float)
-        K = K + (Bt.conj().T @ (el.ku[:, None] * Bt)
-                 + Bn.conj().T @ ((el.kv * closed)[:, None] * Bn))
+            Bt = dense(Bt) + z * dense(cy.Bt_next)
+            Bn = dense(Bn) + z * dense(cy.Bn_next)
+        K = K + (stiffness_along(Bt, el.ku) + stiffness_along(Bn, el.kv * closed))
     elif contacts != "open":
         raise ValueError(f"contacts must be 'open', 'stuck' or 'tied', got {contacts!r}")
-    return np.sqrt(np.abs(sla.eigh(K, M, eigvals_only=True)))
+    # every frequency: one dense eigen-solve of the whole structure (N n DOFs for an
+    # N-sector assembly), whether the matrices are stored sparse or not
+    return np.sqrt(np.abs(sla.eigh(K, dense(system.M), eigvals_only=True)))
+
+
+def stiffness_along(B, k) -> np.ndarray:
+    """B^H diag(k) B (n, n) [N/m], dense: springs k [N/m] along the rows of B (E, n)
+    (an ndarray, complex for a cyclic sector's wave maps, or scipy.sparse)."""
+    if sp.issparse(B):
+        return (B.T @ sp.diags(np.asarray(k, float)) @ B).toarray()
+    return B.conj().T @ (np.asarray(k)[:, None] * B)
+
+
+def element_rows(T, N_) -> list:
+    """Per row e of the maps T, N_ (E, n), ndarrays or scipy.sparse: (columns where
+    either is nonzero, ascending; T's values there [-]; N_'s values there [-]),
+    read from the sparse structure without densifying."""
+    P = sp.csr_matrix(abs(sp.csr_matrix(T, dtype=float)) + abs(sp.csr_matrix(N_, dtype=float)))
+    P.eliminate_zeros()
+    P.sort_indices()
+    rows = np.repeat(np.arange(P.shape[0]), np.diff(P.indptr))
+    if sp.issparse(T) or sp.issparse(N_):
+        vt = np.asarray(sp.csr_matrix(T)[rows, P.indices], float).ravel()
+        vn = np.asarray(sp.csr_matrix(N_)[rows, P.indices], float).ravel()
+    else:
+        vt, vn = np.asarray(T, float)[rows, P.indices], np.asarray(N_, float)[rows, P.indices]
+    return [(P.indices[a:b], vt[a:b], vn[a:b]) for a, b in zip(P.indptr[:-1], P.indptr[1:])]

@@ -11,12 +11,13 @@ contacts' slots on the next sector.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..contact import YangMenq
 from ..fourier.harmonics import derivative_matrix
 from ..fourier.harmonics import shift as time_shift
-from ..model.system import System
-from .hbm import HBMProblem, as_dense, assemble, contact_terms
+from ..model.system import System, dense
+from .hbm import HBMProblem, assemble, contact_terms
 
 
 def full_linear_operator(sys: System, Om: float, H: int, coupling: bool = True):
@@ -25,8 +26,12 @@ def full_linear_operator(sys: System, Om: float, H: int, coupling: bool = True):
     (`coupling_operators`, wave number 0)."""
     D = derivative_matrix(H)
     I = np.eye(2 * H + 1)
-    K, C, M = as_dense(sys.K), as_dense(sys.C), as_dense(sys.M)
-    L = np.kron(K, I) + Om * np.kron(C, D) + Om**2 * np.kron(M, D @ D)
+    if sp.issparse(sys.K):  # only the (n nh)^2 result is dense, no (n, n) copies
+        L = (sp.kron(sys.K, I) + Om * sp.kron(sys.C, D) + Om**2 * sp.kron(sys.M, D @ D)
+             ).toarray()
+    else:
+        K, C, M = dense(sys.K), dense(sys.C), dense(sys.M)
+        L = np.kron(K, I) + Om * np.kron(C, D) + Om**2 * np.kron(M, D @ D)
     parts = coupling_operators(sys, H) if coupling else None
     return L if parts is None else L + parts[0] + parts[1]
 
@@ -75,7 +80,7 @@ def wave_jacobians(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
 
     The union of their exponents is the Hill spectrum of the full assembly."""
     sysm, nh, n = prob.system, prob.nh, prob.system.n_dof
-    M, C = as_dense(sysm.M), as_dense(sysm.C)
+    M, C = dense(sysm.M), dense(sysm.C)
     if prob.nxt is None:
         return [(0, full_jacobian(prob, Q, Om, contact), M, C)]
     N = sysm.cyclic.sectors

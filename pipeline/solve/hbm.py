@@ -49,7 +49,7 @@ import scipy.sparse as sp
 from ..contact import YangMenq, forces
 from ..fourier.harmonics import derivative_matrix, shift_tables, turn
 from ..fourier.harmonics import shift as time_shift
-from ..model.system import System, coupled_stiffness
+from ..model.system import System, coupled_stiffness, dense, element_rows
 
 
 @dataclass(frozen=True)
@@ -79,49 +79,38 @@ class HBMProblem:
         return self.c.size * self.nh
 
 
-def as_dense(A):
-    return A.toarray() if sp.issparse(A) else np.asarray(A, dtype=float)
-
-
 def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -> HBMProblem:
-    """Find the contact DOFs and the element -> DOF maps (rows of Bt, Bn)."""
+    """Find the contact DOFs and the element -> DOF maps (rows of Bt, Bn; dense or
+    scipy.sparse, never densified)."""
     if H < 1:
         raise ValueError(f"H must be >= 1, got {H}")
     if method not in ("exact", "aft"):
         raise ValueError(f"method must be 'exact' or 'aft', got {method!r}")
-    Bt, Bn = as_dense(system.Bt), as_dense(system.Bn)
-    n = system.n_dof
-    maps = [(Bt, Bn, 0.0)]
+    n, E = system.n_dof, system.Bt.shape[0]
+    maps = [(element_rows(system.Bt, system.Bn), 0.0, False)]
     cy = system.cyclic
     if cy is not None:  # slots on the next sector's DOFs, shifted by phi
-        maps.append((as_dense(cy.Bt_next), as_dense(cy.Bn_next), cy.phase))
-    used = np.flatnonzero(np.any([(T != 0).any(0) | (N_ != 0).any(0) for T, N_, _ in maps], 0))
-    c = used
+        maps.append((element_rows(cy.Bt_next, cy.Bn_next), cy.phase, True))
+    cols = [r for rows, *_ in maps for r, *_ in rows]
+    c = np.unique(np.concatenate(cols)).astype(int) if cols else np.zeros(0, int)
     o = np.setdiff1d(np.arange(n), c)
-    pos = {d: i for i, d in enumerate(c)}
-    E = Bt.shape[0]
-    rows = [[(T, N_, th, r) for T, N_, th in maps
-             for r in [np.flatnonzero((T[e] != 0) | (N_[e] != 0))] if r.size] for e in range(E)]
-    m = max([sum(r.size for *_, r in slots) for slots in rows] + [1])
+    m = max([sum(rows[e][0].size for rows, *_ in maps) for e in range(E)] + [1])
     idx = np.zeros((E, m), int)
-    bt = np.zeros((E, m))
-    bn = np.zeros((E, m))
-    shift = np.zeros((E, m))
+    bt, bn, shift = np.zeros((E, m)), np.zeros((E, m)), np.zeros((E, m))
     nxt = np.zeros((E, m), bool)
-    for e, slots in enumerate(rows):
+    for e in range(E):
         k = 0
-        for T, N_, th, r in slots:
+        for rows, th, is_next in maps:
+            r, vt, vn = rows[e]
             sl = slice(k, k + r.size)
-            idx[e, sl] = [pos[d] for d in r]
-            bt[e, sl], bn[e, sl], shift[e, sl] = T[e, r], N_[e, r], th
-            nxt[e, sl] = T is not Bt
+            idx[e, sl] = np.searchsorted(c, r)
+            bt[e, sl], bn[e, sl], shift[e, sl], nxt[e, sl] = vt, vn, th, is_next
             k += r.size
     if cy is None:
         return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                           system.forcing_coefficients(H))
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                       system.forcing_coefficients(H), shift, np.stack(shift_tables(shift, H)), nxt)
-
 
 
 # --------------------------------------------------------------------------
@@ -138,7 +127,7 @@ def stiffness_stack(sys, H: int) -> np.ndarray:
     linear inter-sector coupling K + e^{i h phi} K_next + e^{-i h phi} K_next^T."""
     phi = _phase(sys)
     Ks = [coupled_stiffness(sys, h * phi) for h in range(H + 1)]
-    return np.stack([as_dense(K) if np.isrealobj(K) else K for K in Ks])
+    return np.stack([dense(K) for K in Ks])
 
 
 def _S(sys, h, Om):

@@ -22,7 +22,7 @@ from scipy.optimize import minimize_scalar
 
 from ..fourier.harmonics import amplitude_half_peak_to_peak
 from .response import ResponseCurve
-from ..model.system import System, coupled_stiffness, natural_frequencies
+from ..model.system import System, coupled_stiffness, dense, natural_frequencies
 
 BASE_POINTS = 201                     # uniform part of the grid
 CLUSTER = np.array([-3e-2, -1e-2, -3e-3, -1e-3, 0.0, 1e-3, 3e-3, 1e-2, 3e-2])  # relative offsets
@@ -31,10 +31,6 @@ CLUSTER = np.array([-3e-2, -1e-2, -3e-3, -1e-3, 0.0, 1e-3, 3e-3, 1e-2, 3e-2])  #
 def is_linear(system: System) -> bool:
     """True when the system has no contact element: nothing nonlinear to solve."""
     return system.n_elements == 0
-
-
-def _dense(A):
-    return np.asarray(A.toarray() if hasattr(A, "toarray") else A, dtype=float)
 
 
 def _solve(M, C, Ks, F, H, omega):
@@ -63,7 +59,7 @@ def harmonic_stiffnesses(system: System, H: int) -> list:
     """Dense stiffness [N/m] of each harmonic h = 0..H: K, or for a cyclic sector with a
     linear inter-sector coupling its Hermitian K_h (`coupled_stiffness`, angle h phi)."""
     phi = system.cyclic.phase if system.cyclic is not None else 0.0
-    return [_dense_any(coupled_stiffness(system, h * phi)) for h in range(H + 1)]
+    return [dense(coupled_stiffness(system, h * phi)) for h in range(H + 1)]
 
 
 def wave_stiffnesses(system: System) -> list:
@@ -71,13 +67,10 @@ def wave_stiffnesses(system: System) -> list:
     (angle 2 pi r / N; just K otherwise): the linear structure is stable iff each is."""
     cy = system.cyclic
     if cy is None or cy.K_next is None:
-        return [_dense(system.K)]
-    return [_dense_any(coupled_stiffness(system, 2 * np.pi * r / cy.sectors))
+        return [dense(system.K)]
+    return [dense(coupled_stiffness(system, 2 * np.pi * r / cy.sectors))
             for r in range(cy.sectors // 2 + 1)]
 
-
-def _dense_any(A):
-    return A.toarray() if hasattr(A, "toarray") else np.asarray(A)
 
 
 def _asymptotically_stable(M, C, K) -> bool:
@@ -112,7 +105,9 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
         raise ValueError(f"the system has {system.n_elements} contact element(s): "
                          "use response.frequency_response")
     t0 = time.perf_counter()
-    M, C, Ks = _dense(system.M), _dense(system.C), harmonic_stiffnesses(system, H)
+    # dense even for sparse input: the grid needs every natural frequency and the
+    # stability every eigenvalue of the state matrix (dense eigen-solves anyway)
+    M, C, Ks = dense(system.M), dense(system.C), harmonic_stiffnesses(system, H)
     F = np.zeros((system.n_dof, H + 1), complex)
     Fh = np.asarray(system.forcing, complex)
     F[:, :min(H + 1, Fh.shape[1])] = Fh[:, :H + 1]

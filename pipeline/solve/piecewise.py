@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model.system import System
+from ..model.system import System, dense
 
 SEP, STICK, PS, NS = 0, 1, 2, 3
 STATE_NAMES = ("separation", "stick", "positive slip", "negative slip")
@@ -142,11 +142,10 @@ class PiecewiseModel:
     """System matrices, element parameters and a cache of `_Mode`s for one Omega."""
 
     def __init__(self, system: System, Om: float):
-        self.M = np.asarray(system.M, float)
-        self.C = np.asarray(system.C, float)
-        self.K = np.asarray(system.K, float)
-        self.Bt = np.atleast_2d(np.asarray(system.Bt, float))
-        self.Bn = np.atleast_2d(np.asarray(system.Bn, float))
+        # dense: the closed-form pieces need eigenvectors of the whole state matrix
+        self.M, self.C, self.K = dense(system.M), dense(system.C), dense(system.K)
+        self.Bt = np.atleast_2d(dense(system.Bt))
+        self.Bn = np.atleast_2d(dense(system.Bn))
         self.n, self.E = self.M.shape[0], self.Bt.shape[0]
         cp = system.contact
         self.ku, self.kv = np.asarray(cp.ku, float), np.asarray(cp.kv, float)

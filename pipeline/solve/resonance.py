@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from ..model.system import coupled_stiffness
+from ..model.system import coupled_stiffness, dense, stiffness_along
 from . import hbm
 
 MAX_DENSE_DOF = 3000   # above this the count (a dense eigen-solve per point) is skipped
@@ -52,10 +52,6 @@ class ResonanceCount:
     M: np.ndarray           # (n, n) mass [kg]
     harmonics: tuple        # excited harmonics h >= 1
     zeta: np.ndarray        # (n,) smallest modal damping ratio of mode i, open or closed [-]
-
-
-def _dense(A):
-    return np.asarray(A.toarray() if hasattr(A, "toarray") else A, dtype=float)
 
 
 def modal_damping(M, C, K) -> np.ndarray:
@@ -78,8 +74,7 @@ def closed_stiffness(system) -> np.ndarray:
     """K plus every contact element closed and stuck (ku along Bt, kv along Bn,
     whatever the preload): the stiffest linear limit of the structure [N/m]."""
     el = system.contact
-    Bt, Bn = _dense(system.Bt), _dense(system.Bn)
-    return _dense(system.K) + Bt.T @ (el.ku[:, None] * Bt) + Bn.T @ (el.kv[:, None] * Bn)
+    return dense(system.K) + stiffness_along(system.Bt, el.ku) + stiffness_along(system.Bn, el.kv)
 
 
 def prepare(prob: hbm.HBMProblem) -> ResonanceCount | None:
@@ -90,7 +85,10 @@ def prepare(prob: hbm.HBMProblem) -> ResonanceCount | None:
     harmonics = tuple(h for h in range(1, min(prob.H, F.shape[1] - 1) + 1) if np.any(F[:, h]))
     if not harmonics or sys.n_dof > MAX_DENSE_DOF:
         return None
-    K, M, C = _dense(sys.K), _dense(sys.M), _dense(sys.C)
+    # the count needs every natural frequency and damping ratio of the whole structure
+    # (dense eigen-solves, n^2 x 8 bytes per matrix, sparse storage or not): capped
+    # by MAX_DENSE_DOF
+    K, M, C = dense(sys.K), dense(sys.M), dense(sys.C)
     # with a linear inter-sector coupling: its first harmonic's real part for the
     # damping estimate (the count below uses each harmonic's Hermitian stiffness)
     coupled = sys.cyclic is not None and sys.cyclic.K_next is not None

@@ -37,7 +37,10 @@ from __future__ import annotations
 
 from ..model.scene import AT, NEXT, Mistuning, Scene
 MAX_SECTORS = 10_000
-MAX_MISTUNED_SECTORS = 200   # the full assembly is dense: (N n)^2 per matrix
+# the assembly of a mistuned disk is stored sparse (O(N)), but its condensed
+# harmonic-balance Jacobian (N nc (2H+1))^2, its natural frequencies and Hill's
+# stability are dense in all sectors' DOFs: they bound N
+MAX_MISTUNED_SECTORS = 200
 MAX_STIFFNESS_STD = 0.5
 
 
@@ -82,7 +85,8 @@ def parse_mistuning(ck, value, N) -> Mistuning:
         ck.fail(f, "must be a table, e.g. mistuning = { stiffness_std = 0.02, seed = 1 }")
     ck.keys(value, f, ("stiffness_std", "seed", "factors"))
     if N > MAX_MISTUNED_SECTORS:
-        ck.fail(f, f"a mistuned disk is solved as one dense assembly of all sectors: at most "
+        ck.fail(f, f"a mistuned disk is solved on all sectors at once (dense Jacobian, natural "
+                   f"frequencies and stability of every sector's DOFs): at most "
                    f"{MAX_MISTUNED_SECTORS} sectors, got {N}")
     if "factors" in value:
         return given_factors(ck, value, f, N)
