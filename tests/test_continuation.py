@@ -358,7 +358,36 @@ def test_automatic_scale_groups_and_floor():
                                   [1.0, 1e-2, 0.5])  # floored at 1e-2 of the largest
     np.testing.assert_array_equal(
         automatic_scale(np.array([1e-5, 2.0, 0.3, 1e-3]), np.array([0, 0, 1, 1])),
-        [2.0, 2.0, 0.3, 0.3])  # shared within a group
+        np.sqrt(2) * np.array([2.0, 2.0, 0.3, 0.3]))  # shared within a group; RMS over 2
+
+
+def test_step_lengths_do_not_grow_with_the_number_of_groups_moving_together():
+    """g identical copies of one forced oscillator (one group each, as the nodes of
+    an FE contact face that move together) trace in the same points as one copy:
+    the state's scaled size is a root mean square over the groups."""
+    from pipeline.solve.continuation import continue_branch
+
+    def curve(g):
+        def fun(x, lam):
+            d = 1.0 - lam**2 + 0.1j * lam
+            z = x[0::2] + 1j * x[1::2]
+            r = d * z - 1.0
+            R = np.empty(2 * g)
+            R[0::2], R[1::2] = r.real, r.imag
+            J = np.zeros((2 * g, 2 * g))
+            for k in range(g):
+                J[2 * k:2 * k + 2, 2 * k:2 * k + 2] = [[d.real, -d.imag], [d.imag, d.real]]
+            dd = -2 * lam + 0.1j
+            dz = dd * z
+            dl = np.empty(2 * g)
+            dl[0::2], dl[1::2] = dz.real, dz.imag
+            return R, J, dl
+        z0 = 1 / (0.75 + 0.05j)          # the solution at lam = 0.5
+        x0 = np.tile([z0.real, z0.imag], g)
+        br = continue_branch(fun, x0, 0.5, 1.5, tol=1e-10, groups=np.repeat(np.arange(g), 2))
+        assert br.success
+        return br.lam.size
+    assert abs(curve(1) - curve(16)) <= 1
 
 
 def test_metric_keeps_the_running_maximum_in_place():

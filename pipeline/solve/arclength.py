@@ -179,14 +179,19 @@ def continuation_options(n, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None,
 def automatic_scale(xmax, groups=None):
     """s_x from the running maximum |x| per unknown: shared within a group (the
     group's largest), floored at _SCALE_FLOOR times the largest entry; all ones
-    while x = 0."""
+    while x = 0.  With groups, s_x is also multiplied by sqrt(number of groups): the
+    state counts as a root mean square over its groups, so that a step's length
+    does not grow with the number of contact DOFs that move together (an FE face
+    of many nodes steps like one DOF)."""
     xm = xmax
+    root = 1.0
     if groups is not None:
         gmax = np.zeros(groups.max() + 1)
         np.maximum.at(gmax, groups, xmax)
         xm = gmax[groups]
+        root = np.sqrt(gmax.size)
     top = xm.max()
-    return np.maximum(xm, _SCALE_FLOOR * top) if top > 0 else np.ones_like(xm)
+    return root * (np.maximum(xm, _SCALE_FLOOR * top) if top > 0 else np.ones_like(xm))
 
 
 class Metric:

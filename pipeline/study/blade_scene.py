@@ -43,9 +43,10 @@ import numpy as np
 
 from ..model.contacts import FaceContact
 from ..model.loads import PointLoad
-from ..model.scene import Blade, CraigBampton, Scene, blade_model
+from ..model.scene import Blade, CraigBampton, Scene, Single, blade_model
 from ..structure.fe_model import BladeParams, boundary_dofs
 from ..structure.reduction import DEFAULT_MODES
+from . import blade_disk, disk_scene
 from .checker import Checker
 from .rules import check_scene_rules
 from .scene import (check_windows, output_common, parse_solver, parse_sweep, quick_tables,
@@ -157,7 +158,8 @@ def blade_scenes(ck, data, qt, kind, base_dir) -> tuple:
     overrides of blade, craig_bampton_modes and mesh merged in, errors naming them)."""
     scene_tab = ck.table(data["scene"], "scene")
     full_scene = parse_blade_scene(ck, scene_tab, kind, base_dir, {})
-    ck.keys(qt, "quick", ("scene", "modes") if kind == "modes" else ("scene", "sweep", "solver"))
+    ck.keys(qt, "quick", ("scene", "modes") if kind in ("modes", "disk_modes")
+            else ("scene", "sweep", "solver"))
     q_scene = ck.table(qt.get("scene"), "quick.scene", required=False)
     ck.keys(q_scene, "quick.scene", ("blade", "craig_bampton_modes", "mesh"))
     merged = dict(scene_tab)
@@ -227,8 +229,8 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
     def fld(k):
         return origin.get(f"scene.{k}", f"scene.{k}")
 
-    allowed = ("model", "effects", "blade", "mesh", "craig_bampton_modes", "rayleigh")
-    if kind == "response":
+    allowed = ("model", "effects", "blade", "mesh", "craig_bampton_modes", "rayleigh", "disk")
+    if kind in ("response", "disk_modes"):
         allowed += ("contact", "excitation")
     ck.keys(tab, "scene", allowed, required=("model",))
     model = ck.string(tab["model"], "scene.model", BLADE_MODELS)
@@ -250,31 +252,18 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
         if a == 0 and b == 0:
             ck.fail("scene.rayleigh", "alpha and beta are both zero (no damping)")
         rayleigh = (float(a), float(b))
-    contacts, loads = (), ()
-    if kind == "response":
-        raw = tab.get("contact", [])
-        if isinstance(raw, dict):
-            ck.fail("scene.contact", "must be an array of tables: write [[scene.contact]]")
-        ck.array(raw, "scene.contact", min_length=0)
-        if raw and (model == "beam_blade" or not params.shroud):
-            ck.fail("scene.contact", "the blade has no shroud contact faces "
-                                     "(beam_blade, or shroud = false)")
-        contacts = tuple(_face_contact(ck, c, f"scene.contact[{i}]", i) for i, c in enumerate(raw))
-        for i, c in enumerate(contacts):
-            if c.face in [d.face for d in contacts[:i]]:
-                ck.fail(f"scene.contact[{i}].face", f"face {c.face!r} has two contacts")
-            if c.name in [d.name for d in contacts[:i]]:
-                ck.fail(f"scene.contact[{i}].name", f"duplicate contact name {c.name!r}")
-            ck.string(c.name, f"scene.contact[{i}].name", pattern=NAME_PATTERN)
-        if "excitation" not in tab:
-            ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
-        loads = _loads(ck, tab["excitation"])
-    scene = Scene(structure=Blade(params=params, mesh=mesh, rayleigh=rayleigh), contacts=contacts,
-                  loads=loads, reduction=CraigBampton(n_modes), effects=effects, model=model)
+    placement, assembly = (blade_disk.parse_placement(ck, tab, model) if "disk" in tab
+                           else (None, Single()))
+    contacts, loads = (_contacts_and_loads(ck, tab, kind, model, params)
+                       if kind in ("response", "disk_modes") else ((), ()))
+    scene = Scene(structure=Blade(params=params, mesh=mesh, rayleigh=rayleigh, disk=placement),
+                  contacts=contacts, loads=loads, reduction=CraigBampton(n_modes),
+                  effects=effects, model=model, assembly=assembly)
     try:
         blade = blade_model(scene.structure)
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # e.g. a degenerate mesh
-        ck.fail(fld("mesh") if mesh else "scene.blade", str(exc))
+        ck.fail(blade_disk.placement_field(str(exc)) or (fld("mesh") if mesh else "scene.blade"),
+                str(exc))
     nb = boundary_dofs(blade)[0].size
     if n_modes > blade.n_dof - nb:
         ck.fail(fld("craig_bampton_modes"), f"must be <= {blade.n_dof - nb} (free DOFs "
@@ -282,7 +271,10 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
     for i, ld in enumerate(loads):
         if ld.set not in blade.dof_sets:
             ck.fail(f"scene.excitation[{i}].set", f"the blade has no node set {ld.set!r}")
+    blade_disk.check_pairs(ck, blade, contacts, placement, fld("mesh") if mesh else "scene.disk")
     for i, c in enumerate(contacts):
+        if not isinstance(c, FaceContact):
+            continue
         if c.face not in blade.frames:
             ck.fail(f"scene.contact[{i}].face", f"the blade has no contact face {c.face!r}")
         a = blade.frames[c.face].weights
@@ -290,6 +282,33 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
             ck.fail(f"scene.contact[{i}].stiffness", "\"per_face\" needs a positive area per "
                                                      "face node; this mesh gives some none")
     return scene
+
+
+def _contacts_and_loads(ck, tab, kind, model, params) -> tuple:
+    """(contacts, loads) of a blade [scene]: face contacts against walls or shroud
+    pairs between neighbours (`blade_disk`), point loads (required for a response)."""
+    raw = tab.get("contact", [])
+    if isinstance(raw, dict):
+        ck.fail("scene.contact", "must be an array of tables: write [[scene.contact]]")
+    ck.array(raw, "scene.contact", min_length=0)
+    if raw and (model == "beam_blade" or not params.shroud):
+        ck.fail("scene.contact", "the blade has no shroud contact faces "
+                                 "(beam_blade, or shroud = false)")
+    contacts = tuple(blade_disk.parse_pair(ck, c, f"scene.contact[{i}]", i)
+                     if isinstance(c, dict) and "pair" in c
+                     else _face_contact(ck, c, f"scene.contact[{i}]", i)
+                     for i, c in enumerate(raw))
+    for i, c in enumerate(contacts):
+        if isinstance(c, FaceContact) and c.face in [
+                d.face for d in contacts[:i] if isinstance(d, FaceContact)]:
+            ck.fail(f"scene.contact[{i}].face", f"face {c.face!r} has two contacts")
+        if c.name in [d.name for d in contacts[:i]]:
+            ck.fail(f"scene.contact[{i}].name", f"duplicate contact name {c.name!r}")
+        ck.string(c.name, f"scene.contact[{i}].name", pattern=NAME_PATTERN)
+    if "excitation" not in tab and kind == "response":
+        ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
+    loads = _loads(ck, tab["excitation"]) if "excitation" in tab else ()
+    return contacts, loads
 
 
 def _mesh(ck, value, field_, base_dir, tab, kind):
@@ -300,10 +319,12 @@ def _mesh(ck, value, field_, base_dir, tab, kind):
     if not path.is_file():
         ck.fail(field_, f"mesh file {str(path)!r} not found")
     required = ["root"]
-    if kind == "response":
+    if kind in ("response", "disk_modes"):
         for c in tab.get("contact", []) if isinstance(tab.get("contact"), list) else []:
             if isinstance(c, dict) and isinstance(c.get("face"), str):
                 required.append(c["face"])
+            if isinstance(c, dict) and "pair" in c:
+                required += ["shroud_right", "shroud_left"]
         for e in tab.get("excitation", []) if isinstance(tab.get("excitation"), list) else []:
             if isinstance(e, dict) and isinstance(e.get("set"), str):
                 required.append(e["set"])
@@ -402,7 +423,9 @@ def _consistency(ck, scene, solver, axes, spath, wpath):
     check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
                       [c.kv for c in scene.contacts], bool(scene.contacts),
                       max([ld.harmonic for ld in scene.loads] + [0]), solver.harmonics,
-                      axes, spath, wpath)
+                      axes, spath, wpath, disk=scene.cyclic)
+    if scene.cyclic:  # engine order, "cyclic_coupling", mistuning: as a lumped disk's
+        disk_scene.check_disk_rules(ck, scene, axes, wpath, {})
 
 
 

@@ -32,12 +32,14 @@ import numpy as np
 from ..model.cyclic import sector_system
 from ..model.scene import Scene, sector
 from ..model.system import natural_frequencies
+from .blade_scene import BLADE_MODELS, blade_scenes
 from .checker import Checker
 from .scene import parse_scene
 from .spec import StudyHeader, StudyResult
 
 log = logging.getLogger(__name__)
 TOP = ("study", "scene", "modes", "quick")
+DEFAULT_FREQUENCIES = 10      # per nodal diameter, when [modes] n_frequencies is not given
 
 
 @dataclass(frozen=True)
@@ -52,9 +54,12 @@ class DiskModesStudy(StudyHeader):
 
 
 def is_disk_modes_document(data) -> bool:
+    """A modes study of a lumped disk (model "disk") or of FE blades in a disk
+    (a blade model with a [scene.disk] table)."""
     head, scene = data.get("study"), data.get("scene")
-    return (isinstance(head, dict) and head.get("kind") == "modes"
-            and isinstance(scene, dict) and scene.get("model") == "disk")
+    return (isinstance(head, dict) and head.get("kind") == "modes" and isinstance(scene, dict)
+            and (scene.get("model") == "disk" or (scene.get("model") in BLADE_MODELS
+                                                   and "disk" in scene)))
 
 
 def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study",
@@ -64,17 +69,23 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     ck.keys(data, "", TOP, required=("study", "scene"))
     head = ck.table(data["study"], "study")
     ck.keys(head, "study", ("title", "description", "reference", "kind"), required=("title",))
-    scene = parse_scene(ck, ck.table(data["scene"], "scene"), loaded=False)
+    qt = ck.table(data.get("quick"), "quick", required=False)
+    if data["scene"].get("model") == "disk":
+        scene = parse_scene(ck, ck.table(data["scene"], "scene"), loaded=False)
+        ck.keys(qt, "quick", ("modes",))
+    else:   # FE blades: [quick.scene] may coarsen the mesh
+        base = Path(file).parent if file and not file.startswith("<") else Path(".")
+        full, q_scene = blade_scenes(ck, data, qt if quick else {}, "disk_modes", base)
+        scene = q_scene if quick else full
     check_modes_scene(ck, scene)
     modes = ck.table(data.get("modes"), "modes", required=False)
-    qt = ck.table(data.get("quick"), "quick", required=False)
-    ck.keys(qt, "quick", ("modes",))
     if quick and "modes" in qt:
         modes = {**modes, **ck.table(qt["modes"], "quick.modes")}
     where = "quick.modes" if quick and "modes" in qt else "modes"
     ck.keys(modes, where, ("n_frequencies", "nodal_diameters"))
     N, n = scene.assembly.sectors, len(scene.sector_dofs)
-    nf = ck.integer(modes.get("n_frequencies", n), f"{where}.n_frequencies", 1, n)
+    nf = ck.integer(modes.get("n_frequencies", min(n, DEFAULT_FREQUENCIES)),
+                    f"{where}.n_frequencies", 1, n)
     nds = tuple(ck.integer(v, f"{where}.nodal_diameters[{i}]", 0, N // 2) for i, v in
                 enumerate(ck.array(modes.get("nodal_diameters", list(range(N // 2 + 1))),
                                    f"{where}.nodal_diameters")))
