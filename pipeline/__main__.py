@@ -109,8 +109,12 @@ def _cmd_bench(args) -> int:
 
 
 def _cmd_check(args) -> int:
+    import logging
+
     from .study.check import check
 
+    if not args.verbose:   # a check prints its verdict only: no model-building chatter
+        logging.getLogger("pipeline.structure").setLevel(logging.WARNING)
     return check(args.file, quick=args.quick, workers=args.workers)
 
 

@@ -74,9 +74,9 @@ def parse_pair(ck, c, f, i) -> ShroudPair:
                                           STIFFNESS))
 
 
-def check_pairs(ck, blade, contacts, placement, mesh_field):
-    """Shroud pairs need a disk, and faces that pair by the rotation (one line
-    naming the first unmatched node otherwise)."""
+def check_disk_contacts(ck, contacts, placement):
+    """Shroud pairs need a disk, and a disk of FE blades needs a shroud pair (checked
+    before the blade is built)."""
     pairs = [i for i, c in enumerate(contacts) if isinstance(c, ShroudPair)]
     if pairs and placement is None:
         ck.fail(f"scene.contact[{pairs[0]}].pair", "a shroud pair couples neighbouring blades: "
@@ -84,16 +84,22 @@ def check_pairs(ck, blade, contacts, placement, mesh_field):
     if placement is not None and not pairs:
         ck.fail("scene.contact", "a disk of FE blades couples them through their shrouds: give "
                                  "a [[scene.contact]] with pair = \"shroud\"")
-    if pairs:
+
+
+def check_pairs(ck, blade, contacts, placement, mesh_field):
+    """Shroud faces that pair by the rotation 2 pi / N (one line naming the first
+    unmatched node otherwise)."""
+    if any(isinstance(c, ShroudPair) for c in contacts):
         try:
             fe_contact_maps(blade, contacts, placement)
         except ValueError as exc:
             ck.fail(mesh_field, str(exc))
 
 
-def placement_field(message: str) -> str | None:
-    """The study field a geometry error of the wheel names (`disk.hub_radius: ...`)."""
+def placement_field(message: str) -> tuple:
+    """(the study field a geometry error of the wheel names, or None; the message
+    without its `disk.<key>: ` prefix)."""
     for key in ("hub_radius", "sectors"):
-        if message.startswith(f"disk.{key}"):
-            return f"scene.disk.{key}"
-    return None
+        if message.startswith(f"disk.{key}: "):
+            return f"scene.disk.{key}", message[len(f"disk.{key}: "):]
+    return None, message

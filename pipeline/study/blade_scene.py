@@ -49,8 +49,8 @@ from ..structure.reduction import DEFAULT_MODES
 from . import blade_disk, disk_scene
 from .checker import Checker
 from .rules import check_scene_rules
-from .scene import (check_windows, output_common, parse_solver, parse_sweep, quick_tables,
-                    solver_sweep_tables)
+from .scene import (check_windows, output_common, parse_optimum, parse_solver, parse_sweep,
+                    quick_tables, solver_sweep_tables)
 from .spec import EFFECTS, MAX_HARMONICS, NAME_PATTERN, ModesStudy, OutputSettings, Study, Sweep
 
 log = logging.getLogger(__name__)
@@ -131,7 +131,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     if "stability" not in solver_tab:
         solver = replace(solver, stability=False)  # Hill on hundreds of DOFs: opt in
     axes, freq = parse_sweep(ck, sweep_tab, "sweep")
-    output = _output(ck, ck.table(data.get("output"), "output", required=False))
+    output = _output(ck, ck.table(data.get("output"), "output", required=False), full_scene)
     variants = [(False, solver, axes, freq, "solver", "sweep", full_scene)]
     if quick:
         q_solver, q_sweep = quick_tables(ck, {"quick": qt}, sweep_tab, ("scene", "sweep", "solver"))
@@ -143,7 +143,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                          "quick.sweep" if q_sweep else "sweep", quick_scene))
     chosen = None
     for is_quick, sv, ax, fr, spath, wpath, sc in variants:
-        _consistency(ck, sc, sv, ax, spath, wpath)
+        _consistency(ck, sc, sv, ax, spath, wpath, data)
         st = Study(file=file, name=name, title=title, description=description,
                    reference=reference, text=text, scene=sc, sweep=Sweep(axes=ax, frequency=fr),
                    solver=sv, output=output, quick=is_quick)
@@ -256,14 +256,15 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
                            else (None, Single()))
     contacts, loads = (_contacts_and_loads(ck, tab, kind, model, params)
                        if kind in ("response", "disk_modes") else ((), ()))
+    blade_disk.check_disk_contacts(ck, contacts, placement)
     scene = Scene(structure=Blade(params=params, mesh=mesh, rayleigh=rayleigh, disk=placement),
                   contacts=contacts, loads=loads, reduction=CraigBampton(n_modes),
                   effects=effects, model=model, assembly=assembly)
     try:
         blade = blade_model(scene.structure)
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # e.g. a degenerate mesh
-        ck.fail(blade_disk.placement_field(str(exc)) or (fld("mesh") if mesh else "scene.blade"),
-                str(exc))
+        field, msg = blade_disk.placement_field(str(exc))
+        ck.fail(field or (fld("mesh") if mesh else "scene.blade"), msg)
     nb = boundary_dofs(blade)[0].size
     if n_modes > blade.n_dof - nb:
         ck.fail(fld("craig_bampton_modes"), f"must be <= {blade.n_dof - nb} (free DOFs "
@@ -382,9 +383,8 @@ def _loads(ck, raw) -> tuple:
     return tuple(out)
 
 
-def _output(ck, t):
-
-    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows"))
+def _output(ck, t, scene):
+    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload"))
     dofs = (ck.names(t["dofs"], "output.dofs") if "dofs" in t
             else tuple(f"response.{c}" for c in COMPONENTS))
     for i, d in enumerate(dofs):
@@ -392,7 +392,8 @@ def _output(ck, t):
             ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>' with set excitation "
                                          "or response and component x, y or z")
     figs, yscale, windows = output_common(ck, t)
-    return OutputSettings(dofs=tuple(dofs), figures=figs, yscale=yscale, peak_windows=windows)
+    return OutputSettings(dofs=tuple(dofs), figures=figs, yscale=yscale, peak_windows=windows,
+                          optimum=parse_optimum(ck, t, scene))
 
 
 def _modes(ck, t, path, scene):
@@ -418,14 +419,14 @@ def _modes(ck, t, path, scene):
     return tuple(vals), nf, ns
 
 
-def _consistency(ck, scene, solver, axes, spath, wpath):
+def _consistency(ck, scene, solver, axes, spath, wpath, data):
     """Cross-field rules (scene.check_scene_rules); every face contact has a normal."""
     check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
                       [c.kv for c in scene.contacts], bool(scene.contacts),
                       max([ld.harmonic for ld in scene.loads] + [0]), solver.harmonics,
                       axes, spath, wpath, disk=scene.cyclic)
     if scene.cyclic:  # engine order, "cyclic_coupling", mistuning: as a lumped disk's
-        disk_scene.check_disk_rules(ck, scene, axes, wpath, {})
+        disk_scene.check_disk_rules(ck, scene, axes, wpath, data)
 
 
 

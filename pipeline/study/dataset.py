@@ -35,6 +35,7 @@ import xarray as xr
 
 from ..model.scene import AT, stiffness_factors
 from ..model.system import natural_frequencies
+from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 
@@ -331,6 +332,11 @@ def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> x
         _add_mistuning_factors(data_vars, study, lay.sectors)
     if tuned is not None and "sector" in data_vars["peak_amplitude"][0]:
         _add_amplification(data_vars, study, tuned, lay)
+    if "hysteresis" in study.output.figures and lay.sectors is None:
+        _add_hysteresis(data_vars, study, cases, curves, lay)
+        coords["coefficient"] = index_coord("coefficient", np.arange(2 * study.solver.harmonics
+                                                                     + 1),
+                                            "Fourier coefficient [a0, a1, b1, a2, b2, ...]")
     if optimum is not None:
         _add_optimum(data_vars, coords, optimum, study, lay.to_unit, lay.unit)
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=response_attrs(study, lay))
@@ -372,6 +378,45 @@ def _add_amplification(data_vars, study, tuned: dict, lay: Layout):
         else ref
     data_vars["amplification_factor"] = (tuple(rest), top / ref_b, {
         "units": "1", "long_name": "amplification factor: largest sector peak / tuned peak"})
+
+
+def _add_hysteresis(data_vars, study, cases, curves, lay: Layout):
+    """The contact motion at each case's peak (first output DOF) of the element that
+    slides most there: `hysteresis_u`, `hysteresis_v` (grid..., coefficient) [m] in
+    the layout of `harmonics.py`, its parameters and index; enough to redraw its
+    force-displacement loop exactly (`contact.exact.history`)."""
+    H, axes = study.solver.harmonics, tuple(study.sweep.axes)
+    shape = lay.shape
+    U, V = np.full(shape + (2 * H + 1,), np.nan), np.full(shape + (2 * H + 1,), np.nan)
+    par = {k: np.full(shape, np.nan) for k in ("ku", "kv", "mu", "n0", "frequency")}
+    element = np.full(shape, -1, dtype=np.int32)
+    for (idx, case), c in zip(cases, curves):
+        ok = None if c is None else np.asarray(c.converged, bool)
+        if ok is None or not ok.any():
+            continue
+        a = np.where(ok, np.asarray(c.amplitude, float)[:, lay.rows[0, 0]], -np.inf)
+        i = int(np.argmax(a))
+        prob = hbm.setup(study.system(case), H)
+        Ue, Ve = hbm.contact_motion(prob, np.asarray(c.Q[i])[prob.c])
+        e = int(np.argmax(np.linalg.norm(Ue[:, 1:], axis=1)))
+        U[idx], V[idx], element[idx] = Ue[e], Ve[e], e
+        el = prob.system.contact
+        for k in ("ku", "kv", "mu", "n0"):
+            par[k][idx] = float(np.asarray(getattr(el, k))[e])
+        par["frequency"][idx] = float(c.omega[i]) / lay.to_unit
+    coeff = axes + ("coefficient",)
+    data_vars["hysteresis_u"] = (coeff, U, {"units": "m", "long_name": "tangential relative "
+                                           "displacement at the peak, Fourier coefficients"})
+    data_vars["hysteresis_v"] = (coeff, V, {"units": "m", "long_name": "normal relative "
+                                           "displacement at the peak, Fourier coefficients"})
+    data_vars["hysteresis_element"] = (axes, element, {"units": "1", "long_name":
+                                       "contact element sliding most at the peak"})
+    for k, (u, name) in {"ku": ("N/m", "tangential stiffness"), "kv": ("N/m", "normal "
+                         "stiffness"), "mu": ("1", "friction coefficient"), "n0": ("N", "normal "
+                         "preload"), "frequency": (lay.unit, "frequency of the peak")}.items():
+        data_vars[f"hysteresis_{k}"] = (axes, par[k], {"units": u, "long_name": f"{name} of "
+                                                       "that element" if k != "frequency"
+                                                       else name})
 
 
 def _add_optimum(data_vars, coords, opt, study, to_unit, unit):

@@ -27,7 +27,7 @@ def write_figures(study: Study, ds, fig_dir, tuned=None) -> list:
     from .plots import response_curves_figure, stability_for_plot
 
     if "amplitude" not in study.output.figures:
-        return []
+        return hysteresis_figures(study, ds, fig_dir)
     if is_sector_resolved(study, ds):
         return write_sector_figures(study, ds, fig_dir, None if tuned is None else
                                     (lambda case: tuned[tuple(case.values())]))
@@ -55,4 +55,42 @@ def write_figures(study: Study, ds, fig_dir, tuned=None) -> list:
                 Path(fig_dir) / f"amplitude_{dof}{suffix}.png", branches,
                 xlabel=f"excitation frequency [{unit}]", ylabel=f"amplitude of {dof} [m]",
                 title=title, yscale=study.output.yscale))
-    return paths
+    return paths + hysteresis_figures(study, ds, fig_dir)
+
+
+def hysteresis_figures(study: Study, ds, fig_dir) -> list:
+    """`hysteresis.png` when asked for (`[output] figures = [..., "hysteresis"]`): at
+    each case's peak, the friction force against the tangential relative displacement
+    of the contact element that slides most there (paper Fig. 5b), one loop per case,
+    drawn exactly from the dataset's coefficients (`contact.exact.history`)."""
+    if "hysteresis" not in study.output.figures or "hysteresis_u" not in ds:
+        return []
+    import numpy as np
+
+    from ..contact import YangMenq
+    from ..contact.exact import history
+    from .plots import atomic_savefig, pyplot   # deferred: matplotlib on first figure
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    tau = np.linspace(0.0, 2 * np.pi, 1201)
+    axes = list(study.sweep.axes)
+    for idx in itertools.product(*(range(len(study.sweep.axes[a])) for a in axes)):
+        sel = dict(zip(axes, idx))
+        sub = ds.isel(sel)
+        if int(sub["hysteresis_element"]) < 0:
+            continue
+        el = YangMenq(*(float(sub[f"hysteresis_{k}"]) for k in ("ku", "kv", "mu", "n0")))
+        h = history(sub["hysteresis_u"].values[None], sub["hysteresis_v"].values[None], el, tau)
+        label = ", ".join(f"{a} = {study.sweep.axes[a][i]:g} {ds[a].attrs.get('units', '')}"
+                          for a, i in sel.items())
+        peak = f"{float(sub['hysteresis_frequency']):.4g} {ds['frequency'].attrs['units']}"
+        ax.plot(h["u"][0], h["fu"][0], lw=1.6, label=f"{label} (peak at {peak})")
+    ax.set_xlabel("tangential relative displacement u [m]")
+    ax.set_ylabel("friction force f_u [N]")
+    ax.set_title(f"{study.title}\nat the peak: the contact element sliding most", fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    out = atomic_savefig(fig, Path(fig_dir) / "hysteresis.png")
+    plt.close(fig)
+    return [out]

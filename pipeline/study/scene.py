@@ -32,7 +32,7 @@ from ..model.scene import Cyclic, Lumped, Scene, Single, Spring, build_system
 from . import disk_scene
 from .checker import Checker, join_field, kind_of
 from .rules import check_scene_rules
-from .spec import (EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
+from .spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
                    MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, SWEEP_AXES, FrequencyRange,
                    OutputSettings, SolverSettings, Study, Sweep, solver_rule_violations)
 
@@ -415,7 +415,7 @@ def check_windows(ck, windows, freq):
 
 def output_common(ck, t):
     """`[output]` keys shared by every scene: figures, yscale, peak_windows."""
-    figs = ck.names(t.get("figures", list(FIGURES)), "output.figures", min_length=0)
+    figs = ck.names(t.get("figures", list(DEFAULT_FIGURES)), "output.figures", min_length=0)
     for i, fg in enumerate(figs):
         if fg not in FIGURES:
             ck.fail(f"output.figures[{i}]", f"unknown figure {fg!r} (known: {', '.join(FIGURES)})")
@@ -443,31 +443,36 @@ def _output(ck, t, scene) -> OutputSettings:
         if d not in scene.dofs:
             ck.fail(f"output.dofs[{i}]", f"unknown DOF {d!r} (DOFs: {', '.join(scene.dofs)})")
     figs, yscale, windows = output_common(ck, t)
-    optimum = None
-    if "optimum_preload" in t:
-        o, f = t["optimum_preload"], "output.optimum_preload"
-        if not isinstance(o, dict):
-            ck.fail(f, f"must be a table, got {kind_of(o)}")
-        ck.keys(o, f, ("dof", "bounds", "frequency", "rtol"))
-        if "dof" not in o or "bounds" not in o:
-            ck.fail(f, "needs dof and bounds = [low, high] (N)")
-        dof = ck.string(o["dof"], f + ".dof", tuple(scene.dofs))
-        lo, hi = ck.numbers(o["bounds"], f + ".bounds", 2, gt=0.0)
-        if not lo < hi:
-            ck.fail(f + ".bounds", f"must be [low, high] with 0 < low < high, got [{lo:g}, {hi:g}]")
-        window = None
-        if "frequency" in o:
-            w = o["frequency"]
-            if not isinstance(w, dict):
-                ck.fail(f + ".frequency", f"must be a table {{start, stop, unit}}, got {kind_of(w)}")
-            window = parse_sweep(ck, {"frequency": w}, f, partial=True)[1]
-        rtol = ck.number(o.get("rtol", 1e-2), f + ".rtol", gt=0.0, lt=1.0)
-        if not scene.contacts:
-            ck.fail(f, "the scene has no contact: there is no preload to optimise")
-        optimum = {"dof": dof, "bounds": (float(lo), float(hi)), "window": window,
-                   "rtol": float(rtol)}
+    optimum = parse_optimum(ck, t, scene)
     return OutputSettings(dofs=tuple(dofs), figures=tuple(figs), yscale=yscale,
                           peak_windows=tuple(windows), optimum=optimum)
+
+
+def parse_optimum(ck, t, scene):
+    """`[output] optimum_preload = { dof, bounds = [lo, hi] (N), frequency?, rtol? }`
+    (None when absent): the preload search of `response.optimum_preload`."""
+    if "optimum_preload" not in t:
+        return None
+    o, f = t["optimum_preload"], "output.optimum_preload"
+    if not isinstance(o, dict):
+        ck.fail(f, f"must be a table, got {kind_of(o)}")
+    ck.keys(o, f, ("dof", "bounds", "frequency", "rtol"))
+    if "dof" not in o or "bounds" not in o:
+        ck.fail(f, "needs dof and bounds = [low, high] (N)")
+    dof = ck.string(o["dof"], f + ".dof", tuple(scene.dofs))
+    lo, hi = ck.numbers(o["bounds"], f + ".bounds", 2, gt=0.0)
+    if not lo < hi:
+        ck.fail(f + ".bounds", f"must be [low, high] with 0 < low < high, got [{lo:g}, {hi:g}]")
+    window = None
+    if "frequency" in o:
+        w = o["frequency"]
+        if not isinstance(w, dict):
+            ck.fail(f + ".frequency", f"must be a table {{start, stop, unit}}, got {kind_of(w)}")
+        window = parse_sweep(ck, {"frequency": w}, f, partial=True)[1]
+    rtol = ck.number(o.get("rtol", 1e-2), f + ".rtol", gt=0.0, lt=1.0)
+    if not scene.contacts:
+        ck.fail(f, "the scene has no contact: there is no preload to optimise")
+    return {"dof": dof, "bounds": (float(lo), float(hi)), "window": window, "rtol": float(rtol)}
 
 
 def _check_consistency(ck, scene, solver, axes, spath, wpath, data):

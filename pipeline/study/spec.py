@@ -32,7 +32,8 @@ SWEEP_AXES = {
 }
 INTEGER_SWEEP_AXES = ("eo", "mistuning_seed")
 FREQUENCY_UNITS = ("rad/s", "Hz")
-FIGURES = ("amplitude",)
+FIGURES = ("amplitude", "hysteresis")
+DEFAULT_FIGURES = ("amplitude",)
 MAX_HARMONICS = 200
 MAX_DOFS = 2000
 # a DOF, contact or study name (letters, digits, '_', '.'; at most 64 characters)
@@ -121,7 +122,7 @@ def solver_rule_violations(s) -> list:
 @dataclass(frozen=True)
 class OutputSettings:
     dofs: tuple                  # response DOF names
-    figures: tuple = FIGURES
+    figures: tuple = DEFAULT_FIGURES
     yscale: str = "linear"
     peak_windows: tuple = ()     # ((lo, hi), ...) in the sweep's frequency unit
     optimum: dict | None = None  # {dof, bounds (N), window (rad/s) | None, rtol}

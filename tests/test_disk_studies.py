@@ -1,0 +1,83 @@
+"""Studies of FE blades in a disk (`studies/shrouded_disk*.toml`): their quick
+variants run through `run_study`, their datasets pass the contract checker, and
+their numbers are checked against independent linear limits; the FE disk's bad
+inputs are one-line errors naming the field."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipeline.errors import UsageError
+from pipeline.model.system import dense
+from pipeline.study.dataset_check import problems
+from pipeline.study.documents import load_study, parse_study
+from pipeline.study.run import run_study
+
+STUDIES = Path(__file__).resolve().parents[1] / "studies"
+
+
+def test_shrouded_disk_modes_open_families_are_the_blade_and_stuck_ones_climb(tmp_path):
+    """Open shrouds: every nodal diameter has the clamped blade's frequencies (the
+    blades are independent); stuck: the first family climbs with ND, above open."""
+    res = run_study(load_study(STUDIES / "shrouded_disk_modes.toml", quick=True), tmp_path)
+    ds = res.dataset
+    assert list(ds.nodal_diameter.values) == list(range(19)) and ds.sizes["mode"] == 6
+    f_open, f_stuck = ds.frequency_open.values, ds.frequency_stuck.values
+    np.testing.assert_allclose(f_open, f_open[:1].repeat(19, 0), rtol=1e-9)
+    assert np.all(f_stuck[:, 0] >= f_open[:, 0] * (1 - 1e-12))
+    assert np.all(np.diff(f_stuck[:, 0]) > 0)
+    assert f_stuck[18, 0] > 4 * f_open[18, 0]
+    assert problems(res.path) == []
+    assert (tmp_path / "shrouded_disk_modes" / "nodal_diameter_diagram.png").is_file()
+
+
+def tied_amplitude(system, omega, dof):
+    """Amplitude [m] of `dof` of the tied sector's linear response at omega [rad/s]:
+    K + B^H ku B + B_n^H kv B_n (B = Bt + e^{i phi} Bt_next), first harmonic."""
+    cy, el = system.cyclic, system.contact
+    z = np.exp(1j * cy.phase)
+    B, Bn = dense(system.Bt) + z * dense(cy.Bt_next), dense(system.Bn) + z * dense(cy.Bn_next)
+    K = dense(system.K) + B.conj().T @ (el.ku[:, None] * B) + Bn.conj().T @ (el.kv[:, None] * Bn)
+    D = K - omega**2 * dense(system.M) + 1j * omega * dense(system.C)
+    return abs(np.linalg.solve(D, np.asarray(system.forcing)[:, 1])[dof])
+
+
+def test_shrouded_disk_quick_run(tmp_path):
+    """Two preloads (no optimum search): a large preload sticks, so the curve is the
+    tied sector's linear FRF (checked at its peak, 1e-6); the small one separates
+    and slides, its peak far below the stuck frequency; the hysteresis coefficients
+    of the most sliding pair redraw a loop; the dataset passes the checker."""
+    text = (STUDIES / "shrouded_disk.toml").read_text()
+    text = text.replace("preload = [0.3, 3.0, 30.0]", "preload = [0.3, 1000.0]")
+    text = "\n".join(line for line in text.splitlines() if not line.startswith("optimum_preload"))
+    st = parse_study(text, file=str(tmp_path / "shrouded_disk.toml"), name="sd", quick=True)
+    res = run_study(st, tmp_path, progress=False)
+    ds = res.dataset
+    assert int(ds.converged.sum()) == int(ds.n_points.sum()) and problems(res.path) == []
+    stuck = ds.sel(preload=1000.0)
+    f_peak = float(stuck.peak_frequency.sel(dof="response.y"))
+    system = st.system({"preload": 1000.0})
+    dof = st.scene.dof_index("response.y")
+    ref = tied_amplitude(system, 2 * np.pi * f_peak, dof)
+    assert np.isclose(float(stuck.peak_amplitude.sel(dof="response.y")), ref, rtol=1e-6)
+    loose = ds.sel(preload=0.3)
+    assert float(loose.peak_frequency.sel(dof="response.y")) < 0.9 * f_peak
+    assert int(stuck.hysteresis_element) >= 0 and np.all(np.isfinite(ds.hysteresis_u))
+    assert (tmp_path / "sd" / "hysteresis.png").is_file()
+
+
+@pytest.mark.parametrize("old,new,field", [
+    ("engine_order = 3", "engine_order = 19", "scene.disk.engine_order"),
+    ("hub_radius = 0.12                # m", "hub_radius = 0.02", "scene.disk.hub_radius"),
+    ('pair = "shroud"', 'pair = "platform"', "scene.contact[0].pair"),
+    ('effects = ["friction", "normal_load_variation", "separation", "cyclic_coupling"]',
+     'effects = ["friction", "normal_load_variation", "separation"]', "scene.effects"),
+    ("[scene.disk]\nsectors = 36\nhub_radius = 0.12                # m\nengine_order = 3\n", "",
+     "scene.contact[0].pair"),
+])
+def test_bad_shrouded_disk_studies_name_the_field(old, new, field):
+    text = (STUDIES / "shrouded_disk.toml").read_text()
+    assert old in text
+    with pytest.raises(UsageError) as e:
+        parse_study(text.replace(old, new), file="sd.toml", quick=True)
+    assert str(e.value).startswith(f"sd.toml: {field}: "), str(e.value)
