@@ -231,3 +231,37 @@ def test_misuse_is_named():
     with pytest.raises(ValueError, match="normal to the shroud face"):
         n = blade_model(wheel().structure).frames["shroud_right"].normal
         build_system(wheel(pair=replace(PAIR, tangent=tuple(n))), {"preload": 1.0})
+
+
+def test_tuned_full_wheel_solution_is_the_expanded_sector_along_an_frf():
+    """Along a sector FRF through stick, slip and separation (EO 1, H = 1, preload 2 N
+    per face), every 6th point expanded to the 6 blades starts Newton on the full
+    wheel's own harmonic balance (no symmetry used; sparse); the wheel's solution
+    equals the expansion to 1e-8 of its size.  Over those points, shroud pairs
+    stick, slip, stay closed and separate (first-harmonic estimates of the states)."""
+    from pipeline.solve.response import frequency_response
+
+    scene, case, H = wheel(eo=1), {"preload": 20.0}, 1
+    s, f = build_system(scene, case), full_system(scene, case)
+    lo, hi = natural_frequencies(s, "open")[0], natural_frequencies(s, "stuck")[0]
+    c = frequency_response(s, H, 0.9 * lo, 1.05 * hi, tol_rel=1e-10, stability=False,
+                           peak_dofs=[scene.dof_index("response.y")], dense_output=False)
+    assert c.success and c.converged.all()
+    pf = hbm.setup(f, H)
+    states = set()
+    for i in range(0, c.omega.size, 6):
+        Qe = expand(c.Q[i], DISK.sectors, 1)
+        Om = c.omega[i]
+        tol = 1e-10 * hbm.force_scale(pf)                # the sector's own tolerance [N]
+        nr = newton(lambda x: hbm.residual(pf, x, Om)[:2], Qe[pf.c].ravel(), tol, max_iter=20)
+        assert nr.success
+        Qf = hbm.recover(pf, nr.x.reshape(pf.c.size, -1), Om)
+        assert np.abs(Qf - Qe).max() < 1e-8 * np.abs(Qe).max()
+        U, V = hbm.contact_motion(pf, Qf[pf.c])
+        el = f.contact
+        n = el.n0[:, None] + el.kv[:, None] * (V[:, :1] - np.hypot(V[:, 1], V[:, 2])[:, None])
+        t = el.ku * np.hypot(U[:, 1], U[:, 2])
+        states.update("separation" if m < 0 else "closed" for m in n[:, 0])
+        states.update("slip" if a > b else "stick"
+                      for a, b in zip(t, el.mu * (el.n0 + el.kv * V[:, 0])))
+    assert states == {"separation", "closed", "slip", "stick"}
