@@ -223,6 +223,7 @@ def beam_blade(p: BladeParams, disk: DiskPlacement | None = None) -> BladeModel:
                       point_dofs, rotation_z(p.stagger_angle), dof_sets, set_points, frames,
                       node_sets)
 
+
 def euler_bernoulli_frequencies(p: BladeParams, n: int = 3, plane: str = "flap") -> np.ndarray:
     """Cantilever bending frequencies [Hz]: f_k = (beta_k L)^2 sqrt(EI/(rho A L^4)) / (2 pi)."""
     roots = np.array([1.8751040687, 4.6940911330, 7.8547574382, 10.9955407349,

@@ -105,10 +105,10 @@ class BladeParams:
             raise ValueError(f"damping_ratios must be a non-empty sequence of ratios >= 0, "
                              f"got {self.damping_ratios!r}")
         object.__setattr__(self, "damping_ratios", tuple(float(x) for x in z))
+        if self.shroud and self.shroud_width <= self.thickness:
+            raise ValueError(f"shroud_width must exceed thickness ({self.thickness}), "
+                             f"got {self.shroud_width!r}")
         if self.shroud and self.kind == "solid":
-            if self.shroud_width <= self.thickness:
-                raise ValueError(f"shroud_width must exceed thickness ({self.thickness}), "
-                                 f"got {self.shroud_width!r}")
             # the overhang is sheared by tan(a - gamma); keep every hexahedron valid
             shear = abs(np.tan(self.shroud_angle - self.stagger_angle)) * self.shroud_chord / 2
             if shear > 0.5 * (self.shroud_width - self.thickness) / 2:
