@@ -13,7 +13,8 @@ displacement of the pair (x_R of blade j, x_L of blade j+1) is
 
 n the outward normal of the right face (v > 0 closes the gap), t a tangent in the
 face: Bt = -t^T S_R, Bt_next = t^T R(alpha) S_L, Bn = n^T S_R,
-Bn_next = -n^T R(alpha) S_L (S: the selection of a node's 3 DOFs)."""
+Bn_next = -n^T R(alpha) S_L (S: the selection of a node's 3 DOFs, or the point
+motion P of a face whose points move with several DOFs)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -23,6 +24,7 @@ import scipy.sparse as sp
 
 from ..contact import YangMenq
 from ..structure.disk import pair_faces
+from ..structure.fe_model import project_rows
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,28 +97,31 @@ def pair_frame(blade, pair: ShroudPair, disk) -> tuple:
 
 def shroud_pair_maps(blade, pair: ShroudPair, disk) -> tuple:
     """(Bt, Bn, Bt_next, Bn_next) sparse (k, n_full) of one `ShroudPair` on the
-    unreduced blade: one row per right-face node and its left-face partner
-    (`structure.disk.pair_faces`), the maps of the module doc."""
+    unreduced blade: one row per right-face point and its left-face partner
+    (`structure.disk.pair_faces`), the maps of the module doc with the selection S of
+    a node's 3 DOFs generalised to the faces' point motion P (d_k = P_k q,
+    `fe_model.ContactFrame.point_motion`; a rigid shroud's points move with its body)."""
     for face in ("shroud_right", "shroud_left"):
         if face not in blade.frames:
             raise ValueError(f"contact {pair.name!r}: the blade has no face {face!r}")
     t, n = pair_frame(blade, pair, disk)
-    left = pair_faces(blade.set_points["shroud_right"], blade.set_points["shroud_left"], disk)
-    dr, dl = blade.dof_sets["shroud_right"], blade.dof_sets["shroud_left"][left]
-    if np.any(dr < 0) or np.any(dl < 0):
-        raise ValueError(f"contact {pair.name!r}: a shroud face node is clamped")
+    right, left_face = blade.frames["shroud_right"], blade.frames["shroud_left"]
+    left = pair_faces(right.points, left_face.points, disk)
+    try:
+        Pr = right.point_motion(blade.n_dof)
+        Pl = left_face.point_motion(blade.n_dof)
+    except ValueError as exc:
+        raise ValueError(f"contact {pair.name!r}: {exc}") from None
+    Pl = Pl[(3 * left[:, None] + np.arange(3)).ravel()]
     Ra = disk.rotation(disk.pitch_angle)
-    k = dr.shape[0]
-    rows = np.repeat(np.arange(k), 3)
 
-    def rows_of(dofs, vec):
-        vals = np.tile(vec, k)
-        vals[np.abs(vals) < 1e-12] = 0.0    # round-off cosines from the face's SVD
-        B = sp.csr_matrix((vals, (rows, dofs.ravel())), shape=(k, blade.n_dof))
+    def rows_of(P, vec):
+        vec = np.where(np.abs(vec) < 1e-12, 0.0, vec)   # round-off cosines from the face's SVD
+        B = project_rows(P, vec)
         B.eliminate_zeros()
         return B
 
-    return (rows_of(dr, -t), rows_of(dr, n), rows_of(dl, Ra.T @ t), rows_of(dl, -(Ra.T @ n)))
+    return (rows_of(Pr, -t), rows_of(Pr, n), rows_of(Pl, Ra.T @ t), rows_of(Pl, -(Ra.T @ n)))
 
 
 def fe_contact_maps(blade, contacts, disk=None) -> tuple:

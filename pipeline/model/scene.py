@@ -72,7 +72,8 @@ class Blade:
     (meshio; node sets root, shroud_left, shroud_right, excitation, response).
     Damping: Rayleigh (alpha [1/s], beta [s]) or, when None, the params' modal ratios.
     disk: where the blade sits in a wheel (`fe_model.DiskPlacement`; a generated
-    blade is then shaped for it, `solid.solid_mesh`), needed by `ShroudPair`s."""
+    blade is then shaped for it, `solid.solid_mesh`, `beam.shroud_face_geometry`),
+    needed by `ShroudPair`s."""
 
     params: object           # fe_model.BladeParams
     mesh: str | None = None

@@ -9,11 +9,9 @@ from .solid import solid_blade, solid_from_mesh
 
 
 def build_blade(p: BladeParams, disk: DiskPlacement | None = None) -> BladeModel:
-    """Beam or solid blade according to `p.kind`; a solid blade shaped for a wheel
-    when `disk` is given (`solid.solid_mesh`)."""
-    if disk is not None:
-        return solid_blade(p, disk)
-    return beam_blade(p) if p.kind == "beam" else solid_blade(p)
+    """Beam or solid blade according to `p.kind`, shaped for a wheel when `disk` is
+    given (`solid.solid_mesh`, `beam.shroud_face_geometry`)."""
+    return beam_blade(p, disk) if p.kind == "beam" else solid_blade(p, disk)
 
 
 def load_blade(path, p: BladeParams = BladeParams(),

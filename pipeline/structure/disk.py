@@ -5,7 +5,7 @@ blade j+1 is blade j turned by alpha = 2 pi / N about the disk axis (parallel to
 through (0, 0, -R)).  The right shroud face of blade j then touches the left face of
 blade j+1, and a node x_R of the right face meets the left-face node x_L whose image
 R(alpha) (x_L - c) + c is x_R (`pair_faces`).  Generated blades are built so that
-this holds node for node (`solid.solid_mesh`); a user mesh must satisfy it within
+this holds node for node (`solid.solid_mesh`, `beam.shroud_face_geometry`); a user mesh must satisfy it within
 the tolerance.
 """
 from __future__ import annotations
@@ -48,9 +48,9 @@ def wheel_params(p: BladeParams, disk: DiskPlacement) -> BladeParams:
     field when neighbouring blades would overlap: the airfoil spans the pitch angle
     at the hub, or the derived shroud is not wider than the airfoil, or its overhang
     is too narrow for the shroud-angle shear."""
-    if not (p.kind == "solid" and p.shroud):
-        raise ValueError("disk: a blade in a disk needs a solid blade with a shroud "
-                         f"(kind = {p.kind!r}, shroud = {p.shroud!r})")
+    if not p.shroud:
+        raise ValueError(f"disk: a blade in a disk needs a shroud (kind = {p.kind!r}, "
+                         f"shroud = {p.shroud!r})")
     span = airfoil_angle(p, disk)
     if span >= disk.pitch_angle:
         raise ValueError(

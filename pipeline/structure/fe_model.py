@@ -1,7 +1,8 @@
 """Blade FE models as plain data: parameters, contact frames, the clamped model.
 
 A blade is sparse K, M over the free DOFs (root clamped), named DOF sets and the
-contact frames of the shroud faces.  This module imports neither scikit-fem nor
+contact frames of the shroud faces (for a beam blade, faces of a rigid tip shroud
+whose points move with the tip's DOFs, `ContactFrame.motion`).  This module imports neither scikit-fem nor
 meshio (both slow to import): `beam` and `solid` assemble the two kinds of blade
 with scikit-fem, `mesh_io` reads and writes mesh files with meshio, and `blades`
 builds one from parameters or a mesh file (`build_blade`, `load_blade`).
@@ -56,7 +57,7 @@ class BladeParams:
     """Blade geometry [m], material (E [Pa], nu [-], rho [kg/m^3]), angles [rad].
 
     kind: "solid" (Hex2 elements, with tip shroud if `shroud`) or "beam"
-    (Euler-Bernoulli, never shrouded).  Mesh resolution: elements across the
+    (Euler-Bernoulli, with a rigid tip shroud of the same block if `shroud`).  Mesh resolution: elements across the
     chord (`n_chord`), the thickness (`n_thick`) and along the span (`n_span`);
     the shroud overhang uses the chordwise element size.  `damping_ratios`:
     modal damping ratios zeta_k (the last one repeats for higher modes).
@@ -104,10 +105,10 @@ class BladeParams:
             raise ValueError(f"damping_ratios must be a non-empty sequence of ratios >= 0, "
                              f"got {self.damping_ratios!r}")
         object.__setattr__(self, "damping_ratios", tuple(float(x) for x in z))
+        if self.shroud and self.shroud_width <= self.thickness:
+            raise ValueError(f"shroud_width must exceed thickness ({self.thickness}), "
+                             f"got {self.shroud_width!r}")
         if self.shroud and self.kind == "solid":
-            if self.shroud_width <= self.thickness:
-                raise ValueError(f"shroud_width must exceed thickness ({self.thickness}), "
-                                 f"got {self.shroud_width!r}")
             # the overhang is sheared by tan(a - gamma); keep every hexahedron valid
             shear = abs(np.tan(self.shroud_angle - self.stagger_angle)) * self.shroud_chord / 2
             if shear > 0.5 * (self.shroud_width - self.thickness) / 2:
@@ -183,13 +184,17 @@ class DiskPlacement:
 
 @dataclass(frozen=True)
 class ContactFrame:
-    """One planar contact face: unit vectors and its points' DOFs (free numbering).
+    """One planar contact face: unit vectors, its points and how they move.
 
     normal: outward unit normal n; tangent: t = n_R x e_Z (shared by both faces);
-    tangent2: t x n_R (radial, shared).  points (k, 3) [m]; dofs (k, 3) free-DOF indices of the X, Y, Z
-    displacement components of each point.  weights (k,) [m^2]: int_face N_k dA, the
-    face area each point carries (its shape function integrated over the face; they
-    sum to the face area); None when the face spans no element facet.
+    tangent2: t x n_R (radial, shared).  points (k, 3) [m]; dofs (k, 3) free-DOF indices
+    of the X, Y, Z displacement components of each point (-1 when a component is no
+    single DOF, see motion).  weights (k,) [m^2]: int_face N_k dA, the face area each
+    point carries (its shape function integrated over the face; they sum to the face
+    area); None when the face spans no element facet.  motion: sparse (3k, n_dof) [-]
+    point motion operator P, the displacements (X, Y, Z of point 0, of point 1, ...) =
+    P q; None: the selection of `dofs` (FE nodes).  A rigid body carrying the points
+    (the beam blade's shroud) has d_k = u + theta x (x_k - x_0) in P.
     """
 
     name: str
@@ -199,17 +204,38 @@ class ContactFrame:
     points: np.ndarray
     dofs: np.ndarray
     weights: np.ndarray | None = None
+    motion: sp.csr_matrix | None = None
+
+    def point_motion(self, n_dof: int) -> sp.csr_matrix:
+        """P sparse (3k, n_dof) [-]: point displacements, point-major, = P q."""
+        if self.motion is not None:
+            if self.motion.shape != (3 * len(self.points), n_dof):
+                raise ValueError(f"face {self.name!r}: motion is {self.motion.shape}, expected "
+                                 f"({3 * len(self.points)}, {n_dof})")
+            return sp.csr_matrix(self.motion)
+        if np.any(self.dofs < 0):
+            raise ValueError(f"face {self.name!r}: a face point is clamped")
+        k = self.dofs.size
+        return sp.csr_matrix((np.ones(k), (np.arange(k), self.dofs.ravel())),
+                             shape=(k, n_dof))
+
+    def used_dofs(self, n_dof: int) -> np.ndarray:
+        """The free DOFs the points' motion depends on, ascending."""
+        return np.unique(self.point_motion(n_dof).tocsc().nonzero()[1])
 
     def maps(self, n_dof: int):
         """(Bt, Bn, Bt2) sparse (k, n_dof): u = Bt q, v = Bn q, u2 = Bt2 q."""
-        k = self.dofs.shape[0]
-        rows = np.repeat(np.arange(k), 3)
-        cols = self.dofs.ravel()
-        out = []
-        for vec in (self.tangent, self.normal, self.tangent2):
-            vals = np.tile(vec, k)
-            out.append(sp.csr_matrix((vals, (rows, cols)), shape=(k, n_dof)))
-        return tuple(out)
+        P = self.point_motion(n_dof)
+        return tuple(project_rows(P, vec) for vec in (self.tangent, self.normal, self.tangent2))
+
+
+def project_rows(P, vec) -> sp.csr_matrix:
+    """Rows vec . d_k of the point displacements d = P q: sparse (k, n_dof) =
+    (I_k kron vec^T) P, P (3k, n_dof) point-major, vec (3,)."""
+    k = P.shape[0] // 3
+    V = sp.kron(sp.identity(k, format="csr"), sp.csr_matrix(np.reshape(vec, (1, 3))),
+                format="csr")
+    return (V @ P).tocsr()
 
 
 @dataclass(frozen=True, eq=False)
@@ -243,21 +269,31 @@ class BladeModel:
 def boundary_dofs(model: BladeModel, names=None) -> tuple[np.ndarray, tuple]:
     """Free-DOF indices of the named sets (default: contact faces, excitation,
     response -- those present), de-duplicated in order, and their labels
-    `"<set>:<point>:<component>"`."""
+    `"<set>:<point>:<component>"`.  A contact face whose points move with several DOFs
+    (a frame with a `motion`, no DOF set) contributes the DOFs that motion uses,
+    labelled `"<face>:dof<index>"`."""
     if names is None:
-        names = [s for s in CONTACT_SETS + POINT_SETS if s in model.dof_sets]
+        names = [s for s in CONTACT_SETS + POINT_SETS
+                 if s in model.dof_sets or s in model.frames]
     dofs, labels, seen = [], [], set()
-    comp = "xyz"
+
+    def keep(d, label):
+        if d >= 0 and d not in seen:
+            seen.add(int(d))
+            dofs.append(int(d))
+            labels.append(label)
+
     for name in names:
-        if name not in model.dof_sets:
+        if name in model.dof_sets:
+            for k, row in enumerate(model.dof_sets[name]):
+                for c, d in enumerate(row):
+                    keep(d, f"{name}:{k}:{'xyz'[c]}")
+        elif name in model.frames and model.frames[name].motion is not None:
+            for d in model.frames[name].used_dofs(model.n_dof):
+                keep(d, f"{name}:dof{d}")
+        else:
             raise ValueError(f"names: blade has no DOF set {name!r} "
                              f"(has {sorted(model.dof_sets)})")
-        for k, row in enumerate(model.dof_sets[name]):
-            for c, d in enumerate(row):
-                if d >= 0 and d not in seen:
-                    seen.add(int(d))
-                    dofs.append(int(d))
-                    labels.append(f"{name}:{k}:{comp[c]}")
     return np.asarray(dofs, dtype=np.int64), tuple(labels)
 
 
