@@ -169,7 +169,8 @@ def test_contact_schema_errors():
         ('effects = ["friction", "normal_load_variation", "separation"]', 'effects = ["friction"]',
          r"scene\.effects: normal DOFs with kv > 0 make the normal load vary"),
         ("rayleigh = [20.0, 4e-6]", "rayleigh = [20.0]", r"scene\.rayleigh: must have 2 entries"),
-        ('model = "solid_blade"', 'model = "beam_blade"', r"scene\.contact: the blade has no shroud"),
+        ("[scene.blade]\n", "[scene.blade]\nshroud = false\n",
+         r"scene\.contact: the blade has no shroud"),
     ]:
         assert old in text, old
         with pytest.raises(UsageError, match=pattern):

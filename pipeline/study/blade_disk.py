@@ -1,5 +1,6 @@
 """FE blades in a disk in study files: `[scene.disk]` and shroud-pair contacts of a
-blade scene (`model = "solid_blade"`).
+blade scene (`model = "solid_blade"`, or `"beam_blade"`: a beam with a rigid tip
+shroud carrying 2 x 2 contact points per face).
 
     [scene.disk]
     sectors = 24            # N
@@ -37,14 +38,11 @@ PAIRS = ("shroud",)
 STIFFNESS = ("per_node", "per_face")
 
 
-def parse_placement(ck, tab, model) -> tuple:
+def parse_placement(ck, tab) -> tuple:
     """(DiskPlacement, Cyclic) of the `[scene.disk]` table of a blade scene."""
     t = ck.table(tab["disk"], "scene.disk")
     ck.keys(t, "scene.disk", ("sectors", "hub_radius", "engine_order", "mistuning"),
             required=("sectors", "hub_radius"))
-    if model != "solid_blade":
-        ck.fail("scene.disk", f"a disk of FE blades needs model = \"solid_blade\" (shroud faces "
-                              f"to pair), got {model!r}")
     N = ck.integer(t["sectors"], "scene.disk.sectors", 3, disk_scene.MAX_SECTORS)
     R = ck.number(t["hub_radius"], "scene.disk.hub_radius", gt=0.0)
     eo = (disk_scene.check_engine_order(ck, t["engine_order"], "scene.disk.engine_order", N)

@@ -252,7 +252,7 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
         if a == 0 and b == 0:
             ck.fail("scene.rayleigh", "alpha and beta are both zero (no damping)")
         rayleigh = (float(a), float(b))
-    placement, assembly = (blade_disk.parse_placement(ck, tab, model) if "disk" in tab
+    placement, assembly = (blade_disk.parse_placement(ck, tab) if "disk" in tab
                            else (None, Single()))
     contacts, loads = (_contacts_and_loads(ck, tab, kind, model, params)
                        if kind in ("response", "disk_modes") else ((), ()))
@@ -292,9 +292,8 @@ def _contacts_and_loads(ck, tab, kind, model, params) -> tuple:
     if isinstance(raw, dict):
         ck.fail("scene.contact", "must be an array of tables: write [[scene.contact]]")
     ck.array(raw, "scene.contact", min_length=0)
-    if raw and (model == "beam_blade" or not params.shroud):
-        ck.fail("scene.contact", "the blade has no shroud contact faces "
-                                 "(beam_blade, or shroud = false)")
+    if raw and not params.shroud:
+        ck.fail("scene.contact", "the blade has no shroud contact faces (shroud = false)")
     contacts = tuple(blade_disk.parse_pair(ck, c, f"scene.contact[{i}]", i)
                      if isinstance(c, dict) and "pair" in c
                      else _face_contact(ck, c, f"scene.contact[{i}]", i)
@@ -387,6 +386,16 @@ def _output(ck, t, scene):
     ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload"))
     dofs = (ck.names(t["dofs"], "output.dofs") if "dofs" in t
             else tuple(f"response.{c}" for c in COMPONENTS))
+    if scene.mistuning is not None:   # every blade's: "response.y@3"
+        if "optimum_preload" in t:
+            ck.fail("output.optimum_preload", "the optimum-preload search is not available for "
+                                              "a mistuned disk")
+        for i, d in enumerate(dofs):
+            if not OUT_DOF_PATTERN.match(d.rpartition("@")[0] or d):
+                ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>[@<sector>]'")
+        figs, yscale, windows = output_common(ck, t)
+        return OutputSettings(dofs=disk_scene.output_dofs(ck, {"dofs": list(dofs)}, scene),
+                              figures=figs, yscale=yscale, peak_windows=windows)
     for i, d in enumerate(dofs):
         if not OUT_DOF_PATTERN.match(d):
             ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>' with set excitation "
