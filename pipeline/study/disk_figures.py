@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .mistuned import SEED_AXIS, TunedCurve, tuned_reference
+from . import plots
 from .spec import SWEEP_AXES
 
 log = logging.getLogger("pipeline.study.disk_figures")
@@ -99,7 +100,6 @@ def _suffix(case: dict) -> str:
 def write_sector_figures(study, ds, fig_dir, tuned=None) -> list:
     """The figures of a mistuned disk study (module docstring); `tuned`: a function
     (case without the seed) -> TunedCurve, by default `tuned_reference`."""
-    from .plots import response_curves_figure, sector_peaks_figure, stability_for_plot
 
     fig_dir = Path(fig_dir)
     axes = dict(study.sweep.axes)
@@ -131,7 +131,7 @@ def write_sector_figures(study, ds, fig_dir, tuned=None) -> list:
             series = [(_case_text({SEED_AXIS: c[SEED_AXIS]}) if SEED_AXIS in c else "",
                        peaks[d].isel(sel).values) for sel, c in cases]
             title = f"{study.title}" + (f", {group_text}" if group_text else "")
-            paths.append(sector_peaks_figure(
+            paths.append(plots.sector_peaks_figure(
                 fig_dir / f"peak_per_sector_{d}{_suffix(group)}.png",
                 peaks[d]["sector"].values, series, ref.peak[d], dof=d, title=title,
                 tuned_note=ref.error))
@@ -143,9 +143,9 @@ def write_sector_figures(study, ds, fig_dir, tuned=None) -> list:
                 branches += _sector_branches(sub["frequency"].values,
                                              a.transpose("point", "sector").values,
                                              a["sector"].values, pk,
-                                             stability_for_plot(sub["stable"]),
+                                             plots.stability_for_plot(sub["stable"]),
                                              sub["converged"].values)
-                paths.append(response_curves_figure(
+                paths.append(plots.response_curves_figure(
                     fig_dir / f"amplitude_{d}{_suffix(case)}.png", branches,
                     xlabel=f"excitation frequency [{unit}]",
                     ylabel=f"amplitude of {d} [m]",
@@ -162,7 +162,6 @@ def amplification_figure(path, ds, dof: str, title: str = ""):
     """The amplification factor's distribution over the mistuning seeds (a Monte-Carlo
     sample) at each value of the first other sweep axis (preload if swept): one
     box per value (quartiles, whiskers to the extremes) over the seeds' points."""
-    from .plots import atomic_savefig, pyplot   # deferred: matplotlib on first figure
 
     a = ds["amplification_factor"].sel(dof=dof)
     other = [x for x in a.dims if x != SEED_AXIS]
@@ -172,7 +171,7 @@ def amplification_figure(path, ds, dof: str, title: str = ""):
     samples = [np.ravel(a.isel({axis: i}).values) if axis else np.ravel(a.values)
                for i in range(len(values))]
     samples = [x[np.isfinite(x)] for x in samples]
-    plt = pyplot()
+    plt = plots.pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     pos = np.arange(len(values))
     keep = [i for i, x in enumerate(samples) if x.size]
@@ -191,7 +190,7 @@ def amplification_figure(path, ds, dof: str, title: str = ""):
     ax.set_title(f"{title}\n{n} mistuning seeds: largest sector peak / tuned peak", fontsize=9)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    out = atomic_savefig(fig, path)
+    out = plots.atomic_savefig(fig, path)
     plt.close(fig)
     return out
 
@@ -226,9 +225,8 @@ def nodal_diameter_figure(path, ds):
     """Frequency against nodal diameter (the interference diagram's frequency axis),
     one line per mode family, contacts stuck (solid) and open (dashed): an engine
     order EO excites the column ND = EO, between its open and stuck frequencies."""
-    from .plots import atomic_savefig, pyplot   # deferred: matplotlib on first figure
 
-    plt = pyplot()
+    plt = plots.pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     nd = ds.nodal_diameter.values
     for m in range(ds.sizes["mode"]):
@@ -243,6 +241,6 @@ def nodal_diameter_figure(path, ds):
     ax.set_title(ds.attrs.get("title", ""), fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(title="contacts", fontsize=8)
-    out = atomic_savefig(fig, path)
+    out = plots.atomic_savefig(fig, path)
     plt.close(fig)
     return out

@@ -6,6 +6,12 @@ from __future__ import annotations
 import itertools
 from pathlib import Path
 
+import numpy as np
+
+from ..contact import YangMenq
+from ..contact.exact import history
+from .disk_figures import is_sector_resolved, write_sector_figures
+from .plots import atomic_savefig, pyplot, response_curves_figure, stability_for_plot
 from .spec import Study
 
 
@@ -22,9 +28,7 @@ def write_figures(study: Study, ds, fig_dir, tuned=None) -> list:
     """Amplitude-frequency figures (one per response DOF and per combination of
     the non-curve sweep axes); one curve per value of `preload` (or the first axis).
     A mistuned disk gets its own figures (`disk_figures.write_sector_figures`)."""
-    from .dataset import dof_selection
-    from .disk_figures import is_sector_resolved, write_sector_figures
-    from .plots import response_curves_figure, stability_for_plot
+    from .dataset import dof_selection   # deferred: xarray, only when figures are drawn
 
     if "amplitude" not in study.output.figures:
         return hysteresis_figures(study, ds, fig_dir)
@@ -65,12 +69,6 @@ def hysteresis_figures(study: Study, ds, fig_dir) -> list:
     drawn exactly from the dataset's coefficients (`contact.exact.history`)."""
     if "hysteresis" not in study.output.figures or "hysteresis_u" not in ds:
         return []
-    import numpy as np
-
-    from ..contact import YangMenq
-    from ..contact.exact import history
-    from .plots import atomic_savefig, pyplot   # deferred: matplotlib on first figure
-
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     tau = np.linspace(0.0, 2 * np.pi, 1201)

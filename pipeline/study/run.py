@@ -28,6 +28,7 @@ from ..errors import UsageError
 from .cases import default_solver, run_case, separation_guard
 from .checkpoint import checkpoint_dir, kept_cases, load_cases, remove_stale, save_case
 from .documents import load_study
+from .mistuned import tuned_references
 from .response_figures import sector_output_dofs, write_figures
 from .spec import Study, StudyResult
 
@@ -273,7 +274,6 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     tuned = None
     if getattr(study.scene, "mistuning", None) is not None and int(sum(
             c is not None for c in curves)):   # the tuned disk the mistuning is read against
-        from .mistuned import tuned_references
         tuned = tuned_references(study, sector_output_dofs(study), solver)
     ds = to_dataset(study, curves, errors, optimum=optimum, tuned=tuned)
     res = StudyResult(study=study, dataset=ds, path=None, failures=failures,
