@@ -107,3 +107,23 @@ def test_shrouded_disk_mistuned_quick_run(tmp_path):
                     progress=False)
     a = res.dataset.amplification_factor.values
     assert np.all(np.isfinite(a)) and np.all(a > 1.0) and problems(res.path) == []
+
+
+@pytest.mark.parametrize("contacts", ["open", "stuck"])
+def test_lowest_frequencies_of_a_large_wheel_never_densify(monkeypatch, contacts):
+    """Above DENSE_EIGEN_MAX DOFs the dataset's lowest frequencies come from sparse
+    shift-invert Lanczos: the same 50 as the dense eigen-solve (1e-10), with no
+    dense whole-wheel matrix (`dense` patched to fail on anything that large)."""
+    import pipeline.model.system as system_mod
+
+    st = load_study(STUDIES / "shrouded_disk_mistuned.toml", quick=True)
+    s = st.system({"preload": 3.0, "mistuning_seed": 1})
+    ref = system_mod.natural_frequencies(s, contacts)[:50]
+    monkeypatch.setattr(system_mod, "DENSE_EIGEN_MAX", 100)
+    real = system_mod.dense
+
+    def small_only(A):
+        assert min(A.shape) < 100, "a whole-wheel matrix was densified"
+        return real(A)
+    monkeypatch.setattr(system_mod, "dense", small_only)
+    np.testing.assert_allclose(system_mod.lowest_frequencies(s, contacts, 50), ref, rtol=1e-10)

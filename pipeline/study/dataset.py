@@ -34,10 +34,12 @@ import numpy as np
 import xarray as xr
 
 from ..model.scene import AT, stiffness_factors
-from ..model.system import natural_frequencies
+from ..model.system import lowest_frequencies
 from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
+
+MAX_MODES = 50    # natural frequencies per case in a dataset (the lowest)
 
 def response_layout(study):
     """(dof labels, sector numbers or None, rows) of the reported response DOFs.
@@ -134,7 +136,8 @@ def response_sizes(study: Study, curves) -> Layout:
                   H=max([study.solver.harmonics] + [(c.Q.shape[-1] - 1) // 2 for c in done]),
                   P=max([1] + [c.n_points for c in done]),
                   F=max([1] + [np.size(c.fold_parameter) for c in done]),
-                  W=len(study.output.peak_windows), n=len(study.scene.dofs), unit=fr.unit,
+                  W=len(study.output.peak_windows), n=min(len(study.scene.dofs), MAX_MODES),
+                  unit=fr.unit,
                   to_unit=fr.to_rad_s, computed=bool(study.solver.stability))
 
 
@@ -220,10 +223,12 @@ def response_meta(unit: str, computed: bool) -> dict:
                            "half-power band (no peak can hide between two points); "
                            "0: not excluded (see the case's message)"),
         "residual_tolerance": ((), "N", "residual norm accepted as converged"),
-        "natural_frequency_free": (("mode",), unit, "undamped natural frequency without contacts"),
+        "natural_frequency_free": (("mode",), unit, "undamped natural frequency without contacts "
+                                                   f"(the lowest, at most {MAX_MODES})"),
         "natural_frequency_stuck": (("mode",), unit,
                                     "undamped natural frequency with the contacts stuck "
-                                    "(ku of every contact, kv where n0 > 0)"),
+                                    f"(ku of every contact, kv where n0 > 0; the lowest, at most "
+                                    f"{MAX_MODES})"),
         "window_peak_amplitude": (("sector", "peak_window", "dof"), "m",
                                   "largest amplitude over converged points inside the peak window"),
         "window_peak_frequency": (("sector", "peak_window", "dof"), unit,
@@ -322,8 +327,8 @@ def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> x
     v, message = empty_arrays(lay), np.full(lay.shape, "", dtype=object)
     for (idx, case), c, err in zip(cases, curves, errors):
         sysc = study.system(case)                 # per case: mistuning changes them
-        v["natural_frequency_stuck"][idx] = natural_frequencies(sysc, "stuck") / lay.to_unit
-        v["natural_frequency_free"][idx] = natural_frequencies(sysc, "open") / lay.to_unit
+        v["natural_frequency_stuck"][idx] = lowest_frequencies(sysc, "stuck", lay.n) / lay.to_unit
+        v["natural_frequency_free"][idx] = lowest_frequencies(sysc, "open", lay.n) / lay.to_unit
         message[idx] = (fill_case(v, idx, c, lay, study.output.peak_windows) if c is not None
                         else f"failed: {err}" if err else "failed")
     data_vars = response_variables(study, v, message, lay)
