@@ -121,23 +121,28 @@ def sector_table(sizes, H: int, **kw) -> list[dict]:
     return rows
 
 
-def stability_cost(row: dict, waves: int | None = None) -> tuple:
-    """(seconds for all wave numbers, wave numbers, evaluated) of one Hill stability
-    evaluation at the curve's largest amplitude point: every wave number r = 0..N/2 of
-    the sector (`wave_jacobians`); with `waves`, only the first ones are solved and the
-    time of the Hill problems is extrapolated to all of them."""
+def stability_cost(row: dict, sample: bool = False) -> tuple:
+    """(seconds, wave numbers) of one Hill stability evaluation at the curve's largest
+    amplitude point: every wave number r = 0..N/2 of the sector (`wave_jacobians`; the
+    pairs r, N - r as one real problem of twice the size).  With `sample`, one problem
+    of each size is solved and the time extrapolated to all of them."""
     c, s = row["curve"], row["system"]
     i = int(np.argmax(c.amplitude.max(axis=1)))
     prob = hbm.setup(s, c.H)
     t = time.perf_counter()
     problems = wave_jacobians(prob, c.Q[i], c.omega[i], s.contact)
-    t_jac = time.perf_counter() - t
-    done = problems[:waves]
-    t = time.perf_counter()
-    for _, J, M, C in done:
+    total = time.perf_counter() - t
+    sizes = [J.shape[0] for _, J, _, _ in problems]
+    timed = {}
+    for size, (_, J, M, C) in zip(sizes, problems):
+        if sample and size in timed:
+            continue
+        t = time.perf_counter()
         is_stable(J, M, C, c.omega[i], c.H)
-    t_hill = time.perf_counter() - t
-    return t_jac + t_hill * len(problems) / len(done), len(problems), len(done)
+        timed[size] = timed.get(size, 0.0) + time.perf_counter() - t
+    if sample:
+        return total + sum(timed[n] for n in sizes), len(problems)
+    return total + sum(timed.values()), len(problems)
 
 
 def print_sector_table(rows, H: int) -> None:
@@ -293,10 +298,10 @@ def run(quick: bool) -> int:
     points = 3 if quick else 12
     rows = sector_table(sizes1, H1, **({"max_points": 25} if quick else {}))
     print_sector_table(rows, H1)
-    t, waves, done = stability_cost(rows[0], 1 if quick else None)
+    t, waves = stability_cost(rows[0], sample=quick)
     print(f"Hill stability at one point (N = {rows[0]['N']}, H = {H1}): {t:.2f} s for "
           f"{waves} wave numbers r = 0..N/2 ({1e3 * t / waves:.0f} ms each; their count grows "
-          f"as N/2 + 1){'' if done == waves else f'; {done} solved, extrapolated'}; "
+          f"as N/2 + 1){'; one problem of each size solved, extrapolated' if quick else ''}; "
           f"{load_average()}")
     print()
     print_wheel_table(wheel_table(sizes2, H2, points), H2, points)
