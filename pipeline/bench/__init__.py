@@ -122,6 +122,12 @@ def blade(quick=False):
     return run_blade(quick)
 
 
+def disk_bench(quick=False):
+    # not named `disk`: that is the submodule, which its import sets as this attribute
+    from .disk import run as run_disk  # deferred: scikit-fem (slow import)
+    return run_disk(quick)
+
+
 def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_example1 x mu")):
     """Wall time of whole studies: in this process, a 2-process pool and a Dask
     LocalCluster with 2 workers; the datasets must be identical (timing aside).
@@ -179,7 +185,8 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
     return 0
 
 
-BENCHES = {"contact": contact, "hbm": hbm, "blade": blade, "parallel": parallel}
+BENCHES = {"contact": contact, "hbm": hbm, "blade": blade, "disk": disk_bench,
+           "parallel": parallel}
 
 
 def run(what, quick=False):
