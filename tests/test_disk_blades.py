@@ -265,3 +265,24 @@ def test_tuned_full_wheel_solution_is_the_expanded_sector_along_an_frf():
         states.update("slip" if a > b else "stick"
                       for a, b in zip(t, el.mu * (el.n0 + el.kv * V[:, 0])))
     assert states == {"separation", "closed", "slip", "stick"}
+
+
+def test_full_wheel_jacobian_is_sparse_and_exact():
+    """The 6-blade wheel's condensed Jacobian (1620 unknowns at H = 1) comes back
+    sparse, block-cyclic: equal to the dense assembly to 1e-13, under a fifth of it
+    nonzero, and equal to central differences of the residual."""
+    scene, case, H = wheel(eo=1), {"preload": 20.0}, 1
+    pf = hbm.setup(full_system(scene, case), H)
+    x = 1e-6 * np.random.default_rng(3).standard_normal(pf.size)
+    R, J, dR = hbm.residual(pf, x, 800.0)
+    assert hasattr(J, "tocsr") and J.nnz < 0.2 * pf.size**2
+    St = hbm.linear_part(pf, 800.0, derivatives=False)[0]
+    Jd = hbm.real_blocks(St, pf.nh) + hbm.contact_terms(pf, x.reshape(pf.c.size, -1))[1]
+    assert np.abs(J.toarray() - Jd).max() < 1e-13 * np.abs(Jd).max()
+    rng = np.random.default_rng(4)
+    for j in rng.choice(pf.size, 5, replace=False):
+        e = np.zeros(pf.size)
+        e[j] = 1e-12
+        col = (hbm.residual(pf, x + e, 800.0, jacobian=False)[0]
+               - hbm.residual(pf, x - e, 800.0, jacobian=False)[0]) / 2e-12
+        assert np.abs(col - J[:, j].toarray().ravel()).max() < 1e-5 * np.abs(Jd).max()

@@ -17,7 +17,7 @@ from scipy.optimize import minimize_scalar
 
 from . import hbm
 from ..fourier.harmonics import amplitude_half_peak_to_peak
-from .newton import newton
+from .newton import augment, newton
 
 
 
@@ -54,7 +54,7 @@ def _solve_on_plane(fun, p, d, scale, tol):
         R, Jx, Jl = fun(z[:-1], z[-1])
         nfev[0] += 1
         return (np.append(R, d @ (z / scale - p)),
-                np.vstack([np.column_stack([Jx, Jl]), d / scale]))
+                augment(Jx, Jl, d / scale))
 
     r = newton(aug, p * scale, tol, max_iter=20)  # converged: |R| <= tol at r.x
     return r.x, bool(r.success), nfev[0]
@@ -174,7 +174,7 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
                 R, Jx, Jl = fun(z[:-1], z[-1])
                 nfev[0] += 1
                 return (np.append(R, d @ (z / scale - p)),
-                        np.vstack([np.column_stack([Jx, Jl]), d / scale]))
+                        augment(Jx, Jl, d / scale))
             r = newton(aug, p * scale, tol, max_iter=20)
             ok = r.success and np.linalg.norm(fun(r.x[:-1], r.x[-1])[0]) <= tol
             amp = _dof_amplitude(prob, r.x[:-1], r.x[-1], dof, omega_of) if ok else 0.0

@@ -332,18 +332,63 @@ def assemble(prob: HBMProblem, Je):
 # residual, recovery, full-system check
 # --------------------------------------------------------------------------
 
+SPARSE_JACOBIAN_MIN = 1500    # condensed unknowns from which a sparse Jacobian may pay
+SPARSE_JACOBIAN_FILL = 0.25    # ... when at most this fraction of S~_h is nonzero
+
+
+def sparse_jacobian(prob: HBMProblem, St) -> bool:
+    """True for a large problem whose condensed dynamic stiffness is mostly zero: a
+    full wheel (each blade's contact DOFs condense onto their own blade only, so the
+    Jacobian is block-cyclic), then built and factorised sparse."""
+    nc = prob.c.size
+    return (sp.issparse(prob.system.K) and prob.size >= SPARSE_JACOBIAN_MIN
+            and np.count_nonzero(St[-1]) <= SPARSE_JACOBIAN_FILL * nc * nc)
+
+
+def real_blocks_sparse(St, nh):
+    """`real_blocks` as a scipy.sparse CSR matrix, from the nonzeros of St[h]."""
+    nc = St[0].shape[0]
+    rows, cols, vals = [], [], []
+    for h, S in enumerate(St):
+        i, j = np.nonzero(S)
+        A, B = S.real[i, j], S.imag[i, j]
+        if h == 0:
+            rows.append(i * nh), cols.append(j * nh), vals.append(A)
+            continue
+        ci, si = 2 * h - 1, 2 * h
+        for r, c, v in ((ci, ci, A), (ci, si, B), (si, ci, -B), (si, si, A)):
+            rows.append(i * nh + r), cols.append(j * nh + c), vals.append(v)
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(nc * nh, nc * nh))
+
+
+def assemble_sparse(prob: HBMProblem, Je):
+    """`assemble` as a scipy.sparse CSR matrix (duplicate entries summed)."""
+    nc, nh = prob.c.size, prob.nh
+    k = np.arange(nh)
+    rows = prob.idx[:, :, None, None, None] * nh + k[:, None]
+    cols = prob.idx[:, None, :, None, None] * nh + k
+    rows, cols = np.broadcast_arrays(rows, cols, Je)[:2]
+    return sp.csr_matrix((Je.ravel(), (rows.ravel(), cols.ravel())), shape=(nc * nh, nc * nh))
+
+
 def residual(prob: HBMProblem, x, Om, contact: YangMenq | None = None, jacobian=True):
-    """Condensed residual R(x, Om) [N] with x = Qc.ravel(); (R, dR/dx, dR/dOm)."""
+    """Condensed residual R(x, Om) [N] with x = Qc.ravel(); (R, dR/dx, dR/dOm).
+    dR/dx is scipy.sparse for a full wheel (`sparse_jacobian`), else dense."""
     nh = prob.nh
     Qc = x.reshape(prob.c.size, nh)
     St, dSt, Pt, dPt = linear_part(prob, Om, derivatives=jacobian)
-    L = real_blocks(St, nh)
-    G, Jnl, _ = contact_terms(prob, Qc, contact, jacobian)
+    sparse = sparse_jacobian(prob, St)
+    L = real_blocks_sparse(St, nh) if sparse else real_blocks(St, nh)
+    G, Jnl, _ = contact_terms(prob, Qc, contact, jacobian, blocks=sparse)
     R = L @ x + G.ravel() - real_vector(Pt, nh).ravel()
     if not jacobian:
         return R, None, None
-    dL = real_blocks(dSt, nh)
+    dL = real_blocks_sparse(dSt, nh) if sparse else real_blocks(dSt, nh)
     dR_dOm = dL @ x - real_vector(dPt, nh).ravel()
+    if sparse:
+        Jnl = assemble_sparse(prob, Jnl) if Jnl.ndim == 5 else sp.csr_matrix(Jnl)
+        return R, (L + Jnl).tocsr(), dR_dOm
     return R, L + Jnl, dR_dOm
 
 

@@ -35,6 +35,20 @@ class NewtonResult:
     jac: object = field(default=None, repr=False)
 
 
+def scale_rows(w, J):
+    """diag(w) J for a dense or scipy.sparse J (sparse stays sparse)."""
+    return (sp.diags(w) @ J).tocsr() if sp.issparse(J) else w[:, None] * J
+
+
+def augment(J, col, row):
+    """[[J, col], [row]] ((n+1) x (n+1)) for a dense or scipy.sparse J."""
+    if sp.issparse(J):
+        return sp.bmat([[J, np.asarray(col)[:, None]], [np.asarray(row)[None, :-1],
+                                                         np.asarray(row)[None, -1:]]],
+                       format="csc")
+    return np.vstack([np.column_stack([J, col]), row])
+
+
 def linear_solve(A, b):
     """Dense or sparse linear solve; raises LinAlgError / RuntimeError if singular."""
     if sp.issparse(A):

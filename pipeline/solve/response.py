@@ -20,7 +20,7 @@ from .branch_refinement import densify, insert_peaks
 from .continuation import continue_branch
 from .full_operators import wave_jacobians
 from ..fourier.harmonics import amplitude_half_peak_to_peak
-from .newton import newton
+from .newton import newton, scale_rows
 from .resonance import MAX_DENSE_DOF, step_guard
 from .restarts import cover_range
 from .stability import is_stable
@@ -180,7 +180,7 @@ def _cold_start(prob, elem, Om, w, failed):
 
     def fun_s(x, s):
         R, J, _ = hbm.residual(prob, x, Om, elem)
-        return w * R + (1.0 - s) * wP, w[:, None] * J, -wP
+        return w * R + (1.0 - s) * wP, scale_rows(w, J), -wP
 
     st = newton(lambda x: fun_s(x, 0.0)[:2], np.zeros(prob.size), 1.0, max_iter=60)
     if not st.success:
@@ -211,7 +211,7 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
         d = 1e-6
         Gp = hbm.contact_terms(prob, Qc, el(p + d), False)[0]
         Gm = hbm.contact_terms(prob, Qc, el(p - d), False)[0]
-        return w * R, w[:, None] * J, w * ((Gp - Gm) / (2 * d)).ravel()
+        return w * R, scale_rows(w, J), w * ((Gp - Gm) / (2 * d)).ravel()
 
     groups = np.repeat(np.arange(prob.c.size), prob.nh)
     spent = 0
@@ -235,7 +235,7 @@ def _weighted(fun, w):
     (row scaling: Newton steps and tangents are unchanged, only the test is)."""
     def f(x, lam):
         R, J, dR = fun(x, lam)
-        return w * R, (None if J is None else w[:, None] * J), (None if dR is None else w * dR)
+        return w * R, (None if J is None else scale_rows(w, J)), (None if dR is None else w * dR)
     return f
 
 
