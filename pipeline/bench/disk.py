@@ -43,6 +43,7 @@ from ..model.loads import PointLoad
 from ..model.scene import Blade, CraigBampton, Cyclic, Scene, build_system, full_system
 from ..model.system import natural_frequencies
 from ..solve import hbm
+from ..solve.parts import SPARSE_JACOBIAN_MIN
 from ..solve.full_operators import wave_jacobians
 from ..solve.response import frequency_response
 from ..solve.stability import is_stable
@@ -56,6 +57,7 @@ LOAD = PointLoad("excitation", (0.0, 1.0, 0.0), 1.0, 1, 0.0)   # 1 N in Y, first
 # table 1: the coarse mesh of tests/test_disk_blades.py
 SECTOR_BLADE = BladeParams(n_chord=2, n_thick=1, n_span=4)
 SECTOR_MODES = 6
+SECTOR_PHASE_DIVISOR = 6    # table 1: EO = N / 6, the interblade phase 2 pi / 6 for every N
 # table 2: the beam blade with a rigid tip shroud (2 x 2 contact points per face)
 WHEEL_BLADE = BladeParams(kind="beam", n_span=10)
 WHEEL_MODES = 6
@@ -93,8 +95,10 @@ def limits(sector_system) -> tuple:
 # ---------------------------------------------------------------------------
 
 def sector_row(sectors: int, H: int, window=(0.8, 1.2), max_points: int = 1000) -> dict:
-    """One traced curve of the tuned sector over [window[0] w_open, window[1] w_stuck]."""
-    scene = disk_scene(SECTOR_BLADE, sectors, SECTOR_MODES)
+    """One traced curve of the tuned sector over [window[0] w_open, window[1] w_stuck],
+    engine order N / 6: the same interblade phase (60 deg), so the same blade traces
+    the same curve for every N and only the cost of the reduction could differ."""
+    scene = disk_scene(SECTOR_BLADE, sectors, SECTOR_MODES, eo=sectors // SECTOR_PHASE_DIVISOR)
     s = build_system(scene, {"preload": PRELOAD})
     w_open, w_stuck = limits(s)
     frequency_response(s, 1, w_open, 1.01 * w_open, stability=False,  # warm-up (caches)
@@ -104,11 +108,13 @@ def sector_row(sectors: int, H: int, window=(0.8, 1.2), max_points: int = 1000) 
                            stability=False, peak_dofs=[0], dense_output=False,
                            max_points=max_points)
     wall = time.perf_counter() - t
-    return {"N": sectors, "R": hub_radius(SECTOR_BLADE, sectors), "dofs": s.n_dof,
+    return {"N": sectors, "EO": sectors // SECTOR_PHASE_DIVISOR,
+            "R": hub_radius(SECTOR_BLADE, sectors), "dofs": s.n_dof,
             "contact_dofs": int(hbm.setup(s, H).c.size), "pairs": s.contact.size,
             "w_open": w_open, "w_stuck": w_stuck, "points": c.n_points, "s_curve": wall,
             "ms_point": 1e3 * wall / max(c.n_points, 1),
             "newton_point": float(c.info["njev"]) / max(c.n_points, 1),
+            "ms_eval": 1e3 * wall / max(c.nfev, 1),
             "converged": bool(np.all(c.converged)), "success": c.success, "curve": c,
             "system": s}
 
@@ -147,24 +153,23 @@ def stability_cost(row: dict, sample: bool = False) -> tuple:
 def print_sector_table(rows, H: int) -> None:
     print(f"Tuned FE sector (solid blade {SECTOR_BLADE.n_chord}x{SECTOR_BLADE.n_thick}x"
           f"{SECTOR_BLADE.n_span} Hex2, Craig-Bampton({SECTOR_MODES}), {rows[0]['pairs']} "
-          f"contact pairs), EO = {EO}, H = {H}, preload {PRELOAD} N, stability off; "
-          f"window [0.8 w_open, 1.2 w_stuck] of ND {EO}")
+          f"contact pairs), EO = N/6 (interblade phase 60 deg), H = {H}, preload {PRELOAD} N, "
+          "stability off; window [0.8 w_open, 1.2 w_stuck] of ND = EO")
     print(f"R: shroud width {SHROUD_WIDTH} m for every N; {load_average()}")
-    print(f"{'N':>4} {'R [m]':>7} {'DOFs':>5} {'contact DOFs':>12} {'w_open':>8} "
+    print(f"{'N':>4} {'EO':>3} {'R [m]':>7} {'DOFs':>5} {'contact DOFs':>12} {'w_open':>8} "
           f"{'w_stuck':>8} {'points':>6} {'Newton/pt':>9} {'s/curve':>8} {'ms/point':>9} "
-          f"{'ratio':>6} {'covered':>7} {'conv.':>5}")
+          f"{'ms/eval':>8} {'ratio':>6} {'covered':>7} {'conv.':>5}")
     for r in rows:
-        print(f"{r['N']:>4} {r['R']:7.3f} {r['dofs']:>5} {r['contact_dofs']:>12} "
+        print(f"{r['N']:>4} {r['EO']:>3} {r['R']:7.3f} {r['dofs']:>5} {r['contact_dofs']:>12} "
               f"{r['w_open']:8.1f} {r['w_stuck']:8.1f} {r['points']:>6} {r['newton_point']:9.2f} "
-              f"{r['s_curve']:8.2f} {r['ms_point']:9.1f} {r['ratio']:6.2f} "
+              f"{r['s_curve']:8.2f} {r['ms_point']:9.1f} {r['ms_eval']:8.1f} {r['ratio']:6.2f} "
               f"{'yes' if r['success'] else 'no':>7} {'yes' if r['converged'] else 'NO':>5}")
     nc = {r["contact_dofs"] for r in rows}
     print(f"nonlinear unknowns per harmonic: {sorted(nc)} "
           f"({'the same for every N' if len(nc) == 1 else 'NOT the same'}); "
           f"w in rad/s; ratio: ms/point over N = {rows[0]['N']}; covered: the curve reached "
           "the window's end; conv.: every point's full residual within tolerance")
-    print(f"(a fixed EO = {EO} is a different interblade phase 2 pi EO / N for each N, hence "
-          "the different w_stuck of the same blade)")
+    print("ms/eval: wall time per residual evaluation (with its Jacobian) of the curve")
 
 
 # ---------------------------------------------------------------------------
@@ -193,8 +198,9 @@ def peak_rss() -> int:
 
 
 def wheel_setup(sectors: int, H: int) -> dict:
-    """The full wheel's system, its frequency window and its sizes (no solve)."""
-    scene = disk_scene(WHEEL_BLADE, sectors, WHEEL_MODES)
+    """The full wheel's system, its frequency window and its sizes (no solve); engine
+    order N / 6, the same interblade phase for every N (as table 1)."""
+    scene = disk_scene(WHEEL_BLADE, sectors, WHEEL_MODES, eo=sectors // SECTOR_PHASE_DIVISOR)
     case = {"preload": PRELOAD}
     w_open, w_stuck = limits(build_system(scene, case))
     f = full_system(scene, case)
@@ -206,9 +212,9 @@ def wheel_setup(sectors: int, H: int) -> dict:
             "sector_dofs": n, "contact_dofs": nc, "pairs": f.contact.size // sectors,
             "sparse": sp.issparse(f.K),
             "matrix_bytes": sum(matrix_bytes(A) for A in (f.M, f.C, f.K, f.Bt, f.Bn)),
-            # the condensed Jacobian is built sparse from hbm.SPARSE_JACOBIAN_MIN unknowns
+            # the condensed Jacobian is built sparse from SPARSE_JACOBIAN_MIN unknowns
             "jacobian_bytes": ((nc * (2 * H + 1)) ** 2 * 8
-                               if nc * (2 * H + 1) < hbm.SPARSE_JACOBIAN_MIN else 0),
+                               if nc * (2 * H + 1) < SPARSE_JACOBIAN_MIN else 0),
             "window": (0.9 * w_stuck, 1.1 * w_stuck),
             "system": f}
 
@@ -255,8 +261,8 @@ def print_wheel_table(rows, H: int, points: int) -> None:
     print(f"Full wheel (all N blades, no symmetry; beam blades with a rigid tip shroud, "
           f"{WHEEL_BLADE.n_span} elements, Craig-Bampton({WHEEL_MODES}), "
           f"{rows[0]['pairs']} contact pairs per interface, {rows[0]['sector_dofs']} DOFs per "
-          f"blade), EO = {EO}, H = {H}, preload {PRELOAD} N, stability off")
-    print(f"window [0.9, 1.1] w_stuck of ND {EO}, budget {points} points from its start; "
+          f"blade), EO = N/6, H = {H}, preload {PRELOAD} N, stability off")
+    print(f"window [0.9, 1.1] w_stuck of ND = EO, budget {points} points from its start; "
           f"{load_average()}")
     print(f"{'N':>3} {'R [m]':>6} {'DOFs':>6} {'contact DOFs':>12} {'points':>6} "
           f"{'Newton/pt':>9} {'s/FRF':>8} {'s/point':>8} {'growth':>7} {'w_end':>7} "

@@ -50,6 +50,8 @@ from ..contact import YangMenq, forces
 from ..fourier.harmonics import derivative_matrix, shift_tables, turn
 from ..fourier.harmonics import shift as time_shift
 from ..model.system import System, coupled_stiffness, dense, element_rows
+from .parts import (assemble_sparse, condense_parts, part_blocks, real_blocks_sparse,
+                    sparse_jacobian)
 
 
 @dataclass(frozen=True)
@@ -69,6 +71,7 @@ class HBMProblem:
     shift: np.ndarray | None = None   # (E, m) time shift theta of each slot [rad] (cyclic)
     rot: np.ndarray | None = None     # (2, E, m, 2H+1) cos, sin of h theta in the layout
     nxt: np.ndarray | None = None     # (E, m) bool: the slot is a DOF of the next sector
+    parts: object = None              # parts.PartBlocks of independent parts (a full wheel)
 
     @property
     def nh(self):
@@ -108,7 +111,7 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
             k += r.size
     if cy is None:
         return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
-                          system.forcing_coefficients(H))
+                          system.forcing_coefficients(H), parts=part_blocks(system, c, o))
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                       system.forcing_coefficients(H), shift, np.stack(shift_tables(shift, H)), nxt)
 
@@ -177,6 +180,12 @@ def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True):
     sys, c, o, H = prob.system, prob.c, prob.o, prob.H
     if not sp.issparse(sys.K):
         return _linear_part_dense(prob, Om, derivatives)
+    if prob.parts is not None:   # a full wheel on a rigid disk: blade by blade (parts.py)
+        out = [condense_parts(prob.parts, h, Om, _complex_forcing(prob.P, h), c, derivatives)
+               for h in range(H + 1)]
+        St, dSt, Pt, dPt = zip(*out)
+        return (list(St), list(dSt) if derivatives else [], np.array(Pt),
+                np.array(dPt) if derivatives else None)
     St, dSt, Pt, dPt = [], [], [], []
     for h in range(H + 1):
         S = _S(sys, h, Om)
@@ -331,46 +340,6 @@ def assemble(prob: HBMProblem, Je):
 # --------------------------------------------------------------------------
 # residual, recovery, full-system check
 # --------------------------------------------------------------------------
-
-SPARSE_JACOBIAN_MIN = 1500    # condensed unknowns from which a sparse Jacobian may pay
-SPARSE_JACOBIAN_FILL = 0.25    # ... when at most this fraction of S~_h is nonzero
-
-
-def sparse_jacobian(prob: HBMProblem, St) -> bool:
-    """True for a large problem whose condensed dynamic stiffness is mostly zero: a
-    full wheel (each blade's contact DOFs condense onto their own blade only, so the
-    Jacobian is block-cyclic), then built and factorised sparse."""
-    nc = prob.c.size
-    return (sp.issparse(prob.system.K) and prob.size >= SPARSE_JACOBIAN_MIN
-            and np.count_nonzero(St[-1]) <= SPARSE_JACOBIAN_FILL * nc * nc)
-
-
-def real_blocks_sparse(St, nh):
-    """`real_blocks` as a scipy.sparse CSR matrix, from the nonzeros of St[h]."""
-    nc = St[0].shape[0]
-    rows, cols, vals = [], [], []
-    for h, S in enumerate(St):
-        i, j = np.nonzero(S)
-        A, B = S.real[i, j], S.imag[i, j]
-        if h == 0:
-            rows.append(i * nh), cols.append(j * nh), vals.append(A)
-            continue
-        ci, si = 2 * h - 1, 2 * h
-        for r, c, v in ((ci, ci, A), (ci, si, B), (si, ci, -B), (si, si, A)):
-            rows.append(i * nh + r), cols.append(j * nh + c), vals.append(v)
-    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(nc * nh, nc * nh))
-
-
-def assemble_sparse(prob: HBMProblem, Je):
-    """`assemble` as a scipy.sparse CSR matrix (duplicate entries summed)."""
-    nc, nh = prob.c.size, prob.nh
-    k = np.arange(nh)
-    rows = prob.idx[:, :, None, None, None] * nh + k[:, None]
-    cols = prob.idx[:, None, :, None, None] * nh + k
-    rows, cols = np.broadcast_arrays(rows, cols, Je)[:2]
-    return sp.csr_matrix((Je.ravel(), (rows.ravel(), cols.ravel())), shape=(nc * nh, nc * nh))
-
 
 def residual(prob: HBMProblem, x, Om, contact: YangMenq | None = None, jacobian=True):
     """Condensed residual R(x, Om) [N] with x = Qc.ravel(); (R, dR/dx, dR/dOm).
