@@ -127,3 +127,15 @@ def test_lowest_frequencies_of_a_large_wheel_never_densify(monkeypatch, contacts
         return real(A)
     monkeypatch.setattr(system_mod, "dense", small_only)
     np.testing.assert_allclose(system_mod.lowest_frequencies(s, contacts, 50), ref, rtol=1e-10)
+
+
+def test_a_load_on_the_clamped_root_is_refused():
+    """With one element along the span the excitation node (one third of the span)
+    falls on the clamped root: a load there would act on nothing, so it is an error."""
+    text = (STUDIES / "shrouded_disk.toml").read_text().replace(
+        "[quick.scene.blade]\nn_chord = 2\nn_thick = 1\nn_span = 4",
+        "[quick.scene.blade]\nn_chord = 2\nn_thick = 1\nn_span = 1")
+    with pytest.raises(UsageError) as e:
+        parse_study(text, file="sd.toml", quick=True)
+    assert str(e.value).startswith("sd.toml: scene.excitation[0].set: the load at node set "
+                                   "'excitation' acts on a clamped DOF"), str(e.value)

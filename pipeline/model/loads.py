@@ -27,7 +27,8 @@ class PointLoad:
 
 
 def point_forcing(blade, loads) -> np.ndarray:
-    """(n_full, Hf+1) complex load amplitudes [N] of `PointLoad`s on an FE blade."""
+    """(n_full, Hf+1) complex load amplitudes [N] of `PointLoad`s on an FE blade.
+    ValueError when a load component falls on a clamped DOF (it would load nothing)."""
     hf = max([ld.harmonic for ld in loads] + [1])
     F = np.zeros((blade.n_dof, hf + 1), dtype=complex)
     for ld in loads:
@@ -36,4 +37,8 @@ def point_forcing(blade, loads) -> np.ndarray:
         for c, d in enumerate(blade.dof_sets[ld.set][0]):
             if d >= 0:
                 F[d, ld.harmonic] += a * local[c]
+            elif abs(local[c]) > 1e-12 and ld.amplitude != 0:
+                raise ValueError(f"the load at node set {ld.set!r} acts on a clamped DOF "
+                                 f"(component {'xyz'[c]}): it would load nothing; refine the "
+                                 "span so the set lies off the root")
     return F

@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from ..model.contacts import FaceContact
-from ..model.loads import PointLoad
+from ..model.loads import PointLoad, point_forcing
 from ..model.scene import Blade, CraigBampton, Scene, Single, blade_model
 from ..structure.fe_model import BladeParams, boundary_dofs
 from ..structure.reduction import DEFAULT_MODES
@@ -272,6 +272,10 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
     for i, ld in enumerate(loads):
         if ld.set not in blade.dof_sets:
             ck.fail(f"scene.excitation[{i}].set", f"the blade has no node set {ld.set!r}")
+        try:
+            point_forcing(blade, (ld,))
+        except ValueError as exc:
+            ck.fail(f"scene.excitation[{i}].set", str(exc))
     blade_disk.check_pairs(ck, blade, contacts, placement, fld("mesh") if mesh else "scene.disk")
     for i, c in enumerate(contacts):
         if not isinstance(c, FaceContact):
