@@ -325,8 +325,10 @@ def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> x
     errors = list(errors) if errors is not None else [None] * len(cases)
     lay = response_sizes(study, curves)
     v, message = empty_arrays(lay), np.full(lay.shape, "", dtype=object)
+    systems = []
     for (idx, case), c, err in zip(cases, curves, errors):
         sysc = study.system(case)                 # per case: mistuning changes them
+        systems.append(sysc)
         v["natural_frequency_stuck"][idx] = lowest_frequencies(sysc, "stuck", lay.n) / lay.to_unit
         v["natural_frequency_free"][idx] = lowest_frequencies(sysc, "open", lay.n) / lay.to_unit
         message[idx] = (fill_case(v, idx, c, lay, study.output.peak_windows) if c is not None
@@ -338,7 +340,7 @@ def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> x
     if tuned is not None and "sector" in data_vars["peak_amplitude"][0]:
         _add_amplification(data_vars, study, tuned, lay)
     if "hysteresis" in study.output.figures and lay.sectors is None:
-        _add_hysteresis(data_vars, study, cases, curves, lay)
+        _add_hysteresis(data_vars, study, cases, curves, systems, lay)
         coords["coefficient"] = index_coord("coefficient", np.arange(2 * study.solver.harmonics
                                                                      + 1),
                                             "Fourier coefficient [a0, a1, b1, a2, b2, ...]")
@@ -385,7 +387,7 @@ def _add_amplification(data_vars, study, tuned: dict, lay: Layout):
         "units": "1", "long_name": "amplification factor: largest sector peak / tuned peak"})
 
 
-def _add_hysteresis(data_vars, study, cases, curves, lay: Layout):
+def _add_hysteresis(data_vars, study, cases, curves, systems, lay: Layout):
     """The contact motion at each case's peak (first output DOF) of the element that
     slides most there: `hysteresis_u`, `hysteresis_v` (grid..., coefficient) [m] in
     the layout of `harmonics.py`, its parameters and index; enough to redraw its
@@ -395,13 +397,13 @@ def _add_hysteresis(data_vars, study, cases, curves, lay: Layout):
     U, V = np.full(shape + (2 * H + 1,), np.nan), np.full(shape + (2 * H + 1,), np.nan)
     par = {k: np.full(shape, np.nan) for k in ("ku", "kv", "mu", "n0", "frequency")}
     element = np.full(shape, -1, dtype=np.int32)
-    for (idx, case), c in zip(cases, curves):
+    for (idx, _), c, system in zip(cases, curves, systems):
         ok = None if c is None else np.asarray(c.converged, bool)
         if ok is None or not ok.any():
             continue
         a = np.where(ok, np.asarray(c.amplitude, float)[:, lay.rows[0, 0]], -np.inf)
         i = int(np.argmax(a))
-        prob = hbm.setup(study.system(case), H)
+        prob = hbm.setup(system, H)
         Ue, Ve = hbm.contact_motion(prob, np.asarray(c.Q[i])[prob.c])
         e = int(np.argmax(np.linalg.norm(Ue[:, 1:], axis=1)))
         U[idx], V[idx], element[idx] = Ue[e], Ve[e], e
