@@ -115,6 +115,7 @@ def sector_row(sectors: int, H: int, window=(0.8, 1.2), max_points: int = 1000) 
             "ms_point": 1e3 * wall / max(c.n_points, 1),
             "newton_point": float(c.info["njev"]) / max(c.n_points, 1),
             "ms_eval": 1e3 * wall / max(c.nfev, 1),
+            "ms_newton": 1e3 * wall / max(int(c.info["njev"]), 1),
             "converged": bool(np.all(c.converged)), "success": c.success, "curve": c,
             "system": s}
 
@@ -123,6 +124,7 @@ def sector_table(sizes, H: int, **kw) -> list[dict]:
     rows = [sector_row(N, H, **kw) for N in sizes]
     for r in rows:
         r["ratio"] = r["ms_point"] / rows[0]["ms_point"]
+        r["ratio_newton"] = r["ms_newton"] / rows[0]["ms_newton"]
     return rows
 
 
@@ -158,18 +160,23 @@ def print_sector_table(rows, H: int) -> None:
     print(f"R: shroud width {SHROUD_WIDTH} m for every N; {load_average()}")
     print(f"{'N':>4} {'EO':>3} {'R [m]':>7} {'DOFs':>5} {'contact DOFs':>12} {'w_open':>8} "
           f"{'w_stuck':>8} {'points':>6} {'Newton/pt':>9} {'s/curve':>8} {'ms/point':>9} "
-          f"{'ms/eval':>8} {'ratio':>6} {'covered':>7} {'conv.':>5}")
+          f"{'ms/eval':>8} {'ratio':>6} {'ms/Newton':>9} {'ratio':>6} {'covered':>7} "
+          f"{'conv.':>5}")
     for r in rows:
         print(f"{r['N']:>4} {r['EO']:>3} {r['R']:7.3f} {r['dofs']:>5} {r['contact_dofs']:>12} "
               f"{r['w_open']:8.1f} {r['w_stuck']:8.1f} {r['points']:>6} {r['newton_point']:9.2f} "
               f"{r['s_curve']:8.2f} {r['ms_point']:9.1f} {r['ms_eval']:8.1f} {r['ratio']:6.2f} "
+              f"{r['ms_newton']:9.1f} {r['ratio_newton']:6.2f} "
               f"{'yes' if r['success'] else 'no':>7} {'yes' if r['converged'] else 'NO':>5}")
     nc = {r["contact_dofs"] for r in rows}
     print(f"nonlinear unknowns per harmonic: {sorted(nc)} "
           f"({'the same for every N' if len(nc) == 1 else 'NOT the same'}); "
           f"w in rad/s; ratio: ms/point over N = {rows[0]['N']}; covered: the curve reached "
           "the window's end; conv.: every point's full residual within tolerance")
-    print("ms/eval: wall time per residual evaluation (with its Jacobian) of the curve")
+    print("ms/eval: wall time per residual evaluation (with its Jacobian) of the curve; "
+          "ms/Newton: wall time per Newton iteration (the curve's time over its Jacobian "
+          "evaluations): the cost of a point at equal work, since the number of iterations "
+          "a point takes follows the path, which the disk curvature changes slightly with N")
 
 
 # ---------------------------------------------------------------------------

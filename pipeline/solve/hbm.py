@@ -50,8 +50,8 @@ from ..contact import YangMenq, forces
 from ..fourier.harmonics import derivative_matrix, shift_tables, turn
 from ..fourier.harmonics import shift as time_shift
 from ..model.system import System, coupled_stiffness, dense, element_rows
-from .parts import (assemble_sparse, condense_parts, part_blocks, real_blocks_sparse,
-                    sparse_jacobian)
+from .parts import (condense_parts, jacobian_pattern, linear_values, part_blocks,
+                    pattern_matrix)
 
 
 @dataclass(frozen=True)
@@ -72,6 +72,7 @@ class HBMProblem:
     rot: np.ndarray | None = None     # (2, E, m, 2H+1) cos, sin of h theta in the layout
     nxt: np.ndarray | None = None     # (E, m) bool: the slot is a DOF of the next sector
     parts: object = None              # parts.PartBlocks of independent parts (a full wheel)
+    pattern: object = None            # parts.JacobianPattern: the Jacobian is built sparse
 
     @property
     def nh(self):
@@ -110,8 +111,10 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
             bt[e, sl], bn[e, sl], shift[e, sl], nxt[e, sl] = vt, vn, th, is_next
             k += r.size
     if cy is None:
+        parts = part_blocks(system, c, o)
+        pattern = None if parts is None else jacobian_pattern(parts, idx, c.size, 2 * H + 1)
         return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
-                          system.forcing_coefficients(H), parts=part_blocks(system, c, o))
+                          system.forcing_coefficients(H), parts=parts, pattern=pattern)
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                       system.forcing_coefficients(H), shift, np.stack(shift_tables(shift, H)), nxt)
 
@@ -316,9 +319,13 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
         return G, None, f
     bt, bn = prob.bt, prob.bn
     # per element: d(b_a^T F)/d(Q_b) for element DOF pairs (a, b)
-    Je = (np.einsum("ea,eb,ekj->eakbj", bt, bt, f.dFu_dU)
-          + np.einsum("ea,eb,ekj->eakbj", bt, bn, f.dFu_dV)
-          + np.einsum("ea,eb,ekj->eakbj", bn, bn, f.dFv_dV)).transpose(0, 1, 3, 2, 4)
+    # (E, m m, 3) weights bt bt, bt bn, bn bn times (E, 3, nh nh) derivatives: one
+    # batched product, laid out (e, a, b, k, j) as `assemble` wants
+    E, m = bt.shape
+    W = np.stack([bt[:, :, None] * bt[:, None, :], bt[:, :, None] * bn[:, None, :],
+                  bn[:, :, None] * bn[:, None, :]], axis=-1).reshape(E, m * m, 3)
+    dF = np.stack([f.dFu_dU, f.dFu_dV, f.dFv_dV], axis=1).reshape(E, 3, nh * nh)
+    Je = (W @ dF).reshape(E, m, m, nh, nh)
     if prob.rot is not None:  # T(theta_a)^T Je T(theta_b): rows by -theta_a, columns by -theta_b
         c, s = prob.rot
         Je = turn(Je, c[:, :, None, :, None], -s[:, :, None, :, None], axis=-2)
@@ -343,21 +350,21 @@ def assemble(prob: HBMProblem, Je):
 
 def residual(prob: HBMProblem, x, Om, contact: YangMenq | None = None, jacobian=True):
     """Condensed residual R(x, Om) [N] with x = Qc.ravel(); (R, dR/dx, dR/dOm).
-    dR/dx is scipy.sparse for a full wheel (`sparse_jacobian`), else dense."""
+    dR/dx is scipy.sparse for a full wheel (`HBMProblem.pattern`), else dense."""
     nh = prob.nh
     Qc = x.reshape(prob.c.size, nh)
     St, dSt, Pt, dPt = linear_part(prob, Om, derivatives=jacobian)
-    sparse = sparse_jacobian(prob, St)
-    L = real_blocks_sparse(St, nh) if sparse else real_blocks(St, nh)
-    G, Jnl, _ = contact_terms(prob, Qc, contact, jacobian, blocks=sparse)
+    pat = prob.pattern
+    lin = linear_values(pat, St) if pat is not None else None
+    L = pattern_matrix(pat, lin) if pat is not None else real_blocks(St, nh)
+    G, Jnl, _ = contact_terms(prob, Qc, contact, jacobian, blocks=pat is not None)
     R = L @ x + G.ravel() - real_vector(Pt, nh).ravel()
     if not jacobian:
         return R, None, None
-    dL = real_blocks_sparse(dSt, nh) if sparse else real_blocks(dSt, nh)
+    dL = pattern_matrix(pat, linear_values(pat, dSt)) if pat is not None else real_blocks(dSt, nh)
     dR_dOm = dL @ x - real_vector(dPt, nh).ravel()
-    if sparse:
-        Jnl = assemble_sparse(prob, Jnl) if Jnl.ndim == 5 else sp.csr_matrix(Jnl)
-        return R, (L + Jnl).tocsr(), dR_dOm
+    if pat is not None:
+        return R, pattern_matrix(pat, lin, Jnl if Jnl.ndim == 5 else None), dR_dOm
     return R, L + Jnl, dR_dOm
 
 

@@ -11,8 +11,8 @@ components of the structure's pattern over the interior DOFs, gathered once per
 problem; `condense_parts`, all parts in one batched solve per harmonic): O(N) work
 for N blades instead of the O(N^3) of one dense S_co S_oo^-1 S_oc.  The contacts couple
 neighbouring parts, so the condensed Jacobian is block-cyclic and mostly zero:
-`sparse_jacobian` decides when to build it sparse (`real_blocks_sparse`,
-`assemble_sparse`).
+`jacobian_pattern` decides once per problem whether to build it sparse and fixes its
+CSR structure; `pattern_matrix` fills it per evaluation.
 """
 from __future__ import annotations
 
@@ -103,37 +103,73 @@ SPARSE_JACOBIAN_MIN = 500    # condensed unknowns from which a sparse Jacobian p
 SPARSE_JACOBIAN_FILL = 0.25    # ... when at most this fraction of S~_h is nonzero
 
 
-def sparse_jacobian(prob, St) -> bool:
-    """True for a large problem whose condensed dynamic stiffness is mostly zero: a
-    full wheel (each blade's contact DOFs condense onto their own blade only, so the
-    Jacobian is block-cyclic), then built and factorised sparse."""
-    nc = prob.c.size
-    return (sp.issparse(prob.system.K) and prob.size >= SPARSE_JACOBIAN_MIN
-            and np.count_nonzero(St[-1]) <= SPARSE_JACOBIAN_FILL * nc * nc)
+@dataclass(frozen=True, eq=False)
+class JacobianPattern:
+    """The CSR structure of the condensed HBM Jacobian of a structure of parts, fixed
+    per problem: S~_h's nonzero pattern (pi, pj) (the contact DOFs' own couplings
+    and one dense block per part, the same for every h) expanded to the real
+    cos/sin layout of `hbm.real_blocks`, and the contact elements' blocks
+    (E, m, m, nh, nh) of `hbm.contact_terms`.  `lin` and `nl` give the position in
+    the CSR data of every linear and every contact entry (duplicates are summed),
+    so a Jacobian is one np.bincount, no sort."""
+
+    pi: np.ndarray        # (p,) rows of S~_h's pattern (positions in c)
+    pj: np.ndarray        # (p,) its columns
+    indptr: np.ndarray
+    indices: np.ndarray
+    lin: np.ndarray       # (p (2 nh - 1),) data positions of the linear entries
+    nl: np.ndarray        # (E m m nh nh,) data positions of the contact entries
+    size: int             # nc nh
 
 
-def real_blocks_sparse(St, nh):
-    """`real_blocks` as a scipy.sparse CSR matrix, from the nonzeros of St[h]."""
-    nc = St[0].shape[0]
-    rows, cols, vals = [], [], []
-    for h, S in enumerate(St):
-        i, j = np.nonzero(S)
-        A, B = S.real[i, j], S.imag[i, j]
-        if h == 0:
-            rows.append(i * nh), cols.append(j * nh), vals.append(A)
-            continue
+def linear_keys(pi, pj, nh):
+    """Row and column of each real entry of S~_h's pattern, in `linear_values` order:
+    h = 0 (cos 0), then per h >= 1 the blocks [[A, B], [-B, A]] of A + iB."""
+    rows, cols = [pi * nh], [pj * nh]
+    for h in range(1, (nh - 1) // 2 + 1):
         ci, si = 2 * h - 1, 2 * h
-        for r, c, v in ((ci, ci, A), (ci, si, B), (si, ci, -B), (si, si, A)):
-            rows.append(i * nh + r), cols.append(j * nh + c), vals.append(v)
-    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                         shape=(nc * nh, nc * nh))
+        for r, c in ((ci, ci), (ci, si), (si, ci), (si, si)):
+            rows.append(pi * nh + r), cols.append(pj * nh + c)
+    return np.concatenate(rows), np.concatenate(cols)
 
 
-def assemble_sparse(prob, Je):
-    """`assemble` as a scipy.sparse CSR matrix (duplicate entries summed)."""
-    nc, nh = prob.c.size, prob.nh
+def jacobian_pattern(pb: PartBlocks, idx, nc: int, nh: int) -> JacobianPattern | None:
+    """The pattern of a problem whose Jacobian pays to be sparse: at least
+    SPARSE_JACOBIAN_MIN unknowns and at most SPARSE_JACOBIAN_FILL of S~_h nonzero;
+    None otherwise (the dense path)."""
+    mask = (np.abs(pb.cc[0]) + np.abs(pb.cc[1]) + np.abs(pb.cc[2])) != 0
+    mask[pb.ck[:, :, None], pb.ck[:, None, :]] = True
+    size = nc * nh
+    if size < SPARSE_JACOBIAN_MIN or mask.sum() > SPARSE_JACOBIAN_FILL * nc * nc:
+        return None
+    pi, pj = np.nonzero(mask)
+    lr, lc = linear_keys(pi, pj, nh)
     k = np.arange(nh)
-    rows = prob.idx[:, :, None, None, None] * nh + k[:, None]
-    cols = prob.idx[:, None, :, None, None] * nh + k
-    rows, cols = np.broadcast_arrays(rows, cols, Je)[:2]
-    return sp.csr_matrix((Je.ravel(), (rows.ravel(), cols.ravel())), shape=(nc * nh, nc * nh))
+    nr = np.broadcast_to(idx[:, :, None, None, None] * nh + k[:, None], idx.shape
+                         + (idx.shape[1], nh, nh))
+    nr_c = np.broadcast_to(idx[:, None, :, None, None] * nh + k, nr.shape)
+    keys = np.concatenate([lr * size + lc, (nr * size + nr_c).ravel()])
+    uniq, inverse = np.unique(keys, return_inverse=True)
+    indptr = np.searchsorted(uniq // size, np.arange(size + 1)).astype(np.int64)
+    return JacobianPattern(pi, pj, indptr, (uniq % size).astype(np.int64),
+                           inverse[:lr.size], inverse[lr.size:], size)
+
+
+def linear_values(pat: JacobianPattern, St):
+    """The real entries of the per-harmonic blocks St[h] (nc, nc) on the pattern, in
+    `linear_keys` order."""
+    V = np.array([S[pat.pi, pat.pj] for S in St])
+    out = [V[0].real]
+    for v in V[1:]:
+        out += [v.real, v.imag, -v.imag, v.real]
+    return np.concatenate(out)
+
+
+def pattern_matrix(pat: JacobianPattern, lin_values, Je=None):
+    """CSR matrix (nc nh, nc nh) of the linear entries plus, with Je, the contact
+    blocks (E, m, m, nh, nh) (duplicates summed)."""
+    nnz = pat.indices.size
+    data = np.bincount(pat.lin, weights=lin_values, minlength=nnz)
+    if Je is not None:
+        data += np.bincount(pat.nl, weights=np.ascontiguousarray(Je).ravel(), minlength=nnz)
+    return sp.csr_matrix((data, pat.indices, pat.indptr), shape=(pat.size, pat.size))

@@ -29,6 +29,11 @@ friction and impact only add dissipation, so a real resonance is at least that
 wide.  The rule holds for any continuation parameter (frequency or preload).
 Only the excited harmonics are counted: they carry the primary resonances, the
 only ones a linear branch has.
+
+A structure of independent parts (a full wheel on a rigid disk, `parts`) is
+counted part by part and its few frequencies near h Omega found by a sparse
+shift-invert solve (`part_spectrum`), with no dense matrix of the whole; its
+damping ratios are the modal ones of the linearised structure at both ends.
 """
 from __future__ import annotations
 
@@ -39,6 +44,7 @@ import scipy.linalg as sla
 
 from ..model.system import coupled_stiffness, dense, stiffness_along
 from . import hbm
+from .part_spectrum import PartSpectrum, part_spectra
 
 MAX_DENSE_DOF = 3000   # above this the count (a dense eigen-solve per point) is skipped
 WIDTH_FLOOR = 1e-6     # smallest width resolved, relative to Omega (zeta = 0 structures)
@@ -48,10 +54,25 @@ WIDTH_FLOOR = 1e-6     # smallest width resolved, relative to Omega (zeta = 0 st
 class ResonanceCount:
     """What the count needs of a problem, prepared once (plain arrays)."""
 
-    K: np.ndarray           # (n, n) structural stiffness [N/m]
-    M: np.ndarray           # (n, n) mass [kg]
+    K: np.ndarray | None    # (n, n) structural stiffness [N/m] (None: counted by parts)
+    M: np.ndarray | None    # (n, n) mass [kg]
     harmonics: tuple        # excited harmonics h >= 1
-    zeta: np.ndarray        # (n,) smallest modal damping ratio of mode i, open or closed [-]
+    zeta: np.ndarray | None  # (n,) smallest modal damping ratio of mode i, open or closed [-]
+    parts: object = None    # part_spectrum.PartSpectra of a structure of independent parts
+
+
+class DenseSpectrum:
+    """All natural frequencies w [rad/s] of one linearised structure (ascending) and
+    the damping ratios zeta [-] of its modes: `count(w)` below w, `mode(k)`."""
+
+    def __init__(self, w, zeta):
+        self.w, self.zeta = w, zeta
+
+    def count(self, w: float) -> int:
+        return int(np.sum(self.w < w))
+
+    def mode(self, k: int) -> tuple:
+        return float(self.w[k]), float(self.zeta[k]) if k < self.zeta.size else 0.0
 
 
 def modal_damping(M, C, K) -> np.ndarray:
@@ -79,10 +100,12 @@ def closed_stiffness(system) -> np.ndarray:
 
 def prepare(prob: hbm.HBMProblem) -> ResonanceCount | None:
     """The count's data for a problem; None when it does not apply (no excited
-    harmonic, or more than MAX_DENSE_DOF DOFs)."""
+    harmonic, or more than MAX_DENSE_DOF DOFs that do not fall into parts)."""
     sys = prob.system
     F = np.asarray(sys.forcing)
     harmonics = tuple(h for h in range(1, min(prob.H, F.shape[1] - 1) + 1) if np.any(F[:, h]))
+    if harmonics and prob.parts is not None and sys.cyclic is None:
+        return ResonanceCount(None, None, harmonics, None, part_spectra(sys, prob.parts, prob.c))
     if not harmonics or sys.n_dof > MAX_DENSE_DOF:
         return None
     # the count needs every natural frequency and damping ratio of the whole structure
@@ -113,11 +136,16 @@ def contact_stiffness(prob: hbm.HBMProblem, Qc, contact, h: int) -> np.ndarray:
     return Z
 
 
-def natural_frequencies(rc: ResonanceCount, prob: hbm.HBMProblem, x, contact) -> tuple:
-    """Natural frequencies [rad/s] of the structure linearised at x, per excited
-    harmonic h (the contacts' tangent stiffness depends on h): a tuple of arrays in
-    the order of rc.harmonics."""
+def natural_frequencies(rc: ResonanceCount, prob: hbm.HBMProblem, x, contact,
+                        Om: float | None = None) -> tuple:
+    """Natural frequencies of the structure linearised at x, per excited harmonic h
+    (the contacts' tangent stiffness depends on h): a tuple, in the order of
+    rc.harmonics, of spectra with `count(w)` and `mode(k)` (`DenseSpectrum`, or for
+    parts a `PartSpectrum` near h Om)."""
     Qc = np.asarray(x, float).reshape(prob.c.size, prob.nh)
+    if rc.parts is not None:
+        return tuple(PartSpectrum(rc.parts, contact_stiffness(prob, Qc, contact, h), h * Om)
+                     for h in rc.harmonics)
     cc = np.ix_(prob.c, prob.c)
     out = []
     cy = prob.system.cyclic
@@ -127,23 +155,23 @@ def natural_frequencies(rc: ResonanceCount, prob: hbm.HBMProblem, x, contact) ->
              else coupled_stiffness(prob.system, h * cy.phase)).astype(complex)
         K[cc] += 0.5 * (Z + Z.conj().T)
         lam = sla.eigh(K, rc.M, eigvals_only=True)
-        out.append(np.sign(lam) * np.sqrt(np.abs(lam)))
+        out.append(DenseSpectrum(np.sign(lam) * np.sqrt(np.abs(lam)), rc.zeta))
     return tuple(out)
 
 
 def counts(rc: ResonanceCount, prob: hbm.HBMProblem, x, Om, contact) -> tuple:
     """Number of natural frequencies of the linearised structure below h Omega, for
     each excited harmonic h (tuple of ints, in the order of rc.harmonics)."""
-    return tuple(int(np.sum(w < h * Om))
-                 for h, w in zip(rc.harmonics, natural_frequencies(rc, prob, x, contact)))
+    return tuple(w.count(h * Om) for h, w
+                 in zip(rc.harmonics, natural_frequencies(rc, prob, x, contact, Om)))
 
 
 def crossed(rc: ResonanceCount, w_a, Om_a, w_b, Om_b) -> list:
     """(h, mode index) of every natural frequency w_k / h that Omega passes between
-    two points (natural frequencies w_a, w_b per harmonic as `natural_frequencies`)."""
+    two points (spectra w_a, w_b per harmonic as `natural_frequencies`)."""
     out = []
     for h, wa, wb in zip(rc.harmonics, w_a, w_b):
-        ka, kb = int(np.sum(wa < h * Om_a)), int(np.sum(wb < h * Om_b))
+        ka, kb = wa.count(h * Om_a), wb.count(h * Om_b)
         out += [(h, k) for k in range(min(ka, kb), max(ka, kb))]
     return out
 
@@ -156,8 +184,9 @@ def detuning_ratio(rc: ResonanceCount, modes, w_a, Om_a, w_b, Om_b) -> float:
     ratio = 0.0
     for h, k in modes:
         i = idx[h]
-        change = abs((w_b[i][k] - h * Om_b) - (w_a[i][k] - h * Om_a))
-        zeta = max(float(rc.zeta[k]) if k < rc.zeta.size else 0.0, 0.5 * WIDTH_FLOOR)
+        (wa, za), (wb, zb) = w_a[i].mode(k), w_b[i].mode(k)
+        change = abs((wb - h * Om_b) - (wa - h * Om_a))
+        zeta = max(min(za, zb), 0.5 * WIDTH_FLOOR)
         ratio = max(ratio, change / (2.0 * zeta * h * 0.5 * (Om_a + Om_b)))
     return ratio
 
@@ -185,7 +214,7 @@ def step_guard(prob: hbm.HBMProblem, contact_of, omega_of=lambda lam: lam):
         if key not in memo:
             if len(memo) > 64:
                 memo.clear()
-            memo[key] = natural_frequencies(rc, prob, x, contact_of(lam))
+            memo[key] = natural_frequencies(rc, prob, x, contact_of(lam), omega_of(lam))
         return memo[key]
 
     def check(x0, lam0, x1, lam1):

@@ -292,7 +292,7 @@ def _guard_note(br, pts) -> str:
     """What the curve's message says when a peak between two points is not excluded."""
     if not pts.get("resonance_guard", False):
         return ("; resonances between points not checked (no excited harmonic, or more "
-                f"than {MAX_DENSE_DOF} DOFs)")
+                f"than {MAX_DENSE_DOF} DOFs not split into independent parts)")
     if br.n_unresolved:
         return (f"; {br.n_unresolved} step(s) across a resonance could not be shortened to "
                 "its half-power band: a peak may hide there")
