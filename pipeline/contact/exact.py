@@ -48,15 +48,22 @@ from ..fourier.trigroots import TWO_PI, polish_root, sign_changes
 # --------------------------------------------------------------------------
 
 def segment_integrals(a, b, H):
-    """X = [C_0..C_2H, S_0..S_2H] with C_m = 1/pi int_a^b cos(m t), S_m likewise."""
-    sa, sb = basis(a, 2 * H), basis(b, 2 * H)
+    """X = [C_0..C_2H, S_0..S_2H] with C_m = 1/pi int_a^b cos(m t), S_m likewise.
+
+    In product form, sin(mb) - sin(ma) = 2 cos(m c) sin(m h) and cos(ma) - cos(mb)
+    = 2 sin(m c) sin(m h) with c = (a+b)/2, h = (b-a)/2: the plain differences lose
+    all digits of a short segment (a stick arc of length ~ sqrt(mu n/(ku |u|))
+    carries a force ~ ku |u| times them).
+    """
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    mid, half = basis(0.5 * (a + b), 2 * H), basis(0.5 * (b - a), 2 * H)
     m = np.arange(1, 2 * H + 1, dtype=float)
     X = np.empty(np.shape(a) + (2 * (2 * H + 1),))
     n = 2 * H + 1
-    X[..., 0] = (np.asarray(b) - np.asarray(a)) / np.pi
-    X[..., 1:n] = (sb[..., 2::2] - sa[..., 2::2]) / (m * np.pi)
+    X[..., 0] = (b - a) / np.pi
+    X[..., 1:n] = 2 * mid[..., 1::2] * half[..., 2::2] / (m * np.pi)
     X[..., n] = 0.0
-    X[..., n + 1:] = (sa[..., 1::2] - sb[..., 1::2]) / (m * np.pi)
+    X[..., n + 1:] = 2 * mid[..., 2::2] * half[..., 2::2] / (m * np.pi)
     return X
 
 
