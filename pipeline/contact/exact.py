@@ -65,10 +65,15 @@ def element_arrays(elem: YangMenq):
     return elem.ku, elem.kv, elem.mu, elem.n0, rest, has_rest
 
 
+def kernel_input(X):
+    """X as a C-contiguous, writeable float array: the one array type the kernels are
+    compiled for (a read-only or strided array would compile another variant)."""
+    return np.require(X, dtype=float, requirements=("C", "W"))
+
+
 def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
     """Exact Fourier coefficients of f_u, f_v (Eq. 9-11) and their Jacobian."""
-    U = np.ascontiguousarray(U, dtype=float)
-    V = np.ascontiguousarray(V, dtype=float)
+    U, V = kernel_input(U), kernel_input(V)
     E, nc = U.shape
     H = harmonics_of(nc)
     Fu, Fv = np.zeros((E, nc)), np.zeros((E, nc))
@@ -90,8 +95,7 @@ def periodic_segments(U, V, elem: YangMenq) -> dict:
     -1 = unused), `w` (slider position of stick segments); per element `regime`
     (0 separated, 1 stuck, 2 transitions, 3 frictionless) and `Nc` (E, 2H+1), the
     normal load's coefficients."""
-    U = np.ascontiguousarray(U, dtype=float)
-    V = np.ascontiguousarray(V, dtype=float)
+    U, V = kernel_input(U), kernel_input(V)
     E, nc = U.shape
     H = harmonics_of(nc)
     S = capacities(H)[1]

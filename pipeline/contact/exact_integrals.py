@@ -197,11 +197,13 @@ def element_forces(Ue, Ve, ku, kv, mu, n0, rest, has_rest, H, T, B16, ws, jac, F
     return regime, varying
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def forces_all(U, V, ku, kv, mu, n0, rest, has_rest, T, B16, jac, Fu, Fv, JU, JV, JVv,
                regime, varying):
     """`element_forces` for every element (rows of U, V); Jacobians written only with
-    `jac` (else JU, JV, JVv may be (1, 2H+1, 2H+1) placeholders)."""
+    `jac` (else JU, JV, JVv may be (1, 2H+1, 2H+1) placeholders).  Serial (a
+    `prange` loop was slower on a shared 2-core machine); the GIL is released, so
+    threads may evaluate separate batches at once."""
     H = (U.shape[1] - 1) // 2
     ws = workspace(H)
     for e in range(U.shape[0]):
@@ -211,7 +213,7 @@ def forces_all(U, V, ku, kv, mu, n0, rest, has_rest, T, B16, jac, Fu, Fv, JU, JV
             Fu[e], Fv[e], JU[j], JV[j], JVv[j])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def segments_all(U, V, ku, kv, mu, n0, rest, has_rest, T, B16, a, b, state, w, regime):
     """Periodic state segments of every element, rows (E, S) padded with state -1."""
     H = (U.shape[1] - 1) // 2
