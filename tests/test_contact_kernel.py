@@ -193,3 +193,32 @@ def test_history_matches_reference():
     for a, b in zip(h["transitions"], r["transitions"]):
         assert [s for _, _, s in a] == [s for _, _, s in b]
         np.testing.assert_allclose([t for t, _, _ in a], [t for t, _, _ in b], atol=1e-12)
+
+
+def test_one_compiled_variant_for_any_input_layout():
+    from pipeline.contact.exact_integrals import forces_all
+    U, V, el = mixed_case(2, 20, 3)
+    f = forces(U, V, el)
+    ro = U.copy()
+    ro.setflags(write=False)
+    for args in ((ro, V), (np.asfortranarray(U), V[:, :]), (U.astype(np.float32), V)):
+        g = forces(*args, el, jacobian=False)
+        np.testing.assert_allclose(g.Fu, f.Fu, rtol=0, atol=1e-6 if args[0].dtype == np.float32 else 0)
+    assert len(forces_all.signatures) == 1
+
+
+def test_a_second_process_loads_the_compiled_kernels():
+    # cache=True: the compiled code is stored on the first compilation (about 11 s
+    # here) and a new process only loads it (about 0.2 s)
+    import subprocess
+    import sys
+    import time
+    forces(*mixed_case(0, 2, 1))  # compiled, and cached, by now
+    code = ("from pipeline.bench import shroud_like_motions\n"
+            "from pipeline.contact import forces\n"
+            "import time; t = time.perf_counter(); forces(*shroud_like_motions(3, 2))\n"
+            "print(time.perf_counter() - t)")
+    t = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert float(out.stdout) < 3.0, out.stdout
+    assert time.perf_counter() - t < 10.0
