@@ -9,7 +9,8 @@ elements runs without array overhead:
   * `sign_changes_one`: every sign change over one period, with the certificate of
     `trigroots` (Taylor bounds with D3 = sum_j j^3 |P_j| >= max |p'''|, cells split
     in four until certified or narrower than the resolution), so none is missed;
-  * `polish_one`: safeguarded Newton inside a bracket, to round-off;
+  * `polish_one`: safeguarded Newton (with Halley's correction) inside a bracket,
+    to round-off, with the stopping rule of `trigroots.polish_root`;
   * `add_segment_integrals`: X += sign [C_0..C_2H, S_0..S_2H] of [a, b], in
     product form (sin mb - sin ma = 2 cos(m c) sin(m h), c = (a+b)/2,
     h = (b-a)/2), exact for the short stick arcs of a stiff contact;
