@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 
 from .element import NSLIP, PSLIP, SEP, SRC_HI, SRC_LO, SRC_TD, STICK
-from ..fourier.trigkernel import TWO_PI, eval012, polish_one, sign_changes_one
+from ..fourier.trigkernel import TWO_PI, eval012, polish_one, secant_start, sign_changes_one
 
 PROBES = (0.5, 0.5 - 0.5 / np.sqrt(5), 0.5 + 0.5 / np.sqrt(5))
 
@@ -194,7 +194,7 @@ def crossing(P, H, sign, w, a, b, Q):
     qa = eval012(Q, H, a)[0]
     if qa >= 0:
         return a
-    return polish_one(Q, H, a, b, -1, qa, eval012(Q, H, b)[0], True)
+    return polish_one(Q, H, a, b, -1, secant_start(a, b, qa, eval012(Q, H, b)[0]))
 
 
 @njit(cache=True, error_model="numpy")

@@ -66,20 +66,21 @@ def eval012(P, H, x):
 
 
 @njit(cache=True, error_model="numpy")
-def polish_one(P, H, lo, hi, plo, flo, fhi, secant):
-    """Root of p in [lo, hi], where p changes sign, p(lo) having the sign plo.
+def secant_start(lo, hi, flo, fhi):
+    """The secant point of [lo, hi] from the end values, else the midpoint."""
+    xs = lo - flo * (hi - lo) / (fhi - flo)
+    return xs if np.isfinite(xs) and lo < xs < hi else 0.5 * (lo + hi)
+
+
+@njit(cache=True, error_model="numpy")
+def polish_one(P, H, lo, hi, plo, x):
+    """Root of p in [lo, hi], where p changes sign, p(lo) having the sign plo,
+    from the start x in (lo, hi).
 
     Safeguarded Newton with bisection and the stopping rule of
-    `trigroots.polish_root`, started from the secant point of the end values flo,
-    fhi if `secant`, else from the midpoint; the step takes Halley's correction
-    (p'' comes with p' from the same cos/sin): cubic convergence, one evaluation
-    fewer from a secant start.
+    `trigroots.polish_root`; the step takes Halley's correction (p'' comes with p'
+    from the same cos/sin): cubic convergence, one evaluation fewer.
     """
-    x = 0.5 * (lo + hi)
-    if secant:
-        xs = lo - flo * (hi - lo) / (fhi - flo)
-        if np.isfinite(xs) and lo < xs < hi:
-            x = xs
     up = plo < 0
     noise = abs(P[0])
     for j in range(1, H + 1):
@@ -107,6 +108,17 @@ def polish_one(P, H, lo, hi, plo, flo, fhi, secant):
 
 
 @njit(cache=True, error_model="numpy")
+def taylor_start(c, p0, p1, p2):
+    """c + the root nearest 0 of p0 + p1 t + p2 t^2/2 (stable form; Newton's step
+    where the quadratic has no real root)."""
+    disc = p1 * p1 - 2.0 * p0 * p2
+    if disc < 0:
+        return c - p0 / p1
+    root = np.sqrt(disc)
+    return c - 2.0 * p0 / (p1 + root if p1 >= 0 else p1 - root)
+
+
+@njit(cache=True, error_model="numpy")
 def _certify(p0, p1, p2, d, D3):
     no_root = abs(p0) > d * abs(p1) + d * d / 2 * abs(p2) + d ** 3 / 6 * D3
     mono = abs(p1) > d * abs(p2) + d * d / 2 * D3
@@ -114,10 +126,11 @@ def _certify(p0, p1, p2, d, D3):
 
 
 @njit(cache=True, error_model="numpy")
-def _push_root(P, H, lo, hi, slo, flo, fhi, roots, slopes, count):
-    """Polish the root bracketed by [lo, hi] and append it (capacity permitting)."""
+def _push_root(P, H, lo, hi, slo, x0, roots, slopes, count):
+    """Polish the root bracketed by [lo, hi] from x0 and append it (capacity
+    permitting)."""
     if count < roots.size:
-        roots[count] = polish_one(P, H, lo, hi, slo, flo, fhi, True) % TWO_PI
+        roots[count] = polish_one(P, H, lo, hi, slo, x0) % TWO_PI
         slopes[count] = -slo
         return count + 1
     return count
@@ -139,7 +152,8 @@ def _refine(P, H, c0, d0, D3, resolution, roots, slopes, count):
             pl, ph = eval012(P, H, c - d)[0], eval012(P, H, c + d)[0]
             sl, sh = (1 if pl >= 0 else -1), (1 if ph >= 0 else -1)
             if sl != sh:
-                count = _push_root(P, H, c - d, c + d, sl, pl, ph, roots, slopes, count)
+                count = _push_root(P, H, c - d, c + d, sl, secant_start(c - d, c + d, pl, ph),
+                                   roots, slopes, count)
             continue
         d = d / 4
         for off in (-3.0, -1.0, 1.0, 3.0):
@@ -152,7 +166,9 @@ def _refine(P, H, c0, d0, D3, resolution, roots, slopes, count):
                 pl, ph = eval012(P, H, cc - d)[0], eval012(P, H, cc + d)[0]
                 sl, sh = (1 if pl >= 0 else -1), (1 if ph >= 0 else -1)
                 if sl != sh:
-                    count = _push_root(P, H, cc - d, cc + d, sl, pl, ph, roots, slopes, count)
+                    count = _push_root(P, H, cc - d, cc + d, sl,
+                                       secant_start(cc - d, cc + d, pl, ph), roots, slopes,
+                                       count)
             elif top < stc.size:
                 stc[top], std[top] = cc, d
                 top += 1
@@ -216,8 +232,11 @@ def sign_changes_one(P, H, nodes, B, B0, B1, B2, roots, slopes):
         if mono:  # one point of the circle, one sign: node N is node 0
             pl, ph = _row_dot(B, i, P), _row_dot(B, (i + 1) % N, P)
             sl, sh = (1 if pl >= 0 else -1), (1 if ph >= 0 else -1)
-            if sl != sh:
-                count = _push_root(P, H, nodes[i], nodes[i + 1], sl, pl, ph, roots, slopes, count)
+            if sl != sh:  # start: the root of the Taylor quadratic at the centre
+                x0 = taylor_start(nodes[i] + d, p0, p1, p2)
+                if not nodes[i] < x0 < nodes[i + 1]:
+                    x0 = secant_start(nodes[i], nodes[i + 1], pl, ph)
+                count = _push_root(P, H, nodes[i], nodes[i + 1], sl, x0, roots, slopes, count)
         else:
             count = _refine(P, H, nodes[i] + d, d, D3, 1e-12, roots, slopes, count)
     _sort_roots(roots, slopes, count)
