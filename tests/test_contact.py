@@ -273,6 +273,37 @@ def test_stiff_tangential_spring_and_coulomb_limit(ku):
         assert f.Fu[0, 6] == pytest.approx(-4 * fs / (3 * np.pi), rel=1e-6)
 
 
+def jenkins_harmonics_macroslip(A, ku, fs, H):
+    """All coefficients of the Jenkins force under u = A cos(tau), ku A > fs, without
+    cancellation: by half-wave symmetry only odd harmonics, 2/pi int_0^pi f s_k, with
+    stick f = fs - 2 ku A sin^2(tau/2) on [0, t1] (Gauss-Legendre, no differences of
+    nearly equal terms), f = -fs on [t1, pi], sin^2(t1/2) = fs/(ku A)."""
+    t1 = 2 * np.arcsin(np.sqrt(fs / (ku * A)))
+    x, wq = np.polynomial.legendre.leggauss(30)
+    t = 0.5 * t1 * (x + 1)
+    stick = -2 * np.sin(t / 2) ** 2
+    F = np.zeros(2 * H + 1)
+    for k in range(1, H + 1, 2):
+        qc = 0.5 * t1 * np.sum(wq * stick * np.cos(k * t))
+        qs = 0.5 * t1 * np.sum(wq * stick * np.sin(k * t))
+        F[2 * k - 1] = 2 / np.pi * (ku * A * qc + 2 * fs * np.sin(k * t1) / k)
+        F[2 * k] = 2 / np.pi * (ku * A * qs - 2 * fs * np.cos(k * t1) / k)
+    return F
+
+
+@pytest.mark.parametrize("ratio", [1e2, 3e12, 3e14])
+def test_extreme_stiffness_ratio_short_stick_arc(ratio):
+    # ku A/(mu n) = ratio: the stick arc is ~ 2/sqrt(ratio) rad long and the force is
+    # nearly a square wave of amplitude mu n; its integrals must not lose the arc
+    H, A, mu, n = 5, 1.0, 0.3, 2.0
+    fs = mu * n
+    ku = ratio * fs / A
+    U, V = one(U1=(A,), H=H)
+    f = forces(U, V, YangMenq(ku=ku, kv=0.0, mu=mu, n0=n), jacobian=False)
+    np.testing.assert_allclose(f.Fu[0], jenkins_harmonics_macroslip(A, ku, fs, H),
+                               rtol=0, atol=1e-8 * fs)
+
+
 def test_zero_motion_and_zero_friction():
     U, V = one(U0=0.2)
     f = forces(U, V, YangMenq(ku=1.0, kv=1.0, mu=0.4, n0=3.0))
