@@ -103,19 +103,20 @@ def sector_row(sectors: int, H: int, window=(0.8, 1.2), max_points: int = 1000) 
     w_open, w_stuck = limits(s)
     frequency_response(s, 1, w_open, 1.01 * w_open, stability=False,  # warm-up (caches)
                        dense_output=False, max_points=3)
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.process_time()
     c = frequency_response(s, H, window[0] * w_open, window[1] * w_stuck, tol_rel=TOL_REL,
                            stability=False, peak_dofs=[0], dense_output=False,
                            max_points=max_points)
-    wall = time.perf_counter() - t
+    wall, cpu = time.perf_counter() - t, time.process_time() - cpu
     return {"N": sectors, "EO": sectors // SECTOR_PHASE_DIVISOR,
             "R": hub_radius(SECTOR_BLADE, sectors), "dofs": s.n_dof,
             "contact_dofs": int(hbm.setup(s, H).c.size), "pairs": s.contact.size,
             "w_open": w_open, "w_stuck": w_stuck, "points": c.n_points, "s_curve": wall,
             "ms_point": 1e3 * wall / max(c.n_points, 1),
+            "cpu_point": 1e3 * cpu / max(c.n_points, 1),
             "newton_point": float(c.info["njev"]) / max(c.n_points, 1),
-            "ms_eval": 1e3 * wall / max(c.nfev, 1),
-            "ms_newton": 1e3 * wall / max(int(c.info["njev"]), 1),
+            "cpu_eval": 1e3 * cpu / max(c.nfev, 1),
+            "cpu_newton": 1e3 * cpu / max(int(c.info["njev"]), 1),
             "converged": bool(np.all(c.converged)), "success": c.success, "curve": c,
             "system": s}
 
@@ -123,8 +124,8 @@ def sector_row(sectors: int, H: int, window=(0.8, 1.2), max_points: int = 1000) 
 def sector_table(sizes, H: int, **kw) -> list[dict]:
     rows = [sector_row(N, H, **kw) for N in sizes]
     for r in rows:
-        r["ratio"] = r["ms_point"] / rows[0]["ms_point"]
-        r["ratio_newton"] = r["ms_newton"] / rows[0]["ms_newton"]
+        r["ratio"] = r["cpu_point"] / rows[0]["cpu_point"]
+        r["ratio_newton"] = r["cpu_newton"] / rows[0]["cpu_newton"]
     return rows
 
 
@@ -160,23 +161,26 @@ def print_sector_table(rows, H: int) -> None:
     print(f"R: shroud width {SHROUD_WIDTH} m for every N; {load_average()}")
     print(f"{'N':>4} {'EO':>3} {'R [m]':>7} {'DOFs':>5} {'contact DOFs':>12} {'w_open':>8} "
           f"{'w_stuck':>8} {'points':>6} {'Newton/pt':>9} {'s/curve':>8} {'ms/point':>9} "
-          f"{'ms/eval':>8} {'ratio':>6} {'ms/Newton':>9} {'ratio':>6} {'covered':>7} "
-          f"{'conv.':>5}")
+          f"{'CPU ms/pt':>9} {'CPU ms/eval':>11} {'CPU ms/Newton':>13} {'ratio/pt':>8} "
+          f"{'ratio/Newton':>12} {'covered':>7} {'conv.':>5}")
     for r in rows:
         print(f"{r['N']:>4} {r['EO']:>3} {r['R']:7.3f} {r['dofs']:>5} {r['contact_dofs']:>12} "
               f"{r['w_open']:8.1f} {r['w_stuck']:8.1f} {r['points']:>6} {r['newton_point']:9.2f} "
-              f"{r['s_curve']:8.2f} {r['ms_point']:9.1f} {r['ms_eval']:8.1f} {r['ratio']:6.2f} "
-              f"{r['ms_newton']:9.1f} {r['ratio_newton']:6.2f} "
-              f"{'yes' if r['success'] else 'no':>7} {'yes' if r['converged'] else 'NO':>5}")
+              f"{r['s_curve']:8.2f} {r['ms_point']:9.1f} {r['cpu_point']:9.1f} "
+              f"{r['cpu_eval']:11.1f} {r['cpu_newton']:13.1f} {r['ratio']:8.2f} "
+              f"{r['ratio_newton']:12.2f} {'yes' if r['success'] else 'no':>7} "
+              f"{'yes' if r['converged'] else 'NO':>5}")
     nc = {r["contact_dofs"] for r in rows}
     print(f"nonlinear unknowns per harmonic: {sorted(nc)} "
           f"({'the same for every N' if len(nc) == 1 else 'NOT the same'}); "
           f"w in rad/s; ratio: ms/point over N = {rows[0]['N']}; covered: the curve reached "
           "the window's end; conv.: every point's full residual within tolerance")
-    print("ms/eval: wall time per residual evaluation (with its Jacobian) of the curve; "
-          "ms/Newton: wall time per Newton iteration (the curve's time over its Jacobian "
-          "evaluations): the cost of a point at equal work, since the number of iterations "
-          "a point takes follows the path, which the disk curvature changes slightly with N")
+    print("CPU: this process's CPU time (independent of what else the machine runs; "
+          "OPENBLAS_NUM_THREADS=1 makes it the work done); CPU ms/eval per residual "
+          "evaluation with its Jacobian; CPU ms/Newton per Newton iteration (the curve's "
+          "CPU time over its Jacobian evaluations): the cost of a point at equal work, since "
+          "the iterations a point takes follow the path, which the disk curvature changes "
+          "slightly with N; ratios over N = " + str(rows[0]["N"]))
 
 
 # ---------------------------------------------------------------------------
@@ -235,12 +239,12 @@ def wheel_row(sectors: int, H: int, points: int, max_jacobian_bytes=MAX_JACOBIAN
     if row["jacobian_bytes"] > max_jacobian_bytes:
         return {**row, "skipped": True}
     rss0 = current_rss()
-    t = time.perf_counter()
+    t, cpu = time.perf_counter(), time.process_time()
     c = frequency_response(f, H, *row["window"], tol_rel=TOL_REL, stability=False,
                            peak_dofs=[0], dense_output=False, max_points=points)
-    wall = time.perf_counter() - t
+    wall, cpu = time.perf_counter() - t, time.process_time() - cpu
     return {**row, "skipped": False, "points": c.n_points, "s_frf": wall,
-            "s_point": wall / max(c.n_points, 1),
+            "s_point": wall / max(c.n_points, 1), "cpu_point": cpu / max(c.n_points, 1),
             "newton_point": float(c.info["njev"]) / max(c.n_points, 1),
             "omega_end": float(c.omega[-1]) if c.n_points else float("nan"),
             "converged": bool(np.all(c.converged)), "rss_delta": max(peak_rss() - rss0, 0)}
@@ -258,7 +262,7 @@ def wheel_table(sizes, H: int, points: int, isolate: bool = True, **kw) -> list[
             rows.append(wheel_row(N, H, points, **kw))
     base = rows[0]
     for r in rows:
-        r["growth"] = (r["s_point"] / base["s_point"] / (r["N"] / base["N"])
+        r["growth"] = (r["cpu_point"] / base["cpu_point"] / (r["N"] / base["N"])
                        if not (r["skipped"] or base["skipped"]) else float("nan"))
     return rows
 
@@ -272,7 +276,7 @@ def print_wheel_table(rows, H: int, points: int) -> None:
     print(f"window [0.9, 1.1] w_stuck of ND = EO, budget {points} points from its start; "
           f"{load_average()}")
     print(f"{'N':>3} {'R [m]':>6} {'DOFs':>6} {'contact DOFs':>12} {'points':>6} "
-          f"{'Newton/pt':>9} {'s/FRF':>8} {'s/point':>8} {'growth':>7} {'w_end':>7} "
+          f"{'Newton/pt':>9} {'s/FRF':>8} {'s/point':>8} {'CPU s/pt':>8} {'growth':>7} {'w_end':>7} "
           f"{'RSS+ [MB]':>9} {'matrices [MB]':>13} {'sparse':>6} {'dense J [MB]':>12}")
     for r in rows:
         head = (f"{r['N']:>3} {r['R']:6.3f} {r['dofs']:>6} {r['contact_dofs']:>12} ")
@@ -284,9 +288,14 @@ def print_wheel_table(rows, H: int, points: int) -> None:
                   + tail)
             continue
         print(head + f"{r['points']:>6} {r['newton_point']:9.2f} {r['s_frf']:8.1f} "
-              f"{r['s_point']:8.2f} {r['growth']:7.2f} {r['omega_end']:7.0f} "
+              f"{r['s_point']:8.2f} {r['cpu_point']:8.2f} {r['growth']:7.2f} {r['omega_end']:7.0f} "
               f"{r['rss_delta'] / MB:9.0f} " + tail)
-    print("growth: (s/point) / (s/point at the first N) / (N / first N), 1 = linear in N; "
+    done = [r for r in rows if not r["skipped"]]
+    print("a 200-point FRF at the measured cost per point: " + ", ".join(
+        f"N = {r['N']}: {200 * r['s_point']:.0f} s ({200 * r['cpu_point']:.0f} s CPU)"
+        for r in done))
+    print("growth: (CPU s/point) / (CPU s/point at the first N) / (N / first N), 1 = linear "
+          "in N (CPU: this process's CPU time, OPENBLAS_NUM_THREADS=1 advised); "
           "RSS+: peak resident memory of the FRF's fresh process above its resident memory "
           "before the FRF; matrices: stored bytes of M, C, K, Bt, Bn; dense J: one copy of "
           "the condensed HBM Jacobian (nc (2H+1))^2 x 8 bytes, or 'sparse' where it is built "
