@@ -34,13 +34,16 @@ Poincare vector z = [q, q', w_S], S = the elements stuck at t = 0 that switch
 during the period:  Phi = P Phi_ext E with E the embedding z -> y (slaved rows of
 the states at t = 0, the always-stuck sliders held fixed) and P the projection
 y -> z.  The eigenvalues of Phi are the Floquet multipliers; Phi_ext has the same
-ones plus 1 per always-stuck slider and 0 per slaved one (`FloquetResult`).
+ones plus 1 per always-stuck slider and 0 per slaved one (`FloquetResult`).  A kept
+slider is overwritten by its own slip (its value afterwards is a function of q), so
+Phi has rank <= 2n: one multiplier 0 per kept slider, harmless to the verdict.
 
 `finite_difference_monodromy` differentiates the period map itself (central
 differences of `events.integrate`, the discrete states re-determined from every
 perturbed start): the independent check of the saltation product.
 `from_hbm` starts the integrator on a harmonic-balance solution, converges the
-periodic orbit by shooting (`timesim.steady_state`) and returns its multipliers.
+periodic orbit by shooting (`timesim.steady_state`) and returns its multipliers;
+`from_steady_state` takes a converged steady state as it is.
 """
 from __future__ import annotations
 
@@ -384,6 +387,15 @@ def hbm_initial_state(system: System, Omega: float, Q, samples: int = 1024):
     for k in range(tau.size):
         w = np.where(nrm[:, k] <= 0, u[:, k], np.clip(w, u[:, k] - half[:, k], u[:, k] + half[:, k]))
     return q0, qd0, w
+
+
+def from_steady_state(system: System, steady, tol: float = 1e-6) -> FloquetResult:
+    """Multipliers of a `timesim.steady_state` result (its start q0, qd0, w0 and the
+    element states at t = 0)."""
+    res = monodromy(system, steady.Omega, np.concatenate([steady.q0, steady.qd0]), steady.w0,
+                    steady.state[0], tol)
+    return replace(res, orbit_converged=bool(steady.converged),
+                   orbit_residual=float(steady.residual))
 
 
 def from_hbm(system: System, Omega: float, Q, tol: float = 1e-6, shooting_tol: float = 1e-11,
