@@ -50,6 +50,7 @@ from ..contact import YangMenq, forces
 from ..fourier.harmonics import derivative_matrix, shift_tables, turn
 from ..fourier.harmonics import shift as time_shift
 from ..model.system import System, coupled_stiffness, dense, element_rows
+from .modal_interior import condense_modal, modal_interior, recover_modal
 from .parts import (condense_parts, jacobian_pattern, linear_values, part_blocks,
                     pattern_matrix)
 
@@ -73,6 +74,7 @@ class HBMProblem:
     nxt: np.ndarray | None = None     # (E, m) bool: the slot is a DOF of the next sector
     parts: object = None              # parts.PartBlocks of independent parts (a full wheel)
     pattern: object = None            # parts.JacobianPattern: the Jacobian is built sparse
+    modal: object = None              # modal_interior.ModalInterior: condensed by modes
 
     @property
     def nh(self):
@@ -110,13 +112,17 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
             idx[e, sl] = np.searchsorted(c, r)
             bt[e, sl], bn[e, sl], shift[e, sl], nxt[e, sl] = vt, vn, th, is_next
             k += r.size
+    modal = (None if sp.issparse(system.K) or (cy is not None and cy.K_next is not None)
+             else modal_interior(*(dense(A) for A in (system.K, system.M, system.C)), c, o))
     if cy is None:
         parts = part_blocks(system, c, o)
         pattern = None if parts is None else jacobian_pattern(parts, idx, c.size, 2 * H + 1)
         return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
-                          system.forcing_coefficients(H), parts=parts, pattern=pattern)
+                          system.forcing_coefficients(H), parts=parts, pattern=pattern,
+                          modal=modal)
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
-                      system.forcing_coefficients(H), shift, np.stack(shift_tables(shift, H)), nxt)
+                      system.forcing_coefficients(H), shift, np.stack(shift_tables(shift, H)), nxt,
+                      modal=modal)
 
 
 # --------------------------------------------------------------------------
@@ -181,6 +187,9 @@ def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True):
     (dSt = d/dOm), Pt, dPt complex (H+1, nc).
     """
     sys, c, o, H = prob.system, prob.c, prob.o, prob.H
+    if prob.modal is not None:   # interior diagonalised once (modal_interior.py)
+        P = np.stack([_complex_forcing(prob.P, k) for k in range(H + 1)])
+        return condense_modal(prob.modal, H, Om, P, c, o, derivatives)
     if not sp.issparse(sys.K):
         return _linear_part_dense(prob, Om, derivatives)
     if prob.parts is not None:   # a full wheel on a rigid disk: blade by blade (parts.py)
@@ -374,6 +383,14 @@ def recover(prob: HBMProblem, Qc, Om):
     Q = np.zeros((sys.n_dof, nh))
     Q[c] = Qc
     if o.size == 0:
+        return Q
+    if prob.modal is not None:
+        for h in range(H + 1):
+            Qh = Qc[:, 0].astype(complex) if h == 0 else Qc[:, 2 * h - 1] - 1j * Qc[:, 2 * h]
+            Qo = recover_modal(prob.modal, h, Om, Qh, _complex_forcing(prob.P, h)[o])
+            Q[o, 0 if h == 0 else 2 * h - 1] = Qo.real
+            if h:
+                Q[o, 2 * h] = -Qo.imag
         return Q
     if not sp.issparse(sys.K):
         M, C = (np.asarray(A, dtype=float) for A in (sys.M, sys.C))
