@@ -2,7 +2,7 @@
 150 -> 250 rad/s, for one normal load n [N].  Run with an interpreter that has
 pyHarm (`pip install pyharm-os`), never with the pipeline's own:
 
-    python pyharm_example1.py N
+    python pyharm_example1.py N [DS]
 
     m x'' + c x' + k x + f_J(x) = F0 cos(Om t),
     m = 1 kg, c = 0.3 N s/m, k = 3.55e4 N/m, F0 = 1 N,
@@ -24,8 +24,10 @@ import time
 import numpy as np
 
 
-def example1(n, omega_end=250.0):
-    """The pyHarm input dictionary of Example 1 at normal load n [N]."""
+def example1(n, omega_end=250.0, ds=None):
+    """The pyHarm input dictionary of Example 1 at normal load n [N]; `ds`: the
+    arc-length step ds0 = ds_max (None: pyHarm's default, 1)."""
+    step = {} if ds is None else {"ds0": ds, "ds_max": ds}
     ground = {"connect": {"mass": [0]}, "dirs": [0]}
     return {
         "system": {"type": "Base", "nh": 7, "nti": 128},
@@ -38,15 +40,15 @@ def example1(n, omega_end=250.0):
             "forcing": {"type": "CosinusForcing", "amp": 1.0, **ground},
         },
         "analysis": {"frf": {"study": "frf", "puls_inf": 150.0, "puls_start": 150.0,
-                             "puls_sup": omega_end, "verbose": False}},
+                             "puls_sup": omega_end, "verbose": False, **step}},
     }
 
 
-def solve(n, omega_end=250.0):
+def solve(n, omega_end=250.0, ds=None):
     import pyHarm
     from pyHarm.DynamicOperator import compute_DFT
 
-    maestro = pyHarm.Maestro(example1(n, omega_end))
+    maestro = pyHarm.Maestro(example1(n, omega_end, ds))
     maestro.operate()
     sols = [s for s in maestro.nls["frf"].SolList if s.flag_accepted]
     X = np.array([s.x for s in sols])
@@ -56,10 +58,11 @@ def solve(n, omega_end=250.0):
 
 def main(argv):
     n = float(argv[1])
+    ds = float(argv[2]) if len(argv) > 2 else None
     logging.disable(logging.INFO)    # pyHarm logs every step at INFO
-    solve(n, omega_end=151.0)
+    solve(n, omega_end=151.0, ds=ds)
     t = time.perf_counter()
-    om, a = solve(n)
+    om, a = solve(n, ds=ds)
     seconds = time.perf_counter() - t
     i = int(np.argmax(a))
     print(f"RESULT {n:g} {om.size} {seconds:.6f} {a[i]:.10g} {om[i]:.10g} {om[-1]:.4f}")
