@@ -153,10 +153,12 @@ def format_rows(rows):
 def run(quick=False, nlvib=None, pyharm_python=None):
     nlvib = nlvib or os.environ.get("NLVIB_PATH")
     pyharm_python = pyharm_python or os.environ.get("PYHARM_PYTHON")
+    load = lambda: ", ".join(f"{x:.2f}" for x in os.getloadavg())  # noqa: E731
+    before = load()
     rows = table(nlvib, pyharm_python, repeat=1 if quick else 3)
-    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
     print(f"Example 1, H = {H}, {OMEGA[0]:g}-{OMEGA[1]:g} rad/s: this pipeline (exact forces), "
-          f"NLvib and pyHarm (AFT, 128 samples); load average {load}")
+          f"NLvib and pyHarm (AFT, 128 samples); load average {before} (start), "
+          f"{load()} (end)")
     print("\n".join(format_rows(rows)))
     print(f"time: the curve, measured inside each tool (ours: median of {1 if quick else 3}); "
           "total: the subprocess, start-up included\n"
