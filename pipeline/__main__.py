@@ -54,8 +54,13 @@ def build_parser() -> argparse.ArgumentParser:
     o.set_defaults(func=_cmd_optimise)
 
     b = sub.add_parser("bench", help="benchmarks that print tables")
-    b.add_argument("what", choices=["contact", "hbm", "blade", "disk", "parallel"], help="what to benchmark")
+    b.add_argument("what", choices=["contact", "hbm", "blade", "disk", "parallel", "peers"],
+                   help="what to benchmark")
     b.add_argument("--quick", action="store_true", help="fewer repetitions")
+    b.add_argument("--nlvib", metavar="PATH", default=None,
+                   help="peers: the NLvib folder (default $NLVIB_PATH); needs octave on PATH")
+    b.add_argument("--pyharm-python", metavar="PATH", default=None,
+                   help="peers: a Python interpreter with pyHarm (default $PYHARM_PYTHON)")
     b.set_defaults(func=_cmd_bench)
     return p
 
@@ -105,7 +110,9 @@ def _cmd_optimise(args) -> int:
 def _cmd_bench(args) -> int:
     from . import bench
 
-    return bench.run(args.what, quick=args.quick)
+    options = ({"nlvib": args.nlvib, "pyharm_python": args.pyharm_python}
+               if args.what == "peers" else {})
+    return bench.run(args.what, quick=args.quick, **options)
 
 
 def _cmd_check(args) -> int:

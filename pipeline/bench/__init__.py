@@ -200,11 +200,18 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
     return 0
 
 
+def peers_bench(quick=False, nlvib=None, pyharm_python=None):
+    # not named `peers`: that is the submodule, which its import sets as this attribute
+    from .peers import run as run_peers
+    return run_peers(quick, nlvib=nlvib, pyharm_python=pyharm_python)
+
+
 BENCHES = {"contact": contact, "hbm": hbm, "blade": blade, "disk": disk_bench,
-           "parallel": parallel}
+           "parallel": parallel, "peers": peers_bench}
 
 
-def run(what, quick=False):
+def run(what, quick=False, **options):
+    """Run one bench; `options` go to it (`peers`: nlvib, pyharm_python)."""
     if what not in BENCHES:
         raise ValueError(f"unknown benchmark {what!r}; choose from {sorted(BENCHES)}")
-    return BENCHES[what](quick=quick)
+    return BENCHES[what](quick=quick, **options)

@@ -1,0 +1,53 @@
+% Example 1 of the paper (Sec. 6.1) with NLvib: frequency response, H = 7,
+% 150 -> 250 rad/s, for one normal load n [N].
+%
+%   m x'' + c x' + k x + f_J(x) = F0 cos(Om t),
+%   m = 1 kg, c = 0.3 N s/m, k = 3.55e4 N/m, F0 = 1 N,
+%   f_J: elastic Coulomb (Jenkins) element to ground, stiffness ku = 1e4 N/m,
+%   friction limit force mu n with mu = 0.5 (NLvib type 'elasticDryFriction').
+%
+% NLvib's HB_residual (AFT, N = 128 samples per period, two periods marched for
+% the hysteresis) and its arc-length solve_and_continue with step ds (default 1,
+% bounds ds/5 and 5 ds; unknowns scaled: harmonics by qscale, default 1e-3 m, Om by
+% 150 rad/s).  Prints one line
+%   RESULT n points seconds peak_amplitude peak_omega residual_evaluations final_omega
+% seconds: the initial solution and the continuation, measured here (Octave's
+% start-up and the path set-up excluded); amplitude: half peak-to-peak of x(t).
+%
+% Usage: octave --no-gui --quiet --eval "nlvib_example1('/path/to/NLvib', n)"
+function nlvib_example1(nlvib_dir, n, ds, qscale)
+  if nargin < 3, ds = 1; end
+  if nargin < 4, qscale = 1e-3; end
+  addpath(fullfile(nlvib_dir, 'SRC'));
+  addpath(fullfile(nlvib_dir, 'SRC', 'MechanicalSystems'));
+  m = 1; c = 0.3; k = 3.55e4; ku = 1e4; mu = 0.5; F0 = 1;
+  H = 7; N = 128; Om_s = 150; Om_e = 250;
+
+  jenkins = struct('type', 'elasticDryFriction', 'stiffness', ku, ...
+                   'friction_limit_force', mu * n, 'ishysteretic', 1);
+  oscillator = SingleMassOscillator(m, c, k, {jenkins}, F0);
+
+  % initial guess: the linear response with the element stuck
+  Q1 = F0 / (k + ku - Om_s^2 + 1i * Om_s * c);
+  x0 = zeros(2 * H + 1, 1);
+  x0(2) = real(Q1); x0(3) = -imag(Q1);
+
+  Sopt = struct('Dscale', [qscale * ones(size(x0)); Om_s]);
+  % NLvib's default solver options, spelled for Octave (optimset(@fsolve) is MATLAB's)
+  Solopt = optimset('Display', 'off', 'Jacobian', 'on', 'MaxIter', 50);
+  t0 = tic;
+  [X, Solinfo] = solve_and_continue(x0, ...
+      @(X) HB_residual(X, oscillator, H, N, 'frf'), Om_s, Om_e, ds, Sopt, [], Solopt);
+  seconds = toc(t0);
+
+  % half peak-to-peak amplitude of x(t) at every point, 512 samples per period
+  tau = 2 * pi * (0:511)' / 512;
+  E = [ones(size(tau)), zeros(numel(tau), 2 * H)];
+  E(:, 2:2:end) = cos(tau * (1:H));
+  E(:, 3:2:end) = sin(tau * (1:H));
+  x = E * X(1:end-1, :);
+  a = (max(x, [], 1) - min(x, [], 1)) / 2;
+  [apk, ipk] = max(a);
+  printf('RESULT %g %d %.6f %.10g %.10g %d %.4f\n', n, size(X, 2), seconds, apk, ...
+         X(end, ipk), Solinfo.FCtotal, X(end, end));
+end

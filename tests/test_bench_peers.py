@@ -1,0 +1,51 @@
+"""`bench peers` runs without the peers installed: our rows with their numbers, the
+peers reported as not installed; a peer that fails is a row, not an exception.
+Correctness of the table's plumbing, never a timing."""
+import sys
+
+import pytest
+
+from pipeline.__main__ import main
+from pipeline.bench import peers
+
+
+@pytest.fixture
+def no_peers(monkeypatch):
+    monkeypatch.delenv("NLVIB_PATH", raising=False)
+    monkeypatch.delenv("PYHARM_PYTHON", raising=False)
+
+
+def test_bench_peers_prints_our_rows_and_the_missing_peers(no_peers, capsys):
+    assert main(["bench", "peers", "--quick"]) == 0
+    out = capsys.readouterr().out
+    assert "load average" in out
+    for n in ("1", "2", "5"):
+        ours = [line.split() for line in out.splitlines() if line.split()[:2] == [n, "ours"]]
+        assert len(ours) == 1 and int(ours[0][2]) > 50        # points
+        assert float(ours[0][5]) > 0                          # peak amplitude
+    assert out.count("NLvib          not installed") == 3
+    assert out.count("pyHarm         not installed") == 3
+
+
+def test_bench_peers_peak_matches_the_example1_bench():
+    (r,) = [r for r in peers.table(loads=(2.0,), repeat=1) if r.tool == "ours"]
+    assert r.status == "ok" and r.peak == pytest.approx(4.2456e-4, rel=1e-4)
+    assert r.peak_omega == pytest.approx(193.12, abs=0.01)
+
+
+def test_a_failing_peer_is_a_row():
+    # this interpreter has no pyHarm: the script fails on its import
+    row = peers.external(2.0, "pyHarm", [sys.executable, str(peers.SCRIPTS / "pyharm_example1.py"),
+                                         "2.0"], cwd=None)
+    assert row.status.startswith("failed:") and "pyHarm" in row.status
+
+
+def test_parse_result_and_ratios():
+    row = peers.parse_result(1.0, "NLvib", "noise\nRESULT 1 577 3.5 0.0065 188.44 3671 250.2\n",
+                             4.0)
+    assert (row.points, row.seconds, row.total, row.peak, row.peak_omega) == (
+        577, 3.5, 4.0, 0.0065, 188.44)
+    ours = peers.Row(1.0, "ours", points=125, seconds=0.35, peak=0.0065, peak_omega=188.4)
+    line = peers.format_rows([ours, row])[2].split()
+    assert line[1] == "NLvib" and float(line[-1]) == pytest.approx(10.0)
+    assert peers.parse_result(1.0, "NLvib", "error", 1.0).status.startswith("failed")
