@@ -50,7 +50,7 @@ from ..contact import YangMenq, forces
 from ..fourier.harmonics import derivative_matrix, shift_tables, turn
 from ..fourier.harmonics import shift as time_shift
 from ..model.system import System, coupled_stiffness, dense, element_rows
-from .modal_interior import condense_modal, modal_interior, recover_modal
+from .interior import condense_blocks, interior_blocks, recover_blocks
 from .parts import (condense_parts, jacobian_pattern, linear_values, part_blocks,
                     pattern_matrix)
 
@@ -74,7 +74,7 @@ class HBMProblem:
     nxt: np.ndarray | None = None     # (E, m) bool: the slot is a DOF of the next sector
     parts: object = None              # parts.PartBlocks of independent parts (a full wheel)
     pattern: object = None            # parts.JacobianPattern: the Jacobian is built sparse
-    modal: object = None              # modal_interior.ModalInterior: condensed by modes
+    interior: object = None           # interior.InteriorBlocks: dense blocks gathered once
 
     @property
     def nh(self):
@@ -112,17 +112,17 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
             idx[e, sl] = np.searchsorted(c, r)
             bt[e, sl], bn[e, sl], shift[e, sl], nxt[e, sl] = vt, vn, th, is_next
             k += r.size
-    modal = (None if sp.issparse(system.K) or (cy is not None and cy.K_next is not None)
-             else modal_interior(*(dense(A) for A in (system.K, system.M, system.C)), c, o))
+    interior = (None if sp.issparse(system.K) or (cy is not None and cy.K_next is not None)
+                else interior_blocks(*(dense(A) for A in (system.K, system.M, system.C)), c, o))
     if cy is None:
         parts = part_blocks(system, c, o)
         pattern = None if parts is None else jacobian_pattern(parts, idx, c.size, 2 * H + 1)
         return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                           system.forcing_coefficients(H), parts=parts, pattern=pattern,
-                          modal=modal)
+                          interior=interior)
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                       system.forcing_coefficients(H), shift, np.stack(shift_tables(shift, H)), nxt,
-                      modal=modal)
+                      interior=interior)
 
 
 # --------------------------------------------------------------------------
@@ -187,9 +187,9 @@ def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True):
     (dSt = d/dOm), Pt, dPt complex (H+1, nc).
     """
     sys, c, o, H = prob.system, prob.c, prob.o, prob.H
-    if prob.modal is not None:   # interior diagonalised once (modal_interior.py)
+    if prob.interior is not None:   # dense blocks gathered once (interior.py)
         P = np.stack([_complex_forcing(prob.P, k) for k in range(H + 1)])
-        return condense_modal(prob.modal, H, Om, P, c, o, derivatives)
+        return condense_blocks(prob.interior, H, Om, P, c, o, derivatives)
     if not sp.issparse(sys.K):
         return _linear_part_dense(prob, Om, derivatives)
     if prob.parts is not None:   # a full wheel on a rigid disk: blade by blade (parts.py)
@@ -384,13 +384,12 @@ def recover(prob: HBMProblem, Qc, Om):
     Q[c] = Qc
     if o.size == 0:
         return Q
-    if prob.modal is not None:
-        for h in range(H + 1):
-            Qh = Qc[:, 0].astype(complex) if h == 0 else Qc[:, 2 * h - 1] - 1j * Qc[:, 2 * h]
-            Qo = recover_modal(prob.modal, h, Om, Qh, _complex_forcing(prob.P, h)[o])
-            Q[o, 0 if h == 0 else 2 * h - 1] = Qo.real
-            if h:
-                Q[o, 2 * h] = -Qo.imag
+    if prob.interior is not None:
+        Qh = np.concatenate([Qc[:, :1].T.astype(complex), (Qc[:, 1::2] - 1j * Qc[:, 2::2]).T])
+        P_o = np.stack([_complex_forcing(prob.P, k)[o] for k in range(H + 1)])
+        Qo = recover_blocks(prob.interior, H, Om, Qh, P_o)              # (H+1, no)
+        Q[o, 0] = Qo[0].real
+        Q[o, 1::2], Q[o, 2::2] = Qo[1:].real.T, -Qo[1:].imag.T
         return Q
     if not sp.issparse(sys.K):
         M, C = (np.asarray(A, dtype=float) for A in (sys.M, sys.C))
