@@ -320,10 +320,10 @@ class ScaledEquations:
         self.njev += njev
         return z, st, nit, nfev, r, RJJ
 
-    def solve_on_plane(self, y, normal, start=None):
+    def solve_on_plane(self, y, normal, start=None, history=None):
         """Newton on R(x, lam) = 0 and normal . (z / s - y) = 0 from z = y s, or from
         z = start s (scaled unknowns, a point of the same hyperplane); the
-        `newton_core` tuple, its costs counted."""
+        `newton_core` tuple, its costs counted (`history`: its residual norms)."""
         n, s = self.n, self.s
 
         def aug(zz):
@@ -335,7 +335,8 @@ class ScaledEquations:
 
         z0 = (y if start is None else start) * s
         out = newton_core(aug, z0, self.thresh, self.max_newton,
-                          lambda F: np.linalg.norm(F[:n]), scaled_step, stall=_STALL)
+                          lambda F: np.linalg.norm(F[:n]), scaled_step, stall=_STALL,
+                          history=history)
         self.nfev += out[3]
         self.njev += out[4]
         return out

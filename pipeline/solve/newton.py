@@ -59,7 +59,7 @@ def linear_solve(A, b):
 
 
 def newton_core(fun, z0, thresh, max_iter, measure, step=linear_solve, damped=False,
-                stall=None):
+                stall=None, history=None):
     """Newton on F(z) = 0 with F, dF = fun(z); converged iff measure(F) <= thresh.
 
     The Newton step is dz = step(dF, -F).  damped=True halves it (up to 6 times)
@@ -70,7 +70,8 @@ def newton_core(fun, z0, thresh, max_iter, measure, step=linear_solve, damped=Fa
     stops instead after `stall` iterations that have not cut the first residual
     tenfold (cycling between linearisations: the remaining iterations of
     max_iter would be wasted, a shorter step is cheaper).  Linear convergence, even
-    slow, passes that test.
+    slow, passes that test.  `history`, a list, receives measure(F) of every
+    iterate.
     Returns (z, status, nit, nfev, njev, rnorm, dF, F).
     """
     z = np.array(z0, dtype=float)
@@ -82,6 +83,8 @@ def newton_core(fun, z0, thresh, max_iter, measure, step=linear_solve, damped=Fa
         if not np.all(np.isfinite(F)):
             return z, 3, k, nfev, njev, math.inf, dF, F
         r = measure(F)
+        if history is not None:
+            history.append(r)
         if r <= thresh:
             return z, 0, k, nfev, njev, r, dF, F
         r0 = r if r0 is None else r0

@@ -21,6 +21,8 @@ log = logging.getLogger("pipeline.solve.continuation")
 _CORNER_TURN = math.radians(20.0)  # one-sided tangents differing by more: try a corner
 _CURVED_COS = math.cos(math.radians(20.0))  # a larger turn between the last two tangents:
 # a corner between them, no cubic through both
+_ONE_ITER_ORDER = 6  # r1 ~ ds^6 from the cubic (start error ~ ds^3 or better, squared)
+_NEAR_MISS = 10.0    # a first iterate within this factor of the tolerance: aim at one
 
 
 class Tracer:
@@ -36,13 +38,15 @@ class Tracer:
     def __init__(self, fun, opts: ContinuationOptions):
         self.opts, self.n = opts, opts.n
         self.eq = ScaledEquations(fun, opts)
-        self.ds = opts.ds
+        self.ds = self.planned = opts.ds  # planned: the step chosen at the last point
         self.z = self.t_phys = None
         self.points = []    # (z, t_phys, nit, nfev, ||R||) of each accepted point
         self.n_rejected = self.n_unresolved = 0
         self.min_step = math.inf
         self.spent = 0      # fun calls since the last accepted point
         self.rejected_before = 0  # n_rejected when the last point was accepted
+        self.curved = False  # the last point's corrector started on the cubic
+        self.history = []    # residual norms of the last corrector's iterates
         self.recent = {}    # turn / deviation of the rejections since the last acceptance
 
     @property
@@ -99,9 +103,7 @@ class Tracer:
         if reason is not None:
             return self.reject(reason, feature, shrink, ts, zn, JJ)
         dev = np.linalg.norm(zn / self.s - y_pred) / self.ds
-        # one iteration from the cubic does not mean the line would do: the step
-        # grows as after two
-        return self.accept(zn, tan, nit if start is None else max(nit, 2), r, dev)
+        return self.accept(zn, tan, nit, r, dev, curved=start is not None)
 
     def predict(self):
         """(unit scaled tangent ts, predictor y_k + ds ts) in the scaled unknowns."""
@@ -119,8 +121,8 @@ class Tracer:
         when a step from here was rejected: a retry starts where the line predictor
         does, so that it meets the corner tests as the line's corrector does."""
         if (len(self.points) < 2 or self.n_rejected > self.rejected_before
-                or self.points[-1][2] < 2):
-            return None  # (a last point found in one iteration: the line suffices)
+                or (self.points[-1][2] < 2 and not self.curved)):
+            return None  # (a last point found in one iteration from the line: it suffices)
         s, ds = self.s, self.ds
         y0, y1 = self.points[-2][0] / s, self.z / s
         t0 = self.points[-2][1] / s
@@ -142,8 +144,11 @@ class Tracer:
     def correct(self, y_pred, normal, start=None):
         """Corrector on the hyperplane through y_pred normal to `normal` (scaled), from
         `start` on it (default y_pred): (z, status, nit, nfev, ||R||, (Jx, Jl)); status
-        -1: the hyperplane condition is not met although ||R|| is."""
-        zn, st, nit, nfev, _, r, JJ, F = self.eq.solve_on_plane(y_pred, normal, start)
+        -1: the hyperplane condition is not met although ||R|| is.  The residual
+        norms of its iterates are kept in `history`."""
+        self.history = []
+        zn, st, nit, nfev, _, r, JJ, F = self.eq.solve_on_plane(y_pred, normal, start,
+                                                                self.history)
         self.spent += nfev
         if st == 0 and abs(F[self.n]) > 1e-6 * max(
                 np.linalg.norm(y_pred - self.z / self.s), 1e-12):
@@ -220,25 +225,43 @@ class Tracer:
         self.recent["small"] = self.recent.get("small", 0) + 1
         return self.recent["small"] > 3 or (prev is not None and value > 0.75 * prev)
 
-    def accept(self, zn, tan, nit, r, dev=0.0):
-        """Take the corrected point.  The next step aims at target_newton iterations,
-        and at half the deviation (dev: the corrector's distance from the line
-        predictor, in step lengths) and half the turn that would reject it: both
-        grow in proportion to the step, while Newton, started near the branch
-        (`curved_start`), no longer feels the curvature."""
-        o = self.opts
+    def accept(self, zn, tan, nit, r, dev=0.0, curved=False):
+        """Take the corrected point and choose the next step (`next_step`)."""
         self.recent.clear()
         self.min_step = min(self.min_step, self.ds)
         done = self.commit(zn, tan[2], nit, r)
+        self.curved = curved
         if done is not None:
             return done
-        factor = math.sqrt(o.target_newton / max(nit, 1))
-        turn = math.acos(min(1.0, tan[1]))
+        self.ds = self.planned = self.next_step(nit, math.acos(min(1.0, tan[1])), dev, curved)
+        return None
+
+    def next_step(self, nit, turn, dev, curved):
+        """The step after an accepted one of nit iterations, turn and deviation dev
+        (the corrector's distance from the line predictor, in step lengths).
+
+        It aims at target_newton iterations, and at half the deviation and half the
+        turn that would reject it (both grow in proportion to the step, while
+        Newton, started near the branch by `curved_start`, no longer feels the
+        curvature; one iteration from the cubic counts as two).  From the cubic, a
+        step that needs one iteration costs 2 evaluations against nit + 1: the
+        first iterate's residual r1 shrinks like ds^_ONE_ITER_ORDER, so the step
+        with r1 = thresh / 2 is taken instead when it is cheaper per length."""
+        o = self.opts
         geometric = min(0.5 * o.max_deviation / max(dev, 1e-12),
                         0.5 * o.max_turn / max(turn, 1e-12))
-        factor = min(factor, geometric)
-        self.ds = min(max(self.ds * min(max(factor, 0.5), 2.0), o.ds_min), o.ds_max)
-        return None
+
+        def bounded(factor):
+            return min(max(self.ds * min(max(factor, 0.5), 2.0), o.ds_min), o.ds_max)
+
+        n_two = max(nit, 2) if curved else nit
+        ds = bounded(min(math.sqrt(o.target_newton / max(n_two, 1)), geometric))
+        if curved and nit == 2 and self.history[1] < _NEAR_MISS * self.eq.thresh:
+            one = (0.5 * self.eq.thresh / self.history[1]) ** (1.0 / _ONE_ITER_ORDER)
+            ds_one = bounded(min(one, geometric))
+            if 2.0 / ds_one < (n_two + 1.0) / ds:
+                ds = min(ds, ds_one)
+        return ds
 
     def reject(self, reason, feature, shrink, ts, zn, JJ):
         """Pass a corner if the rejection may be one, else shorten the step; the
@@ -321,27 +344,32 @@ class Tracer:
 
     def point_beyond_corner(self, c, tn, b):
         """The point at c + d tn, near its predictor with its tangent near tn
-        (d = min(ds, b), once more at d / 4), or None."""
+        (d = min(ds, b), once more at d / 4, and if b < ds / 4 at ds / 4: a rejected
+        point just past the corner fixes tn, but the corner only roughly), or None."""
         o = self.opts
         d = min(self.ds, b)
-        for _ in range(2):
+        tries = [d, 0.25 * d] + ([0.25 * self.ds] if b < 0.25 * self.ds else [])
+        for d in tries:
             y2p = c + d * tn
             z2, st2, nit2, _, r2, JJ2 = self.correct(y2p, tn)
             t2 = self.eq.oriented_tangent(JJ2, tn) if st2 == 0 else None
             if (t2 is not None and np.linalg.norm(z2 / self.s - y2p) <= o.max_deviation * d
                     and math.acos(min(1.0, float(t2 @ tn))) <= o.max_turn):
                 return z2, t2, nit2, r2
-            d *= 0.25
         return None
 
     def commit_corner(self, corner):
-        """Commit the points of a passed corner; the Branch if the run ends there."""
+        """Commit the points of a passed corner; the Branch if the run ends there.
+        The next step is the one planned before the rejections that found the
+        corner: they shortened it for the corner, which now lies behind."""
         self.recent.clear()
+        self.curved = False
         self.min_step = min(self.min_step, self.ds)
         for zc, tc, nitc, rc in corner:
             done = self.commit(zc, tc * self.s, nitc, rc)
             if done is not None:
                 return done
+        self.ds = max(self.ds, self.planned)
         return None
 
     # ---- accepted points and the end of the run
