@@ -117,9 +117,10 @@ class Tracer:
         last two points and their tangents, extrapolated.  The corrected point is
         the one from y_pred (same hyperplane), only Newton starts closer to it: the
         tangent predictor's error is O(ds^2), this one's O(ds^3) on a smooth arc.
-        None (start at y_pred) after a corner, where the cubic would span it, and
-        when a step from here was rejected: a retry starts where the line predictor
-        does, so that it meets the corner tests as the line's corrector does."""
+        None (start at y_pred) after a corner, where the cubic would span it; when a
+        step from here was rejected: a retry starts where the line predictor does,
+        so that it meets the corner tests as the line's corrector does; and after a
+        point that the line reached in one iteration (the line suffices there)."""
         if (len(self.points) < 2 or self.n_rejected > self.rejected_before
                 or (self.points[-1][2] < 2 and not self.curved)):
             return None  # (a last point found in one iteration from the line: it suffices)
@@ -243,10 +244,11 @@ class Tracer:
         It aims at target_newton iterations, and at half the deviation and half the
         turn that would reject it (both grow in proportion to the step, while
         Newton, started near the branch by `curved_start`, no longer feels the
-        curvature; one iteration from the cubic counts as two).  From the cubic, a
-        step that needs one iteration costs 2 evaluations against nit + 1: the
-        first iterate's residual r1 shrinks like ds^_ONE_ITER_ORDER, so the step
-        with r1 = thresh / 2 is taken instead when it is cheaper per length."""
+        curvature; one iteration from the cubic counts as two).  A step of one
+        iteration costs 2 evaluations against 3 for two: when two were needed from
+        the cubic but the first iterate's residual r1 came within _NEAR_MISS of the
+        tolerance, the shorter step with r1 = thresh / 2 (r1 shrinks like
+        ds^_ONE_ITER_ORDER) is taken if it is cheaper per length."""
         o = self.opts
         geometric = min(0.5 * o.max_deviation / max(dev, 1e-12),
                         0.5 * o.max_turn / max(turn, 1e-12))
