@@ -4,7 +4,9 @@ exact resonance peaks (`insert_peaks`).
 
 Both work on the branch points of `response`, a dict: x (P, nc (2H+1)) condensed
 unknowns, lam (P,) parameter, nit (P,), converged (P,), extra_nfev (residual
-evaluations of the peak search); `densify` adds dense_nfev and dense_points.  Every
+evaluations of the peak search), and optionally tangent (P entries: the branch
+tangent, physical units, or None) and scale (the branch's metric); `densify` adds
+dense_nfev, dense_points and amplitude (P, D) of the DOFs it drew.  Every
 added point solves R = 0 (Newton on a hyperplane across the branch), so it is a
 converged solution, not an interpolation.
 """
@@ -24,6 +26,16 @@ from .newton import augment, linear_solve, newton
 def _dof_amplitude(prob, x, lam, dof, omega_of=lambda l: l):
     Q = hbm.recover(prob, x.reshape(prob.c.size, prob.nh), omega_of(lam))
     return float(amplitude_half_peak_to_peak(Q[dof]))
+
+
+def _amplitudes(prob, X, L, dofs, omega_of):
+    """(P, D) amplitudes of the DOFs `dofs` at the points X, L (one recovery of all
+    DOFs per point)."""
+    out = np.zeros((L.size, len(dofs)))
+    for i in range(L.size):
+        Q = hbm.recover(prob, X[i].reshape(prob.c.size, prob.nh), omega_of(L[i]))
+        out[i] = amplitude_half_peak_to_peak(Q[dofs])
+    return out
 
 
 def _local_maxima(amps, converged, rel=0.05):
@@ -101,15 +113,13 @@ def _hermite_start(za, zb, ta, tb, d):
     return p if np.linalg.norm(p - m) <= 0.5 * L else None
 
 
-def _plot_coordinates(prob, X, L, dofs, omega_of):
+def _plot_coordinates(om, A):
     """(P, 1 + 2D) points of the drawn curves in axis units (one unit is one axis
-    length of a figure): frequency over the range, then for each DOF its amplitude
-    over its range (a linear axis) and log10 of it over its decades (a log axis, at
-    least half a decade)."""
-    om = np.array([omega_of(l) for l in L])
+    length of a figure): frequency om (P,) over the range, then for each DOF its
+    amplitude (a column of A (P, D)) over its range (a linear axis) and log10 of it
+    over its decades (a log axis, at least half a decade)."""
     cols = [om / max(np.ptp(om), 1e-300)]
-    for dof in dofs:
-        a = np.array([_dof_amplitude(prob, X[i], L[i], dof, omega_of) for i in range(L.size)])
+    for a in A.T:
         cols.append(a / max(np.ptp(a), 1e-300))
         la = np.log10(np.maximum(a, 1e-300))
         la = np.maximum(la, la.max() - 12.0)  # amplitudes near zero: a floor, not -inf
@@ -125,7 +135,8 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
     that meets its neighbour at more than PLOT_TURN (PLOT_TURN_LONG if it is longer
     than PLOT_LONG_CHORD: a long chord shows a small corner) is split at its middle: the
     new point solves R = 0 on the hyperplane through the middle of the chord of
-    scaled [x; lam], normal to it.  Straight stretches get no point, and a point
+    scaled [x; lam], normal to it (Newton from the cubic through both points and
+    their tangents, `_hermite_start`).  Straight stretches get no point, and a point
     on a linear stretch costs one Newton iteration.  Repeated until the curves
     turn by less than PLOT_TURN, chords are shorter than PLOT_MIN_CHORD, or
     PLOT_MAX_POINTS were added.
@@ -142,8 +153,9 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
         scale = np.array(pts["scale"], float)
     added = 0
     failed = set()
+    A = _amplitudes(prob, X, L, dofs, omega_of)  # kept up to date: new points only
     for _ in range(PLOT_PASSES):
-        Pc = _plot_coordinates(prob, X, L, dofs, omega_of)
+        Pc = _plot_coordinates(np.array([omega_of(l) for l in L]), A)
         chord = np.diff(Pc, axis=0)
         length = np.linalg.norm(chord, axis=1)
         turn = np.zeros(L.size)  # at each interior point, largest over the drawn curves
@@ -180,7 +192,11 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
         L = np.concatenate([L, [z[-1] for _, z, _ in new]])[order]
         nit = np.concatenate([nit, np.zeros(len(new), int)])[order]
         T = [(T + [t for _, _, t in new])[k] for k in order]
-    pts.update(x=X, lam=L, nit=nit, converged=np.ones(L.size, bool), dense_points=added)
+        Znew = np.array([z for _, z, _ in new])
+        A = np.concatenate([A, _amplitudes(prob, Znew[:, :-1], Znew[:, -1], dofs, omega_of)])
+        A = A[order]
+    pts.update(x=X, lam=L, nit=nit, converged=np.ones(L.size, bool), dense_points=added,
+               amplitude=A, amplitude_dofs=dofs)
     if "tangent" in pts:
         pts["tangent"] = T
     return pts
@@ -211,8 +227,11 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     scale = np.append(np.maximum(np.abs(X).max(0), 1e-12 * np.abs(X).max() + 1e-300),
                       max(np.ptp(L), abs(L).max() * 1e-9, 1e-300))
     todo = []
-    for dof in dofs:
-        amps = np.array([_dof_amplitude(prob, X[i], L[i], dof, omega_of) for i in range(L.size)])
+    dofs = list(dofs)
+    A = pts.get("amplitude")  # from `densify`, if it drew these DOFs at these points
+    if A is None or pts.get("amplitude_dofs") != dofs or len(A) != L.size:
+        A = _amplitudes(prob, X, L, dofs, omega_of)
+    for dof, amps in zip(dofs, A.T):
         todo += [(dof, i, amps[i], amps[i - 1:i + 2])
                  for i in _local_maxima(amps, pts["converged"])]
     found = []  # (position along the branch, z): i + sigma, sigma in [-1, 1]
@@ -240,6 +259,7 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     pts["lam"] = np.concatenate([L, [f[1][-1] for f in found]])[order]
     pts["nit"] = np.concatenate([pts["nit"], np.zeros(len(found), int)])[order]
     pts["converged"] = np.concatenate([pts["converged"], np.ones(len(found), bool)])[order]
+    pts.pop("amplitude", None)  # of the points before the peaks
     if "tangent" in pts:
         pts["tangent"] = [(list(pts["tangent"]) + [None] * len(found))[k] for k in order]
     return pts
