@@ -20,6 +20,7 @@ from .newton import linear_solve, newton_core
 
 _SCALE_FLOOR = 1e-2  # components are weighted at most 100x above the largest one
 _FIRST_POINT_ITER = 5  # the first Newton solve gets this many times max_newton
+_STALL = 4  # a corrector that has not cut its residual tenfold in this many iterations stops
 
 
 # ---------------------------------------------------------------------- the options
@@ -319,9 +320,10 @@ class ScaledEquations:
         self.njev += njev
         return z, st, nit, nfev, r, RJJ
 
-    def solve_on_plane(self, y, normal):
-        """Newton on R(x, lam) = 0 and normal . (z / s - y) = 0 from z = y s (scaled
-        unknowns); the `newton_core` tuple, its costs counted."""
+    def solve_on_plane(self, y, normal, start=None, history=None):
+        """Newton on R(x, lam) = 0 and normal . (z / s - y) = 0 from z = y s, or from
+        z = start s (scaled unknowns, a point of the same hyperplane); the
+        `newton_core` tuple, its costs counted (`history`: its residual norms)."""
         n, s = self.n, self.s
 
         def aug(zz):
@@ -331,8 +333,10 @@ class ScaledEquations:
         def scaled_step(JJ, rhs):  # Newton in the scaled unknowns: dz = S dy
             return s * linear_solve(self.bordered(JJ[0], JJ[1], normal), rhs)
 
-        out = newton_core(aug, y * s, self.thresh, self.max_newton,
-                           lambda F: np.linalg.norm(F[:n]), scaled_step)
+        z0 = (y if start is None else start) * s
+        out = newton_core(aug, z0, self.thresh, self.max_newton,
+                          lambda F: np.linalg.norm(F[:n]), scaled_step, stall=_STALL,
+                          history=history)
         self.nfev += out[3]
         self.njev += out[4]
         return out

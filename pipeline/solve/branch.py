@@ -67,7 +67,7 @@ def frozen_array(a, dtype=float):
     return a
 
 
-def _hermite(y0, y1, d0, d1, u):
+def hermite(y0, y1, d0, d1, u):
     """Cubic Hermite point and derivative at u in [0, 1]."""
     h = (2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2)
     dh = (6 * u**2 - 6 * u, 3 * u**2 - 4 * u + 1, -6 * u**2 + 6 * u, 3 * u**2 - 2 * u)
@@ -107,18 +107,20 @@ def fold_segments(Z, T, s):
 def refine_fold(eq, i, u, seg, refine=True):
     """Fold between points i, i+1: zero of the tangent's lam-component along the
     branch by Illinois regula falsi on u, each value from a corrector on the
-    hyperplane through the Hermite point p(u) normal to p'(u) (`fold_corrector`).
-    Falls back to the Hermite point if a corrector fails."""
+    hyperplane through the Hermite point p(u) normal to p'(u) (`fold_corrector`),
+    started from the previous corrector's point moved along its tangent onto that
+    hyperplane.  Falls back to the Hermite point if a corrector fails."""
     y0, y1, d0, d1 = seg
-    p, _ = _hermite(y0, y1, d0, d1, u)
+    p, _ = hermite(y0, y1, d0, d1, u)
     best = p * eq.s
     if not refine:
         return i, best
     a, b = 0.0, 1.0
     ga, gb = d0[-1] / np.linalg.norm(d0), d1[-1] / np.linalg.norm(d1)
     side = 0
+    near = None
     for _ in range(12):
-        gu, zc = fold_corrector(eq, seg, u)
+        gu, zc, near = fold_corrector(eq, seg, u, near)
         if gu is None:
             break
         best = zc
@@ -138,12 +140,20 @@ def refine_fold(eq, i, u, seg, refine=True):
     return i, best
 
 
-def fold_corrector(eq, seg, u):
-    """(lam-component of the unit scaled tangent, point) of the branch point on
-    the hyperplane through the Hermite point p(u) normal to p'(u); (None, None)
-    if the corrector fails."""
-    p, dp = _hermite(*seg, u)
-    zc, st, _, _, _, _, JJ, _ = eq.solve_on_plane(p, dp / np.linalg.norm(dp))
+def fold_corrector(eq, seg, u, near=None):
+    """(lam-component of the unit scaled tangent, point, (point, tangent) scaled) of
+    the branch point on the hyperplane through the Hermite point p(u) normal to
+    p'(u), Newton started from `near` (an earlier corrector's scaled point and unit
+    tangent) moved along its tangent onto the hyperplane, else from p(u); (None,
+    None, None) if the corrector fails."""
+    p, dp = hermite(*seg, u)
+    d = dp / np.linalg.norm(dp)
+    start = None
+    if near is not None and abs(d @ near[1]) > 0.5:
+        start = near[0] + (d @ (p - near[0])) / (d @ near[1]) * near[1]
+    zc, st, _, _, _, _, JJ, _ = eq.solve_on_plane(p, d, start)
     eq.njev += 1
     tan = eq.tangent_from(*JJ, dp * eq.s) if st == 0 else None
-    return (None, None) if tan is None else (tan[0][eq.n], zc)
+    if tan is None:
+        return None, None, None
+    return tan[0][eq.n], zc, (zc / eq.s, tan[0])

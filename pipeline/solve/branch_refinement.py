@@ -4,7 +4,9 @@ exact resonance peaks (`insert_peaks`).
 
 Both work on the branch points of `response`, a dict: x (P, nc (2H+1)) condensed
 unknowns, lam (P,) parameter, nit (P,), converged (P,), extra_nfev (residual
-evaluations of the peak search); `densify` adds dense_nfev and dense_points.  Every
+evaluations of the peak search), and optionally tangent (P entries: the branch
+tangent, physical units, or None) and scale (the branch's metric); `densify` adds
+dense_nfev, dense_points and amplitude (P, D) of the DOFs it drew.  Every
 added point solves R = 0 (Newton on a hyperplane across the branch), so it is a
 converged solution, not an interpolation.
 """
@@ -13,17 +15,27 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import minimize_scalar
+from scipy.optimize import brentq, minimize_scalar
 
 from . import hbm
 from ..fourier.harmonics import amplitude_half_peak_to_peak
-from .newton import augment, newton
+from .newton import augment, linear_solve, newton
 
 
 
 def _dof_amplitude(prob, x, lam, dof, omega_of=lambda l: l):
     Q = hbm.recover(prob, x.reshape(prob.c.size, prob.nh), omega_of(lam))
     return float(amplitude_half_peak_to_peak(Q[dof]))
+
+
+def _amplitudes(prob, X, L, dofs, omega_of):
+    """(P, D) amplitudes of the DOFs `dofs` at the points X, L (one recovery of all
+    DOFs per point)."""
+    out = np.zeros((L.size, len(dofs)))
+    for i in range(L.size):
+        Q = hbm.recover(prob, X[i].reshape(prob.c.size, prob.nh), omega_of(L[i]))
+        out[i] = amplitude_half_peak_to_peak(Q[dofs])
+    return out
 
 
 def _local_maxima(amps, converged, rel=0.05):
@@ -43,11 +55,17 @@ PLOT_LONG_CHORD = 0.04          # a chord this long (plot units) shows a small c
 PLOT_MIN_CHORD = 2e-3           # segments shorter than this (plot units) are not split
 PLOT_MAX_POINTS = 400           # points `densify` may add to one curve
 PLOT_PASSES = 8
+_START_ITER = 4                 # Newton iterations from a cubic start before the chord's
 
 
-def _solve_on_plane(fun, p, d, scale, tol):
+def _solve_on_plane(fun, p, d, scale, tol, start=None):
     """The branch point on the hyperplane through p normal to d (scaled unknowns
-    z / scale, d unit): Newton on R = 0 plus that condition.  (z, ok, nfev)."""
+    z / scale, d unit): Newton on R = 0 plus that condition, from `start` (scaled),
+    else from p.  Newton from `start` gets _START_ITER iterations, undamped: a start
+    that does not converge at once (a non-smooth stretch) is abandoned for p, so
+    that it cannot wander to another part of the branch.  (z, ok, nfev, tangent):
+    the tangent at z in physical units, along d, from the last Jacobian (no
+    further evaluation)."""
     nfev = [0]
 
     def aug(z):
@@ -56,19 +74,52 @@ def _solve_on_plane(fun, p, d, scale, tol):
         return (np.append(R, d @ (z / scale - p)),
                 augment(Jx, Jl, d / scale))
 
-    r = newton(aug, p * scale, tol, max_iter=20)  # converged: |R| <= tol at r.x
-    return r.x, bool(r.success), nfev[0]
+    r = None
+    if start is not None:
+        r = newton(aug, start * scale, tol, max_iter=_START_ITER, damped=False)
+    if r is None or not r.success:
+        r = newton(aug, p * scale, tol, max_iter=20)
+    return r.x, bool(r.success), nfev[0], _tangent(r.jac) if r.success else None
 
 
-def _plot_coordinates(prob, X, L, dofs, omega_of):
+def _tangent(jac):
+    """The null direction of the branch equations R = 0 at a point, from the Jacobian
+    [dR/dx, dR/dlam; d / scale] of a hyperplane corrector there: its row d / scale
+    times the tangent is 1, so the tangent points along d.  None if singular."""
+    e = np.zeros(jac.shape[0])
+    e[-1] = 1.0
+    try:
+        t = linear_solve(jac, e)
+    except (np.linalg.LinAlgError, RuntimeError):
+        return None
+    return t if np.all(np.isfinite(t)) else None
+
+
+def _hermite_start(za, zb, ta, tb, d):
+    """A start on the hyperplane through the middle m of the chord za -> zb (scaled,
+    d its unit direction) from the cubic Hermite curve through both points with their
+    tangents ta, tb (scaled, any length, or None): its middle, moved onto the
+    hyperplane.  Its distance from the branch is O(L^4) against the chord middle's
+    O(L^2), so Newton needs fewer iterations; None without both tangents."""
+    if ta is None or tb is None:
+        return None
+    L = np.linalg.norm(zb - za)
+    ua, ub = ta / np.linalg.norm(ta), tb / np.linalg.norm(tb)
+    if ua @ d <= 0 or ub @ d <= 0:
+        return None  # a tangent against the chord: no cubic to trust
+    m = 0.5 * (za + zb)
+    p = m + 0.125 * L * (ua - ub)
+    p += (d @ (m - p)) * d
+    return p if np.linalg.norm(p - m) <= 0.5 * L else None
+
+
+def _plot_coordinates(om, A):
     """(P, 1 + 2D) points of the drawn curves in axis units (one unit is one axis
-    length of a figure): frequency over the range, then for each DOF its amplitude
-    over its range (a linear axis) and log10 of it over its decades (a log axis, at
-    least half a decade)."""
-    om = np.array([omega_of(l) for l in L])
+    length of a figure): frequency om (P,) over the range, then for each DOF its
+    amplitude (a column of A (P, D)) over its range (a linear axis) and log10 of it
+    over its decades (a log axis, at least half a decade)."""
     cols = [om / max(np.ptp(om), 1e-300)]
-    for dof in dofs:
-        a = np.array([_dof_amplitude(prob, X[i], L[i], dof, omega_of) for i in range(L.size)])
+    for a in A.T:
         cols.append(a / max(np.ptp(a), 1e-300))
         la = np.log10(np.maximum(a, 1e-300))
         la = np.maximum(la, la.max() - 12.0)  # amplitudes near zero: a floor, not -inf
@@ -84,7 +135,8 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
     that meets its neighbour at more than PLOT_TURN (PLOT_TURN_LONG if it is longer
     than PLOT_LONG_CHORD: a long chord shows a small corner) is split at its middle: the
     new point solves R = 0 on the hyperplane through the middle of the chord of
-    scaled [x; lam], normal to it.  Straight stretches get no point, and a point
+    scaled [x; lam], normal to it (Newton from the cubic through both points and
+    their tangents, `_hermite_start`).  Straight stretches get no point, and a point
     on a linear stretch costs one Newton iteration.  Repeated until the curves
     turn by less than PLOT_TURN, chords are shorter than PLOT_MIN_CHORD, or
     PLOT_MAX_POINTS were added.
@@ -93,13 +145,17 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
     nit = np.array(pts["nit"])
     if L.size < 3 or not np.all(pts["converged"]):
         return pts
+    T = list(pts.get("tangent", [None] * L.size))
     dofs = list(dofs)
     scale = np.append(np.maximum(np.abs(X).max(0), 1e-12 * np.abs(X).max() + 1e-300),
                       max(np.ptp(L), abs(L).max() * 1e-9, 1e-300))
+    if pts.get("scale") is not None:
+        scale = np.array(pts["scale"], float)
     added = 0
     failed = set()
+    A = _amplitudes(prob, X, L, dofs, omega_of)  # kept up to date: new points only
     for _ in range(PLOT_PASSES):
-        Pc = _plot_coordinates(prob, X, L, dofs, omega_of)
+        Pc = _plot_coordinates(np.array([omega_of(l) for l in L]), A)
         chord = np.diff(Pc, axis=0)
         length = np.linalg.norm(chord, axis=1)
         turn = np.zeros(L.size)  # at each interior point, largest over the drawn curves
@@ -118,26 +174,38 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
         for seg in split[:PLOT_MAX_POINTS - added]:
             za = np.append(X[seg], L[seg]) / scale
             zb = np.append(X[seg + 1], L[seg + 1]) / scale
-            d = zb - za
-            z, ok, nfev = _solve_on_plane(fun, 0.5 * (za + zb), d / np.linalg.norm(d), scale, tol)
+            d = (zb - za) / np.linalg.norm(zb - za)
+            ta, tb = (None if T[k] is None else T[k] / scale for k in (seg, seg + 1))
+            z, ok, nfev, t = _solve_on_plane(fun, 0.5 * (za + zb), d, scale, tol,
+                                             _hermite_start(za, zb, ta, tb, d))
             pts["dense_nfev"] = pts.get("dense_nfev", 0) + nfev
             if ok:
-                new.append((seg + 0.5, z))
+                new.append((seg + 0.5, z, t))
             else:
                 failed.add((L[seg], L[seg + 1]))
         if not new:
             break
         added += len(new)
-        pos = np.concatenate([np.arange(L.size, dtype=float), [q for q, _ in new]])
+        pos = np.concatenate([np.arange(L.size, dtype=float), [q for q, _, _ in new]])
         order = np.argsort(pos, kind="stable")
-        X = np.concatenate([X, [z[:-1] for _, z in new]])[order]
-        L = np.concatenate([L, [z[-1] for _, z in new]])[order]
+        X = np.concatenate([X, [z[:-1] for _, z, _ in new]])[order]
+        L = np.concatenate([L, [z[-1] for _, z, _ in new]])[order]
         nit = np.concatenate([nit, np.zeros(len(new), int)])[order]
-    pts.update(x=X, lam=L, nit=nit, converged=np.ones(L.size, bool), dense_points=added)
+        T = [(T + [t for _, _, t in new])[k] for k in order]
+        Znew = np.array([z for _, z, _ in new])
+        A = np.concatenate([A, _amplitudes(prob, Znew[:, :-1], Znew[:, -1], dofs, omega_of)])
+        A = A[order]
+    pts.update(x=X, lam=L, nit=nit, converged=np.ones(L.size, bool), dense_points=added,
+               amplitude=A, amplitude_dofs=dofs)
+    if "tangent" in pts:
+        pts["tangent"] = T
     return pts
 
 
 _AFT_PEAK_GRID = 9  # solves per bracket before Brent when forces are sampled (AFT)
+_PEAK_XTOL = 1e-6   # the exact peak search stops when sigma moves less than this
+_PEAK_SOLVES = 12   # ... or after this many solves (then Brent's minimiser takes over)
+_NEAR_SIGMA = 0.1   # a trial this close to an earlier one starts from it
 
 
 def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
@@ -147,8 +215,11 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     Around each local maximum i, the branch is parametrised by sigma in [-1, 1] through
     the quadratic interpolant p(sigma) of points i-1, i, i+1; each trial point is the
     exact solution on the hyperplane through p(sigma) normal to p'(sigma) (Newton on
-    R = 0 plus that condition) and the amplitude is maximised over sigma (bounded
-    Brent).  The maximum is then a converged solution, not a sample of the curve.
+    R = 0 plus that condition, `PeakTrials`) and the amplitude is maximised over
+    sigma: by a root search for the zero of its derivative along the branch
+    (`slope_root_peak`), or by bounded Brent (with sampled forces, or if the root
+    search fails).  The maximum is then a converged solution, not a sample of the
+    curve.
     """
     X, L = pts["x"], pts["lam"]
     if L.size < 3:
@@ -156,45 +227,27 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     scale = np.append(np.maximum(np.abs(X).max(0), 1e-12 * np.abs(X).max() + 1e-300),
                       max(np.ptp(L), abs(L).max() * 1e-9, 1e-300))
     todo = []
-    for dof in dofs:
-        amps = np.array([_dof_amplitude(prob, X[i], L[i], dof, omega_of) for i in range(L.size)])
-        todo += [(dof, i, amps[i]) for i in _local_maxima(amps, pts["converged"])]
+    dofs = list(dofs)
+    A = pts.get("amplitude")  # from `densify`, if it drew these DOFs at these points
+    if A is None or pts.get("amplitude_dofs") != dofs or len(A) != L.size:
+        A = _amplitudes(prob, X, L, dofs, omega_of)
+    for dof, amps in zip(dofs, A.T):
+        todo += [(dof, i, amps[i], amps[i - 1:i + 2])
+                 for i in _local_maxima(amps, pts["converged"])]
     found = []  # (position along the branch, z): i + sigma, sigma in [-1, 1]
-    for dof, i, amp_i in todo:
+    tangents = list(pts.get("tangent", [None] * L.size))
+    for dof, i, amp_i, amps3 in todo:
         Z = np.column_stack([X[i - 1:i + 2], L[i - 1:i + 2]]) / scale
-        nfev = [0]
-        cache = {}
-
-        def solve(sig):
-            p = 0.5 * sig * (sig - 1) * Z[0] + (1 - sig * sig) * Z[1] + 0.5 * sig * (sig + 1) * Z[2]
-            d = (sig - 0.5) * Z[0] - 2 * sig * Z[1] + (sig + 0.5) * Z[2]
-            d /= np.linalg.norm(d)
-
-            def aug(z):
-                R, Jx, Jl = fun(z[:-1], z[-1])
-                nfev[0] += 1
-                return (np.append(R, d @ (z / scale - p)),
-                        augment(Jx, Jl, d / scale))
-            r = newton(aug, p * scale, tol, max_iter=20)
-            ok = r.success and np.linalg.norm(fun(r.x[:-1], r.x[-1])[0]) <= tol
-            amp = _dof_amplitude(prob, r.x[:-1], r.x[-1], dof, omega_of) if ok else 0.0
-            cache[sig] = (r.x, ok, amp)
-            # a failed solve ranks below any amplitude (finite: Brent cannot take inf)
-            return -amp
-
-        lo, hi = -1.0, 1.0
-        if prob.method == "aft":
-            # sampled forces alias: the amplitude ripples along the branch with
-            # several maxima per bracket, so Brent starts from the best of a grid
-            grid = np.linspace(-1.0, 1.0, _AFT_PEAK_GRID)
-            vals = [solve(g) for g in grid]
-            j = int(np.argmin(vals))
-            lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
-        minimize_scalar(solve, bounds=(lo, hi), method="bounded", options={"xatol": 1e-4})
-        # the highest converged solve of the bracket (Brent's answer or a grid point)
-        best = max(cache, key=lambda k: cache[k][2] if cache[k][1] else -np.inf)
-        z, ok, amp = cache[best]
-        pts["extra_nfev"] += nfev[0]
+        trials = PeakTrials(prob, fun, tol, scale, Z, dof, omega_of)
+        for k in (-1, 0, 1):  # the three points, with their slopes where tangents are known
+            trials.known(k, np.append(X[i + k], L[i + k]), tangents[i + k], amps3[k + 1])
+        if prob.method == "aft" or not slope_root_peak(trials):
+            _brent_peak(trials, prob.method == "aft")
+        # the highest converged trial (Brent's answer, the root or a grid point)
+        tried = trials.cache
+        best = max(tried, key=lambda k: tried[k][2] if tried[k][1] else -np.inf)
+        z, ok, amp = tried[best][:3]
+        pts["extra_nfev"] += trials.nfev
         if ok and amp > amp_i:
             found.append((i + float(best), z))
     if not found:
@@ -206,4 +259,132 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     pts["lam"] = np.concatenate([L, [f[1][-1] for f in found]])[order]
     pts["nit"] = np.concatenate([pts["nit"], np.zeros(len(found), int)])[order]
     pts["converged"] = np.concatenate([pts["converged"], np.ones(len(found), bool)])[order]
+    pts.pop("amplitude", None)  # of the points before the peaks
+    if "tangent" in pts:
+        pts["tangent"] = [(list(pts["tangent"]) + [None] * len(found))[k] for k in order]
     return pts
+
+
+class PeakTrials:
+    """The trial points of one peak search: the branch point on the hyperplane
+    through p(sigma) normal to p'(sigma) (p the quadratic through the scaled points
+    Z (3, n+1) at sigma = -1, 0, 1), its DOF amplitude and the amplitude's
+    derivative in sigma along the branch.  `cache` maps sigma to (z, ok, amplitude,
+    derivative, tangent); `nfev` counts the residual evaluations."""
+
+    def __init__(self, prob, fun, tol, scale, Z, dof, omega_of):
+        self.prob, self.fun, self.tol, self.scale, self.Z = prob, fun, tol, scale, Z
+        self.dof, self.omega_of = dof, omega_of
+        self.cache, self.nfev = {}, 0
+
+    def curve(self, sig):
+        Z = self.Z
+        p = 0.5 * sig * (sig - 1) * Z[0] + (1 - sig * sig) * Z[1] + 0.5 * sig * (sig + 1) * Z[2]
+        dp = (sig - 0.5) * Z[0] - 2 * sig * Z[1] + (sig + 0.5) * Z[2]
+        return p, dp
+
+    def amplitude(self, z):
+        return _dof_amplitude(self.prob, z[:-1], z[-1], self.dof, self.omega_of)
+
+    def slope(self, sig, z, t):
+        """dA/dsigma at the branch point z (physical) with tangent t (physical, any
+        length, oriented along p'(sigma) here): A's difference quotient along the unit
+        scaled tangent times |p'(sigma)|.  No residual evaluation."""
+        dp = self.curve(sig)[1]
+        u = t / np.linalg.norm(t / self.scale)
+        if u / self.scale @ dp < 0:
+            u = -u
+        h = 1e-6
+        dA = (self.amplitude(z + h * u) - self.amplitude(z - h * u)) / (2 * h)
+        return dA * np.linalg.norm(dp)
+
+    def known(self, sig, z, t, amp):
+        """Enter a point of the branch at sigma (one of the interpolated points)."""
+        self.cache[sig] = (z, True, amp, None if t is None else self.slope(sig, z, t), t)
+
+    def solve(self, sig, near=None):
+        """The trial at sigma; Newton starts from the trial at sigma `near` moved along
+        its tangent onto the hyperplane, if given, else from p(sigma)."""
+        p, dp = self.curve(sig)
+        d = dp / np.linalg.norm(dp)
+        start = None
+        if near is not None and self.cache[near][1] and self.cache[near][4] is not None:
+            z0, t0 = self.cache[near][0] / self.scale, self.cache[near][4] / self.scale
+            start = z0 + (d @ (p - z0)) / (d @ t0) * t0
+        z, ok, nfev, t = _solve_on_plane(self.fun, p, d, self.scale, self.tol, start)
+        self.nfev += nfev
+        amp = self.amplitude(z) if ok else 0.0
+        slope = self.slope(sig, z, t) if ok and t is not None else 0.0
+        self.cache[sig] = (z, ok, amp, slope, t)
+        return self.cache[sig]
+
+
+class _TrialFailed(Exception):
+    pass
+
+
+def slope_root_peak(trials):
+    """The amplitude's maximum on sigma in [-1, 1] as the zero of its derivative
+    (Brent's root finder, to _PEAK_XTOL in sigma), bracketed by the known points'
+    slopes (`PeakTrials.known`): the middle point's and that of its neighbour on
+    the uphill side.  Each trial starts from the nearest trial or point before it
+    (`PeakTrials.solve`), so trials close together cost one or two evaluations.
+    False (nothing decided) without the slopes, without a bracket, or if a trial
+    fails."""
+    g = {k: trials.cache[k][3] for k in (-1, 0, 1)}
+    if any(v is None for v in g.values()):
+        return False
+    side = 1 if g[0] > 0 else -1
+    if not g[side] * g[0] < 0:
+        return False
+
+    def slope(sig):
+        if sig in trials.cache:
+            return trials.cache[sig][3]
+        near = min(trials.cache, key=lambda k: abs(k - sig))
+        z, ok, amp, g_sig, t = trials.solve(sig, near if abs(near - sig) < _NEAR_SIGMA else None)
+        if not ok or t is None:
+            raise _TrialFailed
+        return g_sig
+
+    lo, hi = sorted((0.0, float(side)))
+    try:
+        first = _cubic_stationary(trials, lo, hi)
+        if first is not None:  # a first trial inside, and the bracket narrowed by it
+            lo, hi = (first, hi) if slope(first) > 0 else (lo, first)
+        brentq(slope, lo, hi, xtol=_PEAK_XTOL, maxiter=_PEAK_SOLVES)
+    except (_TrialFailed, RuntimeError):
+        return False
+    return True
+
+
+def _cubic_stationary(trials, lo, hi):
+    """The stationary point in (lo, hi) of the cubic through the amplitudes and
+    slopes of the trials at sigma = lo and hi (a better first trial than the secant
+    of the slopes where the amplitude is far from a parabola, near a fold); None if
+    it has none there."""
+    h = hi - lo
+    a0, a1 = trials.cache[lo][2], trials.cache[hi][2]
+    g0, g1 = trials.cache[lo][3] * h, trials.cache[hi][3] * h
+    # A(v) = a0 + g0 v + c v^2 + e v^3 on v in [0, 1]
+    c = 3 * (a1 - a0) - 2 * g0 - g1
+    e = g0 + g1 - 2 * (a1 - a0)
+    roots = np.roots([3 * e, 2 * c, g0]) if abs(e) > 1e-300 or abs(c) > 1e-300 else []
+    v = [r.real for r in roots if abs(r.imag) < 1e-12 and 0.02 < r.real < 0.98]
+    return lo + h * v[0] if len(v) == 1 else None
+
+
+def _brent_peak(trials, grid_first):
+    """The amplitude's maximum on sigma in [-1, 1] by bounded Brent (starting from
+    the best of a grid, if grid_first: sampled forces alias, the amplitude ripples
+    along the branch with several maxima per bracket)."""
+    def solve(sig):  # a failed solve ranks below any amplitude (finite: Brent cannot take inf)
+        return -trials.solve(sig)[2]
+
+    lo, hi = -1.0, 1.0
+    if grid_first:
+        grid = np.linspace(-1.0, 1.0, _AFT_PEAK_GRID)
+        vals = [solve(g) for g in grid]
+        j = int(np.argmin(vals))
+        lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
+    minimize_scalar(solve, bounds=(lo, hi), method="bounded", options={"xatol": 1e-4})

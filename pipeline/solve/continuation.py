@@ -5,7 +5,9 @@ predictor-corrector steps in the scaled unknowns y = [x; lam] / s:
 
     predictor   [dR/dx S_x, dR/dlam s_lam; t_prev^T] t = e_{n+1},  t <- t / |t|
                 y_pred = y_k + ds t
-    corrector   Newton on  R(x, lam) = 0,  t^T (y - y_pred) = 0
+    corrector   Newton on  R(x, lam) = 0,  t^T (y - y_pred) = 0, started where that
+                hyperplane meets the cubic through the last two points and their
+                tangents (on a smooth stretch; else at y_pred)
 
 Continuation knows nothing about mechanics: `fun(x, lam) -> (R, dR_dx, dR_dlam)`
 with R (n,), dR_dx (n, n) dense or scipy.sparse, dR_dlam (n,).

@@ -21,7 +21,8 @@ class NewtonResult:
     """Outcome of `newton` (SciPy-style).
 
     status: 0 converged, 1 iteration limit, 2 singular Jacobian, 3 non-finite
-    residual, 4 diverging.  `jac` is the Jacobian at `x` (for reuse, e.g. tangents).
+    residual, 4 diverging (or stalled, `newton_core`).  `jac` is the Jacobian at `x`
+    (for reuse, e.g. tangents).
     """
 
     x: np.ndarray
@@ -57,14 +58,20 @@ def linear_solve(A, b):
     return np.linalg.solve(A, b)
 
 
-def newton_core(fun, z0, thresh, max_iter, measure, step=linear_solve, damped=False):
+def newton_core(fun, z0, thresh, max_iter, measure, step=linear_solve, damped=False,
+                stall=None, history=None):
     """Newton on F(z) = 0 with F, dF = fun(z); converged iff measure(F) <= thresh.
 
     The Newton step is dz = step(dF, -F).  damped=True halves it (up to 6 times)
     until measure(F) decreases: plain Newton can cycle between the linearisations
     of a non-smooth residual (stick/slip, contact) or diverge from a cold start;
     backtracking breaks that.  The continuation corrector stays undamped (its step
-    control handles failures, and a first step may rise and still converge).
+    control handles failures, and a first step may rise and still converge); it
+    stops instead after `stall` iterations that have not cut the first residual
+    tenfold (cycling between linearisations: the remaining iterations of
+    max_iter would be wasted, a shorter step is cheaper).  Linear convergence, even
+    slow, passes that test.  `history`, a list, receives measure(F) of every
+    iterate.
     Returns (z, status, nit, nfev, njev, rnorm, dF, F).
     """
     z = np.array(z0, dtype=float)
@@ -76,10 +83,14 @@ def newton_core(fun, z0, thresh, max_iter, measure, step=linear_solve, damped=Fa
         if not np.all(np.isfinite(F)):
             return z, 3, k, nfev, njev, math.inf, dF, F
         r = measure(F)
+        if history is not None:
+            history.append(r)
         if r <= thresh:
             return z, 0, k, nfev, njev, r, dF, F
         r0 = r if r0 is None else r0
         if k >= 2 and r > 1e3 * r0:  # Newton is running away: stop paying for it
+            return z, 4, k, nfev, njev, r, dF, F
+        if stall is not None and k >= stall and r > 0.1 * r0:
             return z, 4, k, nfev, njev, r, dF, F
         if k == max_iter:
             return z, 1, k, nfev, njev, r, dF, F
@@ -108,7 +119,7 @@ NEWTON_MESSAGES = {
     1: "iteration limit reached before ||R|| <= tol",
     2: "singular Jacobian",
     3: "non-finite residual",
-    4: "Newton iterations diverging",
+    4: "Newton iterations diverging or stalled",
 }
 
 

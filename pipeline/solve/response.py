@@ -241,7 +241,8 @@ def _weighted(fun, w):
 
 def _branch_points(br):
     return {"x": np.array(br.x), "lam": np.array(br.lam), "nit": np.array(br.nit),
-            "converged": np.array(br.converged, bool), "extra_nfev": 0}
+            "converged": np.array(br.converged, bool), "extra_nfev": 0,
+            "tangent": list(np.array(br.tangent)), "scale": np.array(br.scale)}
 
 
 def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapsed, extra_nfev):

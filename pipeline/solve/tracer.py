@@ -12,13 +12,17 @@ import math
 import numpy as np
 
 from .arclength import ContinuationOptions, ScaledEquations
-from .branch import Branch, fold_segments, frozen_array, refine_fold
+from .branch import Branch, fold_segments, frozen_array, hermite, refine_fold
 from .newton import NEWTON_MESSAGES
 
 # the run's messages keep the logger of `continuation` (the command line quiets it)
 log = logging.getLogger("pipeline.solve.continuation")
 
 _CORNER_TURN = math.radians(20.0)  # one-sided tangents differing by more: try a corner
+_CURVED_COS = math.cos(math.radians(20.0))  # a larger turn between the last two tangents:
+# a corner between them, no cubic through both
+_ONE_ITER_ORDER = 6  # r1 ~ ds^6 from the cubic (start error ~ ds^3 or better, squared)
+_NEAR_MISS = 10.0    # a first iterate within this factor of the tolerance: aim at one
 
 
 class Tracer:
@@ -34,12 +38,15 @@ class Tracer:
     def __init__(self, fun, opts: ContinuationOptions):
         self.opts, self.n = opts, opts.n
         self.eq = ScaledEquations(fun, opts)
-        self.ds = opts.ds
+        self.ds = self.planned = opts.ds  # planned: the step chosen at the last point
         self.z = self.t_phys = None
         self.points = []    # (z, t_phys, nit, nfev, ||R||) of each accepted point
         self.n_rejected = self.n_unresolved = 0
         self.min_step = math.inf
         self.spent = 0      # fun calls since the last accepted point
+        self.rejected_before = 0  # n_rejected when the last point was accepted
+        self.curved = False  # the last point's corrector started on the cubic
+        self.history = []    # residual norms of the last corrector's iterates
         self.recent = {}    # turn / deviation of the rejections since the last acceptance
 
     @property
@@ -90,11 +97,13 @@ class Tracer:
     def step(self):
         """One predictor-corrector step; the Branch if the run ends with it, else None."""
         ts, y_pred = self.predict()
-        zn, st, nit, _, r, JJ = self.correct(y_pred, ts)
+        start = self.curved_start(ts, y_pred)
+        zn, st, nit, _, r, JJ = self.correct(y_pred, ts, start)
         reason, feature, tan, shrink = self.assess(zn, st, JJ, y_pred)
         if reason is not None:
             return self.reject(reason, feature, shrink, ts, zn, JJ)
-        return self.accept(zn, tan, nit, r)
+        dev = np.linalg.norm(zn / self.s - y_pred) / self.ds
+        return self.accept(zn, tan, nit, r, dev, curved=start is not None)
 
     def predict(self):
         """(unit scaled tangent ts, predictor y_k + ds ts) in the scaled unknowns."""
@@ -102,11 +111,45 @@ class Tracer:
         ts /= np.linalg.norm(ts)
         return ts, self.z / self.s + self.ds * ts
 
-    def correct(self, y_pred, normal):
-        """Corrector on the hyperplane through y_pred normal to `normal` (scaled):
-        (z, status, nit, nfev, ||R||, (Jx, Jl)); status -1: the hyperplane condition
-        is not met although ||R|| is."""
-        zn, st, nit, nfev, _, r, JJ, F = self.eq.solve_on_plane(y_pred, normal)
+    def curved_start(self, ts, y_pred):
+        """A start for the corrector on the predictor's hyperplane, nearer the branch
+        than y_pred: where the hyperplane meets the cubic Hermite curve through the
+        last two points and their tangents, extrapolated.  The corrected point is
+        the one from y_pred (same hyperplane), only Newton starts closer to it: the
+        tangent predictor's error is O(ds^2), this one's O(ds^3) on a smooth arc.
+        None (start at y_pred) after a corner, where the cubic would span it; when a
+        step from here was rejected: a retry starts where the line predictor does,
+        so that it meets the corner tests as the line's corrector does; and after a
+        point that the line reached in one iteration (the line suffices there)."""
+        if (len(self.points) < 2 or self.n_rejected > self.rejected_before
+                or (self.points[-1][2] < 2 and not self.curved)):
+            return None  # (a last point found in one iteration from the line: it suffices)
+        s, ds = self.s, self.ds
+        y0, y1 = self.points[-2][0] / s, self.z / s
+        t0 = self.points[-2][1] / s
+        t0 /= np.linalg.norm(t0)
+        L = np.linalg.norm(y1 - y0)
+        if L == 0 or t0 @ ts < _CURVED_COS or (y1 - y0) @ (t0 + ts) <= 0:
+            return None
+        d0, d1 = L * t0, L * ts
+        u = 1.0 + ds / L
+        for _ in range(4):  # Newton on ts . (p(u) - y1) = ds along the cubic
+            p, dp = hermite(y0, y1, d0, d1, u)
+            u -= (ts @ (p - y1) - ds) / max(ts @ dp, 1e-3 * L)
+        p, _ = hermite(y0, y1, d0, d1, u)
+        start = p + (ds - ts @ (p - y1)) * ts  # exactly on the hyperplane
+        if np.linalg.norm(start - y_pred) > self.opts.max_deviation * ds:
+            return None  # the cubic strays: a feature ahead, the line is the safer start
+        return start
+
+    def correct(self, y_pred, normal, start=None):
+        """Corrector on the hyperplane through y_pred normal to `normal` (scaled), from
+        `start` on it (default y_pred): (z, status, nit, nfev, ||R||, (Jx, Jl)); status
+        -1: the hyperplane condition is not met although ||R|| is.  The residual
+        norms of its iterates are kept in `history`."""
+        self.history = []
+        zn, st, nit, nfev, _, r, JJ, F = self.eq.solve_on_plane(y_pred, normal, start,
+                                                                self.history)
         self.spent += nfev
         if st == 0 and abs(F[self.n]) > 1e-6 * max(
                 np.linalg.norm(y_pred - self.z / self.s), 1e-12):
@@ -183,17 +226,44 @@ class Tracer:
         self.recent["small"] = self.recent.get("small", 0) + 1
         return self.recent["small"] > 3 or (prev is not None and value > 0.75 * prev)
 
-    def accept(self, zn, tan, nit, r):
-        """Take the corrected point; the next step aims at target_newton iterations."""
-        o = self.opts
+    def accept(self, zn, tan, nit, r, dev=0.0, curved=False):
+        """Take the corrected point and choose the next step (`next_step`)."""
         self.recent.clear()
         self.min_step = min(self.min_step, self.ds)
         done = self.commit(zn, tan[2], nit, r)
+        self.curved = curved
         if done is not None:
             return done
-        factor = math.sqrt(o.target_newton / max(nit, 1))
-        self.ds = min(max(self.ds * min(max(factor, 0.5), 2.0), o.ds_min), o.ds_max)
+        self.ds = self.planned = self.next_step(nit, math.acos(min(1.0, tan[1])), dev, curved)
         return None
+
+    def next_step(self, nit, turn, dev, curved):
+        """The step after an accepted one of nit iterations, turn and deviation dev
+        (the corrector's distance from the line predictor, in step lengths).
+
+        It aims at target_newton iterations, and at half the deviation and half the
+        turn that would reject it (both grow in proportion to the step, while
+        Newton, started near the branch by `curved_start`, no longer feels the
+        curvature; one iteration from the cubic counts as two).  A step of one
+        iteration costs 2 evaluations against 3 for two: when two were needed from
+        the cubic but the first iterate's residual r1 came within _NEAR_MISS of the
+        tolerance, the shorter step with r1 = thresh / 2 (r1 shrinks like
+        ds^_ONE_ITER_ORDER) is taken if it is cheaper per length."""
+        o = self.opts
+        geometric = min(0.5 * o.max_deviation / max(dev, 1e-12),
+                        0.5 * o.max_turn / max(turn, 1e-12))
+
+        def bounded(factor):
+            return min(max(self.ds * min(max(factor, 0.5), 2.0), o.ds_min), o.ds_max)
+
+        n_two = max(nit, 2) if curved else nit
+        ds = bounded(min(math.sqrt(o.target_newton / max(n_two, 1)), geometric))
+        if curved and nit == 2 and self.history[1] < _NEAR_MISS * self.eq.thresh:
+            one = (0.5 * self.eq.thresh / self.history[1]) ** (1.0 / _ONE_ITER_ORDER)
+            ds_one = bounded(min(one, geometric))
+            if 2.0 / ds_one < (n_two + 1.0) / ds:
+                ds = min(ds, ds_one)
+        return ds
 
     def reject(self, reason, feature, shrink, ts, zn, JJ):
         """Pass a corner if the rejection may be one, else shorten the step; the
@@ -276,27 +346,32 @@ class Tracer:
 
     def point_beyond_corner(self, c, tn, b):
         """The point at c + d tn, near its predictor with its tangent near tn
-        (d = min(ds, b), once more at d / 4), or None."""
+        (d = min(ds, b), once more at d / 4, and if b < ds / 4 at ds / 4: a rejected
+        point just past the corner fixes tn, but the corner only roughly), or None."""
         o = self.opts
         d = min(self.ds, b)
-        for _ in range(2):
+        tries = [d, 0.25 * d] + ([0.25 * self.ds] if b < 0.25 * self.ds else [])
+        for d in tries:
             y2p = c + d * tn
             z2, st2, nit2, _, r2, JJ2 = self.correct(y2p, tn)
             t2 = self.eq.oriented_tangent(JJ2, tn) if st2 == 0 else None
             if (t2 is not None and np.linalg.norm(z2 / self.s - y2p) <= o.max_deviation * d
                     and math.acos(min(1.0, float(t2 @ tn))) <= o.max_turn):
                 return z2, t2, nit2, r2
-            d *= 0.25
         return None
 
     def commit_corner(self, corner):
-        """Commit the points of a passed corner; the Branch if the run ends there."""
+        """Commit the points of a passed corner; the Branch if the run ends there.
+        The next step is the one planned before the rejections that found the
+        corner: they shortened it for the corner, which now lies behind."""
         self.recent.clear()
+        self.curved = False
         self.min_step = min(self.min_step, self.ds)
         for zc, tc, nitc, rc in corner:
             done = self.commit(zc, tc * self.s, nitc, rc)
             if done is not None:
                 return done
+        self.ds = max(self.ds, self.planned)
         return None
 
     # ---- accepted points and the end of the run
@@ -309,6 +384,7 @@ class Tracer:
         self.z, self.t_phys = zn, t_new_phys
         self.points.append((zn, t_new_phys, nit, self.spent, r))
         self.spent = 0
+        self.rejected_before = self.n_rejected
         self.eq.metric.observe(zn[:n])
         if o.callback is not None and o.callback(zn[:n].copy(), zn[n]):
             return self.result(3, "stopped by callback")
@@ -322,8 +398,7 @@ class Tracer:
         o, n, z = self.opts, self.n, self.z
         lo, hi = o.bounds
         bound = hi if zn[n] > hi else lo
-        frac = (bound - z[n]) / (zn[n] - z[n])
-        xg = z[:n] + frac * (zn[:n] - z[:n])
+        xg = self.crossing_guess(zn, t_new_phys, bound)
         if not (bound == o.lam0 and len(self.points) == 1):
             xb, stb, nitb, nfevb, rb, (R, Jx, Jl) = self.eq.solve_fixed_lam(xg, bound)
             self.spent += nfevb
@@ -337,6 +412,28 @@ class Tracer:
         if bound == o.lam_end:
             return self.result(0, f"reached lam_end = {o.lam_end}")
         return self.result(1, f"left the interval at lam = {bound} (branch turned back)")
+
+    def crossing_guess(self, zn, t_new_phys, bound):
+        """x where the branch from z to zn crosses lam = bound: on the cubic Hermite
+        curve through both points and their tangents (scaled), whose error is O(ds^4)
+        against the chord's O(ds^2); on the chord if the cubic does not cross there
+        once."""
+        n, s, z = self.n, self.s, self.z
+        frac = (bound - z[n]) / (zn[n] - z[n])
+        y0, y1 = z / s, zn / s
+        L = np.linalg.norm(y1 - y0)
+        t0, t1 = (t / s / np.linalg.norm(t / s) for t in (self.t_phys, t_new_phys))
+        if t1 @ (y1 - y0) < 0:
+            t1 = -t1
+        c0, c1, g0, g1 = y0[n], y1[n], L * t0[n], L * t1[n]
+        # lam(u) of the cubic as a polynomial in u, minus the bound
+        coef = [2 * c0 + g0 - 2 * c1 + g1, -3 * c0 - 2 * g0 + 3 * c1 - g1, g0, c0 - bound / s[n]]
+        u = np.roots(coef)
+        u = u[(np.abs(u.imag) < 1e-12) & (u.real >= 0) & (u.real <= 1)].real
+        if u.size != 1:
+            return z[:n] + frac * (zn[:n] - z[:n])
+        p, _ = hermite(y0, y1, L * t0, L * t1, u[0])
+        return p[:n] * s[:n]
 
     def result(self, status, message) -> Branch:
         """The Branch of the points so far, its folds located."""
