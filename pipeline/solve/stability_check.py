@@ -163,15 +163,8 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     pts = _Points(prob, Q, omega, np.asarray(lam, float), elem_at)
     conv = np.flatnonzero(np.asarray(converged, bool))
     cyclic = getattr(prob.system, "cyclic", None) is not None
-    note = {None: "not computed", "hill": "Hill's method at every point",
-            "floquet": "Floquet multipliers of the exact flow at every converged point "
-                       "(Hill where the periodic orbit was not found)",
-            "hill+check": f"Hill's method, checked by the Floquet multipliers of the exact "
-                          f"flow where |max Re lambda| T < {margin:g}, at changes of the flag "
-                          f"(both neighbours) and at the peaks; Floquet decides"}[mode]
+    note = describe(mode, cyclic, margin)
     if cyclic and mode in ("floquet", "hill+check"):
-        note = ("Hill's method (every wave number): the exact flow of one cyclic sector is "
-                f"not the wheel's, so {mode!r} keeps Hill")
         mode = "hill"
     if mode is None:
         return _result(pts, np.full(P, NOT_COMPUTED, np.int8), fold_lam, conv, note)
@@ -188,6 +181,21 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
         _check_doubtful(pts, conv, margin, amplitude)
     method = np.where(np.isfinite(pts.fq), FLOQUET, HILL).astype(np.int8)
     return _result(pts, method, fold_lam, conv, note)
+
+
+def describe(mode, cyclic: bool = False, margin: float = CHECK_MARGIN) -> str:
+    """How `branch_stability` decides in `mode` (`stability_mode`), in words."""
+    mode = stability_mode(mode)
+    if cyclic and mode in ("floquet", "hill+check"):
+        return ("Hill's method at every point, every wave number: the exact flow of one "
+                f"cyclic sector is not the wheel's, so {mode!r} keeps Hill")
+    return {None: "not computed", "hill": "Hill's method at every point",
+            "floquet": "Floquet multipliers of the exact flow at every converged point (Hill "
+                       "where the periodic orbit was not found)",
+            "hill+check": "Hill's method, checked by the Floquet multipliers of the exact flow "
+                          f"where |max Re lambda| T < {margin:g}, at both neighbours of every "
+                          "change of the flag and at the peaks; where they disagree, Floquet "
+                          "decides"}[mode]
 
 
 def _decided(pts):
