@@ -175,3 +175,28 @@ def test_default_mode_per_scene(name, expected):
 def test_cyclic_sector_keeps_hill():
     assert "keeps Hill" in sc.describe("hill+check", cyclic=True)
     assert sc.describe(True) == "Hill's method at every point"
+
+
+# ------------------------------------------------------------------ figure marks
+def test_bifurcations_marked_by_type_in_the_amplitude_figure():
+    import xarray as xr
+
+    from pipeline.study.plots import pyplot, response_curves_plot
+    from pipeline.study.response_figures import bifurcation_marks
+
+    f = np.linspace(1.0, 2.0, 11)
+    a = 1.0 + f
+    st = np.where((f > 1.25) & (f < 1.75), 0.0, 1.0)
+    b = xr.Dataset({"amplitude": ("point", a), "stable": ("point", st),
+                    "converged": ("point", np.ones(11, bool)),
+                    "bifurcation_frequency": ("bifurcation", [1.25, 1.75, np.nan]),
+                    "bifurcation_type": ("bifurcation", np.array([2, 3, -1], np.int8))},
+                   coords={"frequency": ("point", f)})
+    marks = bifurcation_marks(b)
+    assert [(m[0], m[2]) for m in marks] == [(1.25, 2), (1.75, 3)]
+    assert marks[0][1] == pytest.approx(2.25)
+    fig = response_curves_plot([("x", f, a, st, np.ones(11, bool))], marks=marks)
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "period doubling" in labels and "Neimark-Sacker" in labels
+    assert "fold bifurcation" not in labels
+    pyplot().close(fig)
