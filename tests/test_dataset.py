@@ -95,7 +95,8 @@ def test_layout_padding_and_flags(ex1):
     amp[11] = np.nan                          # not finite: must not count as converged
     curves[1] = ResponseCurve(**{**vars(curves[1]), "converged": conv, "amplitude": amp})
     ds = to_dataset(ex1, curves)
-    assert dict(ds.sizes) == {"preload": 3, "point": 45, "dof": 1, "harmonic": 4, "fold": 1, "mode": 1}
+    assert dict(ds.sizes) == {"preload": 3, "point": 45, "dof": 1, "harmonic": 4, "fold": 1, "mode": 1,
+                              "bifurcation": 1}
     assert ds["amplitude"].dims == ("preload", "point", "dof")
     assert ds["harmonic_amplitude"].dims == ("preload", "point", "dof", "harmonic")
     assert ds["preload"].values.tolist() == [0.0, 2.0, 1000.0]
@@ -313,6 +314,21 @@ def _stable_at_padding(ds):
     return ds
 
 
+def _method_where_not_computed(ds):
+    ds["stability_method"].values[1, 30] = 1   # case 1 has 20 points: padding
+    return ds
+
+
+def _multiplier_contradicts_stable(ds):
+    ds["max_multiplier"].values[:] = np.where(ds["converged"].values, 1.2, np.nan)
+    return ds
+
+
+def _bifurcation_without_frequency(ds):
+    ds["bifurcation_type"].values[0, 0] = 2
+    return ds
+
+
 def _double_peak(ds):
     ds["peak_amplitude"].values *= 2
     return ds
@@ -332,6 +348,12 @@ BREAKS = {  # how a dataset departs from the contract -> what the checker must s
     "1 stable, not computed": (_stable_one_not_computed, "stability_computed attribute is 0"),
     "stable at a padded point": (_stable_at_padding,
                                  "'stable' is 1 at a point that did not converge"),
+    "method where not computed": (_method_where_not_computed,
+                                  "'stability_method' is not -1 exactly where 'stable' is NaN"),
+    "multiplier contradicts stable": (_multiplier_contradicts_stable,
+                                      "'max_multiplier' contradicts 'stable'"),
+    "bifurcation without frequency": (_bifurcation_without_frequency,
+                                      "'bifurcation_frequency' is not finite exactly where"),
     "dof label with a sector": (lambda ds: ds.assign_coords(
         dof=("dof", ["x1@0", "x1@1"], {"long_name": "dof"})), "dof label 'x1@0' encodes a sector"),
     "fold without coordinate": (lambda ds: ds.drop_vars("fold"),

@@ -12,7 +12,6 @@ import pytest
 from scipy.linalg import expm
 
 from pipeline.contact import YangMenq
-from pipeline.model.system import System
 from pipeline.paper_systems import example1, example3
 from pipeline.solve import floquet as fq
 from pipeline.solve import hbm, timesim as ts
@@ -20,6 +19,8 @@ from pipeline.solve.events import integrate
 from pipeline.solve.newton import newton
 from pipeline.solve.piecewise import PiecewiseModel
 from pipeline.solve.response import frequency_response
+
+from paper_systems import BLADE_STABLE, BLADE_UNSTABLE, blade3
 
 
 def periodic_start(system, Om):
@@ -157,20 +158,6 @@ def test_misuse_raises(kwargs, match):
 
 
 # ------------------------------------------------------------------ 3-DOF blade, H = 10 HBM
-def blade3():
-    """3-DOF shrouded-blade model: one Yang-Menq contact, u = x3 - x1, v = x2; 5.85 N on x2."""
-    M = np.diag([1.19290, 1.00829, 1.23316])
-    K = np.array([[9105.293, -3091.31, 0], [-3091.31, 85922.633, -82831.323],
-                  [0, -82831.323, 86828.066]])
-    C = np.array([[2.368786, -0.0591258, 0], [-0.0591258, 3.498389, -1.584269],
-                  [0, -1.584269, 3.929410]])
-    return System(M=M, C=C, K=K, Bt=np.array([[-1.0, 0.0, 1.0]]), Bn=np.array([[0.0, 1.0, 0.0]]),
-                  contact=YangMenq(16056.9, 86511.2, 0.287, 178.5),
-                  forcing=np.array([[0, 0], [0, 5.85], [0, 0]], complex))
-
-
-BLADE_STABLE = [113.156, 113.754, 114.407, 115.073, 118.120, 119.254, 120.927]
-BLADE_UNSTABLE = [116.186, 116.560]
 
 
 @pytest.fixture(scope="module")

@@ -18,12 +18,11 @@ from scipy.optimize import minimize_scalar
 from . import hbm
 from .branch_refinement import densify, insert_peaks
 from .continuation import continue_branch
-from .full_operators import wave_jacobians
 from ..fourier.harmonics import amplitude_half_peak_to_peak
 from .newton import newton, scale_rows
 from .resonance import MAX_DENSE_DOF, step_guard
 from .restarts import cover_range
-from .stability import is_stable
+from .stability_check import branch_stability, stability_mode
 
 
 @dataclass(frozen=True)
@@ -35,7 +34,7 @@ class ResponseCurve:
     Q: np.ndarray              # (P, n, 2H+1) Fourier coefficients of every DOF [m]
     converged: np.ndarray      # (P,) bool: recomputed full residual <= tolerance
     residual: np.ndarray       # (P,) recomputed full residual norm [N]
-    stable: np.ndarray         # (P,) bool (Hill); all True where stability was not asked
+    stable: np.ndarray         # (P,) bool (decided); all True where stability was not asked
     amplitude: np.ndarray      # (P, n) half peak-to-peak amplitude [m]
     fold_parameter: np.ndarray  # (F,) parameter values of the detected folds
     newton_iterations: np.ndarray  # (P,)
@@ -47,6 +46,14 @@ class ResponseCurve:
     H: int
     tolerance: float           # [N]
     info: dict = field(default_factory=dict)
+    # decided stability (`stability_check`): -1 not computed, 0 Hill, 1 Floquet; Hill's
+    # exp(max Re lam T) and Floquet's max |mu| (NaN where not run); bifurcations where
+    # the decided flag changes (kind 1 fold, 2 period doubling, 3 Neimark-Sacker)
+    stability_method: np.ndarray | None = None
+    hill_multiplier: np.ndarray | None = None
+    floquet_multiplier: np.ndarray | None = None
+    bifurcation_parameter: np.ndarray | None = None
+    bifurcation_kind: np.ndarray | None = None
 
     @property
     def n_points(self) -> int:
@@ -96,8 +103,8 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     Pseudo-arclength continuation (`continuation.continue_branch`) of the condensed
     HBM residual (`hbm.residual`), all DOFs recovered, each point's full residual
     recomputed (converged iff its static and harmonic parts are each within
-    `hbm.tolerances` [N]), Hill stability of the
-    full system at every point (`stability.is_stable`).
+    `hbm.tolerances` [N]), stability of the full system decided by `stability`
+    (True = "hill", "floquet", "hill+check" or False: `stability_check`).
 
     First point: Newton from `initial` (Fourier coefficients (n, 2H+1) of all DOFs,
     e.g. a known solution) if given, else from the better linear guess (contacts
@@ -118,6 +125,7 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     (`insert_peaks`).
     """
     t_start = time.perf_counter()
+    stability_mode(stability)  # misuse raises before the continuation
     ds = min(ds, ds_max)  # a small max_step also bounds the first step
     prob = hbm.setup(system, H, method, n_samples)
     elem = contact if contact is not None else system.contact
@@ -255,7 +263,6 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
     n, nh = prob.system.n_dof, prob.nh
     Q = np.zeros((P, n, nh))
     res = np.zeros(P)
-    stable = np.ones(P, bool)
     ok = np.zeros(P, bool)
     omega = np.array([omega_of(l) for l in pts["lam"]], dtype=float)
     for i in range(P):
@@ -264,14 +271,13 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
         rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q[i], omega[i], el))
         res[i] = np.hypot(rs, rd)
         ok[i] = rs <= tols[0] and rd <= tols[1]
-        if stability:  # a cyclic sector: every wave number r (`wave_jacobians`)
-            stable[i] = all(is_stable(J, Mr, Cr, omega[i], prob.H)[0]
-                            for _, J, Mr, Cr in wave_jacobians(prob, Q[i], omega[i], el))
     converged = pts["converged"] & ok & np.isfinite(res)
+    amp = amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n))
+    bs = branch_stability(prob, Q, omega, pts["lam"], elem_at, converged, stability,
+                          br.fold_lam, amp)
     return ResponseCurve(
         parameter=np.asarray(pts["lam"], float), omega=omega, Q=Q, converged=converged,
-        residual=res, stable=stable,
-        amplitude=amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n)),
+        residual=res, stable=bs.stable, amplitude=amp,
         fold_parameter=np.asarray(br.fold_lam, float),
         newton_iterations=np.asarray(pts["nit"]),
         nfev=int(br.nfev + extra_nfev + pts["extra_nfev"] + pts.get("dense_nfev", 0)),
@@ -286,7 +292,11 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
               "peak_nfev": int(pts["extra_nfev"]), "solve_time": elapsed,
               "dense_points": int(pts.get("dense_points", 0)),
               "dense_nfev": int(pts.get("dense_nfev", 0)),
-              "postprocess_time": time.perf_counter() - t0})
+              "postprocess_time": time.perf_counter() - t0, "stability": bs.note,
+              "hill_time": bs.hill_time, "floquet_time": bs.floquet_time},
+        stability_method=bs.method, hill_multiplier=bs.hill_multiplier,
+        floquet_multiplier=bs.floquet_multiplier,
+        bifurcation_parameter=bs.bifurcation_parameter, bifurcation_kind=bs.bifurcation_kind)
 
 
 def _guard_note(br, pts) -> str:

@@ -156,7 +156,7 @@ def describe(study, workers: int = 1, has_quick: bool = False) -> list:
         lines.append(f"solver: H = {sv.harmonics}, {sv.force_evaluation} forces"
                      + (f" ({sv.samples} samples per period)" if sv.force_evaluation == "aft" else "")
                      + f", tolerance {sv.tolerance:g} (relative), stability "
-                     f"{'on' if sv.stability else 'off'}, at most {sv.max_points} points per case"
+                     f"{sv.stability or 'off'}, at most {sv.max_points} points per case"
                      + (f", {steps}" if steps else ""))
     o = study.output
     lines.append(f"output: dofs {', '.join(o.dofs)}; figures {', '.join(o.figures) or 'none'}"

@@ -87,6 +87,17 @@ class Checker:
             self.fail(field, f"must be true or false, got {kind_of(value)}")
         return value
 
+    def switch(self, value, field, choices, on):
+        """true (-> `on`), false, or one of the strings `choices`."""
+        if isinstance(value, bool):
+            return on if value else False
+        if isinstance(value, str) and value in choices:
+            return value
+        near = difflib.get_close_matches(value, list(choices), n=1) if isinstance(value, str) \
+            else []
+        self.fail(field, f"must be true, false or one of {', '.join(map(repr, choices))}, got "
+                         f"{value!r}" + (f"; did you mean {near[0]!r}?" if near else ""))
+
     def array(self, value, field, length=None, min_length=1):
         if not isinstance(value, list):
             self.fail(field, f"must be a list, got {kind_of(value)}")

@@ -14,9 +14,10 @@ names ("x1"), never "x1@3".
 Continuation branches have different lengths: every per-point variable is padded
 along `point` with NaN (floats), False (flags) or -1 (counts).  Padded points and
 points whose numbers are not finite are never `converged`, so every converged
-point carries finite values.  `stable` is 1 (stable) or 0 (unstable) where Hill's
-method was run and NaN elsewhere (not converged, or stability off): a flag that
-cannot say "not computed" would read True there.  Amplitudes are half peak-to-peak
+point carries finite values.  `stable` is 1 (stable) or 0 (unstable) where stability
+was decided (Hill or Floquet: `stability_method`, `stability_dataset`) and NaN elsewhere
+(not converged, or stability off): a flag that cannot say "not computed" would read
+True there.  Amplitudes are half peak-to-peak
 (max x - min x)/2; harmonic amplitudes sqrt(a_h^2 + b_h^2) of
 x = a_0 + sum a_h cos(h W t) + b_h sin(h W t), |a_0| at h = 0.  Frequencies are in
 the study's unit (rad/s or Hz).
@@ -38,6 +39,7 @@ from ..model.system import lowest_frequencies
 from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
+from . import stability_dataset as sd
 
 MAX_MODES = 50    # natural frequencies per case in a dataset (the lowest)
 
@@ -127,6 +129,9 @@ class Layout:
     unit: str
     to_unit: float
     computed: bool            # stability computed (solver.stability)
+    B: int = 1                # bifurcations
+    mode: object = None       # solver.stability
+    notes: tuple = ()         # each case's description of how stability was decided
 
 
 def response_sizes(study: Study, curves) -> Layout:
@@ -138,7 +143,9 @@ def response_sizes(study: Study, curves) -> Layout:
                   F=max([1] + [np.size(c.fold_parameter) for c in done]),
                   W=len(study.output.peak_windows), n=min(len(study.scene.dofs), MAX_MODES),
                   unit=fr.unit,
-                  to_unit=fr.to_rad_s, computed=bool(study.solver.stability))
+                  to_unit=fr.to_rad_s, computed=bool(study.solver.stability),
+                  B=sd.bifurcation_count(done), mode=study.solver.stability,
+                  notes=tuple(c.info.get("stability", "") for c in done))
 
 
 def empty_arrays(lay: Layout) -> dict:
@@ -162,7 +169,8 @@ def empty_arrays(lay: Layout) -> dict:
                 natural_frequency_stuck=full((n,), np.nan),
                 natural_frequency_free=full((n,), np.nan),
                 window_peak_amplitude=full((S, W, D), np.nan),
-                window_peak_frequency=full((S, W, D), np.nan))
+                window_peak_frequency=full((S, W, D), np.nan),
+                **sd.stability_arrays(lay.shape, P, lay.B))
 
 
 def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
@@ -185,6 +193,7 @@ def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
             a["frequency"], a["amplitude"], inside)
     folds = np.asarray(c.fold_parameter, dtype=float).ravel() / lay.to_unit
     v["fold_frequency"][idx][:folds.size] = folds
+    sd.fill_stability(v, idx, c, a["converged"], lay.computed, lay.to_unit)
     v["n_points"][idx] = p
     v["wall_time"][idx] = c.wall_time
     v["residual_evaluations"][idx] = c.nfev
@@ -198,7 +207,8 @@ def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
 
 def response_meta(unit: str, computed: bool) -> dict:
     """name -> (dims after the sweep axes, units, long_name) of every per-case variable."""
-    stable_name = ("asymptotically stable (Hill's method): 1 stable, 0 unstable, NaN not computed"
+    stable_name = ("asymptotically stable (method: stability_method): 1 stable, 0 unstable, "
+                   "NaN not computed"
                    if computed else
                    "stability NOT computed (solver.stability = false): NaN everywhere")
     return {
@@ -233,6 +243,7 @@ def response_meta(unit: str, computed: bool) -> dict:
                                   "largest amplitude over converged points inside the peak window"),
         "window_peak_frequency": (("sector", "peak_window", "dof"), unit,
                                   "frequency of the largest amplitude inside the peak window"),
+        **sd.stability_meta(unit),
     }
 
 
@@ -252,6 +263,7 @@ def response_variables(study: Study, v: dict, message, lay: Layout) -> dict:
         comment="NaN where stability was not computed: points that did not converge"
                 + ("" if lay.computed else ", and every point since solver.stability = false"),
         stability_computed=int(lay.computed))
+    sd.stability_attrs(data_vars)
     data_vars["message"] = (sw, message.astype(str), {"long_name": "continuation message"})
     return data_vars
 
@@ -277,6 +289,8 @@ def response_coords(study: Study, frequency, lay: Layout) -> dict:
     coords["point"] = index_coord("point", np.arange(lay.P), "index along the continuation branch")
     coords["fold"] = index_coord("fold", np.arange(lay.F),
                                  "index of a fold (turning point) on the branch")
+    coords["bifurcation"] = index_coord("bifurcation", np.arange(lay.B),
+                                        "index of a change of the decided stability flag")
     coords["mode"] = index_coord("mode", np.arange(1, lay.n + 1), "mode number")
     if lay.W:
         lo, hi = np.array(study.output.peak_windows, dtype=float).T
@@ -300,9 +314,9 @@ def response_attrs(study: Study, lay: Layout) -> dict:
              "tolerance": float(sv.tolerance), "frequency_unit": lay.unit,
              "quick": int(study.quick),
              **provenance("pipeline (harmonic balance with Yang-Menq contact, continuation, "
-                          "Hill stability)")}
+                          "Hill / Floquet stability)")}
     attrs.update(scene_attrs(scene))  # FE blade and disk scenes describe their model
-    attrs["stability"] = ("Hill's method" if lay.computed else
+    attrs["stability"] = (sd.stability_note(lay.mode, lay.notes) if lay.computed else
                           "not computed (solver.stability = false): stable is NaN everywhere")
     return attrs
 
@@ -312,7 +326,7 @@ def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> x
 
     curves: sequence aligned with `study.sweep.cases()`; None for a case that
     raised (then all its points are padding and `message` holds `errors[k]`).
-    `stable` is NaN wherever Hill's method was not run: at every point when the
+    `stable` is NaN wherever stability was not computed: at every point when the
     study's `solver.stability` is off (the solver then reports True everywhere),
     and at points that did not converge.  `tuned` (a mistuned disk: the tuned
     references of `mistuned.tuned_references`) adds `tuned_peak_amplitude` and

@@ -28,7 +28,14 @@ The contract (README, section Dataset), as checked here:
   `peak_frequency` the frequency of that point;
 - `stable` is 1 (stable), 0 (unstable) or NaN (not computed), says so in
   `flag_meanings` or `comment`, is never 1 at a point that did not converge, and
-  holds no value at all where its `stability_computed` attribute is 0.
+  holds no value at all where its `stability_computed` attribute is 0;
+- where present, `stability_method` (sweeps..., point) is -1 (not computed) exactly
+  where `stable` is NaN, else 0 (Hill) or 1 (Floquet), with `flag_values` and
+  `flag_meanings`; `max_multiplier` is NaN where no method decided and, where
+  given, agrees with `stable` (1 iff the multiplier is at most 1 + 1e-6);
+  `bifurcation_type` is -1 (padding), 1 (fold), 2 (period doubling) or
+  3 (Neimark-Sacker) with `flag_meanings`, and `bifurcation_frequency` is finite
+  exactly where it is not -1.
 
 A modal dataset (global attribute `kind = "modes"`: eigenfrequencies, no
 response curves) is held to the attribute, units and coordinate rules only.
@@ -102,6 +109,8 @@ def _check_dataset(ds, name):
     if not out:  # the value checks below need the layout above
         _check_values(ds, say)
         _check_stable(ds, say)
+        if "stability_method" in ds.variables:
+            _check_stability_method(ds, say)
     npts = int(_converged(ds).sum()) if "converged" in ds else 0
     sectors = f", {ds.sizes['sector']} sectors" if "sector" in ds.dims else ""
     dofs = [str(d) for d in ds["dof"].values][:6] if "dof" in ds.coords else []
@@ -262,6 +271,38 @@ def _check_stable(ds, say):
     if "flag_meanings" not in st.attrs and "comment" not in st.attrs:
         say("variable 'stable' has neither flag_meanings nor comment saying what 1, 0 and "
             "NaN mean")
+
+
+MULTIPLIER_TOL = 1e-6   # a multiplier this close to 1 may be called stable (marginal)
+
+
+def _check_stability_method(ds, say):
+    """The deciding method, the largest multiplier and the bifurcations agree with
+    `stable`."""
+    need = ("max_multiplier", "bifurcation_frequency", "bifurcation_type")
+    missing = [v for v in need if v not in ds.variables]
+    if missing:
+        say(f"variable 'stability_method' comes without {', '.join(map(repr, missing))}")
+        return
+    m, st, mult = ds["stability_method"], ds["stable"], ds["max_multiplier"]
+    for v in ("stability_method", "bifurcation_type"):
+        if not {"flag_values", "flag_meanings"} <= set(ds[v].attrs):
+            say(f"variable {v!r} lacks flag_values / flag_meanings")
+    if not np.isin(m.values, (-1, 0, 1)).all():
+        say("variable 'stability_method' holds values other than -1, 0 and 1")
+    if bool(((m == -1) != st.isnull()).any()):
+        say("variable 'stability_method' is not -1 exactly where 'stable' is NaN")
+    if bool(((m == -1) & mult.notnull()).any()):
+        say("variable 'max_multiplier' has a value where no method decided")
+    agree = (st == 1) == (mult <= 1 + MULTIPLIER_TOL)
+    if bool((~agree & (m >= 0) & mult.notnull()).any()):
+        say("variable 'max_multiplier' contradicts 'stable' (stable iff max |mu| <= 1)")
+    bt = ds["bifurcation_type"]
+    if not np.isin(bt.values, (-1, 1, 2, 3)).all():
+        say("variable 'bifurcation_type' holds values other than -1, 1, 2 and 3")
+    if bool(((bt == -1) != ds["bifurcation_frequency"].isnull()).any()):
+        say("variable 'bifurcation_frequency' is not finite exactly where 'bifurcation_type' "
+            "is not -1")
 
 
 def main(argv=None) -> int:

@@ -123,14 +123,20 @@ def stability_for_plot(stable):
 _STYLE = {STABLE: dict(ls="-", lw=1.6), UNSTABLE: dict(ls="--", lw=1.4),
           NOT_COMPUTED: dict(ls=":", lw=1.6)}
 _STATE_LEGEND = {UNSTABLE: "unstable", NOT_COMPUTED: "stability not computed"}
+# marker per bifurcation type (dataset `bifurcation_type`): 1 fold, 2 period doubling,
+# 3 Neimark-Sacker
+BIFURCATION_MARKERS = {1: ("s", "fold bifurcation"), 2: ("v", "period doubling"),
+                       3: ("*", "Neimark-Sacker")}
 
 
 def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplitude [m]",
-                         title="", yscale="linear", legend_title=None):
+                         title="", yscale="linear", legend_title=None, marks=()):
     """The figure of `response_curves_figure`, left open (for saving or inspection).
 
     A branch may carry a sixth element, a dict of Line2D properties (color, lw,
-    alpha, zorder) that override its defaults; label None leaves it out of the legend."""
+    alpha, zorder) that override its defaults; label None leaves it out of the legend.
+    marks: [(frequency, amplitude, type)] bifurcations, a marker per type
+    (`BIFURCATION_MARKERS`), each type once in the legend."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -174,6 +180,12 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
     if any_fold:
         handles.append(ax.plot([], [], "ko", mfc="none", ms=6)[0])
         labels.append("fold")
+    for kind in sorted({int(k) for _, _, k in marks} & set(BIFURCATION_MARKERS)):
+        m, name = BIFURCATION_MARKERS[kind]
+        pts = np.array([(f, a) for f, a, k in marks if int(k) == kind], float)
+        handles.append(ax.plot(pts[:, 0], pts[:, 1], m, color="k", mfc="w", ms=8, zorder=4,
+                               gid=f"bifurcation={kind}")[0])
+        labels.append(name)
     ax.legend(handles, labels, fontsize=8, title=legend_title, title_fontsize=8)
     ax.set(xlabel=xlabel, ylabel=ylabel, title=title, yscale=yscale)
     ax.grid(alpha=0.3, which="both")

@@ -46,7 +46,7 @@ def write_figures(study: Study, ds, fig_dir, tuned=None) -> list:
         suffix = "".join(f"_{a}={study.sweep.axes[a][i]:g}" for a, i in sel.items())
         for dof in study.output.dofs:
             d = sub.sel(dof_selection(study, dof))   # "x1@3": dof x1 of sector 3
-            branches = []
+            branches, marks = [], []
             for j in range(ds.sizes[curve_axis] if curve_axis else 1):
                 b = d.isel({curve_axis: j}) if curve_axis else d
                 unit_c = ds[curve_axis].attrs["units"] if curve_axis else ""
@@ -54,12 +54,33 @@ def write_figures(study: Study, ds, fig_dir, tuned=None) -> list:
                          if curve_axis else study.name)
                 branches.append((label, b["frequency"].values, b["amplitude"].values,
                                  stability_for_plot(b["stable"]), b["converged"].values))
+                marks += bifurcation_marks(b)
             title = study.title + "".join(f", {a} = {study.sweep.axes[a][i]:g}" for a, i in sel.items())
             paths.append(response_curves_figure(
                 Path(fig_dir) / f"amplitude_{dof}{suffix}.png", branches,
                 xlabel=f"excitation frequency [{unit}]", ylabel=f"amplitude of {dof} [m]",
-                title=title, yscale=study.output.yscale))
+                title=title, yscale=study.output.yscale, marks=marks))
     return paths + hysteresis_figures(study, ds, fig_dir)
+
+
+def bifurcation_marks(b) -> list:
+    """[(frequency, amplitude, type)] of one branch's bifurcations: on the chord
+    between the two converged neighbours whose `stable` differ and whose frequencies
+    bracket `bifurcation_frequency`, amplitude interpolated linearly."""
+    if "bifurcation_type" not in b:
+        return []
+    f, a, st = (np.asarray(b[k].values, float) for k in ("frequency", "amplitude", "stable"))
+    ok = np.flatnonzero(np.asarray(b["converged"].values, bool) & np.isfinite(st))
+    out = []
+    for fb, kind in zip(b["bifurcation_frequency"].values, b["bifurcation_type"].values):
+        if kind < 0 or not np.isfinite(fb):
+            continue
+        for i, j in zip(ok[:-1], ok[1:]):
+            if st[i] != st[j] and min(f[i], f[j]) <= fb <= max(f[i], f[j]):
+                s = (fb - f[i]) / (f[j] - f[i]) if f[j] != f[i] else 0.5
+                out.append((float(fb), float(a[i] + s * (a[j] - a[i])), int(kind)))
+                break
+    return out
 
 
 def hysteresis_figures(study: Study, ds, fig_dir) -> list:

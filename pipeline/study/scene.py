@@ -34,7 +34,7 @@ from .checker import Checker, join_field, kind_of
 from .rules import check_scene_rules
 from .spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
                    MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, SWEEP_AXES, FrequencyRange,
-                   OutputSettings, SolverSettings, Study, Sweep, solver_rule_violations)
+                   OutputSettings, SolverSettings, STABILITY_MODES, Study, Sweep, solver_rule_violations)
 
 _SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
 
@@ -77,6 +77,8 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     solver = parse_solver(ck, solver_tab, "solver")
     sweep_axes, freq = parse_sweep(ck, sweep_tab, "sweep")
     scene = parse_scene(ck, scene_tab)
+    if "stability" not in solver_tab and scene.model == "disk":
+        solver = replace(solver, stability="hill")  # one sector's flow is not the wheel's
     output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
     variants = [(False, solver, sweep_axes, freq, "solver", "sweep")]
     if quick:
@@ -144,9 +146,11 @@ def parse_solver(ck, tab, path, base=None) -> SolverSettings:
         kw["samples"] = ck.integer(tab["samples"], f"{path}.samples", 3, 1 << 16)
     if "tolerance" in tab:
         kw["tolerance"] = ck.number(tab["tolerance"], f"{path}.tolerance", gt=0.0, lt=1.0)
-    for key in ("stability", "dense_output"):
-        if key in tab:
-            kw[key] = ck.boolean(tab[key], f"{path}.{key}")
+    if "stability" in tab:
+        kw["stability"] = ck.switch(tab["stability"], f"{path}.stability", STABILITY_MODES,
+                                    "hill")
+    if "dense_output" in tab:
+        kw["dense_output"] = ck.boolean(tab["dense_output"], f"{path}.dense_output")
     for key in ("initial_step", "max_step"):
         if key in tab:
             kw[key] = ck.number(tab[key], f"{path}.{key}", gt=0.0, le=10.0)

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..model.scene import Scene, build_system
 from ..model.system import System
+from ..solve.stability_check import MODES as STABILITY_MODES
 
 
 MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
@@ -86,7 +87,9 @@ class SolverSettings:
     force_evaluation: str = "exact"
     samples: int = 256
     tolerance: float = 1e-9
-    stability: bool = True
+    # "hill" | "floquet" | "hill+check" | False (`solve.stability_check`); lumped scenes
+    # default to "hill+check", disks and FE blades to cheaper ones (their parsers)
+    stability: bool | str = "hill+check"
     initial_step: float | None = None   # None: the solver's default
     max_step: float | None = None
     max_points: int = 1000

@@ -1,0 +1,202 @@
+"""Decided stability along a branch (pipeline/solve/stability_check.py): Hill checked by
+the Floquet multipliers of the exact flow.
+
+References: the 3-DOF shrouded blade of test_floquet.py, whose stability is settled by
+time integration (Hill is wrong at most of its points); a seeded corpus of random
+2-4-DOF contact systems against the Floquet multipliers at every point; the stiff
+impact orbit that Hill calls stable (README, hard cases).
+"""
+import copy
+import logging
+import tomllib
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipeline.contact import YangMenq
+from pipeline.model.system import System
+from pipeline.paper_systems import example3
+from pipeline.solve import floquet as fq
+from pipeline.solve import stability_check as sc
+from pipeline.solve.response import frequency_response
+from pipeline.study.documents import study_from_document
+
+from paper_systems import BLADE_STABLE, blade3
+
+STUDIES = Path(__file__).resolve().parents[1] / "studies"
+log = logging.getLogger(__name__)
+
+
+@pytest.mark.parametrize("value, mode", [(True, "hill"), (False, None), (None, None),
+                                         ("hill", "hill"), ("floquet", "floquet"),
+                                         ("hill+check", "hill+check")])
+def test_stability_mode(value, mode):
+    assert sc.stability_mode(value) == mode
+
+
+@pytest.mark.parametrize("value", ["yes", "Hill", 1, "hill+chek"])
+def test_bad_stability_raises_before_the_continuation(value):
+    with pytest.raises(ValueError, match="stability must be true, false or one of"):
+        frequency_response(blade3(), 3, 112.0, 113.0, stability=value)
+
+
+# ------------------------------------------------------------------ (a) the 3-DOF blade
+@pytest.fixture(scope="module")
+def blade_curve():
+    return frequency_response(blade3(), 10, 112.0, 121.0, stability="hill+check",
+                              dense_output=False)
+
+
+def test_blade_decided_where_hill_is_wrong(blade_curve):
+    """Hill calls the whole window unstable; the multipliers (0.83-0.93 outside
+    116.2-117.5 rad/s, a real one below -1 inside) decide, and the loss of stability
+    is reported as period doubling on both sides of the unstable window."""
+    c = blade_curve
+    assert c.success and c.converged.all()
+    assert not c.hill_multiplier[c.converged].max() < 1          # Hill: unstable somewhere
+    om = c.omega
+    calm = (((om >= BLADE_STABLE[0]) & (om <= 115.073))
+            | ((om >= 118.120) & (om <= BLADE_STABLE[-1])))
+    assert calm.sum() >= 7 and c.stable[calm].all()
+    assert (c.stability_method[calm] == sc.FLOQUET).all()
+    assert (c.floquet_multiplier[calm] < 0.95).all()
+    pd = (om >= 116.186) & (om <= 116.560)
+    assert pd.any() and not c.stable[pd].any() and (c.floquet_multiplier[pd] > 1.3).all()
+    kinds = dict(zip(np.round(c.bifurcation_parameter, 3), c.bifurcation_kind))
+    assert list(kinds.values()) == [sc.PERIOD_DOUBLING, sc.PERIOD_DOUBLING], kinds
+    lo, hi = sorted(kinds)
+    assert 115.073 < lo < 116.186 and 117.0 < hi < 118.120
+
+
+# ------------------------------------------------------------------ (b) random corpus
+def random_system(seed):
+    """A ground chain of n = 2-4 masses, a Yang-Menq contact at its tip (normal motion
+    of a random mass, or none); the regime by seed: stick (large preload), slip
+    (preload below the force), separation (preload near zero with normal motion)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 5))
+    m, k = rng.uniform(0.5, 2.0, n), rng.uniform(0.5, 2.0, n) * 1e4
+    K = np.diag(k)
+    for i in range(n - 1):
+        K[i:i + 2, i:i + 2] += k[i] * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    M = np.diag(m)
+    zeta = 10 ** rng.uniform(-2.3, -1.0)            # 0.5 % ... 10 % at the first mode
+    w1 = np.sqrt(np.linalg.eigvals(np.linalg.solve(M, K)).real.min())
+    C = 2 * zeta / w1 * K
+    Bt, Bn = np.zeros((1, n)), np.zeros((1, n))
+    Bt[0, -1] = 1.0
+    Bn[0, int(rng.integers(0, n))] = 1.0 if seed % 3 == 2 or rng.random() < 0.6 else 0.0
+    ku = 10 ** rng.uniform(3.3, 4.5)
+    kv = ku * 10 ** rng.uniform(-0.5, 0.5)
+    F = rng.uniform(0.5, 2.0)
+    regime = ("stick", "slip", "separation")[seed % 3]
+    n0 = {"stick": 30 * F, "slip": rng.uniform(0.1, 1.0) * F,
+          "separation": rng.uniform(0.0, 0.3) * F}[regime]
+    forcing = np.zeros((n, 2), complex)
+    forcing[0, 1] = F
+    s = System(M=M, C=C, K=K, Bt=Bt, Bn=Bn, contact=YangMenq(ku, kv, rng.uniform(0.2, 0.8), n0),
+               forcing=forcing)
+    return s, w1, regime
+
+
+def corpus_case(seed, H, max_points):
+    """(curve, Floquet's max |mu| at every converged point) of one corpus system."""
+    s, w1, _ = random_system(seed)
+    c = frequency_response(s, H, 0.9 * w1, 1.2 * w1, stability="hill+check",
+                           dense_output=False, max_points=max_points, ds_max=0.2)
+    ref = np.array(c.floquet_multiplier, float)
+    for i in np.flatnonzero(c.converged & ~np.isfinite(ref)):
+        r = fq.from_hbm(s, c.omega[i], c.Q[i])
+        ref[i] = r.max_modulus if r.orbit_converged else np.nan
+    return c, ref
+
+
+def corpus_counts(seeds, H, max_points):
+    """(decided flags that differ from Floquet, Hill flags that differ, points compared)
+    over the points whose max |mu| is outside 1 +- 1e-3."""
+    wrong = hill_wrong = compared = 0
+    for seed in seeds:
+        c, ref = corpus_case(seed, H, max_points)
+        far = np.isfinite(ref) & (np.abs(ref - 1.0) > 1e-3)
+        compared += int(far.sum())
+        wrong += int(np.sum(c.stable[far] != (ref[far] < 1.0)))
+        hill = c.hill_multiplier[far] <= 1.0
+        hill_wrong += int(np.sum(hill != (ref[far] < 1.0)))
+    return wrong, hill_wrong, compared
+
+
+def test_corpus_hill_check_equals_floquet():
+    wrong, hill_wrong, compared = corpus_counts(range(10), H=3, max_points=8)
+    log.info("corpus H = 3: %d points, Hill wrong at %d, hill+check wrong at %d",
+             compared, hill_wrong, wrong)
+    print(f"corpus (10 systems, H = 3): {compared} points compared, Hill alone wrong at "
+          f"{hill_wrong}, hill+check wrong at {wrong}")
+    assert compared >= 50 and wrong == 0
+
+
+@pytest.mark.slow
+def test_corpus_hill_check_equals_floquet_large():
+    """The README's number: 40 systems, H = 5, up to 30 points each."""
+    wrong, hill_wrong, compared = corpus_counts(range(40), H=5, max_points=30)
+    print(f"corpus (40 systems, H = 5): {compared} points compared, Hill alone wrong at "
+          f"{hill_wrong}, hill+check wrong at {wrong}")
+    assert wrong == 0
+
+
+# ------------------------------------------------------------------ (c) stiff impact
+def test_stiff_impact_orbit_that_hill_calls_stable():
+    """Example 3, n0 = 10 N, ku = kv = 1000, H = 14, at 1.6 rad/s: Hill stable
+    (rho_H = 0.67), the largest multiplier of the exact flow 1.05: unstable."""
+    s = example3(10.0)
+    s = replace(s, contact=replace(s.contact, ku=np.array([1e3]), kv=np.array([1e3])))
+    c = frequency_response(s, 14, 1.6, 1.6001, stability="hill+check", dense_output=False,
+                           max_points=2)
+    assert c.converged[0] and c.omega[0] == 1.6
+    assert c.hill_multiplier[0] < 1                                # Hill: stable
+    assert c.stability_method[0] == sc.FLOQUET and not c.stable[0]
+    assert c.floquet_multiplier[0] == pytest.approx(1.051, abs=2e-3)
+
+
+# ------------------------------------------------------------------ defaults of study files
+def _doc(name):
+    return tomllib.loads((STUDIES / name).read_text())
+
+
+@pytest.mark.parametrize("name, expected", [("paper_example1.toml", "hill+check"),
+                                            ("disk_cyclic.toml", "hill")])
+def test_default_mode_per_scene(name, expected):
+    doc = copy.deepcopy(_doc(name))
+    doc["solver"].pop("stability", None)
+    assert study_from_document(doc, file=name, name="s").solver.stability == expected
+
+
+def test_cyclic_sector_keeps_hill():
+    assert "keeps Hill" in sc.describe("hill+check", cyclic=True)
+    assert sc.describe(True) == "Hill's method at every point"
+
+
+# ------------------------------------------------------------------ figure marks
+def test_bifurcations_marked_by_type_in_the_amplitude_figure():
+    import xarray as xr
+
+    from pipeline.study.plots import pyplot, response_curves_plot
+    from pipeline.study.response_figures import bifurcation_marks
+
+    f = np.linspace(1.0, 2.0, 11)
+    a = 1.0 + f
+    st = np.where((f > 1.25) & (f < 1.75), 0.0, 1.0)
+    b = xr.Dataset({"amplitude": ("point", a), "stable": ("point", st),
+                    "converged": ("point", np.ones(11, bool)),
+                    "bifurcation_frequency": ("bifurcation", [1.25, 1.75, np.nan]),
+                    "bifurcation_type": ("bifurcation", np.array([2, 3, -1], np.int8))},
+                   coords={"frequency": ("point", f)})
+    marks = bifurcation_marks(b)
+    assert [(m[0], m[2]) for m in marks] == [(1.25, 2), (1.75, 3)]
+    assert marks[0][1] == pytest.approx(2.25)
+    fig = response_curves_plot([("x", f, a, st, np.ones(11, bool))], marks=marks)
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "period doubling" in labels and "Neimark-Sacker" in labels
+    assert "fold bifurcation" not in labels
+    pyplot().close(fig)
