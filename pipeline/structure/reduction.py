@@ -35,6 +35,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from .fe_model import boundary_dofs
+from .supernodal import solve_into, supernodes
 
 log = logging.getLogger(__name__)
 
@@ -139,12 +140,14 @@ def _damping(Kr, Mr, damping_ratios, rayleigh):
 
 def _constraint_modes(lu, Kib, block):
     """Static constraint modes Psi = -K_ii^{-1} K_ib (dense n_i x n_b) from the factor
-    `lu` of K_ii, solved `block` right-hand sides at a time."""
+    `lu` of K_ii, by supernode blocks of its L (`supernodal`), about `block`
+    right-hand sides per pass (equal column chunks)."""
+    F = supernodes(lu)
     nb = Kib.shape[1]
     Psi = np.empty((Kib.shape[0], nb))
-    for lo in range(0, nb, block):
-        j = slice(lo, min(lo + block, nb))
-        Psi[:, j] = -lu.solve(Kib[:, j].toarray())
+    for j in np.array_split(np.arange(nb), -(-nb // block)):
+        j = slice(j[0], j[-1] + 1)
+        solve_into(F, -Kib[:, j], Psi[:, j])
     return Psi
 
 
@@ -175,7 +178,7 @@ def _project(Kbb, Mbb, Kib, Mib, Mii, Psi, Phi, w2, block):
 
 
 def reduce(K, M, boundary, n_modes: int = DEFAULT_MODES, *, damping_ratios=(0.0,),
-           rayleigh=None, labels=None, block: int = 256) -> ReducedModel:
+           rayleigh=None, labels=None, block: int = 512) -> ReducedModel:
     """Craig-Bampton reduction of (K, M) keeping the DOFs `boundary` (module doc).
 
     K, M: sparse symmetric (n, n), positive definite K (clamped structure).
