@@ -24,7 +24,7 @@ class SupernodalFactor:
     """L D L^T of P A P^T as supernodes.  cols[s] = (first, stop) column range,
     rows[s]: row indices below the diagonal block, diag[s]: the unit lower
     (w, w) diagonal block, below[s]: the (len(rows[s]), w) block under it; d: D;
-    perm: P as the index array of `SuperLU.perm_c` (x[perm] = (P^T y))."""
+    perm: `SuperLU.perm_c`, P given as an index array: y = P x is y[perm] = x."""
 
     cols: tuple
     rows: tuple
