@@ -6,7 +6,10 @@ Three tables:
 3. cost of assembly, factorisation of K_ii, fixed-interface modes (40), constraint
    modes (all shroud DOFs kept) and projection for solid blades of ~10k, 50k, 100k
    DOFs, each in a fresh process so that the peak resident memory (ru_maxrss) is
-   that of the one size.  quick: table 3 for ~10k DOFs only, coarse tables 1-2.
+   that of the one size; wall times per step, and the process CPU time of the whole
+   (with single-threaded BLAS it stays near the wall time on a quiet machine and
+   grows less than it when other work shares the cores).  quick: table 3 for ~10k
+   DOFs only, coarse tables 1-2.
 """
 from __future__ import annotations
 
@@ -29,12 +32,14 @@ N_MODES = 40
 
 def _cost(mesh) -> dict:
     nc, nt, ns = mesh
+    c0 = time.process_time()
     t0 = time.perf_counter()
     blade = build_blade(BladeParams(n_chord=nc, n_thick=nt, n_span=ns))
     t_asm = time.perf_counter() - t0
     red = reduce_blade(blade, N_MODES)
+    cpu = time.process_time() - c0
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2  # KiB -> GiB
-    return {"n_dof": blade.n_dof, "n_b": red.n_boundary, "assembly": t_asm,
+    return {"cpu": cpu, "n_dof": blade.n_dof, "n_b": red.n_boundary, "assembly": t_asm,
             "nnz_LU": red.info["nnz_LU"], **red.info["times"], "rss_gb": rss,
             "f1": red.frequencies[0]}
 
@@ -97,7 +102,7 @@ def run(quick: bool) -> int:
     table = cost_table(sizes)
     print(f"\nCost of Craig-Bampton with {N_MODES} modes, all shroud DOFs kept [s]")
     cols = ["n_dof", "n_b", "nnz_LU", "assembly", "factorize", "normal_modes",
-            "constraint_modes", "projection", "total", "rss_gb"]
+            "constraint_modes", "projection", "total", "cpu", "rss_gb"]
     print(" ".join(f"{c:>16}" for c in ["size"] + cols))
     for r in table:
         r["total"] = sum(r[k] for k in ("assembly", "partition", "factorize", "normal_modes",

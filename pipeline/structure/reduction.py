@@ -13,10 +13,12 @@ the reduced matrices are
     M_r = T^T M T:  M_bb^r = M_bb + M_bi Psi + Psi^T M_ib + Psi^T M_ii Psi,
                     M_bm^r = (M_bi + Psi^T M_ii) Phi,   M_mm^r = I.
 
-K_ii is factorised ONCE (SuperLU, symmetric ordering) and the factor is reused for
-the constraint modes (block multi-RHS solves) and as OPinv = K_ii^{-1} of the
-shift-invert Lanczos (`eigsh`, sigma = 0).  Everything on the full model stays
-sparse; only the n_i x n_b block Psi and the n_i x m block Phi are dense.
+K_ii is factorised ONCE (SuperLU, symmetric ordering, diagonal pivots: P K_ii P^T =
+L D L^T) and the factor is reused as OPinv = K_ii^{-1} of the shift-invert Lanczos
+(`eigsh`, sigma = 0) and, split into dense supernode blocks of L (`supernodal`),
+for the constraint modes, hundreds of right-hand sides per pass.  Everything on the
+full model stays sparse; only the n_i x n_b block Psi and the n_i x m block Phi are
+dense; Psi^T M_ii Psi is formed by column chunks, upper block triangle only.
 
 Damping: modal ratios zeta_k on the reduced modes (K_r X = M_r X W^2,
 X^T M_r X = I):  C_r = M_r X diag(2 zeta_k w_k) X^T M_r;  or Rayleigh
@@ -35,6 +37,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 from .fe_model import boundary_dofs
+from .supernodal import solve_into, supernodes
 
 log = logging.getLogger(__name__)
 
@@ -139,29 +142,37 @@ def _damping(Kr, Mr, damping_ratios, rayleigh):
 
 def _constraint_modes(lu, Kib, block):
     """Static constraint modes Psi = -K_ii^{-1} K_ib (dense n_i x n_b) from the factor
-    `lu` of K_ii, solved `block` right-hand sides at a time."""
+    `lu` of K_ii, by supernode blocks of its L (`supernodal`), about `block`
+    right-hand sides per pass (equal column chunks)."""
+    F = supernodes(lu)
     nb = Kib.shape[1]
     Psi = np.empty((Kib.shape[0], nb))
-    for lo in range(0, nb, block):
-        j = slice(lo, min(lo + block, nb))
-        Psi[:, j] = -lu.solve(Kib[:, j].toarray())
+    for j in np.array_split(np.arange(nb), -(-nb // block)):
+        j = slice(j[0], j[-1] + 1)
+        solve_into(F, -Kib[:, j], Psi[:, j])
     return Psi
+
+
+def _psi_m_psi(Mii, Psi, block):
+    """Psi^T M_ii Psi (n_b x n_b) without an n_i x n_b temporary: M_ii Psi about
+    `block` columns at a time, each chunk multiplied only into the upper block
+    triangle, the lower one mirrored."""
+    nb = Psi.shape[1]
+    G = np.zeros((nb, nb))
+    for j in np.array_split(np.arange(nb), -(-nb // block)):
+        j0, j1 = j[0], j[-1] + 1
+        G[:j1, j0:j1] = Psi[:, :j1].T @ (Mii @ Psi[:, j0:j1])
+    return np.triu(G) + np.triu(G, 1).T
 
 
 def _project(Kbb, Mbb, Kib, Mib, Mii, Psi, Phi, w2, block):
     """Dense reduced (K_r, M_r) = T^T (K, M) T of u = T q, T = [[I, 0], [Psi, Phi]]
     (module doc), from the partitioned blocks, the fixed-interface eigenvalues w2
-    and modes Phi (M_ii-normalised); boundary blocks symmetrised.  M_ii Psi is
-    formed `block` columns at a time."""
+    and modes Phi (M_ii-normalised); boundary blocks symmetrised."""
     nb = Psi.shape[1]
     Kr_bb = Kbb + Kib.T @ Psi
-    MiiPsi = np.empty_like(Psi)
-    for lo in range(0, nb, block):
-        j = slice(lo, min(lo + block, nb))
-        MiiPsi[:, j] = Mii @ Psi[:, j]
-    Mr_bb = Mbb + Mib.T @ Psi
-    Mr_bb += Mr_bb.T - Mbb + Psi.T @ MiiPsi
-    del MiiPsi
+    MibPsi = Mib.T @ Psi
+    Mr_bb = Mbb + MibPsi + MibPsi.T + _psi_m_psi(Mii, Psi, block)
     Mr_bm = (Mib.T @ Phi) + Psi.T @ (Mii @ Phi)
     nr = nb + Phi.shape[1]
     Kr, Mr = np.zeros((nr, nr)), np.zeros((nr, nr))
@@ -175,14 +186,14 @@ def _project(Kbb, Mbb, Kib, Mib, Mii, Psi, Phi, w2, block):
 
 
 def reduce(K, M, boundary, n_modes: int = DEFAULT_MODES, *, damping_ratios=(0.0,),
-           rayleigh=None, labels=None, block: int = 256) -> ReducedModel:
+           rayleigh=None, labels=None, block: int = 512) -> ReducedModel:
     """Craig-Bampton reduction of (K, M) keeping the DOFs `boundary` (module doc).
 
     K, M: sparse symmetric (n, n), positive definite K (clamped structure).
     boundary: indices of the kept physical DOFs (order kept, no duplicates).
     n_modes: fixed-interface normal modes (0 = Guyan).  damping_ratios: modal
     ratios (last repeats), or rayleigh = (alpha, beta).  block: constraint modes
-    are solved `block` right-hand sides at a time (memory).
+    are solved, and multiplied by M_ii, about `block` columns at a time (memory).
     """
     K, M = sp.csr_matrix(K), sp.csr_matrix(M)
     _check_square("K", K)
