@@ -172,8 +172,37 @@ def test_default_mode_per_scene(name, expected):
     assert study_from_document(doc, file=name, name="s").solver.stability == expected
 
 
-def test_cyclic_sector_keeps_hill():
-    assert "keeps Hill" in sc.describe("hill+check", cyclic=True)
+def separating_sector():
+    """The 4-sector cyclic case of tests/test_cyclic.py with separation (EO = 1): a
+    2-DOF sector, one Yang-Menq element to the next sector's shroud, ku = 2, kv = 3,
+    mu = 0.3, n0 = 0.1 N."""
+    from pipeline.model.cyclic import Sector, sector_system
+    K, M = np.array([[3.0, -1.0], [-1.0, 1.5]]), np.diag([1.0, 0.5])
+    e1, e2 = np.array([[1.0, 0.0]]), np.array([[0.0, 1.0]])
+    F = np.array([[0.0, 1.0, 0.0], [0.05, 0.3j, 0.1]])
+    return sector_system(Sector(M=M, C=0.02 * K, K=K, Bt=-e2, Bn=-e1, Bt_next=e2, Bn_next=e1,
+                                contact=YangMenq(2.0, 3.0, 0.3, 0.1), forcing=F, sectors=4,
+                                dof_names=("x1", "x2")), 1)
+
+
+def test_cyclic_sector_decided_by_the_wheels_multipliers():
+    """Near separation Hill (H = 3, every wave number) calls stable orbits unstable at
+    1.545-1.551 rad/s; the Floquet multipliers of the whole 4-sector wheel (the sector
+    solution expanded, shooting on the wheel) are 0.94-0.99 there and decide.  At 1.70
+    rad/s both say unstable: the standing wave r = 2 grows (the wheel's flow has every
+    wave number, as Hill's problem per wave number)."""
+    from pipeline.solve import hbm
+    s = separating_sector()
+    a = frequency_response(s, 3, 1.45, 1.8, stability="hill", peak_dofs=[1])
+    pick = [int(np.argmin(np.abs(a.omega - w))) for w in (1.546, 1.548, 1.550, 1.70)]
+    assert not a.stable[pick].any()                   # Hill: all four unstable
+    bs = sc.branch_stability(hbm.setup(s, 3), a.Q[pick], a.omega[pick], a.omega[pick],
+                             lambda lam: s.contact, np.ones(4, bool), "hill+check")
+    assert list(bs.method) == [sc.FLOQUET] * 4
+    assert list(bs.stable) == [True, True, True, False]
+    assert np.all((bs.floquet_multiplier[:3] > 0.9) & (bs.floquet_multiplier[:3] < 0.995))
+    assert bs.floquet_multiplier[3] > 1.2
+    assert "keeps Hill" in sc.describe("hill+check", wheel_too_big=True)
     assert sc.describe(True) == "Hill's method at every point"
 
 

@@ -228,6 +228,18 @@ def expand(Q0, sectors: int, engine_order: int):
     return np.concatenate([shift(Q0, j * phi) for j in range(sectors)])
 
 
+def wheel_system(system: System) -> System:
+    """The N-sector assembly (`full_assembly`, dense) of a tuned cyclic sector `System`
+    (`sector_system`): what the sector's travelling wave is a solution of, with every
+    wave number free (its time integration, its Floquet multipliers)."""
+    cy = system.cyclic
+    sec = Sector(M=system.M, C=system.C, K=system.K, Bt=system.Bt, Bn=system.Bn,
+                 Bt_next=cy.Bt_next, Bn_next=cy.Bn_next, contact=system.contact,
+                 forcing=system.forcing, sectors=cy.sectors,
+                 dof_names=tuple(system.dof_names), K_next=cy.K_next)
+    return full_assembly(sec, cy.engine_order, sparse=False)
+
+
 def aft_samples_ok(sectors: int, engine_order: int, n_samples: int) -> bool:
     """True if AFT on the sector equals AFT on the full assembly: the sample grid
     must be invariant under the shift phi, i.e. n_samples a multiple of

@@ -26,8 +26,11 @@ wrong Hill flag is 0.18.  A lightly damped structure (max Re lam T ~ -2 pi zeta)
 inside the margin: there every point is checked.  A Floquet check costs one shooting + one monodromy (0.1-0.2 s
 on a few DOFs), about a tenth of a continuation point at H = 10.
 
-Cyclic sectors (`System.cyclic`) keep Hill in every mode: the exact flow of one
-sector is not the wheel's (Hill there covers every wave number, `wave_jacobians`).
+Cyclic sectors (`System.cyclic`): the exact flow of one sector is not the wheel's, so
+their Floquet multipliers are those of the whole tuned wheel (`cyclic.wheel_system`,
+the sector solution expanded to every sector, `cyclic.expand`): every wave number is
+free, as in Hill's problem per wave number (`wave_jacobians`).  Above MAX_WHEEL_DOF
+DOFs in the wheel every mode keeps Hill.
 
 Where Hill and Floquet disagree, Floquet decides.  A "marginal" Floquet verdict
 (|mu| within 1e-6 of 1) counts as stable, as Hill's relative margin does.
@@ -48,6 +51,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..model.cyclic import expand, wheel_system
 from . import floquet
 from .full_operators import wave_jacobians
 from .stability import is_stable
@@ -60,6 +64,7 @@ FOLD, PERIOD_DOUBLING, NEIMARK_SACKER = 1, 2, 3
 KINDS = {FOLD: "fold", PERIOD_DOUBLING: "period doubling", NEIMARK_SACKER: "Neimark-Sacker"}
 KIND_CODES = {v: k for k, v in KINDS.items()}
 CHECK_MARGIN = 0.5
+MAX_WHEEL_DOF = 200    # a cyclic sector's Floquet check integrates the whole wheel up to this
 
 
 def stability_mode(value) -> str | None:
@@ -141,8 +146,12 @@ class _Points:
         self.fq_tried[i] = True
         t0 = time.perf_counter()
         s = replace(self.prob.system, contact=self.elem_at(self.lam[i]))
+        Q = self.Q[i]
+        if s.cyclic is not None:   # the travelling wave as an orbit of the whole wheel
+            Q = expand(Q, s.cyclic.sectors, s.cyclic.engine_order)
+            s = wheel_system(s)
         try:
-            r = floquet.from_hbm(s, self.omega[i], self.Q[i])
+            r = floquet.from_hbm(s, self.omega[i], Q)
         except (ValueError, np.linalg.LinAlgError) as exc:
             log.debug("Floquet at %.6g rad/s failed: %s", self.omega[i], exc)
             r = None
@@ -164,9 +173,10 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     P = omega.size
     pts = _Points(prob, Q, omega, np.asarray(lam, float), elem_at)
     conv = np.flatnonzero(np.asarray(converged, bool))
-    cyclic = getattr(prob.system, "cyclic", None) is not None
-    note = describe(mode, cyclic, margin)
-    if cyclic and mode in ("floquet", "hill+check"):
+    cy = getattr(prob.system, "cyclic", None)
+    too_big = cy is not None and cy.sectors * prob.system.n_dof > MAX_WHEEL_DOF
+    note = describe(mode, too_big, margin)
+    if too_big and mode in ("floquet", "hill+check"):
         mode = "hill"
     if mode is None:
         return _result(pts, np.full(P, NOT_COMPUTED, np.int8), fold_lam, conv, note)
@@ -185,12 +195,14 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     return _result(pts, method, fold_lam, conv, note)
 
 
-def describe(mode, cyclic: bool = False, margin: float = CHECK_MARGIN) -> str:
-    """How `branch_stability` decides in `mode` (`stability_mode`), in words."""
+def describe(mode, wheel_too_big: bool = False, margin: float = CHECK_MARGIN) -> str:
+    """How `branch_stability` decides in `mode` (`stability_mode`), in words;
+    wheel_too_big: a cyclic sector whose wheel has more than MAX_WHEEL_DOF DOFs."""
     mode = stability_mode(mode)
-    if cyclic and mode in ("floquet", "hill+check"):
-        return ("Hill's method at every point, every wave number: the exact flow of one "
-                f"cyclic sector is not the wheel's, so {mode!r} keeps Hill")
+    if wheel_too_big and mode in ("floquet", "hill+check"):
+        return ("Hill's method at every point, every wave number: the Floquet check of a "
+                f"cyclic sector integrates the whole wheel, above {MAX_WHEEL_DOF} DOFs "
+                f"{mode!r} keeps Hill")
     return {None: "not computed", "hill": "Hill's method at every point",
             "floquet": "Floquet multipliers of the exact flow at every converged point (Hill "
                        "where the periodic orbit was not found)",

@@ -72,7 +72,7 @@ def stability_meta(unit: str) -> dict:
 
 def stability_note(mode, notes) -> str:
     """The global `stability` attribute: the cases' own descriptions (a cyclic sector
-    keeps Hill whatever the mode), else the mode's."""
+    whose wheel is too large for the Floquet check keeps Hill), else the mode's."""
     own = sorted({n for n in notes if n})
     return "; ".join(own) if own else describe(mode)
 
