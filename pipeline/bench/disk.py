@@ -205,7 +205,26 @@ def current_rss() -> int:
 
 
 def peak_rss() -> int:
+    """Peak resident memory [bytes]: since `reset_peak_rss` where Linux allows it
+    (/proc/self/status VmHWM), else since the process started."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError):
+        pass
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024   # KiB on Linux
+
+
+def reset_peak_rss() -> None:
+    """Restart the peak resident memory from the current one (Linux: clear_refs 5);
+    without it the peak includes what came before (the wheel's setup)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
 
 
 def wheel_setup(sectors: int, H: int) -> dict:
@@ -238,6 +257,7 @@ def wheel_row(sectors: int, H: int, points: int, max_jacobian_bytes=MAX_JACOBIAN
     f = row.pop("system")
     if row["jacobian_bytes"] > max_jacobian_bytes:
         return {**row, "skipped": True}
+    reset_peak_rss()
     rss0 = current_rss()
     t, cpu = time.perf_counter(), time.process_time()
     c = frequency_response(f, H, *row["window"], tol_rel=TOL_REL, stability=False,
