@@ -45,7 +45,8 @@ from ..model.system import natural_frequencies
 from ..solve import hbm
 from ..solve.parts import SPARSE_JACOBIAN_MIN
 from ..solve.full_operators import wave_jacobians
-from ..solve.response import frequency_response
+from ..solve.newton import newton
+from ..solve.response import frequency_response, initial_guess
 from ..solve.stability import is_stable
 from ..structure.fe_model import BladeParams, DiskPlacement
 
@@ -118,7 +119,29 @@ def sector_row(sectors: int, H: int, window=(0.8, 1.2), max_points: int = 1000) 
             "cpu_eval": 1e3 * cpu / max(c.nfev, 1),
             "cpu_newton": 1e3 * cpu / max(int(c.info["njev"]), 1),
             "converged": bool(np.all(c.converged)), "success": c.success, "curve": c,
-            "system": s}
+            "system": s, **sector_sweep(s, H, (window[0] * w_open, window[1] * w_stuck))}
+
+
+SWEEP_POINTS = 60     # the fixed-frequency sweep of table 1
+
+
+def sector_sweep(s, H: int, window, points: int = SWEEP_POINTS) -> dict:
+    """The same work for every N: Newton at `points` fixed frequencies across the window,
+    each started from the previous solution (a stepped sine), rows scaled by their
+    tolerances (`hbm.row_weights`); CPU ms per point and Newton iterations per point."""
+    prob = hbm.setup(s, H)
+    w = hbm.row_weights(prob, hbm.tolerances(prob, TOL_REL))
+    omegas = np.linspace(window[0], window[1], points)
+    x = initial_guess(prob, omegas[0], s.contact)
+    cpu, nit, ok = time.process_time(), 0, 0
+    for Om in omegas:
+        r = newton(lambda z: (lambda R, J, _: (w * R, w[:, None] * J))(  # noqa: E731
+            *hbm.residual(prob, z, Om)), x, 1.0, max_iter=40)
+        nit, ok = nit + r.nit, ok + bool(r.success)
+        x = r.x if r.success else x
+    cpu = time.process_time() - cpu
+    return {"sweep_cpu_point": 1e3 * cpu / points, "sweep_newton_point": nit / points,
+            "sweep_converged": ok}
 
 
 def sector_table(sizes, H: int, **kw) -> list[dict]:
@@ -126,6 +149,7 @@ def sector_table(sizes, H: int, **kw) -> list[dict]:
     for r in rows:
         r["ratio"] = r["cpu_point"] / rows[0]["cpu_point"]
         r["ratio_newton"] = r["cpu_newton"] / rows[0]["cpu_newton"]
+        r["ratio_sweep"] = r["sweep_cpu_point"] / rows[0]["sweep_cpu_point"]
     return rows
 
 
@@ -170,6 +194,14 @@ def print_sector_table(rows, H: int) -> None:
               f"{r['cpu_eval']:11.1f} {r['cpu_newton']:13.1f} {r['ratio']:8.2f} "
               f"{r['ratio_newton']:12.2f} {'yes' if r['success'] else 'no':>7} "
               f"{'yes' if r['converged'] else 'NO':>5}")
+    print(f"the same work for every N: a stepped sine of {SWEEP_POINTS} fixed frequencies "
+          "across the window, Newton from the previous point")
+    print(f"{'N':>4} {'Newton/pt':>9} {'CPU ms/pt':>9} {'ratio':>6} {'CPU ms/Newton':>13} "
+          f"{'converged':>9}")
+    for r in rows:
+        per_it = r["sweep_cpu_point"] / max(r["sweep_newton_point"], 1e-12)
+        print(f"{r['N']:>4} {r['sweep_newton_point']:9.2f} {r['sweep_cpu_point']:9.1f} "
+              f"{r['ratio_sweep']:6.2f} {per_it:13.1f} {r['sweep_converged']:>5}/{SWEEP_POINTS}")
     nc = {r["contact_dofs"] for r in rows}
     print(f"nonlinear unknowns per harmonic: {sorted(nc)} "
           f"({'the same for every N' if len(nc) == 1 else 'NOT the same'}); "
