@@ -1,6 +1,7 @@
 """Systems for the tests: the paper's examples (see pipeline/paper_systems.py) and the
-three-mass chain of tests/studies/chain_stuck_resonance.toml, and a 3-DOF shrouded
-blade whose stability along its branch is settled by time integration."""
+three-mass chain of tests/studies/chain_stuck_resonance.toml, a 3-DOF shrouded
+blade whose stability along its branch is settled by time integration, and the
+comparison of two sets of complex numbers (eigenvalues, multipliers)."""
 import numpy as np
 
 from pipeline.contact import YangMenq
@@ -36,3 +37,13 @@ def blade3():
 
 BLADE_STABLE = [113.156, 113.754, 114.407, 115.073, 118.120, 119.254, 120.927]
 BLADE_UNSTABLE = [116.186, 116.560]
+
+
+def assert_same_multiset(got, exact, atol):
+    """Same multiset of complex numbers (nearest matching, no fragile sorting)."""
+    got, exact = np.asarray(got), list(np.asarray(exact))
+    assert got.size == len(exact), (got, exact)
+    for g in got:
+        j = int(np.argmin(np.abs(np.array(exact) - g)))
+        assert abs(exact[j] - g) <= atol, (got, exact)
+        exact.pop(j)

@@ -20,7 +20,7 @@ from pipeline.solve.newton import newton
 from pipeline.solve.piecewise import PiecewiseModel
 from pipeline.solve.response import frequency_response
 
-from paper_systems import BLADE_STABLE, BLADE_UNSTABLE, blade3
+from paper_systems import BLADE_STABLE, BLADE_UNSTABLE, assert_same_multiset, blade3
 
 
 def periodic_start(system, Om):
@@ -36,15 +36,6 @@ def linear_multipliers(system, Om, K_add):
     A = np.block([[np.zeros((n, n)), np.eye(n)],
                   [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
     return np.linalg.eigvals(expm(A * 2 * np.pi / Om))
-
-
-def assert_same_multiset(got, exact, atol):
-    got, exact = np.asarray(got), list(np.asarray(exact))
-    assert got.size == len(exact), (got, exact)
-    for g in got:
-        j = int(np.argmin(np.abs(np.array(exact) - g)))
-        assert abs(exact[j] - g) <= atol, (got, exact)
-        exact.pop(j)
 
 
 def sdof_frictionless():

@@ -7,15 +7,7 @@ from pipeline.solve.continuation import continue_branch
 from pipeline.fourier.harmonics import derivative_matrix, time_grid
 from pipeline.solve.stability import harmonic_centroid, hill_eigenvalues, is_stable
 
-
-def assert_same_eigenvalues(got, exact, atol):
-    """Same multiset of complex numbers (nearest matching, no fragile sorting)."""
-    got, exact = np.asarray(got), list(np.asarray(exact))
-    assert got.size == len(exact), (got, exact)
-    for g in got:
-        j = int(np.argmin(np.abs(np.array(exact) - g)))
-        assert abs(exact[j] - g) <= atol, (got, exact)
-        exact.pop(j)
+from paper_systems import assert_same_multiset
 
 
 def linear_J(K, C, M, Om, H):
@@ -34,7 +26,7 @@ def test_linear_oscillator_exponents(w, zeta, solver):
     lam = hill_eigenvalues(linear_J(K, C, M, Om, H), M, C, Om, H, solver=solver)
     wd = w * np.sqrt(1 - zeta**2)
     exact = np.array([-zeta * w + 1j * wd, -zeta * w - 1j * wd])
-    assert_same_eigenvalues(lam, exact, atol=1e-10)
+    assert_same_multiset(lam, exact, atol=1e-10)
     stable, max_real, _ = is_stable(linear_J(K, C, M, Om, H), M, C, Om, H, solver=solver)
     assert stable and max_real == pytest.approx(-zeta * w, abs=1e-10)
 
@@ -50,7 +42,7 @@ def test_two_dof_exponents_and_selection_rules(select):
     lam = hill_eigenvalues(linear_J(K, C, M, Om, H), M, C, Om, H, select=select)
     A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
     exact = np.linalg.eigvals(A)
-    assert_same_eigenvalues(lam, exact, atol=1e-10)
+    assert_same_multiset(lam, exact, atol=1e-10)
 
 
 def test_imag_rule_returns_a_shifted_copy_above_half_Om():
@@ -75,9 +67,9 @@ def test_singular_mass_matrix():
     J = linear_J(K, C, M, Om, H)
     for solver in ("qz", "auto"):
         lam = hill_eigenvalues(J, M, C, Om, H, solver=solver)
-        assert_same_eigenvalues(lam, exact, atol=1e-10)
+        assert_same_multiset(lam, exact, atol=1e-10)
     lam = hill_eigenvalues(J, M, C, Om, H, solver="sparse", k=30)
-    assert_same_eigenvalues(lam, exact, atol=1e-10)
+    assert_same_multiset(lam, exact, atol=1e-10)
     with pytest.raises(ValueError, match="singular"):
         hill_eigenvalues(J, M, C, Om, H, solver="dense")
 

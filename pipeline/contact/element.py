@@ -18,6 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..fourier.harmonics import basis, harmonics_of
+from ..fourier.trigroots import TWO_PI
+
 
 def _as_param(name, value, E=None):
     a = np.atleast_1d(np.asarray(value, dtype=float))
@@ -143,3 +146,47 @@ def stuck_forces(U, elem: YangMenq, w, dwdU, dwdV, rows):
     dU = ku[..., None] * (np.eye(nc) - e0[:, None] * dwdU[rows][:, None, :])
     dV = -ku[..., None] * e0[:, None] * dwdV[rows][:, None, :]
     return Fu, dU, dV
+
+
+def history_from_segments(U, V, elem: YangMenq, tau, seg) -> dict:
+    """Periodic time history of every element at the instants `tau` (K,), from the
+    periodic segments `seg` of one period (a, b, state, w, regime, Nc: see
+    `exact.periodic_segments`).
+
+    Returns arrays (E, K): `state` (SEP, STICK, PSLIP, NSLIP), `fu`, `fv` [N], `u`,
+    `v` [m], `n` [N]; and `transitions`: per element a list of (tau, from, to)
+    with tau in [0, 2 pi).
+    """
+    E = elem.size
+    tau = np.asarray(tau, dtype=float)
+    H = harmonics_of(U.shape[1])
+    S = basis(tau, H)
+    u, v = U @ S.T, V @ S.T
+    n = seg["Nc"] @ S.T
+    a, b, st = seg["a"], seg["b"], seg["state"]
+    t0 = a[:, :1]
+    tq = t0 + np.mod(tau[None, :] - t0, TWO_PI)
+    # the segment containing each instant: last used segment with a <= t
+    inside = (a[:, None, :] <= tq[..., None]) & (st[:, None, :] >= 0) & (b[:, None, :] > a[:, None, :])
+    idx = inside.shape[2] - 1 - np.argmax(inside[..., ::-1], axis=2)
+    rows = np.arange(E)[:, None]
+    state = st[rows, idx]
+    w = seg["w"][rows, idx]
+    mu = elem.mu[:, None]
+    fu = np.select([state == STICK, state == PSLIP, state == NSLIP],
+                   [elem.ku[:, None] * (u - w), mu * n, -mu * n], 0.0)
+    # frictionless contact and separation need no segments
+    frictionless = (seg["regime"] == 3)[:, None]
+    ud = U @ basis(tau, H, 1).T
+    state = np.where(frictionless, np.where(ud >= 0, PSLIP, NSLIP), state)
+    state = np.where(n <= 0, SEP, state)
+    fu = np.where((n <= 0) | frictionless, 0.0, fu)
+    fv = np.where(n > 0, n, 0.0)
+    transitions = []
+    for e in range(E):
+        used = (st[e] >= 0) & (b[e] > a[e])
+        ta, ss = a[e][used], st[e][used]
+        ch = np.flatnonzero(ss != np.roll(ss, 1))
+        transitions.append([(float(np.mod(ta[i], TWO_PI)), int(ss[i - 1]), int(ss[i])) for i in ch]
+                           if ss.size > 1 else [])
+    return dict(state=state, fu=fu, fv=fv, u=u, v=v, n=n, transitions=transitions)

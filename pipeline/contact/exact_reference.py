@@ -39,7 +39,8 @@ from functools import lru_cache
 import numpy as np
 
 from .element import (NSLIP, PSLIP, SEP, SRC_HI, SRC_LO, SRC_TD, STICK, ContactForces,
-                      YangMenq, check_coefficients, stuck_forces, stuck_slider)
+                      YangMenq, check_coefficients, history_from_segments, stuck_forces,
+                      stuck_slider)
 from ..fourier.harmonics import basis, derivative, harmonics_of
 from ..fourier.trigroots import TWO_PI, polish_root, sign_changes
 
@@ -455,45 +456,9 @@ def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
 
 
 def history(U, V, elem: YangMenq, tau) -> dict:
-    """Periodic time history of every element at the instants `tau` (K,).
-
-    Returns arrays (E, K): `state` (SEP, STICK, PSLIP, NSLIP), `fu`, `fv` [N], `u`,
-    `v` [m], `n` [N]; and `transitions`: per element a list of (tau, from, to)
-    with tau in [0, 2 pi).
-    """
+    """Periodic time history of every element at the instants `tau` (K,), from this
+    module's `periodic_segments` (`element.history_from_segments`)."""
     E = elem.size
     U = check_coefficients("U", U, E)
     V = check_coefficients("V", V, E)
-    tau = np.asarray(tau, dtype=float)
-    H = harmonics_of(U.shape[1])
-    seg = periodic_segments(U, V, elem)
-    S = basis(tau, H)
-    u, v = U @ S.T, V @ S.T
-    n = seg["Nc"] @ S.T
-    a, b, st = seg["a"], seg["b"], seg["state"]
-    t0 = a[:, :1]
-    tq = t0 + np.mod(tau[None, :] - t0, TWO_PI)
-    # the segment containing each instant: last used segment with a <= t
-    inside = (a[:, None, :] <= tq[..., None]) & (st[:, None, :] >= 0) & (b[:, None, :] > a[:, None, :])
-    idx = inside.shape[2] - 1 - np.argmax(inside[..., ::-1], axis=2)
-    rows = np.arange(E)[:, None]
-    state = st[rows, idx]
-    w = seg["w"][rows, idx]
-    mu = elem.mu[:, None]
-    fu = np.select([state == STICK, state == PSLIP, state == NSLIP],
-                   [elem.ku[:, None] * (u - w), mu * n, -mu * n], 0.0)
-    # frictionless contact and separation need no segments
-    frictionless = (seg["regime"] == 3)[:, None]
-    ud = U @ basis(tau, H, 1).T
-    state = np.where(frictionless, np.where(ud >= 0, PSLIP, NSLIP), state)
-    state = np.where(n <= 0, SEP, state)
-    fu = np.where((n <= 0) | frictionless, 0.0, fu)
-    fv = np.where(n > 0, n, 0.0)
-    transitions = []
-    for e in range(E):
-        used = (st[e] >= 0) & (b[e] > a[e])
-        ta, ss = a[e][used], st[e][used]
-        ch = np.flatnonzero(ss != np.roll(ss, 1))
-        transitions.append([(float(np.mod(ta[i], TWO_PI)), int(ss[i - 1]), int(ss[i])) for i in ch]
-                           if ss.size > 1 else [])
-    return dict(state=state, fu=fu, fv=fv, u=u, v=v, n=n, transitions=transitions)
+    return history_from_segments(U, V, elem, tau, periodic_segments(U, V, elem))
