@@ -143,6 +143,14 @@ def time_grid(H: int, N: int):
     return _dft(H, N)
 
 
+@lru_cache(maxsize=32)
+def _sample_table(H: int, N: int) -> np.ndarray:
+    """basis(tau, H).T at N equidistant samples (2H+1, N), read-only, cached."""
+    out = basis(2 * np.pi * np.arange(N) / N, H).T.copy()
+    out.setflags(write=False)
+    return out
+
+
 def amplitude_half_peak_to_peak(X: np.ndarray, n_samples: int = 0) -> np.ndarray:
     """(max x - min x)/2 over one period for X (..., 2H+1) (the dataset's `amplitude`).
 
@@ -155,18 +163,54 @@ def amplitude_half_peak_to_peak(X: np.ndarray, n_samples: int = 0) -> np.ndarray
     flat = X.reshape(-1, X.shape[-1])
     N = n_samples or 64 * H + 64
     tau = 2 * np.pi * np.arange(N) / N
-    x = flat @ basis(tau, H).T
+    x = flat @ _sample_table(H, N)
     out = []
+    j = np.arange(1, H + 1, dtype=float)
+    a, b = flat[:, 1::2], flat[:, 2::2]
     for pick in (np.argmax, np.argmin):
         t = tau[pick(x, axis=1)]
         for _ in range(4):  # Newton on x'(t) = 0 from the best sample
-            d1 = np.einsum("ec,ec->e", basis(t, H, 1), flat)
-            d2 = np.einsum("ec,ec->e", basis(t, H, 2), flat)
+            arg = t[:, None] * j
+            c, s = np.cos(arg), np.sin(arg)
+            d1 = np.sum(j * (b * c - a * s), axis=1)
+            d2 = -np.sum(j**2 * (a * c + b * s), axis=1)
             step = np.where(np.abs(d2) > 0, d1 / np.where(d2 == 0, 1, d2), 0.0)
             step = np.clip(step, -np.pi / N, np.pi / N)
             t = t - step
-        val = np.einsum("ec,ec->e", basis(t, H), flat)
+        arg = t[:, None] * j
+        val = flat[:, 0] + np.sum(a * np.cos(arg) + b * np.sin(arg), axis=1)
         best = pick(x, axis=1)
         sampled = x[np.arange(len(flat)), best]
         out.append(np.maximum(val, sampled) if pick is np.argmax else np.minimum(val, sampled))
     return ((out[0] - out[1]) / 2).reshape(X.shape[:-1])
+
+
+def complex_harmonics(Qc):
+    """(H+1, nc) complex harmonics q_h = c_h - i s_h of real coefficients Qc (nc, 2H+1)
+    (q_0 = the mean), the layout of `hbm.linear_part`."""
+    return np.concatenate([Qc[:, :1].T.astype(complex), (Qc[:, 1::2] - 1j * Qc[:, 2::2]).T])
+
+
+def real_blocks(St, nh):
+    """Real matrix (nc*nh, nc*nh), DOF-major, of complex per-harmonic blocks St[h]."""
+    nc = St[0].shape[0]
+    L = np.zeros((nc, nh, nc, nh))
+    L[:, 0, :, 0] = St[0].real
+    for h in range(1, len(St)):
+        A, B = St[h].real, St[h].imag
+        ci, si = 2 * h - 1, 2 * h
+        L[:, ci, :, ci] = A
+        L[:, ci, :, si] = B
+        L[:, si, :, ci] = -B
+        L[:, si, :, si] = A
+    return L.reshape(nc * nh, nc * nh)
+
+
+def real_vector(Pt, nh):
+    """Real layout (nc, nh) of complex per-harmonic vectors Pt (H+1, nc)."""
+    nc = Pt.shape[1]
+    out = np.zeros((nc, nh))
+    out[:, 0] = Pt[0].real
+    out[:, 1::2] = Pt[1:].real.T
+    out[:, 2::2] = -Pt[1:].imag.T
+    return out

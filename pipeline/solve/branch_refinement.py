@@ -31,11 +31,11 @@ def _dof_amplitude(prob, x, lam, dof, omega_of=lambda l: l):
 def _amplitudes(prob, X, L, dofs, omega_of):
     """(P, D) amplitudes of the DOFs `dofs` at the points X, L (one recovery of all
     DOFs per point)."""
-    out = np.zeros((L.size, len(dofs)))
-    for i in range(L.size):
-        Q = hbm.recover(prob, X[i].reshape(prob.c.size, prob.nh), omega_of(L[i]))
-        out[i] = amplitude_half_peak_to_peak(Q[dofs])
-    return out
+    if L.size == 0:
+        return np.zeros((0, len(dofs)))
+    Q = [hbm.recover(prob, X[i].reshape(prob.c.size, prob.nh), omega_of(L[i]))[dofs]
+         for i in range(L.size)]
+    return amplitude_half_peak_to_peak(np.stack(Q))
 
 
 def _local_maxima(amps, converged, rel=0.05):

@@ -29,9 +29,18 @@ def full_linear_operator(sys: System, Om: float, H: int, coupling: bool = True):
     if sp.issparse(sys.K):  # only the (n nh)^2 result is dense, no (n, n) copies
         L = (sp.kron(sys.K, I) + Om * sp.kron(sys.C, D) + Om**2 * sp.kron(sys.M, D @ D)
              ).toarray()
-    else:
+    else:   # filled per harmonic (D^2 = diag(-h^2)); the same as the Kronecker sum
         K, C, M = dense(sys.K), dense(sys.C), dense(sys.M)
-        L = np.kron(K, I) + Om * np.kron(C, D) + Om**2 * np.kron(M, D @ D)
+        n, nh = K.shape[0], 2 * H + 1
+        L4 = np.zeros((n, nh, n, nh))
+        h2 = np.concatenate([[0.0], np.repeat(np.arange(1.0, H + 1) ** 2, 2)])
+        k = np.arange(nh)
+        L4[:, k, :, k] = K - (Om**2 * h2)[:, None, None] * M
+        ci, si = np.arange(1, nh, 2), np.arange(2, nh, 2)
+        hD = Om * np.arange(1.0, H + 1)[:, None, None] * C     # Om C (x) D, D[c, s] = h
+        L4[:, ci, :, si] = hD
+        L4[:, si, :, ci] = -hD
+        L = L4.reshape(n * nh, n * nh)
     parts = coupling_operators(sys, H) if coupling else None
     return L if parts is None else L + parts[0] + parts[1]
 

@@ -47,7 +47,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..contact import YangMenq, forces
-from ..fourier.harmonics import derivative_matrix, shift_tables, turn
+from ..fourier.harmonics import (complex_harmonics, derivative_matrix, real_blocks, real_vector,
+                                 shift_tables, turn)
 from ..fourier.harmonics import shift as time_shift
 from ..model.system import System, coupled_stiffness, dense, element_rows
 from .interior import condense_blocks, interior_blocks, recover_blocks
@@ -75,6 +76,7 @@ class HBMProblem:
     parts: object = None              # parts.PartBlocks of independent parts (a full wheel)
     pattern: object = None            # parts.JacobianPattern: the Jacobian is built sparse
     interior: object = None           # interior.InteriorBlocks: dense blocks gathered once
+    stiffness: np.ndarray | None = None  # (H+1, n, n) `stiffness_stack` of a dense system
 
     @property
     def nh(self):
@@ -114,15 +116,16 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
             k += r.size
     interior = (None if sp.issparse(system.K) or (cy is not None and cy.K_next is not None)
                 else interior_blocks(*(dense(A) for A in (system.K, system.M, system.C)), c, o))
+    stack = None if sp.issparse(system.K) else stiffness_stack(system, H)
     if cy is None:
         parts = part_blocks(system, c, o)
         pattern = None if parts is None else jacobian_pattern(parts, idx, c.size, 2 * H + 1)
         return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                           system.forcing_coefficients(H), parts=parts, pattern=pattern,
-                          interior=interior)
+                          interior=interior, stiffness=stack)
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                       system.forcing_coefficients(H), shift, np.stack(shift_tables(shift, H)), nxt,
-                      interior=interior)
+                      interior=interior, stiffness=stack)
 
 
 # --------------------------------------------------------------------------
@@ -180,16 +183,27 @@ class _Solver:
             self.solve = lambda b: sla.lu_solve(self.lu, b, check_finite=False)
 
 
-def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True):
+def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True, motion=None):
     """Condensed dynamic stiffness per harmonic and condensed forcing.
 
     Returns (St, dSt, Pt, dPt): St[h], dSt[h] complex (nc, nc) for h = 0..H
-    (dSt = d/dOm), Pt, dPt complex (H+1, nc).
+    (dSt = d/dOm), Pt, dPt complex (H+1, nc).  With `motion` (H+1, nc) complex (the
+    contact DOFs' harmonics, `complex_harmonics`), dSt is returned applied to it,
+    dSt[h] @ motion[h] (H+1, nc): all the residual needs for dR/dOm.
     """
     sys, c, o, H = prob.system, prob.c, prob.o, prob.H
     if prob.interior is not None:   # dense blocks gathered once (interior.py)
         P = np.stack([_complex_forcing(prob.P, k) for k in range(H + 1)])
-        return condense_blocks(prob.interior, H, Om, P, c, o, derivatives)
+        return condense_blocks(prob.interior, H, Om, P, c, o, derivatives, motion)
+    out = _linear_part(prob, Om, derivatives)
+    if not (derivatives and motion is not None):
+        return out
+    St, dSt, Pt, dPt = out
+    return St, np.array([dS @ m for dS, m in zip(dSt, motion)]), Pt, dPt
+
+
+def _linear_part(prob: HBMProblem, Om: float, derivatives: bool):
+    sys, c, o, H = prob.system, prob.c, prob.o, prob.H
     if not sp.issparse(sys.K):
         return _linear_part_dense(prob, Om, derivatives)
     if prob.parts is not None:   # a full wheel on a rigid disk: blade by blade (parts.py)
@@ -232,7 +246,8 @@ def _linear_part_dense(prob: HBMProblem, Om: float, derivatives: bool):
     sys, c, o, H = prob.system, prob.c, prob.o, prob.H
     M, C = (np.asarray(A, dtype=float) for A in (sys.M, sys.C))
     h = np.arange(H + 1)[:, None, None]
-    S = stiffness_stack(sys, H) - (h * Om) ** 2 * M + 1j * h * Om * C   # (H+1, n, n)
+    Kh = prob.stiffness if prob.stiffness is not None else stiffness_stack(sys, H)
+    S = Kh - (h * Om) ** 2 * M + 1j * h * Om * C   # (H+1, n, n)
     P = np.stack([_complex_forcing(prob.P, k) for k in range(H + 1)])  # (H+1, n)
     dS = -2 * h * h * Om * M + 1j * h * C if derivatives else None
     if o.size == 0:
@@ -268,31 +283,6 @@ def _solve_T(lu, A, B):
     if sp.issparse(A):
         return lu.lu.solve(B, trans="T")
     return sla.lu_solve(lu.lu, B, trans=1, check_finite=False)
-
-
-def real_blocks(St, nh):
-    """Real matrix (nc*nh, nc*nh), DOF-major, of complex per-harmonic blocks St[h]."""
-    nc = St[0].shape[0]
-    L = np.zeros((nc, nh, nc, nh))
-    L[:, 0, :, 0] = St[0].real
-    for h in range(1, len(St)):
-        A, B = St[h].real, St[h].imag
-        ci, si = 2 * h - 1, 2 * h
-        L[:, ci, :, ci] = A
-        L[:, ci, :, si] = B
-        L[:, si, :, ci] = -B
-        L[:, si, :, si] = A
-    return L.reshape(nc * nh, nc * nh)
-
-
-def real_vector(Pt, nh):
-    """Real layout (nc, nh) of complex per-harmonic vectors Pt (H+1, nc)."""
-    nc = Pt.shape[1]
-    out = np.zeros((nc, nh))
-    out[:, 0] = Pt[0].real
-    out[:, 1::2] = Pt[1:].real.T
-    out[:, 2::2] = -Pt[1:].imag.T
-    return out
 
 
 # --------------------------------------------------------------------------
@@ -342,10 +332,12 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
     return G, (Je if blocks else assemble(prob, Je)), f
 
 
-def assemble(prob: HBMProblem, Je):
-    """Contact Jacobian (nc nh, nc nh) from per-element slot-pair blocks Je (E, m, m, nh, nh)."""
+def assemble(prob: HBMProblem, Je, out=None):
+    """Contact Jacobian (nc nh, nc nh) from per-element slot-pair blocks Je (E, m, m, nh, nh);
+    added into `out` (nc nh, nc nh, C-contiguous) if given."""
     nc, nh = prob.c.size, prob.nh
-    J = np.zeros((nc, nh, nc, nh), dtype=Je.dtype)
+    J = (np.zeros((nc, nh, nc, nh), dtype=Je.dtype) if out is None
+         else out.reshape(nc, nh, nc, nh))
     E, m = prob.idx.shape
     ia = np.broadcast_to(prob.idx[:, :, None], (E, m, m))
     ib = np.broadcast_to(prob.idx[:, None, :], (E, m, m))
@@ -362,19 +354,25 @@ def residual(prob: HBMProblem, x, Om, contact: YangMenq | None = None, jacobian=
     dR/dx is scipy.sparse for a full wheel (`HBMProblem.pattern`), else dense."""
     nh = prob.nh
     Qc = x.reshape(prob.c.size, nh)
-    St, dSt, Pt, dPt = linear_part(prob, Om, derivatives=jacobian)
     pat = prob.pattern
+    applied = jacobian and pat is None
+    St, dSt, Pt, dPt = linear_part(prob, Om, derivatives=jacobian,
+                                   motion=complex_harmonics(Qc) if applied else None)
     lin = linear_values(pat, St) if pat is not None else None
     L = pattern_matrix(pat, lin) if pat is not None else real_blocks(St, nh)
-    G, Jnl, _ = contact_terms(prob, Qc, contact, jacobian, blocks=pat is not None)
+    G, Jnl, _ = contact_terms(prob, Qc, contact, jacobian, blocks=jacobian)
     R = L @ x + G.ravel() - real_vector(Pt, nh).ravel()
     if not jacobian:
         return R, None, None
-    dL = pattern_matrix(pat, linear_values(pat, dSt)) if pat is not None else real_blocks(dSt, nh)
-    dR_dOm = dL @ x - real_vector(dPt, nh).ravel()
+    if applied:   # dSt already applied to the motion (`linear_part`)
+        dR_dOm = real_vector(dSt - dPt, nh).ravel()
+    else:
+        dR_dOm = (pattern_matrix(pat, linear_values(pat, dSt)) @ x
+                  - real_vector(dPt, nh).ravel())
+    blocks = Jnl if Jnl.ndim == 5 else None     # 2-D zeros without elements
     if pat is not None:
-        return R, pattern_matrix(pat, lin, Jnl if Jnl.ndim == 5 else None), dR_dOm
-    return R, L + Jnl, dR_dOm
+        return R, pattern_matrix(pat, lin, blocks), dR_dOm
+    return R, (L if blocks is None else assemble(prob, blocks, out=L)), dR_dOm
 
 
 def recover(prob: HBMProblem, Qc, Om):
@@ -385,7 +383,7 @@ def recover(prob: HBMProblem, Qc, Om):
     if o.size == 0:
         return Q
     if prob.interior is not None:
-        Qh = np.concatenate([Qc[:, :1].T.astype(complex), (Qc[:, 1::2] - 1j * Qc[:, 2::2]).T])
+        Qh = complex_harmonics(Qc)
         P_o = np.stack([_complex_forcing(prob.P, k)[o] for k in range(H + 1)])
         Qo = recover_blocks(prob.interior, H, Om, Qh, P_o)              # (H+1, no)
         Q[o, 0] = Qo[0].real
@@ -394,8 +392,9 @@ def recover(prob: HBMProblem, Qc, Om):
     if not sp.issparse(sys.K):
         M, C = (np.asarray(A, dtype=float) for A in (sys.M, sys.C))
         h = np.arange(H + 1)[:, None, None]
-        S = (stiffness_stack(sys, H) - (h * Om) ** 2 * M + 1j * h * Om * C)[:, o]
-        Qh = np.concatenate([Qc[:, :1].T.astype(complex), (Qc[:, 1::2] - 1j * Qc[:, 2::2]).T])
+        Kh = prob.stiffness if prob.stiffness is not None else stiffness_stack(sys, H)
+        S = (Kh - (h * Om) ** 2 * M + 1j * h * Om * C)[:, o]
+        Qh = complex_harmonics(Qc)
         rhs = np.stack([_complex_forcing(prob.P, k)[o] for k in range(H + 1)])
         rhs = rhs - (S[:, :, c] @ Qh[..., None])[..., 0]
         Qo = np.linalg.solve(S[:, :, o], rhs[..., None])[..., 0]     # (H+1, no)

@@ -56,9 +56,16 @@ def dynamic(blocks: tuple, h: int, Om: float):
     return K - w * w * M + 1j * w * C, h * (-2 * w * M + 1j * C)
 
 
-def condense_blocks(ib: InteriorBlocks, H: int, Om: float, P, c, o, derivatives: bool):
+def condense_blocks(ib: InteriorBlocks, H: int, Om: float, P, c, o, derivatives: bool,
+                    motion=None):
     """(St, dSt, Pt, dPt) of `hbm.linear_part` for h = 0..H: St, dSt (H+1, nc, nc)
-    complex, Pt, dPt (H+1, nc); P (H+1, n) the complex load per harmonic [N]."""
+    complex, Pt, dPt (H+1, nc); P (H+1, n) the complex load per harmonic [N].
+
+    With `motion` (H+1, nc) complex, dSt is returned applied to it, dSt[h] @ motion[h]
+    (H+1, nc), by matrix-vector products: the residual needs only dR/dOmega, and the
+    two (nc, no) x (no, nc) products of the matrix dSt would double the cost."""
+    if derivatives and motion is not None:
+        return _condense_applied(ib, H, Om, P, c, o, np.asarray(motion, complex))
     S = [[dynamic(b, h, Om) for b in (ib.cc, ib.co, ib.oc, ib.oo)] for h in range(H + 1)]
     Soo = np.array([s[3][0] for s in S])
     Soc = np.array([s[2][0] for s in S])
@@ -81,6 +88,29 @@ def condense_blocks(ib: InteriorBlocks, H: int, Om: float, P, c, o, derivatives:
     dSt = dScc - B - YdSoc + Y @ (dSoo @ X)
     dPt = (-(dSco @ z[..., None]) + Y @ (dSoo @ z[..., None]))[..., 0]
     return St, dSt, Pt, dPt
+
+
+def _condense_applied(ib: InteriorBlocks, H: int, Om: float, P, c, o, q):
+    S = [[dynamic(b, h, Om) for b in (ib.cc, ib.co, ib.oc, ib.oo)] for h in range(H + 1)]
+    Soo = np.array([s[3][0] for s in S])
+    Soc = np.array([s[2][0] for s in S])
+    sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, o, None]], axis=2))
+    X, z = np.ascontiguousarray(sol[..., :-1]), sol[..., -1]
+    Sco = np.array([s[1][0] for s in S])
+    St = np.array([s[0][0] for s in S]) - Sco @ X
+    Pt = P[:, c] - (Sco @ z[..., None])[..., 0]
+    dScc, dSco, dSoc, dSoo = (np.array([s[k][1] for s in S]) for k in range(4))
+    # dSt q = dScc q - dSco X q - Y (dSoc q - dSoo X q);  dPt = -dSco z + Y dSoo z
+    Xq = (X @ q[..., None])[..., 0]
+    u = np.concatenate([(dSoc @ q[..., None] - dSoo @ Xq[..., None]),
+                        dSoo @ z[..., None]], axis=2)                    # (H+1, no, 2)
+    if ib.symmetric:   # Y = X^T
+        Yu = np.swapaxes(X, 1, 2) @ u
+    else:              # Y = Sco Soo^-1: Y u = Sco (Soo^-1 u)
+        Yu = Sco @ np.linalg.solve(Soo, u)
+    dStq = (dScc @ q[..., None] - dSco @ Xq[..., None])[..., 0] - Yu[..., 0]
+    dPt = -(dSco @ z[..., None])[..., 0] + Yu[..., 1]
+    return St, dStq, Pt, dPt
 
 
 def recover_blocks(ib: InteriorBlocks, H: int, Om: float, Qh, P_o):

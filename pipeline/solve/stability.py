@@ -82,6 +82,29 @@ def hill_matrices(M, C, Omega, H):
     return np.kron(C, I) + 2 * Omega * np.kron(M, D), np.kron(M, I)
 
 
+def companion(J, M, C, Omega, H):
+    """[[0, I], [-Delta2^-1 J, -Delta2^-1 Delta1]] (2N, 2N) for a regular M, built
+    without Kronecker products: Delta2^-1 = M^-1 (x) I acts on the DOF index only, and
+    Delta2^-1 Delta1 = (M^-1 C) (x) I + 2 Om I_n (x) D."""
+    n, nh = M.shape[0], 2 * H + 1
+    N = n * nh
+    try:
+        Minv = np.linalg.inv(M)
+    except np.linalg.LinAlgError:
+        raise ValueError("M is singular: use solver='qz' or 'sparse'") from None
+    A = np.zeros((2 * N, 2 * N))
+    A[:N, N:] = np.eye(N)
+    A[N:, :N] = -(Minv @ J.reshape(n, nh * N)).reshape(N, N)
+    low = np.zeros((n, nh, n, nh))
+    k = np.arange(nh)
+    low[:, k, :, k] = -(Minv @ C)          # -(M^-1 C) (x) I: diagonal in the harmonic
+    D = derivative_matrix(H)
+    i = np.arange(n)
+    low[i, :, i, :] -= 2 * Omega * D       # -2 Om I_n (x) D
+    A[N:, N:] = low.reshape(N, N)
+    return A
+
+
 def harmonic_centroid(P, n, H):
     """Centroid sum k|P_k|^2 / sum |P_k|^2 of the complex harmonics of columns of P (N, K)."""
     P = np.asarray(P).reshape(n, 2 * H + 1, -1)
@@ -145,16 +168,10 @@ def hill_eigenvalues(J, M, C, Omega, H, *, select="centroid", solver="auto", k=N
             np.nonzero(np.abs(lam.imag) <= Omega / 2 * (1 + 1e-12))[0]
     else:
         Jd = J.toarray() if sp.issparse(J) else np.asarray(J, dtype=float)
-        D1, D2 = hill_matrices(M, C, Omega, H)
         if solver == "dense":
-            try:
-                Minv = np.linalg.inv(M)
-            except np.linalg.LinAlgError:
-                raise ValueError("M is singular: use solver='qz' or 'sparse'") from None
-            Ai = np.kron(Minv, np.eye(nh))  # Delta2^-1
-            A = np.block([[np.zeros((N, N)), np.eye(N)], [-Ai @ Jd, -Ai @ D1]])
-            lam, Z = np.linalg.eig(A)
+            lam, Z = np.linalg.eig(companion(Jd, M, C, Omega, H))
         else:
+            D1, D2 = hill_matrices(M, C, Omega, H)
             A = np.block([[np.zeros((N, N)), np.eye(N)], [-Jd, -D1]])
             B = sla.block_diag(np.eye(N), D2)
             a, b = np.linalg.norm(A, 1), np.linalg.norm(B, 1)
