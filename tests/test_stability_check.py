@@ -14,12 +14,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.linalg import expm
 
 from pipeline.contact import YangMenq
 from pipeline.model.system import System
-from pipeline.paper_systems import example3
+from pipeline.paper_systems import example1, example3
 from pipeline.solve import floquet as fq
 from pipeline.solve import stability_check as sc
+from pipeline.solve.orbit_floquet import along_orbit
 from pipeline.solve.response import frequency_response
 from pipeline.study.documents import study_from_document
 
@@ -31,7 +33,9 @@ log = logging.getLogger(__name__)
 
 @pytest.mark.parametrize("value, mode", [(True, "hill"), (False, None), (None, None),
                                          ("hill", "hill"), ("floquet", "floquet"),
-                                         ("hill+check", "hill+check")])
+                                         ("hill+check", "hill+check"),
+                                         ("monodromy", "monodromy"),
+                                         ("monodromy+check", "monodromy+check")])
 def test_stability_mode(value, mode):
     assert sc.stability_mode(value) == mode
 
@@ -164,7 +168,7 @@ def _doc(name):
     return tomllib.loads((STUDIES / name).read_text())
 
 
-@pytest.mark.parametrize("name, expected", [("paper_example1.toml", "hill+check"),
+@pytest.mark.parametrize("name, expected", [("paper_example1.toml", "monodromy+check"),
                                             ("disk_cyclic.toml", "hill")])
 def test_default_mode_per_scene(name, expected):
     doc = copy.deepcopy(_doc(name))
@@ -229,3 +233,105 @@ def test_bifurcations_marked_by_type_in_the_amplitude_figure():
     assert "period doubling" in labels and "Neimark-Sacker" in labels
     assert "fold bifurcation" not in labels
     pyplot().close(fig)
+
+
+# ------------------------------------------------------------------ the monodromy along the HBM orbit
+# (`orbit_floquet.along_orbit`) against the closed-form stuck limit, the exact orbit's
+# multipliers (shooting + saltation product) and the blade where Hill is wrong; the
+# `monodromy` and `monodromy+check` modes
+
+@pytest.mark.parametrize("system, H, lo, hi", [(example1(2.0), 7, 150.0, 250.0),
+                                               (example3(10.0), 14, 0.5, 1.6),
+                                               (example3(-20.0), 14, 0.5, 1.6)])
+def test_equals_the_exact_orbits_multipliers(system, H, lo, hi):
+    """Stick-slip (Example 1) and separation (Example 3): the largest |mu| equals that of
+    the exact periodic orbit to 2e-3 (measured 7e-5 .. 4.3e-4), the verdict everywhere."""
+    c = frequency_response(system, H, lo, hi, stability=False, dense_output=False)
+    for i in range(0, c.n_points, max(1, c.n_points // 12)):
+        r, ref = along_orbit(system, c.omega[i], c.Q[i]), fq.from_hbm(system, c.omega[i], c.Q[i])
+        assert r is not None and r.success and ref.orbit_converged
+        assert r.max_modulus == pytest.approx(ref.max_modulus, abs=2e-3)
+        assert r.verdict == ref.verdict
+
+
+def test_stuck_limit_is_the_linear_systems():
+    """Example 1 with a preload that keeps the contact stuck all period: the multipliers
+    are exp(lam T) of the stuck linear system (the slider a neutral direction)."""
+    s = example1(1e4)
+    c = frequency_response(s, 5, 150.0, 250.0, stability=False, dense_output=False,
+                           max_points=5)
+    Om = c.omega[2]
+    r = along_orbit(s, Om, c.Q[2])
+    assert r is not None and r.n_events == 0 and r.neutral_sliders == (0,)
+    K = np.asarray(s.K, float) + np.asarray(s.contact.ku)[0] * (s.Bt.T @ s.Bt) \
+        + np.asarray(s.contact.kv)[0] * (s.Bn.T @ s.Bn)
+    n = K.shape[0]
+    Minv = np.linalg.inv(np.asarray(s.M, float))
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ np.asarray(s.C, float)]])
+    exact = np.linalg.eigvals(expm(A * 2 * np.pi / Om))
+    got = np.sort_complex(r.multipliers)
+    assert np.allclose(got, np.sort_complex(exact), rtol=0, atol=1e-10)
+
+
+def test_blade_where_hill_is_wrong():
+    """The 3-DOF blade (H = 10): Hill calls stable orbits unstable; the orbit monodromy's
+    verdict equals the exact orbit's at every point away from |mu| = 1."""
+    c = frequency_response(blade3(), 10, 112.0, 121.0, stability="floquet",
+                           dense_output=False)
+    far = c.converged & np.isfinite(c.floquet_multiplier) & \
+        (np.abs(c.floquet_multiplier - 1.0) > 1e-3)
+    assert far.sum() >= 15
+    mono_wrong = 0
+    for i in np.flatnonzero(far):
+        r = along_orbit(blade3(), c.omega[i], c.Q[i])
+        mono_wrong += int((r.max_modulus < 1) != (c.floquet_multiplier[i] < 1))
+    h = frequency_response(blade3(), 10, 112.0, 121.0, stability="hill", dense_output=False)
+    calm = (h.omega >= BLADE_STABLE[0]) & (h.omega <= 115.073)  # stable (time integration)
+    hill_wrong = int(np.sum(~h.stable & calm))
+    assert mono_wrong == 0 and hill_wrong > 0
+
+
+def monodromy_corpus(seeds, H, max_points):
+    """(points compared, orbit-monodromy flags that differ from the exact multipliers')
+    over the points whose max |mu| is outside 1 +- 1e-3."""
+    compared = wrong = 0
+    for seed in seeds:
+        c, ref = corpus_case(seed, H, max_points)
+        for i in np.flatnonzero(np.isfinite(ref) & (np.abs(ref - 1.0) > 1e-3)):
+            r = along_orbit(random_system(seed)[0], c.omega[i], c.Q[i])
+            compared += 1
+            wrong += int(r is None or (r.max_modulus < 1) != (ref[i] < 1))
+    return compared, wrong
+
+
+def test_corpus_monodromy_equals_floquet():
+    """The seeded corpus (10 systems, H = 3): the orbit monodromy's flag equals the exact
+    multipliers' at every point away from |mu| = 1."""
+    compared, wrong = monodromy_corpus(range(10), 3, 8)
+    assert compared >= 50 and wrong == 0
+
+
+@pytest.mark.slow
+def test_corpus_monodromy_equals_floquet_large():
+    """The README's number: 40 systems, H = 5, up to 30 points each."""
+    compared, wrong = monodromy_corpus(range(40), 5, 30)
+    print(f"corpus (40 systems, H = 5): {compared} points compared, monodromy wrong at {wrong}")
+    assert wrong == 0
+
+
+def test_modes_decide_like_the_exact_multipliers():
+    """Example 3 (two folds): `monodromy` gives Hill's 22 unstable points and both folds
+    at a fraction of the cost; `monodromy+check` checks by Floquet only where max |mu|
+    is near 1, at flag changes and at peaks, and reports which method decided."""
+    s = example3(10.0)
+    a = frequency_response(s, 14, 0.5, 1.6, stability="hill")
+    b = frequency_response(s, 14, 0.5, 1.6, stability="monodromy")
+    c = frequency_response(s, 14, 0.5, 1.6, stability="monodromy+check")
+    assert np.array_equal(a.omega, b.omega) and np.array_equal(a.omega, c.omega)
+    assert np.array_equal(a.stable, b.stable) and np.array_equal(b.stable, c.stable)
+    assert (~b.stable).sum() == 22 and set(np.unique(b.stability_method)) == {sc.MONODROMY}
+    assert set(np.unique(c.stability_method)) == {sc.MONODROMY, sc.FLOQUET}
+    near = np.abs(np.log(b.monodromy_multiplier)) < sc.MONODROMY_MARGIN
+    assert np.all(c.stability_method[near & c.converged] == sc.FLOQUET)
+    assert np.allclose(b.bifurcation_parameter, a.bifurcation_parameter, rtol=0, atol=1e-5)
+    assert b.info["monodromy_time"] < a.info["hill_time"]

@@ -31,6 +31,10 @@ STUDY = (ROOT / "studies" / "paper_example1.toml").read_text()
 STUDY = STUDY[:STUDY.index("[output.optimum_preload]")]
 STUDY = STUDY.replace("preload = [0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 1000.0]",
                       "preload = [0.5, 1.0, 2.0, 3.0, 5.0, 10.0]")
+# cases of about a second each (stability checked by Floquet where in doubt), so that a
+# run can be interrupted while its workers are busy
+STUDY = STUDY.replace("stability = true", 'stability = "monodromy+check"')
+assert 'stability = "monodromy+check"' in STUDY
 N_CASES = 6
 
 

@@ -125,12 +125,12 @@ def slaved_map(mdl: PiecewiseModel, e: int, state: int):
 def flow_matrix(mdl: PiecewiseModel, states) -> np.ndarray:
     """A_s (2n+E, 2n+E) of y' = A_s y + b(t), y = [q, q', w], in the discrete state."""
     n, E = mdl.n, mdl.E
-    m = mdl.mode(states)
+    K, Wm, _ = mdl.matrices(states)
     A = np.zeros((2 * n + E, 2 * n + E))
     A[:n, n:2 * n] = np.eye(n)
-    A[n:2 * n, :n] = -mdl.Minv @ m.K
+    A[n:2 * n, :n] = -mdl.Minv @ K
     A[n:2 * n, n:2 * n] = -mdl.Minv @ mdl.C
-    A[n:2 * n, 2 * n:] = mdl.Minv @ m.Wm
+    A[n:2 * n, 2 * n:] = mdl.Minv @ Wm
     for e, s in enumerate(states):
         if s != STICK:
             A[2 * n + e, n:2 * n] = slaved_map(mdl, e, s)[0]
@@ -141,7 +141,7 @@ def vector_field(mdl: PiecewiseModel, states, t: float, y, A=None) -> np.ndarray
     """f = A_s y + b(t): the right-hand side of the extended flow at time t."""
     n = mdl.n
     A = flow_matrix(mdl, states) if A is None else A
-    F = mdl.mode(states).p0.copy()
+    F = mdl.matrices(states)[2].copy()
     if mdl.hs.size:
         F += (mdl.Fh @ np.exp(1j * mdl.hs * mdl.Om * t)).real
     f = A @ y
@@ -190,7 +190,7 @@ def saltation(R, grad, f_minus, f_plus, scale=None):
     return R + np.outer(f_plus - R @ f_minus, grad) / den, trans
 
 
-def _cross(mdl, t, y, sa, sb, flows):
+def switch_saltation(mdl, t, y, sa, sb, flows):
     """Saltation product and state after the switches sa -> sb at time t, one element
     at a time through the intermediate states; (S, y+, min transversality)."""
     S = np.eye(y.size)
@@ -199,8 +199,8 @@ def _cross(mdl, t, y, sa, sb, flows):
         nxt = cur[:e] + (sb[e],) + cur[e + 1:]
         R, c = jump_map(mdl, e, cur[e], sb[e])
         yp = R @ y + c
-        fm = vector_field(mdl, cur, t, y, _flow(mdl, cur, flows))
-        fp = vector_field(mdl, nxt, t, yp, _flow(mdl, nxt, flows))
+        fm = vector_field(mdl, cur, t, y, cached_flow(mdl, cur, flows))
+        fp = vector_field(mdl, nxt, t, yp, cached_flow(mdl, nxt, flows))
         d = np.ones(y.size)
         d[mdl.n:2 * mdl.n] = 1.0 / mdl.Om
         Se, tr = saltation(R, event_gradient(mdl, e, cur[e], sb[e]), fm, fp, d)
@@ -208,7 +208,8 @@ def _cross(mdl, t, y, sa, sb, flows):
     return S, y, trans
 
 
-def _flow(mdl, states, flows):
+def cached_flow(mdl, states, flows):
+    """flow_matrix of `states`, memoised in the dict `flows`."""
     key = tuple(int(s) for s in states)
     if key not in flows:
         flows[key] = flow_matrix(mdl, key)
@@ -230,12 +231,12 @@ def extended_monodromy(mdl: PiecewiseModel, x0, w0, states0, t0: float = 0.0):
         last = k + 1 == len(pieces)
         t1 = out["t"] if last else pieces[k + 1].t0
         if t1 > p.t0:
-            Phi = expm(_flow(mdl, p.mode.states, flows) * (t1 - p.t0)) @ Phi
+            Phi = expm(cached_flow(mdl, p.mode.states, flows) * (t1 - p.t0)) @ Phi
         if last or pieces[k + 1].mode.states == p.mode.states:
             continue
         x = p.x(t1)[:, 0]
         y = np.concatenate([x, mdl.derived_w(x, p.w, np.asarray(p.mode.states))])
-        S, _, tr = _cross(mdl, t1, y, p.mode.states, pieces[k + 1].mode.states, flows)
+        S, _, tr = switch_saltation(mdl, t1, y, p.mode.states, pieces[k + 1].mode.states, flows)
         Phi = S @ Phi
         info["min_transversality"] = min(info["min_transversality"], tr)
     return Phi, info

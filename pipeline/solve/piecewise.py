@@ -46,31 +46,38 @@ _TD, _LO, _TPS, _TNS, _TST = 0, 1, 2, 3, 4
 
 
 # --------------------------------------------------------------------------- model
+def state_matrices(mdl: "PiecewiseModel", states) -> tuple:
+    """(K_s, Wm_s, p0_s): stiffness with the contacts of the discrete state, the stuck
+    springs' action on the sliders w, and the constant force (preloads) [N]."""
+    n, E = mdl.n, mdl.E
+    K = mdl.K.copy()
+    g0 = np.zeros(n)                      # constant contact force (w-free part)
+    Wm = np.zeros((n, E))                 # RHS += Wm @ w (stuck springs)
+    for e, st in enumerate(states):
+        if st == SEP:
+            continue
+        bt, bn = mdl.Bt[e], mdl.Bn[e]
+        K += mdl.kv[e] * np.outer(bn, bn)
+        g0 += mdl.n0[e] * bn
+        if st == STICK:
+            K += mdl.kt[e] * np.outer(bt, bt)
+            Wm[:, e] = mdl.kt[e] * bt
+        else:
+            sg = 1.0 if st == PS else -1.0
+            K += sg * mdl.mu[e] * mdl.kv[e] * np.outer(bt, bn)
+            g0 += sg * mdl.mu[e] * mdl.n0[e] * bt
+    return K, Wm, mdl.F0 - g0
+
+
 class _Mode:
     """Closed-form solution data of one discrete state (tuple of element states)."""
 
     def __init__(self, mdl: "PiecewiseModel", states: tuple):
-        n, E = mdl.n, mdl.E
+        n = mdl.n
         s = np.asarray(states)
-        K = mdl.K.copy()
-        g0 = np.zeros(n)                      # constant contact force (w-free part)
-        Wm = np.zeros((n, E))                 # RHS += Wm @ w (stuck springs)
-        for e in range(E):
-            if s[e] == SEP:
-                continue
-            bt, bn = mdl.Bt[e], mdl.Bn[e]
-            K += mdl.kv[e] * np.outer(bn, bn)
-            g0 += mdl.n0[e] * bn
-            if s[e] == STICK:
-                K += mdl.kt[e] * np.outer(bt, bt)
-                Wm[:, e] = mdl.kt[e] * bt
-            else:
-                sg = 1.0 if s[e] == PS else -1.0
-                K += sg * mdl.mu[e] * mdl.kv[e] * np.outer(bt, bn)
-                g0 += sg * mdl.mu[e] * mdl.n0[e] * bt
         self.states = tuple(int(v) for v in s)
-        self.K, self.Wm = K, Wm
-        self.p0 = mdl.F0 - g0
+        self.K, self.Wm, self.p0 = mdl.matrices(self.states)
+        K = self.K
         A = np.zeros((2 * n, 2 * n))
         A[:n, n:] = np.eye(n)
         A[n:, :n] = -mdl.Minv @ K
@@ -163,7 +170,17 @@ class PiecewiseModel:
         self.T = 2 * np.pi / self.Om
         self.Minv = np.linalg.inv(self.M)
         self._cache: dict = {}
+        self._matrices: dict = {}
         self.hmax_freq = (self.hs.max() if self.hs.size else 0) * self.Om
+
+    def matrices(self, states) -> tuple:
+        """(K_s, Wm_s, p0_s) of the discrete state: q'' = M^-1 (F(t) + p0_s + Wm_s w -
+        K_s q - C q') (module docstring), cached; no closed-form data (`mode`)."""
+        key = tuple(int(v) for v in states)
+        out = self._matrices.get(key)
+        if out is None:
+            out = self._matrices[key] = state_matrices(self, key)
+        return out
 
     def mode(self, states) -> _Mode:
         key = tuple(int(v) for v in states)

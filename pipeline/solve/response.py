@@ -46,12 +46,14 @@ class ResponseCurve:
     H: int
     tolerance: float           # [N]
     info: dict = field(default_factory=dict)
-    # decided stability (`stability_check`): -1 not computed, 0 Hill, 1 Floquet; Hill's
-    # exp(max Re lam T) and Floquet's max |mu| (NaN where not run); bifurcations where
+    # decided stability (`stability_check`): -1 not computed, 0 Hill, 1 Floquet,
+    # 2 monodromy along the HBM orbit; Hill's exp(max Re lam T), Floquet's and the
+    # orbit monodromy's max |mu| (NaN where not run); bifurcations where
     # the decided flag changes (kind 1 fold, 2 period doubling, 3 Neimark-Sacker)
     stability_method: np.ndarray | None = None
     hill_multiplier: np.ndarray | None = None
     floquet_multiplier: np.ndarray | None = None
+    monodromy_multiplier: np.ndarray | None = None
     bifurcation_parameter: np.ndarray | None = None
     bifurcation_kind: np.ndarray | None = None
 
@@ -104,7 +106,8 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     HBM residual (`hbm.residual`), all DOFs recovered, each point's full residual
     recomputed (converged iff its static and harmonic parts are each within
     `hbm.tolerances` [N]), stability of the full system decided by `stability`
-    (True = "hill", "floquet", "hill+check" or False: `stability_check`).
+    (True = "hill", "floquet", "hill+check", "monodromy", "monodromy+check" or False:
+    `stability_check`).
 
     First point: Newton from `initial` (Fourier coefficients (n, 2H+1) of all DOFs,
     e.g. a known solution) if given, else from the better linear guess (contacts
@@ -293,9 +296,10 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
               "dense_points": int(pts.get("dense_points", 0)),
               "dense_nfev": int(pts.get("dense_nfev", 0)),
               "postprocess_time": time.perf_counter() - t0, "stability": bs.note,
-              "hill_time": bs.hill_time, "floquet_time": bs.floquet_time},
+              "hill_time": bs.hill_time, "floquet_time": bs.floquet_time,
+              "monodromy_time": bs.monodromy_time},
         stability_method=bs.method, hill_multiplier=bs.hill_multiplier,
-        floquet_multiplier=bs.floquet_multiplier,
+        floquet_multiplier=bs.floquet_multiplier, monodromy_multiplier=bs.monodromy_multiplier,
         bifurcation_parameter=bs.bifurcation_parameter, bifurcation_kind=bs.bifurcation_kind)
 
 

@@ -15,6 +15,14 @@ Modes (`solver.stability` of a study, `stability=` of `response.frequency_respon
                     - the decided flag changes between two neighbours (both checked,
                       repeated until every change has Floquet on both sides);
                     - the peak of each DOF.
+    "monodromy"   the multipliers of the exact flow linearised along the harmonic-
+                  balance orbit (`orbit_floquet.along_orbit`: the kernel's transition
+                  times, closed-form pieces and saltations, no integration, one
+                  eigenproblem of size 2n + kept sliders) at every point; Hill where it
+                  does not apply (frictionless elements).
+    "monodromy+check"  the same, checked by the exact Floquet multipliers (which then
+                  decide) where |log max |mu|| < MONODROMY_MARGIN, at both neighbours of
+                  every change of the decided flag and at the peak of each DOF.
     None / False  not computed.
 
 CHECK_MARGIN = 0.5 (rho_H in [0.61, 1.65]).  Measured: on a 3-DOF shrouded blade with
@@ -25,6 +33,12 @@ margin 0.39, an orbit whose largest multiplier is 1.05; in a seeded corpus of 40
 wrong Hill flag is 0.18.  A lightly damped structure (max Re lam T ~ -2 pi zeta) lies
 inside the margin: there every point is checked.  A Floquet check costs one shooting + one monodromy (0.1-0.2 s
 on a few DOFs), about a tenth of a continuation point at H = 10.
+
+MONODROMY_MARGIN = 0.1 (max |mu| in [0.90, 1.11]).  Measured against the exact
+multipliers (`floquet.from_hbm`) on the 3-DOF blade at H = 10 (89 points) and the 40
+corpus systems at H = 5 (1149 points): the orbit monodromy's verdict is never wrong
+(Hill's is at 51), its largest |mu| differs by at most 0.032 (the blade, where the
+orbit itself is least converged in H), so the margin is three times that.
 
 Cyclic sectors (`System.cyclic`): the exact flow of one sector is not the wheel's, so
 their Floquet multipliers are those of the whole tuned wheel (`cyclic.wheel_system`,
@@ -54,16 +68,18 @@ import numpy as np
 from ..model.cyclic import expand, wheel_system
 from . import floquet
 from .full_operators import wave_jacobians
+from .orbit_floquet import along_orbit
 from .stability import is_stable
 
 log = logging.getLogger(__name__)
 
-MODES = ("hill", "floquet", "hill+check")
-NOT_COMPUTED, HILL, FLOQUET = -1, 0, 1
+MODES = ("hill", "floquet", "hill+check", "monodromy", "monodromy+check")
+NOT_COMPUTED, HILL, FLOQUET, MONODROMY = -1, 0, 1, 2
 FOLD, PERIOD_DOUBLING, NEIMARK_SACKER = 1, 2, 3
 KINDS = {FOLD: "fold", PERIOD_DOUBLING: "period doubling", NEIMARK_SACKER: "Neimark-Sacker"}
 KIND_CODES = {v: k for k, v in KINDS.items()}
 CHECK_MARGIN = 0.5
+MONODROMY_MARGIN = 0.1    # |log max |mu|| of the orbit monodromy below which Floquet checks it
 MAX_WHEEL_DOF = 200    # a cyclic sector's Floquet check integrates the whole wheel up to this
 
 
@@ -85,7 +101,7 @@ class BranchStability:
     """Decided stability of the P points of a branch (module docstring)."""
 
     stable: np.ndarray              # (P,) bool; True where not computed
-    method: np.ndarray              # (P,) int8: -1 not computed, 0 Hill, 1 Floquet
+    method: np.ndarray              # (P,) int8: -1 not computed, 0 Hill, 1 Floquet, 2 monodromy
     hill_multiplier: np.ndarray     # (P,) exp(max Re lam T), NaN where Hill not run
     floquet_multiplier: np.ndarray  # (P,) max |mu|, NaN where Floquet not run
     bifurcation_parameter: np.ndarray  # (B,)
@@ -93,12 +109,17 @@ class BranchStability:
     note: str                       # how it was decided, in words
     floquet_time: float = 0.0       # [s]
     hill_time: float = 0.0          # [s]
+    monodromy_multiplier: np.ndarray | None = None  # (P,) max |mu| along the HBM orbit
+    monodromy_time: float = 0.0     # [s]
 
     @property
     def max_multiplier(self) -> np.ndarray:
-        """Floquet's largest |mu| where it was computed, Hill's rho_H elsewhere."""
+        """The deciding method's largest |mu|: Floquet's, else the orbit monodromy's,
+        else Hill's rho_H."""
+        orb = (self.monodromy_multiplier if self.monodromy_multiplier is not None
+               else np.full(self.hill_multiplier.shape, np.nan))
         return np.where(np.isfinite(self.floquet_multiplier), self.floquet_multiplier,
-                        self.hill_multiplier)
+                        np.where(np.isfinite(orb), orb, self.hill_multiplier))
 
 
 def _hill_kind(lam, Om) -> int:
@@ -122,7 +143,10 @@ class _Points:
         self.fq_stable = np.ones(P, bool)
         self.fq_kind = np.zeros(P, np.int8)
         self.fq_tried = np.zeros(P, bool)
-        self.times = [0.0, 0.0]
+        self.orb = np.full(P, np.nan)
+        self.orb_stable = np.ones(P, bool)
+        self.orb_kind = np.zeros(P, np.int8)
+        self.times = [0.0, 0.0, 0.0]
 
     def run_hill(self, i):
         if np.isfinite(self.hill[i]):
@@ -140,16 +164,40 @@ class _Points:
         self.hill_kind[i] = _hill_kind(worst, Om) if worst is not None else FOLD
         self.times[0] += time.perf_counter() - t0
 
+    def orbit(self, i):
+        """(system, Q) of point i as an orbit of the exact flow: a cyclic sector's
+        travelling wave as an orbit of the whole wheel."""
+        s = replace(self.prob.system, contact=self.elem_at(self.lam[i]))
+        Q = self.Q[i]
+        if s.cyclic is not None:
+            Q = expand(Q, s.cyclic.sectors, s.cyclic.engine_order)
+            s = wheel_system(s)
+        return s, Q
+
+    def run_monodromy(self, i):
+        """The monodromy of the flow linearised along the HBM orbit (`orbit_floquet`);
+        left NaN where that method does not apply."""
+        t0 = time.perf_counter()
+        s, Q = self.orbit(i)
+        try:
+            r = along_orbit(s, self.omega[i], Q)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            log.debug("orbit monodromy at %.6g rad/s failed: %s", self.omega[i], exc)
+            r = None
+        self.times[2] += time.perf_counter() - t0
+        if r is None or not np.isfinite(r.max_modulus):
+            return
+        self.orb[i] = r.max_modulus
+        self.orb_stable[i] = r.verdict != "unstable"
+        kind = r.leaving[0] if r.leaving else r.critical
+        self.orb_kind[i] = KIND_CODES.get(kind, FOLD)
+
     def run_floquet(self, i):
         if self.fq_tried[i]:
             return
         self.fq_tried[i] = True
         t0 = time.perf_counter()
-        s = replace(self.prob.system, contact=self.elem_at(self.lam[i]))
-        Q = self.Q[i]
-        if s.cyclic is not None:   # the travelling wave as an orbit of the whole wheel
-            Q = expand(Q, s.cyclic.sectors, s.cyclic.engine_order)
-            s = wheel_system(s)
+        s, Q = self.orbit(i)
         try:
             r = floquet.from_hbm(s, self.omega[i], Q)
         except (ValueError, np.linalg.LinAlgError) as exc:
@@ -173,16 +221,20 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     P = omega.size
     pts = _Points(prob, Q, omega, np.asarray(lam, float), elem_at)
     conv = np.flatnonzero(np.asarray(converged, bool))
-    cy = getattr(prob.system, "cyclic", None)
-    too_big = cy is not None and cy.sectors * prob.system.n_dof > MAX_WHEEL_DOF
+    too_big = flow_dof(prob.system) > MAX_WHEEL_DOF
     note = describe(mode, too_big, margin)
-    if too_big and mode in ("floquet", "hill+check"):
+    if too_big and mode not in (None, "hill"):
         mode = "hill"
     if mode is None:
         return _result(pts, np.full(P, NOT_COMPUTED, np.int8), fold_lam, conv, note)
     if mode in ("hill", "hill+check"):
         for i in range(P):
             pts.run_hill(i)
+    if mode in ("monodromy", "monodromy+check"):
+        for i in range(P):
+            pts.run_monodromy(i)
+            if not np.isfinite(pts.orb[i]):
+                pts.run_hill(i)
     if mode == "floquet":
         for i in conv:
             pts.run_floquet(i)
@@ -190,37 +242,61 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
             if not np.isfinite(pts.fq[i]):
                 pts.run_hill(i)
     elif mode == "hill+check":
-        _check_doubtful(pts, conv, margin, amplitude)
-    method = np.where(np.isfinite(pts.fq), FLOQUET, HILL).astype(np.int8)
+        _check_doubtful(pts, conv, lambda i: _near_one(pts.hill[i], margin), amplitude)
+    elif mode == "monodromy+check":
+        _check_doubtful(pts, conv, lambda i: _near_one(pts.orb[i], MONODROMY_MARGIN)
+                        if np.isfinite(pts.orb[i]) else _near_one(pts.hill[i], margin),
+                        amplitude)
+    method = np.where(np.isfinite(pts.fq), FLOQUET,
+                      np.where(np.isfinite(pts.orb), MONODROMY, HILL)).astype(np.int8)
     return _result(pts, method, fold_lam, conv, note)
+
+
+def flow_dof(system) -> int:
+    """DOFs of the exact flow whose multipliers `floquet` and `monodromy` compute: the
+    whole wheel for a cyclic sector."""
+    cy = getattr(system, "cyclic", None)
+    return system.n_dof * (cy.sectors if cy is not None else 1)
+
+
+def _near_one(multiplier, margin) -> bool:
+    return abs(np.log(max(multiplier, 1e-300))) < margin
 
 
 def describe(mode, wheel_too_big: bool = False, margin: float = CHECK_MARGIN) -> str:
     """How `branch_stability` decides in `mode` (`stability_mode`), in words;
-    wheel_too_big: a cyclic sector whose wheel has more than MAX_WHEEL_DOF DOFs."""
+    wheel_too_big: the exact flow has more than MAX_WHEEL_DOF DOFs (`flow_dof`)."""
     mode = stability_mode(mode)
-    if wheel_too_big and mode in ("floquet", "hill+check"):
-        return ("Hill's method at every point, every wave number: the Floquet check of a "
-                f"cyclic sector integrates the whole wheel, above {MAX_WHEEL_DOF} DOFs "
-                f"{mode!r} keeps Hill")
+    if wheel_too_big and mode not in (None, "hill"):
+        return ("Hill's method at every point (every wave number of a cyclic sector): the "
+                f"exact flow has more than {MAX_WHEEL_DOF} DOFs here (a cyclic sector's is "
+                f"the whole wheel's), so {mode!r} keeps Hill")
+    check = ("at both neighbours of every change of the flag and at the peaks; where they "
+             "disagree, Floquet decides")
     return {None: "not computed", "hill": "Hill's method at every point",
             "floquet": "Floquet multipliers of the exact flow at every converged point (Hill "
                        "where the periodic orbit was not found)",
             "hill+check": "Hill's method, checked by the Floquet multipliers of the exact flow "
-                          f"where |max Re lambda| T < {margin:g}, at both neighbours of every "
-                          "change of the flag and at the peaks; where they disagree, Floquet "
-                          "decides"}[mode]
+                          f"where |max Re lambda| T < {margin:g}, " + check,
+            "monodromy": "multipliers of the exact flow linearised along the harmonic-balance "
+                         "orbit at every point (Hill where that does not apply)",
+            "monodromy+check": "multipliers of the exact flow linearised along the "
+                               "harmonic-balance orbit, checked by those of the exact "
+                               f"periodic orbit where |log max |mu|| < {MONODROMY_MARGIN:g}, "
+                               + check}[mode]
 
 
 def _decided(pts):
-    return np.where(np.isfinite(pts.fq), pts.fq_stable, pts.hill_stable)
+    return np.where(np.isfinite(pts.fq), pts.fq_stable,
+                    np.where(np.isfinite(pts.orb), pts.orb_stable, pts.hill_stable))
 
 
-def _check_doubtful(pts, conv, margin, amplitude):
-    """Floquet where Hill's margin is small, at the peaks, then at both neighbours of
-    every change of the decided flag until each change has Floquet on both sides."""
+def _check_doubtful(pts, conv, doubtful, amplitude):
+    """Floquet where the first method is in doubt (`doubtful(i)`), at the peaks, then at
+    both neighbours of every change of the decided flag until each change has
+    Floquet on both sides."""
     for i in conv:
-        if abs(np.log(max(pts.hill[i], 1e-300))) < margin:
+        if doubtful(i):
             pts.run_floquet(i)
     if amplitude is not None and conv.size:
         for d in range(amplitude.shape[1]):
@@ -243,13 +319,15 @@ def _result(pts, method, fold_lam, conv, note) -> BranchStability:
     return BranchStability(
         stable=stable.astype(bool), method=method, hill_multiplier=pts.hill,
         floquet_multiplier=pts.fq, bifurcation_parameter=par, bifurcation_kind=kind,
-        note=note, hill_time=pts.times[0], floquet_time=pts.times[1])
+        note=note, hill_time=pts.times[0], floquet_time=pts.times[1],
+        monodromy_multiplier=pts.orb, monodromy_time=pts.times[2])
 
 
 def _bifurcations(pts, stable, conv, fold_lam):
     """(parameter (B,), kind (B,)) where the decided flag changes between neighbours."""
-    mult = np.where(np.isfinite(pts.fq), pts.fq, pts.hill)
-    kinds = np.where(np.isfinite(pts.fq), pts.fq_kind, pts.hill_kind)
+    mult = np.where(np.isfinite(pts.fq), pts.fq, np.where(np.isfinite(pts.orb), pts.orb, pts.hill))
+    kinds = np.where(np.isfinite(pts.fq), pts.fq_kind,
+                     np.where(np.isfinite(pts.orb), pts.orb_kind, pts.hill_kind))
     par, kind = [], []
     for a, b in zip(conv[:-1], conv[1:]):
         if stable[a] == stable[b]:

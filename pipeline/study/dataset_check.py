@@ -30,7 +30,8 @@ The contract (README, section Dataset), as checked here:
   `flag_meanings` or `comment`, is never 1 at a point that did not converge, and
   holds no value at all where its `stability_computed` attribute is 0;
 - where present, `stability_method` (sweeps..., point) is -1 (not computed) exactly
-  where `stable` is NaN, else 0 (Hill) or 1 (Floquet), with `flag_values` and
+  where `stable` is NaN, else 0 (Hill), 1 (Floquet) or 2 (monodromy along the
+  harmonic-balance orbit), with `flag_values` and
   `flag_meanings`; `max_multiplier` is NaN where no method decided and, where
   given, agrees with `stable` (1 iff the multiplier is at most 1 + 1e-6);
   `bifurcation_type` is -1 (padding), 1 (fold), 2 (period doubling) or
@@ -288,8 +289,8 @@ def _check_stability_method(ds, say):
     for v in ("stability_method", "bifurcation_type"):
         if not {"flag_values", "flag_meanings"} <= set(ds[v].attrs):
             say(f"variable {v!r} lacks flag_values / flag_meanings")
-    if not np.isin(m.values, (-1, 0, 1)).all():
-        say("variable 'stability_method' holds values other than -1, 0 and 1")
+    if not np.isin(m.values, (-1, 0, 1, 2)).all():
+        say("variable 'stability_method' holds values other than -1, 0, 1 and 2")
     if bool(((m == -1) != st.isnull()).any()):
         say("variable 'stability_method' is not -1 exactly where 'stable' is NaN")
     if bool(((m == -1) & mult.notnull()).any()):

@@ -87,9 +87,10 @@ class SolverSettings:
     force_evaluation: str = "exact"
     samples: int = 256
     tolerance: float = 1e-9
-    # "hill" | "floquet" | "hill+check" | False (`solve.stability_check`); lumped scenes
-    # default to "hill+check", disks and FE blades to cheaper ones (their parsers)
-    stability: bool | str = "hill+check"
+    # "hill" | "floquet" | "hill+check" | "monodromy" | "monodromy+check" | False
+    # (`solve.stability_check`); lumped scenes default to "monodromy+check", disks and
+    # FE blades to cheaper ones (their parsers)
+    stability: bool | str = "monodromy+check"
     initial_step: float | None = None   # None: the solver's default
     max_step: float | None = None
     max_points: int = 1000

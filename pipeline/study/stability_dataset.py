@@ -1,9 +1,11 @@
 """The stability variables of a response dataset: which method decided each point's
 `stable`, its largest multiplier, and the bifurcations where the flag changes.
 
-    stability_method (sweeps..., point)  int8: -1 not computed, 0 Hill, 1 Floquet
-    max_multiplier   (sweeps..., point)  Floquet: largest |mu| of the exact flow; Hill:
-                                         exp(max Re lambda T) of its selected exponents
+    stability_method (sweeps..., point)  int8: -1 not computed, 0 Hill, 1 Floquet,
+                                         2 monodromy along the harmonic-balance orbit
+    max_multiplier   (sweeps..., point)  Floquet: largest |mu| of the exact flow;
+                                         monodromy: that of the flow linearised along the
+                                         HBM orbit; Hill: exp(max Re lambda T)
     bifurcation_frequency (sweeps..., bifurcation)  where the decided flag changes
     bifurcation_type      (sweeps..., bifurcation)  int8: 1 fold, 2 period doubling,
                                          3 Neimark-Sacker, -1 padding
@@ -14,10 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..solve.stability_check import FLOQUET, HILL, KINDS, NOT_COMPUTED, describe
+from ..solve.stability_check import FLOQUET, HILL, KINDS, MONODROMY, NOT_COMPUTED, describe
 
-METHOD_FLAGS = {"flag_values": np.array([NOT_COMPUTED, HILL, FLOQUET], np.int8),
-                "flag_meanings": "not_computed hill floquet"}
+METHOD_FLAGS = {"flag_values": np.array([NOT_COMPUTED, HILL, FLOQUET, MONODROMY], np.int8),
+                "flag_meanings": "not_computed hill floquet monodromy"}
 TYPE_FLAGS = {"flag_values": np.array([-1] + list(KINDS), np.int8),
               "flag_meanings": "none " + " ".join(k.replace(" ", "_").replace("-", "_")
                                                   for k in KINDS.values())}
@@ -48,7 +50,9 @@ def fill_stability(v: dict, idx, c, converged, computed: bool, to_unit: float):
         mult = np.full(p, np.nan)
     else:
         fq, hill = np.asarray(c.floquet_multiplier, float), np.asarray(c.hill_multiplier, float)
-        mult = np.where(method == FLOQUET, fq, hill)
+        orb = getattr(c, "monodromy_multiplier", None)
+        orb = np.full(p, np.nan) if orb is None else np.asarray(orb, float)
+        mult = np.where(method == FLOQUET, fq, np.where(method == MONODROMY, orb, hill))
     v["stability_method"][idx][:p] = np.where(converged, method, NOT_COMPUTED)
     v["max_multiplier"][idx][:p] = np.where(converged, mult, np.nan)
     bp = getattr(c, "bifurcation_parameter", None)
@@ -80,11 +84,13 @@ def stability_note(mode, notes) -> str:
 def stability_attrs(data_vars: dict):
     """Flag and comment attributes of the stability variables."""
     data_vars["stability_method"][2].update(
-        METHOD_FLAGS, comment="-1 where 'stable' is NaN; where Hill and Floquet disagree, "
-                              "Floquet decides")
+        METHOD_FLAGS, comment="-1 where 'stable' is NaN; where a check ran, the exact "
+                              "Floquet multipliers decide")
     data_vars["max_multiplier"][2].update(
         comment="stability_method 1 (floquet): max |mu| of the monodromy matrix of the exact "
-                "event-driven flow; stability_method 0 (hill): Hill's equivalent "
+                "event-driven flow; stability_method 2 (monodromy): max |mu| of the "
+                "monodromy of that flow linearised along the harmonic-balance orbit; "
+                "stability_method 0 (hill): Hill's equivalent "
                 "exp(max Re lambda * T) of its selected Floquet exponents (T = 2 pi / Omega); "
                 "NaN where not computed. > 1: unstable")
     data_vars["bifurcation_type"][2].update(
