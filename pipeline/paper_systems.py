@@ -1,7 +1,8 @@
-"""The source paper's three examples (Sec. 6) as Systems, built directly in code.
+"""The source paper's three examples (Sec. 6) as Systems, built directly in code, and
+the 3-DOF shrouded blade of the stability checks.
 
-The same data as `studies/paper_example{1,2,3}.toml`, for benchmarks and tests
-that should not depend on the study-file layer.
+The same data as `studies/paper_example{1,2,3}.toml` and `studies/blade3_stability.toml`,
+for benchmarks and tests that should not depend on the study-file layer.
 """
 import numpy as np
 
@@ -37,3 +38,17 @@ def example3(n0):
     return System(M=Pi.T @ Pi, C=Pi.T @ (2 * 0.01 * W) @ Pi, K=Pi.T @ W**2 @ Pi,
                   Bt=np.array([[1.0, 0.0]]), Bn=np.array([[0.0, 1.0]]),
                   contact=YangMenq(1.0, 1.0, 0.4, n0), forcing=np.array([[0, 1.0], [0, 1.0]]))
+
+
+def blade3():
+    """3-DOF shrouded-blade model (kg, N/m, N s/m): one Yang-Menq contact, u = x3 - x1,
+    v = x2, ku = 16056.9 N/m, kv = 86511.2 N/m, mu = 0.287, preload 178.5 N; 5.85 N on
+    x2.  Hill's method calls some of its stable orbits unstable (README, stability)."""
+    M = np.diag([1.19290, 1.00829, 1.23316])
+    K = np.array([[9105.293, -3091.31, 0], [-3091.31, 85922.633, -82831.323],
+                  [0, -82831.323, 86828.066]])
+    C = np.array([[2.368786, -0.0591258, 0], [-0.0591258, 3.498389, -1.584269],
+                  [0, -1.584269, 3.929410]])
+    return System(M=M, C=C, K=K, Bt=np.array([[-1.0, 0.0, 1.0]]), Bn=np.array([[0.0, 1.0, 0.0]]),
+                  contact=YangMenq(16056.9, 86511.2, 0.287, 178.5),
+                  forcing=np.array([[0, 0], [0, 5.85], [0, 0]], complex))

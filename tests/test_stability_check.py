@@ -206,6 +206,11 @@ def test_cyclic_sector_decided_by_the_wheels_multipliers():
     assert list(bs.stable) == [True, True, True, False]
     assert np.all((bs.floquet_multiplier[:3] > 0.9) & (bs.floquet_multiplier[:3] < 0.995))
     assert bs.floquet_multiplier[3] > 1.2
+    mono = sc.branch_stability(hbm.setup(s, 3), a.Q[pick], a.omega[pick], a.omega[pick],
+                               lambda lam: s.contact, np.ones(4, bool), "monodromy")
+    assert list(mono.method) == [sc.MONODROMY] * 4        # along the expanded wheel orbit
+    assert list(mono.stable) == [True, True, True, False]
+    assert np.allclose(mono.monodromy_multiplier, bs.floquet_multiplier, rtol=0, atol=0.02)
     assert "keeps Hill" in sc.describe("hill+check", wheel_too_big=True)
     assert sc.describe(True) == "Hill's method at every point"
 

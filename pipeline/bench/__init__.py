@@ -200,6 +200,11 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
     return 0
 
 
+def stability_bench(quick=False):
+    from .stability import run as run_stability
+    return run_stability(quick)
+
+
 def peers_bench(quick=False, nlvib=None, pyharm_python=None):
     # not named `peers`: that is the submodule, which its import sets as this attribute
     from .peers import run as run_peers
@@ -207,7 +212,7 @@ def peers_bench(quick=False, nlvib=None, pyharm_python=None):
 
 
 BENCHES = {"contact": contact, "hbm": hbm, "blade": blade, "disk": disk_bench,
-           "parallel": parallel, "peers": peers_bench}
+           "parallel": parallel, "peers": peers_bench, "stability": stability_bench}
 
 
 def run(what, quick=False, **options):
