@@ -84,9 +84,9 @@ def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
     regime, varying = np.empty(E, np.int64), np.empty(E, np.bool_)
     T, B16 = kernel_tables(H)
     forces_all(U, V, *element_arrays(elem), T, B16, bool(jacobian), Fu, Fv, *J, regime, varying)
-    regimes = {"separated": int((regime == 0).sum()), "stuck": int((regime == 1).sum()),
-               "transitions": int((regime == 2).sum()), "frictionless": int((regime == 3).sum()),
-               "normal_load_searched": int(varying.sum())}
+    k = np.bincount(regime, minlength=4)
+    regimes = {"separated": int(k[0]), "stuck": int(k[1]), "transitions": int(k[2]),
+               "frictionless": int(k[3]), "normal_load_searched": int(np.count_nonzero(varying))}
     if not jacobian:
         return ContactForces(Fu, Fv, None, None, None, regimes)
     return ContactForces(Fu, Fv, J[0], J[1], J[2], regimes)

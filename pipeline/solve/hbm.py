@@ -77,6 +77,7 @@ class HBMProblem:
     pattern: object = None            # parts.JacobianPattern: the Jacobian is built sparse
     interior: object = None           # interior.InteriorBlocks: dense blocks gathered once
     stiffness: np.ndarray | None = None  # (H+1, n, n) `stiffness_stack` of a dense system
+    loads: np.ndarray | None = None      # (H+1, n) complex load per harmonic (`complex_loads`)
 
     @property
     def nh(self):
@@ -117,15 +118,16 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
     interior = (None if sp.issparse(system.K) or (cy is not None and cy.K_next is not None)
                 else interior_blocks(*(dense(A) for A in (system.K, system.M, system.C)), c, o))
     stack = None if sp.issparse(system.K) else stiffness_stack(system, H)
+    P = system.forcing_coefficients(H)
     if cy is None:
         parts = part_blocks(system, c, o)
         pattern = None if parts is None else jacobian_pattern(parts, idx, c.size, 2 * H + 1)
         return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
-                          system.forcing_coefficients(H), parts=parts, pattern=pattern,
-                          interior=interior, stiffness=stack)
+                          P, parts=parts, pattern=pattern, interior=interior,
+                          stiffness=stack, loads=complex_loads(P))
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
-                      system.forcing_coefficients(H), shift, np.stack(shift_tables(shift, H)), nxt,
-                      interior=interior, stiffness=stack)
+                      P, shift, np.stack(shift_tables(shift, H)), nxt, interior=interior,
+                      stiffness=stack, loads=complex_loads(P))
 
 
 # --------------------------------------------------------------------------
@@ -163,6 +165,11 @@ def _complex_forcing(P, h):
     return P[:, 0].astype(complex) if h == 0 else P[:, 2 * h - 1] - 1j * P[:, 2 * h]
 
 
+def complex_loads(P) -> np.ndarray:
+    """(H+1, n) complex load per harmonic of real coefficients P (n, 2H+1)."""
+    return np.stack([_complex_forcing(P, h) for h in range((P.shape[1] - 1) // 2 + 1)])
+
+
 def _block(S, c, o):
     if sp.issparse(S):
         S = S.tocsr()
@@ -193,7 +200,7 @@ def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True, motion=No
     """
     sys, c, o, H = prob.system, prob.c, prob.o, prob.H
     if prob.interior is not None:   # dense blocks gathered once (interior.py)
-        P = np.stack([_complex_forcing(prob.P, k) for k in range(H + 1)])
+        P = prob.loads if prob.loads is not None else complex_loads(prob.P)
         return condense_blocks(prob.interior, H, Om, P, c, o, derivatives, motion)
     out = _linear_part(prob, Om, derivatives)
     if not (derivatives and motion is not None):
@@ -248,7 +255,7 @@ def _linear_part_dense(prob: HBMProblem, Om: float, derivatives: bool):
     h = np.arange(H + 1)[:, None, None]
     Kh = prob.stiffness if prob.stiffness is not None else stiffness_stack(sys, H)
     S = Kh - (h * Om) ** 2 * M + 1j * h * Om * C   # (H+1, n, n)
-    P = np.stack([_complex_forcing(prob.P, k) for k in range(H + 1)])  # (H+1, n)
+    P = prob.loads if prob.loads is not None else complex_loads(prob.P)  # (H+1, n)
     dS = -2 * h * h * Om * M + 1j * h * C if derivatives else None
     if o.size == 0:
         return (S[:, c][:, :, c], dS[:, c][:, :, c] if derivatives else None, P[:, c],
@@ -384,7 +391,7 @@ def recover(prob: HBMProblem, Qc, Om):
         return Q
     if prob.interior is not None:
         Qh = complex_harmonics(Qc)
-        P_o = np.stack([_complex_forcing(prob.P, k)[o] for k in range(H + 1)])
+        P_o = (prob.loads if prob.loads is not None else complex_loads(prob.P))[:, o]
         Qo = recover_blocks(prob.interior, H, Om, Qh, P_o)              # (H+1, no)
         Q[o, 0] = Qo[0].real
         Q[o, 1::2], Q[o, 2::2] = Qo[1:].real.T, -Qo[1:].imag.T
