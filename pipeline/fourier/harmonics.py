@@ -193,16 +193,16 @@ def complex_harmonics(Qc):
 
 def real_blocks(St, nh):
     """Real matrix (nc*nh, nc*nh), DOF-major, of complex per-harmonic blocks St[h]."""
-    nc = St[0].shape[0]
+    St = np.asarray(St)
+    nc = St.shape[1]
     L = np.zeros((nc, nh, nc, nh))
     L[:, 0, :, 0] = St[0].real
-    for h in range(1, len(St)):
-        A, B = St[h].real, St[h].imag
-        ci, si = 2 * h - 1, 2 * h
-        L[:, ci, :, ci] = A
-        L[:, ci, :, si] = B
-        L[:, si, :, ci] = -B
-        L[:, si, :, si] = A
+    ci, si = np.arange(1, nh, 2), np.arange(2, nh, 2)     # cos, sin of h = 1..H
+    A, B = St[1:].real, St[1:].imag                        # (H, nc, nc)
+    L[:, ci, :, ci] = A
+    L[:, ci, :, si] = B
+    L[:, si, :, ci] = -B
+    L[:, si, :, si] = A
     return L.reshape(nc * nh, nc * nh)
 
 

@@ -206,7 +206,7 @@ def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True, motion=No
     if not (derivatives and motion is not None):
         return out
     St, dSt, Pt, dPt = out
-    return St, np.array([dS @ m for dS, m in zip(dSt, motion)]), Pt, dPt
+    return St, np.einsum("hij,hj->hi", np.asarray(dSt), motion), Pt, dPt
 
 
 def _linear_part(prob: HBMProblem, Om: float, derivatives: bool):
