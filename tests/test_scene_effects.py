@@ -30,16 +30,18 @@ def counted(monkeypatch):
     reports summed ("transitions": elements that went through the transition search)."""
     seen = {"evaluations": 0, "normal_load_searched": 0, "stuck": 0, "separated": 0,
             "transitions": 0}
-    real_forces = hbm.forces
+    def counting(real):
+        def counted_call(*a, **k):
+            f = real(*a, **k)
+            seen["evaluations"] += 1
+            for key in ("normal_load_searched", "stuck", "separated", "transitions"):
+                seen[key] += f.regimes.get(key, 0)
+            return f
+        return counted_call
 
-    def counting_forces(*a, **k):
-        f = real_forces(*a, **k)
-        seen["evaluations"] += 1
-        for key in ("normal_load_searched", "stuck", "separated", "transitions"):
-            seen[key] += f.regimes.get(key, 0)
-        return f
-
-    monkeypatch.setattr(hbm, "forces", counting_forces)
+    # the HBM calls the exact forces directly, `forces` for AFT
+    monkeypatch.setattr(hbm, "forces", counting(hbm.forces))
+    monkeypatch.setattr(hbm, "exact_forces", counting(hbm.exact_forces))
     return seen
 
 

@@ -47,6 +47,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..contact import YangMenq, forces
+from ..contact.exact import exact_forces
 from ..fourier.harmonics import (complex_harmonics, derivative_matrix, real_blocks, real_vector,
                                  shift_tables, turn)
 from ..fourier.harmonics import shift as time_shift
@@ -78,6 +79,7 @@ class HBMProblem:
     interior: object = None           # interior.InteriorBlocks: dense blocks gathered once
     stiffness: np.ndarray | None = None  # (H+1, n, n) `stiffness_stack` of a dense system
     loads: np.ndarray | None = None      # (H+1, n) complex load per harmonic (`complex_loads`)
+    weights: np.ndarray | None = None    # (E, m m, 3) slot-pair weights bt bt, bt bn, bn bn
 
     @property
     def nh(self):
@@ -124,10 +126,10 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
         pattern = None if parts is None else jacobian_pattern(parts, idx, c.size, 2 * H + 1)
         return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                           P, parts=parts, pattern=pattern, interior=interior,
-                          stiffness=stack, loads=complex_loads(P))
+                          stiffness=stack, loads=complex_loads(P), weights=slot_weights(bt, bn))
     return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
                       P, shift, np.stack(shift_tables(shift, H)), nxt, interior=interior,
-                      stiffness=stack, loads=complex_loads(P))
+                      stiffness=stack, loads=complex_loads(P), weights=slot_weights(bt, bn))
 
 
 # --------------------------------------------------------------------------
@@ -257,9 +259,8 @@ def _linear_part_dense(prob: HBMProblem, Om: float, derivatives: bool):
     S = Kh - (h * Om) ** 2 * M + 1j * h * Om * C   # (H+1, n, n)
     P = prob.loads if prob.loads is not None else complex_loads(prob.P)  # (H+1, n)
     dS = -2 * h * h * Om * M + 1j * h * C if derivatives else None
-    if o.size == 0:
-        return (S[:, c][:, :, c], dS[:, c][:, :, c] if derivatives else None, P[:, c],
-                np.zeros((H + 1, c.size), complex) if derivatives else None)
+    if o.size == 0:   # every DOF is a contact DOF: c = 0..n-1
+        return S, dS, P, np.zeros((H + 1, c.size), complex) if derivatives else None
     Scc, Sco, Soc, Soo = S[:, c][:, :, c], S[:, c][:, :, o], S[:, o][:, :, c], S[:, o][:, :, o]
     sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, o, None]], axis=2))
     # contiguous copies: batched matmul on strided complex views falls back to a slow
@@ -315,7 +316,10 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
     if prob.idx.shape[0] == 0:
         return np.zeros((nc, nh)), (np.zeros((nc * nh, nc * nh)) if jacobian else None), None
     U, V = contact_motion(prob, Qc)
-    f = forces(U, V, elem, prob.method, prob.n_samples, jacobian)
+    if prob.method == "exact" and elem.size == U.shape[0]:   # U, V built here: no re-check
+        f = exact_forces(U, V, elem, jacobian)
+    else:
+        f = forces(U, V, elem, prob.method, prob.n_samples, jacobian)
     G = np.zeros((nc, nh))
     contrib = prob.bt[..., None] * f.Fu[:, None, :] + prob.bn[..., None] * f.Fv[:, None, :]
     if prob.rot is not None:  # back-projection T(theta_a)^T = T(-theta_a)
@@ -328,8 +332,7 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
     # (E, m m, 3) weights bt bt, bt bn, bn bn times (E, 3, nh nh) derivatives: one
     # batched product, laid out (e, a, b, k, j) as `assemble` wants
     E, m = bt.shape
-    W = np.stack([bt[:, :, None] * bt[:, None, :], bt[:, :, None] * bn[:, None, :],
-                  bn[:, :, None] * bn[:, None, :]], axis=-1).reshape(E, m * m, 3)
+    W = prob.weights if prob.weights is not None else slot_weights(bt, bn)
     dF = np.stack([f.dFu_dU, f.dFu_dV, f.dFv_dV], axis=1).reshape(E, 3, nh * nh)
     Je = (W @ dF).reshape(E, m, m, nh, nh)
     if prob.rot is not None:  # T(theta_a)^T Je T(theta_b): rows by -theta_a, columns by -theta_b
@@ -337,6 +340,14 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
         Je = turn(Je, c[:, :, None, :, None], -s[:, :, None, :, None], axis=-2)
         Je = turn(Je, c[:, None, :, None, :], -s[:, None, :, None, :], axis=-1)
     return G, (Je if blocks else assemble(prob, Je)), f
+
+
+def slot_weights(bt, bn) -> np.ndarray:
+    """(E, m m, 3) weights of the slot pairs (a, b) of each element: bt_a bt_b,
+    bt_a bn_b, bn_a bn_b (`contact_terms`)."""
+    E, m = bt.shape
+    return np.stack([bt[:, :, None] * bt[:, None, :], bt[:, :, None] * bn[:, None, :],
+                     bn[:, :, None] * bn[:, None, :]], axis=-1).reshape(E, m * m, 3)
 
 
 def assemble(prob: HBMProblem, Je, out=None):
