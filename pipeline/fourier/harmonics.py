@@ -61,12 +61,14 @@ def basis(tau, H: int, order: int = 0) -> np.ndarray:
     return out
 
 
+@lru_cache(maxsize=64)
 def derivative_matrix(H: int) -> np.ndarray:
-    """D with d/dtau x <-> D @ X (block diag of [[0, j], [-j, 0]])."""
+    """D with d/dtau x <-> D @ X (block diag of [[0, j], [-j, 0]]); read-only, cached."""
     D = np.zeros((2 * H + 1, 2 * H + 1))
     for j in range(1, H + 1):
         D[2 * j - 1, 2 * j] = j
         D[2 * j, 2 * j - 1] = -j
+    D.setflags(write=False)
     return D
 
 

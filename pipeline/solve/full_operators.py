@@ -24,9 +24,8 @@ def full_linear_operator(sys: System, Om: float, H: int, coupling: bool = True):
     """K (x) I + Om C (x) D + Om^2 M (x) D^2 acting on Q (n, 2H+1) row-major (dense),
     plus (coupling=True) a cyclic sector's linear inter-sector coupling
     (`coupling_operators`, wave number 0)."""
-    D = derivative_matrix(H)
-    I = np.eye(2 * H + 1)
     if sp.issparse(sys.K):  # only the (n nh)^2 result is dense, no (n, n) copies
+        D, I = derivative_matrix(H), np.eye(2 * H + 1)
         L = (sp.kron(sys.K, I) + Om * sp.kron(sys.C, D) + Om**2 * sp.kron(sys.M, D @ D)
              ).toarray()
     else:   # filled per harmonic (D^2 = diag(-h^2)); the same as the Kronecker sum
