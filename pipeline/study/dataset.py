@@ -15,9 +15,9 @@ Continuation branches have different lengths: every per-point variable is padded
 along `point` with NaN (floats), False (flags) or -1 (counts).  Padded points and
 points whose numbers are not finite are never `converged`, so every converged
 point carries finite values.  `stable` is 1 (stable) or 0 (unstable) where stability
-was decided (Hill or Floquet: `stability_method`, `stability_dataset`) and NaN elsewhere
-(not converged, or stability off): a flag that cannot say "not computed" would read
-True there.  Amplitudes are half peak-to-peak
+was decided (Hill, Floquet or the orbit monodromy: `stability_method`,
+`stability_dataset`) and NaN elsewhere (not converged, or stability off): a flag that
+cannot say "not computed" would read True there.  Amplitudes are half peak-to-peak
 (max x - min x)/2; harmonic amplitudes sqrt(a_h^2 + b_h^2) of
 x = a_0 + sum a_h cos(h W t) + b_h sin(h W t), |a_0| at h = 0.  Frequencies are in
 the study's unit (rad/s or Hz).
