@@ -27,7 +27,7 @@ def run(quick=False):
     print("Stability modes: one curve each, CPU time of this process "
           f"(load average {os.getloadavg()[0]:.1f})")
     print(f"{'curve':<44} {'stability':<16} {'points':>6} {'CPU s':>6} {'stab. s':>7} "
-          f"{'Floquet at':>10} {'monodromy at':>12} {'unstable':>8}  bifurcations [rad/s]")
+          f"{'by Floquet':>10} {'by monodromy':>12} {'unstable':>8}  bifurcations [rad/s]")
     modes = MODES[:3] if quick else MODES
     # the shooting's notes on slider rests are not this table's business
     logging.getLogger("pipeline.solve.timesim").setLevel(logging.WARNING)
@@ -46,5 +46,7 @@ def run(quick=False):
                   f"{int(np.sum(c.stability_method == MONODROMY)):>12} "
                   f"{int(np.sum(~c.stable & c.converged)):>8}  {bif}")
             name = ""
-    print("stab. s: the stability part of the CPU time (Hill, the orbit monodromy, Floquet)")
+    print("stab. s: the stability part of the CPU time (Hill, the orbit monodromy, Floquet); "
+          "by Floquet / by monodromy: points\ndecided by each (the rest by Hill); "
+          "bifurcations in branch order")
     return 0

@@ -76,10 +76,20 @@ def _orbit_state(Q, Om, tau):
 
 
 def along_orbit(system: System, Omega: float, Q, tol: float = 1e-6) -> FloquetResult | None:
-    """Multipliers of the flow linearised along the harmonic-balance orbit Q (n, 2H+1)
-    at Omega [rad/s] (module docstring); None where the method does not apply."""
+    """Multipliers of the flow linearised along the harmonic-balance orbit (module
+    docstring); None where the method does not apply.
+
+    system: the `System` the harmonic balance solved (e.g. `paper_systems.example3`);
+    Omega [rad/s]; Q (n, 2H+1): the Fourier coefficients of all DOFs in the real layout
+    [X0, Xc1, Xs1, ..., XcH, XsH] (a point of `response.frequency_response(...).Q`).
+    tol: the band around |mu| = 1 of a "marginal" verdict.  Read `max_modulus`,
+    `verdict` ("stable" / "unstable" / "marginal"), `multipliers` and `leaving` (the
+    kinds of those outside the unit circle) of the `floquet.FloquetResult`;
+    `n_events` = 0 means no contact switched: the flow is linear, exp(A T) exact."""
     tic = time.perf_counter()
     Q = np.asarray(Q, float)
+    if Q.ndim != 2 or Q.shape[0] != system.n_dof or Q.shape[1] % 2 != 1:
+        raise ValueError(f"Q must have shape ({system.n_dof}, 2H+1), got {Q.shape}")
     mdl = PiecewiseModel(system, Omega)
     if mdl.E == 0 or np.any(mdl.kt == 0):
         return None

@@ -21,8 +21,10 @@ Modes (`solver.stability` of a study, `stability=` of `response.frequency_respon
                   eigenproblem of size 2n + kept sliders) at every point; Hill where it
                   does not apply (frictionless elements).
     "monodromy+check"  the same, checked by the exact Floquet multipliers (which then
-                  decide) where |log max |mu|| < MONODROMY_MARGIN, at both neighbours of
-                  every change of the decided flag and at the peak of each DOF.
+                  decide) where |log max |mu|| < MONODROMY_MARGIN and some element
+                  switches in the period (without a switch the flow along the orbit is
+                  linear and its monodromy exp(A T) exact), at both neighbours of every
+                  change of the decided flag and at the peak of each DOF.
     None / False  not computed.
 
 CHECK_MARGIN = 0.5 (rho_H in [0.61, 1.65]).  Measured: on a 3-DOF shrouded blade with
@@ -146,6 +148,7 @@ class _Points:
         self.orb = np.full(P, np.nan)
         self.orb_stable = np.ones(P, bool)
         self.orb_kind = np.zeros(P, np.int8)
+        self.orb_events = np.zeros(P, int)   # switches in the period (0: a linear flow)
         self.times = [0.0, 0.0, 0.0]
 
     def run_hill(self, i):
@@ -188,6 +191,7 @@ class _Points:
         if r is None or not np.isfinite(r.max_modulus):
             return
         self.orb[i] = r.max_modulus
+        self.orb_events[i] = r.n_events
         self.orb_stable[i] = r.verdict != "unstable"
         kind = r.leaving[0] if r.leaving else r.critical
         self.orb_kind[i] = KIND_CODES.get(kind, FOLD)
@@ -243,8 +247,9 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
                 pts.run_hill(i)
     elif mode == "hill+check":
         _check_doubtful(pts, conv, lambda i: _near_one(pts.hill[i], margin), amplitude)
-    elif mode == "monodromy+check":
-        _check_doubtful(pts, conv, lambda i: _near_one(pts.orb[i], MONODROMY_MARGIN)
+    elif mode == "monodromy+check":   # no switch in the period: the linear flow, exact
+        _check_doubtful(pts, conv, lambda i: (pts.orb_events[i] > 0
+                                              and _near_one(pts.orb[i], MONODROMY_MARGIN))
                         if np.isfinite(pts.orb[i]) else _near_one(pts.hill[i], margin),
                         amplitude)
     method = np.where(np.isfinite(pts.fq), FLOQUET,
@@ -282,8 +287,8 @@ def describe(mode, wheel_too_big: bool = False, margin: float = CHECK_MARGIN) ->
                          "orbit at every point (Hill where that does not apply)",
             "monodromy+check": "multipliers of the exact flow linearised along the "
                                "harmonic-balance orbit, checked by those of the exact "
-                               f"periodic orbit where |log max |mu|| < {MONODROMY_MARGIN:g}, "
-                               + check}[mode]
+                               f"periodic orbit where |log max |mu|| < {MONODROMY_MARGIN:g} "
+                               "and a contact switches in the period, " + check}[mode]
 
 
 def _decided(pts):

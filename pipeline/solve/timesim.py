@@ -274,7 +274,7 @@ def _recorded_period(mdl, x, w, st, P, n_samples, max_events_per_period, shift, 
         if per_r.success and per_r.n_events == 0:      # else keep the unshifted cycle
             x, w, per = xr, wr, per_r
         else:
-            log.info("Omega=%g: slider_rest position not admissible; slider kept", mdl.Om)
+            log.debug("Omega=%g: slider_rest position not admissible; slider kept", mdl.Om)
     return x, w, per
 
 
