@@ -49,11 +49,32 @@ def interior_blocks(K, M, C, c, o) -> InteriorBlocks | None:
     return InteriorBlocks(blocks(c, c), blocks(c, o), blocks(o, c), blocks(o, o), sym)
 
 
-def dynamic(blocks: tuple, h: int, Om: float):
-    """S = K - w^2 M + i w C of one block at w = h Omega, and dS/dOmega."""
+def dynamic(blocks: tuple, H: int, Om: float):
+    """S = K - w^2 M + i w C of one block at w = h Omega for h = 0..H, (H+1, r, q)."""
     K, M, C = blocks
-    w = h * Om
-    return K - w * w * M + 1j * w * C, h * (-2 * w * M + 1j * C)
+    w = np.arange(H + 1)[:, None, None] * Om
+    return K - w * w * M + 1j * w * C
+
+
+def dynamic_derivative(blocks: tuple, H: int, Om: float, V=None):
+    """dS/dOmega = h (-2 w M + i C) of one block for h = 0..H, (H+1, r, q); with V
+    (H+1, q, k) its product with V, from M V and C V (no dS matrix formed)."""
+    _, M, C = blocks
+    h = np.arange(H + 1)[:, None, None]
+    if V is None:
+        return h * (-2 * h * Om * M + 1j * C)
+    return h * (-2 * h * Om * (M @ V) + 1j * (C @ V))
+
+
+def _condensed(ib: InteriorBlocks, H: int, Om: float, P, c, o):
+    """(X, z, Sco, Soo, St, Pt): X = S_oo^-1 S_oc, z = S_oo^-1 P_o, and the condensed
+    stiffness and load, per harmonic (one batched solve)."""
+    Sco, Soc, Soo = (dynamic(b, H, Om) for b in (ib.co, ib.oc, ib.oo))
+    sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, o, None]], axis=2))
+    X, z = np.ascontiguousarray(sol[..., :-1]), sol[..., -1:]
+    St = dynamic(ib.cc, H, Om) - Sco @ X
+    Pt = P[:, c] - (Sco @ z)[..., 0]
+    return X, z, Sco, Soo, St, Pt
 
 
 def condense_blocks(ib: InteriorBlocks, H: int, Om: float, P, c, o, derivatives: bool,
@@ -64,19 +85,13 @@ def condense_blocks(ib: InteriorBlocks, H: int, Om: float, P, c, o, derivatives:
     With `motion` (H+1, nc) complex, dSt is returned applied to it, dSt[h] @ motion[h]
     (H+1, nc), by matrix-vector products: the residual needs only dR/dOmega, and the
     two (nc, no) x (no, nc) products of the matrix dSt would double the cost."""
-    if derivatives and motion is not None:
-        return _condense_applied(ib, H, Om, P, c, o, np.asarray(motion, complex))
-    S = [[dynamic(b, h, Om) for b in (ib.cc, ib.co, ib.oc, ib.oo)] for h in range(H + 1)]
-    Soo = np.array([s[3][0] for s in S])
-    Soc = np.array([s[2][0] for s in S])
-    sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, o, None]], axis=2))
-    X, z = np.ascontiguousarray(sol[..., :-1]), sol[..., -1]
-    Sco = np.array([s[1][0] for s in S])
-    St = np.array([s[0][0] for s in S]) - Sco @ X
-    Pt = P[:, c] - (Sco @ z[..., None])[..., 0]
+    X, z, Sco, Soo, St, Pt = _condensed(ib, H, Om, P, c, o)
     if not derivatives:
         return St, None, Pt, None
-    dScc, dSco, dSoc, dSoo = (np.array([s[k][1] for s in S]) for k in range(4))
+    if motion is not None:
+        dStq, dPt = _applied(ib, H, Om, X, z, Sco, Soo, np.asarray(motion, complex))
+        return St, dStq, Pt, dPt
+    dScc, dSco, dSoc, dSoo = (dynamic_derivative(b, H, Om) for b in (ib.cc, ib.co, ib.oc, ib.oo))
     if ib.symmetric:
         Y = np.swapaxes(X, 1, 2)
         B = dSco @ X
@@ -86,37 +101,27 @@ def condense_blocks(ib: InteriorBlocks, H: int, Om: float, P, c, o, derivatives:
             np.swapaxes(Soo, 1, 2), np.swapaxes(Sco, 1, 2)), 1, 2))
         B, YdSoc = dSco @ X, Y @ dSoc
     dSt = dScc - B - YdSoc + Y @ (dSoo @ X)
-    dPt = (-(dSco @ z[..., None]) + Y @ (dSoo @ z[..., None]))[..., 0]
+    dPt = (-(dSco @ z) + Y @ (dSoo @ z))[..., 0]
     return St, dSt, Pt, dPt
 
 
-def _condense_applied(ib: InteriorBlocks, H: int, Om: float, P, c, o, q):
-    S = [[dynamic(b, h, Om) for b in (ib.cc, ib.co, ib.oc, ib.oo)] for h in range(H + 1)]
-    Soo = np.array([s[3][0] for s in S])
-    Soc = np.array([s[2][0] for s in S])
-    sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, o, None]], axis=2))
-    X, z = np.ascontiguousarray(sol[..., :-1]), sol[..., -1]
-    Sco = np.array([s[1][0] for s in S])
-    St = np.array([s[0][0] for s in S]) - Sco @ X
-    Pt = P[:, c] - (Sco @ z[..., None])[..., 0]
-    dScc, dSco, dSoc, dSoo = (np.array([s[k][1] for s in S]) for k in range(4))
-    # dSt q = dScc q - dSco X q - Y (dSoc q - dSoo X q);  dPt = -dSco z + Y dSoo z
-    Xq = (X @ q[..., None])[..., 0]
-    u = np.concatenate([(dSoc @ q[..., None] - dSoo @ Xq[..., None]),
-                        dSoo @ z[..., None]], axis=2)                    # (H+1, no, 2)
-    if ib.symmetric:   # Y = X^T
-        Yu = np.swapaxes(X, 1, 2) @ u
-    else:              # Y = Sco Soo^-1: Y u = Sco (Soo^-1 u)
-        Yu = Sco @ np.linalg.solve(Soo, u)
-    dStq = (dScc @ q[..., None] - dSco @ Xq[..., None])[..., 0] - Yu[..., 0]
-    dPt = -(dSco @ z[..., None])[..., 0] + Yu[..., 1]
-    return St, dStq, Pt, dPt
+def _applied(ib: InteriorBlocks, H: int, Om: float, X, z, Sco, Soo, q):
+    """(dSt q, dPt) by products with vectors only (`dynamic_derivative` with V):
+    dSt q = dScc q - dSco X q - Y (dSoc q - dSoo X q),  dPt = -dSco z + Y dSoo z,
+    Y = S_co S_oo^-1 (X^T for symmetric blocks)."""
+    q = q[..., None]
+    Xq = X @ q
+    oo = dynamic_derivative(ib.oo, H, Om, np.concatenate([Xq, z], axis=2))
+    u = np.concatenate([dynamic_derivative(ib.oc, H, Om, q) - oo[..., :1], oo[..., 1:]], axis=2)
+    Yu = np.swapaxes(X, 1, 2) @ u if ib.symmetric else Sco @ np.linalg.solve(Soo, u)
+    co = dynamic_derivative(ib.co, H, Om, np.concatenate([Xq, z], axis=2))
+    dStq = dynamic_derivative(ib.cc, H, Om, q)[..., 0] - co[..., 0] - Yu[..., 0]
+    return dStq, -co[..., 1] + Yu[..., 1]
 
 
 def recover_blocks(ib: InteriorBlocks, H: int, Om: float, Qh, P_o):
     """Interior coefficients Q_o (H+1, no) complex from the contact DOFs' Qh
     (H+1, nc) complex and the interior load P_o (H+1, no): S_oo Q_o = P_o - S_oc Qh."""
-    Soo = np.array([dynamic(ib.oo, h, Om)[0] for h in range(H + 1)])
-    Soc = np.array([dynamic(ib.oc, h, Om)[0] for h in range(H + 1)])
+    Soo, Soc = dynamic(ib.oo, H, Om), dynamic(ib.oc, H, Om)
     rhs = P_o - (Soc @ Qh[..., None])[..., 0]
     return np.linalg.solve(Soo, rhs[..., None])[..., 0]
