@@ -8,7 +8,7 @@ from scipy.optimize import minimize_scalar
 from pipeline.solve.arclength import ContinuationOptions, Metric, automatic_scale, continuation_options
 from pipeline.solve.branch import Branch
 from pipeline.solve.continuation import continue_branch
-from pipeline.solve.newton import newton
+from pipeline.solve.newton import KeptFactors, newton
 from pipeline.solve.tracer import Tracer
 
 
@@ -198,6 +198,37 @@ def test_newton_rule_is_residual_only():
     assert not res.success and res.status == 1 and res.residual_norm > 1e-14
     res = newton(lambda x: (x**2 + 1.0, np.diag(2 * x)), np.array([0.0]), 1e-10, 10)
     assert not res.success and res.status == 2
+
+
+@pytest.mark.parametrize("sparse", [False, True])
+def test_kept_factors_refine_near_matrices_to_a_fresh_solves_accuracy(sparse):
+    import scipy.sparse as sp
+    rng = np.random.default_rng(3)
+    n = 60
+    A = rng.standard_normal((n, n)) + 8 * np.eye(n)
+    b = rng.standard_normal(n)
+    f = KeptFactors()
+    x0 = f.solve(sp.csc_matrix(A) if sparse else A, b)
+    np.testing.assert_allclose(A @ x0, b, atol=1e-12)
+    # a matrix one small Newton step away: refined on the kept factors, not factorised
+    B = A + 1e-4 * rng.standard_normal((n, n))
+    x = f.near(sp.csc_matrix(B) if sparse else B, b)
+    assert (f.refined, f.factorised) == (1, 0)
+    berr = np.linalg.norm(b - B @ x) / (np.linalg.norm(B) * np.linalg.norm(x) + np.linalg.norm(b))
+    assert berr <= 16 * np.finfo(float).eps
+    np.testing.assert_allclose(x, np.linalg.solve(B, b), rtol=1e-11)
+    # a far matrix (refinement cannot converge): factorised afresh, and kept
+    C = A + 3 * rng.standard_normal((n, n))
+    x = f.near(sp.csc_matrix(C) if sparse else C, b)
+    assert (f.refined, f.factorised) == (1, 1)
+    np.testing.assert_allclose(x, np.linalg.solve(C, b), rtol=1e-9)
+    x = f.near(sp.csc_matrix(C) if sparse else C, 2 * b)
+    assert f.refined == 2
+    np.testing.assert_allclose(x, 2 * np.linalg.solve(C, b), rtol=1e-9)
+    # another size, or nothing kept: factorised; a singular matrix raises
+    assert KeptFactors().near(np.eye(3), np.ones(3)).tolist() == [1.0, 1.0, 1.0]
+    with pytest.raises((np.linalg.LinAlgError, RuntimeError)):
+        KeptFactors().solve(sp.csc_matrix((3, 3)) if sparse else np.zeros((3, 3)), np.ones(3))
 
 
 @pytest.mark.parametrize("kwargs, match", [

@@ -16,7 +16,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .branch import frozen_array
-from .newton import linear_solve, newton_core
+from .newton import KeptFactors, linear_solve, newton_core
 
 _SCALE_FLOOR = 1e-2  # components are weighted at most 100x above the largest one
 _FIRST_POINT_ITER = 5  # the first Newton solve gets this many times max_newton
@@ -233,6 +233,7 @@ class ScaledEquations:
         self.metric = Metric(opts.n, abs(opts.lam_end - opts.lam0), opts.groups, opts.scale)
         self.sparse = None  # dR_dx sparse? known from the first evaluation
         self.nfev = self.njev = 0
+        self.factors = KeptFactors()  # the last Newton step's, for the tangent there
 
     @property
     def s(self):
@@ -261,20 +262,23 @@ class ScaledEquations:
             return sp.bmat([[Jx @ sp.diags(s[:n]), (Jl * s[n])[:, None]],
                             [row[None, :n], row[None, n:]]], format="csc")
         A = np.empty((n + 1, n + 1))
-        A[:n, :n] = Jx * s[:n]
+        np.multiply(Jx, s[:n], out=A[:n, :n])
         A[:n, n] = Jl * s[n]
         A[n] = row
         return A
 
     def tangent_from(self, Jx, Jl, t_prev_phys):
-        """Unit scaled tangent oriented along t_prev, its cosine with t_prev, physical t."""
+        """Unit scaled tangent oriented along t_prev, its cosine with t_prev, physical t.
+        Solved on the factors of the last Newton step where they are near enough
+        (`KeptFactors.near`): at a converged point, its bordered matrix differs from
+        the last step's only by that step's small change of the Jacobian."""
         n, s = self.n, self.s
         tp = t_prev_phys / s
         tp /= np.linalg.norm(tp)
         rhs = np.zeros(n + 1)
         rhs[n] = 1.0
         try:
-            w = linear_solve(self.bordered(Jx, Jl, tp), rhs)
+            w = self.factors.near(self.bordered(Jx, Jl, tp), rhs)
         except (np.linalg.LinAlgError, RuntimeError):
             return None
         nw = np.linalg.norm(w)
@@ -331,7 +335,7 @@ class ScaledEquations:
             return np.append(R, normal @ (zz / s - y)), (Jx, Jl)
 
         def scaled_step(JJ, rhs):  # Newton in the scaled unknowns: dz = S dy
-            return s * linear_solve(self.bordered(JJ[0], JJ[1], normal), rhs)
+            return s * self.factors.solve(self.bordered(JJ[0], JJ[1], normal), rhs)
 
         z0 = (y if start is None else start) * s
         out = newton_core(aug, z0, self.thresh, self.max_newton,

@@ -19,7 +19,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 from . import hbm
 from ..fourier.harmonics import amplitude_half_peak_to_peak
-from .newton import augment, linear_solve, newton
+from .newton import KeptFactors, augment, linear_solve, newton
 
 
 
@@ -75,21 +75,25 @@ def _solve_on_plane(fun, p, d, scale, tol, start=None):
                 augment(Jx, Jl, d / scale))
 
     r = None
+    factors = KeptFactors()
     if start is not None:
-        r = newton(aug, start * scale, tol, max_iter=_START_ITER, damped=False)
+        r = newton(aug, start * scale, tol, max_iter=_START_ITER, damped=False,
+                   step=factors.solve)
     if r is None or not r.success:
-        r = newton(aug, p * scale, tol, max_iter=20)
-    return r.x, bool(r.success), nfev[0], _tangent(r.jac) if r.success else None
+        r = newton(aug, p * scale, tol, max_iter=20, step=factors.solve)
+    return r.x, bool(r.success), nfev[0], _tangent(r.jac, factors) if r.success else None
 
 
-def _tangent(jac):
+def _tangent(jac, factors=None):
     """The null direction of the branch equations R = 0 at a point, from the Jacobian
     [dR/dx, dR/dlam; d / scale] of a hyperplane corrector there: its row d / scale
-    times the tangent is 1, so the tangent points along d.  None if singular."""
+    times the tangent is 1, so the tangent points along d.  With the corrector's
+    `KeptFactors`, solved on its last step's factors where near enough.  None if
+    singular."""
     e = np.zeros(jac.shape[0])
     e[-1] = 1.0
     try:
-        t = linear_solve(jac, e)
+        t = linear_solve(jac, e) if factors is None else factors.near(jac, e)
     except (np.linalg.LinAlgError, RuntimeError):
         return None
     return t if np.all(np.isfinite(t)) else None

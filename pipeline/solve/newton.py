@@ -9,11 +9,16 @@ result (`NEWTON_MESSAGES`), never raised.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+_REFINE_ITER = 4   # refinement steps on kept factors before factorising afresh
+_REFINE_EPS = 16 * np.finfo(float).eps  # ... until the normwise backward error is below this
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,9 +41,15 @@ class NewtonResult:
     jac: object = field(default=None, repr=False)
 
 
-def scale_rows(w, J):
-    """diag(w) J for a dense or scipy.sparse J (sparse stays sparse)."""
-    return (sp.diags(w) @ J).tocsr() if sp.issparse(J) else w[:, None] * J
+def scale_rows(w, J, in_place=False):
+    """diag(w) J for a dense or scipy.sparse J (sparse stays sparse); in_place: a
+    dense J is overwritten (for a fresh Jacobian only its caller holds)."""
+    if sp.issparse(J):
+        return (sp.diags(w) @ J).tocsr()
+    if in_place and J.flags.writeable:
+        J *= w[:, None]
+        return J
+    return w[:, None] * J
 
 
 def augment(J, col, row):
@@ -47,7 +58,10 @@ def augment(J, col, row):
         return sp.bmat([[J, np.asarray(col)[:, None]], [np.asarray(row)[None, :-1],
                                                          np.asarray(row)[None, -1:]]],
                        format="csc")
-    return np.vstack([np.column_stack([J, col]), row])
+    n = J.shape[0]
+    A = np.empty((n + 1, n + 1))
+    A[:n, :n], A[:n, n], A[n] = J, col, row
+    return A
 
 
 def linear_solve(A, b):
@@ -56,6 +70,65 @@ def linear_solve(A, b):
         lu = spla.splu(sp.csc_matrix(A))
         return lu.solve(b)
     return np.linalg.solve(A, b)
+
+
+def _factorised(A):
+    """The solve of a fresh LU of A (dense or sparse); LinAlgError if singular."""
+    if sp.issparse(A):
+        return spla.splu(sp.csc_matrix(A)).solve
+    with warnings.catch_warnings():  # an exactly singular A: raised below instead
+        warnings.simplefilter("ignore", sla.LinAlgWarning)
+        lu, piv = sla.lu_factor(A, check_finite=False)
+    if not np.all(np.diagonal(lu)):
+        raise np.linalg.LinAlgError("singular matrix")
+    return lambda b: sla.lu_solve((lu, piv), b, check_finite=False)
+
+
+class KeptFactors:
+    """`linear_solve` that keeps its last factorisation (`solve`), and solves a
+    system whose matrix is near the kept one (the Jacobian one converged Newton
+    step further) by iterative refinement on the kept factors (`near`).
+
+    A refined solution is accepted only once its normwise backward error
+    ||b - A x|| / (||A||_F ||x|| + ||b||) is below _REFINE_EPS (16 eps: what a
+    fresh LU with partial pivoting reaches), so it is as exact as a fresh solve;
+    otherwise (a far matrix, e.g. after a change of the contact pattern, or
+    stagnation) A is factorised afresh.  A dense refinement step costs a product
+    and two triangular solves, O(n^2), against the O(n^3) of a factorisation.
+    `refined` and `factorised` count the two outcomes of `near`.
+    """
+
+    def __init__(self):
+        self.last, self.size = None, -1
+        self.refined = self.factorised = 0
+
+    def solve(self, A, b):
+        """A x = b by a fresh factorisation of A, which is kept."""
+        self.last, self.size = _factorised(A), A.shape[0]
+        return self.last(b)
+
+    def near(self, A, b):
+        """A x = b from the kept factors by refinement, else as `solve`."""
+        if self.last is not None and self.size == A.shape[0]:
+            x = self.last(b)
+            scale = np.linalg.norm(A.data if sp.issparse(A) else A)
+            r = b - A @ x
+            rn = np.linalg.norm(r)
+            for k in range(_REFINE_ITER + 1):
+                if not np.isfinite(rn):
+                    break
+                if rn <= _REFINE_EPS * (scale * np.linalg.norm(x) + np.linalg.norm(b)):
+                    self.refined += 1
+                    return x
+                if k == _REFINE_ITER:
+                    break
+                x = x + self.last(r)
+                r = b - A @ x
+                rn, before = np.linalg.norm(r), rn
+                if not rn < 0.5 * before:  # stagnating: not near enough
+                    break
+        self.factorised += 1
+        return self.solve(A, b)
 
 
 def newton_core(fun, z0, thresh, max_iter, measure, step=linear_solve, damped=False,
@@ -123,12 +196,13 @@ NEWTON_MESSAGES = {
 }
 
 
-def newton(fun_x, x0, tol, max_iter=20, damped=True) -> NewtonResult:
+def newton(fun_x, x0, tol, max_iter=20, damped=True, step=linear_solve) -> NewtonResult:
     """Newton's method for R(x) = 0 with `fun_x(x) -> (R, dR_dx)`.
 
     Converged iff the residual evaluated at the returned x satisfies ||R||_2 <= tol
     (absolute, in the units of R).  damped: backtrack until ||R|| decreases (see
-    `newton_core`).  Numerical failure is reported in the result.
+    `newton_core`); `step(dR_dx, rhs)` solves the Newton systems (e.g.
+    `KeptFactors().solve`).  Numerical failure is reported in the result.
     """
     x0 = np.asarray(x0, dtype=float)
     if x0.ndim != 1 or not np.all(np.isfinite(x0)):
@@ -148,6 +222,6 @@ def newton(fun_x, x0, tol, max_iter=20, damped=True) -> NewtonResult:
         return R, J
 
     z, status, nit, nfev, njev, r, J, _ = newton_core(
-        checked, x0, tol, int(max_iter), np.linalg.norm, damped=damped)
+        checked, x0, tol, int(max_iter), np.linalg.norm, step, damped=damped)
     return NewtonResult(z, status == 0, status, NEWTON_MESSAGES[status], nit, nfev,
                         njev, float(r), J)

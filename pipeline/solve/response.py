@@ -243,10 +243,12 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
 
 def _weighted(fun, w):
     """fun(x, lam) -> (R, J, dR) with every equation divided by its tolerance [N]
-    (row scaling: Newton steps and tangents are unchanged, only the test is)."""
+    (row scaling: Newton steps and tangents are unchanged, only the test is).  A
+    dense J is scaled in place: `hbm.residual` returns a fresh one per call."""
     def f(x, lam):
         R, J, dR = fun(x, lam)
-        return w * R, (None if J is None else scale_rows(w, J)), (None if dR is None else w * dR)
+        return (w * R, (None if J is None else scale_rows(w, J, in_place=True)),
+                (None if dR is None else w * dR))
     return f
 
 
