@@ -25,16 +25,16 @@ from pipeline.study.cases import default_solver
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# Example 1 with six preloads, H = 7, Hill stability on: ~0.3-1 s a case, long enough
-# for a worker to be killed while the others still run
+# Example 1 with six preloads, H = 7
 STUDY = (ROOT / "studies" / "paper_example1.toml").read_text()
 STUDY = STUDY[:STUDY.index("[output.optimum_preload]")]
 STUDY = STUDY.replace("preload = [0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 1000.0]",
                       "preload = [0.5, 1.0, 2.0, 3.0, 5.0, 10.0]")
-# cases of about a second each (stability checked by Floquet where in doubt), so that a
-# run can be interrupted while its workers are busy
+# STUDY: cases of about a second each (stability checked by Floquet where in doubt), so
+# that a run can be interrupted, or a worker killed, while its workers are busy
+FAST = STUDY   # Hill's stability: about 0.15 s a case, for the runs nobody interrupts
 STUDY = STUDY.replace("stability = true", 'stability = "monodromy+check"')
-assert 'stability = "monodromy+check"' in STUDY
+assert 'stability = "monodromy+check"' in STUDY and "stability = true" in FAST
 N_CASES = 6
 
 
@@ -53,31 +53,46 @@ def study_file(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def serial(study_file, tmp_path_factory):
-    out = tmp_path_factory.mktemp("serial")
-    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+def fast_file(tmp_path_factory):
+    p = tmp_path_factory.mktemp("fast") / "six_preloads.toml"
+    p.write_text(FAST)
+    return p
+
+
+def _serial(text, file, out):
+    study = parse_study(text, file=str(file), name="six_preloads")
     res = run_study(study, out, workers=1, figures=False, progress=False)
     assert res.ok and res.computed == N_CASES and res.reused == 0
     assert not list(out.glob(".six_preloads.*.cases"))  # checkpoints removed once written
     return read_dataset(res.path)
 
 
-def test_process_pool_equals_serial(serial, study_file, tmp_path):
-    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+@pytest.fixture(scope="module")
+def serial(study_file, tmp_path_factory):
+    return _serial(STUDY, study_file, tmp_path_factory.mktemp("serial"))
+
+
+@pytest.fixture(scope="module")
+def fast_serial(fast_file, tmp_path_factory):
+    return _serial(FAST, fast_file, tmp_path_factory.mktemp("fast_serial"))
+
+
+def test_process_pool_equals_serial(fast_serial, fast_file, tmp_path):
+    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
     res = run_study(study, tmp_path, workers=2, figures=False, progress=False)
     assert res.ok
-    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(serial))
+    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(fast_serial))
 
 
-def test_dask_local_cluster_equals_serial(serial, study_file, tmp_path):
+def test_dask_local_cluster_equals_serial(fast_serial, fast_file, tmp_path):
     distributed = pytest.importorskip("dask.distributed")
-    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
         res = run_study(study, tmp_path, scheduler=cluster.scheduler_address,
                         figures=False, progress=False)
     assert res.ok
-    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(serial))
+    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(fast_serial))
 
 
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT], ids=["SIGKILL", "SIGINT"])
@@ -186,13 +201,13 @@ def test_unwritable_output_directory_fails_before_computing(study_file, tmp_path
     assert time.perf_counter() - t0 < 30   # refused up front, not after the cases
 
 
-def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(serial, study_file, tmp_path,
-                                                                monkeypatch):
+def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(fast_serial, fast_file,
+                                                                tmp_path, monkeypatch):
     import pipeline.study.dataset as dsmod
 
-    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
     target = tmp_path / "six_preloads.nc"
-    serial.to_netcdf(target)             # a previous result of the same version
+    fast_serial.to_netcdf(target)             # a previous result of the same version
     before = target.read_bytes()
 
     real_to_netcdf = xr.Dataset.to_netcdf
@@ -216,14 +231,14 @@ def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(serial, study_fi
     assert dsmod.read_dataset(target).attrs["study_name"] == "six_preloads"
 
 
-def test_dataset_of_an_older_version_is_kept_not_overwritten(serial, study_file, tmp_path):
-    old = serial.copy()
+def test_dataset_of_an_older_version_is_kept_not_overwritten(fast_serial, fast_file, tmp_path):
+    old = fast_serial.copy()
     old.attrs["pipeline_version"] = "0.0.1"
     target = tmp_path / "six_preloads.nc"
     old.to_netcdf(target)
     garbage = tmp_path / "six_preloads.v0.0.1.nc"   # a backup name already taken
     garbage.write_bytes(b"keep me")
-    r = run_cli(study_file, "--out", tmp_path, "--workers", "1", "--no-figures")
+    r = run_cli(fast_file, "--out", tmp_path, "--workers", "1", "--no-figures")
     assert r.returncode == 0, r.stderr
     assert "written by pipeline 0.0.1; kept it as six_preloads.v0.0.1.2.nc" in r.stderr
     kept = read_dataset(tmp_path / "six_preloads.v0.0.1.2.nc")
@@ -231,7 +246,7 @@ def test_dataset_of_an_older_version_is_kept_not_overwritten(serial, study_file,
     assert garbage.read_bytes() == b"keep me"
     new = read_dataset(target)
     assert new.attrs["pipeline_version"] != "0.0.1"
-    np.testing.assert_array_equal(new["peak_amplitude"], serial["peak_amplitude"])
+    np.testing.assert_array_equal(new["peak_amplitude"], fast_serial["peak_amplitude"])
 
 
 def test_unreachable_scheduler_is_one_line_exit_2(study_file, tmp_path, monkeypatch, capsys):
@@ -293,8 +308,9 @@ class _Payload:
         return (Path.touch, (Path(self.marker),))
 
 
-def test_foreign_or_corrupt_checkpoints_are_recomputed_not_executed(serial, study_file, tmp_path):
-    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+def test_foreign_or_corrupt_checkpoints_are_recomputed_not_executed(fast_serial, fast_file,
+                                                                    tmp_path):
+    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
     cdir = checkpoint_dir(study, tmp_path, default_solver(study))
     cdir.mkdir(parents=True)
     marker = tmp_path / "executed"
@@ -309,7 +325,7 @@ def test_foreign_or_corrupt_checkpoints_are_recomputed_not_executed(serial, stud
     res = run_study(study, tmp_path, workers=1, figures=False, progress=False)
     assert not marker.exists()
     assert res.ok and res.reused == 0 and res.computed == N_CASES
-    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(serial))
+    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(fast_serial))
 
 
 # ---------------------------------------------------------------------------
