@@ -53,7 +53,10 @@ def dynamic(blocks: tuple, H: int, Om: float):
     """S = K - w^2 M + i w C of one block at w = h Omega for h = 0..H, (H+1, r, q)."""
     K, M, C = blocks
     w = np.arange(H + 1)[:, None, None] * Om
-    return K - w * w * M + 1j * w * C
+    S = np.empty((H + 1,) + K.shape, complex)
+    np.subtract(K, w * w * M, out=S.real)
+    np.multiply(w, C, out=S.imag)
+    return S
 
 
 def dynamic_derivative(blocks: tuple, H: int, Om: float, V=None):
@@ -69,7 +72,8 @@ def dynamic_derivative(blocks: tuple, H: int, Om: float, V=None):
 def _condensed(ib: InteriorBlocks, H: int, Om: float, P, c, o):
     """(X, z, Sco, Soo, St, Pt): X = S_oo^-1 S_oc, z = S_oo^-1 P_o, and the condensed
     stiffness and load, per harmonic (one batched solve)."""
-    Sco, Soc, Soo = (dynamic(b, H, Om) for b in (ib.co, ib.oc, ib.oo))
+    Sco, Soo = dynamic(ib.co, H, Om), dynamic(ib.oo, H, Om)
+    Soc = np.swapaxes(Sco, 1, 2) if ib.symmetric else dynamic(ib.oc, H, Om)
     sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, o, None]], axis=2))
     X, z = np.ascontiguousarray(sol[..., :-1]), sol[..., -1:]
     St = dynamic(ib.cc, H, Om) - Sco @ X

@@ -17,8 +17,9 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-_REFINE_ITER = 4   # refinement steps on kept factors before factorising afresh
+_REFINE_ITER = 6   # refinement steps on kept factors before factorising afresh
 _REFINE_EPS = 16 * np.finfo(float).eps  # ... until the normwise backward error is below this
+_SINGLE_MIN = 500  # dense systems this large are factorised in float32 and refined
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,16 +73,18 @@ def linear_solve(A, b):
     return np.linalg.solve(A, b)
 
 
-def _factorised(A):
-    """The solve of a fresh LU of A (dense or sparse); LinAlgError if singular."""
+def _factorised(A, single=False):
+    """The solve of a fresh LU of A (dense or sparse; single: of A in float32, the
+    solve still in and out of float64); LinAlgError if singular."""
     if sp.issparse(A):
         return spla.splu(sp.csc_matrix(A)).solve
+    dtype = np.float32 if single else float
     with warnings.catch_warnings():  # an exactly singular A: raised below instead
         warnings.simplefilter("ignore", sla.LinAlgWarning)
-        lu, piv = sla.lu_factor(A, check_finite=False)
+        lu, piv = sla.lu_factor(A.astype(dtype), overwrite_a=True, check_finite=False)
     if not np.all(np.diagonal(lu)):
         raise np.linalg.LinAlgError("singular matrix")
-    return lambda b: sla.lu_solve((lu, piv), b, check_finite=False)
+    return lambda b: sla.lu_solve((lu, piv), b.astype(dtype), check_finite=False).astype(float)
 
 
 class KeptFactors:
@@ -91,44 +94,67 @@ class KeptFactors:
 
     A refined solution is accepted only once its normwise backward error
     ||b - A x|| / (||A||_F ||x|| + ||b||) is below _REFINE_EPS (16 eps: what a
-    fresh LU with partial pivoting reaches), so it is as exact as a fresh solve;
-    otherwise (a far matrix, e.g. after a change of the contact pattern, or
-    stagnation) A is factorised afresh.  A dense refinement step costs a product
-    and two triangular solves, O(n^2), against the O(n^3) of a factorisation.
-    `refined` and `factorised` count the two outcomes of `near`.
+    fresh LU with partial pivoting in float64 reaches), so it is as exact as a
+    fresh solve; otherwise (a far matrix, e.g. after a change of the contact
+    pattern, or stagnation) A is factorised afresh.  A dense refinement step costs
+    a product and two triangular solves, O(n^2), against the O(n^3) of a
+    factorisation.  Dense matrices of _SINGLE_MIN rows or more are factorised in
+    float32 (half the time) and every solve refined to that same backward error in
+    float64 (mixed-precision refinement); a matrix too ill-conditioned for it is
+    factorised again in float64.  `refined` and `factorised` count the two
+    outcomes of `near`, `single` the float32 factorisations that sufficed.
     """
 
     def __init__(self):
         self.last, self.size = None, -1
-        self.refined = self.factorised = 0
+        self.refined = self.factorised = self.single = 0
 
     def solve(self, A, b):
         """A x = b by a fresh factorisation of A, which is kept."""
-        self.last, self.size = _factorised(A), A.shape[0]
+        n = A.shape[0]
+        if not sp.issparse(A) and n >= _SINGLE_MIN:
+            try:
+                self.last, self.size = _factorised(A, single=True), n
+                x = self._refined(A, b)
+                if x is not None:
+                    self.single += 1
+                    return x
+            except np.linalg.LinAlgError:
+                pass  # singular in float32 only: float64 decides
+        self.last, self.size = _factorised(A), n
         return self.last(b)
 
     def near(self, A, b):
         """A x = b from the kept factors by refinement, else as `solve`."""
         if self.last is not None and self.size == A.shape[0]:
-            x = self.last(b)
-            scale = np.linalg.norm(A.data if sp.issparse(A) else A)
-            r = b - A @ x
-            rn = np.linalg.norm(r)
-            for k in range(_REFINE_ITER + 1):
-                if not np.isfinite(rn):
-                    break
-                if rn <= _REFINE_EPS * (scale * np.linalg.norm(x) + np.linalg.norm(b)):
-                    self.refined += 1
-                    return x
-                if k == _REFINE_ITER:
-                    break
-                x = x + self.last(r)
-                r = b - A @ x
-                rn, before = np.linalg.norm(r), rn
-                if not rn < 0.5 * before:  # stagnating: not near enough
-                    break
+            x = self._refined(A, b)
+            if x is not None:
+                self.refined += 1
+                return x
         self.factorised += 1
         return self.solve(A, b)
+
+    def _refined(self, A, b):
+        """x from the kept factors refined to the backward error _REFINE_EPS, or None
+        (no convergence within _REFINE_ITER steps, or stagnation)."""
+        x = self.last(b)
+        scale = np.linalg.norm(A.data if sp.issparse(A) else A)
+        bn = np.linalg.norm(b)
+        r = b - A @ x
+        rn = np.linalg.norm(r)
+        for k in range(_REFINE_ITER + 1):
+            if not np.isfinite(rn):
+                return None
+            if rn <= _REFINE_EPS * (scale * np.linalg.norm(x) + bn):
+                return x
+            if k == _REFINE_ITER:
+                return None
+            x = x + self.last(r)
+            r = b - A @ x
+            rn, before = np.linalg.norm(r), rn
+            if not rn < 0.5 * before:  # stagnating: not near enough
+                return None
+        return None
 
 
 def newton_core(fun, z0, thresh, max_iter, measure, step=linear_solve, damped=False,
