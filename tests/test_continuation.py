@@ -231,6 +231,31 @@ def test_kept_factors_refine_near_matrices_to_a_fresh_solves_accuracy(sparse):
         KeptFactors().solve(sp.csc_matrix((3, 3)) if sparse else np.zeros((3, 3)), np.ones(3))
 
 
+def test_large_dense_systems_factorised_in_single_precision_solve_to_double_accuracy():
+    rng = np.random.default_rng(5)
+    n = 600
+    b = rng.standard_normal(n)
+    U, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    V, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    eps = np.finfo(float).eps
+
+    def berr(A, x):
+        return np.linalg.norm(b - A @ x) / (np.linalg.norm(A) * np.linalg.norm(x) + np.linalg.norm(b))
+
+    # condition 1e3: the float32 factors suffice, refined to float64's backward error
+    A = (U * np.logspace(0, -3, n)) @ V.T
+    f = KeptFactors()
+    x = f.solve(A, b)
+    assert f.single == 1 and berr(A, x) <= 16 * eps
+    y = np.linalg.solve(A, b)
+    assert np.abs(x - y).max() <= 1e-10 * np.abs(y).max()
+    # condition 1e12: beyond float32's refinement, factorised again in float64
+    A = (U * np.logspace(0, -12, n)) @ V.T
+    x = f.solve(A, b)
+    assert f.single == 1 and berr(A, x) <= 16 * eps   # float64's backward error, as LAPACK's
+    assert berr(A, x) <= 4 * berr(A, np.linalg.solve(A, b)) + 2 * eps
+
+
 @pytest.mark.parametrize("kwargs, match", [
     (dict(tol=None), "tol"),
     (dict(tol=-1.0), "tol"),
