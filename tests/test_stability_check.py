@@ -211,8 +211,42 @@ def test_cyclic_sector_decided_by_the_wheels_multipliers():
     assert list(mono.method) == [sc.MONODROMY] * 4        # along the expanded wheel orbit
     assert list(mono.stable) == [True, True, True, False]
     assert np.allclose(mono.monodromy_multiplier, bs.floquet_multiplier, rtol=0, atol=0.02)
-    assert "keeps Hill" in sc.describe("hill+check", wheel_too_big=True)
+    assert "keeps Hill" in sc.describe("hill+check", sc.MAX_MONODROMY_DOF + 1)
     assert sc.describe(True) == "Hill's method at every point"
+
+
+@pytest.mark.parametrize("size, mode, expected", [
+    (3, "hill+check", ("hill+check", "floquet")), (3, "floquet", ("floquet", "floquet")),
+    (352, "hill", ("hill", "floquet")), (352, "hill+check", ("hill+check", "monodromy")),
+    (352, "floquet", ("monodromy", "monodromy")),
+    (352, "monodromy+check", ("monodromy", "monodromy")),
+    (1000, "monodromy", ("hill", "floquet")), (1000, False, (None, "floquet"))])
+def test_effective_mode_beyond_the_shooting(size, mode, expected):
+    assert sc.effective_mode(mode, size) == expected
+    text = sc.describe(mode, size)
+    if size == 352 and mode != "hill":
+        assert "beyond the shooting" in text and "linearised along the harmonic-balance" in text
+
+
+def test_hill_checked_by_the_orbit_monodromy_where_the_shooting_is_out_of_reach(
+        blade_curve, monkeypatch):
+    """An FE blade's flow (hundreds of DOFs) is beyond the shooting: `hill+check` is
+    then checked by the orbit monodromy.  Here the 3-DOF blade stands in for it (the
+    shooting's limit lowered below its 3 DOFs): where Hill is wrong, the monodromy
+    decides, and the flags equal those the exact multipliers decided."""
+    from pipeline.solve import hbm
+    monkeypatch.setattr(sc, "MAX_WHEEL_DOF", 2)
+    c, s = blade_curve, blade3()
+    ok = np.flatnonzero(c.converged)
+    bs = sc.branch_stability(hbm.setup(s, 10), c.Q[ok], c.omega[ok], c.omega[ok],
+                             lambda lam: s.contact, np.ones(ok.size, bool), "hill+check",
+                             amplitude=c.amplitude[ok])
+    assert set(np.unique(bs.method)) <= {sc.HILL, sc.MONODROMY}   # (a lightly damped
+    assert np.isnan(bs.floquet_multiplier).all()                 # blade: all checked)
+    np.testing.assert_array_equal(bs.stable, c.stable[ok])
+    hill_wrong = (c.hill_multiplier[ok] > 1.001) & c.stable[ok]
+    assert hill_wrong.sum() >= 5 and (bs.method[hill_wrong] == sc.MONODROMY).all()
+    assert "beyond the shooting" in bs.note
 
 
 # ------------------------------------------------------------------ figure marks

@@ -4,6 +4,12 @@ One frequency-response curve (dense output on, exact forces) per stability mode
 (`solve.stability_check`) on paper Examples 1 and 3 and the 3-DOF shrouded blade,
 each timed as this process's CPU time (single-threaded BLAS), with the points the
 exact Floquet multipliers decided, the unstable points and the bifurcations.
+
+Then the FE blade of `studies/blade_shroud_contact.toml` (its quick mesh, 208 DOFs:
+beyond the shooting, `stability_check.effective_mode`): its curve without
+stability, and Hill's and the orbit monodromy's CPU time and largest multiplier at
+sampled points of it (a whole curve with either takes many minutes); the curve times
+of the modes follow from the per-point costs.
 """
 from __future__ import annotations
 
@@ -15,7 +21,8 @@ import numpy as np
 
 from ..paper_systems import blade3, example1, example3
 from ..solve.response import frequency_response
-from ..solve.stability_check import FLOQUET, KINDS, MONODROMY
+from ..solve.orbit_floquet import along_orbit
+from ..solve.stability_check import FLOQUET, KINDS, MONODROMY, branch_stability
 
 CURVES = [("Example 1, n = 2 N, H = 7, 150-250 rad/s", lambda: example1(2.0), 7, 150.0, 250.0),
           ("Example 3, n0 = 10 N, H = 14, 0.5-1.6 rad/s", lambda: example3(10.0), 14, 0.5, 1.6),
@@ -49,4 +56,47 @@ def run(quick=False):
     print("stab. s: the stability part of the CPU time (Hill, the orbit monodromy, Floquet); "
           "by Floquet / by monodromy: points\ndecided by each (the rest by Hill); "
           "bifurcations in branch order")
+    fe_blade(3 if quick else 8)
     return 0
+
+
+def fe_blade(samples: int):
+    """Hill and the orbit monodromy at `samples` points of the quick FE blade's curve."""
+    from pathlib import Path
+
+    from ..solve import hbm
+    from ..study.documents import load_study
+
+    study = load_study(Path(__file__).resolve().parents[2] / "studies"
+                       / "blade_shroud_contact.toml", quick=True)
+    case = study.sweep.cases()[0][1]
+    system, H = study.system(case), study.solver.harmonics
+    fr, kw = study.sweep.frequency, study.solver.kwargs()
+    kw.update(stability=False, peak_dofs=[study.scene.dof_index(d) for d in study.output.dofs])
+    t = time.process_time()
+    c = frequency_response(system, H, fr.omega_start, fr.omega_stop, **kw)
+    cpu = time.process_time() - t
+    print(f"\nFE blade, quick mesh ({system.n_dof} DOFs, {system.contact.ku.size} contact "
+          f"elements), {', '.join(f'{k} = {v:g}' for k, v in case.items())}, H = {H}: {c.n_points} points in {cpu:.1f} s CPU without "
+          "stability")
+    print(f"{'Omega rad/s':>11} {'switches':>8} {'Hill s':>7} {'rho_H':>7} "
+          f"{'monodromy s':>11} {'max |mu|':>8}")
+    prob = hbm.setup(system, H)
+    picks = np.unique(np.linspace(0, c.n_points - 1, samples).round().astype(int))
+    tot = np.zeros(2)
+    for i in picks:
+        t = time.process_time()
+        h = branch_stability(prob, c.Q[i:i + 1], c.omega[i:i + 1], c.omega[i:i + 1],
+                             lambda lam: system.contact, np.ones(1, bool), "hill")
+        th = time.process_time() - t
+        t = time.process_time()
+        m = along_orbit(system, c.omega[i], c.Q[i])   # what the monodromy modes run
+        tm = time.process_time() - t
+        tot += th, tm
+        print(f"{c.omega[i]:11.2f} {m.n_events:>8} {th:7.2f} {h.hill_multiplier[0]:7.4f} "
+              f"{tm:11.2f} {m.max_modulus:8.4f}")
+    per = tot / picks.size
+    print(f"per point: Hill {per[0]:.1f} s, monodromy {per[1]:.1f} s; a curve of "
+          f"{c.n_points} points: hill ~{cpu + c.n_points * per[0]:.0f} s, monodromy (also "
+          f"floquet, monodromy+check) ~{cpu + c.n_points * per[1]:.0f} s, hill+check "
+          f"(lightly damped: every point checked) ~{cpu + c.n_points * per.sum():.0f} s")

@@ -82,7 +82,8 @@ KINDS = {FOLD: "fold", PERIOD_DOUBLING: "period doubling", NEIMARK_SACKER: "Neim
 KIND_CODES = {v: k for k, v in KINDS.items()}
 CHECK_MARGIN = 0.5
 MONODROMY_MARGIN = 0.1    # |log max |mu|| of the orbit monodromy below which Floquet checks it
-MAX_WHEEL_DOF = 200    # a cyclic sector's Floquet check integrates the whole wheel up to this
+MAX_WHEEL_DOF = 200    # the shooting (Floquet) runs on exact flows of up to this many DOFs
+MAX_MONODROMY_DOF = 400   # ... the orbit monodromy on up to this many (an FE blade's 352)
 
 
 def stability_mode(value) -> str | None:
@@ -149,6 +150,7 @@ class _Points:
         self.orb_stable = np.ones(P, bool)
         self.orb_kind = np.zeros(P, np.int8)
         self.orb_events = np.zeros(P, int)   # switches in the period (0: a linear flow)
+        self.orb_tried = np.zeros(P, bool)
         self.times = [0.0, 0.0, 0.0]
 
     def run_hill(self, i):
@@ -180,6 +182,9 @@ class _Points:
     def run_monodromy(self, i):
         """The monodromy of the flow linearised along the HBM orbit (`orbit_floquet`);
         left NaN where that method does not apply."""
+        if self.orb_tried[i]:
+            return
+        self.orb_tried[i] = True
         t0 = time.perf_counter()
         s, Q = self.orbit(i)
         try:
@@ -225,10 +230,9 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     P = omega.size
     pts = _Points(prob, Q, omega, np.asarray(lam, float), elem_at)
     conv = np.flatnonzero(np.asarray(converged, bool))
-    too_big = flow_dof(prob.system) > MAX_WHEEL_DOF
-    note = describe(mode, too_big, margin)
-    if too_big and mode not in (None, "hill"):
-        mode = "hill"
+    size = flow_dof(prob.system)
+    note = describe(mode, size, margin)
+    mode, check = effective_mode(mode, size)
     if mode is None:
         return _result(pts, np.full(P, NOT_COMPUTED, np.int8), fold_lam, conv, note)
     if mode in ("hill", "hill+check"):
@@ -246,15 +250,30 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
             if not np.isfinite(pts.fq[i]):
                 pts.run_hill(i)
     elif mode == "hill+check":
-        _check_doubtful(pts, conv, lambda i: _near_one(pts.hill[i], margin), amplitude)
+        _check_doubtful(pts, conv, lambda i: _near_one(pts.hill[i], margin), amplitude, check)
     elif mode == "monodromy+check":   # no switch in the period: the linear flow, exact
         _check_doubtful(pts, conv, lambda i: (pts.orb_events[i] > 0
                                               and _near_one(pts.orb[i], MONODROMY_MARGIN))
                         if np.isfinite(pts.orb[i]) else _near_one(pts.hill[i], margin),
-                        amplitude)
+                        amplitude, check)
     method = np.where(np.isfinite(pts.fq), FLOQUET,
                       np.where(np.isfinite(pts.orb), MONODROMY, HILL)).astype(np.int8)
     return _result(pts, method, fold_lam, conv, note)
+
+
+def effective_mode(mode, size: int) -> tuple:
+    """(mode run, check "floquet" | "monodromy") for `mode` on an exact flow of `size`
+    DOFs (`flow_dof`).  Up to MAX_WHEEL_DOF every mode runs as named, checked by
+    Floquet.  Above it the shooting is out of reach (an FE blade, a large wheel): up
+    to MAX_MONODROMY_DOF "hill+check" is checked by the orbit monodromy instead,
+    and "floquet" and "monodromy+check" run as "monodromy"; above that, every mode
+    runs as "hill"."""
+    mode = stability_mode(mode)
+    if mode in (None, "hill") or size <= MAX_WHEEL_DOF:
+        return mode, "floquet"
+    if size > MAX_MONODROMY_DOF:
+        return "hill", "floquet"
+    return ("hill+check" if mode == "hill+check" else "monodromy"), "monodromy"
 
 
 def flow_dof(system) -> int:
@@ -268,14 +287,25 @@ def _near_one(multiplier, margin) -> bool:
     return abs(np.log(max(multiplier, 1e-300))) < margin
 
 
-def describe(mode, wheel_too_big: bool = False, margin: float = CHECK_MARGIN) -> str:
-    """How `branch_stability` decides in `mode` (`stability_mode`), in words;
-    wheel_too_big: the exact flow has more than MAX_WHEEL_DOF DOFs (`flow_dof`)."""
+def describe(mode, size: int = 0, margin: float = CHECK_MARGIN) -> str:
+    """How `branch_stability` decides in `mode` (`stability_mode`) on an exact flow of
+    `size` DOFs (`flow_dof`, `effective_mode`), in words."""
     mode = stability_mode(mode)
-    if wheel_too_big and mode not in (None, "hill"):
+    run, check = effective_mode(mode, size)
+    if run == "hill" and mode not in (None, "hill"):
         return ("Hill's method at every point (every wave number of a cyclic sector): the "
-                f"exact flow has more than {MAX_WHEEL_DOF} DOFs here (a cyclic sector's is "
-                f"the whole wheel's), so {mode!r} keeps Hill")
+                f"exact flow has {size} > {MAX_MONODROMY_DOF} DOFs here (a cyclic sector's "
+                f"is the whole wheel's), so {mode!r} keeps Hill")
+    if check == "monodromy":
+        beyond = (f"the exact flow has {size} > {MAX_WHEEL_DOF} DOFs here, beyond the "
+                  f"shooting, so {mode!r} runs as ")
+        if run == "hill+check":
+            return (beyond + "Hill's method, checked by the multipliers of the exact flow "
+                    "linearised along the harmonic-balance orbit where |max Re lambda| T < "
+                    f"{margin:g}, at both neighbours of every change of the flag and at the "
+                    "peaks; where they disagree, the orbit monodromy decides")
+        return (beyond + "the multipliers of the exact flow linearised along the "
+                "harmonic-balance orbit at every point (Hill where that does not apply)")
     check = ("at both neighbours of every change of the flag and at the peaks; where they "
              "disagree, Floquet decides")
     return {None: "not computed", "hill": "Hill's method at every point",
@@ -296,24 +326,26 @@ def _decided(pts):
                     np.where(np.isfinite(pts.orb), pts.orb_stable, pts.hill_stable))
 
 
-def _check_doubtful(pts, conv, doubtful, amplitude):
-    """Floquet where the first method is in doubt (`doubtful(i)`), at the peaks, then at
-    both neighbours of every change of the decided flag until each change has
-    Floquet on both sides."""
+def _check_doubtful(pts, conv, doubtful, amplitude, check="floquet"):
+    """The `check` ("floquet", or "monodromy" on flows beyond the shooting) where the
+    first method is in doubt (`doubtful(i)`), at the peaks, then at both neighbours
+    of every change of the decided flag until each change has it on both sides."""
+    run, tried = ((pts.run_floquet, pts.fq_tried) if check == "floquet"
+                  else (pts.run_monodromy, pts.orb_tried))
     for i in conv:
         if doubtful(i):
-            pts.run_floquet(i)
+            run(i)
     if amplitude is not None and conv.size:
         for d in range(amplitude.shape[1]):
-            pts.run_floquet(conv[int(np.argmax(amplitude[conv, d]))])
+            run(conv[int(np.argmax(amplitude[conv, d]))])
     while True:
         st = _decided(pts)
         todo = [k for a, b in zip(conv[:-1], conv[1:]) if st[a] != st[b]
-                for k in (a, b) if not pts.fq_tried[k]]
+                for k in (a, b) if not tried[k]]
         if not todo:
             return
         for k in todo:
-            pts.run_floquet(k)
+            run(k)
 
 
 def _result(pts, method, fold_lam, conv, note) -> BranchStability:

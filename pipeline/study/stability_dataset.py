@@ -84,8 +84,9 @@ def stability_note(mode, notes) -> str:
 def stability_attrs(data_vars: dict):
     """Flag and comment attributes of the stability variables."""
     data_vars["stability_method"][2].update(
-        METHOD_FLAGS, comment="-1 where 'stable' is NaN; where a check ran, the exact "
-                              "Floquet multipliers decide")
+        METHOD_FLAGS, comment="-1 where 'stable' is NaN; where a check ran, its "
+                              "multipliers decide (the exact Floquet multipliers; the "
+                              "orbit monodromy's on flows beyond the shooting)")
     data_vars["max_multiplier"][2].update(
         comment="stability_method 1 (floquet): max |mu| of the monodromy matrix of the exact "
                 "event-driven flow; stability_method 2 (monodromy): max |mu| of the "
