@@ -226,6 +226,9 @@ def test_effective_mode_beyond_the_shooting(size, mode, expected):
     text = sc.describe(mode, size)
     if size == 352 and mode != "hill":
         assert "beyond the shooting" in text and "linearised along the harmonic-balance" in text
+    if size == 3:   # a stiff flow of few DOFs (a Craig-Bampton blade): as one of 352
+        assert sc.effective_mode(mode, size, stiff=True) == sc.effective_mode(mode, 352)
+        assert "too stiff for the event search" in sc.describe(mode, size, stiff=True)
 
 
 def test_hill_checked_by_the_orbit_monodromy_where_the_shooting_is_out_of_reach(
@@ -377,3 +380,44 @@ def test_modes_decide_like_the_exact_multipliers():
     assert np.all(c.stability_method[near & ~unchecked] == sc.FLOQUET)
     assert np.allclose(b.bifurcation_parameter, a.bifurcation_parameter, rtol=0, atol=1e-5)
     assert b.info["monodromy_time"] < a.info["hill_time"]
+
+
+# ------------------------------------------------------------------ an FE blade
+def test_fe_blade_beyond_the_shooting_is_decided_by_the_orbit_monodromy():
+    """A coarse solid blade (Craig-Bampton, 102 DOFs, 30 shroud-node contacts): its
+    reduced model is too stiff for the event search (its boundary DOFs), so the
+    shooting is out of reach and `floquet` runs as the orbit monodromy.  Where
+    no contact switches, the flow is linear and its monodromy exp(AT) equals Hill's
+    (both exact); through the stick-slip peak the two agree to 1e-3 (measured 2e-4)."""
+    from pipeline.solve import hbm
+    from pipeline.study.documents import parse_study
+
+    text = (Path(__file__).resolve().parents[1] / "studies" / "blade_shroud_contact.toml").read_text()
+    text = text[:text.index("[quick.scene.blade]")]
+    for old, new in [("craig_bampton_modes = 40", "craig_bampton_modes = 6"),
+                     ("n_chord = 8\nn_thick = 2\nn_span = 20", "n_chord = 2\nn_thick = 1\nn_span = 4"),
+                     ("preload = [0.3, 3.0, 30.0, 1000.0]", "preload = [3.0]")]:
+        assert old in text
+        text = text.replace(old, new)
+    study = parse_study(text, file="tiny_blade.toml")
+    system = study.system(study.sweep.cases()[0][1])
+    assert sc.flow_dof(system) == 102    # below MAX_WHEEL_DOF, but stiff:
+    assert sc.shooting_samples(system, np.array([2e3])) > 100 * sc.MAX_SHOOTING_SAMPLES
+    # down through the stick-slip peak at 315.6 Hz and the folds at 315.3 and 335.2 Hz
+    c = frequency_response(system, 3, 2 * np.pi * 380.0, 2 * np.pi * 300.0, stability=False,
+                           peak_dofs=[study.scene.dof_index("response.y")])
+    ipk = int(np.argmax(c.amplitude[:, 0]))
+    assert abs(c.omega[ipk] / (2 * np.pi) - 315.6) < 0.1
+    pick = np.array([0, ipk - 3, ipk, ipk + 3, c.n_points - 1])
+    bs = sc.branch_stability(hbm.setup(system, 3), c.Q[pick], c.omega[pick], c.omega[pick],
+                             lambda lam: system.contact, np.ones(pick.size, bool), "floquet")
+    assert (bs.method == sc.MONODROMY).all() and "beyond the shooting" in bs.note
+    hill = sc.branch_stability(hbm.setup(system, 3), c.Q[pick], c.omega[pick], c.omega[pick],
+                               lambda lam: system.contact, np.ones(pick.size, bool), "hill")
+    events = [along_orbit(system, c.omega[i], c.Q[i]).n_events for i in pick]
+    assert events[0] == events[-1] == 0 and min(events[1:4]) > 0
+    linear = np.array(events) == 0
+    assert np.allclose(bs.monodromy_multiplier[linear], hill.hill_multiplier[linear],
+                       rtol=0, atol=1e-4)
+    assert np.allclose(bs.monodromy_multiplier, hill.hill_multiplier, rtol=0, atol=1e-3)
+    assert bs.stable.all()

@@ -68,6 +68,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..model.cyclic import expand, wheel_system
+from ..model.system import dense
 from . import floquet
 from .full_operators import wave_jacobians
 from .orbit_floquet import along_orbit
@@ -84,6 +85,7 @@ CHECK_MARGIN = 0.5
 MONODROMY_MARGIN = 0.1    # |log max |mu|| of the orbit monodromy below which Floquet checks it
 MAX_WHEEL_DOF = 200    # the shooting (Floquet) runs on exact flows of up to this many DOFs
 MAX_MONODROMY_DOF = 400   # ... the orbit monodromy on up to this many (an FE blade's 352)
+MAX_SHOOTING_SAMPLES = 1e5  # ... and whose event search samples a period at most this often
 
 
 def stability_mode(value) -> str | None:
@@ -231,8 +233,9 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     pts = _Points(prob, Q, omega, np.asarray(lam, float), elem_at)
     conv = np.flatnonzero(np.asarray(converged, bool))
     size = flow_dof(prob.system)
-    note = describe(mode, size, margin)
-    mode, check = effective_mode(mode, size)
+    stiff = size <= MAX_MONODROMY_DOF and shooting_samples(prob.system, omega) > MAX_SHOOTING_SAMPLES
+    note = describe(mode, size, margin, stiff)
+    mode, check = effective_mode(mode, size, stiff)
     if mode is None:
         return _result(pts, np.full(P, NOT_COMPUTED, np.int8), fold_lam, conv, note)
     if mode in ("hill", "hill+check"):
@@ -261,19 +264,38 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     return _result(pts, method, fold_lam, conv, note)
 
 
-def effective_mode(mode, size: int) -> tuple:
+def effective_mode(mode, size: int, stiff: bool = False) -> tuple:
     """(mode run, check "floquet" | "monodromy") for `mode` on an exact flow of `size`
-    DOFs (`flow_dof`).  Up to MAX_WHEEL_DOF every mode runs as named, checked by
-    Floquet.  Above it the shooting is out of reach (an FE blade, a large wheel): up
+    DOFs (`flow_dof`), `stiff` if its event search would take more than
+    MAX_SHOOTING_SAMPLES samples a period (`shooting_samples`).  Up to MAX_WHEEL_DOF
+    DOFs and not stiff, every mode runs as named, checked by Floquet.  Otherwise the
+    shooting is out of reach (an FE blade's stiff reduced model, a large wheel): up
     to MAX_MONODROMY_DOF "hill+check" is checked by the orbit monodromy instead,
     and "floquet" and "monodromy+check" run as "monodromy"; above that, every mode
     runs as "hill"."""
     mode = stability_mode(mode)
-    if mode in (None, "hill") or size <= MAX_WHEEL_DOF:
+    if mode in (None, "hill") or (size <= MAX_WHEEL_DOF and not stiff):
         return mode, "floquet"
     if size > MAX_MONODROMY_DOF:
         return "hill", "floquet"
     return ("hill+check" if mode == "hill+check" else "monodromy"), "monodromy"
+
+
+def shooting_samples(system, omega) -> float:
+    """Samples per period (at the lowest of the frequencies `omega` [rad/s]) of the
+    exact integrator's event search, which steps (pi/6)/max|lambda| of the flow
+    (`events`), from the bound max|lambda| <= ||M^-1 C|| + sqrt(||M^-1 (K + K_c)||)
+    (1-norms; K_c the contacts' springs ku, kv).  Tens to hundreds on lumped systems,
+    millions on a Craig-Bampton blade, whose boundary DOFs are stiff: its shooting
+    would not fit in memory."""
+    M, K, C, Bt, Bn = (np.abs(np.atleast_2d(dense(a)))
+                       for a in (system.M, system.K, system.C, system.Bt, system.Bn))
+    ct = system.contact
+    if ct is not None and Bt.size and Bn.size:
+        K = K + Bt.T @ (np.abs(ct.ku)[:, None] * Bt) + Bn.T @ (np.abs(ct.kv)[:, None] * Bn)
+    Minv = np.abs(np.linalg.inv(M))
+    lam = (Minv @ C).sum(0).max() + np.sqrt((Minv @ K).sum(0).max())
+    return float(2 * np.pi / np.min(omega) * lam * 6 / np.pi)
 
 
 def flow_dof(system) -> int:
@@ -287,18 +309,20 @@ def _near_one(multiplier, margin) -> bool:
     return abs(np.log(max(multiplier, 1e-300))) < margin
 
 
-def describe(mode, size: int = 0, margin: float = CHECK_MARGIN) -> str:
+def describe(mode, size: int = 0, margin: float = CHECK_MARGIN, stiff: bool = False) -> str:
     """How `branch_stability` decides in `mode` (`stability_mode`) on an exact flow of
-    `size` DOFs (`flow_dof`, `effective_mode`), in words."""
+    `size` DOFs, `stiff` or not (`effective_mode`), in words."""
     mode = stability_mode(mode)
-    run, check = effective_mode(mode, size)
+    run, check = effective_mode(mode, size, stiff)
     if run == "hill" and mode not in (None, "hill"):
         return ("Hill's method at every point (every wave number of a cyclic sector): the "
                 f"exact flow has {size} > {MAX_MONODROMY_DOF} DOFs here (a cyclic sector's "
                 f"is the whole wheel's), so {mode!r} keeps Hill")
     if check == "monodromy":
-        beyond = (f"the exact flow has {size} > {MAX_WHEEL_DOF} DOFs here, beyond the "
-                  f"shooting, so {mode!r} runs as ")
+        why = (f"is too stiff for the event search (over {MAX_SHOOTING_SAMPLES:.0e} samples "
+               "a period)" if stiff and size <= MAX_WHEEL_DOF else
+               f"has {size} > {MAX_WHEEL_DOF} DOFs")
+        beyond = f"the exact flow {why} here, beyond the shooting, so {mode!r} runs as "
         if run == "hill+check":
             return (beyond + "Hill's method, checked by the multipliers of the exact flow "
                     "linearised along the harmonic-balance orbit where |max Re lambda| T < "
