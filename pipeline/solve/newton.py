@@ -20,6 +20,7 @@ import scipy.sparse.linalg as spla
 _REFINE_ITER = 6   # refinement steps on kept factors before factorising afresh
 _REFINE_EPS = 16 * np.finfo(float).eps  # ... until the normwise backward error is below this
 _SINGLE_MIN = 500  # dense systems this large are factorised in float32 and refined
+_KEEP_MIN = 300    # smaller dense systems are solved afresh (an LU costs less than refining)
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,7 +99,8 @@ class KeptFactors:
     fresh solve; otherwise (a far matrix, e.g. after a change of the contact
     pattern, or stagnation) A is factorised afresh.  A dense refinement step costs
     a product and two triangular solves, O(n^2), against the O(n^3) of a
-    factorisation.  Dense matrices of _SINGLE_MIN rows or more are factorised in
+    factorisation.  Dense matrices of fewer than _KEEP_MIN rows are solved afresh
+    each time (an LU costs less there).  Those of _SINGLE_MIN rows or more are factorised in
     float32 (half the time) and every solve refined to that same backward error in
     float64 (mixed-precision refinement); a matrix too ill-conditioned for it is
     factorised again in float64.  `refined` and `factorised` count the two
@@ -110,8 +112,12 @@ class KeptFactors:
         self.refined = self.factorised = self.single = 0
 
     def solve(self, A, b):
-        """A x = b by a fresh factorisation of A, which is kept."""
+        """A x = b by a fresh factorisation of A, which is kept (a dense A of fewer
+        than _KEEP_MIN rows: solved, nothing kept)."""
         n = A.shape[0]
+        if not sp.issparse(A) and n < _KEEP_MIN:
+            self.last, self.size = None, -1
+            return np.linalg.solve(A, b)
         if not sp.issparse(A) and n >= _SINGLE_MIN:
             try:
                 self.last, self.size = _factorised(A, single=True), n
