@@ -45,8 +45,13 @@ orbit itself is least converged in H), so the margin is three times that.
 Cyclic sectors (`System.cyclic`): the exact flow of one sector is not the wheel's, so
 their Floquet multipliers are those of the whole tuned wheel (`cyclic.wheel_system`,
 the sector solution expanded to every sector, `cyclic.expand`): every wave number is
-free, as in Hill's problem per wave number (`wave_jacobians`).  Above MAX_WHEEL_DOF
-DOFs in the wheel every mode keeps Hill.
+free, as in Hill's problem per wave number (`wave_jacobians`).
+
+Beyond the shooting - more than MAX_WHEEL_DOF DOFs, or a flow so stiff that the event
+search would sample a period more than MAX_SHOOTING_SAMPLES times (a Craig-Bampton
+blade: 1e7-1e8, `shooting_samples`) - the orbit monodromy takes the Floquet check's
+place up to MAX_MONODROMY_DOF DOFs (`effective_mode`); above that every mode keeps
+Hill.
 
 Where Hill and Floquet disagree, Floquet decides.  A "marginal" Floquet verdict
 (|mu| within 1e-6 of 1) counts as stable, as Hill's relative margin does.
