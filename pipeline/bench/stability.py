@@ -16,13 +16,16 @@ from __future__ import annotations
 import logging
 import os
 import time
+from pathlib import Path
 
 import numpy as np
 
 from ..paper_systems import blade3, example1, example3
+from ..solve import hbm
 from ..solve.response import frequency_response
 from ..solve.orbit_floquet import along_orbit
 from ..solve.stability_check import FLOQUET, KINDS, MONODROMY, branch_stability
+from ..study.documents import load_study
 
 CURVES = [("Example 1, n = 2 N, H = 7, 150-250 rad/s", lambda: example1(2.0), 7, 150.0, 250.0),
           ("Example 3, n0 = 10 N, H = 14, 0.5-1.6 rad/s", lambda: example3(10.0), 14, 0.5, 1.6),
@@ -62,11 +65,6 @@ def run(quick=False):
 
 def fe_blade(samples: int):
     """Hill and the orbit monodromy at `samples` points of the quick FE blade's curve."""
-    from pathlib import Path
-
-    from ..solve import hbm
-    from ..study.documents import load_study
-
     study = load_study(Path(__file__).resolve().parents[2] / "studies"
                        / "blade_shroud_contact.toml", quick=True)
     case = study.sweep.cases()[0][1]
