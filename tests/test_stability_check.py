@@ -424,6 +424,54 @@ def test_fe_blade_beyond_the_shooting_is_decided_by_the_orbit_monodromy():
                        rtol=0, atol=1e-4)
     assert np.allclose(bs.monodromy_multiplier, hill.hill_multiplier, rtol=0, atol=1e-3)
     assert bs.stable.all()
+    # the exact flow integrated over one period from the HBM state at the peak (event
+    # search graded to the stiff modes still present): the same switches and multipliers.
+    # The leading pair is real there, near its collision, where each modulus moves like
+    # the square root of a perturbation (0.967 / 0.934 against 0.953 / 0.947): their
+    # product, smooth, is compared
+    i = pick[2]
+    ex = np.abs(exact_period_multipliers(system, c.omega[i], c.Q[i]).multipliers)
+    orb = along_orbit(system, c.omega[i], c.Q[i])
+    mo = np.abs(orb.multipliers)
+    assert abs(ex[0] * ex[1] - mo[0] * mo[1]) < 1e-3 and max(ex[0], mo[0]) < 0.97
+    np.testing.assert_allclose(ex[2:8], mo[2:8], rtol=0, atol=2e-3)
+
+
+def exact_period_multipliers(system, omega, Q):
+    """`floquet.monodromy` of one period of the event-driven integration started on the
+    HBM state (no shooting): the exact flow's multipliers about the HBM orbit."""
+    from pipeline.solve.piecewise import PiecewiseModel
+    q0, qd0, w0 = fq.hbm_initial_state(system, omega, Q)
+    x0 = np.concatenate([q0, qd0])
+    st, w = PiecewiseModel(system, omega).classify(x0, w0)
+    return fq.monodromy(system, omega, x0, w, st, 1e-6)
+
+
+@pytest.mark.slow
+def test_fe_blade_quick_mesh_exact_period_sides_with_the_orbit_monodromy_not_hill():
+    """The quick mesh of `blade_shroud_contact` (208 DOFs, 54 contacts, 30 N) at 2559.8
+    rad/s, between its folds: Hill's resonant pair 0.962 (0.9624-0.9628 at H = 3-7),
+    the orbit monodromy 0.9332, one period of the exact flow from the HBM state 0.9332
+    (about a minute)."""
+    from pipeline.solve import hbm
+    from pipeline.study.documents import load_study
+
+    study = load_study(Path(__file__).resolve().parents[1] / "studies"
+                       / "blade_shroud_contact.toml", quick=True)
+    system = study.system(study.sweep.cases()[0][1])
+    c = frequency_response(system, 3, 2 * np.pi * 385.0, 2 * np.pi * 425.0, stability=False,
+                           peak_dofs=[study.scene.dof_index(d) for d in study.output.dofs])
+    i = int(np.argmin(np.abs(c.omega - 2559.81)))
+    assert abs(c.omega[i] - 2559.81) < 1.0
+    hill = sc.branch_stability(hbm.setup(system, 3), c.Q[i:i + 1], c.omega[i:i + 1],
+                               c.omega[i:i + 1], lambda lam: system.contact,
+                               np.ones(1, bool), "hill").hill_multiplier[0]
+    orb = along_orbit(system, c.omega[i], c.Q[i])
+    ex = exact_period_multipliers(system, c.omega[i], c.Q[i])
+    assert abs(ex.max_modulus - orb.max_modulus) < 1e-3 and ex.n_events == orb.n_events
+    np.testing.assert_allclose(np.abs(ex.multipliers[:8]), np.abs(orb.multipliers[:8]),
+                               rtol=0, atol=1e-3)
+    assert hill - ex.max_modulus > 0.02
 
 
 def shrouded_row(n0):

@@ -247,6 +247,31 @@ class PiecewiseModel:
 
 
 # --------------------------------------------------------------------------- pieces
+_DECAYED = 1e-17   # a mode's share of a quantity below this (relative): gone
+
+
+def graded_steps(lam, share, span, T, floor_freq, per_rad):
+    """[(start, end, step)] covering [0, span] of a piece: on each interval the step
+    is per_rad / max|lambda| over the modes still present there (at most T/64),
+    mode k being present until its share (its term's size relative to the quantity
+    sampled) has decayed below _DECAYED: share_k e^(Re lambda_k t) < _DECAYED.  A stiff
+    mode that has decayed no longer sets the step: on a Craig-Bampton blade the
+    boundary DOFs' modes (|lambda| ~ 1e9) vanish within nanoseconds, and a uniform
+    step for them would take millions of samples per period; the terms left out
+    are below _DECAYED of what is sampled."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        life = np.where(lam.real < 0, np.log(np.maximum(share / _DECAYED, 1.0)) / -lam.real,
+                        np.inf)
+    out, start = [], 0.0
+    for end in np.unique(np.concatenate([life[life < span], [span]])):
+        alive = life >= end                  # the modes still present on (start, end]
+        f = max(np.abs(lam[alive]).max() if alive.any() else 0.0, floor_freq, 1e-300)
+        if end > start:
+            out.append((start, end, min(T / 64, per_rad / f)))
+        start = end
+    return out
+
+
 class Piece:
     """Closed-form solution from (t0, x0) in one mode with slider positions w."""
 

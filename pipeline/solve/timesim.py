@@ -29,7 +29,7 @@ from scipy.optimize import brentq
 
 from ..model.system import System
 from .events import EVENT_DTYPE, integrate
-from .piecewise import NS, PS, PiecewiseModel
+from .piecewise import NS, PS, PiecewiseModel, graded_steps
 from .shooting import PoincareMap, poincare_vector, relative_defect, rest_sliders, shoot
 
 log = logging.getLogger(__name__)
@@ -279,19 +279,25 @@ def _recorded_period(mdl, x, w, st, P, n_samples, max_events_per_period, shift, 
 
 
 def _quadrature(res: TimeResult, t0, t1, nodes=12):
-    """Gauss-Legendre nodes/weights on [t0, t1] that never straddle a piece boundary."""
+    """Gauss-Legendre nodes/weights on [t0, t1] that never straddle a piece boundary,
+    on sub-intervals of at most 2/max|lambda| over the piece's modes still present
+    (`piecewise.graded_steps`, each mode's share |V a_k| of the state's size)."""
     mdl = res._model
-    bounds = [p.t0 for p in res._pieces if t0 < p.t0 < t1] + [t1]
-    fmax = max(max(np.abs(p.mode.lam).max() for p in res._pieces), mdl.hmax_freq)
-    hmax = min(mdl.T / 64, 2.0 / max(fmax, 1e-300))
+    starts = [p.t0 for p in res._pieces]
+    bounds = [s for s in starts if t0 < s < t1] + [t1]
     xg, wg = np.polynomial.legendre.leggauss(nodes)
     ts, ws, a = [], [], t0
     for b in bounds:
-        m = max(1, int(np.ceil((b - a) / hmax)))
-        edges = np.linspace(a, b, m + 1)
-        mid, half = (edges[1:] + edges[:-1]) / 2, (edges[1:] - edges[:-1]) / 2
-        ts.append((mid[:, None] + half[:, None] * xg).ravel())
-        ws.append((half[:, None] * wg).ravel())
+        p = res._pieces[max(0, int(np.searchsorted(starts, a, side="right")) - 1)]
+        amp = np.abs(p.mode.V) * np.abs(p.a)[None, :]
+        share = (amp.max(axis=0) * np.exp(p.mode.lam.real * (a - p.t0))
+                 / (np.abs(p.x(np.array([a]))).max() + amp.max() + 1e-300))
+        for lo, hi, h in graded_steps(p.mode.lam, share, b - a, mdl.T, mdl.hmax_freq, 2.0):
+            m = max(1, int(np.ceil((hi - lo) / h)))
+            edges = a + np.linspace(lo, hi, m + 1)
+            mid, half = (edges[1:] + edges[:-1]) / 2, (edges[1:] - edges[:-1]) / 2
+            ts.append((mid[:, None] + half[:, None] * xg).ravel())
+            ws.append((half[:, None] * wg).ravel())
         a = b
     return np.concatenate(ts), np.concatenate(ws)
 
