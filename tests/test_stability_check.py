@@ -392,10 +392,12 @@ def test_fe_blade_beyond_the_shooting_is_decided_by_the_orbit_monodromy():
     from pipeline.solve import hbm
     from pipeline.study.documents import parse_study
 
-    text = (Path(__file__).resolve().parents[1] / "studies" / "blade_shroud_contact.toml").read_text()
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "studies" / "blade_shroud_contact.toml").read_text()
     text = text[:text.index("[quick.scene.blade]")]
     for old, new in [("craig_bampton_modes = 40", "craig_bampton_modes = 6"),
-                     ("n_chord = 8\nn_thick = 2\nn_span = 20", "n_chord = 2\nn_thick = 1\nn_span = 4"),
+                     ("n_chord = 8\nn_thick = 2\nn_span = 20",
+                      "n_chord = 2\nn_thick = 1\nn_span = 4"),
                      ("preload = [0.3, 3.0, 30.0, 1000.0]", "preload = [3.0]")]:
         assert old in text
         text = text.replace(old, new)

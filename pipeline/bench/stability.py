@@ -74,8 +74,9 @@ def fe_blade(samples: int):
     t = time.process_time()
     c = frequency_response(system, H, fr.omega_start, fr.omega_stop, **kw)
     cpu = time.process_time() - t
+    where = ", ".join(f"{k} = {v:g}" for k, v in case.items())
     print(f"\nFE blade, quick mesh ({system.n_dof} DOFs, {system.contact.ku.size} contact "
-          f"elements), {', '.join(f'{k} = {v:g}' for k, v in case.items())}, H = {H}: {c.n_points} points in {cpu:.1f} s CPU without "
+          f"elements), {where}, H = {H}: {c.n_points} points in {cpu:.1f} s CPU without "
           "stability")
     print(f"{'Omega rad/s':>11} {'switches':>8} {'Hill s':>7} {'rho_H':>7} "
           f"{'monodromy s':>11} {'max |mu|':>8}")

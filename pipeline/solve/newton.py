@@ -100,11 +100,12 @@ class KeptFactors:
     pattern, or stagnation) A is factorised afresh.  A dense refinement step costs
     a product and two triangular solves, O(n^2), against the O(n^3) of a
     factorisation.  Dense matrices of fewer than _KEEP_MIN rows are solved afresh
-    each time (an LU costs less there).  Those of _SINGLE_MIN rows or more are factorised in
-    float32 (half the time) and every solve refined to that same backward error in
-    float64 (mixed-precision refinement); a matrix too ill-conditioned for it is
-    factorised again in float64.  `refined` and `factorised` count the two
-    outcomes of `near`, `single` the float32 factorisations that sufficed.
+    each time (an LU costs less there).  Those of _SINGLE_MIN rows or more are
+    factorised in float32 (half the time) and every solve refined to that same
+    backward error in float64 (mixed-precision refinement); a matrix too
+    ill-conditioned for it is factorised again in float64.  `refined` and
+    `factorised` count the two outcomes of `near`, `single` the float32
+    factorisations that sufficed.
     """
 
     def __init__(self):

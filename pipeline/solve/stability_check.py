@@ -238,7 +238,8 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     pts = _Points(prob, Q, omega, np.asarray(lam, float), elem_at)
     conv = np.flatnonzero(np.asarray(converged, bool))
     size = flow_dof(prob.system)
-    stiff = size <= MAX_MONODROMY_DOF and shooting_samples(prob.system, omega) > MAX_SHOOTING_SAMPLES
+    stiff = (size <= MAX_MONODROMY_DOF
+             and shooting_samples(prob.system, omega) > MAX_SHOOTING_SAMPLES)
     note = describe(mode, size, margin, stiff)
     mode, check = effective_mode(mode, size, stiff)
     if mode is None:
