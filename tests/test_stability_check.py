@@ -452,7 +452,7 @@ def exact_period_multipliers(system, omega, Q):
 @pytest.mark.slow
 def test_fe_blade_quick_mesh_exact_period_sides_with_the_orbit_monodromy_not_hill():
     """The quick mesh of `blade_shroud_contact` (208 DOFs, 54 contacts, 30 N) at 2559.8
-    rad/s, between its folds: Hill's resonant pair 0.962 (0.9624-0.9628 at H = 3-7),
+    rad/s, just above its peak: Hill's resonant pair 0.962 (0.9624-0.9628 at H = 3-7),
     the orbit monodromy 0.9332, one period of the exact flow from the HBM state 0.9332
     (about a minute)."""
     from pipeline.solve import hbm
