@@ -525,3 +525,16 @@ def test_many_contacts_monodromy_equals_the_exact_multipliers_where_hill_overest
     assert np.allclose(mono, exact, rtol=0, atol=2e-3)
     gap = hill.hill_multiplier - np.array(exact)
     assert (gap > 0.01).all() and (gap < 0.04).all(), gap
+
+
+def test_stiffness_measure_only_where_a_check_could_shoot():
+    """`shooting_samples` is paid only by the modes that might shoot, and a singular
+    mass matrix counts as beyond the shooting, not as an error."""
+    from pipeline.solve import hbm
+    s = example1(2.0)
+    assert 1 < sc.shooting_samples(s, np.array([150.0])) < sc.MAX_SHOOTING_SAMPLES
+    assert sc.shooting_samples(replace(s, M=np.zeros_like(s.M)), np.array([150.0])) == np.inf
+    empty = sc.branch_stability(hbm.setup(s, 3), np.zeros((0, s.n_dof, 7)), np.zeros(0),
+                                np.zeros(0), lambda lam: s.contact, np.zeros(0, bool),
+                                "hill+check")
+    assert empty.stable.size == 0

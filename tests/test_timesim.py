@@ -210,3 +210,21 @@ def test_misuse_raises(kwargs, match):
         ts.steady_state(**args)
     with pytest.raises(ValueError, match="direction"):
         ts.sweep(example1(), [1.0], direction="sideways")
+
+
+def test_graded_steps_follow_the_modes_still_present():
+    """No mode decays within the piece: one interval at the old uniform step
+    (pi/6)/max|lambda|.  A stiff mode (|lambda| = 1e9) sets the step only until its
+    share has decayed below 1e-17, then the slow ones do."""
+    from pipeline.solve.piecewise import graded_steps
+    T = 2 * np.pi / 100.0
+    slow = np.array([-1.0 + 120j, -1.0 - 120j])
+    steps = graded_steps(slow, np.ones(2), T / 4, T, 100.0, np.pi / 6)
+    assert steps == [(0.0, T / 4, min(T / 64, (np.pi / 6) / abs(slow[0])))]
+    lam = np.append(slow, -1e9)
+    steps = graded_steps(lam, np.array([1.0, 1.0, 1e-3]), T / 4, T, 100.0, np.pi / 6)
+    (a0, b0, h0), (a1, b1, h1) = steps
+    assert a0 == 0.0 and h0 == (np.pi / 6) / 1e9
+    assert np.isclose(b0, np.log(1e-3 / 1e-17) / 1e9) and b0 == a1 and b1 == T / 4
+    assert h1 == min(T / 64, (np.pi / 6) / abs(slow[0]))
+    assert (b0 - a0) / h0 + (b1 - a1) / h1 < 200     # against 1e9 (T/4)/(pi/6) ~ 3e7

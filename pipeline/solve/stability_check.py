@@ -48,10 +48,10 @@ the sector solution expanded to every sector, `cyclic.expand`): every wave numbe
 free, as in Hill's problem per wave number (`wave_jacobians`).
 
 Beyond the shooting - more than MAX_WHEEL_DOF DOFs, or a flow so stiff that the event
-search would sample a period more than MAX_SHOOTING_SAMPLES times at a uniform step (a
-Craig-Bampton blade: 1e7-1e8, `shooting_samples`) - the orbit monodromy takes the Floquet check's
-place up to MAX_MONODROMY_DOF DOFs (`effective_mode`); above that every mode keeps
-Hill.
+search would sample a period more than MAX_SHOOTING_SAMPLES times at a uniform step
+(a Craig-Bampton blade: 1e7-1e8, `shooting_samples`) - the orbit monodromy takes the
+Floquet check's place up to MAX_MONODROMY_DOF DOFs (`effective_mode`); above that
+every mode keeps Hill.
 
 Where Hill and Floquet disagree, Floquet decides.  A "marginal" Floquet verdict
 (|mu| within 1e-6 of 1) counts as stable, as Hill's relative margin does.
@@ -238,8 +238,8 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     pts = _Points(prob, Q, omega, np.asarray(lam, float), elem_at)
     conv = np.flatnonzero(np.asarray(converged, bool))
     size = flow_dof(prob.system)
-    stiff = (size <= MAX_MONODROMY_DOF
-             and shooting_samples(prob.system, omega) > MAX_SHOOTING_SAMPLES)
+    stiff = (stability_mode(mode) not in (None, "hill") and size <= MAX_WHEEL_DOF
+             and P > 0 and shooting_samples(prob.system, omega) > MAX_SHOOTING_SAMPLES)
     note = describe(mode, size, margin, stiff)
     mode, check = effective_mode(mode, size, stiff)
     if mode is None:
@@ -302,7 +302,10 @@ def shooting_samples(system, omega) -> float:
     ct = system.contact
     if ct is not None and Bt.size and Bn.size:
         K = K + Bt.T @ (np.abs(ct.ku)[:, None] * Bt) + Bn.T @ (np.abs(ct.kv)[:, None] * Bn)
-    Minv = np.abs(np.linalg.inv(M))
+    try:
+        Minv = np.abs(np.linalg.inv(M))
+    except np.linalg.LinAlgError:   # a massless DOF: no closed-form pieces, no shooting
+        return np.inf
     lam = (Minv @ C).sum(0).max() + np.sqrt((Minv @ K).sum(0).max())
     return float(2 * np.pi / np.min(omega) * lam * 6 / np.pi)
 
