@@ -75,3 +75,28 @@ def test_unsymmetric_blocks_take_the_transposed_solve():
         assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
     Qc = 1e-3 * np.random.default_rng(1).standard_normal((prob.c.size, prob.nh))
     assert_applied_equals_matrix(replace(prob, interior=None), prob, Qc, 120.0)
+
+
+def test_static_harmonic_condensed_once_with_a_static_load():
+    """The static harmonic (S = K at any Omega) is condensed once with the blocks:
+    with a static load on an interior DOF, every harmonic's S~, P~ and their
+    derivatives equal the whole condensation's, at two frequencies; a singular
+    interior stiffness has no static part (each evaluation solves, as before)."""
+    from pipeline.solve.interior import interior_blocks
+
+    M = np.diag([1.0, 2.0, 1.5])
+    K = np.array([[3e4, -1e4, 0.0], [-1e4, 2e4, -1e4], [0.0, -1e4, 1e4]])
+    C = 1e-4 * K
+    base = example1(2.0)
+    s = System(M=M, C=C, K=K, Bt=np.array([[0.0, 0.0, 1.0]]), Bn=np.zeros((1, 3)),
+               contact=base.contact, forcing=np.array([[0.0, 0.0], [3.0, 1.0], [0.0, 0.0]], complex))
+    prob = hbm.setup(s, 3)
+    assert prob.interior.static is not None
+    for Om in (80.0, 150.0):
+        for a, b in zip(hbm.linear_part(prob, Om), hbm.linear_part(replace(prob, interior=None), Om)):
+            a, b = np.asarray(a), np.asarray(b)
+            assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
+    free = np.zeros((3, 3))
+    free[2, 2] = 1.0
+    ib = interior_blocks(free, np.eye(3), np.zeros((3, 3)), np.array([2]), np.array([0, 1]))
+    assert ib.static is None

@@ -199,12 +199,13 @@ def real_blocks(St, nh):
     nc = St.shape[1]
     L = np.zeros((nc, nh, nc, nh))
     L[:, 0, :, 0] = St[0].real
-    ci, si = np.arange(1, nh, 2), np.arange(2, nh, 2)     # cos, sin of h = 1..H
-    A, B = St[1:].real, St[1:].imag                        # (H, nc, nc)
-    L[:, ci, :, ci] = A
-    L[:, ci, :, si] = B
-    L[:, si, :, ci] = -B
-    L[:, si, :, si] = A
+    for h in range(1, St.shape[0]):  # strided copies (faster than fancy indexing)
+        c, s = 2 * h - 1, 2 * h      # cos, sin of harmonic h
+        A, B = St[h].real, St[h].imag
+        L[:, c, :, c] = A
+        L[:, c, :, s] = B
+        np.negative(B, out=L[:, s, :, c])
+        L[:, s, :, s] = A
     return L.reshape(nc * nh, nc * nh)
 
 

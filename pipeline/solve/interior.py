@@ -11,7 +11,8 @@ eliminated per harmonic h at w = h Omega (`hbm.linear_part`):
 The blocks of K, M and C over (c, c), (c, o), (o, c), (o, o) are gathered once per
 problem (`interior_blocks`), so an evaluation forms only the small S blocks of each
 harmonic and factorises S_oo (no x no) in one batched solve, instead of building and
-indexing S over all DOFs.  For symmetric K, M, C (every structure here but a
+indexing S over all DOFs.  The static harmonic (S = K at every Omega) is condensed
+once, with the blocks.  For symmetric K, M, C (every structure here but a
 cyclic sector's wave-number coupling) Y = X^T and Y dS_oc = (dS_co X)^T, which
 saves a solve and a product.  The solve is LU (backward stable): the condensed
 system and the recovered interior satisfy the full equations to rounding, however
@@ -20,9 +21,11 @@ its error grows with their frequency spread, 1e6 in a Craig-Bampton blade).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,6 +37,7 @@ class InteriorBlocks:
     oc: tuple             # (no, nc)
     oo: tuple             # (no, no)
     symmetric: bool       # K, M, C symmetric: Y = X^T
+    static: tuple | None = None  # h = 0 (S = K at any Omega): (LU of K_oo, X_0, S~_0)
 
 
 def interior_blocks(K, M, C, c, o) -> InteriorBlocks | None:
@@ -46,7 +50,22 @@ def interior_blocks(K, M, C, c, o) -> InteriorBlocks | None:
         idx = np.ix_(r, q)
         return tuple(np.ascontiguousarray(A[idx], dtype=float) for A in (K, M, C))
 
-    return InteriorBlocks(blocks(c, c), blocks(c, o), blocks(o, c), blocks(o, o), sym)
+    cc, co, oc, oo = blocks(c, c), blocks(c, o), blocks(o, c), blocks(o, o)
+    return InteriorBlocks(cc, co, oc, oo, sym, _static_part(cc[0], co[0], oc[0], oo[0]))
+
+
+def _static_part(Kcc, Kco, Koc, Koo):
+    """The harmonic h = 0 of the condensation, the same at every Omega (S = K):
+    (LU of K_oo, X_0 = K_oo^-1 K_oc, S~_0 = K_cc - K_co X_0), or None if K_oo is
+    singular (an interior free to move statically: every evaluation then fails
+    at h = 0, as without this)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sla.LinAlgWarning)
+        lu = sla.lu_factor(Koo, check_finite=False)
+    if not np.all(np.diagonal(lu[0])):
+        return None
+    X0 = sla.lu_solve(lu, Koc, check_finite=False)
+    return lu, X0, Kcc - Kco @ X0
 
 
 def dynamic(blocks: tuple, H: int, Om: float):
@@ -71,12 +90,20 @@ def dynamic_derivative(blocks: tuple, H: int, Om: float, V=None):
 
 def _condensed(ib: InteriorBlocks, H: int, Om: float, P, c, o):
     """(X, z, Sco, Soo, St, Pt): X = S_oo^-1 S_oc, z = S_oo^-1 P_o, and the condensed
-    stiffness and load, per harmonic (one batched solve)."""
+    stiffness and load, per harmonic (one batched solve; h = 0 from `static`)."""
     Sco, Soo = dynamic(ib.co, H, Om), dynamic(ib.oo, H, Om)
     Soc = np.swapaxes(Sco, 1, 2) if ib.symmetric else dynamic(ib.oc, H, Om)
-    sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, o, None]], axis=2))
-    X, z = np.ascontiguousarray(sol[..., :-1]), sol[..., -1:]
-    St = dynamic(ib.cc, H, Om) - Sco @ X
+    first = 0 if ib.static is None else 1  # the harmonics solved here
+    sol = np.linalg.solve(Soo[first:], np.concatenate([Soc[first:], P[first:, o, None]], axis=2))
+    X = np.empty(Soc.shape, complex)
+    z = np.empty((H + 1, Soc.shape[1], 1), complex)
+    X[first:], z[first:] = sol[..., :-1], sol[..., -1:]
+    St = dynamic(ib.cc, H, Om)
+    St[first:] -= Sco[first:] @ X[first:]
+    if first:
+        lu, X[0], St[0] = ib.static
+        z[0, :, 0] = (sla.lu_solve(lu, P[0, o].real, check_finite=False)
+                      + 1j * sla.lu_solve(lu, P[0, o].imag, check_finite=False))
     Pt = P[:, c] - (Sco @ z)[..., 0]
     return X, z, Sco, Soo, St, Pt
 
