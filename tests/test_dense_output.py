@@ -85,3 +85,44 @@ def test_solver_key_turns_dense_output_off(tmp_path):
     bad.write_text(text.replace("stability = false", 'stability = false\ndense_output = "yes"'))
     with pytest.raises(UsageError, match=r"solver\.dense_output"):
         load_study(bad)
+
+
+def test_dense_output_on_one_amplitude_axis():
+    """dense_output = "log" (or "linear"): points only where the curve drawn on that
+    axis bends, so fewer than for both; the same peak; anything but a bool or an
+    axis name is a ValueError before the continuation."""
+    sys = example2(100.0)
+    kw = dict(stability=False, peak_dofs=[0])
+    both = frequency_response(sys, 5, 2 * np.pi * 13, 2 * np.pi * 67, **kw)
+    n = {}
+    for axes in ("linear", "log"):
+        c = frequency_response(sys, 5, 2 * np.pi * 13, 2 * np.pi * 67, dense_output=axes, **kw)
+        assert 0 < c.info["dense_points"] < both.info["dense_points"]
+        assert c.peak(0)[0] == pytest.approx(both.peak(0)[0], rel=1e-9)
+        assert c.peak(0)[1] == pytest.approx(both.peak(0)[1], rel=1e-8)
+        n[axes] = c.n_points
+    with pytest.raises(ValueError, match="dense_output"):
+        frequency_response(sys, 5, 2 * np.pi * 13, 2 * np.pi * 67, dense_output="loglog", **kw)
+
+
+@pytest.mark.parametrize("yscale", ["linear", "log"])
+def test_a_study_draws_its_curves_smooth_on_the_axis_of_its_figures(tmp_path, yscale):
+    """A study's dense output follows `[output] yscale`: its dataset has the points
+    of `frequency_response` with dense_output = yscale, not those of both axes."""
+    from pathlib import Path
+
+    from pipeline.study.documents import load_study
+    from pipeline.study.run import run_study
+
+    text = (Path(__file__).parent / "studies" / "chain_stuck_resonance.toml").read_text()
+    text = text.replace("preload = [0.0, 5.0, 1.0e5]", "preload = [5.0]")
+    f = tmp_path / "chain.toml"
+    f.write_text(text.replace("[output]", f'[output]\nyscale = "{yscale}"'))
+    st = load_study(f)
+    ds = run_study(st, tmp_path / "out", figures=False, progress=False).dataset
+    fr, case = st.sweep.frequency, st.sweep.cases()[0][1]
+    c = frequency_response(st.system(case), st.solver.harmonics, fr.omega_start, fr.omega_stop,
+                           **{**st.solver.kwargs(), "dense_output": yscale})
+    both = frequency_response(st.system(case), st.solver.harmonics, fr.omega_start,
+                              fr.omega_stop, **st.solver.kwargs())
+    assert int(ds.n_points.item()) == c.n_points < both.n_points

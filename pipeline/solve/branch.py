@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,6 +75,132 @@ def hermite(y0, y1, d0, d1, u):
     p = h[0] * y0 + h[1] * d0 + h[2] * y1 + h[3] * d1
     dp = dh[0] * y0 + dh[1] * d0 + dh[2] * y1 + dh[3] * d1
     return p, dp
+
+
+@njit(cache=True)
+def _lu_pivoted(A):
+    """In-place LU with partial pivoting of a small square A; the row order."""
+    n = A.shape[0]
+    perm = np.arange(n)
+    for k in range(n):
+        p = k + np.argmax(np.abs(A[k:, k]))
+        if p != k:
+            for j in range(n):
+                A[k, j], A[p, j] = A[p, j], A[k, j]
+            perm[k], perm[p] = perm[p], perm[k]
+        if A[k, k] != 0.0:
+            for i in range(k + 1, n):
+                A[i, k] /= A[k, k]
+                for j in range(k + 1, n):
+                    A[i, j] -= A[i, k] * A[k, j]
+    return perm
+
+
+@njit(cache=True)
+def _lu_apply(A, perm, b, transpose):
+    """x with A x = b (or A^T x = b) from `_lu_pivoted`'s factors."""
+    n = b.size
+    x = np.empty(n)
+    if not transpose:
+        for i in range(n):  # L y = P b, then U x = y
+            x[i] = b[perm[i]]
+            for j in range(i):
+                x[i] -= A[i, j] * x[j]
+        for i in range(n - 1, -1, -1):
+            for j in range(i + 1, n):
+                x[i] -= A[i, j] * x[j]
+            x[i] /= A[i, i]
+        return x
+    y = np.empty(n)  # U^T y = b, L^T z = y, x = P^T z
+    for i in range(n):
+        y[i] = b[i]
+        for j in range(i):
+            y[i] -= A[j, i] * y[j]
+        y[i] /= A[i, i]
+    for i in range(n - 1, -1, -1):
+        for j in range(i + 1, n):
+            y[i] -= A[j, i] * y[j]
+    x[perm] = y
+    return x
+
+
+@njit(cache=True)
+def hermite_point(Y, T, normal, target, v):
+    """The point of the Hermite polynomial p through the m points Y (m, N) with their
+    unit tangents T (m, N) (degree 2m - 1: the cubic for two points, the quintic for
+    three, the septic for four) where it meets the hyperplane normal . p = target,
+    moved exactly onto it; (False, .) if Newton on the parameter fails.
+
+    The parameter is the arclength in units of the last chord's, 0 at Y[-1], and
+    Newton on it starts from v.  Each chord's arc is that of the circle through its
+    ends with the angle phi between their tangents, chord (phi / 2) / sin(phi / 2),
+    so that the unit tangents are the derivatives p must match: on a circle its
+    error is O(h^(2m)) for chords h (on other curves the arc's own error,
+    O(h^5), may limit it).  With R = [Y; h T] and the
+    confluent Vandermonde matrix V of the nodes, p(v) = w(v)^T V^-1 R, and
+    normal . p(v) is the polynomial of the coefficients V^-1 (R normal)."""
+    m, N = Y.shape
+    n2 = 2 * m
+    u = np.zeros(m)
+    h = 0.0
+    for i in range(m - 2, -1, -1):
+        c = min(1.0, max(-1.0, np.dot(T[i], T[i + 1])))
+        phi = np.arccos(c)
+        a = np.sqrt(np.sum((Y[i + 1] - Y[i]) ** 2))
+        if phi > 1e-4:  # the arc of the circle through both points with these tangents
+            a *= 0.5 * phi / np.sin(0.5 * phi)
+        else:
+            a *= 1.0 + phi * phi / 24.0
+        if i == m - 2:
+            h = a
+        if h == 0.0:
+            return False, np.zeros(N)
+        u[i] = u[i + 1] - a / h
+    V = np.zeros((n2, n2))
+    for i in range(m):
+        for j in range(n2):
+            V[i, j] = u[i] ** j
+            if j > 0:
+                V[m + i, j] = j * u[i] ** (j - 1)
+    perm = _lu_pivoted(V)
+    for k in range(n2):
+        if V[k, k] == 0.0:
+            return False, np.zeros(N)
+    rn = np.empty(n2)
+    for i in range(m):
+        rn[i] = np.dot(Y[i], normal)
+        rn[m + i] = h * np.dot(T[i], normal)
+    a = _lu_apply(V, perm, rn, False)  # normal . p(v) = sum_j a_j v^j
+    v0 = v
+    for _ in range(6):
+        g, dg, vj = a[0] - target, 0.0, 1.0
+        for j in range(1, n2):
+            dg += j * a[j] * vj
+            vj *= v
+            g += a[j] * vj
+        if dg == 0.0 or not np.isfinite(g) or abs(v - v0) > 4.0 * abs(v0) + 1.0:
+            return False, np.zeros(N)
+        v -= g / dg
+    w = np.empty(n2)
+    vj = 1.0
+    for j in range(n2):
+        w[j] = vj
+        vj *= v
+    b = _lu_apply(V, perm, w, True)  # p(v) = b . R
+    p = np.zeros(N)
+    for i in range(m):
+        p += b[i] * Y[i] + (b[m + i] * h) * T[i]
+    p += (target - np.dot(normal, p)) * normal
+    return np.all(np.isfinite(p)), p
+
+
+def hermite_on_plane(Y, T, normal, ds):
+    """`hermite_point` extrapolated beyond Y[-1] to the hyperplane normal . (p -
+    Y[-1]) = ds (on a smooth arc its error is O(ds^(2m))); None if it fails."""
+    Y, T, normal = (np.ascontiguousarray(a, dtype=float) for a in (Y, T, normal))
+    h = np.linalg.norm(Y[-1] - Y[-2])
+    ok, p = hermite_point(Y, T, normal, normal @ Y[-1] + ds, ds / h if h > 0 else 0.0)
+    return p if ok else None
 
 
 def fold_segments(Z, T, s):

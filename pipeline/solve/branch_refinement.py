@@ -18,6 +18,7 @@ import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
 from . import hbm
+from .branch import hermite_point
 from ..fourier.harmonics import amplitude_half_peak_to_peak
 from .newton import KeptFactors, augment, linear_solve, newton
 
@@ -54,8 +55,10 @@ PLOT_TURN_LONG = math.radians(3.0)  # ... and at a point between long chords
 PLOT_LONG_CHORD = 0.04          # a chord this long (plot units) shows a small corner
 PLOT_MIN_CHORD = 2e-3           # segments shorter than this (plot units) are not split
 PLOT_MAX_POINTS = 400           # points `densify` may add to one curve
+PLOT_AXES = ("linear", "log")   # the amplitude axes a curve is drawn on
 PLOT_PASSES = 8
-_START_ITER = 4                 # Newton iterations from a cubic start before the chord's
+_START_ITER = 4                 # Newton iterations from a curved start before the chord's
+_SMOOTH_COS = math.cos(math.radians(20.0))  # neighbours turning more: not in one curve
 
 
 def _solve_on_plane(fun, p, d, scale, tol, start=None):
@@ -99,48 +102,69 @@ def _tangent(jac, factors=None):
     return t if np.all(np.isfinite(t)) else None
 
 
-def _hermite_start(za, zb, ta, tb, d):
-    """A start on the hyperplane through the middle m of the chord za -> zb (scaled,
-    d its unit direction) from the cubic Hermite curve through both points with their
-    tangents ta, tb (scaled, any length, or None): its middle, moved onto the
-    hyperplane.  Its distance from the branch is O(L^4) against the chord middle's
-    O(L^2), so Newton needs fewer iterations; None without both tangents."""
-    if ta is None or tb is None:
+def _dense_start(Z, T, seg, d):
+    """A start on the hyperplane through the middle m of the chord Z[seg] -> Z[seg+1]
+    (scaled points Z, d the chord's unit direction), from the Hermite curve through
+    the points around it and their tangents T (scaled, any length, or None):
+    Z[seg-1 .. seg+2] where they exist with a tangent and turn by less than
+    _SMOOTH_TURN from one to the next (a septic through four points, a quintic
+    through three), else the cubic through the chord's two ends
+    (`branch.hermite_point`).  Its distance from the branch is O(L^8), O(L^6) or
+    O(L^4) against the chord middle's O(L^2), so Newton needs fewer iterations; None
+    if the chord's end tangents do not point along it or the curve strays farther
+    than L / 2 from m."""
+    def unit(k):
+        t = T[k] / np.linalg.norm(T[k])
+        return t if t @ d > 0 else -t
+
+    if T[seg] is None or T[seg + 1] is None:
         return None
-    L = np.linalg.norm(zb - za)
-    ua, ub = ta / np.linalg.norm(ta), tb / np.linalg.norm(tb)
-    if ua @ d <= 0 or ub @ d <= 0:
-        return None  # a tangent against the chord: no cubic to trust
-    m = 0.5 * (za + zb)
-    p = m + 0.125 * L * (ua - ub)
-    p += (d @ (m - p)) * d
-    return p if np.linalg.norm(p - m) <= 0.5 * L else None
+    if T[seg] @ d <= 0 or T[seg + 1] @ d <= 0:
+        return None  # a tangent against the chord: no curve to trust
+    lo, hi = seg, seg + 1
+    U = {lo: unit(lo), hi: unit(hi)}
+    if lo > 0 and T[lo - 1] is not None and unit(lo - 1) @ U[lo] > _SMOOTH_COS:
+        lo -= 1
+        U[lo] = unit(lo)
+    if hi + 1 < len(T) and T[hi + 1] is not None and unit(hi + 1) @ U[hi] > _SMOOTH_COS:
+        hi += 1
+        U[hi] = unit(hi)
+    Y = np.ascontiguousarray(Z[lo:hi + 1])
+    m = 0.5 * (Z[seg] + Z[seg + 1])
+    L = np.linalg.norm(Z[seg + 1] - Z[seg])
+    h = np.linalg.norm(Y[-1] - Y[-2])
+    v = -(0.5 * L + (h if hi > seg + 1 else 0.0)) / h  # m's arclength from Y[-1], in h
+    ok, p = hermite_point(Y, np.array([U[k] for k in range(lo, hi + 1)]),
+                          np.ascontiguousarray(d), float(d @ m), v)
+    return p if ok and np.linalg.norm(p - m) <= 0.5 * L else None
 
 
-def _plot_coordinates(om, A):
-    """(P, 1 + 2D) points of the drawn curves in axis units (one unit is one axis
-    length of a figure): frequency om (P,) over the range, then for each DOF its
-    amplitude (a column of A (P, D)) over its range (a linear axis) and log10 of it
-    over its decades (a log axis, at least half a decade)."""
+def _plot_coordinates(om, A, axes=PLOT_AXES):
+    """(P, 1 + D len(axes)) points of the drawn curves in axis units (one unit is one
+    axis length of a figure): frequency om (P,) over the range, then for each DOF
+    its amplitude (a column of A (P, D)) over its range ("linear" in `axes`) and
+    log10 of it over its decades ("log": at least half a decade)."""
     cols = [om / max(np.ptp(om), 1e-300)]
     for a in A.T:
-        cols.append(a / max(np.ptp(a), 1e-300))
-        la = np.log10(np.maximum(a, 1e-300))
-        la = np.maximum(la, la.max() - 12.0)  # amplitudes near zero: a floor, not -inf
-        cols.append(la / max(np.ptp(la), 0.5))
+        if "linear" in axes:
+            cols.append(a / max(np.ptp(a), 1e-300))
+        if "log" in axes:
+            la = np.log10(np.maximum(a, 1e-300))
+            la = np.maximum(la, la.max() - 12.0)  # amplitudes near zero: a floor, not -inf
+            cols.append(la / max(np.ptp(la), 0.5))
     return np.column_stack(cols)
 
 
-def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
+def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l, axes=PLOT_AXES):
     """Add branch points where the drawn curves bend.
 
-    A chord of a drawn curve (frequency against the amplitude of one DOF on a
-    linear or a log axis, in axis units)
+    A chord of a drawn curve (frequency against the amplitude of one DOF on the
+    amplitude `axes`, "linear" and / or "log", in axis units)
     that meets its neighbour at more than PLOT_TURN (PLOT_TURN_LONG if it is longer
     than PLOT_LONG_CHORD: a long chord shows a small corner) is split at its middle: the
     new point solves R = 0 on the hyperplane through the middle of the chord of
-    scaled [x; lam], normal to it (Newton from the cubic through both points and
-    their tangents, `_hermite_start`).  Straight stretches get no point, and a point
+    scaled [x; lam], normal to it (Newton from the Hermite curve through the points
+    around the chord and their tangents, `_dense_start`).  Straight stretches get no point, and a point
     on a linear stretch costs one Newton iteration.  Repeated until the curves
     turn by less than PLOT_TURN, chords are shorter than PLOT_MIN_CHORD, or
     PLOT_MAX_POINTS were added.
@@ -159,7 +183,7 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
     failed = set()
     A = _amplitudes(prob, X, L, dofs, omega_of)  # kept up to date: new points only
     for _ in range(PLOT_PASSES):
-        Pc = _plot_coordinates(np.array([omega_of(l) for l in L]), A)
+        Pc = _plot_coordinates(np.array([omega_of(l) for l in L]), A, axes)
         chord = np.diff(Pc, axis=0)
         length = np.linalg.norm(chord, axis=1)
         turn = np.zeros(L.size)  # at each interior point, largest over the drawn curves
@@ -175,13 +199,13 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l):
         if not split or added >= PLOT_MAX_POINTS:
             break
         new = []
+        Z = np.column_stack([X, L]) / scale
+        Ts = [None if t is None else t / scale for t in T]
         for seg in split[:PLOT_MAX_POINTS - added]:
-            za = np.append(X[seg], L[seg]) / scale
-            zb = np.append(X[seg + 1], L[seg + 1]) / scale
+            za, zb = Z[seg], Z[seg + 1]
             d = (zb - za) / np.linalg.norm(zb - za)
-            ta, tb = (None if T[k] is None else T[k] / scale for k in (seg, seg + 1))
             z, ok, nfev, t = _solve_on_plane(fun, 0.5 * (za + zb), d, scale, tol,
-                                             _hermite_start(za, zb, ta, tb, d))
+                                             _dense_start(Z, Ts, seg, d))
             pts["dense_nfev"] = pts.get("dense_nfev", 0) + nfev
             if ok:
                 new.append((seg + 0.5, z, t))

@@ -16,7 +16,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from . import hbm
-from .branch_refinement import densify, insert_peaks
+from .branch_refinement import PLOT_AXES, densify, insert_peaks
 from .continuation import continue_branch
 from ..fourier.harmonics import amplitude_half_peak_to_peak
 from .newton import newton, scale_rows
@@ -122,13 +122,15 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     across which the count of the linearised structure's natural frequencies
     below h Omega changes, until it resolves the resonance; a step it could not
     shorten enough is counted in info["unresolved_resonance_steps"].  With
-    `dense_output`, points are added where the drawn curve (frequency, log
-    amplitude of the `peak_dofs`) bends (`densify`), so that figures are smooth
-    at their resolution.  The peaks of the `peak_dofs` are then located exactly
+    `dense_output`, points are added where the drawn curves (frequency, amplitude
+    of the `peak_dofs` on a linear and a log axis; "linear" or "log": that axis
+    only) bend (`densify`), so that figures are smooth at their resolution.  The peaks of the `peak_dofs` are then located exactly
     (`insert_peaks`).
     """
     t_start = time.perf_counter()
     stability_mode(stability)  # misuse raises before the continuation
+    if dense_output:
+        dense_axes(dense_output)
     ds = min(ds, ds_max)  # a small max_step also bounds the first step
     prob = hbm.setup(system, H, method, n_samples)
     elem = contact if contact is not None else system.contact
@@ -154,11 +156,22 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     dofs = peak_dofs if peak_dofs is not None else range(system.n_dof)
     pts = _branch_points(br)
     if dense_output:
-        pts = densify(prob, pts, fun, tol, dofs)
+        pts = densify(prob, pts, fun, tol, dofs, axes=dense_axes(dense_output))
     pts = insert_peaks(prob, pts, fun, tol, elem, dofs)
     pts["resonance_guard"] = guard is not None
     return _curve_from_points(prob, br, pts, lambda lam: elem, tols, stability, lambda lam: lam,
                               time.perf_counter() - t_start, spent)
+
+
+def dense_axes(dense_output) -> tuple:
+    """The amplitude axes `densify` draws for `dense_output` (True: both); a
+    ValueError for anything but a bool, "linear" or "log"."""
+    if dense_output is True:
+        return PLOT_AXES
+    if dense_output in PLOT_AXES:
+        return (dense_output,)
+    raise ValueError(f"dense_output must be True, False, 'linear' or 'log', got "
+                     f"{dense_output!r}")
 
 
 def _first_point(prob, elem, Om, w, fun_x, guess=None):

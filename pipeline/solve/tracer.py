@@ -12,7 +12,8 @@ import math
 import numpy as np
 
 from .arclength import ContinuationOptions, ScaledEquations
-from .branch import Branch, fold_segments, frozen_array, hermite, refine_fold
+from .branch import (Branch, fold_segments, frozen_array, hermite, hermite_on_plane,
+                     refine_fold)
 from .newton import NEWTON_MESSAGES
 
 # the run's messages keep the logger of `continuation` (the command line quiets it)
@@ -113,34 +114,54 @@ class Tracer:
 
     def curved_start(self, ts, y_pred):
         """A start for the corrector on the predictor's hyperplane, nearer the branch
-        than y_pred: where the hyperplane meets the cubic Hermite curve through the
-        last two points and their tangents, extrapolated.  The corrected point is
-        the one from y_pred (same hyperplane), only Newton starts closer to it: the
-        tangent predictor's error is O(ds^2), this one's O(ds^3) on a smooth arc.
-        None (start at y_pred) after a corner, where the cubic would span it; when a
-        step from here was rejected: a retry starts where the line predictor does,
-        so that it meets the corner tests as the line's corrector does; and after a
-        point that the line reached in one iteration (the line suffices there)."""
+        than y_pred: where the hyperplane meets the Hermite curve through the last
+        points and their tangents, extrapolated (`branch.hermite_on_plane`).  The
+        corrected point is the one from y_pred (same hyperplane), only Newton starts
+        closer to it: the tangent predictor's error is O(ds^2), the cubic's through
+        two points O(ds^4), the quintic's through three O(ds^6) on a smooth arc.
+        The quintic is used where it would have predicted the last point better
+        than the cubic (`quintic_fits`): a change of the stick/slip pattern
+        between the points breaks the smoothness it needs.  None (start at y_pred)
+        after a corner, where the curve would span it; when a step from here was
+        rejected: a retry starts where the line predictor does, so that it meets the
+        corner tests as the line's corrector does; and after a point that the line
+        reached in one iteration (the line suffices there)."""
         if (len(self.points) < 2 or self.n_rejected > self.rejected_before
                 or (self.points[-1][2] < 2 and not self.curved)):
             return None  # (a last point found in one iteration from the line: it suffices)
-        s, ds = self.s, self.ds
-        y0, y1 = self.points[-2][0] / s, self.z / s
-        t0 = self.points[-2][1] / s
-        t0 /= np.linalg.norm(t0)
-        L = np.linalg.norm(y1 - y0)
-        if L == 0 or t0 @ ts < _CURVED_COS or (y1 - y0) @ (t0 + ts) <= 0:
+        Y, T = self.smooth_tail(4)
+        if len(Y) < 2 or (Y[-1] - Y[-2]) @ (T[-2] + T[-1]) <= 0:
             return None
-        d0, d1 = L * t0, L * ts
-        u = 1.0 + ds / L
-        for _ in range(4):  # Newton on ts . (p(u) - y1) = ds along the cubic
-            p, dp = hermite(y0, y1, d0, d1, u)
-            u -= (ts @ (p - y1) - ds) / max(ts @ dp, 1e-3 * L)
-        p, _ = hermite(y0, y1, d0, d1, u)
-        start = p + (ds - ts @ (p - y1)) * ts  # exactly on the hyperplane
-        if np.linalg.norm(start - y_pred) > self.opts.max_deviation * ds:
-            return None  # the cubic strays: a feature ahead, the line is the safer start
-        return start
+        orders = (3, 2) if len(Y) == 4 and self.quintic_fits(Y, T) else (2,)
+        for m in orders:
+            start = hermite_on_plane(Y[-m:], T[-m:], ts, self.ds)
+            if (start is not None
+                    and np.linalg.norm(start - y_pred) <= self.opts.max_deviation * self.ds):
+                return start
+        return None  # the curve strays: a feature ahead, the line is the safer start
+
+    def smooth_tail(self, k):
+        """The last (at most k) accepted points, scaled, and their unit scaled
+        tangents, back to the first turn of more than 20 degrees between two."""
+        s = self.s
+        Y, T = [self.z / s], [self.t_phys / s / np.linalg.norm(self.t_phys / s)]
+        for z, t, *_ in self.points[-2:-k - 1:-1]:
+            tu = t / s / np.linalg.norm(t / s)
+            if tu @ T[0] < _CURVED_COS:
+                break
+            Y.insert(0, z / s)
+            T.insert(0, tu)
+        return np.array(Y), np.array(T)
+
+    @staticmethod
+    def quintic_fits(Y, T):
+        """Whether the quintic through the first three of four points predicts the
+        fourth (on its corrector's hyperplane) better than the cubic through the
+        two before it: the branch is smooth enough there for the higher order."""
+        d = T[2] @ (Y[3] - Y[2])
+        quintic, cubic = (hermite_on_plane(Y[i:3], T[i:3], T[2], d) for i in (0, 1))
+        return (quintic is not None and cubic is not None
+                and np.linalg.norm(quintic - Y[3]) < np.linalg.norm(cubic - Y[3]))
 
     def correct(self, y_pred, normal, start=None):
         """Corrector on the hyperplane through y_pred normal to `normal` (scaled), from

@@ -105,6 +105,8 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
     H, fr, kw = study.solver.harmonics, study.sweep.frequency, study.solver.kwargs()
     if study.scene.model != "lumped":  # FE scenes: exact peaks of the reported DOFs only
         kw["peak_dofs"] = [study.scene.dof_index(d) for d in study.output.dofs]
+    if kw.get("dense_output") is True:  # curves smooth on the amplitude axis of the figures
+        kw["dense_output"] = study.output.yscale
     results = [None] * len(cases)
     reused = load_cases(cdir, cases) if cdir is not None else {}
     for k, res in reused.items():
