@@ -527,12 +527,29 @@ def test_many_contacts_monodromy_equals_the_exact_multipliers_where_hill_overest
     assert (gap > 0.01).all() and (gap < 0.04).all(), gap
 
 
-def test_stiffness_measure_only_where_a_check_could_shoot():
+def test_stiffness_measure_only_where_a_check_could_shoot(monkeypatch):
     """`shooting_samples` is paid only by the modes that might shoot, and a singular
     mass matrix counts as beyond the shooting, not as an error."""
     from pipeline.solve import hbm
     s = example1(2.0)
-    assert 1 < sc.shooting_samples(s, np.array([150.0])) < sc.MAX_SHOOTING_SAMPLES
+    # closed form: (2 pi / 150) (6 / pi) (c/m + sqrt((k + ku) / m)) samples a period
+    lam = 0.3 + np.sqrt(3.55e4 + 1e4)
+    assert sc.shooting_samples(s, np.array([150.0, 200.0])) == pytest.approx(12 / 150 * lam,
+                                                                            rel=1e-12)
+    calls = []
+
+    def counted(system, omega):
+        calls.append(omega.size)
+        return 17.0
+
+    c = frequency_response(s, 3, 150.0, 152.0, stability=False, dense_output=False)
+    args = (hbm.setup(s, 3), c.Q[:2], c.omega[:2], c.omega[:2], lambda lam: s.contact,
+            np.ones(2, bool))
+    monkeypatch.setattr(sc, "shooting_samples", counted)
+    for mode, n in (("hill", 0), (False, 0), ("hill+check", 1), ("monodromy+check", 2)):
+        sc.branch_stability(*args, mode)
+        assert len(calls) == n, mode
+    monkeypatch.undo()
     assert sc.shooting_samples(replace(s, M=np.zeros_like(s.M)), np.array([150.0])) == np.inf
     empty = sc.branch_stability(hbm.setup(s, 3), np.zeros((0, s.n_dof, 7)), np.zeros(0),
                                 np.zeros(0), lambda lam: s.contact, np.zeros(0, bool),

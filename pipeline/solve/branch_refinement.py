@@ -106,8 +106,8 @@ def _dense_start(Z, T, seg, d):
     """A start on the hyperplane through the middle m of the chord Z[seg] -> Z[seg+1]
     (scaled points Z, d the chord's unit direction), from the Hermite curve through
     the points around it and their tangents T (scaled, any length, or None):
-    Z[seg-1 .. seg+2] where they exist with a tangent and turn by less than
-    _SMOOTH_TURN from one to the next (a septic through four points, a quintic
+    Z[seg-1 .. seg+2] where they exist with a tangent and turn by less than 20
+    degrees (_SMOOTH_COS) from one to the next (a septic through four points, a quintic
     through three), else the cubic through the chord's two ends
     (`branch.hermite_point`).  Its distance from the branch is O(L^8), O(L^6) or
     O(L^4) against the chord middle's O(L^2), so Newton needs fewer iterations; None
@@ -164,8 +164,8 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l, axes=PLOT_AXES):
     than PLOT_LONG_CHORD: a long chord shows a small corner) is split at its middle: the
     new point solves R = 0 on the hyperplane through the middle of the chord of
     scaled [x; lam], normal to it (Newton from the Hermite curve through the points
-    around the chord and their tangents, `_dense_start`).  Straight stretches get no point, and a point
-    on a linear stretch costs one Newton iteration.  Repeated until the curves
+    around the chord and their tangents, `_dense_start`).  Straight stretches get no
+    point, and a point on a linear stretch costs one Newton iteration.  Repeated until the curves
     turn by less than PLOT_TURN, chords are shorter than PLOT_MIN_CHORD, or
     PLOT_MAX_POINTS were added.
     """

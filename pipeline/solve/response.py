@@ -124,13 +124,12 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     shorten enough is counted in info["unresolved_resonance_steps"].  With
     `dense_output`, points are added where the drawn curves (frequency, amplitude
     of the `peak_dofs` on a linear and a log axis; "linear" or "log": that axis
-    only) bend (`densify`), so that figures are smooth at their resolution.  The peaks of the `peak_dofs` are then located exactly
-    (`insert_peaks`).
+    only) bend (`densify`), so that figures are smooth at their resolution.  The
+    peaks of the `peak_dofs` are then located exactly (`insert_peaks`).
     """
     t_start = time.perf_counter()
     stability_mode(stability)  # misuse raises before the continuation
-    if dense_output:
-        dense_axes(dense_output)
+    axes = dense_axes(dense_output) if dense_output else None
     ds = min(ds, ds_max)  # a small max_step also bounds the first step
     prob = hbm.setup(system, H, method, n_samples)
     elem = contact if contact is not None else system.contact
@@ -155,8 +154,8 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     br, spent = cover_range(fun, first_point, omega_start, omega_end, tol, groups, initial, **kw)
     dofs = peak_dofs if peak_dofs is not None else range(system.n_dof)
     pts = _branch_points(br)
-    if dense_output:
-        pts = densify(prob, pts, fun, tol, dofs, axes=dense_axes(dense_output))
+    if axes:
+        pts = densify(prob, pts, fun, tol, dofs, axes=axes)
     pts = insert_peaks(prob, pts, fun, tol, elem, dofs)
     pts["resonance_guard"] = guard is not None
     return _curve_from_points(prob, br, pts, lambda lam: elem, tols, stability, lambda lam: lam,

@@ -102,11 +102,10 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
     """Run the cases not found in `cdir`; each finished case is kept there at once.
     Returns (results aligned with the cases, number reused from checkpoints)."""
     cases = study.sweep.cases()
-    H, fr, kw = study.solver.harmonics, study.sweep.frequency, study.solver.kwargs()
+    H, fr = study.solver.harmonics, study.sweep.frequency
+    kw = study.solver.kwargs(study.output.yscale)  # curves smooth on the figures' axis
     if study.scene.model != "lumped":  # FE scenes: exact peaks of the reported DOFs only
         kw["peak_dofs"] = [study.scene.dof_index(d) for d in study.output.dofs]
-    if kw.get("dense_output") is True:  # curves smooth on the amplitude axis of the figures
-        kw["dense_output"] = study.output.yscale
     results = [None] * len(cases)
     reused = load_cases(cdir, cases) if cdir is not None else {}
     for k, res in reused.items():

@@ -96,11 +96,14 @@ class SolverSettings:
     max_points: int = 1000
     dense_output: bool = True           # points where the drawn curve bends
 
-    def kwargs(self) -> dict:
-        """Keyword arguments of `pipeline.solve.response.frequency_response`."""
+    def kwargs(self, yscale=None) -> dict:
+        """Keyword arguments of `pipeline.solve.response.frequency_response`; with the
+        figures' `yscale` ("linear" or "log"), the dense output smooths the curves
+        on that amplitude axis only."""
+        dense = yscale if self.dense_output and yscale is not None else self.dense_output
         kw = dict(method=self.force_evaluation, n_samples=self.samples,
                   stability=self.stability, tol_rel=self.tolerance, max_points=self.max_points,
-                  dense_output=self.dense_output)
+                  dense_output=dense)
         if self.initial_step is not None:
             kw["ds"] = self.initial_step
         if self.max_step is not None:
