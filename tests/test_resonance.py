@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.linalg as sla
 from scipy.optimize import minimize_scalar
 
 from pipeline.solve import hbm, resonance
@@ -140,3 +141,25 @@ def test_aft_peak_is_the_highest_ripple():
     assert om == pytest.approx(dense.omega[np.argmax(np.where(dense.converged,
                                                               dense.amplitude[:, 0], -1))],
                                abs=0.02)
+
+
+def test_counts_by_inertia_equal_counts_by_eigenvalues():
+    """The count below w of a linearised structure (K Hermitian, complex or real,
+    M > 0) by the inertia of K - w^2 M equals the count of its eigenvalues below w^2,
+    at every w between them and beyond both ends; mode(k) afterwards agrees."""
+    rng = np.random.default_rng(3)
+    n = 40
+    A = rng.standard_normal((n, n))
+    M = A @ A.T + n * np.eye(n)
+    B = rng.standard_normal((n, n))
+    K_real = B @ B.T + n * np.eye(n)
+    C = rng.standard_normal((n, n))
+    for K in (K_real, K_real + 0.3j * (C - C.T)):
+        w_exact = np.sqrt(sla.eigh(K, M, eigvals_only=True))
+        spec = resonance.DenseSpectrum(K, M, np.zeros(n))
+        probes = np.concatenate([[0.0, 0.5 * w_exact[0]], 0.5 * (w_exact[1:] + w_exact[:-1]),
+                                 [2 * w_exact[-1]]])
+        assert [spec.count(w) for w in probes] == [0] + list(range(n + 1))
+        assert spec.w is None  # counts alone: no eigen-solve
+        assert spec.mode(n // 2)[0] == pytest.approx(w_exact[n // 2], rel=1e-10)
+        assert resonance.negative_eigenvalues(-K) == n

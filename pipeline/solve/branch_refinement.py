@@ -231,7 +231,7 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l, axes=PLOT_AXES):
 
 
 _AFT_PEAK_GRID = 9  # solves per bracket before Brent when forces are sampled (AFT)
-_PEAK_XTOL = 1e-6   # the exact peak search stops when sigma moves less than this
+_PEAK_XTOL = 1e-6   # the finest sigma the exact peak search resolves (`sigma_tolerance`)
 _PEAK_SOLVES = 12   # ... or after this many solves (then Brent's minimiser takes over)
 _NEAR_SIGMA = 0.1   # a trial this close to an earlier one starts from it
 
@@ -264,11 +264,13 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
                  for i in _local_maxima(amps, pts["converged"])]
     found = []  # (position along the branch, z): i + sigma, sigma in [-1, 1]
     tangents = list(pts.get("tangent", [None] * L.size))
+    solved = {}  # i -> the trials solved around point i, shared by the DOFs peaking there
     for dof, i, amp_i, amps3 in todo:
         Z = np.column_stack([X[i - 1:i + 2], L[i - 1:i + 2]]) / scale
-        trials = PeakTrials(prob, fun, tol, scale, Z, dof, omega_of)
+        trials = PeakTrials(prob, fun, tol, scale, Z, dof, omega_of, solved.setdefault(i, {}))
         for k in (-1, 0, 1):  # the three points, with their slopes where tangents are known
             trials.known(k, np.append(X[i + k], L[i + k]), tangents[i + k], amps3[k + 1])
+        trials.adopt()
         if prob.method == "aft" or not slope_root_peak(trials):
             _brent_peak(trials, prob.method == "aft")
         # the highest converged trial (Brent's answer, the root or a grid point)
@@ -298,12 +300,15 @@ class PeakTrials:
     through p(sigma) normal to p'(sigma) (p the quadratic through the scaled points
     Z (3, n+1) at sigma = -1, 0, 1), its DOF amplitude and the amplitude's
     derivative in sigma along the branch.  `cache` maps sigma to (z, ok, amplitude,
-    derivative, tangent); `nfev` counts the residual evaluations."""
+    derivative, tangent); `nfev` counts the residual evaluations.  `solved` maps
+    sigma to (z, ok, tangent) of every trial solved on this quadratic, for any DOF:
+    the searches of several DOFs peaking between the same points share them."""
 
-    def __init__(self, prob, fun, tol, scale, Z, dof, omega_of):
+    def __init__(self, prob, fun, tol, scale, Z, dof, omega_of, solved=None):
         self.prob, self.fun, self.tol, self.scale, self.Z = prob, fun, tol, scale, Z
         self.dof, self.omega_of = dof, omega_of
         self.cache, self.nfev = {}, 0
+        self.solved = {} if solved is None else solved
 
     def curve(self, sig):
         Z = self.Z
@@ -341,13 +346,42 @@ class PeakTrials:
             start = z0 + (d @ (p - z0)) / (d @ t0) * t0
         z, ok, nfev, t = _solve_on_plane(self.fun, p, d, self.scale, self.tol, start)
         self.nfev += nfev
+        self.solved[sig] = (z, ok, t)
+        return self.enter(sig, z, ok, t)
+
+    def enter(self, sig, z, ok, t):
+        """Cache a solved trial with this DOF's amplitude and slope there."""
         amp = self.amplitude(z) if ok else 0.0
         slope = self.slope(sig, z, t) if ok and t is not None else 0.0
         self.cache[sig] = (z, ok, amp, slope, t)
         return self.cache[sig]
 
+    def adopt(self):
+        """Enter the trials other DOFs' searches solved on this quadratic (no
+        residual evaluation: their amplitude and slope for this DOF only)."""
+        for sig, (z, ok, t) in self.solved.items():
+            if sig not in self.cache:
+                self.enter(sig, z, ok, t)
+
+    def sigma_tolerance(self, lo, hi):
+        """(xtol, curvature): how finely sigma must locate the peak, the parameter to
+        1e-8 of its value and the amplitude (stationary there: its error is
+        A'' dsigma^2 / 2) to 1e-12, at least _PEAK_XTOL; and A'' = |dA/dsigma|'s
+        change over the bracket (lo, hi) per unit sigma."""
+        (_, _, a_lo, g_lo, _), (_, _, a_hi, g_hi, _) = self.cache[lo], self.cache[hi]
+        p, dp = self.curve(0.5 * (lo + hi))
+        lam, dlam = abs(p[-1] * self.scale[-1]), abs(dp[-1] * self.scale[-1])
+        curv = abs(g_lo - g_hi) / (hi - lo)
+        by_lam = 1e-8 * lam / dlam if dlam > 0 else math.inf
+        by_amp = math.sqrt(2e-12 * max(a_lo, a_hi) / curv) if curv > 0 else math.inf
+        return max(_PEAK_XTOL, min(by_lam, by_amp, 1e-3 * (hi - lo))), curv
+
 
 class _TrialFailed(Exception):
+    pass
+
+
+class _PeakFound(Exception):
     pass
 
 
@@ -366,6 +400,9 @@ def slope_root_peak(trials):
     if not g[side] * g[0] < 0:
         return False
 
+    lo, hi = _narrowed(trials.cache, *sorted((0.0, float(side))))
+    xtol, curv = trials.sigma_tolerance(lo, hi)
+
     def slope(sig):
         if sig in trials.cache:
             return trials.cache[sig][3]
@@ -373,17 +410,29 @@ def slope_root_peak(trials):
         z, ok, amp, g_sig, t = trials.solve(sig, near if abs(near - sig) < _NEAR_SIGMA else None)
         if not ok or t is None:
             raise _TrialFailed
+        if abs(g_sig) <= 0.5 * curv * xtol:  # the root is nearer than xtol / 2
+            raise _PeakFound
         return g_sig
 
-    lo, hi = sorted((0.0, float(side)))
     try:
         first = _cubic_stationary(trials, lo, hi)
         if first is not None:  # a first trial inside, and the bracket narrowed by it
             lo, hi = (first, hi) if slope(first) > 0 else (lo, first)
-        brentq(slope, lo, hi, xtol=_PEAK_XTOL, maxiter=_PEAK_SOLVES)
+        brentq(slope, lo, hi, xtol=xtol, maxiter=_PEAK_SOLVES)
+    except _PeakFound:
+        return True
     except (_TrialFailed, RuntimeError):
         return False
     return True
+
+
+def _narrowed(cache, lo, hi):
+    """The bracket (lo, hi) of the slope's root (positive at lo, negative at hi)
+    narrowed by the trials already inside it (another DOF's search)."""
+    inside = {k: v[3] for k, v in cache.items() if lo < k < hi and v[1] and v[3] is not None}
+    lo = max([k for k, g in inside.items() if g > 0], default=lo)
+    hi = min([k for k, g in inside.items() if g < 0 and k > lo], default=hi)
+    return lo, hi
 
 
 def _cubic_stationary(trials, lo, hi):

@@ -62,17 +62,40 @@ class ResonanceCount:
 
 
 class DenseSpectrum:
-    """All natural frequencies w [rad/s] of one linearised structure (ascending) and
-    the damping ratios zeta [-] of its modes: `count(w)` below w, `mode(k)`."""
+    """The natural frequencies of one linearised structure, stiffness K (Hermitian,
+    dense) and mass M [kg], with the damping ratios zeta [-] of its modes, computed
+    on demand and kept (a memo of one point): `count(w)`, the number below w
+    [rad/s], by the inertia of K - w|w| M (`negative_eigenvalues`, a fifth of the
+    cost of the eigenvalues; most steps cross no resonance and need only the
+    counts), and `mode(k)`, (w_k [rad/s], zeta_k [-]) of the k-th (from 0), from
+    all eigenvalues, solved at the first call."""
 
-    def __init__(self, w, zeta):
-        self.w, self.zeta = w, zeta
+    def __init__(self, K, M, zeta):
+        self.K, self.M, self.zeta = K, M, zeta
+        self.counts, self.w = {}, None
 
     def count(self, w: float) -> int:
-        return int(np.sum(self.w < w))
+        w = float(w)
+        if w not in self.counts:
+            self.counts[w] = (int(np.sum(self.w < w)) if self.w is not None
+                              else negative_eigenvalues(self.K - (w * abs(w)) * self.M))
+        return self.counts[w]
 
     def mode(self, k: int) -> tuple:
+        if self.w is None:
+            lam = sla.eigh(self.K, self.M, eigvals_only=True, check_finite=False)
+            self.w = np.sign(lam) * np.sqrt(np.abs(lam))
         return float(self.w[k]), float(self.zeta[k]) if k < self.zeta.size else 0.0
+
+
+def negative_eigenvalues(D) -> int:
+    """The number of negative eigenvalues of a Hermitian matrix D (Sylvester's law
+    of inertia: those of the block-diagonal factor of D = L B L^H, Bunch-Kaufman
+    pivoting; B's 1x1 and 2x2 blocks make it tridiagonal, |off-diagonal| keeps
+    its eigenvalues)."""
+    _, B, _ = sla.ldl(D, hermitian=True, check_finite=False)
+    return int(np.sum(sla.eigvalsh_tridiagonal(np.real(B.diagonal()).copy(),
+                                               np.abs(B.diagonal(-1))) < 0))
 
 
 def modal_damping(M, C, K) -> np.ndarray:
@@ -154,8 +177,7 @@ def natural_frequencies(rc: ResonanceCount, prob: hbm.HBMProblem, x, contact,
         K = (rc.K if cy is None or cy.K_next is None
              else coupled_stiffness(prob.system, h * cy.phase)).astype(complex)
         K[cc] += 0.5 * (Z + Z.conj().T)
-        lam = sla.eigh(K, rc.M, eigvals_only=True)
-        out.append(DenseSpectrum(np.sign(lam) * np.sqrt(np.abs(lam)), rc.zeta))
+        out.append(DenseSpectrum(K if np.any(K.imag) else K.real, rc.M, rc.zeta))
     return tuple(out)
 
 
