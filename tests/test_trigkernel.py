@@ -3,6 +3,7 @@ against `trigroots`, the segment integrals and Gram matrices against numpy."""
 import numpy as np
 import pytest
 
+from pipeline.contact import YangMenq, forces
 from pipeline.contact.exact_reference import gram, segment_integrals
 from pipeline.fourier.harmonics import basis
 from pipeline.fourier.trigkernel import (add_gram, add_segment_integrals, gram_apply,
@@ -43,6 +44,26 @@ def test_tangencies_constants_and_seam():
     seam = np.abs(np.mod(roots[2, :2] + 1.0, 2 * np.pi) - 1.0)  # distance to 0 on the circle
     assert seam.min() < 1e-14 and np.abs(roots[2, :2] - np.pi).min() < 1e-14
 
+
+
+def test_subnormal_coefficients_have_the_roots_of_their_normal_scaling():
+    """Coefficients near the underflow (or overflow) limit have the roots of the
+    same polynomial scaled by a power of two (exact while no coefficient underflows),
+    and are found as quickly.  Unscaled, -5e-324 +
+    5e-324 cos evaluates to exactly 0 on a third of the period, where no certificate
+    holds at any width: the search did not end.  The contact element that meets it
+    (a touching contact of subnormal amplitude) now returns its zero forces."""
+    P = np.array([[-1.0, 1.0, 0.0, 0.0, 0.5], [0.3, -1.0, 0.25, 0.0, 0.0]])
+    ref_roots, ref_slopes, ref_counts = compiled_sign_changes(P)
+    for k in (-1020, -600, 600, 1020):
+        roots, slopes, counts = compiled_sign_changes(np.ldexp(P, k))
+        np.testing.assert_array_equal(counts, ref_counts)
+        np.testing.assert_array_equal(roots, ref_roots)
+        np.testing.assert_array_equal(slopes, ref_slopes)
+    U, V = np.zeros((1, 7)), np.zeros((1, 7))
+    U[0, 1], V[0, 1] = 0.5, 5e-324
+    f = forces(U, V, YangMenq(ku=0.2, kv=1.0, mu=1.0, n0=-5e-324))
+    assert not np.any(f.Fu) and not np.any(f.Fv)
 
 @pytest.mark.parametrize("H", [1, 7, 21])
 def test_segment_integrals_and_gram_as_numpy(H):

@@ -136,19 +136,28 @@ def _push_root(P, H, lo, hi, slo, x0, roots, slopes, count):
     return count
 
 
+_REFINE_CELLS = 20000  # cells one uncertified node cell may visit (a certified search
+# visits tens; only a polynomial that is exactly zero on an interval needs more)
+
+
 @njit(cache=True, error_model="numpy")
 def _refine(P, H, c0, d0, D3, resolution, roots, slopes, count):
     """Depth-first split of the uncertified cell [c0 - d0, c0 + d0] in four until
     each part is certified root-free or monotone, or narrower than the resolution
-    (there a sign change of the end values counts)."""
+    (there a sign change of the end values counts).  After _REFINE_CELLS cells
+    every remaining cell counts as narrow: a bound on the work, reached only by a
+    polynomial that vanishes exactly on a whole interval (no certificate holds
+    there, at any width)."""
     depth = 64
     stc, std = np.empty(4 * depth), np.empty(4 * depth)
     stc[0], std[0] = c0, d0
     top = 1
+    visits = 0
     while top > 0:
         top -= 1
+        visits += 1
         c, d = stc[top], std[top]
-        if d <= resolution:
+        if d <= resolution or visits > _REFINE_CELLS:
             pl, ph = eval012(P, H, c - d)[0], eval012(P, H, c + d)[0]
             sl, sh = (1 if pl >= 0 else -1), (1 if ph >= 0 else -1)
             if sl != sh:
@@ -217,6 +226,10 @@ def sign_changes_one(P, H, nodes, B, B0, B1, B2, roots, slopes):
         amax = max(amax, amp)
     if not amax > 1e-14 * scale:  # constant: no roots
         return 0
+    if not 2.0 ** -500 < scale < 2.0 ** 500:  # the same roots, at a scale that cannot
+        # underflow to exact zeros over an interval (subnormal coefficients)
+        k = -int(np.floor(np.log2(scale)))
+        return sign_changes_one(np.ldexp(P, k), H, nodes, B, B0, B1, B2, roots, slopes)
     N = nodes.size - 1
     d = np.pi / N
     cheap = d * D1 + d * d / 2 * D2 + d ** 3 / 6 * D3
