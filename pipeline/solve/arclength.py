@@ -335,7 +335,7 @@ class ScaledEquations:
             return np.append(R, normal @ (zz / s - y)), (Jx, Jl)
 
         def scaled_step(JJ, rhs):  # Newton in the scaled unknowns: dz = S dy
-            return s * self.factors.solve(self.bordered(JJ[0], JJ[1], normal), rhs)
+            return s * self.factors.near(self.bordered(JJ[0], JJ[1], normal), rhs)
 
         z0 = (y if start is None else start) * s
         out = newton_core(aug, z0, self.thresh, self.max_newton,

@@ -61,7 +61,7 @@ _START_ITER = 4                 # Newton iterations from a curved start before t
 _SMOOTH_COS = math.cos(math.radians(20.0))  # neighbours turning more: not in one curve
 
 
-def _solve_on_plane(fun, p, d, scale, tol, start=None):
+def _solve_on_plane(fun, p, d, scale, tol, start=None, factors=None):
     """The branch point on the hyperplane through p normal to d (scaled unknowns
     z / scale, d unit): Newton on R = 0 plus that condition, from `start` (scaled),
     else from p.  Newton from `start` gets _START_ITER iterations, undamped: a start
@@ -78,12 +78,12 @@ def _solve_on_plane(fun, p, d, scale, tol, start=None):
                 augment(Jx, Jl, d / scale))
 
     r = None
-    factors = KeptFactors()
+    factors = KeptFactors() if factors is None else factors
     if start is not None:
         r = newton(aug, start * scale, tol, max_iter=_START_ITER, damped=False,
-                   step=factors.solve)
+                   step=factors.near)
     if r is None or not r.success:
-        r = newton(aug, p * scale, tol, max_iter=20, step=factors.solve)
+        r = newton(aug, p * scale, tol, max_iter=20, step=factors.near)
     return r.x, bool(r.success), nfev[0], _tangent(r.jac, factors) if r.success else None
 
 
@@ -199,13 +199,14 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l, axes=PLOT_AXES):
         if not split or added >= PLOT_MAX_POINTS:
             break
         new = []
+        factors = KeptFactors()  # the last solve's, near the next one's along the branch
         Z = np.column_stack([X, L]) / scale
         Ts = [None if t is None else t / scale for t in T]
         for seg in split[:PLOT_MAX_POINTS - added]:
             za, zb = Z[seg], Z[seg + 1]
             d = (zb - za) / np.linalg.norm(zb - za)
             z, ok, nfev, t = _solve_on_plane(fun, 0.5 * (za + zb), d, scale, tol,
-                                             _dense_start(Z, Ts, seg, d))
+                                             _dense_start(Z, Ts, seg, d), factors)
             pts["dense_nfev"] = pts.get("dense_nfev", 0) + nfev
             if ok:
                 new.append((seg + 0.5, z, t))
