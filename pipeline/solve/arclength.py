@@ -233,7 +233,7 @@ class ScaledEquations:
         self.metric = Metric(opts.n, abs(opts.lam_end - opts.lam0), opts.groups, opts.scale)
         self.sparse = None  # dR_dx sparse? known from the first evaluation
         self.nfev = self.njev = 0
-        self.factors = KeptFactors()  # the last Newton step's, for the tangent there
+        self.factors = KeptFactors()  # the last factorisation: tangents, Newton steps
 
     @property
     def s(self):
@@ -327,7 +327,10 @@ class ScaledEquations:
     def solve_on_plane(self, y, normal, start=None, history=None):
         """Newton on R(x, lam) = 0 and normal . (z / s - y) = 0 from z = y s, or from
         z = start s (scaled unknowns, a point of the same hyperplane); the
-        `newton_core` tuple, its costs counted (`history`: its residual norms)."""
+        `newton_core` tuple, its costs counted (`history`: its residual norms).  Each
+        step is solved on the last factorisation (the previous step's or point's)
+        where refinement converges to a fresh LU's backward error (`KeptFactors.near`:
+        large systems only), else factorised afresh."""
         n, s = self.n, self.s
 
         def aug(zz):

@@ -68,7 +68,9 @@ def _solve_on_plane(fun, p, d, scale, tol, start=None, factors=None):
     that does not converge at once (a non-smooth stretch) is abandoned for p, so
     that it cannot wander to another part of the branch.  (z, ok, nfev, tangent):
     the tangent at z in physical units, along d, from the last Jacobian (no
-    further evaluation)."""
+    further evaluation).  Every step is solved on `factors` (`KeptFactors.near`:
+    the last factorisation where refinement converges, as exact as a fresh LU; a
+    caller's, to start from the previous point's)."""
     nfev = [0]
 
     def aug(z):
