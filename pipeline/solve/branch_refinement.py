@@ -312,6 +312,7 @@ class PeakTrials:
         self.dof, self.omega_of = dof, omega_of
         self.cache, self.nfev = {}, 0
         self.solved = {} if solved is None else solved
+        self.factors = KeptFactors()  # the last trial's: the next one is near it
 
     def curve(self, sig):
         Z = self.Z
@@ -347,7 +348,8 @@ class PeakTrials:
         if near is not None and self.cache[near][1] and self.cache[near][4] is not None:
             z0, t0 = self.cache[near][0] / self.scale, self.cache[near][4] / self.scale
             start = z0 + (d @ (p - z0)) / (d @ t0) * t0
-        z, ok, nfev, t = _solve_on_plane(self.fun, p, d, self.scale, self.tol, start)
+        z, ok, nfev, t = _solve_on_plane(self.fun, p, d, self.scale, self.tol, start,
+                                         self.factors)
         self.nfev += nfev
         self.solved[sig] = (z, ok, t)
         return self.enter(sig, z, ok, t)
