@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
+from pipeline.paper_systems import example3
 from pipeline.solve.response import frequency_response
 
 from paper_systems import BETA, K_CHAIN, chain_system
@@ -55,3 +56,20 @@ def test_stuck_peak_to_1e_8_in_frequency():
         a_ref, om_ref = stuck_peak(d)
         assert a == pytest.approx(a_ref, rel=1e-10)
         assert om == pytest.approx(om_ref, rel=1e-8)
+
+
+def test_peaks_of_several_dofs_keep_the_branch_order():
+    """Example 3 at 10 N traced from its middle branch (H = 7): the two DOFs' peaks are
+    found from different triples of points but fall between the same two; inserted
+    by their place on that chord, the frequency turns back only at the two folds
+    (ordered by each search's own sigma, the later DOF's peak was put first: a
+    backward step of 1e-5 rad/s at the peak)."""
+    ref = frequency_response(example3(10.0), 7, 0.5, 1.6, peak_dofs=[0])
+    unstable = np.flatnonzero(~ref.stable)
+    j = unstable[np.argmin(np.abs(ref.omega[unstable] - 1.26))]
+    c = frequency_response(example3(10.0), 7, ref.omega[j], 0.5, initial=ref.Q[j],
+                           peak_dofs=[0, 1], stability=False)
+    dl = np.diff(c.parameter)
+    turning = np.flatnonzero(dl[:-1] * dl[1:] < 0) + 1
+    assert len(turning) == len(c.fold_parameter) == 2
+    assert np.all(np.abs(dl) > 0)

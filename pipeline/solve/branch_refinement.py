@@ -282,7 +282,8 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
         z, ok, amp = tried[best][:3]
         pts["extra_nfev"] += trials.nfev
         if ok and amp > amp_i:
-            found.append((i + float(best), z))
+            found.append((_branch_position(np.column_stack([X, L]) / scale, i, best,
+                                           z / scale), z))
     if not found:
         return pts
     # merge in branch order (several DOFs' peaks may fall between the same two points)
@@ -296,6 +297,19 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     if "tangent" in pts:
         pts["tangent"] = [(list(pts["tangent"]) + [None] * len(found))[k] for k in order]
     return pts
+
+
+def _branch_position(Z, i, sigma, z):
+    """Position of the branch point z (scaled) found at sigma around point i of the
+    branch points Z (scaled): k + f in the segment k -> k + 1 it falls into (the
+    side of i that sigma gives), f its projection on that chord.  Peaks found from
+    different triples of points (several DOFs) are so ordered alike."""
+    k = i - 1 if sigma < 0 else i
+    if k < 0 or k + 1 >= len(Z):
+        return i + float(sigma)
+    d = Z[k + 1] - Z[k]
+    f = float((z - Z[k]) @ d) / max(float(d @ d), 1e-300)
+    return k + min(max(f, 1e-9), 1.0 - 1e-9)
 
 
 class PeakTrials:
