@@ -305,7 +305,7 @@ class Tracer:
         return None
 
     # ---- corners
-    def pass_corner(self, ts, zn, JJn):
+    def pass_corner(self, ts, zn, JJn, depth=0):
         """A corner of the branch between z and the rejected corrector point zn.
 
         The branch is piecewise smooth (stick/slip/separation patterns change at
@@ -317,8 +317,11 @@ class Tracer:
         tangent must still be t) and y2 beyond it (predictor c + d t_n, corrector
         normal to t_n, d = min(ds, b)); y2 must lie near its predictor and its
         tangent near t_n.  A smooth turn fails these tests (its chords and middle
-        tangents lie between t and t_n), so only genuine corners pass.  Returns the
-        accepted points [(z, t_scaled, nit, r)] (possibly only y1), or None.
+        tangents lie between t and t_n), so only genuine corners pass.  A y1 whose
+        tangent has already turned lies past the corner (c estimated too far): the
+        corner is then located once more between z and y1, the nearer branch point.
+        Returns the accepted points [(z, t_scaled, nit, r)] (possibly only y1), or
+        None.
         """
         found = self.locate_corner(ts, zn, JJn)
         if found is None:
@@ -326,9 +329,9 @@ class Tracer:
         a, b, tn, turn = found
         out = []
         if a > 0.05 * self.ds:  # a point just before the corner
-            before = self.point_before_corner(ts, a, max(0.2 * turn, math.radians(2.0)))
+            before, past = self.point_before_corner(ts, a, max(0.2 * turn, math.radians(2.0)))
             if before is None:
-                return None
+                return None if past is None or depth else self.pass_corner(ts, *past, 1)
             out.append(before)
         beyond = self.point_beyond_corner(self.z / self.s + a * ts, tn, b)
         if beyond is not None:
@@ -352,18 +355,20 @@ class Tracer:
         return a, b, tn, turn
 
     def point_before_corner(self, ts, a, tol_angle):
-        """The point at 0.98 a along the tangent ts, if its tangent is still ts."""
+        """(the point at 0.98 a along the tangent ts if its tangent is still ts, else
+        None; (z, Jacobians) of that point if it converged near its predictor with a
+        turned tangent (past the corner), else None)."""
         y1p = self.z / self.s + 0.98 * a * ts
         z1, st1, nit1, _, r1, JJ1 = self.correct(y1p, ts)
         if st1 != 0:
-            return None
+            return None, None
         t1 = self.eq.oriented_tangent(JJ1, ts)
         if (t1 is None or np.linalg.norm(z1 / self.s - y1p)
                 > self.opts.max_deviation * 0.98 * a):
-            return None
+            return None, None
         if math.acos(min(1.0, float(t1 @ ts))) > tol_angle:
-            return None
-        return z1, t1, nit1, r1
+            return None, (z1, JJ1)
+        return (z1, t1, nit1, r1), None
 
     def point_beyond_corner(self, c, tn, b):
         """The point at c + d tn, near its predictor with its tangent near tn
