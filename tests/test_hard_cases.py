@@ -273,6 +273,18 @@ STIFF_CASES = [(10.0, 7.0, 1e-3, (0.5, 0.75, 1.17, 1.6), 1e-2),
                (1e4, 10.0, 1e-6, (1.6,), 2e-2)]
 
 
+def test_corner_after_a_bend_located_again_not_crept_to():
+    """The stiff impact case at k = 10 (H = 14): at 0.783 rad/s a corrector from the
+    higher-order start lands just before a corner that follows a tight bend, and the
+    corner's first location overshoots (the point meant to lie before it has turned
+    already).  Located once more between the last point and that one, it is passed at
+    a step of 1.9e-3; halving instead crept to 2.6e-4 through seven rejections."""
+    c = frequency_response(stiff(10.0), 14, 0.5, 1.6, stability=False, peak_dofs=[0],
+                           dense_output=False)
+    assert c.success and c.converged.all()
+    assert c.info["min_step"] > 1e-3
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("k,nfev_pt,step,check,rtol", STIFF_CASES,
                          ids=[f"k={c[0]:g}" for c in STIFF_CASES])
