@@ -318,8 +318,8 @@ class Tracer:
         normal to t_n, d = min(ds, b)); y2 must lie near its predictor and its
         tangent near t_n.  A smooth turn fails these tests (its chords and middle
         tangents lie between t and t_n), so only genuine corners pass.  A y1 whose
-        tangent has already turned lies past the corner (c estimated too far): the
-        corner is then located once more between z and y1, the nearer branch point.
+        tangent has already turned to t_n lies past the corner (c estimated too far):
+        the corner is then located once more between z and y1, the nearer point.
         Returns the accepted points [(z, t_scaled, nit, r)] (possibly only y1), or
         None.
         """
@@ -329,7 +329,8 @@ class Tracer:
         a, b, tn, turn = found
         out = []
         if a > 0.05 * self.ds:  # a point just before the corner
-            before, past = self.point_before_corner(ts, a, max(0.2 * turn, math.radians(2.0)))
+            before, past = self.point_before_corner(ts, tn, a,
+                                                    max(0.2 * turn, math.radians(2.0)))
             if before is None:
                 return None if past is None or depth else self.pass_corner(ts, *past, 1)
             out.append(before)
@@ -354,10 +355,11 @@ class Tracer:
             return None
         return a, b, tn, turn
 
-    def point_before_corner(self, ts, a, tol_angle):
+    def point_before_corner(self, ts, tn, a, tol_angle):
         """(the point at 0.98 a along the tangent ts if its tangent is still ts, else
-        None; (z, Jacobians) of that point if it converged near its predictor with a
-        turned tangent (past the corner), else None)."""
+        None; (z, Jacobians) of that point if it converged near its predictor with
+        its tangent turned to the outgoing tn (past the corner, not inside a smooth
+        turn), else None); both tangents within tol_angle."""
         y1p = self.z / self.s + 0.98 * a * ts
         z1, st1, nit1, _, r1, JJ1 = self.correct(y1p, ts)
         if st1 != 0:
@@ -367,7 +369,8 @@ class Tracer:
                 > self.opts.max_deviation * 0.98 * a):
             return None, None
         if math.acos(min(1.0, float(t1 @ ts))) > tol_angle:
-            return None, (z1, JJ1)
+            past = math.acos(min(1.0, abs(float(t1 @ tn)))) <= tol_angle
+            return None, (z1, JJ1) if past else None
         return (z1, t1, nit1, r1), None
 
     def point_beyond_corner(self, c, tn, b):
