@@ -236,6 +236,30 @@ def test_kept_factors_refine_near_matrices_to_a_fresh_solves_accuracy(sparse):
         KeptFactors().solve(sp.csc_matrix((3, 3)) if sparse else np.zeros((3, 3)), np.ones(3))
 
 
+def test_kept_factors_give_up_at_once_when_refinement_cannot_arrive_in_time():
+    """B = A (I + 0.3 Q), Q orthogonal: refinement on A's factors contracts by 0.3 a
+    step and would need about 30 steps to a fresh LU's backward error: it stops after
+    its first step (two solves on the kept factors, not seven) and B is factorised."""
+    rng = np.random.default_rng(4)
+    n = 320
+    A = rng.standard_normal((n, n)) + 8 * np.eye(n)
+    b = rng.standard_normal(n)
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    B = A @ (np.eye(n) + 0.3 * Q)
+    f = KeptFactors()
+    f.solve(A, b)
+    kept, calls = f.last, [0]
+
+    def counted(r):
+        calls[0] += 1
+        return kept(r)
+
+    f.last = counted
+    x = f.near(B, b)
+    assert calls[0] == 2 and (f.refined, f.factorised) == (0, 1)
+    np.testing.assert_allclose(x, np.linalg.solve(B, b), rtol=1e-9)
+
+
 def test_large_dense_systems_factorised_in_single_precision_solve_to_double_accuracy():
     rng = np.random.default_rng(5)
     n = 600

@@ -143,7 +143,8 @@ class KeptFactors:
 
     def _refined(self, A, b):
         """x from the kept factors refined to the backward error _REFINE_EPS, or None
-        (no convergence within _REFINE_ITER steps, or stagnation)."""
+        (no convergence within _REFINE_ITER steps, stagnation, or a contraction too
+        slow to get there in the steps left: then a fresh LU is cheaper)."""
         x = self.last(b)
         scale = np.linalg.norm(A.data if sp.issparse(A) else A)
         bn = np.linalg.norm(b)
@@ -152,7 +153,8 @@ class KeptFactors:
         for k in range(_REFINE_ITER + 1):
             if not np.isfinite(rn):
                 return None
-            if rn <= _REFINE_EPS * (scale * np.linalg.norm(x) + bn):
+            target = _REFINE_EPS * (scale * np.linalg.norm(x) + bn)
+            if rn <= target:
                 return x
             if k == _REFINE_ITER:
                 return None
@@ -160,6 +162,9 @@ class KeptFactors:
             r = b - A @ x
             rn, before = np.linalg.norm(r), rn
             if not rn < 0.5 * before:  # stagnating: not near enough
+                return None
+            # at this rate the target lies beyond the remaining steps: stop paying
+            if rn > 0 and rn > target * (before / rn) ** (_REFINE_ITER - k):
                 return None
         return None
 
