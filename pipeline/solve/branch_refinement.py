@@ -268,6 +268,7 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     found = []  # (position along the branch, z): i + sigma, sigma in [-1, 1]
     tangents = list(pts.get("tangent", [None] * L.size))
     solved = {}  # i -> the trials solved around point i, shared by the DOFs peaking there
+    Zall = np.column_stack([X, L]) / scale
     for dof, i, amp_i, amps3 in todo:
         Z = np.column_stack([X[i - 1:i + 2], L[i - 1:i + 2]]) / scale
         trials = PeakTrials(prob, fun, tol, scale, Z, dof, omega_of, solved.setdefault(i, {}))
@@ -282,8 +283,7 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
         z, ok, amp = tried[best][:3]
         pts["extra_nfev"] += trials.nfev
         if ok and amp > amp_i:
-            found.append((_branch_position(np.column_stack([X, L]) / scale, i, best,
-                                           z / scale), z))
+            found.append((_branch_position(Zall, i, best, z / scale), z))
     if not found:
         return pts
     # merge in branch order (several DOFs' peaks may fall between the same two points)
@@ -424,6 +424,8 @@ def slope_root_peak(trials):
 
     def slope(sig):
         if sig in trials.cache:
+            if not trials.cache[sig][1]:
+                raise _TrialFailed  # (another DOF's trial that did not converge)
             return trials.cache[sig][3]
         near = min(trials.cache, key=lambda k: abs(k - sig))
         z, ok, amp, g_sig, t = trials.solve(sig, near if abs(near - sig) < _NEAR_SIGMA else None)
