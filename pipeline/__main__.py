@@ -6,7 +6,7 @@ import os
 import sys
 
 
-from .errors import UsageError
+from .errors import UsageError, interrupt_in_chain
 
 
 def _prog() -> str:
@@ -136,6 +136,11 @@ def main(argv=None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except SystemError as exc:  # an interrupt a compiled kernel's dispatcher wrapped
+        if not interrupt_in_chain(exc):
+            raise
         print("interrupted", file=sys.stderr)
         return 130
 

@@ -382,6 +382,46 @@ def test_interrupt_before_any_case_does_not_promise_kept_cases(study_file, tmp_p
     assert sg.getsignal(sg.SIGINT) is before        # the handler is restored
 
 
+def _kernel_dispatcher_interrupted(*a, **k):
+    """What an interrupt inside a compiled kernel's call looks like to its caller: the
+    dispatcher ran Python code (unpickling its constants) when SIGINT arrived."""
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as exc:
+        raise SystemError("CPUDispatcher(<function hermite_point>) returned a result "
+                          "with an exception set") from exc
+
+
+def test_interrupt_wrapped_by_a_compiled_kernel_exits_130(study_file, tmp_path,
+                                                          monkeypatch, capsys):
+    import argparse
+
+    import pipeline.study.run as study_mod
+
+    monkeypatch.setattr(study_mod, "_execute", _kernel_dispatcher_interrupted)
+    args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
+                              scheduler=None, quick=False, figures=False)
+    assert study_mod.cmd_run(args) == 130
+    err = capsys.readouterr().err
+    assert err.startswith("interrupted: ") and "Traceback" not in err
+
+
+def test_a_system_error_without_an_interrupt_is_not_called_one(study_file, tmp_path,
+                                                               monkeypatch):
+    import argparse
+
+    import pipeline.study.run as study_mod
+
+    def broken(*a, **k):
+        raise SystemError("a real fault")
+
+    monkeypatch.setattr(study_mod, "_execute", broken)
+    args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
+                              scheduler=None, quick=False, figures=False)
+    with pytest.raises(SystemError, match="a real fault"):
+        study_mod.cmd_run(args)
+
+
 # ---------------------------------------------------------------------------
 # What is declared is solved: no silent separation
 # ---------------------------------------------------------------------------

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import UsageError
+from ..errors import UsageError, interrupt_in_chain
 from .cases import default_solver, run_case, separation_guard
 from .checkpoint import checkpoint_dir, kept_cases, load_cases, remove_stale, save_case
 from .documents import load_study
@@ -346,8 +346,10 @@ class sigint_interrupts:
     """Context manager: SIGINT raises KeyboardInterrupt for the whole block, also when
     the process started with SIGINT ignored (`nohup`, `cmd &` in a script), so an
     interrupt at any stage (cases, optimum search, final write, figures) stops the
-    run the same way; the previous handler is restored on exit.  No-op outside the
-    main thread (signal handlers can only be set there)."""
+    run the same way; the previous handler is restored on exit.  An interrupt that
+    a compiled kernel's dispatcher wrapped in a SystemError leaves the block as the
+    KeyboardInterrupt it is (`interrupt_in_chain`).  No-op outside the main thread
+    (signal handlers can only be set there)."""
 
     def __enter__(self):
         import signal
@@ -358,11 +360,13 @@ class sigint_interrupts:
             self._old = signal.signal(signal.SIGINT, signal.default_int_handler)
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, exc_type, exc, tb):
         import signal
 
         if self._old is not None:
             signal.signal(signal.SIGINT, self._old)
+        if isinstance(exc, SystemError) and interrupt_in_chain(exc):
+            raise KeyboardInterrupt from exc
         return False
 
 
