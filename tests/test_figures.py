@@ -228,3 +228,33 @@ def test_zero_mistuning_puts_every_sector_on_the_tuned_peak(tmp_path, monkeypatc
     (label, peaks), = drawn["series"]
     assert label == "seed 1" and len(peaks) == 6
     np.testing.assert_allclose(peaks, drawn["tuned"], rtol=1e-6)
+
+
+def test_folds_circled_unless_located_folds_are_marked():
+    """A branch turning back twice: its turning points are circled ("fold") when no
+    bifurcation marks are given; with the located folds marked (squares), nothing else
+    is drawn or listed for them."""
+    s = np.linspace(0.0, 1.0, 41)
+    f = s + 0.3 * np.sin(2 * np.pi * s)           # turns back twice
+    a = 1 + s
+    conv = np.ones(s.size, bool)
+    turns = np.flatnonzero(np.diff(f)[:-1] * np.diff(f)[1:] < 0) + 1
+    assert turns.size == 2
+    plain = response_curves_plot([("case", f, a, np.ones(s.size, bool), conv)])
+    marks = [(f[i], a[i], 1) for i in turns]
+    marked = response_curves_plot([("case", f, a, np.ones(s.size, bool), conv)], marks=marks)
+    try:
+        def legend(fig):
+            return [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+
+        def circles(fig):
+            return [ln for ln in fig.axes[0].get_lines() if ln.get_marker() == "o" and
+                    len(ln.get_xdata())]
+
+        assert "fold" in legend(plain) and len(circles(plain)) == 1
+        assert np.allclose(circles(plain)[0].get_xdata(), f[turns])
+        assert "fold" not in legend(marked) and "fold bifurcation" in legend(marked)
+        assert not circles(marked)
+    finally:
+        pyplot().close(plain)
+        pyplot().close(marked)

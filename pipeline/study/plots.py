@@ -136,11 +136,13 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
     A branch may carry a sixth element, a dict of Line2D properties (color, lw,
     alpha, zorder) that override its defaults; label None leaves it out of the legend.
     marks: [(frequency, amplitude, type)] bifurcations, a marker per type
-    (`BIFURCATION_MARKERS`), each type once in the legend."""
+    (`BIFURCATION_MARKERS`), each type once in the legend.  Without located folds
+    among them, the turning points of the drawn curves are circled ("fold")."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     states_seen, any_fold = set(), False
+    circle_folds = not any(int(k) == 1 for _, _, k in marks)  # else squares mark them
     for k, (label, f, a, stable, conv, *extra) in enumerate(branches):
         style = dict(extra[0]) if extra else {}
         f, a = np.asarray(f, float), np.asarray(a, float)
@@ -168,7 +170,7 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
                     first = False
                     if s != STABLE:
                         states_seen.add(s)
-            folds = fold_indices(fs)
+            folds = fold_indices(fs) if circle_folds else np.empty(0, int)
             if folds.size:
                 any_fold = True
                 ax.plot(fs[folds], as_[folds], "o", mfc="none", mec=col, ms=6)
