@@ -255,6 +255,14 @@ def test_folds_circled_unless_located_folds_are_marked():
         assert np.allclose(circles(plain)[0].get_xdata(), f[turns])
         assert "fold" not in legend(marked) and "fold bifurcation" in legend(marked)
         assert not circles(marked)
+        # a turn whose stability does not change (no mark there) keeps its circle
+        one = response_curves_plot([("case", f, a, np.ones(s.size, bool), conv)],
+                                   marks=marks[:1])
+        try:
+            assert "fold" in legend(one) and len(circles(one)) == 1
+            assert np.allclose(circles(one)[0].get_xdata(), f[turns[1]])
+        finally:
+            pyplot().close(one)
     finally:
         pyplot().close(plain)
         pyplot().close(marked)

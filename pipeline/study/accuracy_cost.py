@@ -39,7 +39,7 @@ This module reads a study document (`study_from_mapping`, the scenes through sce
 and blade_scene.py) and runs it (`run_accuracy_study`); documents.py and run.py hand an
 accuracy-cost study to these two.  The plain data is in accuracy_spec.py, the runs,
 errors and recommendation in accuracy_measure.py, the Dataset and the table in
-accuracy_dataset.py, the figure in plots.py (`pareto_figure`).
+accuracy_dataset.py, the figure in pareto_figure.py.
 """
 from __future__ import annotations
 
@@ -58,7 +58,7 @@ from .accuracy_spec import (AccuracyStudy, Case, Settings, beyond_reference,
                             check_settings, merge_quick, mesh_value)
 from .blade_scene import OUT_DOF_PATTERN, parse_blade_params, parse_blade_scene
 from .checker import Checker
-from .plots import pareto_figure
+from .pareto_figure import pareto_figure
 from .rules import check_scene_rules
 from .scene import parse_scene, parse_sweep
 from .spec import MAX_HARMONICS, FrequencyRange, solver_rule_violations

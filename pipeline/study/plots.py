@@ -1,8 +1,8 @@
-"""Figures (matplotlib, Agg backend): hysteresis loops, response curves and the
-accuracy-cost Pareto figure."""
+"""Figures (matplotlib, Agg backend): hysteresis loops, response curves, peaks per
+sector, optimum preload and modal convergence; the shared helpers (`pyplot`,
+`atomic_savefig`, log axes).  The accuracy-cost Pareto figure is `pareto_figure`."""
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 
@@ -129,6 +129,28 @@ BIFURCATION_MARKERS = {1: ("s", "fold bifurcation"), 2: ("v", "period doubling")
                        3: ("*", "Neimark-Sacker")}
 
 
+def unmarked_turns(turns, marks, log=False, rel=0.02):
+    """The turning points [(frequency, amplitude, colour)] of the drawn curves that no
+    located fold among `marks` [(frequency, amplitude, type)] marks already: a fold
+    mark within `rel` of the turns' frequency and amplitude spans (log10 amplitude on
+    a log axis) is the same fold, drawn as its square."""
+    folds = np.array([(f, a) for f, a, k in marks if int(k) == 1], float).reshape(-1, 2)
+    if not turns or not folds.size:
+        return list(turns)
+
+    def coords(fa):
+        fa = np.array(fa, float)
+        if log:
+            fa[:, 1] = np.log10(np.maximum(fa[:, 1], 1e-300))
+        return fa
+
+    pts, ref = coords([(f, a) for f, a, _ in turns]), coords(folds)
+    both = np.vstack([pts, ref])
+    span = np.maximum(np.ptp(both, axis=0), 1e-12 * np.abs(both).max(0) + 1e-300)
+    near = (np.abs(pts[:, None, :] - ref[None, :, :]) <= rel * span).all(2).any(1)
+    return [t for t, n in zip(turns, near) if not n]
+
+
 def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplitude [m]",
                          title="", yscale="linear", legend_title=None, marks=()):
     """The figure of `response_curves_figure`, left open (for saving or inspection).
@@ -136,13 +158,13 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
     A branch may carry a sixth element, a dict of Line2D properties (color, lw,
     alpha, zorder) that override its defaults; label None leaves it out of the legend.
     marks: [(frequency, amplitude, type)] bifurcations, a marker per type
-    (`BIFURCATION_MARKERS`), each type once in the legend.  Without located folds
-    among them, the turning points of the drawn curves are circled ("fold")."""
+    (`BIFURCATION_MARKERS`), each type once in the legend.  The turning points of the
+    drawn curves are circled ("fold"), except where a located fold is marked
+    (`unmarked_turns`)."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    states_seen, any_fold = set(), False
-    circle_folds = not any(int(k) == 1 for _, _, k in marks)  # else squares mark them
+    states_seen, turns = set(), []
     for k, (label, f, a, stable, conv, *extra) in enumerate(branches):
         style = dict(extra[0]) if extra else {}
         f, a = np.asarray(f, float), np.asarray(a, float)
@@ -170,10 +192,16 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
                     first = False
                     if s != STABLE:
                         states_seen.add(s)
-            folds = fold_indices(fs) if circle_folds else np.empty(0, int)
-            if folds.size:
-                any_fold = True
-                ax.plot(fs[folds], as_[folds], "o", mfc="none", mec=col, ms=6)
+            folds = fold_indices(fs)
+            turns += [(fs[i], as_[i], col) for i in folds]
+    circled = unmarked_turns(turns, marks, yscale == "log")
+    any_fold = bool(circled)
+    by_colour = {}  # one marker line per branch colour
+    for f0, a0, col in circled:
+        by_colour.setdefault(repr(col), (col, []))[1].append((f0, a0))
+    for col, pts in by_colour.values():
+        pts = np.array(pts)
+        ax.plot(pts[:, 0], pts[:, 1], "o", mfc="none", mec=col, ms=6)
     handles, labels = ax.get_legend_handles_labels()
     for s in (UNSTABLE, NOT_COMPUTED):
         if s in states_seen:
@@ -357,128 +385,3 @@ def modal_convergence_figure(path, res, title):
     plt.close(fig)
     tmp.replace(path)
     return path
-
-
-# ---------------------------------------------------------------------------
-# Accuracy against cost (accuracy_cost.py): error against wall time
-# ---------------------------------------------------------------------------
-
-def pareto_figure(path, ds, title: str | None = None):
-    """`pareto_plot` written to `path` (PNG)."""
-    fig = pareto_plot(ds, title)
-    out = atomic_savefig(fig, path)
-    pyplot().close(fig)
-    return out
-
-
-def pareto_plot(ds, title: str | None = None):
-    """Error against wall time (log-log) from an accuracy dataset: one panel per case,
-    one series per knob (through the baseline, from the cheapest to the most accurate
-    value), the baseline (open square), the recommended combination (star), the
-    target (dashed), the reference's wall time (dotted) and, for the lumped case, the
-    reference's discrepancy to event-driven time integration (dash-dot).  An error of
-    0 (the reference itself) is drawn on the bottom edge, a missed fold on the top.
-    Returns the open figure."""
-    plt = pyplot()
-    cases = list(dict.fromkeys(ds["case"].values.tolist()))
-    target = float(ds.attrs["target"])
-    fig, axes = plt.subplots(1, len(cases), figsize=(6.0 * len(cases), 5.6), squeeze=False)
-    markers = "osD^v<>p"
-    for ax, c in zip(axes[0], cases):
-        sub = ds.isel(run=np.flatnonzero(ds["case"].values == c))
-        knob = sub["knob"].values.tolist()
-        t, err = sub["wall_time"].values, sub["error"].values
-        i_ref, i_base, i_rec = (knob.index(k) for k in ("reference", "baseline", "recommended"))
-        ti = None
-        if f"{c}_time_integration_amplitude_error" in ds:
-            ti = max(float(ds[f"{c}_time_integration_amplitude_error"]),
-                     float(ds[f"{c}_time_integration_peak_frequency_error"]))
-        pos = [e for e in list(err) + [ti or np.nan, target] if np.isfinite(e) and e > 0]
-        lo = 10 ** np.floor(np.log10(min(pos))) / 10
-
-        def shown(e):
-            return lo if e == 0 else 2.0 if np.isinf(e) else e
-
-        series = [k for k in dict.fromkeys(knob) if k not in ("reference", "baseline",
-                                                               "recommended")]
-        for j, k in enumerate(series):
-            idx = sorted([i_base] + [i for i, kk in enumerate(knob) if kk == k],
-                         key=lambda i: _order(sub, i, k))
-            ax.plot(t[idx], [shown(err[i]) for i in idx], marker=markers[j % len(markers)],
-                    ms=5, lw=1, label=_KNOB_LABELS.get(k, k))
-            dense = k in ("tolerance", "max_step")   # values on one level: label the ends
-            ends = [i for i in idx if i != i_base]
-            for i in idx:
-                if i == i_base or (dense and i not in (ends[0], ends[-1])):
-                    continue
-                ax.annotate(_short(sub, i, k), (t[i], shown(err[i])), fontsize=6,
-                            xytext=(3, 3), textcoords="offset points")
-        val = sub["value"].values
-        ax.plot([t[i_base]], [shown(err[i_base])], "ks", mfc="none", ms=10,
-                label="baseline: " + _wrap(str(val[i_base])))
-        ax.plot([t[i_rec]], [shown(err[i_rec])], "*", color="gold", mec="k", ms=14,
-                label="recommended: " + _wrap(str(val[i_rec])))
-        ax.axvline(t[i_ref], color="k", ls=":", lw=1,
-                   label="reference: " + _wrap(str(val[i_ref])))
-        ax.axhline(target, color="grey", ls="--", lw=1, label=f"target {target:g}")
-        if ti is not None:
-            ax.axhline(shown(ti), color="tab:purple", ls="-.", lw=1,
-                       label=f"reference vs event-driven time integration: {ti:.1e}")
-        if np.isinf(err).any():
-            ax.text(0.99, 0.985, "top edge: a fold missed", transform=ax.transAxes, fontsize=6,
-                    ha="right", va="top")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_ylim(lo / 1.5, 3.0)
-        label_log_axis(ax.xaxis)   # 1-2-5 (or finer) seconds over the range drawn
-        ax.set_xlabel("wall time [s]")
-        ax.set_ylabel("largest relative error (bottom edge: the reference itself)")
-        dof = str(sub["response_dof"].values[0])
-        pre = ds.attrs.get(f"{c}_preload")
-        ax.set_title(f"{c}: peak of {dof}" + (f", preload {pre:g} N" if pre is not None else "")
-                     + "\nerror of peak amplitude, peak and fold frequencies vs the reference",
-                     fontsize=8)
-        ax.grid(True, which="major", lw=0.3)
-        ax.legend(fontsize=6, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2,
-                  frameon=False)
-    fig.suptitle(title if title is not None else ds.attrs.get("title", ""), fontsize=10)
-    fig.tight_layout()
-    return fig
-
-
-_KNOB_LABELS = {"harmonics": "harmonics H", "samples": "AFT samples N (then exact)",
-                "tolerance": "Newton tolerance", "max_step": "largest continuation step",
-                "craig_bampton_modes": "Craig-Bampton modes", "mesh": "mesh (chord x thickness x span)"}
-
-
-def _wrap(text: str) -> str:
-    return text.replace(", tolerance", "\ntolerance")
-
-
-def _knob_value(sub, i, knob):
-    """The value of `knob` in run i of a dataset (from its settings variables)."""
-    if knob == "samples":
-        n = int(sub["samples"].values[i])
-        return "exact" if n < 0 else n
-    if knob == "mesh":
-        return str(sub["mesh"].values[i])
-    v = sub[knob].values[i]
-    return float(v) if knob in ("tolerance", "max_step") else int(v)
-
-
-def _order(sub, i, knob):
-    """Sort key along a knob's series: from the cheapest to the most accurate value."""
-    v = _knob_value(sub, i, knob)
-    if knob == "samples":
-        return math.inf if v == "exact" else v
-    if knob in ("tolerance", "max_step"):
-        return -v
-    if knob == "mesh":
-        counts = tuple(int(x) for x in v.split("x"))
-        return (int(np.prod(counts)), counts)
-    return v
-
-
-def _short(sub, i, knob) -> str:
-    v = _knob_value(sub, i, knob)
-    return f"{v:g}" if isinstance(v, float) else str(v)
