@@ -339,6 +339,11 @@ def _without_attribute(ds):
     return ds
 
 
+def _flag_without_units(ds):
+    del ds["converged"].attrs["units"]
+    return ds
+
+
 BREAKS = {  # how a dataset departs from the contract -> what the checker must say
     "missing units": (_without_units,
                       "variable 'amplitude' holds numbers without a units attribute"),
@@ -361,6 +366,8 @@ BREAKS = {  # how a dataset departs from the contract -> what the checker must s
     "peak not the largest amplitude": (_double_peak, "'peak_amplitude' differs"),
     "missing global attribute": (_without_attribute,
                                  "global attribute 'force_evaluation' is missing"),
+    "flag without units": (_flag_without_units,
+                           "variable 'converged' holds numbers without a units attribute"),
 }
 
 

@@ -130,12 +130,13 @@ def _check_attributes(ds, kind, say):
 
 
 def _check_variables(ds, say):
-    """long_name everywhere, units on floating-point values, a coordinate per dimension."""
+    """long_name everywhere, units on every number (floating-point, integer and flag
+    values: "1" for counts, indices and flags), a coordinate per dimension."""
     for vname, var in ds.variables.items():
         what = "coordinate" if vname in ds.coords else "variable"
         if "long_name" not in var.attrs:
             say(f"{what} {vname!r} has no long_name attribute")
-        if var.dtype.kind in "fc" and "units" not in var.attrs:
+        if var.dtype.kind in "fciub" and "units" not in var.attrs:
             say(f"{what} {vname!r} holds numbers without a units attribute")
     for d in ds.dims:
         if d not in ds.coords:
