@@ -266,3 +266,24 @@ def test_folds_circled_unless_located_folds_are_marked():
     finally:
         pyplot().close(plain)
         pyplot().close(marked)
+
+
+def test_a_single_marked_turn_is_not_circled_too():
+    """One turn, its located fold a little off the drawn point (between two points):
+    the square alone marks it, whatever the distance between the two compared with
+    the (zero) spread of the turns themselves."""
+    s = np.linspace(0.0, 1.0, 41)
+    f = 1.0 - (s - 0.5) ** 2                      # turns back once, at s = 0.5
+    a = 1 + s
+    conv = np.ones(s.size, bool)
+    turn = np.flatnonzero(np.diff(f)[:-1] * np.diff(f)[1:] < 0) + 1
+    assert turn.size == 1
+    mark = [(f[turn[0]] + 1e-4, a[turn[0]] + 5e-3, 1)]
+    for yscale in ("linear", "log"):
+        fig = response_curves_plot([("case", f, a, np.ones(s.size, bool), conv)], marks=mark,
+                                   yscale=yscale)
+        try:
+            legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+            assert "fold" not in legend and "fold bifurcation" in legend
+        finally:
+            pyplot().close(fig)

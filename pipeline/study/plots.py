@@ -129,24 +129,23 @@ BIFURCATION_MARKERS = {1: ("s", "fold bifurcation"), 2: ("v", "period doubling")
                        3: ("*", "Neimark-Sacker")}
 
 
-def unmarked_turns(turns, marks, log=False, rel=0.02):
+def unmarked_turns(turns, marks, drawn, log=False, rel=0.02):
     """The turning points [(frequency, amplitude, colour)] of the drawn curves that no
     located fold among `marks` [(frequency, amplitude, type)] marks already: a fold
-    mark within `rel` of the turns' frequency and amplitude spans (log10 amplitude on
-    a log axis) is the same fold, drawn as its square."""
+    mark within `rel` of the frequency and amplitude spans of the `drawn` points
+    (P, 2) (log10 amplitude on a log axis) is the same fold, drawn as its square."""
     folds = np.array([(f, a) for f, a, k in marks if int(k) == 1], float).reshape(-1, 2)
     if not turns or not folds.size:
         return list(turns)
 
     def coords(fa):
-        fa = np.array(fa, float)
+        fa = np.array(fa, float).reshape(-1, 2)
         if log:
             fa[:, 1] = np.log10(np.maximum(fa[:, 1], 1e-300))
         return fa
 
-    pts, ref = coords([(f, a) for f, a, _ in turns]), coords(folds)
-    both = np.vstack([pts, ref])
-    span = np.maximum(np.ptp(both, axis=0), 1e-12 * np.abs(both).max(0) + 1e-300)
+    pts, ref, every = coords([(f, a) for f, a, _ in turns]), coords(folds), coords(drawn)
+    span = np.maximum(np.ptp(every, axis=0), 1e-12 * np.abs(every).max(0) + 1e-300)
     near = (np.abs(pts[:, None, :] - ref[None, :, :]) <= rel * span).all(2).any(1)
     return [t for t, n in zip(turns, near) if not n]
 
@@ -164,7 +163,7 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    states_seen, turns = set(), []
+    states_seen, turns, drawn = set(), [], []
     for k, (label, f, a, stable, conv, *extra) in enumerate(branches):
         style = dict(extra[0]) if extra else {}
         f, a = np.asarray(f, float), np.asarray(a, float)
@@ -194,7 +193,9 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
                         states_seen.add(s)
             folds = fold_indices(fs)
             turns += [(fs[i], as_[i], col) for i in folds]
-    circled = unmarked_turns(turns, marks, yscale == "log")
+            drawn.append(np.column_stack([fs, as_]))
+    circled = unmarked_turns(turns, marks, np.vstack(drawn) if drawn else np.empty((0, 2)),
+                             yscale == "log")
     any_fold = bool(circled)
     by_colour = {}  # one marker line per branch colour
     for f0, a0, col in circled:
