@@ -54,7 +54,8 @@ def build_parser() -> argparse.ArgumentParser:
     o.set_defaults(func=_cmd_optimise)
 
     b = sub.add_parser("bench", help="benchmarks that print tables")
-    b.add_argument("what", choices=["contact", "hbm", "blade", "disk", "parallel", "peers", "stability"],
+    b.add_argument("what", choices=["contact", "hbm", "evaluations", "blade", "disk", "parallel",
+                                    "peers", "stability"],
                    help="what to benchmark")
     b.add_argument("--quick", action="store_true", help="fewer repetitions")
     b.add_argument("--nlvib", metavar="PATH", default=None,

@@ -202,6 +202,11 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
     return 0
 
 
+def evaluations_bench(quick=False):
+    from .evaluations import run as run_evaluations
+    return run_evaluations(quick)
+
+
 def stability_bench(quick=False):
     from .stability import run as run_stability
     return run_stability(quick)
@@ -213,8 +218,9 @@ def peers_bench(quick=False, nlvib=None, pyharm_python=None):
     return run_peers(quick, nlvib=nlvib, pyharm_python=pyharm_python)
 
 
-BENCHES = {"contact": contact, "hbm": hbm, "blade": blade, "disk": disk_bench,
-           "parallel": parallel, "peers": peers_bench, "stability": stability_bench}
+BENCHES = {"contact": contact, "hbm": hbm, "evaluations": evaluations_bench, "blade": blade,
+           "disk": disk_bench, "parallel": parallel, "peers": peers_bench,
+           "stability": stability_bench}
 
 
 def run(what, quick=False, **options):

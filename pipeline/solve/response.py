@@ -68,10 +68,14 @@ class ResponseCurve:
         return float(a[i]), float(self.omega[i]), i
 
 
+GUESS_NFEV = 2  # residual evaluations of `initial_guess` (R alone, at its two guesses)
+
+
 def initial_guess(prob, Om, contact):
     """Starting vector x of the condensed HBM problem `prob` at Om [rad/s]: of the
     linear solutions with the contacts open and fully stuck, the one with the smaller
-    nonlinear residual (`hbm.residual` with the elements `contact`)."""
+    nonlinear residual (`hbm.residual` with the elements `contact`; GUESS_NFEV
+    evaluations)."""
     nh, nc = prob.nh, prob.c.size
     St, _, Pt, _ = hbm.linear_part(prob, Om, derivatives=False)
     guesses = []
@@ -184,7 +188,7 @@ def _first_point(prob, elem, Om, w, fun_x, guess=None):
         if nr.success:
             return nr, spent
     nr = newton(fun_x, initial_guess(prob, Om, elem), 1.0, max_iter=60)
-    spent += nr.nfev
+    spent += GUESS_NFEV + nr.nfev
     for start in (_cold_start, _stiffness_start):
         if nr.success:
             break
@@ -242,7 +246,7 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
         p0 = -float(dec)
         st = newton(lambda x: fun_p(x, p0)[:2], initial_guess(prob, Om, el(p0)), 1.0,
                     max_iter=30)
-        spent += st.nfev
+        spent += GUESS_NFEV + st.nfev
         if not st.success:
             continue
         br = continue_branch(fun_p, st.x, p0, 0.0, tol=1.0, max_points=2000, groups=groups)
