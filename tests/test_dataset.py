@@ -559,6 +559,11 @@ def test_example3_quick_separation_and_softening(quick_runs):
     assert ds["stable"].attrs["stability_computed"] == 1
     folds = soft["fold_frequency"].values
     assert np.isfinite(folds).sum() == 2
+    fold_u = soft["fold_amplitude"].sel(dof="u").values   # between the extremes of the curve
+    assert np.isfinite(fold_u).sum() == 2 and ds["fold_amplitude"].attrs["units"] == "m"
+    assert np.all((fold_u > soft["amplitude"].sel(dof="u").min().values)
+                  & (fold_u < float(u["peak_amplitude"].sel(preload=10.0))))
+    assert np.isnan(ds["fold_amplitude"].sel(preload=[-100.0, 500.0]).values).all()
     conv = soft["converged"].values
     assert 0 < int((conv & (soft["stable"].values == 0)).sum()) < int(conv.sum())
     assert np.isnan(soft["stable"].values[~conv]).all()

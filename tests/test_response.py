@@ -88,6 +88,48 @@ def test_example3_regimes_and_folds(ex3_curves):
         assert c.stable[outside].all()
 
 
+def test_fold_amplitude_is_the_limit_of_the_two_solutions_beside_the_fold():
+    """Near a fold at Omega_f two solutions exist on one side, with amplitudes
+    a_f +- c sqrt(delta) + O(delta) at Omega_f (1 -+ delta): their mean tends to the
+    fold's amplitude like delta.  Each is solved at that fixed frequency from the
+    curve point beside the fold on its own side (not by the fold locator)."""
+    system = example3(10.0)
+    c = frequency_response(system, 14, 0.5, 1.6, stability=False)
+    assert c.fold_amplitude.shape == (2, 2)
+    a, w = c.amplitude[:, 0], c.omega
+    for f, af in zip(c.fold_parameter, c.fold_amplitude):
+        d = np.hypot((w - f) / np.ptp(w), (a - af[0]) / np.ptp(a))
+        near = np.argsort(d)[:6]
+        side = np.sign(np.mean(w[near] - f))  # where the two solutions exist
+        starts = [[i for i in near if a[i] < af[0]][0], [i for i in near if a[i] > af[0]][0]]
+        err = []
+        for delta in (1e-5, 1e-6):
+            om = f * (1 + side * delta)
+            pair = [frequency_response(system, 14, om, om * (1 + side * 1e-9), stability=False,
+                                       initial=c.Q[i], dense_output=False).amplitude[0]
+                    for i in starts]
+            assert pair[0][0] < af[0] < pair[1][0]
+            err.append(np.abs(0.5 * (pair[0] + pair[1]) - af) / af)
+        assert np.all(err[1] < 1e-4) and np.all(err[1] < 0.2 * err[0])   # measured 3e-5, 0.1
+
+
+def test_fold_amplitude_is_nan_off_the_residual_tolerance():
+    from types import SimpleNamespace
+    from pipeline.solve import hbm
+    from pipeline.solve.response import fold_amplitudes
+
+    system = example3(10.0)
+    c = frequency_response(system, 14, 1.0, 1.1, stability=False, dense_output=False)
+    prob = hbm.setup(system, 14, "exact", 256)
+    i = c.n_points // 2
+    x = c.Q[i][prob.c].ravel()
+    fake = SimpleNamespace(fold_lam=np.array([c.omega[i]] * 2), fold_x=np.array([x, 1.01 * x]))
+    tols = hbm.tolerances(prob, 1e-10, system.contact)
+    got = fold_amplitudes(prob, fake, lambda lam: system.contact, tols)
+    np.testing.assert_allclose(got[0], c.amplitude[i], rtol=1e-12)
+    assert np.isnan(got[1]).all()
+
+
 @pytest.mark.parametrize("case,n", [("ex1", n) for n in (0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 1000.0)]
                          + [("ex3", n) for n in (-100.0, -20.0, 10.0, 500.0)])
 def test_hbm_peak_matches_event_driven_time_integration(case, n, ex3_curves):

@@ -56,6 +56,9 @@ class ResponseCurve:
     monodromy_multiplier: np.ndarray | None = None
     bifurcation_parameter: np.ndarray | None = None
     bifurcation_kind: np.ndarray | None = None
+    # (F, n) amplitude of every DOF at each fold [m] (`fold_amplitudes`); NaN where the
+    # fold's state does not meet the residual tolerances
+    fold_amplitude: np.ndarray | None = None
 
     @property
     def n_points(self) -> int:
@@ -296,6 +299,7 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
     amp = amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n))
     bs = branch_stability(prob, Q, omega, pts["lam"], elem_at, converged, stability,
                           br.fold_lam, amp)
+    fold_amp = fold_amplitudes(prob, br, elem_at, tols, omega_of)
     return ResponseCurve(
         parameter=np.asarray(pts["lam"], float), omega=omega, Q=Q, converged=converged,
         residual=res, stable=bs.stable, amplitude=amp,
@@ -318,7 +322,24 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
               "monodromy_time": bs.monodromy_time},
         stability_method=bs.method, hill_multiplier=bs.hill_multiplier,
         floquet_multiplier=bs.floquet_multiplier, monodromy_multiplier=bs.monodromy_multiplier,
-        bifurcation_parameter=bs.bifurcation_parameter, bifurcation_kind=bs.bifurcation_kind)
+        bifurcation_parameter=bs.bifurcation_parameter, bifurcation_kind=bs.bifurcation_kind,
+        fold_amplitude=fold_amp)
+
+
+def fold_amplitudes(prob, br, elem_at, tols, omega_of=lambda lam: lam):
+    """(F, n) amplitude (half peak-to-peak) of every DOF at each fold of the Branch
+    `br` [m]: the fold's state (`branch.refine_fold`) recovered on all DOFs and its
+    full residual held to the tolerances `tols` [N] like every point's; NaN where it
+    is not met (a fold whose corrector failed stays at its interpolated place)."""
+    lams = np.asarray(br.fold_lam, float)
+    out = np.full((lams.size, prob.system.n_dof), np.nan)
+    for k, lam in enumerate(lams):
+        om = omega_of(lam)
+        Q = hbm.recover(prob, np.asarray(br.fold_x[k]).reshape(prob.c.size, prob.nh), om)
+        rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q, om, elem_at(lam)))
+        if rs <= tols[0] and rd <= tols[1]:
+            out[k] = amplitude_half_peak_to_peak(Q)
+    return out
 
 
 def _guard_note(br, pts) -> str:

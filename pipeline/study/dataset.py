@@ -161,7 +161,8 @@ def empty_arrays(lay: Layout) -> dict:
                 converged=full((P,), False, bool), stable=full((P,), np.nan),
                 residual=full((P,), np.nan), newton_iterations=full((P,), -1, np.int32),
                 peak_amplitude=full((S, D), np.nan), peak_frequency=full((S, D), np.nan),
-                fold_frequency=full((F,), np.nan), n_points=full((), 0, np.int32),
+                fold_frequency=full((F,), np.nan), fold_amplitude=full((S, F, D), np.nan),
+                n_points=full((), 0, np.int32),
                 wall_time=full((), np.nan), residual_evaluations=full((), -1, np.int32),
                 success=full((), False, bool), status=full((), -1, np.int32),
                 peaks_resolved=full((), False, bool),
@@ -193,6 +194,8 @@ def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
             a["frequency"], a["amplitude"], inside)
     folds = np.asarray(c.fold_parameter, dtype=float).ravel() / lay.to_unit
     v["fold_frequency"][idx][:folds.size] = folds
+    if c.fold_amplitude is not None and folds.size:
+        v["fold_amplitude"][idx][:, :folds.size] = np.moveaxis(c.fold_amplitude[:, lay.rows], 0, 1)
     sd.fill_stability(v, idx, c, a["converged"], lay.computed, lay.to_unit)
     v["n_points"][idx] = p
     v["wall_time"][idx] = c.wall_time
@@ -223,6 +226,9 @@ def response_meta(unit: str, computed: bool) -> dict:
         "peak_amplitude": (("sector", "dof"), "m", "largest amplitude over converged points"),
         "peak_frequency": (("sector", "dof"), unit, "frequency of the largest amplitude"),
         "fold_frequency": (("fold",), unit, "frequency of a fold (turning point) of the branch"),
+        "fold_amplitude": (("sector", "fold", "dof"), "m",
+                           "response amplitude at a fold, half peak-to-peak (NaN: the fold's "
+                           "state is not within the residual tolerance)"),
         "n_points": ((), "1", "points on the branch"),
         "wall_time": ((), "s", "wall-clock time of the case"),
         "residual_evaluations": ((), "1", "residual evaluations of the case (-1: case failed)"),
