@@ -471,3 +471,11 @@ def test_separation_not_declared_is_one_error_line_from_the_cli(tmp_path):
     assert r.returncode == 1 and "Traceback" not in r.stderr
     assert re.search(r"contact 'shroud' separates at [0-9.]+ rad/s .*does not declare "
                      r"\"separation\"", r.stderr), r.stderr
+    # with a case that stays closed the dataset is written, and the failed case is
+    # still one error line, naming it (also where a progress bar hides the log)
+    f.write_text(EX3_CLOSED)
+    r = run_cli(f, "--out", tmp_path / "out2", "--workers", "1", "--no-figures")
+    errors = [line for line in r.stderr.splitlines() if line.startswith("error:")]
+    assert r.returncode == 1 and (tmp_path / "out2" / "ex3_closed.nc").is_file()
+    assert len(errors) == 1 and errors[0].startswith(f"error: {f}: case preload = 10: ")
+    assert "contact 'shroud' separates at" in errors[0]

@@ -278,7 +278,9 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
         tuned = tuned_references(study, sector_output_dofs(study), solver)
     ds = to_dataset(study, curves, errors, optimum=optimum, tuned=tuned)
     res = StudyResult(study=study, dataset=ds, path=None, failures=failures,
-                      reused=reused, computed=len(curves) - reused, optimum_error=optimum_error)
+                      reused=reused, computed=len(curves) - reused, optimum_error=optimum_error,
+                      failed=[(case, err) for (_, case), c, err in zip(study.sweep.cases(), curves,
+                                                                       errors) if c is None])
     if int(ds["converged"].sum()) == 0:
         log.error("%s: no converged point in any case; nothing written", study.name)
         if cdir is not None:  # nothing worth resuming
@@ -433,6 +435,9 @@ def cmd_run(args) -> int:
     except WorkerLost as exc:
         print(f"error: {args.study}: {exc}; {_kept(out, study.name)}", file=sys.stderr)
         return 1
+    for case, reason in res.failed:  # one line each, whether or not a progress bar hid the log
+        values = ", ".join(f"{k} = {v:g}" for k, v in case.items())
+        print(f"error: {args.study}: case {values}: {reason}", file=sys.stderr)
     if res.reused:
         log.info("%s: %d case(s) reused from the interrupted run, %d computed",
                  study.name, res.reused, res.computed)

@@ -173,6 +173,7 @@ class StudyResult:
     path: Path | None               # the netCDF file (None if nothing converged)
     figures: list = field(default_factory=list)
     failures: int = 0               # cases that raised
+    failed: list = field(default_factory=list)  # ({axis: value}, reason) of each of them
     optimum_error: str | None = None  # why the optimum-preload search stopped
     reused: int = 0                 # cases taken from checkpoints of an interrupted run
     computed: int = 0               # cases computed in this run
