@@ -87,7 +87,7 @@ class Progress:
             self.bar.update(1)
             log.debug("case %s: %s", case, what)
         else:
-            log.info("%s: case %d/%d %s: %s", self.desc, self.done, self.total, case, what)
+            log.info("%s: %d/%d done, case %s: %s", self.desc, self.done, self.total, case, what)
 
     def close(self):
         if self.bar is not None:
