@@ -104,7 +104,8 @@ def hbm(quick=False):
     print("Harmonic balance + continuation, exact forces, one core; stability by Hill "
           "(time), by the monodromy along the orbit (mono s); median of 3")
     print(f"{'case':<30} {'H':>3} {'time s':>7} {'mono s':>7} {'points':>6} {'Newton/pt':>9} "
-          f"{'R evals/pt (total)':>18} {'peak':>10} {'at rad/s':>9} | {'time-int s':>10} {'ratio':>6} {'peak err':>8}")
+          f"{'R evals/pt (total)':>18} {'peak':>10} {'at rad/s':>9} | {'time-int s':>10} "
+          f"{'ratio':>6} {'peak err':>8}")
     for name, ex, n, H, w0, w1 in cases:
         system = _paper_system(ex, n)
         frequency_response(system, H, w0, w1)  # warm-up (caches, imports)
