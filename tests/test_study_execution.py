@@ -477,5 +477,5 @@ def test_separation_not_declared_is_one_error_line_from_the_cli(tmp_path):
     r = run_cli(f, "--out", tmp_path / "out2", "--workers", "1", "--no-figures")
     errors = [line for line in r.stderr.splitlines() if line.startswith("error:")]
     assert r.returncode == 1 and (tmp_path / "out2" / "ex3_closed.nc").is_file()
-    assert len(errors) == 1 and errors[0].startswith(f"error: {f}: case preload = 10: ")
+    assert len(errors) == 1 and errors[0].startswith(f"error: {f}: case preload = 10 N: ")
     assert "contact 'shroud' separates at" in errors[0]

@@ -30,7 +30,7 @@ from .checkpoint import checkpoint_dir, kept_cases, load_cases, remove_stale, sa
 from .documents import load_study
 from .mistuned import tuned_references
 from .response_figures import sector_output_dofs, write_figures
-from .spec import Study, StudyResult
+from .spec import SWEEP_AXES, Study, StudyResult
 
 log = logging.getLogger("pipeline.study.run")
 
@@ -436,7 +436,8 @@ def cmd_run(args) -> int:
         print(f"error: {args.study}: {exc}; {_kept(out, study.name)}", file=sys.stderr)
         return 1
     for case, reason in res.failed:  # one line each, whether or not a progress bar hid the log
-        values = ", ".join(f"{k} = {v:g}" for k, v in case.items())
+        values = ", ".join(f"{k} = {v:g}" + ("" if SWEEP_AXES[k][0] == "1" else
+                                             f" {SWEEP_AXES[k][0]}") for k, v in case.items())
         print(f"error: {args.study}: case {values}: {reason}", file=sys.stderr)
     if res.reused:
         log.info("%s: %d case(s) reused from the interrupted run, %d computed",
