@@ -50,8 +50,11 @@ def integrate(mdl: PiecewiseModel, t0, x0, w0, st0, t_end, record, t_eval=None,
         if pid != period_id:
             period_id, period_events = pid, 0
         wd = mdl.derived_w(x, w, st)
+        switched = set()
         for j in trig:
             e = int(mode.elem[j])
+            if e in switched:       # one switch per element and event: the other rows
+                continue            # belong to the state it left (the next piece re-checks)
             old = st[e]
             new, w_e = transition(mdl, e, int(mode.kind[j]), x, old)
             if new == old:
@@ -60,6 +63,7 @@ def integrate(mdl: PiecewiseModel, t0, x0, w0, st0, t_end, record, t_eval=None,
                 events.append((t_ev, e, old, new))
                 evq.append(x[: mdl.n].copy()), evqd.append(x[mdl.n:].copy()), evw.append(wd.copy())
             st[e], w[e] = new, w_e
+            switched.add(e)
             n_events += 1
             period_events += 1
         w = np.where(st == STICK, w, mdl.derived_w(x, w, st))
@@ -99,8 +103,7 @@ def _next_event(mdl: PiecewiseModel, piece: Piece, t0, t1, x0):
     best, trig = np.inf, []
     for j in range(J):
         g, gp = G[j], Gp[j]
-        if g[0] > tol[j] or (g[0] > -tol[j] and (gp[0] > tol_d[j] or (
-                abs(gp[0]) <= tol_d[j] and piece.g(t0, 2, j)[0, 0] > 0))):
+        if _rising(piece, t0, j, g[0], gp[0], tol[j], tol_d[j]):
             tj = t0                                  # inconsistent start: fire now
         else:
             tj = _first_crossing(piece, j, ts, g, gp, scale[j])
@@ -113,12 +116,30 @@ def _next_event(mdl: PiecewiseModel, piece: Piece, t0, t1, x0):
             trig.append(j)
     if not np.isfinite(best):
         return None, []
-    # simultaneous switches (several elements at one instant)
-    gs, gps = piece.g(t0 + best)[:, 0], piece.g(t0 + best, 1)[:, 0]
+    # simultaneous switches (several elements at one instant): a function at zero
+    # within its crossing tolerance that rises there, its slope read beyond rounding
+    # or, where the slope is rounding itself, its curvature (as the start test)
+    te = t0 + best
+    gs, gps = piece.g(te)[:, 0], piece.g(te, 1)[:, 0]
     for j in range(J):
-        if j not in trig and gs[j] > -1e-9 * scale[j] and gps[j] >= 0:
+        if j not in trig and _rising(piece, te, j, gs[j], gps[j], 1e-9 * scale[j], tol_d[j]):
             trig.append(j)
     return best, trig
+
+
+def _rising(piece: Piece, t, j, g, gp, tol, tol_d) -> bool:
+    """Switching function j fires at t: positive beyond `tol`, or zero within `tol`
+    and increasing (slope above `tol_d`; a slope within `tol_d` is rounding, and the
+    second derivative decides).  At rest on a grazing contact (n = 0, v' = 0) every
+    function and slope is rounding: only the curvature tells which one really rises,
+    so that the states are not switched round in a circle by rounding noise."""
+    if g > tol:
+        return True
+    if g <= -tol:
+        return False
+    if gp > tol_d:
+        return True
+    return abs(gp) <= tol_d and piece.g(t, 2, j)[0, 0] > 0
 
 
 def _sampling_grid(piece: Piece, x0, span, T, hmax_freq):

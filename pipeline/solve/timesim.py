@@ -163,7 +163,8 @@ def _run(mdl, t0, x0, w, st, t_end, samples_per_period=128, t_eval=None,
 class SteadyResult:
     """One period of the periodic steady state (t in [0, 2 pi/Omega]).
 
-    amplitude (n,): (max q - min q)/2 over the period (extrema polished exactly);
+    amplitude (n,): (max q - min q)/2 over the period (extrema polished exactly; NaN,
+    as Q, where the returned period could not be integrated to its end: see status);
     Q (n, 2H+1): Fourier coefficients of q in the layout of harmonics.py (exact
     piecewise Gauss quadrature); residual: relative periodicity defect |z(T)-z(0)|/|z|
     of z = [q, q'/Omega, w] measured on the returned period; converged = residual < tol.
@@ -247,7 +248,10 @@ def steady_state(system: System, Omega: float, H: int | None = None, periods_max
         msg = ("converged" if converged else
                f"not converged: periodicity residual {res:.2e} >= tol {tol:.1e} after {P.periods} periods")
     stable = True if mult is None else bool(np.abs(mult).max() <= 1 + 1e-6)
-    amp, Q = _amplitude(per, mdl), fourier_coefficients(per, H)
+    if per.success:
+        amp, Q = _amplitude(per, mdl), fourier_coefficients(per, H)
+    else:                   # the period was not integrated to its end: nothing to measure
+        amp, Q = np.full(mdl.n, np.nan), np.full((mdl.n, 2 * H + 1), np.nan)
     return SteadyResult(
         Omega=mdl.Om, t=per.t, q=per.q, qdot=per.qdot, w=per.w, state=per.state, amplitude=amp,
         Q=Q, H=H, q0=x[: mdl.n].copy(), qd0=x[mdl.n:].copy(), w0=w.copy(), residual=res,
