@@ -252,6 +252,9 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
         if a == 0 and b == 0:
             ck.fail("scene.rayleigh", "alpha and beta are both zero (no damping)")
         rayleigh = (float(a), float(b))
+        if "damping_ratios" in ck.table(tab.get("blade"), "scene.blade", required=False):
+            ck.fail("scene.blade.damping_ratios", "unused with scene.rayleigh (Rayleigh damping "
+                                                  "replaces the modal ratios): give one of the two")
     placement, assembly = (blade_disk.parse_placement(ck, tab) if "disk" in tab
                            else (None, Single()))
     contacts, loads = (_contacts_and_loads(ck, tab, kind, model, params)
