@@ -165,8 +165,8 @@ def empty_arrays(lay: Layout) -> dict:
                 n_points=full((), 0, np.int32),
                 wall_time=full((), np.nan), residual_evaluations=full((), -1, np.int32),
                 success=full((), False, bool), status=full((), -1, np.int32),
-                peaks_resolved=full((), False, bool),
-                residual_tolerance=full((), np.nan),
+                peaks_resolved=full((), False, bool), peak_complete=full((), False, bool),
+                residual_tolerance=full((), np.nan), roundoff_points=full((), -1, np.int32),
                 natural_frequency_stuck=full((n,), np.nan),
                 natural_frequency_free=full((n,), np.nan),
                 window_peak_amplitude=full((S, W, D), np.nan),
@@ -204,7 +204,9 @@ def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
     v["peaks_resolved"][idx] = (bool(c.info.get("resonance_guard", False))
                                 and c.info.get("unresolved_resonance_steps", 1) == 0)
     v["status"][idx] = c.status
+    v["peak_complete"][idx] = c.success   # the range covered: its largest amplitude is its peak
     v["residual_tolerance"][idx] = c.tolerance
+    v["roundoff_points"][idx] = int(c.info.get("roundoff_points", 0))
     return readable_message(str(c.message), lay.to_unit, lay.unit)
 
 
@@ -223,7 +225,8 @@ def response_meta(unit: str, computed: bool) -> dict:
         "stable": (("point",), "1", stable_name),
         "residual": (("point",), "N", "recomputed harmonic balance residual norm"),
         "newton_iterations": (("point",), "1", "Newton iterations at this point (-1: padding)"),
-        "peak_amplitude": (("sector", "dof"), "m", "largest amplitude over converged points"),
+        "peak_amplitude": (("sector", "dof"), "m", "largest amplitude over converged points "
+                           "(the peak of the frequency interval only where peak_complete = 1)"),
         "peak_frequency": (("sector", "dof"), unit, "frequency of the largest amplitude"),
         "fold_frequency": (("fold",), unit, "frequency of a fold (turning point) of the branch"),
         "fold_amplitude": (("sector", "fold", "dof"), "m",
@@ -238,7 +241,12 @@ def response_meta(unit: str, computed: bool) -> dict:
                            "1: every resonance the branch crosses has points inside its "
                            "half-power band (no peak can hide between two points); "
                            "0: not excluded (see the case's message)"),
+        "peak_complete": ((), "1", "1: the branch covers the frequency interval, so "
+                          "peak_amplitude is its peak; 0: the branch stopped short of it "
+                          "(see message), the peak may lie beyond its last point"),
         "residual_tolerance": ((), "N", "residual norm accepted as converged"),
+        "roundoff_points": ((), "1", "points accepted on the round-off floor of their "
+                            "residual, above residual_tolerance (-1: case failed)"),
         "natural_frequency_free": (("mode",), unit, "undamped natural frequency without contacts "
                                                    f"(the lowest, at most {MAX_MODES})"),
         "natural_frequency_stuck": (("mode",), unit,

@@ -1,0 +1,35 @@
+"""Cases whose branch stopped short of the frequency interval: their largest
+amplitude is the largest traced, not the peak of the interval (`peak_complete` = 0
+in the dataset).  `incomplete_cases` words them for the end of `python -m pipeline run`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def incomplete_cases(study, ds) -> list:
+    """[({axis: value}, what)] of every case with points whose branch did not cover
+    the study's frequency interval (failed cases, without points, are not listed)."""
+    if ds is None or "peak_complete" not in ds or "n_points" not in ds:
+        return []
+    fr = study.sweep.frequency
+    unit = ds["frequency"].attrs.get("units", "")
+    lo_end, hi_end = sorted((fr.start, fr.stop))
+    complete, n_points = ds["peak_complete"].values, ds["n_points"].values
+    freq, conv = ds["frequency"].values, ds["converged"].values
+    dofs = [str(d) for d in ds["dof"].values] if "dof" in ds.coords else []
+    out = []
+    for idx, case in study.sweep.cases():
+        if bool(complete[idx]) or int(n_points[idx]) == 0:
+            continue
+        f = freq[idx][conv[idx].astype(bool)]
+        covered = (f"{np.min(f):.6g}-{np.max(f):.6g} {unit}" if f.size
+                   else "no converged point")
+        peak = np.asarray(ds["peak_amplitude"].values[idx], float).ravel()
+        top = (f"; peak_amplitude ({dofs[0]}) {peak[0]:.4g} m is the largest amplitude traced,"
+               f" the peak may lie beyond" if dofs and peak.size and np.isfinite(peak[0])
+               else "")
+        why = str(ds["message"].values[idx]) if "message" in ds else ""
+        out.append((case, f"the branch covers {covered} of {lo_end:g}-{hi_end:g} {unit} "
+                          f"({why}){top}"))
+    return out
