@@ -141,7 +141,8 @@ def test_a_branch_that_stops_short_is_flagged_and_named_once(tmp_path, capsys):
         # at 0 N: 1 / (c w_n) at w_n = 188.4 rad/s, beyond the last point)
         top = float(ds["frequency"].sel(preload=0.0).max())
         assert top < 188.0
-        assert float(ds["peak_amplitude"].sel(preload=0.0, dof="x")) < 0.5 / (0.3 * np.sqrt(3.55e4))
+        peak = float(ds["peak_amplitude"].sel(preload=0.0, dof="x"))
+        assert peak < 0.5 / (0.3 * np.sqrt(3.55e4))
     f.write_text(SHORT.replace("MAXP", "1000"))
     assert cli(["run", str(f), "--out", str(tmp_path / "out2"), "--workers", "1"]) == 0
     assert "warning:" not in capsys.readouterr().err
@@ -218,3 +219,16 @@ def test_fe_wheel_with_open_shrouds_reaches_the_linear_peak(tmp_path):
                           options={"xatol": 1e-9})
     a, om, _ = c.peak(dof)
     assert a == pytest.approx(-ref.fun, rel=1e-6) and om == pytest.approx(ref.x, rel=1e-4)
+
+
+def test_the_linear_solver_accepts_exact_solutions_on_the_floor():
+    from pipeline.solve import linear_response
+    s, w1 = stiff_chain()
+    lin = System(M=s.M, C=s.C, K=s.K, Bt=np.zeros((0, 2)), Bn=np.zeros((0, 2)),
+                 contact=YangMenq(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)),
+                 forcing=s.forcing)
+    c = linear_response.frequency_response(lin, 1, 0.7 * w1, 1.3 * w1, stability=False,
+                                           peak_dofs=[0])
+    assert c.success and c.converged.all() and c.info["roundoff_points"] > 0, c.message
+    ref = [abs(linear_q1(s, o)[0]) for o in c.omega]
+    np.testing.assert_allclose(c.amplitude[:, 0], ref, rtol=1e-12)

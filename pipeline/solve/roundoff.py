@@ -72,20 +72,30 @@ def condensed_floor(prob, x, J, loads) -> tuple:
     return fs + c * loads[0], fd + c * loads[1]
 
 
-def full_floor(prob, Q, Om, contact=None) -> tuple:
-    """(static, harmonic) floor [N] of the full residual (`hbm.full_residual`) at the
-    coefficients Q (n, 2H+1) of all DOFs and Om [rad/s]."""
-    sys = prob.system
-    D = np.abs(derivative_matrix(prob.H))
+def linear_terms(system, Q, Om, P) -> np.ndarray:
+    """(n, 2H+1) absolute terms of the linear part of the full residual [N]:
+    |K||Q| + Om |C||Q||D|^T + Om^2 |M||Q||D^2|^T (+ the inter-sector coupling) + |P|."""
+    D = np.abs(derivative_matrix((Q.shape[1] - 1) // 2))
     aQ = np.abs(Q)
     K, M, C = (abs(A) if sp.issparse(A) else np.abs(np.asarray(A, dtype=float))
-               for A in (sys.K, sys.M, sys.C))
+               for A in (system.K, system.M, system.C))
     A = np.asarray(K @ aQ + Om * (C @ aQ) @ D.T + Om ** 2 * (M @ aQ) @ (D @ D).T)
-    cy = sys.cyclic
+    cy = system.cyclic
     if cy is not None and cy.K_next is not None:
         Kn = np.abs(np.asarray(cy.K_next, dtype=float))
         A = A + Kn @ np.abs(time_shift(Q, cy.phase)) + Kn.T @ np.abs(time_shift(Q, -cy.phase))
-    A = A + np.abs(prob.P)
+    return A + np.abs(P)
+
+
+def linear_floor(system, Q, Om, P) -> tuple:
+    """(static, harmonic) floor [N] of the residual of a linear system (no contact)."""
+    return _blocks(linear_terms(system, Q, Om, P))
+
+
+def full_floor(prob, Q, Om, contact=None) -> tuple:
+    """(static, harmonic) floor [N] of the full residual (`hbm.full_residual`) at the
+    coefficients Q (n, 2H+1) of all DOFs and Om [rad/s]."""
+    A = linear_terms(prob.system, Q, Om, prob.P)
     G, _, _ = hbm.contact_terms(prob, Q[prob.c], contact, jacobian=False)
     A[prob.c] += np.abs(G)
     return _blocks(A)

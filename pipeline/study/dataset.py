@@ -38,6 +38,7 @@ from ..model.scene import AT, stiffness_factors
 from ..model.system import lowest_frequencies
 from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
+from .incomplete import CASE_FLAGS
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
 
@@ -204,9 +205,9 @@ def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
     v["peaks_resolved"][idx] = (bool(c.info.get("resonance_guard", False))
                                 and c.info.get("unresolved_resonance_steps", 1) == 0)
     v["status"][idx] = c.status
-    v["peak_complete"][idx] = c.success   # the range covered: its largest amplitude is its peak
     v["residual_tolerance"][idx] = c.tolerance
-    v["roundoff_points"][idx] = int(c.info.get("roundoff_points", 0))
+    v["peak_complete"][idx] = c.success
+    v["roundoff_points"][idx] = c.info.get("roundoff_points", 0)
     return readable_message(str(c.message), lay.to_unit, lay.unit)
 
 
@@ -241,12 +242,7 @@ def response_meta(unit: str, computed: bool) -> dict:
                            "1: every resonance the branch crosses has points inside its "
                            "half-power band (no peak can hide between two points); "
                            "0: not excluded (see the case's message)"),
-        "peak_complete": ((), "1", "1: the branch covers the frequency interval, so "
-                          "peak_amplitude is its peak; 0: the branch stopped short of it "
-                          "(see message), the peak may lie beyond its last point"),
-        "residual_tolerance": ((), "N", "residual norm accepted as converged"),
-        "roundoff_points": ((), "1", "points accepted on the round-off floor of their "
-                            "residual, above residual_tolerance (-1: case failed)"),
+        "residual_tolerance": ((), "N", "residual norm accepted as converged"), **CASE_FLAGS,
         "natural_frequency_free": (("mode",), unit, "undamped natural frequency without contacts "
                                                    f"(the lowest, at most {MAX_MODES})"),
         "natural_frequency_stuck": (("mode",), unit,

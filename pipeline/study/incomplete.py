@@ -1,10 +1,21 @@
 """Cases whose branch stopped short of the frequency interval: their largest
 amplitude is the largest traced, not the peak of the interval (`peak_complete` = 0
-in the dataset).  `incomplete_cases` words them for the end of `python -m pipeline run`.
+in the dataset).  `incomplete_cases` words them for the end of `python -m pipeline run`;
+`CASE_FLAGS` describes that flag and the count of points accepted on the residual's
+round-off floor (`solve.roundoff`).
 """
 from __future__ import annotations
 
 import numpy as np
+
+# (dims after the sweep axes, units, long_name) of the per-case flags (`dataset`)
+CASE_FLAGS = {
+    "peak_complete": ((), "1", "1: the branch covers the frequency interval, so "
+                      "peak_amplitude is its peak; 0: the branch stopped short of it "
+                      "(see message), the peak may lie beyond its last point"),
+    "roundoff_points": ((), "1", "points accepted on the round-off floor of their residual, "
+                        "above residual_tolerance (-1: case failed)"),
+}
 
 
 def incomplete_cases(study, ds) -> list:
