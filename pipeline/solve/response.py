@@ -112,7 +112,8 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     Pseudo-arclength continuation (`continuation.continue_branch`) of the condensed
     HBM residual (`hbm.residual`), all DOFs recovered, each point's full residual
     recomputed (converged iff its static and harmonic parts are each within
-    `hbm.tolerances` [N]), stability of the full system decided by `stability`
+    `hbm.tolerances` [N], raised where it is smaller to the residual's round-off floor
+    at that point: `roundoff`, counted in info["roundoff_points"]), stability of the full system decided by `stability`
     (True = "hill", "floquet", "hill+check", "monodromy", "monodromy+check" or False:
     `stability_check`).
 
