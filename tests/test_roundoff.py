@@ -200,7 +200,6 @@ figures = []
 """
 
 
-@pytest.mark.slow   # 70-150 s on a shared machine
 def test_fe_wheel_with_open_shrouds_reaches_the_linear_peak(tmp_path):
     from pipeline.study.documents import load_study
     f = tmp_path / "wheel.toml"
@@ -218,7 +217,9 @@ def test_fe_wheel_with_open_shrouds_reaches_the_linear_peak(tmp_path):
                           bounds=(2 * np.pi * 100, 2 * np.pi * 106), method="bounded",
                           options={"xatol": 1e-9})
     a, om, _ = c.peak(dof)
-    assert a == pytest.approx(-ref.fun, rel=1e-6) and om == pytest.approx(ref.x, rel=1e-4)
+    # |K||Q| / |P| ~ 1e7 here: the closed form itself is exact to ~1e-9 only (3e-9 measured)
+    assert a == pytest.approx(-ref.fun, rel=3e-8) and om == pytest.approx(ref.x, rel=1e-5)
+    assert a == pytest.approx(1.5960e-5, rel=1e-4)   # at 103.25 Hz; the old stop: 101.16 Hz
 
 
 def test_the_linear_solver_accepts_exact_solutions_on_the_floor():
