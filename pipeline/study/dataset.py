@@ -38,7 +38,7 @@ from ..model.scene import AT, stiffness_factors
 from ..model.system import lowest_frequencies
 from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
-from .incomplete import CASE_FLAGS
+from .incomplete import CASE_FLAGS, PEAK_NAME, case_flags
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
 
@@ -206,8 +206,7 @@ def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
                                 and c.info.get("unresolved_resonance_steps", 1) == 0)
     v["status"][idx] = c.status
     v["residual_tolerance"][idx] = c.tolerance
-    v["peak_complete"][idx] = c.success
-    v["roundoff_points"][idx] = c.info.get("roundoff_points", 0)
+    v["peak_complete"][idx], v["roundoff_points"][idx] = case_flags(c)
     return readable_message(str(c.message), lay.to_unit, lay.unit)
 
 
@@ -226,8 +225,7 @@ def response_meta(unit: str, computed: bool) -> dict:
         "stable": (("point",), "1", stable_name),
         "residual": (("point",), "N", "recomputed harmonic balance residual norm"),
         "newton_iterations": (("point",), "1", "Newton iterations at this point (-1: padding)"),
-        "peak_amplitude": (("sector", "dof"), "m", "largest amplitude over converged points "
-                           "(the peak of the frequency interval only where peak_complete = 1)"),
+        "peak_amplitude": (("sector", "dof"), "m", PEAK_NAME),
         "peak_frequency": (("sector", "dof"), unit, "frequency of the largest amplitude"),
         "fold_frequency": (("fold",), unit, "frequency of a fold (turning point) of the branch"),
         "fold_amplitude": (("sector", "fold", "dof"), "m",

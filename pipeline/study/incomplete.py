@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+PEAK_NAME = ("largest amplitude over converged points (the peak of the frequency interval "
+             "only where peak_complete = 1)")
 # (dims after the sweep axes, units, long_name) of the per-case flags (`dataset`)
 CASE_FLAGS = {
     "peak_complete": ((), "1", "1: the branch covers the frequency interval, so "
@@ -16,6 +18,12 @@ CASE_FLAGS = {
     "roundoff_points": ((), "1", "points accepted on the round-off floor of their residual, "
                         "above residual_tolerance (-1: case failed)"),
 }
+
+
+def case_flags(curve) -> tuple:
+    """(peak_complete, roundoff_points) of a finished curve: whether it covers its
+    interval (`success`), and its points accepted on the round-off floor."""
+    return bool(curve.success), int(curve.info.get("roundoff_points", 0))
 
 
 def incomplete_cases(study, ds) -> list:
