@@ -4,6 +4,7 @@ import logging
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 import xarray as xr
 from scipy.optimize import minimize_scalar
 
@@ -56,6 +57,23 @@ def test_exact_solution_residual_is_above_the_tolerance_and_below_the_floor():
         assert ok and on_floor == (rd > tols[1]) and norm == pytest.approx(np.hypot(rs, rd))
         above += rd > tols[1]
     assert above >= 8   # the exact solution itself mostly misses the tolerance
+
+
+def test_the_condensed_floor_is_that_of_the_summed_terms():
+    s, w1 = stiff_chain()
+    prob = hbm.setup(s, 2)
+    x = exact_coefficients(s, w1, 2)[prob.c].ravel()
+    R, J, _ = hbm.residual(prob, x, w1)
+    loads = roundoff.load_scales(prob)
+    dense = roundoff.condensed_floor(prob, x, J, loads)
+    sparse = roundoff.condensed_floor(prob, x, sp.csr_matrix(J), loads)
+    np.testing.assert_allclose(dense, sparse, rtol=1e-14)
+    # by hand: 8 eps (|J||x| per block + the load scale); only harmonic 1 moves
+    terms = (np.abs(J) @ np.abs(x)).reshape(prob.c.size, prob.nh)
+    eps8 = 8 * np.finfo(float).eps
+    assert dense[1] == pytest.approx(eps8 * (np.linalg.norm(terms[:, 1:]) + 1.0))
+    assert dense[0] == pytest.approx(eps8 * (np.linalg.norm(terms[:, 0]) + 1e3))
+    assert np.linalg.norm(R.reshape(prob.c.size, prob.nh)[:, 1:]) <= dense[1]
 
 
 def test_stiff_chain_reaches_its_range_end_with_the_closed_form_peak(caplog):

@@ -65,7 +65,8 @@ class ResponseCurve:
         return self.parameter.size
 
     def peak(self, dof: int):
-        """(amplitude, omega, index) of the largest converged amplitude of a DOF."""
+        """(amplitude, omega, index) of the largest converged amplitude of a DOF: the
+        peak of the range only if `success` (else the curve stopped short of it)."""
         a = np.where(self.converged, self.amplitude[:, dof], -np.inf)
         i = int(np.argmax(a))
         return float(a[i]), float(self.omega[i]), i
