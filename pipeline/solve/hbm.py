@@ -472,6 +472,7 @@ def tolerances(prob: HBMProblem, tol_rel: float, contact: YangMenq | None = None
     preload cannot swamp them; the static equations also carry the rectified
     (mean) contact forces of the vibration, so their scale includes the dynamic
     load.  Zero excitation falls back to the static scale, then to tol_rel * 1 N.
+    Below the residual's round-off the tolerance is raised per point (`roundoff`).
     """
     elem = contact if contact is not None else prob.system.contact
     bn = np.linalg.norm(prob.bn, axis=1) if prob.bn.size else np.zeros(0)

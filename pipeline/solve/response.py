@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from . import hbm
+from . import hbm, roundoff
 from .branch_refinement import PLOT_AXES, densify, insert_peaks
 from .continuation import continue_branch
 from ..fourier.harmonics import amplitude_half_peak_to_peak
@@ -65,7 +65,8 @@ class ResponseCurve:
         return self.parameter.size
 
     def peak(self, dof: int):
-        """(amplitude, omega, index) of the largest converged amplitude of a DOF."""
+        """(amplitude, omega, index) of the largest converged amplitude of a DOF: the
+        peak of the range only if `success` (else the curve stopped short of it)."""
         a = np.where(self.converged, self.amplitude[:, dof], -np.inf)
         i = int(np.argmax(a))
         return float(a[i]), float(self.omega[i]), i
@@ -112,7 +113,8 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     Pseudo-arclength continuation (`continuation.continue_branch`) of the condensed
     HBM residual (`hbm.residual`), all DOFs recovered, each point's full residual
     recomputed (converged iff its static and harmonic parts are each within
-    `hbm.tolerances` [N]), stability of the full system decided by `stability`
+    `hbm.tolerances` [N], raised where it is smaller to the residual's round-off floor
+    at that point: `roundoff`, counted in info["roundoff_points"]), stability of the full system decided by `stability`
     (True = "hill", "floquet", "hill+check", "monodromy", "monodromy+check" or False:
     `stability_check`).
 
@@ -142,7 +144,8 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     elem = contact if contact is not None else system.contact
     tols = hbm.tolerances(prob, tol_rel, elem)
     w = hbm.row_weights(prob, tols)
-    fun = _weighted(lambda x, lam: hbm.residual(prob, x, lam, elem), w)
+    floored = roundoff.FlooredWeights(prob, tols, roundoff.load_scales(prob, elem))
+    fun = _weighted(lambda x, lam: hbm.residual(prob, x, lam, elem), floored)
     tol = 1.0  # on the weighted residual: every block within its own tolerance [N]
     groups = np.repeat(np.arange(prob.c.size), prob.nh)
     guard = step_guard(prob, lambda lam: elem)
@@ -260,12 +263,15 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
     return failed, spent
 
 
-def _weighted(fun, w):
+def _weighted(fun, weights):
     """fun(x, lam) -> (R, J, dR) with every equation divided by its tolerance [N]
-    (row scaling: Newton steps and tangents are unchanged, only the test is).  A
-    dense J is scaled in place: `hbm.residual` returns a fresh one per call."""
+    (row scaling: Newton steps and tangents are unchanged, only the test is), raised
+    to the residual's round-off floor at (x, lam) where that is larger
+    (`roundoff.FlooredWeights`).  A dense J is scaled in place: `hbm.residual`
+    returns a fresh one per call."""
     def f(x, lam):
         R, J, dR = fun(x, lam)
+        w = weights(x, R, J)
         return (w * R, (None if J is None else scale_rows(w, J, in_place=True)),
                 (None if dR is None else w * dR))
     return f
@@ -287,15 +293,19 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
     n, nh = prob.system.n_dof, prob.nh
     Q = np.zeros((P, n, nh))
     res = np.zeros(P)
-    ok = np.zeros(P, bool)
+    ok, floor = np.zeros(P, bool), np.zeros(P, bool)
     omega = np.array([omega_of(l) for l in pts["lam"]], dtype=float)
     for i in range(P):
         el = elem_at(pts["lam"][i])
         Q[i] = hbm.recover(prob, pts["x"][i].reshape(prob.c.size, nh), omega[i])
-        rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q[i], omega[i], el))
-        res[i] = np.hypot(rs, rd)
-        ok[i] = rs <= tols[0] and rd <= tols[1]
+        res[i], ok[i], floor[i] = roundoff.check_point(prob, Q[i], omega[i], el, tols)
     converged = pts["converged"] & ok & np.isfinite(res)
+    n_floor = int(np.sum(floor & converged))
+    if n_floor:
+        logging.getLogger(__name__).warning(
+            "%d of %d points accepted on the round-off floor of their residual, above the "
+            "tolerance (static %.3g N, harmonic %.3g N): the tolerance lies below what "
+            "double precision resolves for this model near its peaks", n_floor, P, *tols)
     amp = amplitude_half_peak_to_peak(Q) if P else np.zeros((0, n))
     bs = branch_stability(prob, Q, omega, pts["lam"], elem_at, converged, stability,
                           br.fold_lam, amp)
@@ -314,6 +324,7 @@ def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapse
               "resonance_guard": bool(pts.get("resonance_guard", False)),
               "min_step": float(br.min_step), "branch_points": int(br.lam.size),
               "tol_static": float(tols[0]), "tol_dynamic": float(tols[1]),
+              "roundoff_points": n_floor,
               "peak_nfev": int(pts["extra_nfev"]), "solve_time": elapsed,
               "dense_points": int(pts.get("dense_points", 0)),
               "dense_nfev": int(pts.get("dense_nfev", 0)),
@@ -336,8 +347,7 @@ def fold_amplitudes(prob, br, elem_at, tols, omega_of=lambda lam: lam):
     for k, lam in enumerate(lams):
         om = omega_of(lam)
         Q = hbm.recover(prob, np.asarray(br.fold_x[k]).reshape(prob.c.size, prob.nh), om)
-        rs, rd = hbm.residual_parts(hbm.full_residual(prob, Q, om, elem_at(lam)))
-        if rs <= tols[0] and rd <= tols[1]:
+        if roundoff.check_point(prob, Q, om, elem_at(lam), tols)[1]:
             out[k] = amplitude_half_peak_to_peak(Q)
     return out
 
@@ -389,7 +399,9 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
         hbm.tolerances(prob, tol_rel, _with_preload(base, preload_start, shape)),
         hbm.tolerances(prob, tol_rel, _with_preload(base, preload_end, shape))))
     raw = fun
-    fun = _weighted(lambda x, lam: raw(x, lam), hbm.row_weights(prob, tols))
+    loads = np.max([roundoff.load_scales(prob, _with_preload(base, p, shape))
+                    for p in (preload_start, preload_end)], axis=0)
+    fun = _weighted(lambda x, lam: raw(x, lam), roundoff.FlooredWeights(prob, tols, loads))
     w = hbm.row_weights(prob, tols)
 
     def first_point(lam, guess=None):

@@ -38,6 +38,7 @@ from ..model.scene import AT, stiffness_factors
 from ..model.system import lowest_frequencies
 from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
+from .incomplete import CASE_FLAGS, PEAK_NAME, case_flags
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
 
@@ -165,8 +166,8 @@ def empty_arrays(lay: Layout) -> dict:
                 n_points=full((), 0, np.int32),
                 wall_time=full((), np.nan), residual_evaluations=full((), -1, np.int32),
                 success=full((), False, bool), status=full((), -1, np.int32),
-                peaks_resolved=full((), False, bool),
-                residual_tolerance=full((), np.nan),
+                peaks_resolved=full((), False, bool), peak_complete=full((), False, bool),
+                residual_tolerance=full((), np.nan), roundoff_points=full((), -1, np.int32),
                 natural_frequency_stuck=full((n,), np.nan),
                 natural_frequency_free=full((n,), np.nan),
                 window_peak_amplitude=full((S, W, D), np.nan),
@@ -205,6 +206,7 @@ def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
                                 and c.info.get("unresolved_resonance_steps", 1) == 0)
     v["status"][idx] = c.status
     v["residual_tolerance"][idx] = c.tolerance
+    v["peak_complete"][idx], v["roundoff_points"][idx] = case_flags(c)
     return readable_message(str(c.message), lay.to_unit, lay.unit)
 
 
@@ -223,7 +225,7 @@ def response_meta(unit: str, computed: bool) -> dict:
         "stable": (("point",), "1", stable_name),
         "residual": (("point",), "N", "recomputed harmonic balance residual norm"),
         "newton_iterations": (("point",), "1", "Newton iterations at this point (-1: padding)"),
-        "peak_amplitude": (("sector", "dof"), "m", "largest amplitude over converged points"),
+        "peak_amplitude": (("sector", "dof"), "m", PEAK_NAME),
         "peak_frequency": (("sector", "dof"), unit, "frequency of the largest amplitude"),
         "fold_frequency": (("fold",), unit, "frequency of a fold (turning point) of the branch"),
         "fold_amplitude": (("sector", "fold", "dof"), "m",
@@ -238,7 +240,7 @@ def response_meta(unit: str, computed: bool) -> dict:
                            "1: every resonance the branch crosses has points inside its "
                            "half-power band (no peak can hide between two points); "
                            "0: not excluded (see the case's message)"),
-        "residual_tolerance": ((), "N", "residual norm accepted as converged"),
+        "residual_tolerance": ((), "N", "residual norm accepted as converged"), **CASE_FLAGS,
         "natural_frequency_free": (("mode",), unit, "undamped natural frequency without contacts "
                                                    f"(the lowest, at most {MAX_MODES})"),
         "natural_frequency_stuck": (("mode",), unit,

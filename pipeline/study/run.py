@@ -28,6 +28,7 @@ from ..errors import UsageError, interrupt_in_chain
 from .cases import default_solver, run_case, separation_guard
 from .checkpoint import checkpoint_dir, kept_cases, load_cases, remove_stale, save_case
 from .documents import load_study
+from .incomplete import incomplete_cases
 from .mistuned import tuned_references
 from .response_figures import sector_output_dofs, write_figures
 from .spec import SWEEP_AXES, Study, StudyResult
@@ -390,6 +391,12 @@ def _kept(out, name) -> str:
     return f"{n} finished case(s) are kept in {d}, rerun the same command to resume"
 
 
+def _case_words(case: dict) -> str:
+    """'preload = 10 N, ...': a case's sweep values with their units."""
+    return ", ".join(f"{k} = {v:g}" + ("" if SWEEP_AXES[k][0] == "1" else f" {SWEEP_AXES[k][0]}")
+                     for k, v in case.items())
+
+
 def cmd_run(args) -> int:
     """`python -m pipeline run`: 0 ok, 1 a case failed or nothing converged, 2 bad input."""
     try:
@@ -436,9 +443,9 @@ def cmd_run(args) -> int:
         print(f"error: {args.study}: {exc}; {_kept(out, study.name)}", file=sys.stderr)
         return 1
     for case, reason in res.failed:  # one line each, whether or not a progress bar hid the log
-        values = ", ".join(f"{k} = {v:g}" + ("" if SWEEP_AXES[k][0] == "1" else
-                                             f" {SWEEP_AXES[k][0]}") for k, v in case.items())
-        print(f"error: {args.study}: case {values}: {reason}", file=sys.stderr)
+        print(f"error: {args.study}: case {_case_words(case)}: {reason}", file=sys.stderr)
+    for case, what in incomplete_cases(study, res.dataset):  # a peak that may lie beyond
+        print(f"warning: {args.study}: case {_case_words(case)}: {what}", file=sys.stderr)
     if res.reused:
         log.info("%s: %d case(s) reused from the interrupted run, %d computed",
                  study.name, res.reused, res.computed)
