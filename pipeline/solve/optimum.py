@@ -15,7 +15,10 @@ whichever basin its first golden-section points fall in.  `global_minimum` there
    it is flat (both sides within FLAT_REL relative: a stuck or open plateau, not a
    basin);
 3. refines each bracket [t_(i-1), t_(i+1)] by Brent's method (golden section and
-   parabolic steps, started from the known node t_i) to |dt| <= xatol;
+   parabolic steps, started from the known node t_i) to xatol = rtol / REFINE in t
+   (rtol hi / REFINE without log): Brent stops with the minimiser anywhere in a final
+   bracket about 4/3 xatol wide, and the peak is flat at its minimum (Example 1: 1e-6
+   over 1 % of preload), so a tenth of rtol keeps the optimum within rtol with margin;
 4. returns the best of all evaluations.
 
 Assumption (when a minimum can still be missed): the global minimum's basin must hold
@@ -45,6 +48,7 @@ logger = logging.getLogger(__name__)
 
 PER_DECADE = 4          # grid nodes per decade of preload (log spacing)
 MIN_NODES = 7           # at least this many grid nodes however narrow the bounds
+REFINE = 10            # Brent's xatol = rtol / REFINE (module docstring)
 FLAT_REL = 1e-7         # a local minimum shallower than this (relative) is a plateau
 GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))
 SQRT_EPS = math.sqrt(np.finfo(float).eps)
@@ -155,8 +159,8 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
                    on_evaluation=None) -> dict:
     """The preload in `bounds` [N] with the smallest value of evaluate(n0) -> (peak,
     omega), peak = inf for a failed evaluation (see the module docstring: grid,
-    brackets of every local minimum, Brent in each to |d ln n0| <= rtol (`log`) or
-    |d n0| <= rtol hi).
+    brackets of every local minimum, Brent in each to |d ln n0| <= rtol / REFINE
+    (`log`) or |d n0| <= rtol hi / REFINE).
 
     known: {n0: (peak, omega)} evaluated before (reused, never recomputed: the cases,
     an interrupted search's checkpoint); extra_nodes: preloads added to the grid
@@ -191,7 +195,7 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
     nodes = grid_nodes(lo, hi, log=log, per_decade=per_decade, extra=extra_nodes)
     values = [peak_at(n0) for n0 in nodes]
     t = [to_t(n0) for n0 in nodes]
-    xatol = rtol if log else rtol * hi
+    xatol = (rtol if log else rtol * hi) / REFINE
     brackets = []
     for i in sorted(local_minima(values), key=lambda i: values[i]):
         a, b = t[max(i - 1, 0)], t[min(i + 1, len(t) - 1)]

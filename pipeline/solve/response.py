@@ -416,7 +416,7 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     curve (it may miss its peak) is a failed evaluation, never a candidate.  The
     peak-vs-preload curve is sampled on a grid (`per_decade` nodes per decade, on
     log(n0) by default: preloads span decades), every local minimum of the grid is
-    bracketed and refined by Brent to `rtol` in log(n0), and the best is taken
+    bracketed and refined by Brent (the optimum within `rtol` in log(n0)), the best taken
     (`optimum.global_minimum`, which states when a minimum can still be missed).
     known {n0: (peak, omega)} are reused, extra_nodes join the grid (the study's cases);
     on_evaluation(n0, peak, omega) follows each new evaluation.  Returns the dict of `optimum.global_minimum`.
