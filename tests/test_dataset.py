@@ -523,7 +523,7 @@ def test_example1_quick(quick_runs):
     # the optimum normal load, found by a search: between the paper's 2 N and 5 N
     # curves and no worse than any preload the search evaluated
     assert 2.0 < float(ds["optimum_preload"]) < 5.0
-    assert float(ds["optimum_peak_amplitude"]) <= float(ds["search_peak_amplitude"].min()) + 1e-15
+    assert float(ds["optimum_peak_amplitude"]) <= float(ds["optimum_search_peak"].min()) + 1e-15
     assert float(ds["optimum_peak_amplitude"]) < float(ds["peak_amplitude"].sel(preload=2.0, dof="x"))
     assert problems(res.path) == []
 

@@ -190,3 +190,61 @@ def test_a_kept_search_of_another_search_or_a_broken_file_is_ignored(tmp_path):
     search_file(tmp_path).write_bytes(b"CDF\x01 truncated")
     assert load_search(tmp_path, IDENT) == {}
     assert load_search(tmp_path / "absent", IDENT) == {}
+
+
+# ---------------------------------------------------------------------------
+# the figure
+# ---------------------------------------------------------------------------
+
+def _tick_boxes(fig, axis):
+    renderer = fig.canvas.get_renderer()
+    return [t.get_window_extent(renderer) for t in axis.get_ticklabels()
+            if t.get_visible() and t.get_text()]
+
+
+def test_the_figure_is_the_curve_in_preload_order_with_the_optimum_labelled(fake_peaks,
+                                                                            tmp_path):
+    """Every evaluation joined in preload order (given here in reverse), log preload
+    axis (3 decades), the optimum starred with its value and unit; a long title wraps
+    instead of widening the canvas; no two tick labels overlap."""
+    import matplotlib.image as mpimg
+    from pipeline.study.optimum_figure import optimum_figure, optimum_plot
+
+    opt = response.optimum_preload(lambda n0: n0, 1, 1.0, 2.0, 0, BOUNDS, rtol=1e-3)
+    shuffled = {**opt, "evaluations": list(reversed(opt["evaluations"]))}
+    fig = optimum_plot(shuffled, "x", title="a long study title " * 12)
+    ax = fig.axes[0]
+    x = ax.lines[0].get_xdata()
+    assert len(x) == len(opt["evaluations"]) and np.all(np.diff(x) > 0)
+    assert ax.get_xscale() == "log"
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert f"optimum {opt['preload']:.4g} N: peak {opt['peak']:.4g} m" in labels
+    assert "\n" in ax.get_title()
+    fig.canvas.draw()
+    for axis in (ax.xaxis, ax.yaxis):
+        boxes = _tick_boxes(fig, axis)
+        assert len(boxes) >= 2
+        assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    short = mpimg.imread(optimum_figure(tmp_path / "short.png", opt, "x", "short"))
+    long = mpimg.imread(optimum_figure(tmp_path / "long.png", opt, "x", "word " * 200))
+    assert long.shape[1] <= short.shape[1] + 2
+
+
+def test_the_figure_of_a_narrow_range_has_linear_axes_and_readable_ticks():
+    """Preloads within a factor 2.5 (linear axis), peaks within 1 %: ticks readable."""
+    ev = [(n0, 1e-4 * (1 + 0.01 * (n0 - 3.5) ** 2), 200.0) for n0 in np.linspace(2, 5, 9)]
+    fig = optimum_plot_of(ev)
+    ax = fig.axes[0]
+    assert ax.get_xscale() == "linear" and ax.get_yscale() == "linear"
+    fig.canvas.draw()
+    for axis in (ax.xaxis, ax.yaxis):
+        boxes = _tick_boxes(fig, axis)
+        assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+
+
+def optimum_plot_of(ev):
+    from pipeline.study.optimum_figure import optimum_plot
+
+    best = min(ev, key=lambda e: e[1])
+    return optimum_plot({"evaluations": ev, "preload": best[0], "peak": best[1],
+                         "peak_omega": best[2], "grid": [e[0] for e in ev]}, "x")

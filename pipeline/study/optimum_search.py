@@ -1,0 +1,84 @@
+"""The optimum-preload search of a study (`[output.optimum_preload]`): the study's
+systems at each trial preload, its cases' peaks reused as grid nodes, the evaluations
+kept on disk as they come so that an interrupted search resumes
+(`response.optimum_preload`, `search_checkpoint`)."""
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+from ..solve.response import optimum_preload
+from .cases import separation_guard
+from .search_checkpoint import load_search, save_search
+from .spec import Study
+
+log = logging.getLogger("pipeline.study.run")
+
+
+def find_optimum(study: Study, cases=None, cdir=None) -> dict:
+    """The preload that minimises the resonant peak (`response.optimum_preload`): a
+    grid over the bounds, Brent in every bracketed minimum, the best taken; the other
+    sweep axes keep the scene's own values.
+
+    cases: [(grid case, ResponseCurve)] of the study's HBM cases; their peaks are
+    reused as grid nodes where they are the search's own curve (a preload-only case,
+    complete, over the search's window, its peak located exactly).  cdir: a checkpoint
+    folder where the evaluations are kept as they come (`search_checkpoint`), so an
+    interrupted search resumes where it stopped."""
+    o, sv = study.output.optimum, study.solver
+    window = o["window"] or study.sweep.frequency
+    dof = study.scene.dofs.index(o["dof"])
+    kw = {k: v for k, v in sv.kwargs().items() if k not in ("stability",)}
+    guard, current = separation_guard(study), {}
+    identity = {"dof": o["dof"], "bounds": list(o["bounds"]), "rtol": o["rtol"],
+                "window": [window.omega_start, window.omega_stop], "harmonics": sv.harmonics}
+    kept = load_search(cdir, identity) if cdir is not None else {}
+    free = case_peaks(study, cases or [], window, dof)
+
+    def build(n0):
+        system = study.system({"preload": n0})
+        if guard is not None:  # each evaluation's continuation checked (declared.py)
+            current["check"] = guard.callback(system, sv.harmonics)
+        return system
+
+    def keep(n0, peak, omega):
+        kept[n0] = (peak, omega)
+        if cdir is not None:
+            save_search(cdir, identity, kept)
+
+    if guard is not None:
+        kw["callback"] = lambda x, lam: current["check"](x, lam)
+    if kept:
+        log.info("%s: optimum search resumes with %d evaluation(s) kept in %s", study.name,
+                 len(kept), cdir)
+    t0 = time.perf_counter()
+    res = optimum_preload(build, sv.harmonics, window.omega_start, window.omega_stop, dof,
+                          o["bounds"], rtol=o["rtol"], known={**kept, **free},
+                          extra_nodes=list(free), on_evaluation=keep, **kw)
+    res["wall_time"] = time.perf_counter() - t0
+    fr = study.sweep.frequency
+    log.info("%s: optimum preload %.4g N (peak %.4g m at %.4g %s), %d evaluations (%d "
+             "computed, %d reused), %d bracket(s), %.1f s", study.name, res["preload"],
+             res["peak"], res["peak_omega"] / fr.to_rad_s, fr.unit, len(res["evaluations"]),
+             res["computed"], res["reused"], len(res["brackets"]), res["wall_time"])
+    return res
+
+
+def case_peaks(study: Study, cases, window, dof) -> dict:
+    """{preload: (peak, omega)} of the cases that are the optimum search's own curve:
+    only the preload varies, the curve is complete, its window is the search's and its
+    peak of `dof` was located exactly (lumped scenes: every DOF; others: output DOFs)."""
+    fr = study.sweep.frequency
+    if (window.omega_start, window.omega_stop) != (fr.omega_start, fr.omega_stop):
+        return {}
+    if study.scene.model != "lumped" and study.scene.dofs[dof] not in study.output.dofs:
+        return {}
+    out = {}
+    for case, curve in cases:
+        if set(case) == {"preload"} and curve is not None and curve.success:
+            a, om, _ = curve.peak(dof)
+            if np.isfinite(a):
+                out[float(case["preload"])] = (a, om)
+    return out

@@ -1,0 +1,96 @@
+"""The optimum-preload search inside a study run (Example 1, quick): the cases' peaks
+are grid nodes, and a run interrupted in the search resumes from its kept evaluations."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pipeline.solve.response as response
+from pipeline.study.checkpoint import checkpoint_dir
+from pipeline.study.dataset import read_dataset
+from pipeline.study.documents import parse_study
+from pipeline.study.run import run_study
+from pipeline.study.search_checkpoint import search_file
+
+ROOT = Path(__file__).resolve().parents[1]
+TEXT = (ROOT / "studies" / "paper_example1.toml").read_text()
+# the search over the cases' own window, so that the 2 N case is the search's curve
+WINDOW = 'frequency = { start = 170.0, stop = 230.0, unit = "rad/s" }\n'
+assert TEXT.count(WINDOW) == 1
+TEXT = TEXT.replace(WINDOW, "").replace("stability = true", "stability = false")
+
+
+class Counted:
+    """response.frequency_response counting the preloads it is called at (the search's
+    only: the cases run the real function), KeyboardInterrupt at call `stop_at`."""
+
+    def __init__(self, real, stop_at=None):
+        self.real, self.stop_at, self.preloads = real, stop_at, []
+
+    def __call__(self, system, *args, **kw):
+        if self.stop_at is not None and len(self.preloads) == self.stop_at:
+            raise KeyboardInterrupt
+        self.preloads.append(float(system.contact.n0[0]))
+        return self.real(system, *args, **kw)
+
+
+@pytest.fixture(scope="module")
+def study():
+    return parse_study(TEXT, name="ex1_optimum", quick=True)
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(study, tmp_path_factory):
+    real = response.frequency_response
+    mp = pytest.MonkeyPatch()
+    counted = Counted(real)
+    mp.setattr(response, "frequency_response", counted)
+    try:
+        res = run_study(study, tmp_path_factory.mktemp("whole"), workers=1, solver=real,
+                        figures=False, progress=False)
+    finally:
+        mp.undo()
+    return res, counted.preloads
+
+
+def test_the_cases_are_grid_nodes_not_recomputed(study, uninterrupted):
+    """The 2 N case (inside the bounds [0.5, 100] N, over the search's window) is a grid
+    node whose peak is the case's own: the search never traces 2 N again."""
+    res, preloads = uninterrupted
+    ds = read_dataset(res.path)
+    assert 2.0 not in preloads
+    p = ds["optimum_search_preload"].values
+    assert 2.0 in p
+    case_peak = float(ds["peak_amplitude"].sel(preload=2.0, dof="x"))
+    assert float(ds["optimum_search_peak"].values[list(p).index(2.0)]) == pytest.approx(
+        case_peak, rel=1e-12)
+    assert len(preloads) == p.size - 1
+    # the optimum of Example 1 (README: 3.08 N) and no evaluated preload better
+    assert 2.9 < float(ds["optimum_preload"]) < 3.3
+    assert float(ds["optimum_peak_amplitude"]) == float(ds["optimum_search_peak"].min())
+
+
+def test_a_run_interrupted_in_the_search_resumes_it(study, uninterrupted, tmp_path, monkeypatch):
+    """Ctrl-C after k = 6 of the search's evaluations: the cases and those 6 are kept;
+    the rerun recomputes no case and none of the 6, and its optimum and search curve
+    equal the uninterrupted run's."""
+    whole, whole_preloads = uninterrupted
+    real, k = response.frequency_response, 6
+    first = Counted(real, stop_at=k)
+    monkeypatch.setattr(response, "frequency_response", first)
+    with pytest.raises(KeyboardInterrupt):
+        run_study(study, tmp_path, workers=1, solver=real, figures=False, progress=False)
+    assert first.preloads == whole_preloads[:k]
+    assert search_file(checkpoint_dir(study, tmp_path, real)).is_file()
+
+    second = Counted(real)
+    monkeypatch.setattr(response, "frequency_response", second)
+    res = run_study(study, tmp_path, workers=1, solver=real, figures=False, progress=False)
+    assert res.ok and res.reused == len(study.sweep.cases()) and res.computed == 0
+    assert not set(second.preloads) & set(first.preloads)
+    assert second.preloads == pytest.approx(whole_preloads[k:], rel=1e-12)
+    a, b = read_dataset(res.path), read_dataset(whole.path)
+    for name in ("optimum_preload", "optimum_peak_amplitude", "optimum_search_preload",
+                 "optimum_search_peak"):
+        np.testing.assert_allclose(a[name].values, b[name].values, rtol=1e-12)
+    assert not checkpoint_dir(study, tmp_path, real).exists()
