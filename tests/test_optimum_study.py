@@ -94,3 +94,37 @@ def test_a_run_interrupted_in_the_search_resumes_it(study, uninterrupted, tmp_pa
                  "optimum_search_peak"):
         np.testing.assert_allclose(a[name].values, b[name].values, rtol=1e-12)
     assert not checkpoint_dir(study, tmp_path, real).exists()
+
+
+def test_optimise_interrupted_resumes_on_rerun(tmp_path):
+    """`python -m pipeline optimise`: SIGINT once the search has kept an evaluation
+    exits 130 saying where they are kept; the rerun reuses them (its line says how
+    many) and removes the file."""
+    import os
+    import re
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    cmd = [sys.executable, "-m", "pipeline", "optimise", str(ROOT / "studies" /
+                                                             "paper_example3.toml"),
+           "--quick", "--out", str(tmp_path)]
+    env = dict(os.environ, MPLBACKEND="Agg")
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
+                            cwd=ROOT)
+    t_end = time.time() + 300
+    while time.time() < t_end and proc.poll() is None:
+        if list(tmp_path.glob(".paper_example3.*.cases/optimum-search.nc")):
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, "the search ended before it was interrupted"
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err.decode()
+    assert "evaluations are kept in" in err.decode() and "Traceback" not in err.decode()
+    again = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=ROOT, timeout=600)
+    assert again.returncode == 0, again.stderr
+    reused = int(re.search(r"(\d+) reused", again.stdout).group(1))
+    assert reused >= 1
+    assert not list(tmp_path.glob(".paper_example3.*.cases"))
