@@ -73,6 +73,8 @@ def test_optimum_preload_finds_the_global_minimum_of_a_bimodal_curve(fake_peaks)
     assert len(nodes) == 2
     assert any(abs(math.log(x) - T_LOCAL) < 0.6 for x in nodes)
     assert any(abs(math.log(x) - T_GLOBAL) < 0.6 for x in nodes)
+    # cost: the 13 nodes of 3 decades, then Brent's parabolic steps (exact on a parabola)
+    assert len(opt["grid"]) == 13 and len(fake_peaks) <= 13 + 2 * 6
 
 
 def test_a_dip_narrower_than_the_grid_spacing_can_be_missed():
