@@ -274,6 +274,10 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
                  "only the failed ones", study.name, failures, cdir)
     if figures:
         res.figures = write_figures(study, ds, out_dir / study.name, tuned)
+        if optimum is not None:   # the peak-versus-preload curve the optimum was found on
+            from .optimum_figure import optimum_figure
+            res.figures.append(optimum_figure(out_dir / study.name / "optimum_preload.png",
+                                              optimum, study.output.optimum["dof"], study.title))
         for p in res.figures:
             log.info("wrote %s", p)
     res.wall_time = time.perf_counter() - t0
