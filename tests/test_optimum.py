@@ -106,9 +106,9 @@ def test_grid_nodes_log_spaced_with_the_cases_added():
 
 def test_local_minima_skip_plateaus_and_failures():
     v = [3.0, 2.0, 2.5, 1.0, 1.0 + 1e-12, 1.0, np.inf, 0.5]
-    # 1 (a basin), 3 (a basin: its right side is a plateau but its left is deep),
-    # not 5 (equal to its left neighbour within noise and below an inf: a
-    # plateau's end would still count, its left side is within FLAT_REL), 7 (end)
+    # 1: a basin; 3: a basin (flat to its right, deep to its left); not 5: its only
+    # finite neighbour is equal within FLAT_REL (a plateau beside a failed evaluation);
+    # 7: the end node, below a failed evaluation
     assert local_minima(v) == [1, 3, 7]
     assert local_minima([1.0, 1.0 + 1e-13, 1.0 - 1e-13]) == []
     assert local_minima([np.inf, np.inf]) == []
