@@ -36,6 +36,7 @@ def find_optimum(study: Study, cases=None, cdir=None) -> dict:
                 "window": [window.omega_start, window.omega_stop], "harmonics": sv.harmonics}
     kept = load_search(cdir, identity) if cdir is not None else {}
     free = case_peaks(study, cases or [], window, dof)
+    fr = study.sweep.frequency
 
     def build(n0):
         system = study.system({"preload": n0})
@@ -45,6 +46,8 @@ def find_optimum(study: Study, cases=None, cdir=None) -> dict:
 
     def keep(n0, peak, omega):
         kept[n0] = (peak, omega)
+        log.info("%s: optimum search: %.6g N: peak %.4g m at %.5g %s", study.name, n0, peak,
+                 omega / fr.to_rad_s, fr.unit)
         if cdir is not None:
             save_search(cdir, identity, kept)
 
@@ -58,7 +61,6 @@ def find_optimum(study: Study, cases=None, cdir=None) -> dict:
                           o["bounds"], rtol=o["rtol"], known={**kept, **free},
                           extra_nodes=list(free), on_evaluation=keep, **kw)
     res["wall_time"] = time.perf_counter() - t0
-    fr = study.sweep.frequency
     log.info("%s: optimum preload %.4g N (peak %.4g m at %.4g %s), %d evaluations (%d "
              "computed, %d reused), %d bracket(s), %.1f s", study.name, res["preload"],
              res["peak"], res["peak_omega"] / fr.to_rad_s, fr.unit, len(res["evaluations"]),
