@@ -56,7 +56,27 @@ def optimum_plot(result, dof, title=""):
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
+    for axis in (ax.xaxis, ax.yaxis):
+        thin_ticks(fig, axis)
     return fig
+
+
+def thin_ticks(fig, axis):
+    """Keep every second, third, ... labelled major tick of `axis` until no two tick
+    labels overlap on the drawn canvas (many decades on a narrow axis)."""
+    from matplotlib.ticker import FixedLocator
+
+    ticks = np.asarray(axis.get_majorticklocs())
+    lo, hi = sorted(axis.get_view_interval())
+    ticks = ticks[(ticks >= lo) & (ticks <= hi)]
+    for step in range(1, max(ticks.size, 1) + 1):
+        axis.set_major_locator(FixedLocator(ticks[::step]))
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        boxes = [t.get_window_extent(renderer) for t in axis.get_ticklabels()
+                 if t.get_visible() and t.get_text()]
+        if not any(a.overlaps(b) for a, b in zip(boxes, boxes[1:])):
+            return
 
 
 def optimum_figure(path, result, dof, title=""):
