@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import logging
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -15,6 +16,32 @@ from .search_checkpoint import load_search, save_search
 from .spec import Study
 
 log = logging.getLogger("pipeline.study.run")
+
+
+def study_optimum(study: Study, solver, curves, cdir=None) -> tuple:
+    """(optimum dict or None, error text or None) of a study run whose cases gave
+    `curves` with `solver`: `find_optimum`, the cases reused when they are HBM curves;
+    a search stopped by an undeclared separation is an error (the dataset is written
+    without it), logged."""
+    from .declared import UndeclaredSeparation
+
+    if study.output.optimum is None:
+        return None, None
+    hbm = getattr(solver, "__module__", "") == "pipeline.solve.response"
+    try:
+        return find_optimum(study, list(zip([c for _, c in study.sweep.cases()], curves))
+                            if hbm else None, cdir), None
+    except UndeclaredSeparation as exc:
+        log.error("%s: optimum preload search stopped: %s", study.name, exc)
+        return None, str(exc)
+
+
+def optimum_figure_of(study: Study, optimum: dict, fig_dir):
+    """`fig_dir/optimum_preload.png`: the peak-versus-preload curve of the search."""
+    from .optimum_figure import optimum_figure   # deferred: matplotlib
+
+    return optimum_figure(Path(fig_dir) / "optimum_preload.png", optimum,
+                          study.output.optimum["dof"], study.title)
 
 
 def find_optimum(study: Study, cases=None, cdir=None) -> dict:

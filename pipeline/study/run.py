@@ -29,7 +29,7 @@ from .cases import default_solver, run_case, separation_guard
 from .checkpoint import checkpoint_dir, kept_cases, load_cases, remove_stale, save_case
 from .documents import load_study
 from .mistuned import tuned_references
-from .optimum_search import find_optimum
+from .optimum_search import optimum_figure_of, study_optimum
 from .response_figures import sector_output_dofs, write_figures
 from .spec import SWEEP_AXES, Study, StudyResult
 
@@ -234,16 +234,7 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     curves = [c for c, _ in results]
     errors = [e for _, e in results]
     failures = sum(c is None for c in curves)
-    optimum, optimum_error = None, None
-    if study.output.optimum is not None:
-        from .declared import UndeclaredSeparation
-        try:
-            hbm = getattr(solver, "__module__", "") == "pipeline.solve.response"
-            optimum = find_optimum(study, list(zip([c for _, c in study.sweep.cases()], curves))
-                                   if hbm else None, cdir)
-        except UndeclaredSeparation as exc:  # the dataset is written without it
-            optimum_error = str(exc)
-            log.error("%s: optimum preload search stopped: %s", study.name, exc)
+    optimum, optimum_error = study_optimum(study, solver, curves, cdir)
     tuned = None
     if getattr(study.scene, "mistuning", None) is not None and int(sum(
             c is not None for c in curves)):   # the tuned disk the mistuning is read against
@@ -275,9 +266,7 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     if figures:
         res.figures = write_figures(study, ds, out_dir / study.name, tuned)
         if optimum is not None:   # the peak-versus-preload curve the optimum was found on
-            from .optimum_figure import optimum_figure
-            res.figures.append(optimum_figure(out_dir / study.name / "optimum_preload.png",
-                                              optimum, study.output.optimum["dof"], study.title))
+            res.figures.append(optimum_figure_of(study, optimum, out_dir / study.name))
         for p in res.figures:
             log.info("wrote %s", p)
     res.wall_time = time.perf_counter() - t0
