@@ -16,8 +16,8 @@ where the exact flow checks the stability of a separating contact: EVALS_PER_CAS
 evaluations' worth per case, continuation, dense output for the figures, recovery,
 stability and peak refinement included).  An optimum-preload search costs about
 OPTIMUM_CURVES cases: its grid and refinement take 19-20 evaluations on the paper
-examples (Example 1 once took 0.7 s for the 10 of a bounded Brent).  It is a rough guide: a case with many more
-points or folds costs more.  An FE blade is not built for the estimate (that alone
+examples (Example 1 once took 0.7 s for the 10 of a bounded Brent).  It is a rough
+guide: a case with many more points or folds costs more.  An FE blade is not built for the estimate (that alone
 takes seconds to minutes); its figure is the measured time per case of
 studies/blade_shroud_contact.toml (full mesh: 8.7-14.4 s; quick mesh: 2.7 s).  A
 dataset is checked by `pipeline.study.dataset_check.problems`.
