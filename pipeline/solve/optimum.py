@@ -1,15 +1,15 @@
 """The global minimum of the resonant peak over the preload: grid, brackets, Brent.
 
 The peak-versus-preload curve p(n0) of a friction damper need not be unimodal: a
-shrouded disk's curve has a local minimum (2.66e-5 m at 1.4 N) beside the global one
-(2.02e-5 m at 6.14 N), and a bounded Brent search over the whole bounds lands in
+shrouded disk's curve (studies/shrouded_disk.toml) has a local minimum (2.658e-5 m at
+1.437 N) beside the global one (2.017e-5 m at 6.144 N), and a bounded Brent search over the whole bounds lands in
 whichever basin its first golden-section points fall in.  `global_minimum` therefore
 
 1. samples p on a grid of nodes t_0 < ... < t_N over the bounds, t = ln n0
    (log spacing: bounds span decades) or t = n0: `grid_nodes` gives
    N + 1 = max(MIN_NODES, ceil(PER_DECADE log10(hi / lo)) + 1) evenly spaced nodes,
-   plus any preloads already evaluated inside the bounds (the study's own cases:
-   free nodes);
+   plus the `extra_nodes` inside the bounds (the study's own cases, whose peaks are
+   known: free nodes);
 2. brackets every local minimum of the sampled curve: a node i with
    p_i < p_(i-1) and p_i <= p_(i+1) (an end node against its one neighbour), unless
    it is flat (both sides within FLAT_REL relative: a stuck or open plateau, not a
@@ -29,8 +29,8 @@ spacing can fall between two nodes whose values both exceed those of another bas
 the grid then never brackets it and the search returns the best minimum it did
 bracket.  Friction-damper peaks vary smoothly with log n0 over a fraction of a decade
 or more (the slip onset moves with n0 / mu ku), so PER_DECADE = 4 (factor 1.78
-between nodes) resolves the two basins of the shrouded disk (1.4 N and 6.14 N, a
-factor 4.4 apart) with at least one node between them.
+between nodes) resolves the two basins of the shrouded disk (1.44 N and 6.14 N, a
+factor 4.3 apart): nodes 1.78 N and 5.62 N fall in them, 3 N and 3.16 N between.
 
 The function is evaluated through a memo keyed by the exact preload: `known` values
 (the study's case curves, a checkpoint of an interrupted search) are never
@@ -48,7 +48,7 @@ logger = logging.getLogger(__name__)
 
 PER_DECADE = 4          # grid nodes per decade of preload (log spacing)
 MIN_NODES = 7           # at least this many grid nodes however narrow the bounds
-REFINE = 10            # Brent's xatol = rtol / REFINE (module docstring)
+REFINE = 10             # Brent's xatol = rtol / REFINE (module docstring)
 FLAT_REL = 1e-7         # a local minimum shallower than this (relative) is a plateau
 GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))
 SQRT_EPS = math.sqrt(np.finfo(float).eps)
