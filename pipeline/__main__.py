@@ -79,25 +79,43 @@ def _cmd_optimise(args) -> int:
     from pathlib import Path
 
     from .study.declared import UndeclaredSeparation
-    from .study.plots import optimum_figure
+    from .study.optimum_figure import optimum_figure
     from .study.documents import load_study
-    from .study.run import find_optimum, sigint_interrupts
+    from .study.optimum_search import find_optimum
+    from .study.cases import default_solver
+    from .study.checkpoint import checkpoint_dir
+    from .study.run import sigint_interrupts
+    from .study.search_checkpoint import search_file
 
     study = load_study(args.study, quick=args.quick)
     if study.output.optimum is None:
         raise UsageError(f"{args.study}: output.optimum_preload: missing: give dof and "
                          "bounds = [low, high] (N) for the search")
+    # the evaluations are kept as they come (with `run`'s cases of the same study):
+    # a rerun after Ctrl-C resumes the search
+    cdir = checkpoint_dir(study, args.out, default_solver(study))
     try:
         with sigint_interrupts():
-            res = find_optimum(study)
+            res = find_optimum(study, None, cdir)
     except UndeclaredSeparation as exc:
         print(f"error: {args.study}: scene.effects: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        kept = search_file(cdir)
+        print("interrupted" + (f": the search's evaluations are kept in {kept}, rerun the "
+                               "same command to resume" if kept.is_file() else ""),
+              file=sys.stderr)
+        return 130
+    search_file(cdir).unlink(missing_ok=True)
+    if cdir.is_dir() and not any(cdir.iterdir()):
+        cdir.rmdir()
     o = study.output.optimum
     fr = study.sweep.frequency
     print(f"{study.name}: preload minimising the peak of {o['dof']}: {res['preload']:.6g} N "
           f"(peak {res['peak']:.6g} m at {res['peak_omega'] / fr.to_rad_s:.6g} {fr.unit}; "
-          f"{len(res['evaluations'])} evaluations, {res['wall_time']:.1f} s)")
+          f"{len(res['evaluations'])} evaluations: grid of {len(res['grid'])}, "
+          f"{len(res['brackets'])} minimum(s) bracketed and refined, {res['reused']} reused; "
+          f"{res['wall_time']:.1f} s)")
     print(f"{'preload [N]':>14} {'peak [m]':>14} {'at [' + fr.unit + ']':>12}")
     for n0, a, om in res["evaluations"]:
         print(f"{n0:14.6g} {a:14.6g} {om / fr.to_rad_s:12.6g}"

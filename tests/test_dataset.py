@@ -440,7 +440,8 @@ def test_atomic_write_leaves_no_partial_file(tmp_path, ex1, monkeypatch, exc):
 def test_run_study_writes_dataset_and_figures(tmp_path, ex2, workers):
     res = run_study(ex2, tmp_path, workers=workers, solver=linear_reference_solver, progress=False)
     assert res.ok and res.path == tmp_path / "paper_example2.nc"
-    assert sorted(p.name for p in res.figures) == ["amplitude_x1.png", "amplitude_x2.png"]
+    assert sorted(p.name for p in res.figures) == ["amplitude_x1.png", "amplitude_x2.png",
+                                                   "optimum_preload.png"]
     assert all(p.parent == tmp_path / "paper_example2" and p.stat().st_size > 10_000
                for p in res.figures)
     back = read_dataset(res.path)
@@ -523,7 +524,7 @@ def test_example1_quick(quick_runs):
     # the optimum normal load, found by a search: between the paper's 2 N and 5 N
     # curves and no worse than any preload the search evaluated
     assert 2.0 < float(ds["optimum_preload"]) < 5.0
-    assert float(ds["optimum_peak_amplitude"]) <= float(ds["search_peak_amplitude"].min()) + 1e-15
+    assert float(ds["optimum_peak_amplitude"]) <= float(ds["optimum_search_peak"].min()) + 1e-15
     assert float(ds["optimum_peak_amplitude"]) < float(ds["peak_amplitude"].sel(preload=2.0, dof="x"))
     assert problems(res.path) == []
 

@@ -168,7 +168,7 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
     root = Path(__file__).resolve().parents[2] / "studies"
 
     def same(a, b):
-        a, b = (d.drop_vars(["wall_time", "search_wall_time"], errors="ignore") for d in (a, b))
+        a, b = (d.drop_vars(["wall_time", "optimum_search_wall_time"], errors="ignore") for d in (a, b))
         a.attrs.pop("created", None), b.attrs.pop("created", None)
         return a.identical(b)
 

@@ -13,12 +13,12 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from . import hbm, roundoff
 from .branch_refinement import PLOT_AXES, densify, insert_peaks
 from .continuation import continue_branch
 from ..fourier.harmonics import amplitude_half_peak_to_peak
+from .optimum import PER_DECADE, global_minimum
 from .newton import newton, scale_rows
 from .resonance import MAX_DENSE_DOF, step_guard
 from .restarts import cover_range
@@ -419,36 +419,33 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
 
 
 def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
-                    log=True, **kwargs):
-    """The preload [N] in `bounds` that minimises the resonant peak of `dof`.
+                    log=True, known=None, extra_nodes=(), on_evaluation=None,
+                    per_decade=PER_DECADE, **kwargs):
+    """The preload [N] in `bounds` that minimises the resonant peak of `dof`, globally.
 
     build(n0) -> System.  Each evaluation traces the frequency response over
-    [omega_start, omega_end] and takes its exact peak (`insert_peaks`); the
-    peak-vs-preload function is minimised by bounded Brent, on log(n0) by default
-    (preloads span decades), to a relative tolerance `rtol` in n0.
-    Returns a dict: preload, peak, peak_omega, evaluations [(n0, peak, omega)].
+    [omega_start, omega_end] and takes its exact peak (`insert_peaks`); an incomplete
+    curve (it may miss its peak) is a failed evaluation, never a candidate.  The
+    peak-vs-preload curve is sampled on a grid (`per_decade` nodes per decade, on
+    log(n0) by default: preloads span decades), every local minimum of the grid is
+    bracketed and refined by Brent (the optimum within `rtol` in log(n0)), the best taken
+    (`optimum.global_minimum`, which states when a minimum can still be missed).
+    known {n0: (peak, omega)} are reused, extra_nodes join the grid (the study's cases);
+    on_evaluation(n0, peak, omega) follows each new evaluation.  Returns the dict of `optimum.global_minimum`.
     """
-    lo, hi = bounds
-    if not (0 < lo < hi) and log:
+    if log and not 0 < bounds[0] < bounds[1]:
         raise ValueError(f"bounds must satisfy 0 < low < high for a log search, got {bounds}")
-    evals = []
     kwargs.setdefault("stability", False)
     kwargs["dense_output"] = False  # only the peak is read, no curve is drawn
 
-    def peak(t):
-        n0 = float(np.exp(t)) if log else float(t)
+    def peak(n0):
         c = frequency_response(build(n0), H, omega_start, omega_end, peak_dofs=[dof], **kwargs)
-        if not c.success:  # an incomplete curve may miss its peak: never a candidate
+        if not c.success:
             logging.getLogger(__name__).warning("optimum search: curve at %.6g N incomplete "
                                                 "(%s); skipped", n0, c.message)
-            return np.inf
+            return np.inf, np.nan
         a, om, _ = c.peak(dof)
-        evals.append((n0, a, om))
-        return a
+        return a, om
 
-    lims = (np.log(lo), np.log(hi)) if log else (lo, hi)
-    xatol = rtol if log else rtol * hi
-    res = minimize_scalar(peak, bounds=lims, method="bounded", options={"xatol": xatol})
-    best = min(evals, key=lambda e: e[1])
-    return {"preload": best[0], "peak": best[1], "peak_omega": best[2],
-            "evaluations": sorted(evals), "success": bool(res.success)}
+    return global_minimum(peak, bounds, rtol=rtol, log=log, per_decade=per_decade,
+                          known=known, extra_nodes=extra_nodes, on_evaluation=on_evaluation)

@@ -15,8 +15,9 @@ runs of their studies, `--workers 1`, against the same timing: Example 1 at H = 
 where the exact flow checks the stability of a separating contact: EVALS_PER_CASE
 evaluations' worth per case, continuation, dense output for the figures, recovery,
 stability and peak refinement included).  An optimum-preload search costs about
-OPTIMUM_CURVES cases (Example 1: 0.7 s).  It is a rough guide: a case with many more
-points or folds costs more.  An FE blade is not built for the estimate (that alone
+OPTIMUM_CURVES cases: its grid and refinement take 19-20 evaluations on the paper
+examples (Example 1 once took 0.7 s for the 10 of a bounded Brent).  It is a rough
+guide: a case with many more points or folds costs more.  An FE blade is not built for the estimate (that alone
 takes seconds to minutes); its figure is the measured time per case of
 studies/blade_shroud_contact.toml (full mesh: 8.7-14.4 s; quick mesh: 2.7 s).  A
 dataset is checked by `pipeline.study.dataset_check.problems`.
@@ -36,7 +37,7 @@ from ..errors import UsageError
 from ..solve.response import initial_guess
 
 EVALS_PER_CASE = (800, 12000)  # a case's wall time / one residual evaluation (docstring)
-OPTIMUM_CURVES = 6              # an optimum-preload search: about 6 cases' worth (docstring)
+OPTIMUM_CURVES = 12             # an optimum-preload search: about 12 cases' worth (docstring)
 BLADE_CASE_S = (9.0, 15.0)      # studies/blade_shroud_contact.toml, H = 3, per case, 2 cores
 BLADE_QUICK_CASE_S = (2.0, 4.0)  # the same with its [quick] mesh
 

@@ -39,6 +39,7 @@ from ..model.system import lowest_frequencies
 from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
 from .incomplete import CASE_FLAGS, PEAK_NAME, case_flags
+from .optimum_dataset import add_optimum
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
 
@@ -367,7 +368,7 @@ def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> x
                                                                      + 1),
                                             "Fourier coefficient [a0, a1, b1, a2, b2, ...]")
     if optimum is not None:
-        _add_optimum(data_vars, coords, optimum, study, lay.to_unit, lay.unit)
+        add_optimum(data_vars, coords, optimum, study, lay.to_unit, lay.unit)
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=response_attrs(study, lay))
 
 
@@ -446,27 +447,6 @@ def _add_hysteresis(data_vars, study, cases, curves, systems, lay: Layout):
         data_vars[f"hysteresis_{k}"] = (axes, par[k], {"units": u, "long_name": f"{name} of "
                                                        "that element" if k != "frequency"
                                                        else name})
-
-
-def _add_optimum(data_vars, coords, opt, study, to_unit, unit):
-    """Optimum preload (a search, not a grid read-off) and the curve it searched."""
-    dof = study.output.optimum["dof"]
-    ev = np.array(opt["evaluations"], dtype=float).reshape(-1, 3)
-    coords["search_evaluation"] = ("search_evaluation", np.arange(len(ev), dtype=np.int32),
-                                   {"units": "1", "long_name": "evaluation of the optimum search"})
-    data_vars["optimum_preload"] = ((), float(opt["preload"]), {
-        "units": "N", "long_name": f"preload minimising the resonant peak of {dof} "
-                                   "(bounded Brent search on log preload)"})
-    data_vars["optimum_peak_amplitude"] = ((), float(opt["peak"]), {
-        "units": "m", "long_name": f"resonant peak of {dof} at the optimum preload"})
-    data_vars["optimum_peak_frequency"] = ((), float(opt["peak_omega"]) / to_unit, {
-        "units": unit, "long_name": "frequency of that peak"})
-    data_vars["search_preload"] = (("search_evaluation",), ev[:, 0], {
-        "units": "N", "long_name": "preload evaluated by the optimum search"})
-    data_vars["search_peak_amplitude"] = (("search_evaluation",), ev[:, 1], {
-        "units": "m", "long_name": f"resonant peak of {dof} at that preload"})
-    data_vars["search_wall_time"] = ((), float(opt.get("wall_time", np.nan)), {
-        "units": "s", "long_name": "wall time of the optimum search"})
 
 
 def _encoding(ds: xr.Dataset) -> dict:

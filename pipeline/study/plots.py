@@ -1,6 +1,7 @@
 """Figures (matplotlib, Agg backend): hysteresis loops, response curves, peaks per
-sector, optimum preload and modal convergence; the shared helpers (`pyplot`,
-`atomic_savefig`, log axes).  The accuracy-cost Pareto figure is `pareto_figure`."""
+sector and modal convergence; the shared helpers (`pyplot`,
+`atomic_savefig`, log axes).  The accuracy-cost Pareto figure is `pareto_figure`, the
+optimum-preload figure `optimum_figure`."""
 from __future__ import annotations
 
 import os
@@ -341,23 +342,6 @@ def label_log_axis(axis):
     axis.set_major_formatter(FuncFormatter(lambda x, _: f"{x:g}"))
     axis.set_minor_locator(LogLocator(base=10, subs=np.arange(1, 10), numticks=100))
     axis.set_minor_formatter(NullFormatter())
-
-
-def optimum_figure(path, result, dof, title=""):
-    """Resonant peak vs preload from the optimum search (log-log), optimum marked."""
-    ev = np.array(result["evaluations"], dtype=float).reshape(-1, 3)
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    ax.loglog(ev[:, 0], ev[:, 1], "o-", color="#1f77b4", label="evaluated by the search")
-    ax.loglog([result["preload"]], [result["peak"]], "*", ms=14, color="#d62728",
-              label=f"optimum {result['preload']:.4g} N")
-    ax.set(xlabel="preload n0 [N]", ylabel=f"resonant peak of {dof} [m]",
-           title=title or "Optimum preload")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend()
-    out = atomic_savefig(fig, path)
-    plt.close(fig)
-    return out
 
 
 def modal_convergence_figure(path, res, title):

@@ -30,6 +30,7 @@ from .checkpoint import checkpoint_dir, kept_cases, load_cases, remove_stale, sa
 from .documents import load_study
 from .incomplete import incomplete_cases
 from .mistuned import tuned_references
+from .optimum_search import optimum_figure_of, study_optimum
 from .response_figures import sector_output_dofs, write_figures
 from .spec import SWEEP_AXES, Study, StudyResult
 
@@ -173,37 +174,6 @@ def _execute(study, solver, workers, scheduler, progress, cdir=None):
     return results, len(reused)
 
 
-def find_optimum(study: Study) -> dict:
-    """The preload that minimises the resonant peak (`response.optimum_preload`):
-    bounded Brent on log(n0) over the exact peak of each frequency response; the
-    other sweep axes keep the scene's own values."""
-    from ..solve.response import optimum_preload
-
-    o, sv = study.output.optimum, study.solver
-    window = o["window"] or study.sweep.frequency
-    dof = study.scene.dofs.index(o["dof"])
-    kw = {k: v for k, v in sv.kwargs().items() if k not in ("stability",)}
-    guard, current = separation_guard(study), {}
-
-    def build(n0):
-        system = study.system({"preload": n0})
-        if guard is not None:  # each evaluation's continuation checked (declared.py)
-            current["check"] = guard.callback(system, sv.harmonics)
-        return system
-
-    if guard is not None:
-        kw["callback"] = lambda x, lam: current["check"](x, lam)
-    t0 = time.perf_counter()
-    res = optimum_preload(build, sv.harmonics, window.omega_start, window.omega_stop, dof,
-                          o["bounds"], rtol=o["rtol"], **kw)
-    res["wall_time"] = time.perf_counter() - t0
-    fr = study.sweep.frequency
-    log.info("%s: optimum preload %.4g N (peak %.4g m at %.4g %s), %d evaluations, %.1f s",
-             study.name, res["preload"], res["peak"], res["peak_omega"] / fr.to_rad_s, fr.unit,
-             len(res["evaluations"]), res["wall_time"])
-    return res
-
-
 def keep_older_dataset(target: Path):
     """A dataset at `target` written by another pipeline version (or not readable as
     ours) is renamed, never overwritten: `<name>.v<version>.nc` / `<name>.unreadable.nc`."""
@@ -265,14 +235,7 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
     curves = [c for c, _ in results]
     errors = [e for _, e in results]
     failures = sum(c is None for c in curves)
-    optimum, optimum_error = None, None
-    if study.output.optimum is not None:
-        from .declared import UndeclaredSeparation
-        try:
-            optimum = find_optimum(study)
-        except UndeclaredSeparation as exc:  # the dataset is written without it
-            optimum_error = str(exc)
-            log.error("%s: optimum preload search stopped: %s", study.name, exc)
+    optimum, optimum_error = study_optimum(study, solver, curves, cdir)
     tuned = None
     if getattr(study.scene, "mistuning", None) is not None and int(sum(
             c is not None for c in curves)):   # the tuned disk the mistuning is read against
@@ -303,6 +266,8 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
                  "only the failed ones", study.name, failures, cdir)
     if figures:
         res.figures = write_figures(study, ds, out_dir / study.name, tuned)
+        if optimum is not None:   # the peak-versus-preload curve the optimum was found on
+            res.figures.append(optimum_figure_of(study, optimum, out_dir / study.name))
         for p in res.figures:
             log.info("wrote %s", p)
     res.wall_time = time.perf_counter() - t0

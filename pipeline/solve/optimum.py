@@ -1,0 +1,213 @@
+"""The global minimum of the resonant peak over the preload: grid, brackets, Brent.
+
+The peak-versus-preload curve p(n0) of a friction damper need not be unimodal: a
+shrouded disk's curve (studies/shrouded_disk.toml) has a local minimum (2.658e-5 m at
+1.437 N) beside the global one (2.017e-5 m at 6.144 N), and a bounded Brent search over the whole bounds lands in
+whichever basin its first golden-section points fall in.  `global_minimum` therefore
+
+1. samples p on a grid of nodes t_0 < ... < t_N over the bounds, t = ln n0
+   (log spacing: bounds span decades) or t = n0: `grid_nodes` gives
+   N + 1 = max(MIN_NODES, ceil(PER_DECADE log10(hi / lo)) + 1) evenly spaced nodes,
+   plus the `extra_nodes` inside the bounds (the study's own cases, whose peaks are
+   known: free nodes);
+2. brackets every local minimum of the sampled curve: a node i with
+   p_i < p_(i-1) and p_i <= p_(i+1) (an end node against its one neighbour), unless
+   it is flat (both sides within FLAT_REL relative: a stuck or open plateau, not a
+   basin);
+3. refines each bracket [t_(i-1), t_(i+1)] by Brent's method (golden section and
+   parabolic steps, started from the known node t_i) to xatol = rtol / REFINE in t
+   (rtol hi / REFINE without log): Brent stops with the minimiser anywhere in a final
+   bracket about 4/3 xatol wide, and the peak is flat at its minimum (Example 1: 1e-6
+   over 1 % of preload), so a tenth of rtol keeps the optimum within rtol with margin;
+4. returns the best of all evaluations.
+
+Assumption (when a minimum can still be missed): the global minimum's basin must hold
+a grid node whose value is below the nodes on either side, i.e. the interval around
+the minimiser over which p is lower than both neighbouring nodes must be wider than
+the node spacing (1 / PER_DECADE decades with log spacing).  A dip narrower than the
+spacing can fall between two nodes whose values both exceed those of another basin;
+the grid then never brackets it and the search returns the best minimum it did
+bracket.  Friction-damper peaks vary smoothly with log n0 over a fraction of a decade
+or more (the slip onset moves with n0 / mu ku), so PER_DECADE = 4 (factor 1.78
+between nodes) resolves the two basins of the shrouded disk (1.44 N and 6.14 N, a
+factor 4.3 apart): nodes 1.78 N and 5.62 N fall in them, 3 N and 3.16 N between.
+
+The function is evaluated through a memo keyed by the exact preload: `known` values
+(the study's case curves, a checkpoint of an interrupted search) are never
+recomputed, and since the trial points depend only on the values, a resumed search
+visits exactly the same preloads as an uninterrupted one.
+"""
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+
+logger = logging.getLogger(__name__)
+
+PER_DECADE = 4          # grid nodes per decade of preload (log spacing)
+MIN_NODES = 7           # at least this many grid nodes however narrow the bounds
+REFINE = 10             # Brent's xatol = rtol / REFINE (module docstring)
+FLAT_REL = 1e-7         # a local minimum shallower than this (relative) is a plateau
+GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))
+SQRT_EPS = math.sqrt(np.finfo(float).eps)
+MAX_BRENT_STEPS = 100
+
+
+def grid_nodes(lo: float, hi: float, *, log: bool = True, per_decade: float = PER_DECADE,
+               min_nodes: int = MIN_NODES, extra=()) -> np.ndarray:
+    """Sorted preloads [N] of the search grid: N + 1 = max(min_nodes, ceil(per_decade
+    log10(hi / lo)) + 1) nodes evenly spaced in ln n0 (`log`) or in n0 from lo to hi,
+    plus the `extra` preloads inside [lo, hi]; duplicates (relative 1e-12) once."""
+    lo, hi = float(lo), float(hi)
+    if not lo < hi or (log and lo <= 0):
+        raise ValueError(f"bounds must satisfy {'0 < ' if log else ''}low < high, got "
+                         f"({lo:g}, {hi:g})")
+    decades = math.log10(hi / lo) if lo > 0 else 1.0
+    n = max(int(min_nodes), int(math.ceil(per_decade * decades - 1e-9)) + 1)
+    base = np.exp(np.linspace(math.log(lo), math.log(hi), n)) if log else np.linspace(lo, hi, n)
+    base[0], base[-1] = lo, hi      # exactly the bounds (exp(ln x) may round)
+    more = [float(x) for x in extra if lo <= float(x) <= hi]
+    nodes = np.sort(np.concatenate([base, np.asarray(more, dtype=float)]))
+    keep = np.concatenate([[True], np.diff(nodes) > 1e-12 * np.abs(nodes[1:])])
+    # a node within 1e-12 of an extra one: keep the extra one (its value is known)
+    out = []
+    for x, k in zip(nodes, keep):
+        if k:
+            out.append(x)
+        elif x in more:
+            out[-1] = x
+    return np.asarray(out)
+
+
+def local_minima(values) -> list[int]:
+    """Indices i of the local minima of a sampled curve: v_i < v_(i-1) and
+    v_i <= v_(i+1) (an end node against its one neighbour), finite, and not flat
+    (some side deeper than FLAT_REL |v_i|)."""
+    v = np.asarray(values, dtype=float)
+    out = []
+    for i in range(v.size):
+        if not np.isfinite(v[i]):
+            continue
+        left = v[i - 1] if i > 0 else np.inf
+        right = v[i + 1] if i + 1 < v.size else np.inf
+        if not (v[i] < left and v[i] <= right):
+            continue
+        sides = [d for d in (left, right) if np.isfinite(d)]
+        if sides and max(sides) - v[i] <= FLAT_REL * abs(v[i]):
+            continue          # a plateau (both neighbours equal to noise), not a basin
+        out.append(i)
+    return out
+
+
+def brent(f, a: float, b: float, xatol: float, x: float | None = None, fx: float | None = None):
+    """Minimise f on [a, b] by Brent's method (golden section with parabolic steps;
+    Brent 1973, ch. 5) to |x - x*| about xatol.  Started from the interior point x with
+    the known value fx if given, else from the golden point a + 0.382 (b - a).
+    Returns (x, f(x)) of the best point; f may return inf (a failed evaluation)."""
+    if x is None:
+        x = a + GOLDEN * (b - a)
+        fx = f(x)
+    v = w = x
+    fv = fw = fx
+    d = e = 0.0
+    for _ in range(MAX_BRENT_STEPS):
+        m = 0.5 * (a + b)
+        tol = SQRT_EPS * abs(x) + xatol / 3.0
+        if abs(x - m) <= 2.0 * tol - 0.5 * (b - a):
+            break
+        parabolic = False
+        if abs(e) > tol and np.isfinite([fx, fw, fv]).all():
+            r = (x - w) * (fx - fv)
+            q = (x - v) * (fx - fw)
+            p = (x - v) * q - (x - w) * r
+            q = 2.0 * (q - r)
+            if q > 0:
+                p = -p
+            q = abs(q)
+            if abs(p) < abs(0.5 * q * e) and q * (a - x) < p < q * (b - x):
+                e, d = d, p / q
+                parabolic = True
+                if (x + d - a) < 2 * tol or (b - x - d) < 2 * tol:
+                    d = tol if x < m else -tol
+        if not parabolic:
+            e = (b - x) if x < m else (a - x)
+            d = GOLDEN * e
+        u = x + (d if abs(d) >= tol else math.copysign(tol, d))
+        fu = f(u)
+        if fu <= fx:
+            if u < x:
+                b = x
+            else:
+                a = x
+            v, fv, w, fw, x, fx = w, fw, x, fx, u, fu
+        else:
+            if u < x:
+                a = u
+            else:
+                b = u
+            if fu <= fw or w == x:
+                v, fv, w, fw = w, fw, u, fu
+            elif fu <= fv or v == x or v == w:
+                v, fv = u, fu
+    return x, fx
+
+
+def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
+                   per_decade: float = PER_DECADE, known=None, extra_nodes=(),
+                   on_evaluation=None) -> dict:
+    """The preload in `bounds` [N] with the smallest value of evaluate(n0) -> (peak,
+    omega), peak = inf for a failed evaluation (see the module docstring: grid,
+    brackets of every local minimum, Brent in each to |d ln n0| <= rtol / REFINE
+    (`log`) or |d n0| <= rtol hi / REFINE).
+
+    known: {n0: (peak, omega)} evaluated before (reused, never recomputed: the cases,
+    an interrupted search's checkpoint); extra_nodes: preloads added to the grid
+    (those inside the bounds; the cases, whose values are known);
+    on_evaluation(n0, peak, omega) is called after each new evaluation (a checkpoint).  Returns a dict: preload, peak,
+    peak_omega, evaluations [(n0, peak, omega)] sorted by n0 (every preload looked at,
+    reused ones included; peak and omega NaN where the evaluation failed), grid (the
+    nodes), brackets [(low, node, high)] [N], computed (new evaluations), reused,
+    success (some evaluation finite)."""
+    lo, hi = float(bounds[0]), float(bounds[1])
+    memo = {float(k): (float(p), float(o)) for k, (p, o) in dict(known or {}).items()}
+    reused = set()
+    computed = [0]
+
+    def peak_at(n0):
+        n0 = float(n0)
+        if n0 in memo:
+            reused.add(n0)
+            return memo[n0][0]
+        p, om = evaluate(n0)
+        p, om = float(p), float(om)
+        if not np.isfinite(p):
+            p, om = np.inf, np.nan
+        memo[n0] = (p, om)
+        computed[0] += 1
+        if on_evaluation is not None:
+            on_evaluation(n0, p, om)
+        return p
+
+    to_n0 = (lambda t: float(np.exp(t))) if log else float
+    to_t = (lambda n0: math.log(n0)) if log else float
+    nodes = grid_nodes(lo, hi, log=log, per_decade=per_decade, extra=extra_nodes)
+    values = [peak_at(n0) for n0 in nodes]
+    t = [to_t(n0) for n0 in nodes]
+    xatol = (rtol if log else rtol * hi) / REFINE
+    brackets = []
+    for i in sorted(local_minima(values), key=lambda i: values[i]):
+        a, b = t[max(i - 1, 0)], t[min(i + 1, len(t) - 1)]
+        brackets.append((to_n0(a), float(nodes[i]), to_n0(b)))
+        inner = (t[i], values[i]) if 0 < i < len(t) - 1 else (None, None)
+        brent(lambda s: peak_at(to_n0(s)), a, b, xatol, *inner)
+        logger.debug("optimum search: bracket [%.6g, %.6g] N refined", to_n0(a), to_n0(b))
+    evaluations = sorted((n0, (p if np.isfinite(p) else np.nan), om)
+                         for n0, (p, om) in memo.items() if lo <= n0 <= hi)
+    finite = [e for e in evaluations if np.isfinite(e[1])]
+    best = min(finite, key=lambda e: e[1]) if finite else (np.nan, np.nan, np.nan)
+    return {"preload": best[0], "peak": best[1], "peak_omega": best[2],
+            "evaluations": evaluations, "grid": [float(x) for x in nodes],
+            "brackets": brackets, "computed": computed[0], "reused": len(reused),
+            "success": bool(finite)}

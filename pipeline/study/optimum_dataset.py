@@ -1,0 +1,36 @@
+"""The optimum-preload search in the study dataset: the optimum and the
+peak-versus-preload curve it was found on (`response.optimum_preload`)."""
+from __future__ import annotations
+
+import numpy as np
+
+
+def add_optimum(data_vars, coords, opt, study, to_unit, unit):
+    """Optimum preload (a search, not a grid read-off) and the peak-versus-preload curve
+    it was found on: every preload evaluated, sorted, as the coordinate
+    `optimum_search_preload` [N] (NaN peaks: incomplete curves)."""
+    dof = study.output.optimum["dof"]
+    ev = np.array(opt["evaluations"], dtype=float).reshape(-1, 3)
+    dim = "optimum_search_preload"
+    grid = np.asarray(opt.get("grid", []), dtype=float)
+    coords[dim] = (dim, ev[:, 0], {"units": "N", "long_name": "preload evaluated by the "
+                                                              "optimum search"})
+    data_vars["optimum_preload"] = ((), float(opt["preload"]), {
+        "units": "N", "long_name": f"preload minimising the resonant peak of {dof} (peak on "
+                                   f"a grid of {grid.size} preloads over the bounds, Brent in "
+                                   "each bracketed minimum, the best taken)"})
+    data_vars["optimum_peak_amplitude"] = ((), float(opt["peak"]), {
+        "units": "m", "long_name": f"resonant peak of {dof} at the optimum preload"})
+    data_vars["optimum_peak_frequency"] = ((), float(opt["peak_omega"]) / to_unit, {
+        "units": unit, "long_name": "frequency of that peak"})
+    data_vars["optimum_search_peak"] = ((dim,), ev[:, 1], {
+        "units": "m", "long_name": f"resonant peak of {dof} at that preload (NaN: "
+                                   "incomplete curve)"})
+    data_vars["optimum_search_peak_frequency"] = ((dim,), ev[:, 2] / to_unit, {
+        "units": unit, "long_name": "frequency of that peak"})
+    data_vars["optimum_search_is_optimum"] = ((dim,), (ev[:, 0] == opt["preload"]).astype(
+        np.int8), {"units": "1", "long_name": "1 at the optimum preload, else 0"})
+    data_vars["optimum_search_on_grid"] = ((dim,), np.isin(ev[:, 0], grid).astype(np.int8), {
+        "units": "1", "long_name": "1: a node of the search grid, 0: a Brent refinement"})
+    data_vars["optimum_search_wall_time"] = ((), float(opt.get("wall_time", np.nan)), {
+        "units": "s", "long_name": "wall time of the optimum search"})
