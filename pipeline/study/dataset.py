@@ -40,6 +40,7 @@ from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
+from .contact_dataset import add_contact_variables
 
 MAX_MODES = 50    # natural frequencies per case in a dataset (the lowest)
 
@@ -366,7 +367,9 @@ def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> x
                                             "Fourier coefficient [a0, a1, b1, a2, b2, ...]")
     if optimum is not None:
         _add_optimum(data_vars, coords, optimum, study, lay.to_unit, lay.unit)
-    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=response_attrs(study, lay))
+    attrs = response_attrs(study, lay)
+    add_contact_variables(data_vars, coords, attrs, study, cases, curves, systems, lay)
+    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
 
 
 def _add_mistuning_factors(data_vars, study, sectors):
