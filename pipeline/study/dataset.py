@@ -386,8 +386,6 @@ def _add_mistuning_factors(data_vars, study, sectors):
                                    "(mistuned stiffness (1 + delta_j) K)"})
 
 
-
-
 def _add_amplification(data_vars, study, tuned: dict, lay: Layout):
     """`tuned_peak_amplitude` (other axes..., dof) [m] and `amplification_factor`
     (grid axes..., dof) [-] = max over the sectors of the peak / the tuned peak."""
