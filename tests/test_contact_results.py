@@ -86,3 +86,42 @@ def test_dataset_stores_the_static_normal_load_per_pair_and_per_contact():
     assert ds.static_normal_load.attrs["units"] == "N"
     assert "n0 + kv v0" in ds.static_normal_load.attrs["long_name"]
     assert ds.attrs["preload_given"] == "n0"
+
+
+# ---------------------------------------------------------------------------
+# A requested static normal load (sweep.normal_load)
+# ---------------------------------------------------------------------------
+
+def test_requested_static_load_gives_the_preload_of_the_hand_computation():
+    study = two_masses("normal_load = [10.0, 250.0]")
+    for _, case in study.sweep.cases():
+        system = study.system(case)
+        s = static_normal_load(system)
+        assert s[0] == pytest.approx(case["normal_load"], rel=1e-10)
+        # inverse of hand_static_load: n0 = s (k_eff + kv) / k_eff
+        k_eff = K1 * K2 / (K1 + K2)
+        assert system.contact.n0[0] == pytest.approx(case["normal_load"] * (k_eff + KV) / k_eff,
+                                                     rel=1e-12)
+    ds = to_dataset(study, [None, None], errors=["not run", "not run"])
+    assert ds.attrs["preload_given"] == "static_normal_load"
+    np.testing.assert_allclose(ds.static_normal_load.values[:, 0], [10.0, 250.0], rtol=1e-10)
+    assert np.all(ds.preload_total.values[:, 0] > ds.static_normal_load.values[:, 0])
+
+
+@pytest.mark.parametrize("name", ["shrouded_disk", "blade_shroud_contact"])
+def test_requested_static_load_is_recovered_per_face_on_fe_scenes(name):
+    """Face totals of n0 + kv v0 over every node (pair) of each face, the FE blade
+    of two faces against walls and the cyclic shroud pair, to 1e-10."""
+    from pathlib import Path
+    from pipeline.model.static_load import contact_owner, face_totals
+
+    text = (Path(__file__).resolve().parents[1] / "studies" / f"{name}.toml").read_text()
+    text = text.replace("preload = [", "normal_load = [")
+    study = parse_study(text, file=f"{name}.toml", quick=True)
+    owner = contact_owner(study.scene)
+    for _, case in study.sweep.cases()[:2]:
+        system = study.system(case)
+        s = face_totals(static_normal_load(system), owner, len(study.scene.contacts))
+        np.testing.assert_allclose(s, case["normal_load"], rtol=1e-10)
+        n0 = face_totals(system.contact.n0, owner, len(study.scene.contacts))
+        assert np.all(n0 > s)                   # the shroud gives way under its preload
