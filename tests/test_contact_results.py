@@ -125,3 +125,100 @@ def test_requested_static_load_is_recovered_per_face_on_fe_scenes(name):
         np.testing.assert_allclose(s, case["normal_load"], rtol=1e-10)
         n0 = face_totals(system.contact.n0, owner, len(study.scene.contacts))
         assert np.all(n0 > s)                   # the shroud gives way under its preload
+
+
+# ---------------------------------------------------------------------------
+# What the contacts do over a cycle (exact transition times)
+# ---------------------------------------------------------------------------
+
+from pipeline.contact import YangMenq                           # noqa: E402
+from pipeline.contact.cycle import cycle_results                 # noqa: E402
+from pipeline.contact.exact import history                       # noqa: E402
+
+
+@pytest.mark.parametrize("a_over_slip", [0.5, 1.0, 1.5, 4.0, 40.0])
+def test_jenkins_energy_is_the_closed_form(a_over_slip):
+    """1-DOF Jenkins element (kv = 0), u = a cos tau: it sticks while |u - w| <
+    mu n/ku; for a > mu n/ku the loop is a parallelogram of area
+    4 mu n (a - mu n/ku), and each half period sticks for the reversal 2 mu n/ku,
+    a (1 - cos tau_s) = 2 mu n / ku.  For a <= mu n/ku it never slips (0 J)."""
+    ku, mu, n = 1.0e4, 0.5, 10.0
+    d = mu * n / ku
+    a = a_over_slip * d
+    r = cycle_results(np.array([[0.0, a, 0.0, 0.0, 0.0]]), np.zeros((1, 5)),
+                      YangMenq(ku=ku, kv=0.0, mu=mu, n0=n))
+    if a <= d:
+        assert r["energy"][0] == 0.0 and r["stick"][0] == 1.0
+        return
+    assert r["energy"][0] == pytest.approx(4 * mu * n * (a - d), rel=1e-12)
+    tau_s = np.arccos(1.0 - 2.0 * d / a)
+    assert r["stick"][0] == pytest.approx(tau_s / np.pi, rel=1e-10)
+    assert r["slip"][0] == pytest.approx(1.0 - tau_s / np.pi, rel=1e-10)
+    assert r["normal_mean"][0] == pytest.approx(n, rel=1e-15) and r["normal_amplitude"][0] == 0
+
+
+def test_energy_fractions_and_normal_load_against_a_sampled_period():
+    """Yang-Menq elements with variable normal load, separation, and one frictionless
+    element (mu = 0): the dissipated energy against the loop integral
+    contour f_u du of the exact time history sampled at 2^18 points
+    (trapezoidal rule, error O(h^2) ~ 1e-9), the state fractions against the sampled
+    states, the normal force's mean and half peak-to-peak against the samples."""
+    rng = np.random.default_rng(7)
+    E, H = 6, 3
+    U = rng.normal(size=(E, 2 * H + 1)) * 1e-3
+    V = rng.normal(size=(E, 2 * H + 1)) * 1e-3
+    el = YangMenq(ku=1.0e4, kv=2.0e4, mu=np.array([0.3, 0.3, 0.3, 0.3, 0.3, 0.0]),
+                  n0=np.array([5.0, 10.0, 20.0, 40.0, 1000.0, 10.0]))
+    r = cycle_results(U, V, el)
+    K = 1 << 18
+    tau = 2 * np.pi * np.arange(K + 1) / K
+    h = history(U, V, el, tau)
+    loop = np.sum(0.5 * (h["fu"][:, 1:] + h["fu"][:, :-1]) * np.diff(h["u"], axis=1), axis=1)
+    assert np.all(r["energy"][:4] > 1e-3)                  # these slip
+    np.testing.assert_allclose(r["energy"][:4], loop[:4], rtol=1e-8)
+    assert r["energy"][4] == 0.0 and r["stick"][4] == 1.0  # 1000 N: stuck
+    assert r["energy"][5] == 0.0 and abs(loop[5]) < 1e-10   # frictionless
+    total = r["stick"] + r["slip"] + r["separation"]
+    np.testing.assert_allclose(total, 1.0, rtol=1e-13)
+    st = h["state"][:, :-1]
+    sampled = {"stick": st == 1, "slip": (st == 2) | (st == 3), "separation": st == 0}
+    for k, mask in sampled.items():
+        np.testing.assert_allclose(r[k], mask.mean(axis=1), atol=20.0 / K)
+    assert np.all(r["separation"][[0, 2]] > 0.2)           # these separate
+    fv = h["fv"][:, :-1]
+    np.testing.assert_allclose(r["normal_mean"], fv.mean(axis=1), rtol=1e-8)
+    np.testing.assert_allclose(r["normal_amplitude"], 0.5 * (fv.max(1) - fv.min(1)), rtol=1e-8)
+
+
+def test_dataset_energy_balances_the_input_work_at_every_converged_point():
+    """Harmonic balance makes the work of the load over a cycle equal the viscous
+    and friction work exactly (the balanced residual is orthogonal to q', which has
+    only harmonics <= H; stiffness and inertia do no net work), so
+        contour F . dq = Omega pi sum_h q'_h^T C q'_h + sum_e W_e
+    (q' = dq/dtau, tau = Omega t) checks the stored dissipated energy per contact
+    at every converged point, up to the residual tolerance.  The fractions sum to 1."""
+    from pipeline.fourier.harmonics import derivative
+    from pipeline.solve.response import frequency_response
+
+    study = two_masses("preload = [10.0, 40.0]")
+    curves = [frequency_response(study.system(case), 3, 180.0, 320.0, stability=False,
+                                 tol_rel=1e-10, dense_output=False)
+              for _, case in study.sweep.cases()]
+    ds = to_dataset(study, curves)
+    for k, ((_, case), c) in enumerate(zip(study.sweep.cases(), curves)):
+        system = study.system(case)
+        F = system.forcing_coefficients(3)
+        W = ds.dissipated_energy.isel(preload=k, contact=0).values
+        ok = ds.converged.isel(preload=k).values
+        assert ok.sum() > 10 and np.all(np.isfinite(W[ok])) and np.all(np.isnan(W[~ok]))
+        assert W[ok].max() > 1e-4                          # the contact slips somewhere
+        for i in np.flatnonzero(ok):
+            dQ = derivative(c.Q[i])
+            work_in = np.pi * np.sum(F[:, 1:] * dQ[:, 1:])
+            viscous = c.omega[i] * np.pi * np.einsum("ic,ij,jc->", dQ[:, 1:], system.C,
+                                                     dQ[:, 1:])
+            assert work_in == pytest.approx(viscous + W[i], rel=1e-8, abs=1e-14)
+        frac = (ds.stick_fraction + ds.slip_fraction + ds.separation_fraction).isel(preload=k)
+        np.testing.assert_allclose(frac.values[ok], 1.0, rtol=1e-12)
+        np.testing.assert_allclose(ds.dissipated_energy_pair.isel(preload=k).values[ok, 0],
+                                   W[ok], rtol=1e-15)

@@ -11,6 +11,12 @@ every contact closed and stuck, no excitation).  The attribute `preload_given`
 says which of the two the study gave (`sweep.normal_load` gives s; n0 is then
 solved for it).
 
+Per point (sweeps..., point, pair | contact), from the exact transition times of
+each converged point's periodic contact motion (`contact.cycle`): the fractions
+of the period stuck, slipping and separated, the energy dissipated per cycle by
+friction per element and per contact, and the normal contact force's mean and half
+peak-to-peak.  NaN at points that did not converge and at padding.
+
 Only for scenes whose elements are one sector's (not a mistuned disk's full
 assembly); without contacts nothing is added.
 """
@@ -18,6 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contact import YangMenq
+from ..contact.cycle import cycle_results
+from ..fourier.harmonics import shift
 from ..model.static_load import NORMAL_LOAD, contact_owner, face_totals, static_normal_load
 
 
@@ -62,11 +71,83 @@ def static_variables(study, cases, systems) -> dict:
     }
 
 
+def contact_motions(system, Q):
+    """U, V (P, E, 2H+1) [m] of the elements for the DOF coefficients Q (P, n, 2H+1):
+    u = Bt q + Bt_next q(tau + phi) on a cyclic sector (the travelling wave), else
+    u = Bt q; likewise v."""
+    P, n, nh = Q.shape
+    flat = np.moveaxis(Q, 0, 1).reshape(n, P * nh)
+
+    def along(B, X):
+        return np.moveaxis(np.asarray(B @ X).reshape(-1, P, nh), 0, 1)
+
+    U, V = along(system.Bt, flat), along(system.Bn, flat)
+    cy = system.cyclic
+    if cy is not None:
+        nxt = np.moveaxis(shift(Q, cy.phase), 0, 1).reshape(n, P * nh)
+        U, V = U + along(cy.Bt_next, nxt), V + along(cy.Bn_next, nxt)
+    return U, V
+
+
+CYCLE_META = {
+    "stick_fraction": ("pair", "1", "fraction of the period the element sticks"),
+    "slip_fraction": ("pair", "1", "fraction of the period the element slips (either way)"),
+    "separation_fraction": ("pair", "1", "fraction of the period the element is separated"),
+    "dissipated_energy_pair": ("pair", "J", "energy dissipated per cycle by the element's "
+                                            "friction (slider work, contour integral f_u dw)"),
+    "dissipated_energy": ("contact", "J", "energy dissipated per cycle by friction, summed over "
+                                          "the contact's elements"),
+    "normal_load_mean_pair": ("pair", "N", "mean over the period of the element's normal "
+                                           "contact force max(n0 + kv v, 0)"),
+    "normal_load_mean": ("contact", "N", "mean over the period of the normal contact force "
+                                         "summed over the contact's elements"),
+    "normal_load_amplitude_pair": ("pair", "N", "half peak-to-peak of the element's normal "
+                                                "contact force max(n0 + kv v, 0)"),
+}
+PAIR_KEYS = {"stick_fraction": "stick", "slip_fraction": "slip",
+             "separation_fraction": "separation", "dissipated_energy_pair": "energy",
+             "normal_load_mean_pair": "normal_mean",
+             "normal_load_amplitude_pair": "normal_amplitude"}
+
+
+def cycle_variables(study, cases, curves, systems, P) -> dict:
+    """The per-point contact results of every case (module doc)."""
+    owner, C = contact_owner(study.scene), len(study.scene.contacts)
+    shape, E = study.sweep.shape, owner.size
+    out = {k: np.full(shape + (P, C if dim == "contact" else E), np.nan)
+           for k, (dim, _, _) in CYCLE_META.items()}
+    for (idx, _), c, system in zip(cases, curves, systems):
+        if c is None:
+            continue
+        Q = np.asarray(c.Q, float)
+        ok = np.flatnonzero(np.asarray(c.converged, bool) & np.isfinite(c.omega)
+                            & np.all(np.isfinite(Q), axis=(1, 2)))
+        if not ok.size:
+            continue
+        U, V = contact_motions(system, Q[ok])
+        el = system.contact
+        rest = None if el.slider_rest is None else np.tile(el.slider_rest, ok.size)
+        tiled = YangMenq(*(np.tile(getattr(el, k), ok.size) for k in ("ku", "kv", "mu", "n0")),
+                         slider_rest=rest)
+        nh = U.shape[-1]
+        r = cycle_results(U.reshape(-1, nh), V.reshape(-1, nh), tiled)
+        for name, key in PAIR_KEYS.items():
+            out[name][idx][ok] = r[key].reshape(ok.size, E)
+        out["dissipated_energy"][idx][ok] = face_totals(out["dissipated_energy_pair"][idx][ok],
+                                                        owner, C)
+        out["normal_load_mean"][idx][ok] = face_totals(out["normal_load_mean_pair"][idx][ok],
+                                                       owner, C)
+    sw = tuple(study.sweep.axes)
+    return {k: (sw + ("point", dim), out[k], {"units": u, "long_name": ln})
+            for k, (dim, u, ln) in CYCLE_META.items()}
+
+
 def add_contact_variables(data_vars, coords, attrs, study, cases, curves, systems, lay):
     """Add the per-contact variables (module doc) to a response dataset in place."""
     if not study.scene.contacts or lay.sectors is not None:
         return
     coords.update(contact_coords(study.scene))
     data_vars.update(static_variables(study, cases, systems))
+    data_vars.update(cycle_variables(study, cases, curves, systems, lay.P))
     attrs["preload_given"] = ("static_normal_load" if NORMAL_LOAD in study.sweep.axes
                               else "n0")
