@@ -27,6 +27,7 @@ import numpy as np
 from ..contact import YangMenq
 from ..contact.cycle import cycle_results
 from ..fourier.harmonics import shift
+from .harmonics_dataset import add_harmonic_coefficients
 from ..model.static_load import NORMAL_LOAD, contact_owner, face_totals, static_normal_load
 
 
@@ -143,7 +144,9 @@ def cycle_variables(study, cases, curves, systems, P) -> dict:
 
 
 def add_contact_variables(data_vars, coords, attrs, study, cases, curves, systems, lay):
-    """Add the per-contact variables (module doc) to a response dataset in place."""
+    """Add the per-contact variables (module doc) and the response's Fourier
+    coefficients (`harmonics_dataset`) to a response dataset in place."""
+    add_harmonic_coefficients(data_vars, coords, study, cases, curves, lay)
     if not study.scene.contacts or lay.sectors is not None:
         return
     coords.update(contact_coords(study.scene))
