@@ -252,3 +252,45 @@ def test_response_rebuilt_from_its_stored_coefficients_has_the_stored_amplitude(
     np.testing.assert_allclose(np.hypot(c, s), ds.harmonic_amplitude.isel(preload=0).values[ok],
                                rtol=1e-14, atol=1e-300)
     assert np.all(hc.sel(component="sin", harmonic=0).values[ok] == 0.0)
+
+
+def test_contact_motions_are_the_harmonic_balance_motions_on_a_cyclic_sector():
+    """The dataset's U, V of every element (with the next sector's motion shifted by
+    phi = 2 pi EO / N) equal the harmonic balance's own `hbm.contact_motion`."""
+    from pathlib import Path
+    from pipeline.solve import hbm
+    from pipeline.study.contact_dataset import contact_motions
+    from pipeline.study.documents import load_study
+
+    study = load_study(Path(__file__).resolve().parents[1] / "studies" / "shrouded_disk.toml",
+                       quick=True)
+    system = study.system(study.sweep.cases()[0][1])
+    assert system.cyclic is not None
+    H = 2
+    Q = np.random.default_rng(3).normal(size=(3, system.n_dof, 2 * H + 1))
+    U, V = contact_motions(system, Q)
+    prob = hbm.setup(system, H)
+    for p in range(3):
+        Ue, Ve = hbm.contact_motion(prob, Q[p][prob.c])
+        np.testing.assert_allclose(U[p], Ue, rtol=1e-12, atol=1e-12 * np.abs(Ue).max())
+        np.testing.assert_allclose(V[p], Ve, rtol=1e-12, atol=1e-12 * np.abs(Ve).max())
+
+
+def test_checker_accepts_the_contact_variables_and_names_a_broken_one():
+    from pipeline.solve.response import frequency_response
+    from pipeline.study.dataset_check import problems
+
+    study = two_masses("preload = [10.0]")
+    curve = frequency_response(study.system(study.sweep.cases()[0][1]), 3, 180.0, 320.0,
+                               stability="hill", tol_rel=1e-10, dense_output=False)
+    ds = to_dataset(study, [curve])
+    assert problems(ds) == []
+    bad = ds.copy(deep=True)
+    bad["dissipated_energy"][...] = bad["dissipated_energy"] * 1.5
+    assert any("'dissipated_energy' is not the sum" in p for p in problems(bad))
+    bad = ds.copy(deep=True)
+    bad["stick_fraction"][...] = bad["stick_fraction"] + 0.1
+    assert any("must be 1" in p for p in problems(bad))
+    bad = ds.copy(deep=True)
+    bad.attrs["preload_given"] = "nominal"
+    assert any("preload_given" in p for p in problems(bad))

@@ -111,8 +111,10 @@ PAIR_KEYS = {"stick_fraction": "stick", "slip_fraction": "slip",
              "normal_load_amplitude_pair": "normal_amplitude"}
 
 
-def cycle_variables(study, cases, curves, systems, P) -> dict:
-    """The per-point contact results of every case (module doc)."""
+def cycle_variables(study, cases, curves, systems, converged) -> dict:
+    """The per-point contact results of every case (module doc) at the dataset's
+    converged points (`converged` (sweeps..., point))."""
+    P = converged.shape[-1]
     owner, C = contact_owner(study.scene), len(study.scene.contacts)
     shape, E = study.sweep.shape, owner.size
     out = {k: np.full(shape + (P, C if dim == "contact" else E), np.nan)
@@ -121,8 +123,7 @@ def cycle_variables(study, cases, curves, systems, P) -> dict:
         if c is None:
             continue
         Q = np.asarray(c.Q, float)
-        ok = np.flatnonzero(np.asarray(c.converged, bool) & np.isfinite(c.omega)
-                            & np.all(np.isfinite(Q), axis=(1, 2)))
+        ok = np.flatnonzero(converged[idx][:c.n_points] & np.all(np.isfinite(Q), axis=(1, 2)))
         if not ok.size:
             continue
         U, V = contact_motions(system, Q[ok])
@@ -151,6 +152,6 @@ def add_contact_variables(data_vars, coords, attrs, study, cases, curves, system
         return
     coords.update(contact_coords(study.scene))
     data_vars.update(static_variables(study, cases, systems))
-    data_vars.update(cycle_variables(study, cases, curves, systems, lay.P))
+    data_vars.update(cycle_variables(study, cases, curves, systems, data_vars["converged"][1]))
     attrs["preload_given"] = ("static_normal_load" if NORMAL_LOAD in study.sweep.axes
                               else "n0")
