@@ -294,3 +294,44 @@ def test_checker_accepts_the_contact_variables_and_names_a_broken_one():
     bad = ds.copy(deep=True)
     bad.attrs["preload_given"] = "nominal"
     assert any("preload_given" in p for p in problems(bad))
+
+
+def test_hysteresis_figure_draws_the_contact_loop_with_its_energy(tmp_path):
+    """The face-total loop at the peak: for a one-element contact it is the
+    element's loop, whose enclosed area (contour f du, trapezoidal over the drawn
+    samples) is the stored dissipated energy; the legend gives it in J/cycle."""
+    from pipeline.solve.response import frequency_response
+    from pipeline.study.contact_figures import face_loop
+    from pipeline.study.response_figures import hysteresis_figures
+
+    text = TWO_MASSES.replace("{sweep}", "preload = [10.0, 40.0]").replace(
+        'dofs = ["x1", "y1"]', 'dofs = ["y1"]\nfigures = ["amplitude", "hysteresis"]')
+    study = parse_study(text, file="two_masses.toml")
+    curves = [frequency_response(study.system(case), 3, 180.0, 320.0, stability="hill",
+                                 tol_rel=1e-10, dense_output=False)
+              for _, case in study.sweep.cases()]
+    ds = to_dataset(study, curves)
+    tau = 2 * np.pi * np.arange((1 << 16) + 1) / (1 << 16)
+    for k in range(2):
+        loop = face_loop(ds, {"preload": k}, tau)
+        p = int(ds.peak_contact_point.isel(preload=k))
+        assert p == int(np.nanargmax(np.where(ds.converged.isel(preload=k),
+                                              ds.amplitude.isel(preload=k, dof=0), np.nan)))
+        assert loop["energy"] == float(ds.dissipated_energy.isel(preload=k, point=p, contact=0))
+        area = np.sum(0.5 * (loop["f"][1:] + loop["f"][:-1]) * np.diff(loop["u"]))
+        assert loop["energy"] > 1e-4 and area == pytest.approx(loop["energy"], rel=1e-6)
+    import matplotlib
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+
+    captured = {}
+    real_close = plt.close
+    plt.close = lambda fig=None: captured.setdefault("fig", fig)
+    try:
+        paths = hysteresis_figures(study, ds, tmp_path)
+    finally:
+        plt.close = real_close
+    assert [p.name for p in map(__import__("pathlib").Path, paths)] == ["hysteresis.png"]
+    labels = [t.get_text() for t in captured["fig"].axes[0].get_legend().get_texts()]
+    assert len(labels) == 2 and all("J/cycle" in t and "gap (1 elements)" in t for t in labels)
+    real_close(captured["fig"])

@@ -144,6 +144,41 @@ def cycle_variables(study, cases, curves, systems, converged) -> dict:
             for k, (dim, u, ln) in CYCLE_META.items()}
 
 
+def peak_motion_variables(study, cases, curves, systems, data_vars) -> dict:
+    """Every element's relative motion at each case's peak (the largest converged
+    amplitude of the first output DOF, as the `hysteresis_*` variables): enough to
+    redraw the loop of a whole contact face (`response_figures.hysteresis_figures`)."""
+    owner = contact_owner(study.scene)
+    shape, E, nh = study.sweep.shape, owner.size, 2 * study.solver.harmonics + 1
+    U, V = np.full(shape + (E, nh), np.nan), np.full(shape + (E, nh), np.nan)
+    point = np.full(shape, -1, dtype=np.int32)
+    k = {n: np.full(shape + (E,), np.nan) for n in ("ku", "kv", "mu")}
+    amp, conv = data_vars["amplitude"][1][..., 0], data_vars["converged"][1]
+    for (idx, _), c, system in zip(cases, curves, systems):
+        for n in k:
+            k[n][idx] = getattr(system.contact, n)
+        if c is None or not conv[idx].any() or c.Q.shape[-1] != nh:
+            continue
+        i = int(np.argmax(np.where(conv[idx], amp[idx], -np.inf)))
+        Ue, Ve = contact_motions(system, np.asarray(c.Q, float)[i:i + 1])
+        U[idx], V[idx], point[idx] = Ue[0], Ve[0], i
+    sw = tuple(study.sweep.axes)
+    out = {"peak_contact_point": (sw, point, {"units": "1", "long_name": "point of the largest "
+                                              "converged amplitude of the first output DOF "
+                                              "(-1: none)"}),
+           "peak_contact_u": (sw + ("pair", "coefficient"), U, {
+               "units": "m", "long_name": "tangential relative displacement of the element at "
+                                          "the peak point, Fourier coefficients"}),
+           "peak_contact_v": (sw + ("pair", "coefficient"), V, {
+               "units": "m", "long_name": "normal relative displacement of the element at "
+                                          "the peak point, Fourier coefficients"})}
+    for n, (u, what) in {"ku": ("N/m", "tangential stiffness"), "kv": ("N/m", "normal "
+                         "stiffness"), "mu": ("1", "friction coefficient")}.items():
+        out[f"{n}_pair"] = (sw + ("pair",), k[n], {"units": u, "long_name": f"{what} of the "
+                                                                           "element"})
+    return out
+
+
 def add_contact_variables(data_vars, coords, attrs, study, cases, curves, systems, lay):
     """Add the per-contact variables (module doc) and the response's Fourier
     coefficients (`harmonics_dataset`) to a response dataset in place."""
@@ -153,5 +188,11 @@ def add_contact_variables(data_vars, coords, attrs, study, cases, curves, system
     coords.update(contact_coords(study.scene))
     data_vars.update(static_variables(study, cases, systems))
     data_vars.update(cycle_variables(study, cases, curves, systems, data_vars["converged"][1]))
+    if "hysteresis" in study.output.figures:
+        data_vars.update(peak_motion_variables(study, cases, curves, systems, data_vars))
+        coords.setdefault("coefficient", ("coefficient", np.arange(2 * study.solver.harmonics + 1,
+                                                                   dtype=np.int32),
+                                          {"units": "1", "long_name": "Fourier coefficient "
+                                                                      "[a0, a1, b1, a2, b2, ...]"}))
     attrs["preload_given"] = ("static_normal_load" if NORMAL_LOAD in study.sweep.axes
                               else "n0")
