@@ -48,14 +48,21 @@ def complex_coefficients(X) -> np.ndarray:
 
 def interval_integrals(C, a, b) -> np.ndarray:
     """int_a^b of the trigonometric polynomials with complex coefficients C (K, 2M+1)
-    (k = -M..M) over the intervals [a, b] (K, S) -> (K, S), closed form."""
+    (k = -M..M) over the intervals [a, b] (K, S) -> (K, S), closed form; only the
+    intervals with b > a are evaluated (the others are 0)."""
     M = (C.shape[-1] - 1) // 2
-    p = np.arange(-M, M + 1)
-    nz = p != 0
-    ea = np.exp(1j * p[None, None, :] * a[..., None])
-    eb = np.exp(1j * p[None, None, :] * b[..., None])
-    I = np.where(nz, (eb - ea) / np.where(nz, 1j * p, 1.0), (b - a)[..., None])
-    return np.einsum("ksp,kp->ks", I, C).real
+    out = np.zeros(a.shape)
+    rows, cols = np.nonzero(b > a)
+    if rows.size == 0:
+        return out
+    p = np.arange(1, M + 1)
+    ta, tb = a[rows, cols], b[rows, cols]
+    ea, eb = np.exp(1j * np.outer(ta, p)), np.exp(1j * np.outer(tb, p))
+    # conjugate pairs k = +-p: 2 Re(c_p (e^{ipb} - e^{ipa}) / (ip)), and c_0 (b - a)
+    pos = C[rows, M + 1:]
+    out[rows, cols] = (C[rows, M].real * (tb - ta)
+                       + 2.0 * np.sum((pos * (eb - ea) / (1j * p)).real, axis=1))
+    return out
 
 
 def product_coefficients(A, B) -> np.ndarray:
@@ -122,16 +129,18 @@ def cycle_results(U, V, elem: YangMenq) -> dict:
     H = harmonics_of(U.shape[1])
     k = np.arange(-H, H + 1)
     cdu = 1j * k * complex_coefficients(U)
-    nu = interval_integrals(product_coefficients(cn, cdu), a, b)
-    S = basis(np.stack([a, b]), H)                       # (2, E, S, 2H+1)
-    na, nb = np.einsum("esc,ec->es", S[0], Nc), np.einsum("esc,ec->es", S[1], Nc)
-    mu, ku = elem.mu[:, None], elem.ku[:, None]
+    slip = used & ((st == PSLIP) | (st == NSLIP))
+    nu = interval_integrals(product_coefficients(cn, cdu), a, np.where(slip, b, a))
+    rows, cols = np.nonzero(slip)
+    na = np.einsum("mc,mc->m", basis(a[rows, cols], H), Nc[rows])
+    nb = np.einsum("mc,mc->m", basis(b[rows, cols], H), Nc[rows])
+    mu, ku = elem.mu[rows], elem.ku[rows]
     r2 = np.where(ku > 0, mu * mu / (2.0 * np.where(ku > 0, ku, 1.0)), 0.0)
-    sgn = np.where(st == PSLIP, 1.0, np.where(st == NSLIP, -1.0, 0.0))
-    energy = np.sum(np.where(used & (sgn != 0), sgn * mu * nu - r2 * (nb**2 - na**2), 0.0),
-                    axis=1)
+    sgn = np.where(st[rows, cols] == PSLIP, 1.0, -1.0)
+    energy = np.bincount(rows, weights=sgn * mu * nu[rows, cols] - r2 * (nb**2 - na**2),
+                         minlength=E)
     contact_phase = used & (st != SEP)
-    load = np.sum(np.where(contact_phase, interval_integrals(cn, a, b), 0.0), axis=1)
+    load = np.sum(interval_integrals(cn, a, np.where(contact_phase, b, a)), axis=1)
     # fully stuck and fully separated elements: one segment, their state set above
     frictionless = regime == 3
     if np.any(frictionless):
