@@ -335,3 +335,53 @@ def test_hysteresis_figure_draws_the_contact_loop_with_its_energy(tmp_path):
     labels = [t.get_text() for t in captured["fig"].axes[0].get_legend().get_texts()]
     assert len(labels) == 2 and all("J/cycle" in t and "gap (1 elements)" in t for t in labels)
     real_close(captured["fig"])
+
+
+def test_peak_shape_vtu_holds_the_peak_deflection_and_the_contact_results(tmp_path):
+    """The VTU of each case's peak on the FE blade (Craig-Bampton expanded): at the
+    response node the harmonic-1 deflection is the dataset's (c_1, -s_1) of
+    response.x/y/z at the peak; on the face nodes the dissipated energy is the
+    dataset's per element, NaN off the faces."""
+    import meshio
+    from pathlib import Path
+    from pipeline.fourier.harmonics import amplitude_half_peak_to_peak
+    from pipeline.solve.response import ResponseCurve
+    from pipeline.study.documents import load_study
+    from pipeline.study.peak_shapes import element_points, write_peak_shapes
+    from pipeline.model.scene import blade_model
+
+    study = load_study(Path(__file__).resolve().parents[1] / "studies" /
+                       "blade_shroud_contact.toml", quick=True)
+    system = study.system(study.sweep.cases()[0][1])
+    H, P, n = study.solver.harmonics, 4, system.n_dof
+    rng = np.random.default_rng(5)
+    Q = rng.normal(size=(P, n, 2 * H + 1)) * 1e-5
+    om = np.linspace(2500.0, 2600.0, P)
+    curve = ResponseCurve(parameter=om, omega=om, Q=Q, converged=np.ones(P, bool),
+                          residual=np.zeros(P), stable=np.ones(P, bool),
+                          amplitude=amplitude_half_peak_to_peak(Q), fold_parameter=np.zeros(0),
+                          newton_iterations=np.ones(P, int), nfev=P, wall_time=0.1,
+                          success=True, status=0, message="ok", H=H, tolerance=1e-8)
+    ds = to_dataset(study, [curve])
+    paths = write_peak_shapes(study, ds, [curve], tmp_path)
+    assert [p.name for p in paths] == ["peak_shape_preload_30.vtu"]
+    mesh = meshio.read(paths[0])
+    i = int(np.argmax(ds.amplitude.isel(preload=0, dof=0).values))
+    model = blade_model(study.scene.structure)
+    resp = int(np.argmin(np.linalg.norm(model.points - model.set_points["response"][0], axis=1)))
+    hc = ds.harmonic_coefficient.isel(preload=0, point=i, harmonic=1)
+    for k, d in enumerate("xyz"):
+        c1 = float(hc.sel(dof=f"response.{d}", component="cos"))
+        s1 = float(hc.sel(dof=f"response.{d}", component="sin"))
+        assert mesh.point_data["harmonic1_re"][resp, k] == pytest.approx(c1, rel=1e-9, abs=1e-20)
+        assert mesh.point_data["harmonic1_im"][resp, k] == pytest.approx(-s1, rel=1e-9, abs=1e-20)
+    elems, nodes = element_points(model, study.scene.contacts)
+    assert elems.size == 20 and np.unique(nodes).size == 20     # the faces' 2 x 10 vertices
+    np.testing.assert_allclose(model.points[nodes], np.concatenate(
+        [model.frames[c.face].points for c in study.scene.contacts])[elems], atol=1e-12)
+    W = mesh.point_data["dissipated_energy"]
+    np.testing.assert_allclose(
+        W[nodes], ds.dissipated_energy_pair.isel(preload=0, point=i).values[elems], rtol=1e-12)
+    off = np.setdiff1d(np.arange(len(W)), nodes)
+    assert off.size and np.all(np.isnan(W[off]))
+    assert W[nodes].max() > 0                       # random motion slides somewhere

@@ -29,6 +29,7 @@ from .cases import default_solver, run_case, separation_guard
 from .checkpoint import checkpoint_dir, kept_cases, load_cases, remove_stale, save_case
 from .documents import load_study
 from .mistuned import tuned_references
+from .peak_shapes import write_peak_shapes
 from .response_figures import sector_output_dofs, write_figures
 from .spec import SWEEP_AXES, Study, StudyResult
 
@@ -301,7 +302,8 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
         log.info("%s: %d case(s) failed; the finished ones stay in %s, a rerun retries "
                  "only the failed ones", study.name, failures, cdir)
     if figures:
-        res.figures = write_figures(study, ds, out_dir / study.name, tuned)
+        res.figures = (write_figures(study, ds, out_dir / study.name, tuned)
+                       + write_peak_shapes(study, ds, curves, out_dir / study.name))
         for p in res.figures:
             log.info("wrote %s", p)
     res.wall_time = time.perf_counter() - t0
