@@ -49,7 +49,7 @@ def draw_face_loops(study, ds, ax) -> None:
         ax.plot(loop["u"], loop["f"], lw=1.6,
                 label=f"{case}: {loop['name']} ({loop['elements']} elements) at "
                       f"{loop['frequency']:.4g} {unit}, W = {loop['energy']:.3g} J/cycle")
-    ax.set_xlabel("mean tangential relative displacement of the contact's elements [m]")
-    ax.set_ylabel("friction force summed over the contact's elements [N]")
+    ax.set_xlabel("mean tangential relative displacement of its elements [m]")
+    ax.set_ylabel("contact's total friction force [N]")
     ax.set_title(f"{study.title}\nat the peak: the contact dissipating most, face total "
                  "(W: energy dissipated per cycle)", fontsize=9)
