@@ -140,7 +140,9 @@ def cycle_variables(study, cases, curves, systems, converged) -> dict:
         out["normal_load_mean"][idx][ok] = face_totals(out["normal_load_mean_pair"][idx][ok],
                                                        owner, C)
     sw = tuple(study.sweep.axes)
-    return {k: (sw + ("point", dim), out[k], {"units": u, "long_name": ln})
+    where = ("computed at every converged point from the exact transition times of its "
+             "periodic contact motion; NaN at points that did not converge and at padding")
+    return {k: (sw + ("point", dim), out[k], {"units": u, "long_name": ln, "comment": where})
             for k, (dim, u, ln) in CYCLE_META.items()}
 
 
