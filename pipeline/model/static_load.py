@@ -68,7 +68,7 @@ def _static_operators(system: System):
 
 
 def _solve(A, rhs):
-    """A^-1 rhs (n, k): Cholesky-free LU, sparse or dense; ValueError if singular."""
+    """A^-1 rhs (n, k): sparse LU or a dense symmetric solve; ValueError if singular."""
     if sp.issparse(A):
         X = spla.splu(A).solve(np.asarray(rhs, float))
     else:
