@@ -96,7 +96,7 @@ def test_layout_padding_and_flags(ex1):
     curves[1] = ResponseCurve(**{**vars(curves[1]), "converged": conv, "amplitude": amp})
     ds = to_dataset(ex1, curves)
     assert dict(ds.sizes) == {"preload": 3, "point": 45, "dof": 1, "harmonic": 4, "fold": 1, "mode": 1,
-                              "bifurcation": 1}
+                              "bifurcation": 1, "component": 2, "contact": 1, "pair": 1}
     assert ds["amplitude"].dims == ("preload", "point", "dof")
     assert ds["harmonic_amplitude"].dims == ("preload", "point", "dof", "harmonic")
     assert ds["preload"].values.tolist() == [0.0, 2.0, 1000.0]

@@ -42,6 +42,7 @@ from .incomplete import CASE_FLAGS, PEAK_NAME, case_flags
 from .optimum_dataset import add_optimum
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
+from .contact_dataset import add_contact_variables
 
 MAX_MODES = 50    # natural frequencies per case in a dataset (the lowest)
 
@@ -369,7 +370,9 @@ def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> x
                                             "Fourier coefficient [a0, a1, b1, a2, b2, ...]")
     if optimum is not None:
         add_optimum(data_vars, coords, optimum, study, lay.to_unit, lay.unit)
-    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=response_attrs(study, lay))
+    attrs = response_attrs(study, lay)
+    add_contact_variables(data_vars, coords, attrs, study, cases, curves, systems, lay)
+    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
 
 
 def _add_mistuning_factors(data_vars, study, sectors):
@@ -384,8 +387,6 @@ def _add_mistuning_factors(data_vars, study, sectors):
     data_vars["mistuning_factor"] = (dims, f[0] if seeds is None else f, {
         "units": "1", "long_name": "stiffness factor 1 + delta_j of the sector "
                                    "(mistuned stiffness (1 + delta_j) K)"})
-
-
 
 
 def _add_amplification(data_vars, study, tuned: dict, lay: Layout):

@@ -38,6 +38,8 @@ The contract (README, section Dataset), as checked here:
   3 (Neimark-Sacker) with `flag_meanings`, and `bifurcation_frequency` is finite
   exactly where it is not -1.
 
+The per-contact variables and the response coefficients: `contact_check`.
+
 A modal dataset (global attribute `kind = "modes"`: eigenfrequencies, no
 response curves) is held to the attribute, units and coordinate rules only.
 """
@@ -49,6 +51,7 @@ import sys
 import numpy as np
 
 from ..errors import UsageError
+from .contact_check import check_contacts
 
 CONVENTIONS = "CF-1.10"
 FREQUENCY_UNITS = ("rad/s", "rad s-1", "Hz", "s-1", "1/s")
@@ -112,6 +115,7 @@ def _check_dataset(ds, name):
         _check_stable(ds, say)
         if "stability_method" in ds.variables:
             _check_stability_method(ds, say)
+        check_contacts(ds, _converged(ds), say)
     npts = int(_converged(ds).sum()) if "converged" in ds else 0
     sectors = f", {ds.sizes['sector']} sectors" if "sector" in ds.dims else ""
     dofs = [str(d) for d in ds["dof"].values][:6] if "dof" in ds.coords else []

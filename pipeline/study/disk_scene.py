@@ -163,6 +163,9 @@ def check_mistuning_rules(ck, scene: Scene, axes, wpath, out):
     given once (table or sweep axis `mistuning_seed`)."""
     mis = scene.mistuning
     declared = "mistuning" in scene.effects
+    if mis is not None and "normal_load" in axes:
+        ck.fail(f"{wpath}.normal_load", "a static normal load per contact is solved on one "
+                                        "sector: not available for a mistuned disk")
     if mis is None:
         if "mistuning_seed" in axes:
             ck.fail(f"{wpath}.mistuning_seed", "the disk is tuned: give [scene.disk] mistuning "

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..contact import YangMenq
 from ..contact.exact import history
+from .contact_figures import draw_face_loops
 from .disk_figures import is_sector_resolved, write_sector_figures
 from .plots import atomic_savefig, pyplot, response_curves_figure, stability_for_plot
 from .spec import Study
@@ -85,13 +86,28 @@ def bifurcation_marks(b) -> list:
 
 def hysteresis_figures(study: Study, ds, fig_dir) -> list:
     """`hysteresis.png` when asked for (`[output] figures = [..., "hysteresis"]`): at
-    each case's peak, the friction force against the tangential relative displacement
-    of the contact element that slides most there (paper Fig. 5b), one loop per case,
-    drawn exactly from the dataset's coefficients (`contact.exact.history`)."""
+    each case's peak, the friction force summed over the contact that dissipates most
+    against its elements' mean tangential relative displacement, with that energy per
+    cycle (`contact_figures`); a dataset without per-element motions: the loop of the
+    contact element that slides most there (paper Fig. 5b).  One loop per case, drawn
+    exactly from the dataset's coefficients (`contact.exact.history`)."""
     if "hysteresis" not in study.output.figures or "hysteresis_u" not in ds:
         return []
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    if "peak_contact_u" in ds:
+        draw_face_loops(study, ds, ax)
+    else:
+        element_loops(study, ds, ax)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    out = atomic_savefig(fig, Path(fig_dir) / "hysteresis.png")
+    plt.close(fig)
+    return [out]
+
+
+def element_loops(study: Study, ds, ax) -> None:
+    """One loop per case of the element sliding most at the peak (`hysteresis_*`)."""
     tau = np.linspace(0.0, 2 * np.pi, 1201)
     axes = list(study.sweep.axes)
     for idx in itertools.product(*(range(len(study.sweep.axes[a])) for a in axes)):
@@ -108,8 +124,3 @@ def hysteresis_figures(study: Study, ds, fig_dir) -> list:
     ax.set_xlabel("tangential relative displacement u [m]")
     ax.set_ylabel("friction force f_u [N]")
     ax.set_title(f"{study.title}\nat the peak: the contact element sliding most", fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    out = atomic_savefig(fig, Path(fig_dir) / "hysteresis.png")
-    plt.close(fig)
-    return [out]

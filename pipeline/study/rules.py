@@ -34,7 +34,16 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     for a in ("preload", "mu", "ku", "kv"):
         if a in axes and not has_contact:
             ck.fail(f"{wpath}.{a}", "the scene has no [[scene.contact]] to apply it to")
-    if has_contact and "preload" not in axes:
+    if "normal_load" in axes:
+        if "preload" in axes:
+            ck.fail(f"{wpath}.normal_load", "give either the preload n0 (sweep.preload) or the "
+                                            "static normal load (sweep.normal_load), not both")
+        for i, n0 in enumerate(n0s):
+            if n0 is not None:
+                ck.fail(f"scene.contact[{i}].n0", "the static normal load is given "
+                                                  "(sweep.normal_load): n0 is solved for it, "
+                                                  "give not both")
+    elif has_contact and "preload" not in axes:
         for i, n0 in enumerate(n0s):
             if n0 is None:
                 ck.fail(f"scene.contact[{i}].n0", "missing (required unless sweep.preload is given)")

@@ -31,6 +31,7 @@ from .documents import load_study
 from .incomplete import incomplete_cases
 from .mistuned import tuned_references
 from .optimum_search import optimum_figure_of, study_optimum
+from .peak_shapes import write_peak_shapes
 from .response_figures import sector_output_dofs, write_figures
 from .spec import SWEEP_AXES, Study, StudyResult
 
@@ -265,7 +266,8 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
         log.info("%s: %d case(s) failed; the finished ones stay in %s, a rerun retries "
                  "only the failed ones", study.name, failures, cdir)
     if figures:
-        res.figures = write_figures(study, ds, out_dir / study.name, tuned)
+        res.figures = (write_figures(study, ds, out_dir / study.name, tuned)
+                       + write_peak_shapes(study, ds, curves, out_dir / study.name))
         if optimum is not None:   # the peak-versus-preload curve the optimum was found on
             res.figures.append(optimum_figure_of(study, optimum, out_dir / study.name))
         for p in res.figures:

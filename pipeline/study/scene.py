@@ -28,7 +28,7 @@ import numpy as np
 
 from ..model.contacts import DofContact
 from ..model.loads import Forcing
-from ..model.scene import Cyclic, Lumped, Scene, Single, Spring, build_system
+from ..model.scene import Cyclic, Lumped, Scene, Single, Spring
 from . import disk_scene
 from .checker import Checker, join_field, kind_of
 from .rules import check_scene_rules
@@ -195,7 +195,7 @@ def parse_sweep(ck, tab, path, partial=False):
         elif key in SWEEP_AXES:
             if isinstance(value, dict):
                 ck.fail(field, f"continuation in {key} is not supported yet; give a list of values")
-            bounds = {"preload": {}, "mu": {"ge": 0.0}, "ku": {"gt": 0.0}, "kv": {"ge": 0.0},
+            bounds = {"preload": {}, "normal_load": {"gt": 0.0}, "mu": {"ge": 0.0}, "ku": {"gt": 0.0}, "kv": {"ge": 0.0},
                       "excitation_scale": {"gt": 0.0}}[key]
             vals = ck.numbers(value, field, **bounds)
             for i, v in enumerate(vals):
@@ -495,6 +495,6 @@ def _check_build(ck, study: Study):
     # Safety net: the System constructors must accept every case we validated.
     try:
         for _, case in study.sweep.cases()[:1] + study.sweep.cases()[-1:]:
-            build_system(study.scene, case)
+            study.system(case)
     except ValueError as exc:
         ck.fail("scene", str(exc))

@@ -12,7 +12,8 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..model.scene import Scene, build_system
+from ..model.scene import Scene
+from ..model.static_load import case_system
 from ..model.system import System
 from ..solve.stability_check import MODES as STABILITY_MODES
 
@@ -24,6 +25,8 @@ EFFECTS = ("friction", "normal_load_variation", "separation", "cyclic_coupling",
 # grid axes of [sweep]: name -> (units, long_name)
 SWEEP_AXES = {
     "preload": ("N", "normal preload n0 of every contact"),
+    "normal_load": ("N", "static normal load n0 + kv v0 of every contact (face total), "
+                         "n0 solved for it"),
     "mu": ("1", "friction coefficient of every contact"),
     "ku": ("N/m", "tangential contact stiffness of every contact"),
     "kv": ("N/m", "normal contact stiffness of every contact"),
@@ -158,7 +161,7 @@ class Study(StudyHeader):
     quick: bool = False
 
     def system(self, case: dict | None = None) -> System:
-        return build_system(self.scene, case)
+        return case_system(self.scene, case)
 
 
 def is_linear_scene(scene) -> bool:

@@ -1,0 +1,134 @@
+"""The static normal load of the contacts: what the preload n0 becomes once the
+structure deflects under it (paper Eq. 1, 4).
+
+The element's normal load is n = n0 + kv v (Eq. 1).  At zero excitation with every
+contact closed and stuck, the harmonic-0 balance is linear: a fully stuck slider
+sits in the middle of its band (`contact.YangMenq`), i.e. at the static tangential
+displacement, so f_u = 0 and only the normal springs act,
+
+    (K0 + Bn0^T diag(kv) Bn0) q0 = F0 - Bn0^T n0,     v0 = Bn0 q0,
+    s = n0 + kv v0                                   (static normal load [N]),
+
+with F0 the static part of the load, K0 the stiffness a static (h = 0) state sees
+(`system.coupled_stiffness` at angle 0) and, for a cyclic sector, Bn0 = Bn + Bn_next
+(the next sector's static displacement equals this one's).  The structure gives way
+under the preload (v0 < 0), so s < n0 per element when F0 = 0.
+
+s is affine in n0, so a requested static load per contact (face total) fixes n0:
+with n0 = D p (D (E, C): each contact's distribution of a unit face total over its
+elements, `contacts.contact_elements` with preload 1) and the face sums
+S = owner-sum (E -> C),
+
+    S s = S D p + S kv Bn0 A^-1 (F0 - Bn0^T D p) = target   (C x C linear in p),
+
+one solve of A = K0 + Bn0^T kv Bn0 with C + 1 right-hand sides.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .contacts import FaceContact, ShroudPair
+from .scene import Scene, blade_contact_maps, build_system
+from .system import System, coupled_stiffness
+
+NORMAL_LOAD = "normal_load"   # the case key of a requested static normal load [N]
+
+
+def contact_owner(scene: Scene) -> np.ndarray:
+    """The index in `scene.contacts` of each element of a case's `System` (one
+    sector): every node (pair) of a face contact belongs to its face; a contact over
+    named DOFs is one element."""
+    if any(isinstance(c, (FaceContact, ShroudPair)) for c in scene.contacts):
+        return np.asarray(blade_contact_maps(scene, full=True)[4], dtype=int)
+    return np.arange(len(scene.contacts))
+
+
+def _static_operators(system: System):
+    """(A = K0 + Bn0^T kv Bn0, Bn0, F0) of the closed static problem (module doc)."""
+    cy = system.cyclic
+    K0 = coupled_stiffness(system, 0.0)
+    Bn = system.Bn
+    if cy is not None:
+        Bn = (sp.csr_matrix(Bn, dtype=float) + sp.csr_matrix(cy.Bn_next, dtype=float)
+              if sp.issparse(Bn) or sp.issparse(cy.Bn_next)
+              else np.asarray(Bn, float) + np.asarray(cy.Bn_next, float))
+    kv = system.contact.kv
+    F0 = np.asarray(system.forcing)[:, 0].real.astype(float)
+    if sp.issparse(K0) or sp.issparse(Bn):
+        Bs = sp.csr_matrix(Bn, dtype=float)
+        A = (sp.csr_matrix(K0, dtype=float) + Bs.T @ sp.diags(kv) @ Bs).tocsc()
+        return A, Bs, F0
+    Bn = np.asarray(Bn, float)
+    return np.asarray(K0, float) + Bn.T @ (kv[:, None] * Bn), Bn, F0
+
+
+def _solve(A, rhs):
+    """A^-1 rhs (n, k): sparse LU or a dense symmetric solve; ValueError if singular."""
+    if sp.issparse(A):
+        X = spla.splu(A).solve(np.asarray(rhs, float))
+    else:
+        try:
+            X = sla.solve(A, rhs, assume_a="sym")
+        except (sla.LinAlgError, ValueError) as exc:
+            raise ValueError(f"the static problem with the contacts closed is singular: {exc}") \
+                from None
+    if not np.all(np.isfinite(X)):
+        raise ValueError("the static problem with the contacts closed is singular")
+    return X
+
+
+def static_normal_load(system: System) -> np.ndarray:
+    """s = n0 + kv v0 [N] per element (E,): the normal load of each element in the
+    static state with every contact closed and stuck at zero excitation (module doc)."""
+    el = system.contact
+    if el.size == 0:
+        return np.zeros(0)
+    A, Bn, F0 = _static_operators(system)
+    q0 = _solve(A, (F0 - Bn.T @ el.n0)[:, None])[:, 0]
+    return el.n0 + el.kv * (Bn @ q0)
+
+
+def face_totals(values, owner, n_contacts: int) -> np.ndarray:
+    """Sum of per-element `values` (..., E) over each contact's elements -> (..., C)."""
+    values = np.asarray(values, float)
+    S = np.zeros((values.shape[-1], n_contacts))
+    S[np.arange(owner.size), owner] = 1.0
+    return values @ S
+
+
+def preload_for_static_load(system: System, owner, distribution, target) -> np.ndarray:
+    """n0 (E,) [N] whose static normal loads sum to `target` (C,) [N] over each
+    contact's elements, n0 = distribution * p[owner] (`distribution` (E,): each
+    element's share of a unit face total).  Linear: one solve (module doc)."""
+    el = system.contact
+    owner = np.asarray(owner, int)
+    target = np.asarray(target, float)
+    C = target.size
+    D = np.zeros((el.size, C))
+    D[np.arange(el.size), owner] = np.asarray(distribution, float)
+    A, Bn, F0 = _static_operators(system)
+    X = _solve(A, np.column_stack([Bn.T @ D, F0]))
+    V = Bn @ X                                    # v0 of each unit face load, of F0
+    G = face_totals((D - el.kv[:, None] * V[:, :C]).T, owner, C).T   # (C, C)
+    c = face_totals(el.kv * V[:, C], owner, C)
+    p = np.linalg.solve(G, target - c)
+    return D @ p
+
+
+def case_system(scene: Scene, case: dict | None = None) -> System:
+    """`build_system` of a case; a case with `normal_load` (the static normal load of
+    every contact, face total [N]) gets the preload n0 that produces it."""
+    case = dict(case or {})
+    if NORMAL_LOAD not in case:
+        return build_system(scene, case)
+    target = float(case.pop(NORMAL_LOAD))
+    unit = build_system(scene, {**case, "preload": 1.0})
+    owner = contact_owner(scene)
+    n0 = preload_for_static_load(unit, owner, unit.contact.n0,
+                                 np.full(len(scene.contacts), target))
+    return replace(unit, contact=replace(unit.contact, n0=n0))
