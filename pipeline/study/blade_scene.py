@@ -49,8 +49,8 @@ from ..structure.reduction import DEFAULT_MODES
 from . import blade_disk, disk_scene
 from .checker import Checker
 from .rules import check_scene_rules
-from .scene import (check_windows, output_common, parse_optimum, parse_solver, parse_sweep,
-                    quick_tables, solver_sweep_tables)
+from .scene import (check_optimum_axes, check_windows, output_common, parse_optimum,
+                    parse_solver, parse_sweep, quick_tables, solver_sweep_tables)
 from .spec import EFFECTS, MAX_HARMONICS, NAME_PATTERN, ModesStudy, OutputSettings, Study, Sweep
 
 log = logging.getLogger(__name__)
@@ -144,6 +144,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     chosen = None
     for is_quick, sv, ax, fr, spath, wpath, sc in variants:
         _consistency(ck, sc, sv, ax, spath, wpath, data)
+        check_optimum_axes(ck, output, ax, wpath)
         st = Study(file=file, name=name, title=title, description=description,
                    reference=reference, text=text, scene=sc, sweep=Sweep(axes=ax, frequency=fr),
                    solver=sv, output=output, quick=is_quick)

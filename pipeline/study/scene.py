@@ -92,6 +92,7 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     chosen = None
     for is_quick, sv, axes, fr, spath, wpath in variants:
         _check_consistency(ck, scene, sv, axes, spath, wpath, data)
+        check_optimum_axes(ck, output, axes, wpath)
         st = Study(file=file, name=name, title=title, description=description,
                    reference=reference, text=text, scene=scene,
                    sweep=Sweep(axes=axes, frequency=fr), solver=sv, output=output,
@@ -477,6 +478,14 @@ def parse_optimum(ck, t, scene):
     if not scene.contacts:
         ck.fail(f, "the scene has no contact: there is no preload to optimise")
     return {"dof": dof, "bounds": (float(lo), float(hi)), "window": window, "rtol": float(rtol)}
+
+
+def check_optimum_axes(ck, output, axes, wpath):
+    """The optimum search varies n0: a sweep that gives the static normal load instead
+    would be compared against a different quantity."""
+    if output.optimum is not None and "normal_load" in axes:
+        ck.fail("output.optimum_preload", f"searches the preload n0, but {wpath}.normal_load "
+                                          "gives the static normal load: sweep preload instead")
 
 
 def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
