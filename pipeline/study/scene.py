@@ -178,7 +178,10 @@ def parse_sweep(ck, tab, path, partial=False):
                                "give the continuation interval {start, stop, unit}")
             t = ck.table(value, field)
             ck.keys(t, field, ("start", "stop", "unit"), required=("start", "stop"))
-            unit = ck.string(t.get("unit", "rad/s"), f"{field}.unit", FREQUENCY_UNITS)
+            if "unit" not in t:  # no default: a range meant in Hz must not run in rad/s
+                ck.fail(f"{field}.unit", "missing (required): the unit of start and stop, "
+                                         f"one of {', '.join(map(repr, FREQUENCY_UNITS))}")
+            unit = ck.string(t["unit"], f"{field}.unit", FREQUENCY_UNITS)
             start = ck.number(t["start"], f"{field}.start", gt=0.0)
             stop = ck.number(t["stop"], f"{field}.stop", gt=0.0)
             if start == stop:

@@ -43,11 +43,12 @@ NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]{0,63}$")
 
 @dataclass(frozen=True)
 class FrequencyRange:
-    """Continuation interval of the excitation frequency, in `unit`."""
+    """Continuation interval of the excitation frequency, in `unit` ("rad/s" or "Hz";
+    a study file must name it: there is no default)."""
 
     start: float
     stop: float
-    unit: str = "rad/s"
+    unit: str
 
     @property
     def to_rad_s(self) -> float:
