@@ -127,7 +127,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                           n_frequencies=nf, n_shapes=ns, quick=bool(quick))
 
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
-    solver = parse_solver(ck, solver_tab, "solver")
+    solver = parse_solver(ck, solver_tab, "solver", model=scene.model)
     if "stability" not in solver_tab:
         solver = replace(solver, stability=False)  # Hill on hundreds of DOFs: opt in
     axes, freq = parse_sweep(ck, sweep_tab, "sweep")
@@ -135,7 +135,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     variants = [(False, solver, axes, freq, "solver", "sweep", full_scene)]
     if quick:
         q_solver, q_sweep = quick_tables(ck, {"quick": qt}, sweep_tab, ("scene", "sweep", "solver"))
-        q_solver_s = parse_solver(ck, q_solver, "quick.solver", base=solver)
+        q_solver_s = parse_solver(ck, q_solver, "quick.solver", base=solver, model=scene.model)
         q_axes, q_freq = parse_sweep(ck, q_sweep, "quick.sweep", partial=True)
         q_axes = {k: q_axes.get(k, v) for k, v in axes.items()}
         variants.append((True, q_solver_s, q_axes, q_freq or freq,
