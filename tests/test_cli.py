@@ -24,7 +24,8 @@ BAD = Path(__file__).resolve().parent / "bad_studies"
 
 def run(*args, cwd=None):
     return subprocess.run([sys.executable, "-m", "pipeline", *map(str, args)], capture_output=True,
-                          text=True, env=dict(os.environ, MPLBACKEND="Agg"), cwd=cwd or ROOT,
+                          text=True, cwd=cwd or ROOT,   # this tree's pipeline from any cwd
+                          env=dict(os.environ, MPLBACKEND="Agg", PYTHONPATH=str(ROOT)),
                           timeout=300)
 
 
