@@ -66,3 +66,53 @@ def test_stability_true_per_scene_kind():
         st = study_from_document(doc, file="b.toml", quick=True)
         assert st.solver.stability == "monodromy+check"
     assert load_study(STUDIES / "paper_example1.toml").solver.stability == "monodromy+check"
+
+
+# ---------------------------------------------------------------------------
+# Dataset attributes that depend on the scene
+# ---------------------------------------------------------------------------
+
+def _dataset(study):
+    from test_dataset import linear_curve   # tests/ is on sys.path (conftest)
+
+    from pipeline.study.dataset import to_dataset
+    fr = study.sweep.frequency
+    om = np.linspace(fr.omega_start, fr.omega_stop, 20)
+    return to_dataset(study, [linear_curve(study.system(case), study.solver.harmonics, om, seed=k)
+                              for k, (_, case) in enumerate(study.sweep.cases())])
+
+
+def test_disk_natural_frequencies_say_nd_equals_eo_and_are():
+    """disk_cyclic (EO 0 and 12 of 24 sectors): the stuck frequencies are the sector's at
+    psi = 2 pi EO / 24, K(psi) = K + 2 ku (1 - cos psi) on the shroud DOF x2."""
+    st = load_study(STUDIES / "disk_cyclic.toml", quick=True)
+    ds = _dataset(st)
+    M, K = np.diag([0.1, 0.05]), np.array([[1.065e6, -3.55e5], [-3.55e5, 5.325e5]])
+    for eo in (0, 12):
+        Kp = K + np.diag([0.0, 2 * 7.1e5 * (1 - np.cos(2 * np.pi * eo / 24))])
+        w = np.sqrt(np.linalg.eigvals(np.linalg.solve(M, Kp)).real)
+        np.testing.assert_allclose(ds["natural_frequency_stuck"].sel(eo=eo).values[:2],
+                                   np.sort(w) / (2 * np.pi), rtol=1e-9)
+    for k in ("natural_frequency_stuck", "natural_frequency_free"):
+        assert "nodal diameter ND = EO" in ds[k].attrs["comment"]
+
+
+def test_preload_long_name_per_scene_kind():
+    """lumped: n0 of every contact; FE faces: the face total, as the elements carry it."""
+    from pipeline.study.meanings import sweep_long_name
+
+    ex1 = load_study(STUDIES / "paper_example1.toml", quick=True)
+    assert sweep_long_name("preload", ex1.scene) == "normal preload n0 of every contact"
+    blade = load_study(STUDIES / "blade_shroud_contact.toml", quick=True)     # per node
+    assert "total normal preload n0 of every contact face, shared equally" in \
+        sweep_long_name("preload", blade.scene)
+    el = blade.system({"preload": 30.0}).contact   # 2 faces of 27 nodes: 30 N / 27 each
+    np.testing.assert_allclose(el.n0, 30.0 / 27, rtol=1e-12)
+    disk = load_study(STUDIES / "shrouded_disk.toml", quick=True)              # per face
+    ds = _dataset(disk)
+    assert ds["preload"].attrs["long_name"].startswith(
+        "total normal preload n0 of every contact face, shared by its nodes in proportion "
+        "to their areas")
+    el = disk.system({"preload": 3.0}).contact     # one face of pairs: the total is 3 N
+    assert el.n0.min() > 0 and el.n0.sum() == pytest.approx(3.0, rel=1e-12)
+    assert "ND = EO" in ds["natural_frequency_stuck"].attrs["comment"]

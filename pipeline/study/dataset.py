@@ -38,6 +38,7 @@ from ..model.scene import AT, stiffness_factors
 from ..model.system import lowest_frequencies
 from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
+from .meanings import natural_frequency_comment, sweep_long_name
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
 
@@ -270,6 +271,9 @@ def response_variables(study: Study, v: dict, message, lay: Layout) -> dict:
                 + ("" if lay.computed else ", and every point since solver.stability = false"),
         stability_computed=int(lay.computed))
     sd.stability_attrs(data_vars)
+    if natural_frequency_comment(study.scene):   # a disk: at ND = EO, or the whole assembly
+        for k in ("natural_frequency_free", "natural_frequency_stuck"):
+            data_vars[k][2]["comment"] = natural_frequency_comment(study.scene)
     data_vars["message"] = (sw, message.astype(str), {"long_name": "continuation message"})
     return data_vars
 
@@ -282,7 +286,7 @@ def response_coords(study: Study, frequency, lay: Layout) -> dict:
     """The coordinates of a response dataset, `frequency` (grid..., point) included."""
     sw = tuple(study.sweep.axes)
     coords = {a: (a, np.asarray(vals, dtype=np.int32 if a in INTEGER_SWEEP_AXES else float),
-                  {"units": SWEEP_AXES[a][0], "long_name": SWEEP_AXES[a][1]})
+                  {"units": SWEEP_AXES[a][0], "long_name": sweep_long_name(a, study.scene)})
               for a, vals in study.sweep.axes.items()}
     coords["frequency"] = (sw + ("point",), frequency,
                            {"units": lay.unit, "long_name": "excitation frequency"})
