@@ -116,3 +116,46 @@ def test_preload_long_name_per_scene_kind():
     el = disk.system({"preload": 3.0}).contact     # one face of pairs: the total is 3 N
     assert el.n0.min() > 0 and el.n0.sum() == pytest.approx(3.0, rel=1e-12)
     assert "ND = EO" in ds["natural_frequency_stuck"].attrs["comment"]
+
+
+# ---------------------------------------------------------------------------
+# Dimensions of FE blades: counted before meshing, implausible ones refused
+# ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kw, disk", [
+    (dict(n_chord=2, n_thick=1, n_span=4), None),
+    (dict(n_chord=4, n_thick=1, n_span=8), (0.12, 36)),
+    (dict(n_chord=3, n_thick=2, n_span=5, shroud_chord=0.04), None),
+    (dict(n_chord=3, n_thick=1, n_span=5, shroud_chord=0.02), None),
+    (dict(n_chord=5, n_thick=1, n_span=7, shroud=False), None),
+    (dict(n_chord=2, n_thick=1, n_span=3, shroud_height=0.02), (0.3, 12)),
+    (dict(kind="beam", n_span=10), (0.08, 24)),
+])
+def test_mesh_size_from_parameters_is_the_built_mesh(kw, disk):
+    from pipeline.structure.blades import build_blade
+    from pipeline.structure.fe_model import BladeParams, DiskPlacement, boundary_dofs
+    from pipeline.structure.mesh_size import mesh_size
+    from pipeline.structure.solid import solid_mesh
+
+    p, d = BladeParams(**kw), DiskPlacement(*disk) if disk else None
+    size, blade = mesh_size(p, d), build_blade(p, d)
+    assert size.free_dofs == blade.n_dof
+    assert size.boundary_dofs == boundary_dofs(blade)[0].size
+    if p.kind == "solid":
+        mesh, _ = solid_mesh(p, d)
+        assert size.elements == mesh.t.shape[1]   # (the nodes: through free_dofs)
+
+
+def test_hub_radius_in_millimetres_is_refused_before_meshing(monkeypatch):
+    """hub_radius = 120 (for 0.12 m): one error line naming the field; no mesh is built."""
+    import pipeline.structure.solid as solid
+    from pipeline.errors import UsageError
+
+    def no_mesh(*a, **k):
+        raise AssertionError("meshed")
+    monkeypatch.setattr(solid, "solid_mesh", no_mesh)
+    bad = Path(__file__).parent / "bad_studies" / "shrouded_disk_hub_radius_mm.toml"
+    for quick in (False, True):
+        with pytest.raises(UsageError, match=r"scene\.disk\.hub_radius: 120 m is 1\.2e\+03 "
+                                             r"times the blade length 0\.1 m"):
+            load_study(bad, quick=quick)

@@ -47,6 +47,7 @@ from ..model.scene import Blade, CraigBampton, Scene, Single, blade_model
 from ..structure.fe_model import BladeParams, boundary_dofs
 from ..structure.reduction import DEFAULT_MODES
 from . import blade_disk, disk_scene
+from .blade_size import check_blade_size
 from .checker import Checker
 from .rules import check_scene_rules
 from .scene import (check_windows, output_common, parse_optimum, parse_solver, parse_sweep,
@@ -254,6 +255,8 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
         rayleigh = (float(a), float(b))
     placement, assembly = (blade_disk.parse_placement(ck, tab) if "disk" in tab
                            else (None, Single()))
+    if mesh is None:   # before anything is meshed: lengths in metres, a model of sane size
+        check_blade_size(ck, tab.get("blade", {}), params, placement, origin)
     contacts, loads = (_contacts_and_loads(ck, tab, kind, model, params)
                        if kind in ("response", "disk_modes") else ((), ()))
     blade_disk.check_disk_contacts(ck, contacts, placement)
