@@ -159,3 +159,39 @@ def test_hub_radius_in_millimetres_is_refused_before_meshing(monkeypatch):
         with pytest.raises(UsageError, match=r"scene\.disk\.hub_radius: 120 m is 1\.2e\+03 "
                                              r"times the blade length 0\.1 m"):
             load_study(bad, quick=quick)
+
+
+# ---------------------------------------------------------------------------
+# --quick builds and reduces the quick model only
+# ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", ["shrouded_disk.toml", "blade_shroud_contact.toml",
+                                  "shrouded_disk_modes.toml", "blade_modes.toml"])
+def test_quick_builds_only_the_quick_model(name, monkeypatch):
+    """Loading (and checking) --quick meshes and reduces the [quick.scene] blade, never the
+    full one: every blade built or reduced has the quick mesh counts."""
+    import pipeline.structure.blades as blades
+    import pipeline.structure.reduction as reduction
+    from pipeline.model import scene as model_scene
+
+    model_scene.timed_blade_model.cache_clear()
+    model_scene.reduced_model.cache_clear()
+    built, reduced = [], []
+    build, reduce_ = blades.build_blade, reduction.reduce_blade
+
+    def counting_build(p, disk=None):
+        built.append((p.n_chord, p.n_thick, p.n_span))
+        return build(p, disk)
+
+    def counting_reduce(blade, *a, **k):
+        reduced.append((blade.params.n_chord, blade.params.n_thick, blade.params.n_span))
+        return reduce_(blade, *a, **k)
+    monkeypatch.setattr(blades, "build_blade", counting_build)
+    monkeypatch.setattr(reduction, "reduce_blade", counting_reduce)
+    quick_mesh = tuple(_doc(name)["quick"]["scene"]["blade"][k]
+                       for k in ("n_chord", "n_thick", "n_span"))
+    st = load_study(STUDIES / name, quick=True)
+    if getattr(st, "kind", "response") == "response":
+        st.system(st.sweep.cases()[0][1])       # what a case builds
+    assert built and set(built) == {quick_mesh}, built
+    assert set(reduced) <= {quick_mesh}, reduced
