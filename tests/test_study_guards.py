@@ -195,3 +195,32 @@ def test_quick_builds_only_the_quick_model(name, monkeypatch):
         st.system(st.sweep.cases()[0][1])       # what a case builds
     assert built and set(built) == {quick_mesh}, built
     assert set(reduced) <= {quick_mesh}, reduced
+
+
+# ---------------------------------------------------------------------------
+# check's cost estimate against the measured run
+# ---------------------------------------------------------------------------
+
+def _within(m):
+    from pipeline.bench.estimate import ACCEPT
+    assert 1 / ACCEPT <= m.ratio <= ACCEPT, (
+        f"{m.name}{' --quick' if m.quick else ''}: estimate {m.estimate.lo:.3g}-"
+        f"{m.estimate.hi:.3g} s (middle {m.estimate.mid:.3g} s), measured {m.wall:.3g} s")
+
+
+@pytest.mark.parametrize("name", ["disk_cyclic", "paper_example2"])
+def test_cost_estimate_within_3x_of_the_quick_run(name):
+    """`check --quick`'s estimate (model timed now) and the serial --quick run: the
+    measured wall time within a factor 3 of the estimate's geometric middle."""
+    from pipeline.bench.estimate import measure
+
+    _within(measure(STUDIES / f"{name}.toml", quick=True))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["paper_example1", "paper_example2", "paper_example3",
+                                  "blade_shroud_contact", "disk_cyclic"])
+def test_cost_estimate_within_3x_of_the_full_run(name):
+    from pipeline.bench.estimate import measure
+
+    _within(measure(STUDIES / f"{name}.toml"))

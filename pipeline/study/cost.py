@@ -1,0 +1,196 @@
+"""What a response study will cost, from the model it will run (`shroud check`).
+
+A continuation case costs its points times the work per point.  Per point the solver
+evaluates the condensed harmonic-balance residual with its Jacobian (`hbm.residual`:
+the condensation of the linear part onto the contact DOFs, the contact forces) and
+solves the bordered Newton system of the n_u = n_c (2H + 1) unknowns, a few times;
+bookkeeping, dense output and the recovery of every DOF add a part that grows with
+the system's n DOFs, and stability its own:
+
+    t_case  = P t_point,    t_point = c (t_R + t_S) + s0 + s1 n + s_stab,
+    P       = 60 (1 + m)^0.6 x POINTS,
+    s_stab  = STABILITY[mode] (+ HILL_CUBE N_h^3 for Hill, N_h = 2 n (2H + 1)),
+
+t_R and t_S the residual + Jacobian and one solve of its Newton system, timed now on
+the first case's model (the one the run builds: the quick one with --quick) at the
+geometric middle of the frequency range, from the linear response there; m the
+natural frequencies (contacts open and stuck) inside the frequency range, which set
+how many points the curve needs.  c, s0, s1, s_stab and the spread of P are ranges
+calibrated on the shipped studies (`python -m pipeline bench estimate`, README "Cost
+estimates"); the estimate is the range they give, its middle the geometric mean.  The
+study costs n_cases t_case / workers, plus the model's build and reduction (timed) and
+an optimum-preload search of SEARCH_CASES cases' worth without stability.  It assumes
+the compiled kernels are cached (a first run compiles them: up to 25 s more) and a
+machine as loaded as when it timed; a curve with many more folds costs more.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+log = logging.getLogger(__name__)
+
+# t_point = c (t_R + t_S) + s0 + s1 n + s_stability  [s], n the system's DOFs:
+PAIRS_PER_POINT = (2.0, 5.0)          # c: residual evaluations per point (measured 1.9-6.5)
+OVERHEAD = ((0.002, 0.008), (1e-4, 4e-4))   # s0 [s], s1 [s per DOF]: bookkeeping, dense
+#                                             output, recovery of every DOF
+STABILITY = {"off": (0.0, 0.0), "monodromy": (0.001, 0.03),
+             "monodromy+check": (0.002, 0.25),   # + Floquet checks where in doubt
+             "hill": (0.01, 0.04), "hill+check": (0.1, 3.0), "floquet": (0.1, 3.0)}
+HILL_CUBE = (3e-9, 1.5e-8)            # [s] per N_h^3 of Hill's eigenproblem, N_h = 2n(2H+1)
+# P: points of a case grow with the m natural frequencies (open and stuck) in the range
+POINTS = (0.6, 2.0)                   # x the middle 60 (1 + m)^0.6
+SEARCH_CASES = (2.0, 6.0)   # an optimum-preload search (7-15 shorter continuations, stability
+#                             off): in cases' worth without stability
+
+
+@dataclass(frozen=True)
+class PointTiming:
+    """Measured on the model a study runs: t_R [s] (residual + Jacobian), t_S [s] (one
+    Newton solve), n the unknowns, setup [s] (model build and reduction)."""
+
+    t_residual: float
+    t_solve: float
+    unknowns: int
+    setup: float
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """The cost of a study [s] on `workers` workers: a range (lo, hi), and its parts."""
+
+    lo: float
+    hi: float
+    case: tuple                 # (lo, hi) [s] of one case
+    n_cases: int
+    workers: int
+    timing: PointTiming
+    per_point: tuple            # (lo, hi) [s] per continuation point
+    points: tuple               # (lo, hi) points per case
+    search: tuple | None        # (lo, hi) [s] of the optimum-preload search, or None
+    modes: int = 0              # m: natural frequencies in the range (open and stuck)
+
+    @property
+    def mid(self) -> float:
+        """Geometric middle of the range [s]."""
+        return math.sqrt(self.lo * self.hi)
+
+
+def stability_key(stability) -> str:
+    return "off" if not stability else str(stability)
+
+
+def time_point(study, repeats: int = 5) -> PointTiming:
+    """`PointTiming` of the first case of `study` at the geometric middle of its
+    frequency range, from the linear response there (medians of `repeats`)."""
+    from ..solve import hbm
+    from ..solve.newton import linear_solve
+    from ..solve.response import initial_guess
+
+    sv, fr = study.solver, study.sweep.frequency
+    t0 = time.perf_counter()
+    system = study.system(study.sweep.cases()[0][1])
+    setup = time.perf_counter() - t0
+    if getattr(study.scene.structure, "params", None) is not None:   # FE: as first built
+        from ..model.scene import reduced_model, timed_blade_model
+        setup += (timed_blade_model(study.scene.structure)[1]
+                  + reduced_model(study.scene.structure, study.scene.reduction)[1])
+    prob = hbm.setup(system, sv.harmonics, sv.force_evaluation, sv.samples)
+    om = math.sqrt(fr.omega_start * fr.omega_stop)
+    x = initial_guess(prob, om, system.contact)
+    hbm.residual(prob, x, om, system.contact)          # compiled / warmed once, not timed
+    t_r, t_s = [], []
+    for _ in range(repeats):
+        t1 = time.perf_counter()
+        R, J, dR = hbm.residual(prob, x, om, system.contact)
+        t2 = time.perf_counter()
+        A = _bordered(J, dR)
+        t3 = time.perf_counter()
+        try:
+            linear_solve(A, np.append(R, 0.0))
+        except Exception:   # a singular Newton matrix at the guess: its cost is what counts
+            pass
+        t_r.append(t2 - t1)
+        t_s.append(time.perf_counter() - t3)
+    return PointTiming(float(np.median(t_r)), float(np.median(t_s)), int(x.size), setup)
+
+
+def _bordered(J, dR):
+    """[[J, dR/dOm], [t^T]]: the continuation's Newton matrix, t a unit row."""
+    import scipy.sparse as sp
+
+    n = J.shape[0]
+    row = np.zeros(n + 1)
+    row[-1] = 1.0
+    if sp.issparse(J):
+        return sp.bmat([[J, dR[:, None]], [row[None, :-1], row[None, -1:]]]).tocsc()
+    A = np.empty((n + 1, n + 1))
+    A[:n, :n] = J
+    A[:n, n] = dR
+    A[n] = row
+    return A
+
+
+def modes_in_range(system, fr) -> int:
+    """m: natural frequencies of `system`, contacts open and stuck (counted apart), in
+    the frequency range `fr` (the lowest 200 of each)."""
+    from ..model.system import lowest_frequencies
+
+    w = np.concatenate([lowest_frequencies(system, c, 200) for c in ("open", "stuck")])
+    return int(np.sum((w >= fr.omega_start) & (w <= fr.omega_stop)))
+
+
+def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Estimate:
+    """The `Estimate` of a response study (timing measured now unless given)."""
+    timing = timing or time_point(study)
+    sv, fr = study.solver, study.sweep.frequency
+    n_cases = len(study.sweep.cases())
+    w = max(1, min(workers, n_cases))
+    system = study.system(study.sweep.cases()[0][1])
+    n, m = system.n_dof, modes_in_range(system, fr)
+    pair = timing.t_residual + timing.t_solve
+    key = stability_key(sv.stability)
+    stab = STABILITY.get(key, STABILITY["hill+check"])
+    if key.startswith("hill"):
+        cube = (2.0 * n * (2 * sv.harmonics + 1)) ** 3
+        stab = (stab[0] + HILL_CUBE[0] * cube, stab[1] + HILL_CUBE[1] * cube)
+    point = tuple(c * pair + s0 + s1 * n + st for c, s0, s1, st in
+                  zip(PAIRS_PER_POINT, *OVERHEAD, stab))
+    p_mid = 60.0 * (1 + m) ** 0.6
+    points = tuple(min(f * p_mid, sv.max_points * 1.1) for f in POINTS)
+    case = (points[0] * point[0], points[1] * point[1])
+    search = None
+    lo = n_cases * case[0] / w + timing.setup
+    hi = n_cases * case[1] / w + timing.setup
+    if study.output.optimum is not None:
+        bare = tuple(c * pair + s0 + s1 * n for c, s0, s1 in zip(PAIRS_PER_POINT, *OVERHEAD))
+        search = tuple(k * p * b for k, p, b in zip(SEARCH_CASES, points, bare))
+        lo, hi = lo + search[0], hi + search[1]
+    return Estimate(lo=lo, hi=hi, case=case, n_cases=n_cases, workers=w, timing=timing,
+                    per_point=point, points=points, search=search, modes=m)
+
+def model_line(study) -> str:
+    """What the run builds: an FE blade's size counted from its mesh parameters
+    (`structure.mesh_size`) and reduced size; a lumped scene's DOFs."""
+    sc = study.scene
+    structure = sc.structure
+    sectors = sc.assembly.sectors if sc.cyclic else 1
+    whole = (f"; the mistuned wheel: {sectors} x that" if sc.mistuning is not None
+             else " per sector (cyclic)" if sc.cyclic else "")
+    params = getattr(structure, "params", None)
+    if params is None:
+        return f"model: {len(sc.sector_dofs)} DOF(s), {len(sc.contacts)} contact(s){whole}"
+    modes = sc.reduction.modes
+    if structure.mesh:
+        return (f"model: solid blade from {structure.mesh}, Craig-Bampton {modes} modes + the "
+                f"boundary DOFs{whole}")
+    from ..structure.mesh_size import mesh_size
+
+    s = mesh_size(params, structure.disk)
+    return (f"model: {params.kind} blade, {s.elements:,} elements, {s.free_dofs:,} DOFs (from "
+            f"the mesh parameters) -> Craig-Bampton {s.boundary_dofs} boundary DOFs + {modes} "
+            f"modes = {s.boundary_dofs + modes} DOFs{whole}")
