@@ -1,6 +1,6 @@
 """`bench estimate`: `shroud check`'s cost estimate against the measured run, per study.
 
-    python -m pipeline bench estimate [--quick] [STUDY ...]
+    python -m pipeline bench estimate [STUDY ...] [--quick]
 
 Each response study (default: every one in studies/) is estimated as `check` does
 (`study.cost.estimate`, which times the model), the model caches are cleared (the

@@ -12,9 +12,10 @@ blade of a few thousand.  Three rules, each one error naming the field:
 - the hub radius at most MAX_HUB_TO_LENGTH blade lengths (hub-to-tip ratio R/(R + L)
   below 0.95; shrouded turbine stages stay below about 0.9);
 - the model's free DOFs, counted from the parameters (`structure.mesh_size`), at most
-  MAX_FE_DOFS: the Craig-Bampton reduction factorises the interior stiffness
-  (measured: 35,250 DOFs, 12 s of CPU; the fill grows faster than the size), and the
-  default blade has 11,934 (8 x 2 x 20 elements); 16 x 4 x 40 elements is 82,689.
+  MAX_FE_DOFS: the Craig-Bampton reduction factorises the interior stiffness, whose
+  fill grows faster than the size (`bench blade`: 97,650 DOFs in 41-44 s and 4.2-4.3 GB,
+  the largest measured; 35,250 DOFs, 12 s of CPU).  The default blade has 11,934 DOFs
+  (8 x 2 x 20 elements), 16 x 4 x 40 elements 82,689.
 
 A mesh file (`mesh = "file"`) is not checked here: its size is the file's.
 """

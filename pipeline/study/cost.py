@@ -5,13 +5,16 @@ evaluates the condensed harmonic-balance residual with its Jacobian (`hbm.residu
 the condensation of the linear part onto the contact DOFs, the contact forces) and
 solves the bordered Newton system of the n_u = n_c (2H + 1) unknowns, a few times;
 bookkeeping, dense output and the recovery of every DOF add a part that grows with
-the system's n DOFs, and stability its own:
+the system's n DOFs, and stability its own (c is larger for the sparse Jacobian of a
+full wheel: each tangent is factorised afresh):
 
-    t_case  = P t_point,    t_point = c (t_R + t_S) + s0 + s1 n + s_stab,
+    t_case  = P t_point,    t_point = c t_R + k t_S + s0 + s1 n + s_stab,
     P       = 60 (1 + m)^0.6 x POINTS,
     s_stab  = STABILITY[mode] (+ HILL_CUBE N_h^3 for Hill, N_h = 2 n (2H + 1)),
 
-t_R and t_S the residual + Jacobian and one solve of its Newton system, timed now on
+t_R and t_S the residual + Jacobian and one solve of its Newton system (as the solver
+does it: a float32 LU from SINGLE_ROWS rows; k = c below KEEP_ROWS rows, where every
+Newton step factorises afresh, else about one LU a point), timed now on
 the first case's model (the one the run builds: the quick one with --quick) at the
 geometric middle of the frequency range, from the linear response there; m the
 natural frequencies (contacts open and stuck) inside the frequency range, which set
@@ -21,7 +24,9 @@ estimates"); the estimate is the range they give, its middle the geometric mean.
 study costs n_cases t_case / workers, plus the model's build and reduction (timed) and
 an optimum-preload search of SEARCH_CASES cases' worth without stability.  It assumes
 the compiled kernels are cached (a first run compiles them: up to 25 s more) and a
-machine as loaded as when it timed; a curve with many more folds costs more.
+machine as loaded as when it timed: the constant terms are scaled by the slowdown
+measured then (wall / CPU time of one thread, `slowdown`) against CALIBRATION_SLOWDOWN.
+A curve with many more folds costs more.
 """
 from __future__ import annotations
 
@@ -36,12 +41,22 @@ log = logging.getLogger(__name__)
 
 # t_point = c (t_R + t_S) + s0 + s1 n + s_stability  [s], n the system's DOFs:
 PAIRS_PER_POINT = (2.0, 5.0)          # c: residual evaluations per point (measured 1.9-6.5)
+FACTORISATIONS_PER_POINT = (1.0, 2.5)  # dense Newton systems of KEEP_ROWS rows or more keep
+#                                        their factors: about one LU a point, not one a
+#                                        Newton step (`newton.KeptFactors`)
+KEEP_ROWS, SINGLE_ROWS = 300, 500      # as `newton`: kept factors; float32 factorisation
+SPARSE_PAIRS_PER_POINT = (6.0, 16.0)  # c of a sparse Jacobian (a mistuned wheel): 5.8-6.3
+#                                       evaluations a point, each tangent factorised afresh
 OVERHEAD = ((0.002, 0.008), (1e-4, 4e-4))   # s0 [s], s1 [s per DOF]: bookkeeping, dense
 #                                             output, recovery of every DOF
 STABILITY = {"off": (0.0, 0.0), "monodromy": (0.001, 0.03),
              "monodromy+check": (0.002, 0.25),   # + Floquet checks where in doubt
              "hill": (0.01, 0.04), "hill+check": (0.1, 3.0), "floquet": (0.1, 3.0)}
 HILL_CUBE = (3e-9, 1.5e-8)            # [s] per N_h^3 of Hill's eigenproblem, N_h = 2n(2H+1)
+# the constant terms (s0, s1, s_stab, HILL_CUBE) were measured with the machine this busy
+# (wall / CPU time of a single thread, load 8-11 on the 2 cores); they scale with the
+# slowdown measured when estimating (`slowdown`); t_R and t_S carry it already
+CALIBRATION_SLOWDOWN = 5.0
 # P: points of a case grow with the m natural frequencies (open and stuck) in the range
 POINTS = (0.6, 2.0)                   # x the middle 60 (1 + m)^0.6
 SEARCH_CASES = (2.0, 6.0)   # an optimum-preload search (7-15 shorter continuations, stability
@@ -57,6 +72,8 @@ class PointTiming:
     t_solve: float
     unknowns: int
     setup: float
+    sparse: bool = False        # the Jacobian is scipy.sparse (a full wheel)
+    slowdown: float = CALIBRATION_SLOWDOWN   # wall / CPU time of one thread, now
 
 
 @dataclass(frozen=True)
@@ -73,6 +90,7 @@ class Estimate:
     points: tuple               # (lo, hi) points per case
     search: tuple | None        # (lo, hi) [s] of the optimum-preload search, or None
     modes: int = 0              # m: natural frequencies in the range (open and stuck)
+    pairs: tuple = (0.0, 0.0)   # c: (residual, solve) pairs per point
 
     @property
     def mid(self) -> float:
@@ -87,6 +105,9 @@ def stability_key(stability) -> str:
 def time_point(study, repeats: int = 5) -> PointTiming:
     """`PointTiming` of the first case of `study` at the geometric middle of its
     frequency range, from the linear response there (medians of `repeats`)."""
+    import scipy.linalg as sla
+    import scipy.sparse as sp
+
     from ..solve import hbm
     from ..solve.newton import linear_solve
     from ..solve.response import initial_guess
@@ -111,12 +132,31 @@ def time_point(study, repeats: int = 5) -> PointTiming:
         A = _bordered(J, dR)
         t3 = time.perf_counter()
         try:
-            linear_solve(A, np.append(R, 0.0))
+            if sp.issparse(A) or A.shape[0] < SINGLE_ROWS:
+                linear_solve(A, np.append(R, 0.0))
+            else:   # the solver's mixed precision: a float32 LU, solves refined in float64
+                lu = sla.lu_factor(A.astype(np.float32), check_finite=False)
+                sla.lu_solve(lu, np.append(R, 0.0).astype(np.float32), check_finite=False)
         except Exception:   # a singular Newton matrix at the guess: its cost is what counts
             pass
         t_r.append(t2 - t1)
         t_s.append(time.perf_counter() - t3)
-    return PointTiming(float(np.median(t_r)), float(np.median(t_s)), int(x.size), setup)
+    return PointTiming(float(np.median(t_r)), float(np.median(t_s)), int(x.size), setup,
+                       bool(sp.issparse(J)), slowdown())
+
+
+def slowdown(repeats: int = 5) -> float:
+    """Wall / CPU time of a single-threaded pure-Python loop (about 20 ms of CPU),
+    the median of `repeats`: 1 on an idle core, about 5 with 10 busy processes on 2."""
+    ratios = []
+    for _ in range(repeats):
+        w0, c0 = time.perf_counter(), time.process_time()
+        acc = 0
+        for i in range(300_000):
+            acc += i * i
+        cpu = time.process_time() - c0
+        ratios.append((time.perf_counter() - w0) / cpu if cpu > 0 else 1.0)
+    return max(1.0, float(np.median(ratios)))
 
 
 def _bordered(J, dR):
@@ -152,14 +192,17 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
     w = max(1, min(workers, n_cases))
     system = study.system(study.sweep.cases()[0][1])
     n, m = system.n_dof, modes_in_range(system, fr)
-    pair = timing.t_residual + timing.t_solve
+    f = timing.slowdown / CALIBRATION_SLOWDOWN      # the machine now against then
     key = stability_key(sv.stability)
     stab = STABILITY.get(key, STABILITY["hill+check"])
     if key.startswith("hill"):
         cube = (2.0 * n * (2 * sv.harmonics + 1)) ** 3
         stab = (stab[0] + HILL_CUBE[0] * cube, stab[1] + HILL_CUBE[1] * cube)
-    point = tuple(c * pair + s0 + s1 * n + st for c, s0, s1, st in
-                  zip(PAIRS_PER_POINT, *OVERHEAD, stab))
+    pairs = SPARSE_PAIRS_PER_POINT if timing.sparse else PAIRS_PER_POINT
+    lus = (FACTORISATIONS_PER_POINT if not timing.sparse and timing.unknowns + 1 >= KEEP_ROWS
+           else pairs)
+    point = tuple(c * timing.t_residual + k * timing.t_solve + f * (s0 + s1 * n + st)
+                  for c, k, s0, s1, st in zip(pairs, lus, *OVERHEAD, stab))
     p_mid = 60.0 * (1 + m) ** 0.6
     points = tuple(min(f * p_mid, sv.max_points * 1.1) for f in POINTS)
     case = (points[0] * point[0], points[1] * point[1])
@@ -167,11 +210,12 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
     lo = n_cases * case[0] / w + timing.setup
     hi = n_cases * case[1] / w + timing.setup
     if study.output.optimum is not None:
-        bare = tuple(c * pair + s0 + s1 * n for c, s0, s1 in zip(PAIRS_PER_POINT, *OVERHEAD))
+        bare = tuple(c * timing.t_residual + k * timing.t_solve + f * (s0 + s1 * n)
+                     for c, k, s0, s1 in zip(pairs, lus, *OVERHEAD))
         search = tuple(k * p * b for k, p, b in zip(SEARCH_CASES, points, bare))
         lo, hi = lo + search[0], hi + search[1]
     return Estimate(lo=lo, hi=hi, case=case, n_cases=n_cases, workers=w, timing=timing,
-                    per_point=point, points=points, search=search, modes=m)
+                    per_point=point, points=points, search=search, modes=m, pairs=pairs)
 
 def model_line(study) -> str:
     """What the run builds: an FE blade's size counted from its mesh parameters
