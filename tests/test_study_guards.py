@@ -72,14 +72,30 @@ def test_stability_true_per_scene_kind():
 # Dataset attributes that depend on the scene
 # ---------------------------------------------------------------------------
 
-def _dataset(study):
-    from test_dataset import linear_curve   # tests/ is on sys.path (conftest)
+def _curve(system, H, omega):
+    """A converged-looking ResponseCurve: the first harmonic of M q'' + C q' + K q = F
+    (contacts ignored); the attributes under test do not depend on it."""
+    from pipeline.solve.response import ResponseCurve
 
+    P, n = omega.size, system.n_dof
+    Q = np.zeros((P, n, 2 * H + 1))
+    for i, w in enumerate(omega):
+        X = np.linalg.solve(system.K - w ** 2 * system.M + 1j * w * system.C,
+                            system.forcing[:, 1])
+        Q[i, :, 1], Q[i, :, 2] = X.real, -X.imag
+    return ResponseCurve(parameter=omega, omega=omega, Q=Q, converged=np.ones(P, bool),
+                         residual=np.full(P, 1e-12), stable=np.ones(P, bool),
+                         amplitude=np.hypot(Q[:, :, 1], Q[:, :, 2]), fold_parameter=np.zeros(0),
+                         newton_iterations=np.ones(P, int), nfev=P, wall_time=0.01 * P,
+                         success=True, status=0, message="ok", H=H, tolerance=1e-9)
+
+
+def _dataset(study):
     from pipeline.study.dataset import to_dataset
     fr = study.sweep.frequency
     om = np.linspace(fr.omega_start, fr.omega_stop, 20)
-    return to_dataset(study, [linear_curve(study.system(case), study.solver.harmonics, om, seed=k)
-                              for k, (_, case) in enumerate(study.sweep.cases())])
+    return to_dataset(study, [_curve(study.system(case), study.solver.harmonics, om)
+                              for _, case in study.sweep.cases()])
 
 
 def test_disk_natural_frequencies_say_nd_equals_eo_and_are():

@@ -38,7 +38,7 @@ from ..model.scene import AT, stiffness_factors
 from ..model.system import lowest_frequencies
 from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
-from .meanings import natural_frequency_comment, sweep_long_name
+from .meanings import annotate_natural_frequencies, sweep_long_name
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
 
@@ -271,9 +271,7 @@ def response_variables(study: Study, v: dict, message, lay: Layout) -> dict:
                 + ("" if lay.computed else ", and every point since solver.stability = false"),
         stability_computed=int(lay.computed))
     sd.stability_attrs(data_vars)
-    if natural_frequency_comment(study.scene):   # a disk: at ND = EO, or the whole assembly
-        for k in ("natural_frequency_free", "natural_frequency_stuck"):
-            data_vars[k][2]["comment"] = natural_frequency_comment(study.scene)
+    annotate_natural_frequencies(data_vars, study.scene)   # a disk: at ND = EO
     data_vars["message"] = (sw, message.astype(str), {"long_name": "continuation message"})
     return data_vars
 

@@ -45,3 +45,12 @@ def natural_frequency_comment(scene) -> str | None:
     return ("of one sector at nodal diameter ND = EO, the engine order of the case's "
             "excitation (the cyclic sector the case is solved on): the engine-order "
             "family, not the lowest frequencies of the whole disk")
+
+
+def annotate_natural_frequencies(data_vars: dict, scene) -> None:
+    """Add `natural_frequency_comment` to the natural frequencies of `data_vars`
+    ({name: (dims, data, attrs)}), where it has something to say."""
+    note = natural_frequency_comment(scene)
+    for k in ("natural_frequency_free", "natural_frequency_stuck"):
+        if note and k in data_vars:
+            data_vars[k][2]["comment"] = note

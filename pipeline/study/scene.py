@@ -34,24 +34,14 @@ from .checker import Checker, join_field, kind_of
 from .rules import check_scene_rules
 from .spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
                    MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, STABILITY_WHEN_TRUE, SWEEP_AXES,
-                   FrequencyRange,
-                   OutputSettings, SolverSettings, STABILITY_MODES, Study, Sweep, solver_rule_violations)
+                   FrequencyRange, OutputSettings, SolverSettings, STABILITY_MODES, Study, Sweep,
+                   solver_rule_violations)
 
 _SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
 
 
 # ---------------------------------------------------------------------------
-# Plain data
-# ---------------------------------------------------------------------------
-
-
-# ---------------------------------------------------------------------------
-# Validation helpers: every failure names the file and the field
-# ---------------------------------------------------------------------------
-
-
-# ---------------------------------------------------------------------------
-# Loading
+# Loading (every failure names the file and the field)
 # ---------------------------------------------------------------------------
 
 
@@ -75,8 +65,7 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     # [quick] only when the quick variant is asked for: a full run never depends on it
     scene_tab = ck.table(data["scene"], "scene")
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
-    model = scene_tab.get("model")  # checked by parse_scene; here only for `stability = true`
-    solver = parse_solver(ck, solver_tab, "solver", model=model)
+    solver = parse_solver(ck, solver_tab, "solver", model=(model := scene_tab.get("model")))
     sweep_axes, freq = parse_sweep(ck, sweep_tab, "sweep")
     scene = parse_scene(ck, scene_tab)
     if "stability" not in solver_tab and scene.model == "disk":
@@ -135,10 +124,8 @@ _SOLVER_KEYS = ("harmonics", "force_evaluation", "samples", "tolerance", "stabil
 
 
 def parse_solver(ck, tab, path, base=None, model="lumped") -> SolverSettings:
-    """`SolverSettings` from the table `tab` at field `path` (keys not given keep the
-    values of `base`, or the defaults); failures through the `Checker` ck.
-    `stability = true` is the method recommended for the scene `model`
-    (`spec.STABILITY_WHEN_TRUE`)."""
+    """`SolverSettings` from the table `tab` at field `path` (keys not given keep the values
+    of `base`, or the defaults; `stability = true`: `spec.STABILITY_WHEN_TRUE[model]`)."""
     ck.keys(tab, path, _SOLVER_KEYS)
     kw = {}
     if "harmonics" in tab:
@@ -183,8 +170,7 @@ def parse_sweep(ck, tab, path, partial=False):
             t = ck.table(value, field)
             ck.keys(t, field, ("start", "stop", "unit"), required=("start", "stop"))
             if "unit" not in t:  # no default: a range meant in Hz must not run in rad/s
-                ck.fail(f"{field}.unit", "missing (required): the unit of start and stop, "
-                                         f"one of {', '.join(map(repr, FREQUENCY_UNITS))}")
+                ck.fail(f"{field}.unit", f"missing (required): one of {FREQUENCY_UNITS}")
             unit = ck.string(t["unit"], f"{field}.unit", FREQUENCY_UNITS)
             start = ck.number(t["start"], f"{field}.start", gt=0.0)
             stop = ck.number(t["stop"], f"{field}.stop", gt=0.0)
