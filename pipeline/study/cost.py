@@ -10,7 +10,8 @@ full wheel: each tangent is factorised afresh):
 
     t_case  = P t_point,    t_point = c t_R + k t_S + s0 + s1 n + s_stab,
     P       = 60 (1 + m)^0.6 x POINTS,
-    s_stab  = STABILITY[mode] (+ HILL_CUBE N_h^3 for Hill, N_h = 2 n (2H + 1)),
+    s_stab  = STABILITY[mode] (+ HILL_CUBE N_h^3 for Hill, N_h = 2 n (2H + 1); Hill's
+              method on a tuned cyclic sector once per wave number, N/2 + 1),
 
 t_R and t_S the residual + Jacobian and one solve of its Newton system (as the solver
 does it: a float32 LU from SINGLE_ROWS rows; k = c below KEEP_ROWS rows, where every
@@ -47,12 +48,13 @@ FACTORISATIONS_PER_POINT = (1.0, 2.5)  # dense Newton systems of KEEP_ROWS rows 
 KEEP_ROWS, SINGLE_ROWS = 300, 500      # as `newton`: kept factors; float32 factorisation
 SPARSE_PAIRS_PER_POINT = (6.0, 16.0)  # c of a sparse Jacobian (a mistuned wheel): 5.8-6.3
 #                                       evaluations a point, each tangent factorised afresh
-OVERHEAD = ((0.002, 0.008), (1e-4, 4e-4))   # s0 [s], s1 [s per DOF]: bookkeeping, dense
+OVERHEAD = ((0.002, 0.008), (1e-4, 1.5e-3))   # s0 [s], s1 [s per DOF]: bookkeeping, dense
 #                                             output, recovery of every DOF
 STABILITY = {"off": (0.0, 0.0), "monodromy": (0.001, 0.03),
              "monodromy+check": (0.002, 0.25),   # + Floquet checks where in doubt
-             "hill": (0.01, 0.04), "hill+check": (0.1, 3.0), "floquet": (0.1, 3.0)}
-HILL_CUBE = (3e-9, 1.5e-8)            # [s] per N_h^3 of Hill's eigenproblem, N_h = 2n(2H+1)
+             "hill": (0.0005, 0.004), "hill+check": (0.2, 4.0), "floquet": (0.2, 4.0)}
+HILL_CUBE = (3e-9, 1.5e-8)            # [s] per N_h^3 of Hill's eigenproblem, N_h = 2n(2H+1);
+#                                       a tuned cyclic sector solves one per wave number
 # the constant terms (s0, s1, s_stab, HILL_CUBE) were measured with the machine this busy
 # (wall / CPU time of a single thread, load 8-11 on the 2 cores); they scale with the
 # slowdown measured when estimating (`slowdown`); t_R and t_S carry it already
@@ -197,7 +199,10 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
     stab = STABILITY.get(key, STABILITY["hill+check"])
     if key.startswith("hill"):
         cube = (2.0 * n * (2 * sv.harmonics + 1)) ** 3
-        stab = (stab[0] + HILL_CUBE[0] * cube, stab[1] + HILL_CUBE[1] * cube)
+        waves = (study.scene.assembly.sectors // 2 + 1
+                 if study.scene.cyclic and study.scene.mistuning is None else 1)
+        stab = tuple(waves * (st + k * cube) for st, k in zip(STABILITY["hill"], HILL_CUBE)) \
+            if key == "hill" else (stab[0] + HILL_CUBE[0] * cube, stab[1] + HILL_CUBE[1] * cube)
     pairs = SPARSE_PAIRS_PER_POINT if timing.sparse else PAIRS_PER_POINT
     lus = (FACTORISATIONS_PER_POINT if not timing.sparse and timing.unknowns + 1 >= KEEP_ROWS
            else pairs)
