@@ -31,16 +31,13 @@ A curve with many more folds costs more.
 """
 from __future__ import annotations
 
-import logging
 import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-log = logging.getLogger(__name__)
-
-# t_point = c (t_R + t_S) + s0 + s1 n + s_stability  [s], n the system's DOFs:
+# t_point = c t_R + k t_S + s0 + s1 n + s_stab  [s] (module docstring):
 PAIRS_PER_POINT = (2.0, 5.0)          # c: residual evaluations per point (measured 1.9-6.5)
 FACTORISATIONS_PER_POINT = (1.0, 2.5)  # dense Newton systems of KEEP_ROWS rows or more keep
 #                                        their factors: about one LU a point, not one a
@@ -209,7 +206,7 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
     point = tuple(c * timing.t_residual + k * timing.t_solve + f * (s0 + s1 * n + st)
                   for c, k, s0, s1, st in zip(pairs, lus, *OVERHEAD, stab))
     p_mid = 60.0 * (1 + m) ** 0.6
-    points = tuple(min(f * p_mid, sv.max_points * 1.1) for f in POINTS)
+    points = tuple(min(x * p_mid, sv.max_points * 1.1) for x in POINTS)
     case = (points[0] * point[0], points[1] * point[1])
     search = None
     lo = n_cases * case[0] / w + timing.setup
@@ -221,6 +218,7 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
         lo, hi = lo + search[0], hi + search[1]
     return Estimate(lo=lo, hi=hi, case=case, n_cases=n_cases, workers=w, timing=timing,
                     per_point=point, points=points, search=search, modes=m, pairs=pairs)
+
 
 def model_line(study) -> str:
     """What the run builds: an FE blade's size counted from its mesh parameters
