@@ -240,3 +240,19 @@ def test_cost_estimate_within_3x_of_the_full_run(name):
     from pipeline.bench.estimate import measure
 
     _within(measure(STUDIES / f"{name}.toml"))
+
+
+def test_check_reports_the_model_the_run_builds():
+    """`check --quick` on the FE disk: the quick mesh's size, counted from its parameters
+    (2 x 1 x 4 elements: 630 DOFs, 96 kept on the faces and points, + 20 modes)."""
+    import io
+
+    from pipeline.study.check import check
+
+    out = io.StringIO()
+    assert check(STUDIES / "shrouded_disk.toml", quick=True, workers=1, out=out) == 0
+    text = out.getvalue()
+    assert ("model: solid blade, 14 elements, 630 DOFs (from the mesh parameters) -> "
+            "Craig-Bampton 96 boundary DOFs + 20 modes = 116 DOFs per sector") in text, text
+    # 2 faces x 15 nodes x 3 components = 90 contact DOFs, x (2H + 1) = 3 at H = 1
+    assert "of 270 unknowns, timed now on this model" in text, text
