@@ -55,8 +55,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks that print tables")
     b.add_argument("what", choices=["contact", "hbm", "evaluations", "blade", "disk", "parallel",
-                                    "peers", "stability"],
+                                    "peers", "stability", "estimate"],
                    help="what to benchmark")
+    b.add_argument("studies", nargs="*", metavar="STUDY",
+                   help="estimate: studies to run (names in studies/ or files; default all)")
     b.add_argument("--quick", action="store_true", help="fewer repetitions")
     b.add_argument("--nlvib", metavar="PATH", default=None,
                    help="peers: the NLvib folder (default $NLVIB_PATH); needs octave on PATH")
@@ -131,6 +133,11 @@ def _cmd_bench(args) -> int:
 
     options = ({"nlvib": args.nlvib, "pyharm_python": args.pyharm_python}
                if args.what == "peers" else {})
+    if args.studies and args.what != "estimate":
+        print(f"error: bench {args.what}: takes no STUDY arguments", file=sys.stderr)
+        return 2
+    if args.what == "estimate":
+        options = {"studies": tuple(args.studies)}
     return bench.run(args.what, quick=args.quick, **options)
 
 

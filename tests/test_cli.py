@@ -24,7 +24,8 @@ BAD = Path(__file__).resolve().parent / "bad_studies"
 
 def run(*args, cwd=None):
     return subprocess.run([sys.executable, "-m", "pipeline", *map(str, args)], capture_output=True,
-                          text=True, env=dict(os.environ, MPLBACKEND="Agg"), cwd=cwd or ROOT,
+                          text=True, cwd=cwd or ROOT,   # this tree's pipeline from any cwd
+                          env=dict(os.environ, MPLBACKEND="Agg", PYTHONPATH=str(ROOT)),
                           timeout=300)
 
 
@@ -60,10 +61,11 @@ def test_check_prints_cases_solver_and_cost_without_computing(tmp_path):
     assert "cases: 6 = preload (6)" in out
     assert "preload [N]: 0, 100, 300, 1000, 3000, 100000" in out
     assert "frequency: 13 to 67 Hz (continuation)" in out
-    assert "solver: H = 7, exact forces, tolerance 1e-09 (relative), stability hill" in out
-    m = re.search(r"estimated cost: one residual evaluation ([0-9.]+) ms \(timed now\), a case "
-                  r"as long as 800-12000 of them .* for 6 case\(s\) on 2 worker\(s\)", out)
-    assert m and float(m.group(1)) > 0, out
+    assert "solver: H = 7, exact forces, tolerance 1e-09 (relative), stability monodromy+check" in out
+    assert re.search(r"estimated cost: .* \(middle .*\) for 6 case\(s\) on 2 worker\(s\)", out), out
+    m = re.search(r"assumes .*residual \+ Jacobian ([0-9.]+) ms and Newton solve ([0-9.]+) ms "
+                  r"of 15 unknowns, timed now", out)
+    assert m and float(m.group(1)) > 0 and float(m.group(2)) > 0, out
     assert not any(tmp_path.iterdir())             # nothing written, nothing computed
 
 

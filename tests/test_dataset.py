@@ -579,7 +579,7 @@ def test_two_axis_grid_gives_one_figure_per_other_axis_value(tmp_path):
     doc = tomllib.loads((STUDIES / "paper_example3.toml").read_text())
     doc = copy.deepcopy(doc)
     doc["sweep"] = {"mu": [0.2, 0.4], "preload": [-100.0, 10.0],
-                    "frequency": {"start": 0.5, "stop": 1.6}}
+                    "frequency": {"start": 0.5, "stop": 1.6, "unit": "rad/s"}}
     study = study_from_document(doc, file="grid.toml", name="grid")
     ds = to_dataset(study, curves_for(study))
     assert ds["amplitude"].dims == ("mu", "preload", "point", "dof")

@@ -150,7 +150,7 @@ def test_samples_rule_applies_only_where_samples_are_taken(method, ok):
 def test_grid_cases_in_file_order():
     doc = tomllib.loads((STUDIES / "paper_example3.toml").read_text())
     doc["sweep"] = {"mu": [0.1, 0.2], "preload": [10.0, 20.0, 30.0],
-                    "frequency": {"start": 0.5, "stop": 1.6}}
+                    "frequency": {"start": 0.5, "stop": 1.6, "unit": "rad/s"}}
     s = study_from_document(doc)
     assert s.sweep.shape == (2, 3)
     cases = s.sweep.cases()

@@ -221,13 +221,19 @@ def peers_bench(quick=False, nlvib=None, pyharm_python=None):
     return run_peers(quick, nlvib=nlvib, pyharm_python=pyharm_python)
 
 
+def estimate_bench(quick=False, studies=()):
+    from .estimate import run as run_estimate
+    return run_estimate(quick, studies)
+
+
 BENCHES = {"contact": contact, "hbm": hbm, "evaluations": evaluations_bench, "blade": blade,
            "disk": disk_bench, "parallel": parallel, "peers": peers_bench,
-           "stability": stability_bench}
+           "stability": stability_bench, "estimate": estimate_bench}
 
 
 def run(what, quick=False, **options):
-    """Run one bench; `options` go to it (`peers`: nlvib, pyharm_python)."""
+    """Run one bench; `options` go to it (`peers`: nlvib, pyharm_python; `estimate`:
+    studies)."""
     if what not in BENCHES:
         raise ValueError(f"unknown benchmark {what!r}; choose from {sorted(BENCHES)}")
     return BENCHES[what](quick=quick, **options)

@@ -47,6 +47,7 @@ from ..model.scene import Blade, CraigBampton, Scene, Single, blade_model
 from ..structure.fe_model import BladeParams, boundary_dofs
 from ..structure.reduction import DEFAULT_MODES
 from . import blade_disk, disk_scene
+from .blade_size import check_blade_size
 from .checker import Checker
 from .rules import check_scene_rules
 from .scene import (check_optimum_axes, check_windows, output_common, parse_optimum,
@@ -118,7 +119,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     if kind == "modes":
         mt = ck.table(data.get("modes"), "modes", required=False)
         q_modes = ck.table(qt.get("modes"), "quick.modes", required=False)
-        full = _modes(ck, mt, "modes", full_scene)
+        full = _modes(ck, mt, "modes", full_scene, built=full_scene is scene)
         variant = _modes(ck, {**mt, **q_modes}, "quick.modes" if q_modes else "modes",
                          quick_scene)
         counts, nf, ns = variant if quick else full
@@ -127,15 +128,15 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                           n_frequencies=nf, n_shapes=ns, quick=bool(quick))
 
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
-    solver = parse_solver(ck, solver_tab, "solver")
+    solver = parse_solver(ck, solver_tab, "solver", model=scene.model)
     if "stability" not in solver_tab:
         solver = replace(solver, stability=False)  # Hill on hundreds of DOFs: opt in
     axes, freq = parse_sweep(ck, sweep_tab, "sweep")
-    output = _output(ck, ck.table(data.get("output"), "output", required=False), full_scene)
+    output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
     variants = [(False, solver, axes, freq, "solver", "sweep", full_scene)]
     if quick:
         q_solver, q_sweep = quick_tables(ck, {"quick": qt}, sweep_tab, ("scene", "sweep", "solver"))
-        q_solver_s = parse_solver(ck, q_solver, "quick.solver", base=solver)
+        q_solver_s = parse_solver(ck, q_solver, "quick.solver", base=solver, model=scene.model)
         q_axes, q_freq = parse_sweep(ck, q_sweep, "quick.sweep", partial=True)
         q_axes = {k: q_axes.get(k, v) for k, v in axes.items()}
         variants.append((True, q_solver_s, q_axes, q_freq or freq,
@@ -143,7 +144,8 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
                          "quick.sweep" if q_sweep else "sweep", quick_scene))
     chosen = None
     for is_quick, sv, ax, fr, spath, wpath, sc in variants:
-        _consistency(ck, sc, sv, ax, spath, wpath, data)
+        _consistency(ck, scene, sv, ax, spath, wpath, data)  # the rules need no mesh: the
+        # model run is checked (--quick builds and reduces the quick blade only)
         check_optimum_axes(ck, output, ax, wpath)
         st = Study(file=file, name=name, title=title, description=description,
                    reference=reference, text=text, scene=sc, sweep=Sweep(axes=ax, frequency=fr),
@@ -156,12 +158,14 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
 
 def blade_scenes(ck, data, qt, kind, base_dir) -> tuple:
     """(scene of the full study, scene of its [quick] variant: the [quick.scene]
-    overrides of blade, craig_bampton_modes and mesh merged in, errors naming them)."""
+    overrides of blade, craig_bampton_modes and mesh merged in, errors naming them).
+    `qt` is the [quick] table of a --quick load ({} otherwise); when it changes the
+    scene, the full scene's tables are validated without building its blade."""
     scene_tab = ck.table(data["scene"], "scene")
-    full_scene = parse_blade_scene(ck, scene_tab, kind, base_dir, {})
     ck.keys(qt, "quick", ("scene", "modes") if kind in ("modes", "disk_modes")
             else ("scene", "sweep", "solver"))
     q_scene = ck.table(qt.get("scene"), "quick.scene", required=False)
+    full_scene = parse_blade_scene(ck, scene_tab, kind, base_dir, {}, build=not q_scene)
     ck.keys(q_scene, "quick.scene", ("blade", "craig_bampton_modes", "mesh"))
     merged = dict(scene_tab)
     origin = {}
@@ -222,10 +226,11 @@ def parse_blade_params(ck, t, model, origin):
         ck.fail(where(key) if key in _BLADE_KEYS else "scene.blade", msg)
 
 
-def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
+def parse_blade_scene(ck, tab, kind, base_dir, origin, build: bool = True) -> Scene:
     """The `Scene` of a [scene] table for a study of `kind` ("response" or
     "modes"), mesh files relative to `base_dir`; the blade is built once to check
-    node sets, faces and mode counts.  `origin`: as in `parse_blade_params`."""
+    node sets, faces and mode counts (`build`; without it the tables only).
+    `origin`: as in `parse_blade_params`."""
 
     def fld(k):
         return origin.get(f"scene.{k}", f"scene.{k}")
@@ -258,12 +263,16 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin) -> Scene:
                                                   "replaces the modal ratios): give one of the two")
     placement, assembly = (blade_disk.parse_placement(ck, tab) if "disk" in tab
                            else (None, Single()))
+    if mesh is None:   # before anything is meshed: lengths in metres, a model of sane size
+        check_blade_size(ck, tab.get("blade", {}), params, placement, origin)
     contacts, loads = (_contacts_and_loads(ck, tab, kind, model, params)
                        if kind in ("response", "disk_modes") else ((), ()))
     blade_disk.check_disk_contacts(ck, contacts, placement)
     scene = Scene(structure=Blade(params=params, mesh=mesh, rayleigh=rayleigh, disk=placement),
                   contacts=contacts, loads=loads, reduction=CraigBampton(n_modes),
                   effects=effects, model=model, assembly=assembly)
+    if not build:
+        return scene
     try:
         blade = blade_model(scene.structure)
     except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # e.g. a degenerate mesh
@@ -413,7 +422,9 @@ def _output(ck, t, scene):
                           optimum=parse_optimum(ck, t, scene))
 
 
-def _modes(ck, t, path, scene):
+def _modes(ck, t, path, scene, built: bool = True):
+    """(mode counts, frequencies, shapes) of a [modes] table; bounds from the blade of
+    `scene` if `built` (a --quick load does not build the full blade)."""
     ck.keys(t, path, ("mode_counts", "n_frequencies", "mode_shapes"))
     counts = (ck.array(t["mode_counts"], f"{path}.mode_counts") if "mode_counts" in t
               else list(DEFAULT_MODE_COUNTS))
@@ -422,15 +433,15 @@ def _modes(ck, t, path, scene):
         if vals[i] <= vals[i - 1]:
             ck.fail(f"{path}.mode_counts[{i}]", f"must increase strictly, got {vals[i - 1]} "
                                                 f"then {vals[i]}")
-    blade = blade_model(scene.structure)
-    n_int = blade.n_dof - boundary_dofs(blade)[0].size
+    blade = blade_model(scene.structure) if built else None
+    n_int = blade.n_dof - boundary_dofs(blade)[0].size if built else math.inf
     if vals and vals[-1] > n_int:
         ck.fail(f"{path}.mode_counts[{len(vals) - 1}]", f"must be <= {n_int} (interior DOFs), "
                                                         f"got {vals[-1]}")
     if scene.reduction.modes not in vals:  # the scene's own count is always reported
         vals = sorted(vals + [scene.reduction.modes])
     nf = ck.integer(t.get("n_frequencies", 10), f"{path}.n_frequencies", 1, 200)
-    if nf >= blade.n_dof - 1:
+    if built and nf >= blade.n_dof - 1:
         ck.fail(f"{path}.n_frequencies", f"must be < {blade.n_dof - 1} (DOFs of the blade)")
     ns = ck.integer(t.get("mode_shapes", min(nf, 6)), f"{path}.mode_shapes", 0, nf)
     return tuple(vals), nf, ns

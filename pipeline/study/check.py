@@ -3,43 +3,21 @@
     shroud check STUDY.toml [--quick] [--workers N]
     shroud check FILE.nc
 
-A study prints its cases (the sweep grid), solver settings, output and an
-estimated cost; a bad study is the usual one line `error: <file>: <field>: <what>`
-and exit 2.  The estimate of a lumped or disk scene times a few residual
-evaluations (with Jacobian) of its first case at the study's H, at the middle of
-the frequency range from the linear response, and multiplies by the ratio of a
-whole case's wall time to that evaluation measured on the paper examples (serial
-runs of their studies, `--workers 1`, against the same timing: Example 1 at H = 7,
-0.10-0.32 s per case for 0.12 ms, 840-2600; Example 2 at H = 7, 0.39-0.57 s for
-0.20 ms, 1950-2850; Example 3 at H = 14, 0.13-1.7 s for 0.15 ms, 880-11100, the most
-where the exact flow checks the stability of a separating contact: EVALS_PER_CASE
-evaluations' worth per case, continuation, dense output for the figures, recovery,
-stability and peak refinement included).  An optimum-preload search costs about
-OPTIMUM_CURVES cases: its grid and refinement take 19-20 evaluations on the paper
-examples (Example 1 once took 0.7 s for the 10 of a bounded Brent).  It is a rough
-guide: a case with many more points or folds costs more.  An FE blade is not built for the estimate (that alone
-takes seconds to minutes); its figure is the measured time per case of
-studies/blade_shroud_contact.toml (full mesh: 8.7-14.4 s; quick mesh: 2.7 s).  A
-dataset is checked by `pipeline.study.dataset_check.problems`.
+A study prints its cases (the sweep grid), solver settings, output, the size of the
+model it builds and an estimated cost; a bad study is the usual one line
+`error: <file>: <field>: <what>` and exit 2.  The estimate (`pipeline.study.cost`)
+times the residual and the Newton solve of the model the run builds (the quick one
+with --quick) and multiplies by points per case and work per point calibrated on the
+shipped studies (`python -m pipeline bench estimate`); it prints what it assumes.
+A dataset is checked by `pipeline.study.dataset_check.problems`.
 """
 from __future__ import annotations
 
-import math
 import os
 import sys
-import time
 from pathlib import Path
 
-import numpy as np
-
-from ..solve import hbm
 from ..errors import UsageError
-from ..solve.response import initial_guess
-
-EVALS_PER_CASE = (800, 12000)  # a case's wall time / one residual evaluation (docstring)
-OPTIMUM_CURVES = 12             # an optimum-preload search: about 12 cases' worth (docstring)
-BLADE_CASE_S = (9.0, 15.0)      # studies/blade_shroud_contact.toml, H = 3, per case, 2 cores
-BLADE_QUICK_CASE_S = (2.0, 4.0)  # the same with its [quick] mesh
 
 
 def check(path, quick: bool = False, workers: int | None = None, out=None) -> int:
@@ -93,7 +71,8 @@ def _num(x) -> str:
     return f"{x:g}" if isinstance(x, float) else str(x)
 
 
-def _seconds(t: float) -> str:
+def seconds(t: float) -> str:
+    """A duration [s] as the estimates print it."""
     if t < 1.0:
         return "under 1 s"
     if t < 120.0:
@@ -171,47 +150,33 @@ def describe(study, workers: int = 1, has_quick: bool = False) -> list:
 
 
 def estimate(study, n_cases: int, workers: int, linear: bool) -> list:
-    """Cost lines (see the module docstring for what they are based on)."""
-    w = max(1, min(workers, n_cases))
+    """The model and cost lines (`pipeline.study.cost`: what they assume)."""
     if linear:
         return [f"estimated cost: {n_cases} direct solve sweep(s), well under 1 s each"]
-    bound = f"at most {n_cases * study.solver.max_points} points in all"
-    if study.scene.model in ("beam_blade", "solid_blade"):
-        lo, hi = BLADE_QUICK_CASE_S if study.quick else BLADE_CASE_S
-        return [f"estimated cost: {n_cases} case(s) x {lo:.0f}-{hi:.0f} s (measured per case "
-                f"of studies/blade_shroud_contact.toml{' --quick' if study.quick else ''} at "
-                "H = 3 on the 2-core machine; grows with H and the mesh) = "
-                f"{_range(n_cases * lo / w, n_cases * hi / w)} on {w} worker(s); {bound}"]
-    t_eval = time_residual(study)
-    lo, hi = (k * t_eval for k in EVALS_PER_CASE)
-    extra = OPTIMUM_CURVES if study.output.optimum is not None else 0
-    search = (f", plus the optimum-preload search {_range(extra * lo, extra * hi)}"
-              if extra else "")
-    return [f"estimated cost: one residual evaluation {t_eval * 1e3:.3g} ms (timed now), "
-            f"a case as long as {EVALS_PER_CASE[0]}-{EVALS_PER_CASE[1]} of them (measured on the "
-            f"paper examples) = {_range(lo, hi)} per case, "
-            f"{_range(n_cases * lo / w, n_cases * hi / w)} for {n_cases} case(s) on {w} "
-            f"worker(s){search} (a rough guide; {bound})"]
+    from .cost import estimate as cost_estimate, model_line
+
+    lines = [model_line(study)]
+    e = cost_estimate(study, workers)
+    tm = e.timing
+    search = (f", of which the optimum-preload search {_range(*e.search)}" if e.search else "")
+    lines.append(
+        f"estimated cost: {_range(e.lo, e.hi)} (middle {seconds(e.mid)}) for {n_cases} case(s) "
+        f"on {e.workers} worker(s){search}")
+    lines.append(
+        f"  assumes {e.points[0]:.0f}-{e.points[1]:.0f} points per case ({e.modes} natural "
+        f"frequencies in the range) at {e.per_point[0] * 1e3:.3g}-{e.per_point[1] * 1e3:.3g} "
+        f"ms each (residual + Jacobian {tm.t_residual * 1e3:.3g} ms and Newton solve "
+        f"{tm.t_solve * 1e3:.3g} ms of {tm.unknowns} unknowns, timed now on this model, "
+        f"{e.pairs[0]:g}-{e.pairs[1]:g} times a point, plus bookkeeping and stability {study.solver.stability or 'off'}) = "
+        f"{_range(*e.case)} per case; model build and reduction {seconds(tm.setup)}; this "
+        f"machine {tm.slowdown:.2g}x slower than an idle core now; "
+        "calibrated on the shipped studies (bench estimate), compiled kernels cached; a "
+        "curve with many more folds costs more")
+    return lines
 
 
 def _range(lo: float, hi: float) -> str:
-    a, b = _seconds(lo), _seconds(hi)
+    a, b = seconds(lo), seconds(hi)
     if a == b:
         return a
     return f"up to {b}" if lo < 1.0 else f"{a} to {b}"
-
-
-def time_residual(study, repeats: int = 5) -> float:
-    """Median wall time [s] of one residual + Jacobian of the first case at the
-    middle of the frequency range, from the linear response there."""
-    sv, fr = study.solver, study.sweep.frequency
-    system = study.system(study.sweep.cases()[0][1])
-    prob = hbm.setup(system, sv.harmonics, sv.force_evaluation, sv.samples)
-    om = math.sqrt(fr.omega_start * fr.omega_stop)
-    x = initial_guess(prob, om, system.contact)
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        hbm.residual(prob, x, om, system.contact)
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))

@@ -39,6 +39,7 @@ from ..model.system import lowest_frequencies
 from ..solve import hbm
 from .describe import provenance, scene_attrs, solution_method
 from .incomplete import CASE_FLAGS, PEAK_NAME, case_flags
+from .meanings import annotate_natural_frequencies, sweep_long_name
 from .optimum_dataset import add_optimum
 from .spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
@@ -274,6 +275,7 @@ def response_variables(study: Study, v: dict, message, lay: Layout) -> dict:
                 + ("" if lay.computed else ", and every point since solver.stability = false"),
         stability_computed=int(lay.computed))
     sd.stability_attrs(data_vars)
+    annotate_natural_frequencies(data_vars, study.scene)   # a disk: at ND = EO
     data_vars["message"] = (sw, message.astype(str), {"long_name": "continuation message"})
     return data_vars
 
@@ -286,7 +288,7 @@ def response_coords(study: Study, frequency, lay: Layout) -> dict:
     """The coordinates of a response dataset, `frequency` (grid..., point) included."""
     sw = tuple(study.sweep.axes)
     coords = {a: (a, np.asarray(vals, dtype=np.int32 if a in INTEGER_SWEEP_AXES else float),
-                  {"units": SWEEP_AXES[a][0], "long_name": SWEEP_AXES[a][1]})
+                  {"units": SWEEP_AXES[a][0], "long_name": sweep_long_name(a, study.scene)})
               for a, vals in study.sweep.axes.items()}
     coords["frequency"] = (sw + ("point",), frequency,
                            {"units": lay.unit, "long_name": "excitation frequency"})

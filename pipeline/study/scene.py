@@ -33,24 +33,15 @@ from . import disk_scene
 from .checker import Checker, join_field, kind_of
 from .rules import check_scene_rules
 from .spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
-                   MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, SWEEP_AXES, FrequencyRange,
-                   OutputSettings, SolverSettings, STABILITY_MODES, Study, Sweep, solver_rule_violations)
+                   MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, STABILITY_WHEN_TRUE, SWEEP_AXES,
+                   FrequencyRange, OutputSettings, SolverSettings, STABILITY_MODES, Study, Sweep,
+                   solver_rule_violations)
 
 _SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
 
 
 # ---------------------------------------------------------------------------
-# Plain data
-# ---------------------------------------------------------------------------
-
-
-# ---------------------------------------------------------------------------
-# Validation helpers: every failure names the file and the field
-# ---------------------------------------------------------------------------
-
-
-# ---------------------------------------------------------------------------
-# Loading
+# Loading (every failure names the file and the field)
 # ---------------------------------------------------------------------------
 
 
@@ -74,7 +65,7 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     # [quick] only when the quick variant is asked for: a full run never depends on it
     scene_tab = ck.table(data["scene"], "scene")
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
-    solver = parse_solver(ck, solver_tab, "solver")
+    solver = parse_solver(ck, solver_tab, "solver", model=(model := scene_tab.get("model")))
     sweep_axes, freq = parse_sweep(ck, sweep_tab, "sweep")
     scene = parse_scene(ck, scene_tab)
     if "stability" not in solver_tab and scene.model == "disk":
@@ -83,7 +74,7 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     variants = [(False, solver, sweep_axes, freq, "solver", "sweep")]
     if quick:
         q_solver, q_sweep = quick_tables(ck, data, sweep_tab)
-        q_solver_s = parse_solver(ck, q_solver, "quick.solver", base=solver)
+        q_solver_s = parse_solver(ck, q_solver, "quick.solver", base=solver, model=model)
         q_axes, q_freq = parse_sweep(ck, q_sweep, "quick.sweep", partial=True)
         q_axes = {k: q_axes.get(k, v) for k, v in sweep_axes.items()}
         variants.append((True, q_solver_s, q_axes, q_freq or freq,
@@ -133,9 +124,9 @@ _SOLVER_KEYS = ("harmonics", "force_evaluation", "samples", "tolerance", "stabil
                 "initial_step", "max_step", "max_points", "dense_output")
 
 
-def parse_solver(ck, tab, path, base=None) -> SolverSettings:
-    """`SolverSettings` from the table `tab` at field `path` (keys not given keep the
-    values of `base`, or the defaults); failures through the `Checker` ck."""
+def parse_solver(ck, tab, path, base=None, model="lumped") -> SolverSettings:
+    """`SolverSettings` from the table `tab` at field `path` (keys not given keep the values
+    of `base`, or the defaults; `stability = true`: `spec.STABILITY_WHEN_TRUE[model]`)."""
     ck.keys(tab, path, _SOLVER_KEYS)
     kw = {}
     if "harmonics" in tab:
@@ -149,7 +140,7 @@ def parse_solver(ck, tab, path, base=None) -> SolverSettings:
         kw["tolerance"] = ck.number(tab["tolerance"], f"{path}.tolerance", gt=0.0, lt=1.0)
     if "stability" in tab:
         kw["stability"] = ck.switch(tab["stability"], f"{path}.stability", STABILITY_MODES,
-                                    "hill")
+                                    STABILITY_WHEN_TRUE.get(str(model), "monodromy+check"))
     if "dense_output" in tab:
         kw["dense_output"] = ck.boolean(tab["dense_output"], f"{path}.dense_output")
     for key in ("initial_step", "max_step"):
@@ -179,7 +170,9 @@ def parse_sweep(ck, tab, path, partial=False):
                                "give the continuation interval {start, stop, unit}")
             t = ck.table(value, field)
             ck.keys(t, field, ("start", "stop", "unit"), required=("start", "stop"))
-            unit = ck.string(t.get("unit", "rad/s"), f"{field}.unit", FREQUENCY_UNITS)
+            if "unit" not in t:  # no default: a range meant in Hz must not run in rad/s
+                ck.fail(f"{field}.unit", f"missing (required): one of {FREQUENCY_UNITS}")
+            unit = ck.string(t["unit"], f"{field}.unit", FREQUENCY_UNITS)
             start = ck.number(t["start"], f"{field}.start", gt=0.0)
             stop = ck.number(t["stop"], f"{field}.stop", gt=0.0)
             if start == stop:

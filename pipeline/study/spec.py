@@ -36,6 +36,14 @@ SWEEP_AXES = {
 }
 INTEGER_SWEEP_AXES = ("eo", "mistuning_seed")
 FREQUENCY_UNITS = ("rad/s", "Hz")
+# `[solver] stability = true` selects the method recommended for the scene's model, the
+# one an absent key gives where stability is on by default (README "Which stability flag
+# to trust"): the orbit monodromy checked by the exact Floquet multipliers on lumped
+# scenes; Hill on a lumped cyclic sector (the parser's default there); on FE blades
+# (off by default) the orbit monodromy, which `stability_check.effective_mode` runs as
+# "monodromy" on a Craig-Bampton blade and as Hill on flows too large for it
+STABILITY_WHEN_TRUE = {"lumped": "monodromy+check", "disk": "hill",
+                       "beam_blade": "monodromy+check", "solid_blade": "monodromy+check"}
 FIGURES = ("amplitude", "hysteresis")
 DEFAULT_FIGURES = ("amplitude",)
 MAX_HARMONICS = 200
@@ -46,11 +54,12 @@ NAME_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_.]{0,63}$")
 
 @dataclass(frozen=True)
 class FrequencyRange:
-    """Continuation interval of the excitation frequency, in `unit`."""
+    """Continuation interval of the excitation frequency, in `unit` ("rad/s" or "Hz";
+    a study file must name it: there is no default)."""
 
     start: float
     stop: float
-    unit: str = "rad/s"
+    unit: str
 
     @property
     def to_rad_s(self) -> float:

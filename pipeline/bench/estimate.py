@@ -1,0 +1,90 @@
+"""`bench estimate`: `shroud check`'s cost estimate against the measured run, per study.
+
+    python -m pipeline bench estimate [STUDY ...] [--quick]
+
+Each response study (default: every one in studies/) is estimated as `check` does
+(`study.cost.estimate`, which times the model), the model caches are cleared (the
+run builds and reduces its model again, as a fresh `run` does), and the study is run
+in this process (`--workers 1`, figures included, no checkpoints).  Printed: the
+estimate's range and its geometric middle, the measured wall time, and their ratio
+measured / middle; the exit code is 1 if a ratio leaves [1/3, 3] (ACCEPT).
+"""
+from __future__ import annotations
+
+import logging
+import os
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+ACCEPT = 3.0       # the estimate's middle within this factor of the measured time
+STUDIES = Path(__file__).resolve().parents[2] / "studies"
+
+
+@dataclass(frozen=True)
+class Measured:
+    name: str
+    quick: bool
+    n_cases: int
+    estimate: object       # study.cost.Estimate
+    wall: float            # [s] measured
+
+    @property
+    def ratio(self) -> float:
+        return self.wall / self.estimate.mid
+
+
+def measure(path, quick: bool = False, out_dir=None) -> Measured:
+    """Estimate, then run, the study at `path` (serially); `Measured`."""
+    from ..model import scene as model_scene
+    from ..study.cost import estimate
+    from ..study.documents import load_study
+    from ..study.run import run_study
+
+    study = load_study(path, quick=quick)
+    est = estimate(study, workers=1)
+    model_scene.timed_blade_model.cache_clear()   # the run builds its model, as `run` does
+    model_scene.reduced_model.cache_clear()
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        run_study(study, out_dir or tmp, workers=1, progress=False, checkpoints=False)
+        wall = time.perf_counter() - t0
+    return Measured(Path(path).stem, quick, len(study.sweep.cases()), est, wall)
+
+
+def response_studies() -> list:
+    """The shipped studies `check` estimates by timing (response studies)."""
+    from ..study.documents import load_study
+
+    out = []
+    for p in sorted(STUDIES.glob("*.toml")):
+        if getattr(load_study(p), "kind", "response") == "response":
+            out.append(p)
+    return out
+
+
+def run(quick: bool = False, studies=()) -> int:
+    from ..study.check import seconds
+
+    for name in ("pipeline", "distributed"):
+        logging.getLogger(name).setLevel(logging.WARNING)
+    paths = [Path(s) if Path(s).suffix == ".toml" else STUDIES / f"{s}.toml" for s in studies] \
+        or response_studies()
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
+    print(f"check's estimate against the measured run (--workers 1{', --quick' if quick else ''}); "
+          f"load average {load}")
+    print(f"{'study':<28} {'cases':>5} | {'estimate':>19} {'middle':>7} | {'measured':>8} | "
+          f"{'ratio':>5} in range")
+    bad = 0
+    for p in paths:
+        m = measure(p, quick)
+        e = m.estimate
+        inside = e.lo <= m.wall <= e.hi
+        ok = 1 / ACCEPT <= m.ratio <= ACCEPT
+        bad += not ok
+        print(f"{m.name:<28} {m.n_cases:>5} | {seconds(e.lo):>8} - {seconds(e.hi):<8} "
+              f"{seconds(e.mid):>7} | {m.wall:7.1f}s | {m.ratio:5.2f} {'yes' if inside else 'no'}"
+              f"{'' if ok else f'  (outside 1/{ACCEPT:g}-{ACCEPT:g})'}", flush=True)
+    print("ratio = measured / geometric middle of the estimate")
+    return 1 if bad else 0
