@@ -49,9 +49,9 @@ from ..structure.reduction import DEFAULT_MODES
 from . import blade_disk, disk_scene
 from .blade_size import check_blade_size
 from .checker import Checker
-from .rules import check_scene_rules
-from .scene import (check_optimum_axes, check_windows, output_common, parse_optimum,
-                    parse_solver, parse_sweep, quick_tables, solver_sweep_tables)
+from .rules import check_optimum_axes, check_scene_rules
+from .scene import (check_windows, output_common, parse_optimum, parse_solver, parse_sweep,
+                    quick_tables, solver_sweep_tables)
 from .spec import EFFECTS, MAX_HARMONICS, NAME_PATTERN, ModesStudy, OutputSettings, Study, Sweep
 
 log = logging.getLogger(__name__)

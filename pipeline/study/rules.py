@@ -77,3 +77,11 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     if "separation" in effects and not (gap or varies):
         ck.fail("scene.effects", "\"separation\" is declared but cannot occur (constant normal "
                                  "load and no negative preload)")
+
+
+def check_optimum_axes(ck, output, axes, wpath):
+    """The optimum search varies n0: a sweep that gives the static normal load instead
+    would be compared against a different quantity."""
+    if output.optimum is not None and "normal_load" in axes:
+        ck.fail("output.optimum_preload", f"searches the preload n0, but {wpath}.normal_load "
+                                          "gives the static normal load: sweep preload instead")

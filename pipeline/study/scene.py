@@ -31,7 +31,7 @@ from ..model.loads import Forcing
 from ..model.scene import Cyclic, Lumped, Scene, Single, Spring
 from . import disk_scene
 from .checker import Checker, join_field, kind_of
-from .rules import check_scene_rules
+from .rules import check_optimum_axes, check_scene_rules
 from .spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
                    MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, STABILITY_WHEN_TRUE, SWEEP_AXES,
                    FrequencyRange, OutputSettings, SolverSettings, STABILITY_MODES, Study, Sweep,
@@ -471,14 +471,6 @@ def parse_optimum(ck, t, scene):
     if not scene.contacts:
         ck.fail(f, "the scene has no contact: there is no preload to optimise")
     return {"dof": dof, "bounds": (float(lo), float(hi)), "window": window, "rtol": float(rtol)}
-
-
-def check_optimum_axes(ck, output, axes, wpath):
-    """The optimum search varies n0: a sweep that gives the static normal load instead
-    would be compared against a different quantity."""
-    if output.optimum is not None and "normal_load" in axes:
-        ck.fail("output.optimum_preload", f"searches the preload n0, but {wpath}.normal_load "
-                                          "gives the static normal load: sweep preload instead")
 
 
 def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
