@@ -129,7 +129,9 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
     solver = parse_solver(ck, solver_tab, "solver")
     if "stability" not in solver_tab:
-        solver = replace(solver, stability=False)  # Hill on hundreds of DOFs: opt in
+        # Hill at every point of hundreds of DOFs costs too much: at a few points of
+        # each stretch between folds, propagated (`solve.stretches`)
+        solver = replace(solver, stability="stretch")
     axes, freq = parse_sweep(ck, sweep_tab, "sweep")
     output = _output(ck, ck.table(data.get("output"), "output", required=False), full_scene)
     variants = [(False, solver, axes, freq, "solver", "sweep", full_scene)]
