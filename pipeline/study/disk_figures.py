@@ -219,28 +219,3 @@ def _sector_branches(f, a, sectors, peak, stable, conv) -> list:
         out.append((f"sector {sectors[hi]}: largest peak", f, a[:, hi], stable, conv,
                     dict(color="tab:red", lw=1.4, zorder=2)))
     return out
-
-
-def nodal_diameter_figure(path, ds):
-    """Frequency against nodal diameter (the interference diagram's frequency axis),
-    one line per mode family, contacts stuck (solid) and open (dashed): an engine
-    order EO excites the column ND = EO, between its open and stuck frequencies."""
-
-    plt = plots.pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    nd = ds.nodal_diameter.values
-    for m in range(ds.sizes["mode"]):
-        c = f"C{m % 10}"
-        ax.plot(nd, ds.frequency_stuck.values[:, m], "o-", color=c, ms=4,
-                label="stuck" if m == 0 else None)
-        ax.plot(nd, ds.frequency_open.values[:, m], "s--", color=c, ms=3, mfc="none",
-                label="open" if m == 0 else None)
-    ax.set_xlabel("nodal diameter [-]")
-    ax.set_ylabel("natural frequency [Hz]")
-    ax.set_xticks(nd if nd.size <= 25 else nd[::max(1, nd.size // 12)])
-    ax.set_title(ds.attrs.get("title", ""), fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(title="contacts", fontsize=8)
-    out = plots.atomic_savefig(fig, path)
-    plt.close(fig)
-    return out

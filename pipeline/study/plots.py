@@ -4,6 +4,7 @@ sector, optimum preload and modal convergence; the shared helpers (`pyplot`,
 from __future__ import annotations
 
 import os
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,32 @@ def atomic_savefig(fig, path):
     fig.savefig(tmp, dpi=130, bbox_inches="tight", format=path.suffix.lstrip(".") or "png")
     os.replace(tmp, path)
     return path
+
+
+def wrap_text(text: str, width_in: float, fontsize: float) -> str:
+    """`text` broken into lines of at most width_in [inch] at `fontsize` [pt], taking
+    an average glyph as 0.55 fontsize wide (DejaVu Sans); its own line breaks kept."""
+    n = max(16, int(width_in * 72.0 / (0.55 * fontsize)))
+    return "\n".join(textwrap.fill(line, n) if line else "" for line in str(text).split("\n"))
+
+
+def wrapped_title(target, text: str, fontsize: float = 10.0):
+    """Set a title wrapped to the width it owns, so that a long title adds lines
+    instead of widening the canvas: an Axes' title to the axes' width, a Figure's
+    (suptitle) to the figure's.  Returns the Text."""
+    fig = getattr(target, "figure", None)
+    if hasattr(target, "suptitle") and not hasattr(target, "set_title"):
+        w = target.get_figwidth() * 0.96
+        return target.suptitle(wrap_text(text, w, fontsize), fontsize=fontsize)
+    w = target.get_position().width * fig.get_figwidth()
+    return target.set_title(wrap_text(text, w, fontsize), fontsize=fontsize)
+
+
+def integer_locator(nbins: int = 10):
+    """A MaxNLocator of at most `nbins` integer ticks (sector numbers, nodal
+    diameters): their labels never crowd into each other."""
+    from matplotlib.ticker import MaxNLocator
+    return MaxNLocator(nbins=nbins, integer=True)
 
 
 def demo_motion(H: int = 3):
