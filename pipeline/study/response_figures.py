@@ -11,7 +11,8 @@ import numpy as np
 from ..contact import YangMenq
 from ..contact.exact import history
 from .disk_figures import is_sector_resolved, write_sector_figures
-from .plots import atomic_savefig, pyplot, response_curves_figure, stability_for_plot
+from .plots import (atomic_savefig, pyplot, response_curves_figure, stability_for_plot,
+                    wrapped_title)
 from .spec import Study
 
 
@@ -107,7 +108,8 @@ def hysteresis_figures(study: Study, ds, fig_dir) -> list:
         ax.plot(h["u"][0], h["fu"][0], lw=1.6, label=f"{label} (peak at {peak})")
     ax.set_xlabel("tangential relative displacement u [m]")
     ax.set_ylabel("friction force f_u [N]")
-    ax.set_title(f"{study.title}\nat the peak: the contact element sliding most", fontsize=9)
+    wrapped_title(ax, f"{study.title}\nat the peak: the contact element sliding most",
+                  fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     out = atomic_savefig(fig, Path(fig_dir) / "hysteresis.png")
