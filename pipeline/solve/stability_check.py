@@ -27,7 +27,8 @@ Modes (`solver.stability` of a study, `stability=` of `response.frequency_respon
                   change of the decided flag and at the peak of each DOF.
     "stretch"     "monodromy" (up to MAX_MONODROMY_DOF DOFs of the exact flow, else Hill)
                   at a few points of each stretch between two folds (its ends and
-                  middle point, each DOF's peak, the points beside each fold), the flag
+                  middle point, the peak of the response's norm over the DOFs, the
+                  points beside each fold), the flag
                   propagated over the stretch (`stretches`: stability changes only at
                   folds and bifurcations; a secondary bifurcation inside a stretch is
                   found by bisection where its decided points disagree).  For reduced
@@ -378,7 +379,9 @@ def _stretch_result(pts, conv, amplitude, fold_lam, note, orbit) -> BranchStabil
     """"stretch" mode: at the points `stretches.propagate` asks for, the orbit
     monodromy if `orbit` (Hill where it does not apply), else Hill; the flag
     propagated to the others (method PROPAGATED, multipliers NaN)."""
-    peaks = ([conv[int(np.argmax(amplitude[conv, d]))] for d in range(amplitude.shape[1])]
+    # the peak of the response as a whole (the norm over the DOFs), not of each DOF:
+    # on a reduced FE model every DOF's own peak would be a decision
+    peaks = ([conv[int(np.argmax(np.linalg.norm(amplitude[conv], axis=1)))]]
              if amplitude is not None and conv.size else [])
 
     def decide(i):
