@@ -39,7 +39,7 @@ def nodal_diameter_figure(path, ds):
     plt = plots.pyplot()
     nd = ds.nodal_diameter.values
     n_modes = ds.sizes["mode"]
-    fig, (ax, zoom) = plt.subplots(1, 2, figsize=(9.6, 4.6), width_ratios=(1.5, 1),
+    fig, (ax, zoom) = plt.subplots(1, 2, figsize=(8.4, 4.3), width_ratios=(1.5, 1),
                                    layout="constrained")
     _families(ax, nd, ds, range(n_modes))
     _families(zoom, nd, ds, [0])
