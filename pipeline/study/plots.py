@@ -254,7 +254,7 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
         labels.append(name)
     ax.legend(handles, labels, fontsize=8, title=legend_title, title_fontsize=8)
     ax.set(xlabel=xlabel, ylabel=ylabel, yscale=yscale)
-    ax.xaxis.set_major_locator(MaxNLocator(nbins=8))
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=8, steps=[1, 2, 2.5, 5, 10]))
     wrapped_title(ax, title, fontsize=11)
     ax.grid(alpha=0.3, which="both")
     return fig
