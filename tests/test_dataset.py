@@ -324,6 +324,18 @@ def _multiplier_contradicts_stable(ds):
     return ds
 
 
+def _multiplier_where_propagated(ds):
+    conv = ds["converged"].values
+    ds["stability_method"].values[:] = np.where(conv, 3, -1)   # propagated ("stretch")
+    ds["max_multiplier"].values[:] = np.where(conv, 0.5, np.nan)
+    return ds
+
+
+def _unknown_method(ds):
+    ds["stability_method"].values[:] = np.where(ds["converged"].values, 4, -1)
+    return ds
+
+
 def _bifurcation_without_frequency(ds):
     ds["bifurcation_type"].values[0, 0] = 2
     return ds
@@ -357,6 +369,10 @@ BREAKS = {  # how a dataset departs from the contract -> what the checker must s
                                   "'stability_method' is not -1 exactly where 'stable' is NaN"),
     "multiplier contradicts stable": (_multiplier_contradicts_stable,
                                       "'max_multiplier' contradicts 'stable'"),
+    "multiplier where propagated": (_multiplier_where_propagated,
+                                    "'max_multiplier' has a value where no method decided"),
+    "unknown method": (_unknown_method, "'stability_method' holds values other than -1, 0, 1, "
+                                        "2 and 3"),
     "bifurcation without frequency": (_bifurcation_without_frequency,
                                       "'bifurcation_frequency' is not finite exactly where"),
     "dof label with a sector": (lambda ds: ds.assign_coords(
@@ -369,6 +385,16 @@ BREAKS = {  # how a dataset departs from the contract -> what the checker must s
     "flag without units": (_flag_without_units,
                            "variable 'converged' holds numbers without a units attribute"),
 }
+
+
+def test_checker_accepts_propagated_flags(tmp_path, ex2):
+    """stability_method 3 (the flag propagated over a stretch between folds) with no
+    multiplier of its own conforms."""
+    ds = _conforming(tmp_path, ex2).copy(deep=True)
+    conv = ds["converged"].values
+    ds["stability_method"].values[:] = np.where(conv, 3, -1)
+    ds["max_multiplier"].values[:] = np.nan
+    assert problems(write_netcdf(ds, tmp_path / "prop.nc")) == []
 
 
 @pytest.mark.parametrize("name", list(BREAKS))

@@ -34,8 +34,14 @@ def test_stability_not_computed_is_never_drawn_as_stable():
         dotted = [x for ls, x in lines if ls == ":"]
         assert len(dotted) == 1 and np.isin(unknown, dotted[0]).all()
         assert any(ls == "--" and np.isin(f[20:], x).all() for ls, x in lines)
-        legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
-        assert "stability not computed" in legend and "unstable" in legend
+        lg = fig.axes[0].get_legend()
+        legend = [t.get_text() for t in lg.get_texts()]
+        assert "dotted: stability not computed" in legend and "dashed: unstable" in legend
+        # the line-style key is grey: not the tuned disk's black, not a branch's colour
+        from matplotlib.colors import to_rgb
+        for h, t in zip(lg.legend_handles, legend):
+            if t.startswith(("dotted", "dashed")):
+                assert to_rgb(h.get_color()) not in (to_rgb("k"), to_rgb("C0"))
     finally:
         pyplot().close(fig)
 
@@ -48,7 +54,7 @@ def test_bool_stability_is_solid_and_dashed_only():
         styles = {ls for ls, _ in _lines(fig)}
         assert styles == {"-", "--"}
         legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
-        assert "stability not computed" not in legend
+        assert not any("stability not computed" in t for t in legend)
     finally:
         pyplot().close(fig)
 

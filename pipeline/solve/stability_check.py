@@ -25,6 +25,14 @@ Modes (`solver.stability` of a study, `stability=` of `response.frequency_respon
                   switches in the period (without a switch the flow along the orbit is
                   linear and its monodromy exp(A T) exact), at both neighbours of every
                   change of the decided flag and at the peak of each DOF.
+    "stretch"     "monodromy" (up to MAX_MONODROMY_DOF DOFs of the exact flow, else Hill)
+                  at a few points of each stretch between two folds (its ends and
+                  middle point, the peak of the response's norm over the DOFs, the
+                  points beside each fold), the flag
+                  propagated over the stretch (`stretches`: stability changes only at
+                  folds and bifurcations; a secondary bifurcation inside a stretch is
+                  found by bisection where its decided points disagree).  For reduced
+                  FE models, where Hill at every point costs too much.
     None / False  not computed.
 
 CHECK_MARGIN = 0.5 (rho_H in [0.61, 1.65]).  Measured: on a 3-DOF shrouded blade with
@@ -56,7 +64,8 @@ every mode keeps Hill.
 Where Hill and Floquet disagree, Floquet decides.  A "marginal" Floquet verdict
 (|mu| within 1e-6 of 1) counts as stable, as Hill's relative margin does.
 
-Per point: `method` (-1 not computed, 0 Hill, 1 Floquet), `hill_multiplier`
+Per point: `method` (-1 not computed, 0 Hill, 1 Floquet, 2 monodromy, 3 propagated:
+the flag of a decided point of the same stretch, "stretch" mode), `hill_multiplier`
 rho_H (NaN where Hill was not run), `floquet_multiplier` max |mu| (NaN where not
 run).  Bifurcations: wherever the decided flag changes between two converged
 neighbours, the kind of the multiplier leaving the unit circle on the unstable side
@@ -78,11 +87,12 @@ from . import floquet
 from .full_operators import wave_jacobians
 from .orbit_floquet import along_orbit
 from .stability import is_stable
+from .stretches import propagate, stretches
 
 log = logging.getLogger(__name__)
 
-MODES = ("hill", "floquet", "hill+check", "monodromy", "monodromy+check")
-NOT_COMPUTED, HILL, FLOQUET, MONODROMY = -1, 0, 1, 2
+MODES = ("hill", "floquet", "hill+check", "monodromy", "monodromy+check", "stretch")
+NOT_COMPUTED, HILL, FLOQUET, MONODROMY, PROPAGATED = -1, 0, 1, 2, 3
 FOLD, PERIOD_DOUBLING, NEIMARK_SACKER = 1, 2, 3
 KINDS = {FOLD: "fold", PERIOD_DOUBLING: "period doubling", NEIMARK_SACKER: "Neimark-Sacker"}
 KIND_CODES = {v: k for k, v in KINDS.items()}
@@ -244,6 +254,9 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     mode, check = effective_mode(mode, size, stiff)
     if mode is None:
         return _result(pts, np.full(P, NOT_COMPUTED, np.int8), fold_lam, conv, note)
+    if mode == "stretch":
+        return _stretch_result(pts, conv, amplitude, fold_lam, note,
+                               size <= MAX_MONODROMY_DOF)
     if mode in ("hill", "hill+check"):
         for i in range(P):
             pts.run_hill(i)
@@ -280,7 +293,7 @@ def effective_mode(mode, size: int, stiff: bool = False) -> tuple:
     and "floquet" and "monodromy+check" run as "monodromy"; above that, every mode
     runs as "hill"."""
     mode = stability_mode(mode)
-    if mode in (None, "hill") or (size <= MAX_WHEEL_DOF and not stiff):
+    if mode in (None, "hill", "stretch") or (size <= MAX_WHEEL_DOF and not stiff):
         return mode, "floquet"
     if size > MAX_MONODROMY_DOF:
         return "hill", "floquet"
@@ -345,6 +358,11 @@ def describe(mode, size: int = 0, margin: float = CHECK_MARGIN, stiff: bool = Fa
     check = ("at both neighbours of every change of the flag and at the peaks; where they "
              "disagree, Floquet decides")
     return {None: "not computed", "hill": "Hill's method at every point",
+            "stretch": "multipliers of the exact flow linearised along the harmonic-balance "
+                       "orbit (Hill's method beyond that method's size or where it does not "
+                       "apply) at the ends and middle point of each stretch between two "
+                       "folds, at the peaks and beside each fold, the flag propagated over "
+                       "the stretch (bisected where its decided points disagree)",
             "floquet": "Floquet multipliers of the exact flow at every converged point (Hill "
                        "where the periodic orbit was not found)",
             "hill+check": "Hill's method, checked by the Floquet multipliers of the exact flow "
@@ -355,6 +373,32 @@ def describe(mode, size: int = 0, margin: float = CHECK_MARGIN, stiff: bool = Fa
                                "harmonic-balance orbit, checked by those of the exact "
                                f"periodic orbit where |log max |mu|| < {MONODROMY_MARGIN:g} "
                                "and a contact switches in the period, " + check}[mode]
+
+
+def _stretch_result(pts, conv, amplitude, fold_lam, note, orbit) -> BranchStability:
+    """"stretch" mode: at the points `stretches.propagate` asks for, the orbit
+    monodromy if `orbit` (Hill where it does not apply), else Hill; the flag
+    propagated to the others (method PROPAGATED, multipliers NaN)."""
+    # the peak of the response as a whole (the norm over the DOFs), not of each DOF:
+    # on a reduced FE model every DOF's own peak would be a decision
+    peaks = ([conv[int(np.argmax(np.linalg.norm(amplitude[conv], axis=1)))]]
+             if amplitude is not None and conv.size else [])
+
+    def decide(i):
+        if orbit:
+            pts.run_monodromy(i)
+            if np.isfinite(pts.orb[i]):
+                return pts.orb_stable[i]
+        pts.run_hill(i)
+        return pts.hill_stable[i]
+
+    stable, done = propagate(stretches(pts.lam, np.isin(np.arange(pts.lam.size), conv)),
+                             decide, peaks)
+    method = np.full(pts.lam.size, PROPAGATED, np.int8)
+    method[done] = np.where(np.isfinite(pts.orb[done]), MONODROMY, HILL)
+    prop = np.setdiff1d(np.arange(stable.size), done)
+    pts.hill_stable[prop] = pts.orb_stable[prop] = stable[prop]
+    return _result(pts, method, fold_lam, conv, note)
 
 
 def _decided(pts):

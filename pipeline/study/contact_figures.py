@@ -13,6 +13,7 @@ import numpy as np
 
 from ..contact import YangMenq
 from ..contact.exact import history
+from .plots import wrapped_title
 
 
 def face_loop(ds, sel: dict, tau) -> dict | None:
@@ -51,5 +52,5 @@ def draw_face_loops(study, ds, ax) -> None:
                       f"{loop['frequency']:.4g} {unit}, W = {loop['energy']:.3g} J/cycle")
     ax.set_xlabel("mean tangential relative displacement of its elements [m]")
     ax.set_ylabel("contact's total friction force [N]")
-    ax.set_title(f"{study.title}\nat the peak: the contact dissipating most, face total "
-                 "(W: energy dissipated per cycle)", fontsize=9)
+    wrapped_title(ax, f"{study.title}\nat the peak: the contact dissipating most, face total "
+                      "(W: energy dissipated per cycle)", fontsize=9)

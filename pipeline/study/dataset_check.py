@@ -30,8 +30,9 @@ The contract (README, section Dataset), as checked here:
   `flag_meanings` or `comment`, is never 1 at a point that did not converge, and
   holds no value at all where its `stability_computed` attribute is 0;
 - where present, `stability_method` (sweeps..., point) is -1 (not computed) exactly
-  where `stable` is NaN, else 0 (Hill), 1 (Floquet) or 2 (monodromy along the
-  harmonic-balance orbit), with `flag_values` and
+  where `stable` is NaN, else 0 (Hill), 1 (Floquet), 2 (monodromy along the
+  harmonic-balance orbit) or 3 (propagated from the decided points of its stretch
+  between two folds, with a NaN `max_multiplier`), with `flag_values` and
   `flag_meanings`; `max_multiplier` is NaN where no method decided and, where
   given, agrees with `stable` (1 iff the multiplier is at most 1 + 1e-6);
   `bifurcation_type` is -1 (padding), 1 (fold), 2 (period doubling) or
@@ -294,12 +295,13 @@ def _check_stability_method(ds, say):
     for v in ("stability_method", "bifurcation_type"):
         if not {"flag_values", "flag_meanings"} <= set(ds[v].attrs):
             say(f"variable {v!r} lacks flag_values / flag_meanings")
-    if not np.isin(m.values, (-1, 0, 1, 2)).all():
-        say("variable 'stability_method' holds values other than -1, 0, 1 and 2")
+    if not np.isin(m.values, (-1, 0, 1, 2, 3)).all():
+        say("variable 'stability_method' holds values other than -1, 0, 1, 2 and 3")
     if bool(((m == -1) != st.isnull()).any()):
         say("variable 'stability_method' is not -1 exactly where 'stable' is NaN")
-    if bool(((m == -1) & mult.notnull()).any()):
-        say("variable 'max_multiplier' has a value where no method decided")
+    if bool((((m == -1) | (m == 3)) & mult.notnull()).any()):
+        say("variable 'max_multiplier' has a value where no method decided (or where the "
+            "flag was propagated)")
     agree = (st == 1) == (mult <= 1 + MULTIPLIER_TOL)
     if bool((~agree & (m >= 0) & mult.notnull()).any()):
         say("variable 'max_multiplier' contradicts 'stable' (stable iff max |mu| <= 1)")

@@ -21,7 +21,8 @@ Figures (`write_sector_figures`):
   sector, which spreads what belongs together over N files;
 - `amplification_<dof>.png` (with a `mistuning_seed` axis): the distribution of the
   amplification factor over the seeds (a Monte-Carlo sample) per preload (or per
-  value of the first other axis), `amplification_figure`.
+  value of the first other axis) as empirical CDFs with P5 / P50 / P95 marked,
+  `amplification_figure`.
 """
 from __future__ import annotations
 
@@ -158,10 +159,16 @@ def write_sector_figures(study, ds, fig_dir, tuned=None) -> list:
     return paths
 
 
+PERCENTILES = (5, 50, 95)
+
+
 def amplification_figure(path, ds, dof: str, title: str = ""):
     """The amplification factor's distribution over the mistuning seeds (a Monte-Carlo
-    sample) at each value of the first other sweep axis (preload if swept): one
-    box per value (quartiles, whiskers to the extremes) over the seeds' points."""
+    sample) at each value of the first other sweep axis (preload if swept): its
+    empirical CDF, F(a) = (number of seeds with factor <= a) / seeds, one step curve
+    per value, readable at hundreds of seeds, with the percentiles P5, P50, P95
+    (`numpy.percentile`, linear interpolation) marked and given in the key; the tuned
+    disk (factor 1) a vertical line."""
 
     a = ds["amplification_factor"].sel(dof=dof)
     other = [x for x in a.dims if x != SEED_AXIS]
@@ -170,25 +177,35 @@ def amplification_figure(path, ds, dof: str, title: str = ""):
     values = a[axis].values if axis else [None]
     samples = [np.ravel(a.isel({axis: i}).values) if axis else np.ravel(a.values)
                for i in range(len(values))]
-    samples = [x[np.isfinite(x)] for x in samples]
+    samples = [np.sort(x[np.isfinite(x)]) for x in samples]
     plt = plots.pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    pos = np.arange(len(values))
-    keep = [i for i, x in enumerate(samples) if x.size]
-    if keep:
-        ax.boxplot([samples[i] for i in keep], positions=pos[keep], widths=0.5, whis=(0, 100))
-    rng = np.random.default_rng(0)
-    for i in keep:
-        ax.plot(pos[i] + rng.uniform(-0.12, 0.12, samples[i].size), samples[i], ".",
-                color="tab:red", alpha=0.6, ms=5)
-    ax.axhline(1.0, color="k", lw=1, ls="--", label="tuned disk")
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
     unit = _axis_unit(axis) if axis else ""
-    ax.set_xticks(pos, [f"{v:g}" for v in values] if axis else [""])
-    ax.set_xlabel(f"{axis} [{unit}]" if axis else "")
-    ax.set_ylabel(f"amplification factor of {dof} [-]")
+    marks = ("v", "o", "^")
+    for i, x in enumerate(samples):
+        if not x.size:
+            continue
+        col = f"C{i % 10}"
+        frac = np.arange(1, x.size + 1) / x.size
+        ax.step(np.concatenate([[x[0]], x]), np.concatenate([[0.0], frac]), where="post",
+                color=col, lw=1.5)
+        pc = np.percentile(x, PERCENTILES)
+        for q, v, m in zip(PERCENTILES, pc, marks):
+            ax.plot(v, q / 100.0, m, color=col, ms=6, mec="k", mew=0.6, zorder=3)
+        head = (f"{axis} = {values[i]:g}" + (f" {unit}" if unit not in ("", "1") else "")
+                if axis else "all cases")
+        ax.plot([], [], "-", color=col, lw=1.5,
+                label=f"{head}: P5 {pc[0]:.3f}, P50 {pc[1]:.3f}, P95 {pc[2]:.3f}")
+    for q, m in zip(PERCENTILES, marks):
+        ax.plot([], [], m, color="w", mec="k", ms=6, label=f"P{q}")
+    ax.axvline(1.0, color="k", lw=1, ls="--", label="tuned disk (factor 1)")
+    ax.set_xlabel(f"amplification factor of {dof}: largest sector peak / tuned peak [-]")
+    ax.set_ylabel("fraction of seeds [-]")
+    ax.set_ylim(-0.02, 1.02)
+    ax.xaxis.set_major_locator(plots.MaxNLocator(nbins=7, steps=[1, 2, 2.5, 5, 10]))
     n = a.sizes[SEED_AXIS]
-    ax.set_title(f"{title}\n{n} mistuning seeds: largest sector peak / tuned peak", fontsize=9)
-    ax.legend(fontsize=8)
+    plots.wrapped_title(ax, f"{title}: empirical CDF over {n} mistuning seeds", fontsize=9)
+    fig.legend(fontsize=7, loc="outside lower center", ncol=2, frameon=False)
     ax.grid(alpha=0.3)
     out = plots.atomic_savefig(fig, path)
     plt.close(fig)
@@ -218,29 +235,4 @@ def _sector_branches(f, a, sectors, peak, stable, conv) -> list:
     if hi >= 0:
         out.append((f"sector {sectors[hi]}: largest peak", f, a[:, hi], stable, conv,
                     dict(color="tab:red", lw=1.4, zorder=2)))
-    return out
-
-
-def nodal_diameter_figure(path, ds):
-    """Frequency against nodal diameter (the interference diagram's frequency axis),
-    one line per mode family, contacts stuck (solid) and open (dashed): an engine
-    order EO excites the column ND = EO, between its open and stuck frequencies."""
-
-    plt = plots.pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    nd = ds.nodal_diameter.values
-    for m in range(ds.sizes["mode"]):
-        c = f"C{m % 10}"
-        ax.plot(nd, ds.frequency_stuck.values[:, m], "o-", color=c, ms=4,
-                label="stuck" if m == 0 else None)
-        ax.plot(nd, ds.frequency_open.values[:, m], "s--", color=c, ms=3, mfc="none",
-                label="open" if m == 0 else None)
-    ax.set_xlabel("nodal diameter [-]")
-    ax.set_ylabel("natural frequency [Hz]")
-    ax.set_xticks(nd if nd.size <= 25 else nd[::max(1, nd.size // 12)])
-    ax.set_title(ds.attrs.get("title", ""), fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(title="contacts", fontsize=8)
-    out = plots.atomic_savefig(fig, path)
-    plt.close(fig)
     return out

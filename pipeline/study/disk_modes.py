@@ -133,7 +133,7 @@ def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: b
     # deferred: xarray and matplotlib cost a second to import; validation needs neither
     from .dataset import write_netcdf
     from .modes_dataset import disk_modes_to_dataset
-    from .disk_figures import nodal_diameter_figure
+    from .nd_figure import nodal_diameter_figure
 
     t0 = time.perf_counter()
     sc = study.scene

@@ -3,13 +3,11 @@ search evaluated joined in preload order (grid nodes and Brent refinements marke
 apart), the optimum starred and labelled with its value and unit."""
 from __future__ import annotations
 
-import textwrap
 
 import numpy as np
 
-from .plots import atomic_savefig, label_log_axis, pyplot
+from .plots import atomic_savefig, label_log_axis, pyplot, wrapped_title
 
-TITLE_WIDTH = 60     # characters per title line: a long title wraps, the canvas keeps its width
 SPAN_FOR_LOG = 10.0  # an axis spanning this factor or more is drawn on a log scale
 
 
@@ -52,7 +50,7 @@ def optimum_plot(result, dof, title=""):
             label_log_axis(axis)
     ax.set_xlabel("preload n0 [N]")
     ax.set_ylabel(f"resonant peak of {dof} [m]")
-    ax.set_title(textwrap.fill(title or "Optimum preload", TITLE_WIDTH), fontsize=11)
+    wrapped_title(ax, title or "Optimum preload", fontsize=11)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from .plots import atomic_savefig, label_log_axis, pyplot
+from .plots import atomic_savefig, label_log_axis, pyplot, wrapped_title
 
 
 def pareto_figure(path, ds, title: str | None = None):
@@ -86,7 +86,8 @@ def pareto_plot(ds, title: str | None = None):
         ax.grid(True, which="major", lw=0.3)
         ax.legend(fontsize=6, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2,
                   frameon=False)
-    fig.suptitle(title if title is not None else ds.attrs.get("title", ""), fontsize=10)
+    wrapped_title(fig, title if title is not None else ds.attrs.get("title", ""),
+                  fontsize=10)
     fig.tight_layout()
     return fig
 

@@ -5,6 +5,7 @@ optimum-preload figure `optimum_figure`."""
 from __future__ import annotations
 
 import os
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,38 @@ def atomic_savefig(fig, path):
     fig.savefig(tmp, dpi=130, bbox_inches="tight", format=path.suffix.lstrip(".") or "png")
     os.replace(tmp, path)
     return path
+
+
+def wrap_text(text: str, width_in: float, fontsize: float) -> str:
+    """`text` broken into lines of at most width_in [inch] at `fontsize` [pt], taking
+    an average glyph as 0.55 fontsize wide (DejaVu Sans); its own line breaks kept."""
+    n = max(16, int(width_in * 72.0 / (0.55 * fontsize)))
+    return "\n".join(textwrap.fill(line, n) if line else "" for line in str(text).split("\n"))
+
+
+def wrapped_title(target, text: str, fontsize: float = 10.0):
+    """Set a title wrapped to the width it owns, so that a long title adds lines
+    instead of widening the canvas: an Axes' title to the axes' width, a Figure's
+    (suptitle) to the figure's.  Returns the Text."""
+    fig = getattr(target, "figure", None)
+    if hasattr(target, "suptitle") and not hasattr(target, "set_title"):
+        w = target.get_figwidth() * 0.96
+        return target.suptitle(wrap_text(text, w, fontsize), fontsize=fontsize)
+    w = target.get_position().width * fig.get_figwidth()
+    return target.set_title(wrap_text(text, w, fontsize), fontsize=fontsize)
+
+
+def MaxNLocator(**kwargs):
+    """matplotlib's MaxNLocator (imported on first use)."""
+    from matplotlib.ticker import MaxNLocator as locator
+    return locator(**kwargs)
+
+
+def integer_locator(nbins: int = 10):
+    """A MaxNLocator of at most `nbins` integer ticks (sector numbers, nodal
+    diameters): their labels never crowd into each other."""
+    from matplotlib.ticker import MaxNLocator
+    return MaxNLocator(nbins=nbins, integer=True)
 
 
 def demo_motion(H: int = 3):
@@ -73,7 +106,8 @@ def hysteresis_figure(path, mu=0.4, ku=1.0, kv=1.0, n0=1.0, U=None, V=None, n_po
     a2.legend(fontsize=8)
     for a in (a1, a2):
         a.grid(alpha=0.3)
-    fig.suptitle(f"Yang-Menq element: mu = {mu}, ku = {ku} N/m, kv = {kv} N/m, n0 = {n0} N")
+    wrapped_title(fig, f"Yang-Menq element: mu = {mu}, ku = {ku} N/m, kv = {kv} N/m, n0 = {n0} N",
+                  fontsize=12)
     out = atomic_savefig(fig, path)
     plt.close(fig)
     return out
@@ -123,7 +157,8 @@ def stability_for_plot(stable):
 # line style per stability state: stable solid, unstable dashed, not computed dotted
 _STYLE = {STABLE: dict(ls="-", lw=1.6), UNSTABLE: dict(ls="--", lw=1.4),
           NOT_COMPUTED: dict(ls=":", lw=1.6)}
-_STATE_LEGEND = {UNSTABLE: "unstable", NOT_COMPUTED: "stability not computed"}
+_STATE_LEGEND = {UNSTABLE: "dashed: unstable", NOT_COMPUTED: "dotted: stability not computed"}
+_STATE_COLOUR = "0.55"   # the line-style key in grey: no branch's colour (the tuned disk's black)
 # marker per bifurcation type (dataset `bifurcation_type`): 1 fold, 2 period doubling,
 # 3 Neimark-Sacker
 BIFURCATION_MARKERS = {1: ("s", "fold bifurcation"), 2: ("v", "period doubling"),
@@ -207,7 +242,7 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
     handles, labels = ax.get_legend_handles_labels()
     for s in (UNSTABLE, NOT_COMPUTED):
         if s in states_seen:
-            handles.append(ax.plot([], [], color="k", **_STYLE[s])[0])
+            handles.append(ax.plot([], [], color=_STATE_COLOUR, **_STYLE[s])[0])
             labels.append(_STATE_LEGEND[s])
     if any_fold:
         handles.append(ax.plot([], [], "ko", mfc="none", ms=6)[0])
@@ -219,7 +254,9 @@ def response_curves_plot(branches, *, xlabel="frequency [rad/s]", ylabel="amplit
                                gid=f"bifurcation={kind}")[0])
         labels.append(name)
     ax.legend(handles, labels, fontsize=8, title=legend_title, title_fontsize=8)
-    ax.set(xlabel=xlabel, ylabel=ylabel, title=title, yscale=yscale)
+    ax.set(xlabel=xlabel, ylabel=ylabel, yscale=yscale)
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=8, steps=[1, 2, 2.5, 5, 10]))
+    wrapped_title(ax, title, fontsize=11)
     ax.grid(alpha=0.3, which="both")
     return fig
 
@@ -289,11 +326,12 @@ def sector_peaks_figure(path, sectors, series, tuned_peak, *, dof="x", title="",
     if worst is not None:
         head += f"; amplification max peak / tuned peak = {worst[0]:.3f}"
         head += f" ({worst[1]})" if worst[1] and len(series) > 1 else ""
-    ax.set(xlabel="sector", ylabel=f"peak amplitude of {dof} [m]",
-           title=(title + "\n" if title else "") + head)
-    ax.title.set_fontsize(9)
-    if sectors.size <= 36:
+    ax.set(xlabel="sector", ylabel=f"peak amplitude of {dof} [m]")
+    wrapped_title(ax, (title + "\n" if title else "") + head, fontsize=9)
+    if sectors.size <= 24:
         ax.set_xticks(sectors)
+    else:
+        ax.xaxis.set_major_locator(integer_locator(16))
     ax.grid(alpha=0.3, axis="y")
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1,
               frameon=False)
@@ -362,7 +400,7 @@ def modal_convergence_figure(path, res, title):
     ax.axhline(1e-3, color="k", lw=0.8, ls="--")
     ax.set_xlabel("Craig-Bampton fixed-interface modes")
     ax.set_ylabel("relative frequency error (reduced/full - 1)")
-    ax.set_title(title, fontsize=9)
+    wrapped_title(ax, title, fontsize=9)
     ax.legend(fontsize=6, ncol=2)
     fig.tight_layout()
     tmp = path.with_name(f".{path.name}.tmp.png")

@@ -12,7 +12,8 @@ from ..contact import YangMenq
 from ..contact.exact import history
 from .contact_figures import draw_face_loops
 from .disk_figures import is_sector_resolved, write_sector_figures
-from .plots import atomic_savefig, pyplot, response_curves_figure, stability_for_plot
+from .plots import (atomic_savefig, pyplot, response_curves_figure, stability_for_plot,
+                    wrapped_title)
 from .spec import Study
 
 
@@ -123,4 +124,5 @@ def element_loops(study: Study, ds, ax) -> None:
         ax.plot(h["u"][0], h["fu"][0], lw=1.6, label=f"{label} (peak at {peak})")
     ax.set_xlabel("tangential relative displacement u [m]")
     ax.set_ylabel("friction force f_u [N]")
-    ax.set_title(f"{study.title}\nat the peak: the contact element sliding most", fontsize=9)
+    wrapped_title(ax, f"{study.title}\nat the peak: the contact element sliding most",
+                  fontsize=9)

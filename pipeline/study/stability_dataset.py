@@ -2,7 +2,10 @@
 `stable`, its largest multiplier, and the bifurcations where the flag changes.
 
     stability_method (sweeps..., point)  int8: -1 not computed, 0 Hill, 1 Floquet,
-                                         2 monodromy along the harmonic-balance orbit
+                                         2 monodromy along the harmonic-balance orbit,
+                                         3 propagated: the flag of the decided points of
+                                         its stretch between two folds ("stretch" mode,
+                                         `solve.stretches`), no multiplier of its own
     max_multiplier   (sweeps..., point)  Floquet: largest |mu| of the exact flow;
                                          monodromy: that of the flow linearised along the
                                          HBM orbit; Hill: exp(max Re lambda T)
@@ -16,10 +19,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..solve.stability_check import FLOQUET, HILL, KINDS, MONODROMY, NOT_COMPUTED, describe
+from ..solve.stability_check import (FLOQUET, HILL, KINDS, MONODROMY, NOT_COMPUTED,
+                                     PROPAGATED, describe)
 
-METHOD_FLAGS = {"flag_values": np.array([NOT_COMPUTED, HILL, FLOQUET, MONODROMY], np.int8),
-                "flag_meanings": "not_computed hill floquet monodromy"}
+METHOD_FLAGS = {"flag_values": np.array([NOT_COMPUTED, HILL, FLOQUET, MONODROMY, PROPAGATED],
+                                        np.int8),
+                "flag_meanings": "not_computed hill floquet monodromy propagated"}
 TYPE_FLAGS = {"flag_values": np.array([-1] + list(KINDS), np.int8),
               "flag_meanings": "none " + " ".join(k.replace(" ", "_").replace("-", "_")
                                                   for k in KINDS.values())}
@@ -52,7 +57,8 @@ def fill_stability(v: dict, idx, c, converged, computed: bool, to_unit: float):
         fq, hill = np.asarray(c.floquet_multiplier, float), np.asarray(c.hill_multiplier, float)
         orb = getattr(c, "monodromy_multiplier", None)
         orb = np.full(p, np.nan) if orb is None else np.asarray(orb, float)
-        mult = np.where(method == FLOQUET, fq, np.where(method == MONODROMY, orb, hill))
+        mult = np.where(method == FLOQUET, fq, np.where(method == MONODROMY, orb,
+                                                        np.where(method == HILL, hill, np.nan)))
     v["stability_method"][idx][:p] = np.where(converged, method, NOT_COMPUTED)
     v["max_multiplier"][idx][:p] = np.where(converged, mult, np.nan)
     bp = getattr(c, "bifurcation_parameter", None)
@@ -93,6 +99,8 @@ def stability_attrs(data_vars: dict):
                 "monodromy of that flow linearised along the harmonic-balance orbit; "
                 "stability_method 0 (hill): Hill's equivalent "
                 "exp(max Re lambda * T) of its selected Floquet exponents (T = 2 pi / Omega); "
+                "stability_method 3 (propagated): NaN, the flag is that of the decided "
+                "points of its stretch between two folds; "
                 "NaN where not computed. > 1: unstable")
     data_vars["bifurcation_type"][2].update(
         TYPE_FLAGS, comment="from the multiplier leaving the unit circle on the unstable side: "
