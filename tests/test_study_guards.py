@@ -52,19 +52,19 @@ def test_stability_true_is_the_default_of_a_lumped_scene(tmp_path):
 
 def test_stability_true_per_scene_kind():
     """lumped -> monodromy+check; lumped disk -> hill (its default); FE blade and FE
-    disk -> monodromy+check (run as the orbit monodromy, or Hill beyond its size)."""
+    disk -> stretch (the FE blade's default; an FE disk's is off for its cost)."""
     disk = _doc("disk_cyclic.toml")
     assert disk["solver"]["stability"] is True
     assert study_from_document(disk, file="d.toml").solver.stability == "hill"
     del disk["solver"]["stability"]
     assert study_from_document(disk, file="d.toml").solver.stability == "hill"
-    for name in ("blade_shroud_contact.toml", "shrouded_disk.toml"):
+    for name, absent in (("blade_shroud_contact.toml", "stretch"), ("shrouded_disk.toml", False)):
         doc = _doc(name)
         assert study_from_document(copy.deepcopy(doc), file="b.toml",
-                                   quick=True).solver.stability is False   # absent: off
+                                   quick=True).solver.stability == absent
         doc["solver"]["stability"] = True
         st = study_from_document(doc, file="b.toml", quick=True)
-        assert st.solver.stability == "monodromy+check"
+        assert st.solver.stability == "stretch"
     assert load_study(STUDIES / "paper_example1.toml").solver.stability == "monodromy+check"
 
 

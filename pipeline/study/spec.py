@@ -42,8 +42,12 @@ FREQUENCY_UNITS = ("rad/s", "Hz")
 # scenes; Hill on a lumped cyclic sector (the parser's default there); on FE blades
 # (off by default) the orbit monodromy, which `stability_check.effective_mode` runs as
 # "monodromy" on a Craig-Bampton blade and as Hill on flows too large for it
+# `[solver] stability = true`: the recommended method of each scene kind (an FE blade's
+# default "stretch": decided at a few points of each stretch between folds, by the orbit
+# monodromy up to its size and Hill beyond, and propagated; an FE disk, off by default
+# for its cost, gets the same when asked)
 STABILITY_WHEN_TRUE = {"lumped": "monodromy+check", "disk": "hill",
-                       "beam_blade": "monodromy+check", "solid_blade": "monodromy+check"}
+                       "beam_blade": "stretch", "solid_blade": "stretch"}
 FIGURES = ("amplitude", "hysteresis")
 DEFAULT_FIGURES = ("amplitude",)
 MAX_HARMONICS = 200
