@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 
 
 from .errors import UsageError, interrupt_in_chain
@@ -40,7 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=_cmd_check)
 
     h = sub.add_parser("hysteresis", help="draw the Yang-Menq time history and hysteresis loop (PNG)")
-    h.add_argument("--out", default="results/hysteresis.png", help="PNG file to write")
+    h.add_argument("--out", default="results/hysteresis.png",
+                   help="PNG file to write (a folder: hysteresis.png in it)")
     h.add_argument("--mu", type=float, default=0.4, help="friction coefficient [-]")
     h.add_argument("--ku", type=float, default=1.0, help="tangential stiffness [N/m]")
     h.add_argument("--kv", type=float, default=1.0, help="normal stiffness [N/m]")
@@ -71,7 +73,13 @@ def build_parser() -> argparse.ArgumentParser:
 def _cmd_hysteresis(args) -> int:
     from .study.plots import hysteresis_figure
 
-    path = hysteresis_figure(args.out, mu=args.mu, ku=args.ku, kv=args.kv, n0=args.n0)
+    out = Path(args.out)
+    if out.is_dir():
+        out = out / "hysteresis.png"
+    if out.suffix.lower() != ".png":
+        print(f"error: --out: {args.out}: must be a .png file or a folder", file=sys.stderr)
+        return 2
+    path = hysteresis_figure(out, mu=args.mu, ku=args.ku, kv=args.kv, n0=args.n0)
     print(f"wrote {path}")
     return 0
 

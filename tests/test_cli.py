@@ -212,3 +212,19 @@ def test_default_log_level_hides_solver_noise(tmp_path):
     loud = run("-v", "run", f, "--quick", "--out", tmp_path / "b", "--workers", "1",
                "--no-figures")
     assert loud.returncode == 0 and "reached lam_end" in loud.stderr
+
+
+# ---------------------------------------------------------------------------
+# hysteresis
+# ---------------------------------------------------------------------------
+
+def test_hysteresis_writes_into_a_folder_and_refuses_other_files(tmp_path, capsys):
+    """--out a folder: hysteresis.png in it (a folder path once ended in a traceback);
+    --out not a PNG: one error line, exit 2, nothing written."""
+    assert cli(["hysteresis", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "hysteresis.png").stat().st_size > 1000
+    capsys.readouterr()
+    assert cli(["hysteresis", "--out", str(tmp_path / "loop.txt")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: --out: "), err
+    assert not (tmp_path / "loop.txt").exists()
