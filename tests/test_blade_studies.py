@@ -267,7 +267,10 @@ def test_reduced_equals_unreduced_fe_model(scene, regime):
 
 
 def test_contact_study_quick_writes_a_conforming_dataset(tmp_path):
-    assert cli(["run", str(CONTACT), "--quick", "--out", str(tmp_path)]) == 0
+    # with stability asked for (off by default on FE blades: `true` selects "stretch")
+    study_file = tmp_path / "blade_shroud_contact.toml"
+    study_file.write_text(CONTACT.read_text().replace("[solver]\n", "[solver]\nstability = true\n", 1))
+    assert cli(["run", str(study_file), "--quick", "--out", str(tmp_path)]) == 0
     nc = tmp_path / "blade_shroud_contact.nc"
     assert problems(nc) == []
     ds = read_dataset(nc)
@@ -279,7 +282,7 @@ def test_contact_study_quick_writes_a_conforming_dataset(tmp_path):
     f_pk = float(ds["peak_frequency"].sel(dof="response.y").squeeze())
     assert 395.0 < f_pk < 403.6
     assert (tmp_path / "blade_shroud_contact" / "amplitude_response.y.png").is_file()
-    # blade scenes decide stability by stretches ("stretch"): the orbit monodromy at a
+    # stability = true on a blade: decided by stretches ("stretch"): the orbit monodromy at a
     # few points (method 2), the flag propagated to the others (method 3); this curve
     # has no fold, so one stretch: its ends, middle and peak
     conv = ds["converged"].values

@@ -95,6 +95,13 @@ def tiny_blade_study(extra=""):
     return parse_study(text + extra, file="tiny_blade.toml", name="tiny_blade")
 
 
+def tiny_blade_study_with_stability():
+    """The same with `[solver] stability = true`."""
+    from pipeline.study.documents import parse_study
+    text = tiny_blade_study().text.replace("[solver]\n", "[solver]\nstability = true\n", 1)
+    return parse_study(text, file="tiny_blade.toml", name="tiny_blade")
+
+
 @pytest.fixture(scope="module")
 def fe_curve():
     study = tiny_blade_study()
@@ -119,10 +126,11 @@ def test_fe_blade_propagated_equals_every_point(fe_curve):
 
 
 def test_fe_study_figure_draws_stable_solid_and_unstable_dashed(fe_curve):
-    """FE blade scenes decide stability by default ("stretch"), so their figure has
-    solid (stable) and dashed (unstable) stretches and no dotted one."""
+    """FE blade scenes asked for stability (`stability = true`: "stretch") draw solid
+    (stable) and dashed (unstable) stretches and no dotted one."""
     from pipeline.study.plots import pyplot, response_curves_plot
-    study, system, c = fe_curve
+    _, system, c = fe_curve
+    study = tiny_blade_study_with_stability()
     assert study.solver.stability == "stretch"
     bs = sc.branch_stability(hbm.setup(system, 3), c.Q, c.omega, c.omega,
                              lambda lam: system.contact, c.converged, study.solver.stability,

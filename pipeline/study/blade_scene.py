@@ -130,13 +130,13 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
     solver = parse_solver(ck, solver_tab, "solver", model=scene.model)
     if "stability" not in solver_tab:
-        # Hill at every point of hundreds of DOFs costs too much: a single blade at a
-        # few points of each stretch between folds, propagated (`solve.stretches`); a
-        # blade disk stays off (its wheel is beyond the orbit monodromy, and Hill over
-        # every wave number took 870-910 s a case of the quick shrouded disk, against
-        # 20-30 s for the case itself): opt in
-        solver = replace(solver, stability="stretch" if getattr(scene.structure, "disk", None) is None
-                         else False)
+        # off unless asked (`stability = true` selects "stretch": a few points of each
+        # stretch between folds decided, propagated, `solve.stretches`): on the quick
+        # blade study it costs about 60 s (61 %), on the full blade with 102 sliding
+        # node pairs the orbit monodromy's saltations took over 12 min a case against
+        # about 45 s for the study, and Hill over every wave number of a blade disk
+        # 870-910 s a quick case against 20-30 s
+        solver = replace(solver, stability=False)
     axes, freq = parse_sweep(ck, sweep_tab, "sweep")
     output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
     variants = [(False, solver, axes, freq, "solver", "sweep", full_scene)]
