@@ -332,7 +332,19 @@ def _multiplier_where_propagated(ds):
 
 
 def _unknown_method(ds):
-    ds["stability_method"].values[:] = np.where(ds["converged"].values, 4, -1)
+    ds["stability_method"].values[:] = np.where(ds["converged"].values, 5, -1)
+    return ds
+
+
+def _complete_without_points(ds):
+    ds["converged"].values[0] = False
+    ds["peak_complete"].values[0] = True
+    return ds
+
+
+def _incomplete_without_reason(ds):
+    ds["peak_complete"].values[0] = False
+    ds["message"].values[0] = ""
     return ds
 
 
@@ -372,7 +384,11 @@ BREAKS = {  # how a dataset departs from the contract -> what the checker must s
     "multiplier where propagated": (_multiplier_where_propagated,
                                     "'max_multiplier' has a value where no method decided"),
     "unknown method": (_unknown_method, "'stability_method' holds values other than -1, 0, 1, "
-                                        "2 and 3"),
+                                        "2, 3 and 4"),
+    "complete without points": (_complete_without_points,
+                                 "'peak_complete' is 1 for a case without converged points"),
+    "incomplete without a reason": (_incomplete_without_reason,
+                                    "'peak_complete' is 0 where 'message' does not say"),
     "bifurcation without frequency": (_bifurcation_without_frequency,
                                       "'bifurcation_frequency' is not finite exactly where"),
     "dof label with a sector": (lambda ds: ds.assign_coords(

@@ -238,7 +238,9 @@ def test_hill_checked_by_the_orbit_monodromy_where_the_shooting_is_out_of_reach(
     shooting's limit lowered below its 3 DOFs): where Hill is wrong, the monodromy
     decides, and the flags equal those the exact multipliers decided."""
     from pipeline.solve import hbm
+    from pipeline.solve import stability_modes
     monkeypatch.setattr(sc, "MAX_WHEEL_DOF", 2)
+    monkeypatch.setattr(stability_modes, "MAX_WHEEL_DOF", 2)
     c, s = blade_curve, blade3()
     ok = np.flatnonzero(c.converged)
     bs = sc.branch_stability(hbm.setup(s, 10), c.Q[ok], c.omega[ok], c.omega[ok],

@@ -14,7 +14,8 @@ from pipeline.paper_systems import example3
 from pipeline.solve import hbm
 from pipeline.solve import stability_check as sc
 from pipeline.solve.response import frequency_response
-from pipeline.solve.stretches import propagate, stretches
+from pipeline.solve.fold_rule import fold_rule
+from pipeline.solve.stretches import fold_parity, propagate, stretches
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -141,3 +142,71 @@ def test_fe_study_figure_draws_stable_solid_and_unstable_dashed(fe_curve):
     gids = {line.get_gid() for line in fig.axes[0].lines}
     pyplot().close(fig)
     assert {"stability=1", "stability=0"} <= gids and "stability=-1" not in gids
+
+
+def test_fold_parity_counts_each_reversal_and_a_reversal_across_a_gap():
+    lam = np.array([0.0, 1.0, 2.0, 3.0, 2.5, 2.0, 2.2, 2.4])
+    conv = np.ones(lam.size, bool)
+    assert fold_parity(lam, conv).tolist() == [0, 0, 0, 0, 1, 1, 2, 2]
+    conv[4] = False                                 # the fold's far side lost: 3 -> 2
+    assert fold_parity(lam, conv).tolist() == [0, 0, 0, 0, -1, 1, 2, 2]
+
+
+def test_fold_rule_flips_at_folds_from_a_decided_end():
+    lam = np.array([0.0, 1.0, 2.0, 3.0, 2.5, 2.0, 2.2, 2.4])
+    conv = np.ones(lam.size, bool)
+    stable, decided, note = fold_rule(lam, conv, lambda i: True if i == 0 else None)
+    assert stable.tolist() == [True] * 4 + [False] * 2 + [True] * 2
+    assert decided == {0: True} and "branch's ends" in note
+
+
+def test_fold_rule_contradicted_by_its_ends_is_not_a_verdict():
+    """Both ends stable across one fold: a secondary bifurcation must lie between,
+    so the rule gives no flag rather than a wrong one."""
+    lam = np.array([0.0, 1.0, 2.0, 1.5, 1.0])
+    stable, _, note = fold_rule(lam, np.ones(5, bool), lambda i: True)
+    assert stable is None and "contradicted" in note
+
+
+def test_fold_rule_without_a_cheap_end_takes_the_first_point_stable_and_says_so():
+    stable, decided, note = fold_rule(np.arange(4.0), np.ones(4, bool), lambda i: None)
+    assert stable.all() and not decided and "taken stable" in note
+
+
+@pytest.mark.parametrize("n0, lo, hi", [(-20.0, 0.9, 1.15), (10.0, 1.15, 1.45)])
+def test_example3_fold_rule_equals_every_point(n0, lo, hi):
+    """Example 3's two folds and unstable middle branch: the fold rule from its ends
+    (linear flows, or the orbit monodromy where a contact switches) gives the orbit monodromy's flag at every point
+    but the turning points themselves (the fold lies within a step of them)."""
+    full = frequency_response(example3(n0), 5, lo, hi, stability="monodromy",
+                              dense_output=False)
+    prob = hbm.setup(example3(n0), 5)
+    folds = sc.branch_stability(prob, full.Q, full.omega, full.omega,
+                                lambda lam: example3(n0).contact, full.converged, "folds",
+                                full.fold_parameter, full.amplitude)
+    m = full.converged
+    parity = fold_parity(full.omega, m)
+    turning = np.flatnonzero(np.diff(parity[m]) != 0)     # the last point before each fold
+    differ = np.flatnonzero(folds.stable[m] != full.stable[m])
+    assert set(differ.tolist()) <= set(turning.tolist())
+    assert full.fold_parameter.size == 2 and (~folds.stable[m]).sum() >= 5
+    assert set(np.unique(folds.method[m]).tolist()) <= {sc.FOLD_RULE, sc.MONODROMY}
+    assert (folds.method == sc.MONODROMY).sum() <= 2 and "branch's ends" in folds.note
+    assert list(folds.bifurcation_kind) == [sc.FOLD, sc.FOLD]
+
+
+def test_fe_blade_fold_rule_equals_stretch(fe_curve):
+    """The coarse FE blade through two folds: the fold rule (its default) gives the
+    flags the orbit monodromy decides stretch by stretch, from the ends alone."""
+    _, system, c = fe_curve
+    prob = hbm.setup(system, 3)
+    args = (prob, c.Q, c.omega, c.omega, lambda lam: system.contact, c.converged)
+    rule = sc.branch_stability(*args, "folds", c.fold_parameter, c.amplitude)
+    ref = sc.branch_stability(*args, "stretch", c.fold_parameter, c.amplitude)
+    m = c.converged
+    parity = fold_parity(c.omega, m)
+    turning = set(np.flatnonzero(np.diff(parity[m]) != 0).tolist())
+    assert set(np.flatnonzero(rule.stable[m] != ref.stable[m]).tolist()) <= turning
+    assert (~rule.stable[m]).any() and rule.stable[m].any()
+    assert rule.monodromy_time < ref.monodromy_time
+    assert tiny_blade_study().solver.stability == "folds"

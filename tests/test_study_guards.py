@@ -52,13 +52,13 @@ def test_stability_true_is_the_default_of_a_lumped_scene(tmp_path):
 
 def test_stability_true_per_scene_kind():
     """lumped -> monodromy+check; lumped disk -> hill (its default); FE blade and FE
-    disk -> stretch (off when absent: its cost is the user's choice)."""
+    disk -> stretch (the fold rule when absent: "stretch" costs minutes a case)."""
     disk = _doc("disk_cyclic.toml")
     assert disk["solver"]["stability"] is True
     assert study_from_document(disk, file="d.toml").solver.stability == "hill"
     del disk["solver"]["stability"]
     assert study_from_document(disk, file="d.toml").solver.stability == "hill"
-    for name, absent in (("blade_shroud_contact.toml", False), ("shrouded_disk.toml", False)):
+    for name, absent in (("blade_shroud_contact.toml", "folds"), ("shrouded_disk.toml", "folds")):
         doc = _doc(name)
         assert study_from_document(copy.deepcopy(doc), file="b.toml",
                                    quick=True).solver.stability == absent

@@ -6,7 +6,7 @@ each timed as this process's CPU time (single-threaded BLAS), with the points th
 exact Floquet multipliers decided, the unstable points and the bifurcations.
 
 Then the FE blade of `studies/blade_shroud_contact.toml` (its quick mesh, 208 DOFs:
-beyond the shooting, `stability_check.effective_mode`): its curve without
+beyond the shooting, `stability_modes.effective_mode`): its curve without
 stability, and Hill's and the orbit monodromy's CPU time and largest multiplier at
 sampled points of it (a whole curve with either takes many minutes); the curve times
 of the modes follow from the per-point costs.
@@ -24,7 +24,8 @@ from ..paper_systems import blade3, example1, example3
 from ..solve import hbm
 from ..solve.response import frequency_response
 from ..solve.orbit_floquet import along_orbit
-from ..solve.stability_check import FLOQUET, KINDS, MONODROMY, branch_stability
+from ..solve.stability_check import branch_stability
+from ..solve.stability_modes import FLOQUET, KINDS, MONODROMY
 from ..study.documents import load_study
 
 CURVES = [("Example 1, n = 2 N, H = 7, 150-250 rad/s", lambda: example1(2.0), 7, 150.0, 250.0),

@@ -75,7 +75,8 @@ def _orbit_state(Q, Om, tau):
     return np.concatenate([q, qd])
 
 
-def along_orbit(system: System, Omega: float, Q, tol: float = 1e-6) -> FloquetResult | None:
+def along_orbit(system: System, Omega: float, Q, tol: float = 1e-6,
+                max_work: float | None = None) -> FloquetResult | None:
     """Multipliers of the flow linearised along the harmonic-balance orbit (module
     docstring); None where the method does not apply.
 
@@ -85,7 +86,9 @@ def along_orbit(system: System, Omega: float, Q, tol: float = 1e-6) -> FloquetRe
     tol: the band around |mu| = 1 of a "marginal" verdict.  Read `max_modulus`,
     `verdict` ("stable" / "unstable" / "marginal"), `multipliers` and `leaving` (the
     kinds of those outside the unit circle) of the `floquet.FloquetResult`;
-    `n_events` = 0 means no contact switched: the flow is linear, exp(A T) exact."""
+    `n_events` = 0 means no contact switched: the flow is linear, exp(A T) exact.
+    max_work: None is also returned where (events + 1) (2n + E)^3 exceeds it (the
+    matrix exponentials' work, which dominates)."""
     tic = time.perf_counter()
     Q = np.asarray(Q, float)
     if Q.ndim != 2 or Q.shape[0] != system.n_dof or Q.shape[1] % 2 != 1:
@@ -103,6 +106,8 @@ def along_orbit(system: System, Omega: float, Q, tol: float = 1e-6) -> FloquetRe
     events = sorted((r[k][0], e, k) for e, r in enumerate(rows) if len(r) > 1
                     for k in range(len(r)))
     dim = 2 * mdl.n + mdl.E
+    if max_work is not None and (len(events) + 1) * float(dim) ** 3 > max_work:
+        return None
     Phi, flows, cur = np.eye(dim), {}, tuple(int(s) for s in st0)
     tau_prev, switched, trans, i = 0.0, set(), np.inf, 0
     while i < len(events):

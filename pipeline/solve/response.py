@@ -22,7 +22,8 @@ from .optimum import PER_DECADE, global_minimum
 from .newton import newton, scale_rows
 from .resonance import MAX_DENSE_DOF, step_guard
 from .restarts import cover_range
-from .stability_check import branch_stability, stability_mode
+from .stability_check import branch_stability
+from .stability_modes import stability_mode
 
 
 @dataclass(frozen=True)

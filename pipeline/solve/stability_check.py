@@ -33,6 +33,10 @@ Modes (`solver.stability` of a study, `stability=` of `response.frequency_respon
                   folds and bifurcations; a secondary bifurcation inside a stretch is
                   found by bisection where its decided points disagree).  For reduced
                   FE models, where Hill at every point costs too much.
+    "folds"       the fold rule (`fold_rule`): a verdict at the branch's ends where
+                  it is cheap (no contact switches: a linear damped flow, stable; else
+                  the orbit monodromy within a work budget), flipped at every fold.
+                  The default of FE scenes, where every other mode costs minutes.
     None / False  not computed.
 
 CHECK_MARGIN = 0.5 (rho_H in [0.61, 1.65]).  Measured: on a 3-DOF shrouded blade with
@@ -65,7 +69,8 @@ Where Hill and Floquet disagree, Floquet decides.  A "marginal" Floquet verdict
 (|mu| within 1e-6 of 1) counts as stable, as Hill's relative margin does.
 
 Per point: `method` (-1 not computed, 0 Hill, 1 Floquet, 2 monodromy, 3 propagated:
-the flag of a decided point of the same stretch, "stretch" mode), `hill_multiplier`
+the flag of a decided point of the same stretch, "stretch" mode; 4 fold rule),
+`hill_multiplier`
 rho_H (NaN where Hill was not run), `floquet_multiplier` max |mu| (NaN where not
 run).  Bifurcations: wherever the decided flag changes between two converged
 neighbours, the kind of the multiplier leaving the unit circle on the unstable side
@@ -81,39 +86,23 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..contact.exact import periodic_segments
 from ..model.cyclic import expand, wheel_system
 from ..model.system import dense
 from . import floquet
+from .fold_rule import MAX_WORK, fold_rule
 from .full_operators import wave_jacobians
+from .hbm import contact_motion
 from .orbit_floquet import along_orbit
 from .stability import is_stable
+from .stability_modes import (CHECK_MARGIN, FLOQUET, FOLD, FOLD_RULE, HILL, KIND_CODES,
+                              MAX_MONODROMY_DOF, MAX_SHOOTING_SAMPLES, MAX_WHEEL_DOF,
+                              MONODROMY, MONODROMY_MARGIN, NEIMARK_SACKER,
+                              NOT_COMPUTED, PERIOD_DOUBLING, PROPAGATED, describe,
+                              effective_mode, flow_dof, shooting_samples, stability_mode)
 from .stretches import propagate, stretches
 
 log = logging.getLogger(__name__)
-
-MODES = ("hill", "floquet", "hill+check", "monodromy", "monodromy+check", "stretch")
-NOT_COMPUTED, HILL, FLOQUET, MONODROMY, PROPAGATED = -1, 0, 1, 2, 3
-FOLD, PERIOD_DOUBLING, NEIMARK_SACKER = 1, 2, 3
-KINDS = {FOLD: "fold", PERIOD_DOUBLING: "period doubling", NEIMARK_SACKER: "Neimark-Sacker"}
-KIND_CODES = {v: k for k, v in KINDS.items()}
-CHECK_MARGIN = 0.5
-MONODROMY_MARGIN = 0.1    # |log max |mu|| of the orbit monodromy below which Floquet checks it
-MAX_WHEEL_DOF = 200    # the shooting (Floquet) runs on exact flows of up to this many DOFs
-MAX_MONODROMY_DOF = 400   # ... the orbit monodromy on up to this many (an FE blade's 352)
-MAX_SHOOTING_SAMPLES = 1e5  # ... and whose event search samples a period at most this often
-
-
-def stability_mode(value) -> str | None:
-    """The mode of a `stability` argument: True -> "hill", False/None -> None, a
-    string of MODES as it is; ValueError naming the argument otherwise."""
-    if value is None or value is False:
-        return None
-    if value is True:
-        return "hill"
-    if isinstance(value, str) and value in MODES:
-        return value
-    raise ValueError(f"stability must be true, false or one of {', '.join(map(repr, MODES))}, "
-                     f"got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -196,16 +185,16 @@ class _Points:
             s = wheel_system(s)
         return s, Q
 
-    def run_monodromy(self, i):
+    def run_monodromy(self, i, max_work=None):
         """The monodromy of the flow linearised along the HBM orbit (`orbit_floquet`);
-        left NaN where that method does not apply."""
+        left NaN where that method does not apply (or costs more than `max_work`)."""
         if self.orb_tried[i]:
             return
         self.orb_tried[i] = True
         t0 = time.perf_counter()
         s, Q = self.orbit(i)
         try:
-            r = along_orbit(s, self.omega[i], Q)
+            r = along_orbit(s, self.omega[i], Q, max_work=max_work)
         except (ValueError, np.linalg.LinAlgError) as exc:
             log.debug("orbit monodromy at %.6g rad/s failed: %s", self.omega[i], exc)
             r = None
@@ -217,6 +206,16 @@ class _Points:
         self.orb_stable[i] = r.verdict != "unstable"
         kind = r.leaving[0] if r.leaving else r.critical
         self.orb_kind[i] = KIND_CODES.get(kind, FOLD)
+
+    def linear_at(self, i) -> bool:
+        """No contact switches over the period of point i (every element stuck or
+        open throughout: the flow along the orbit is linear)."""
+        prob = self.prob
+        if prob.idx.shape[0] == 0:
+            return True
+        U, V = contact_motion(prob, self.Q[i][prob.c])
+        regime = periodic_segments(U, V, self.elem_at(self.lam[i]))["regime"]
+        return bool(np.all((regime == 0) | (regime == 1)))
 
     def run_floquet(self, i):
         if self.fq_tried[i]:
@@ -254,6 +253,8 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     mode, check = effective_mode(mode, size, stiff)
     if mode is None:
         return _result(pts, np.full(P, NOT_COMPUTED, np.int8), fold_lam, conv, note)
+    if mode == "folds":
+        return _folds_result(pts, conv, fold_lam, size <= MAX_MONODROMY_DOF)
     if mode == "stretch":
         return _stretch_result(pts, conv, amplitude, fold_lam, note,
                                size <= MAX_MONODROMY_DOF)
@@ -283,96 +284,8 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     return _result(pts, method, fold_lam, conv, note)
 
 
-def effective_mode(mode, size: int, stiff: bool = False) -> tuple:
-    """(mode run, check "floquet" | "monodromy") for `mode` on an exact flow of `size`
-    DOFs (`flow_dof`), `stiff` if its event search would take more than
-    MAX_SHOOTING_SAMPLES samples a period (`shooting_samples`).  Up to MAX_WHEEL_DOF
-    DOFs and not stiff, every mode runs as named, checked by Floquet.  Otherwise the
-    shooting is out of reach (an FE blade's stiff reduced model, a large wheel): up
-    to MAX_MONODROMY_DOF "hill+check" is checked by the orbit monodromy instead,
-    and "floquet" and "monodromy+check" run as "monodromy"; above that, every mode
-    runs as "hill"."""
-    mode = stability_mode(mode)
-    if mode in (None, "hill", "stretch") or (size <= MAX_WHEEL_DOF and not stiff):
-        return mode, "floquet"
-    if size > MAX_MONODROMY_DOF:
-        return "hill", "floquet"
-    return ("hill+check" if mode == "hill+check" else "monodromy"), "monodromy"
-
-
-def shooting_samples(system, omega) -> float:
-    """Samples per period (at the lowest of the frequencies `omega` [rad/s]) of the
-    exact integrator's event search, which steps (pi/6)/max|lambda| of the flow
-    (`events`), from the bound max|lambda| <= ||M^-1 C|| + sqrt(||M^-1 (K + K_c)||)
-    (1-norms; K_c the contacts' springs ku, kv), without the grading to the modes
-    still present (`piecewise.graded_steps`): a measure of stiffness.  Tens to
-    hundreds on lumped systems, 1e7-1e8 on a Craig-Bampton blade, whose boundary DOFs
-    are stiff: there every switch starts transients to resolve, and the shooting
-    (many periods, each mode's eigenvectors) took over 10 minutes a point on a
-    102-DOF blade, against 1-5 s for one period of the integration."""
-    M, K, C, Bt, Bn = (np.abs(np.atleast_2d(dense(a)))
-                       for a in (system.M, system.K, system.C, system.Bt, system.Bn))
-    ct = system.contact
-    if ct is not None and Bt.size and Bn.size:
-        K = K + Bt.T @ (np.abs(ct.ku)[:, None] * Bt) + Bn.T @ (np.abs(ct.kv)[:, None] * Bn)
-    try:
-        Minv = np.abs(np.linalg.inv(M))
-    except np.linalg.LinAlgError:   # a massless DOF: no closed-form pieces, no shooting
-        return np.inf
-    lam = (Minv @ C).sum(0).max() + np.sqrt((Minv @ K).sum(0).max())
-    return float(2 * np.pi / np.min(omega) * lam * 6 / np.pi)
-
-
-def flow_dof(system) -> int:
-    """DOFs of the exact flow whose multipliers `floquet` and `monodromy` compute: the
-    whole wheel for a cyclic sector."""
-    cy = getattr(system, "cyclic", None)
-    return system.n_dof * (cy.sectors if cy is not None else 1)
-
-
 def _near_one(multiplier, margin) -> bool:
     return abs(np.log(max(multiplier, 1e-300))) < margin
-
-
-def describe(mode, size: int = 0, margin: float = CHECK_MARGIN, stiff: bool = False) -> str:
-    """How `branch_stability` decides in `mode` (`stability_mode`) on an exact flow of
-    `size` DOFs, `stiff` or not (`effective_mode`), in words."""
-    mode = stability_mode(mode)
-    run, check = effective_mode(mode, size, stiff)
-    if run == "hill" and mode not in (None, "hill"):
-        return ("Hill's method at every point (every wave number of a cyclic sector): the "
-                f"exact flow has {size} > {MAX_MONODROMY_DOF} DOFs here (a cyclic sector's "
-                f"is the whole wheel's), so {mode!r} keeps Hill")
-    if check == "monodromy":
-        why = (f"is too stiff for the event search (over {MAX_SHOOTING_SAMPLES:.0e} samples "
-               "a period)" if stiff and size <= MAX_WHEEL_DOF else
-               f"has {size} > {MAX_WHEEL_DOF} DOFs")
-        beyond = f"the exact flow {why} here, beyond the shooting, so {mode!r} runs as "
-        if run == "hill+check":
-            return (beyond + "Hill's method, checked by the multipliers of the exact flow "
-                    "linearised along the harmonic-balance orbit where |max Re lambda| T < "
-                    f"{margin:g}, at both neighbours of every change of the flag and at the "
-                    "peaks; where they disagree, the orbit monodromy decides")
-        return (beyond + "the multipliers of the exact flow linearised along the "
-                "harmonic-balance orbit at every point (Hill where that does not apply)")
-    check = ("at both neighbours of every change of the flag and at the peaks; where they "
-             "disagree, Floquet decides")
-    return {None: "not computed", "hill": "Hill's method at every point",
-            "stretch": "multipliers of the exact flow linearised along the harmonic-balance "
-                       "orbit (Hill's method beyond that method's size or where it does not "
-                       "apply) at the ends and middle point of each stretch between two "
-                       "folds, at the peaks and beside each fold, the flag propagated over "
-                       "the stretch (bisected where its decided points disagree)",
-            "floquet": "Floquet multipliers of the exact flow at every converged point (Hill "
-                       "where the periodic orbit was not found)",
-            "hill+check": "Hill's method, checked by the Floquet multipliers of the exact flow "
-                          f"where |max Re lambda| T < {margin:g}, " + check,
-            "monodromy": "multipliers of the exact flow linearised along the harmonic-balance "
-                         "orbit at every point (Hill where that does not apply)",
-            "monodromy+check": "multipliers of the exact flow linearised along the "
-                               "harmonic-balance orbit, checked by those of the exact "
-                               f"periodic orbit where |log max |mu|| < {MONODROMY_MARGIN:g} "
-                               "and a contact switches in the period, " + check}[mode]
 
 
 def _stretch_result(pts, conv, amplitude, fold_lam, note, orbit) -> BranchStability:
@@ -398,6 +311,30 @@ def _stretch_result(pts, conv, amplitude, fold_lam, note, orbit) -> BranchStabil
     method[done] = np.where(np.isfinite(pts.orb[done]), MONODROMY, HILL)
     prop = np.setdiff1d(np.arange(stable.size), done)
     pts.hill_stable[prop] = pts.orb_stable[prop] = stable[prop]
+    return _result(pts, method, fold_lam, conv, note)
+
+
+def _folds_result(pts, conv, fold_lam, orbit) -> BranchStability:
+    """"folds" mode (`fold_rule`): the ends decided by linearity or, if `orbit`, by
+    the orbit monodromy within MAX_WORK; method FOLD_RULE elsewhere."""
+    sym = all(np.allclose(a, a.T) for a in (dense(getattr(pts.prob.system, k))
+                                           for k in ("M", "K", "C")))
+
+    def verdict(i):
+        if sym and pts.linear_at(i):
+            return True
+        if orbit:
+            pts.run_monodromy(i, MAX_WORK)
+            if np.isfinite(pts.orb[i]):
+                return bool(pts.orb_stable[i])
+        return None
+
+    stable, _, note = fold_rule(pts.lam, np.isin(np.arange(pts.lam.size), conv), verdict)
+    if stable is None:
+        return _result(pts, np.full(pts.lam.size, NOT_COMPUTED, np.int8), fold_lam, conv, note)
+    method = np.where(np.isfinite(pts.orb), MONODROMY, FOLD_RULE).astype(np.int8)
+    ruled = method == FOLD_RULE
+    pts.hill_stable[ruled] = pts.orb_stable[ruled] = stable[ruled]
     return _result(pts, method, fold_lam, conv, note)
 
 
@@ -457,6 +394,10 @@ def _bifurcations(pts, stable, conv, fold_lam):
             kind.append(FOLD)
             continue
         u = b if stable[a] else a
+        if not (np.isfinite(mult[a]) and np.isfinite(mult[b])):   # a propagated flag
+            par.append(float(0.5 * (la + lb)))
+            kind.append(int(kinds[u]) or FOLD)
+            continue
         ga, gb = np.log(max(mult[a], 1e-300)), np.log(max(mult[b], 1e-300))
         s = np.clip(-ga / (gb - ga), 0.0, 1.0) if gb != ga else 0.5
         par.append(float(la + s * (lb - la)))

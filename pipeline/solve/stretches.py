@@ -27,6 +27,12 @@ that no decided point separates (the branch loses and regains stability between
 two decided points of the same verdict).  The cost is a handful of decisions per
 stretch instead of one per point: on P points with F folds about 1 + 3F + (DOFs)
 decisions, plus log2 of the stretch length for each secondary bifurcation.
+
+The fold rule (`fold_parity`) is the cheapest form of the same fact: without
+secondary bifurcations the flag flips at every fold and nowhere else, so one decided
+point fixes the whole branch.  The turning point k keeps the flag of the points
+before it; the fold is counted between k and k + 1.  A gap (points that did not
+converge) across which the parameter reverses counts as a fold too.
 """
 from __future__ import annotations
 
@@ -56,6 +62,26 @@ def stretches(lam, converged) -> list:
     if cur:
         parts.append(cur)
     return [np.array(p, int) for p in parts]
+
+
+def fold_parity(lam, converged) -> np.ndarray:
+    """(P,) int: the number of folds of the parameter lam (P,) passed along the
+    converged points (`converged` (P,) bool) before each of them, -1 at the others
+    (module docstring: the flag of point i is that of point j flipped
+    parity[i] - parity[j] times)."""
+    conv = np.flatnonzero(np.asarray(converged, bool))
+    lam = np.asarray(lam, float)
+    out = np.full(lam.size, -1, int)
+    count, last = 0, 0.0
+    for j, i in enumerate(conv):
+        if j:
+            step = lam[i] - lam[conv[j - 1]]
+            if step != 0.0:
+                if last != 0.0 and np.sign(step) != np.sign(last):
+                    count += 1
+                last = step
+        out[i] = count
+    return out
 
 
 def propagate(parts, decide, peaks=()) -> tuple:

@@ -130,13 +130,14 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
     solver = parse_solver(ck, solver_tab, "solver", model=scene.model)
     if "stability" not in solver_tab:
-        # off unless asked (`stability = true` selects "stretch": a few points of each
-        # stretch between folds decided, propagated, `solve.stretches`): on the quick
-        # blade study it costs about 60 s (61 %), on the full blade with 102 sliding
-        # node pairs the orbit monodromy's saltations took over 12 min a case against
-        # about 45 s for the study, and Hill over every wave number of a blade disk
-        # 870-910 s a quick case against 20-30 s
-        solver = replace(solver, stability=False)
+        # the fold rule unless asked (`solve.fold_rule`: a verdict at each branch's ends
+        # where it is cheap, flipped at every fold; no cost on the shipped studies).
+        # `stability = true` selects "stretch" (a few points of each stretch between
+        # folds decided by the orbit monodromy): on the quick blade study about 60 s
+        # (61 %), on the full blade with 102 sliding node pairs over 12 min a case
+        # against about 45 s for the study; Hill over every wave number of a blade
+        # disk 870-910 s a quick case against 20-30 s
+        solver = replace(solver, stability="folds")
     axes, freq = parse_sweep(ck, sweep_tab, "sweep")
     output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
     variants = [(False, solver, axes, freq, "solver", "sweep", full_scene)]

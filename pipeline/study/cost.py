@@ -49,7 +49,11 @@ OVERHEAD = ((0.002, 0.008), (1e-4, 1.5e-3))   # s0 [s], s1 [s per DOF]: bookkeep
 #                                             output, recovery of every DOF
 STABILITY = {"off": (0.0, 0.0), "monodromy": (0.001, 0.03),
              "monodromy+check": (0.002, 0.25),   # + Floquet checks where in doubt
-             "hill": (0.001, 0.008), "hill+check": (0.2, 4.0), "floquet": (0.2, 4.0)}
+             "hill": (0.001, 0.008), "hill+check": (0.2, 4.0), "floquet": (0.2, 4.0),
+             # the fold rule: a verdict at a branch's ends, nothing per point (the full
+             # blade study took 28.2 s with it, 29.6 s without); "stretch": a few orbit
+             # monodromies a stretch, 0.75 s a point on the quick blade, 2.4 on the full
+             "folds": (0.0, 0.002), "stretch": (0.05, 3.0)}
 HILL_CUBE = (3e-9, 1.5e-8)            # [s] per N_h^3 of Hill's eigenproblem, N_h = 2n(2H+1);
 #                                       a tuned cyclic sector solves one per wave number
 # the constant terms (s0, s1, s_stab, HILL_CUBE) were measured with the machine this busy

@@ -31,13 +31,16 @@ The contract (README, section Dataset), as checked here:
   holds no value at all where its `stability_computed` attribute is 0;
 - where present, `stability_method` (sweeps..., point) is -1 (not computed) exactly
   where `stable` is NaN, else 0 (Hill), 1 (Floquet), 2 (monodromy along the
-  harmonic-balance orbit) or 3 (propagated from the decided points of its stretch
-  between two folds, with a NaN `max_multiplier`), with `flag_values` and
+  harmonic-balance orbit), 3 (propagated from the decided points of its stretch
+  between two folds) or 4 (the fold rule: a decided end of the branch flipped at
+  every fold), 3 and 4 with a NaN `max_multiplier`, with `flag_values` and
   `flag_meanings`; `max_multiplier` is NaN where no method decided and, where
   given, agrees with `stable` (1 iff the multiplier is at most 1 + 1e-6);
   `bifurcation_type` is -1 (padding), 1 (fold), 2 (period doubling) or
   3 (Neimark-Sacker) with `flag_meanings`, and `bifurcation_frequency` is finite
-  exactly where it is not -1.
+  exactly where it is not -1;
+- where present, `peak_complete` (sweeps...) is 0 or 1, 1 only for a case with
+  converged points, and 0 with a `message` that says why the branch stopped.
 
 The per-contact variables and the response coefficients: `contact_check`.
 
@@ -116,6 +119,8 @@ def _check_dataset(ds, name):
         _check_stable(ds, say)
         if "stability_method" in ds.variables:
             _check_stability_method(ds, say)
+        if "peak_complete" in ds.variables:
+            _check_peak_complete(ds, say)
         check_contacts(ds, _converged(ds), say)
     npts = int(_converged(ds).sum()) if "converged" in ds else 0
     sectors = f", {ds.sizes['sector']} sectors" if "sector" in ds.dims else ""
@@ -260,6 +265,23 @@ def _check_values(ds, say):
         say("variable 'peak_frequency' is not the frequency of the point of 'peak_amplitude'")
 
 
+def _check_peak_complete(ds, say):
+    """`peak_complete`: a 0/1 flag, 1 only where the case has converged points, 0 with
+    a message (module docstring)."""
+    pc = ds["peak_complete"].values
+    if not np.isin(pc.astype(float), (0.0, 1.0)).all():
+        say("variable 'peak_complete' holds values other than 0 and 1")
+        return
+    has = _converged(ds).any("point").values
+    if (pc.astype(bool) & ~has).any():
+        say("variable 'peak_complete' is 1 for a case without converged points")
+    if "message" in ds.variables:
+        msg = np.vectorize(lambda m: len(str(m).strip()) > 0)(ds["message"].values)
+        if (~pc.astype(bool) & has & ~msg).any():
+            say("variable 'peak_complete' is 0 where 'message' does not say why the branch "
+                "stopped")
+
+
 def _check_stable(ds, say):
     """1 / 0 where computed, NaN where not, and said so."""
     st = ds["stable"]
@@ -295,13 +317,13 @@ def _check_stability_method(ds, say):
     for v in ("stability_method", "bifurcation_type"):
         if not {"flag_values", "flag_meanings"} <= set(ds[v].attrs):
             say(f"variable {v!r} lacks flag_values / flag_meanings")
-    if not np.isin(m.values, (-1, 0, 1, 2, 3)).all():
-        say("variable 'stability_method' holds values other than -1, 0, 1, 2 and 3")
+    if not np.isin(m.values, (-1, 0, 1, 2, 3, 4)).all():
+        say("variable 'stability_method' holds values other than -1, 0, 1, 2, 3 and 4")
     if bool(((m == -1) != st.isnull()).any()):
         say("variable 'stability_method' is not -1 exactly where 'stable' is NaN")
-    if bool((((m == -1) | (m == 3)) & mult.notnull()).any()):
+    if bool((((m == -1) | (m >= 3)) & mult.notnull()).any()):
         say("variable 'max_multiplier' has a value where no method decided (or where the "
-            "flag was propagated)")
+            "flag was propagated or ruled by folds)")
     agree = (st == 1) == (mult <= 1 + MULTIPLIER_TOL)
     if bool((~agree & (m >= 0) & mult.notnull()).any()):
         say("variable 'max_multiplier' contradicts 'stable' (stable iff max |mu| <= 1)")

@@ -15,7 +15,7 @@ from pathlib import Path
 from ..model.scene import Scene
 from ..model.static_load import case_system
 from ..model.system import System
-from ..solve.stability_check import MODES as STABILITY_MODES
+from ..solve.stability_modes import MODES as STABILITY_MODES
 
 
 MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
@@ -36,16 +36,12 @@ SWEEP_AXES = {
 }
 INTEGER_SWEEP_AXES = ("eo", "mistuning_seed")
 FREQUENCY_UNITS = ("rad/s", "Hz")
-# `[solver] stability = true` selects the method recommended for the scene's model, the
-# one an absent key gives where stability is on by default (README "Which stability flag
-# to trust"): the orbit monodromy checked by the exact Floquet multipliers on lumped
-# scenes; Hill on a lumped cyclic sector (the parser's default there); on FE blades
-# (off by default) the orbit monodromy, which `stability_check.effective_mode` runs as
-# "monodromy" on a Craig-Bampton blade and as Hill on flows too large for it
-# `[solver] stability = true`: the recommended method of each scene kind (an FE blade's
-# default "stretch": decided at a few points of each stretch between folds, by the orbit
-# monodromy up to its size and Hill beyond, and propagated; an FE disk, off by default
-# for its cost, gets the same when asked)
+# `[solver] stability = true` selects the method recommended for the scene's model (README
+# "Which stability flag to trust"): the orbit monodromy checked by the exact Floquet
+# multipliers on lumped scenes (their default); Hill on a lumped cyclic sector (its
+# default); "stretch" on FE blades and FE disks (decided at a few points of each stretch
+# between folds and propagated), whose default is the fold rule ("folds": a cheap verdict
+# at each branch's ends flipped at every fold)
 STABILITY_WHEN_TRUE = {"lumped": "monodromy+check", "disk": "hill",
                        "beam_blade": "stretch", "solid_blade": "stretch"}
 FIGURES = ("amplitude", "hysteresis")

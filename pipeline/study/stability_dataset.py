@@ -5,7 +5,9 @@
                                          2 monodromy along the harmonic-balance orbit,
                                          3 propagated: the flag of the decided points of
                                          its stretch between two folds ("stretch" mode,
-                                         `solve.stretches`), no multiplier of its own
+                                         `solve.stretches`), no multiplier of its own,
+                                         4 fold rule: a verdict at an end of the branch
+                                         flipped at every fold (`solve.fold_rule`)
     max_multiplier   (sweeps..., point)  Floquet: largest |mu| of the exact flow;
                                          monodromy: that of the flow linearised along the
                                          HBM orbit; Hill: exp(max Re lambda T)
@@ -19,12 +21,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..solve.stability_check import (FLOQUET, HILL, KINDS, MONODROMY, NOT_COMPUTED,
-                                     PROPAGATED, describe)
+from ..solve.stability_modes import (FLOQUET, FOLD_RULE, HILL, KINDS, MONODROMY,
+                                     NOT_COMPUTED, PROPAGATED, describe)
 
-METHOD_FLAGS = {"flag_values": np.array([NOT_COMPUTED, HILL, FLOQUET, MONODROMY, PROPAGATED],
-                                        np.int8),
-                "flag_meanings": "not_computed hill floquet monodromy propagated"}
+METHOD_FLAGS = {"flag_values": np.array([NOT_COMPUTED, HILL, FLOQUET, MONODROMY, PROPAGATED,
+                                         FOLD_RULE], np.int8),
+                "flag_meanings": "not_computed hill floquet monodromy propagated fold_rule"}
 TYPE_FLAGS = {"flag_values": np.array([-1] + list(KINDS), np.int8),
               "flag_meanings": "none " + " ".join(k.replace(" ", "_").replace("-", "_")
                                                   for k in KINDS.values())}
@@ -100,7 +102,8 @@ def stability_attrs(data_vars: dict):
                 "stability_method 0 (hill): Hill's equivalent "
                 "exp(max Re lambda * T) of its selected Floquet exponents (T = 2 pi / Omega); "
                 "stability_method 3 (propagated): NaN, the flag is that of the decided "
-                "points of its stretch between two folds; "
+                "points of its stretch between two folds; stability_method 4 (fold rule): "
+                "NaN, the flag is that of a decided end of the branch flipped at every fold; "
                 "NaN where not computed. > 1: unstable")
     data_vars["bifurcation_type"][2].update(
         TYPE_FLAGS, comment="from the multiplier leaving the unit circle on the unstable side: "
