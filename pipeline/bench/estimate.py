@@ -2,8 +2,8 @@
 
     python -m pipeline bench estimate [STUDY ...] [--quick]
 
-Each response study (default: every one in studies/) is estimated as `check` does
-(`study.cost.estimate`, which times the model), the model caches are cleared (the
+Each study (default: every one in studies/) is estimated as `check` does
+(`study.cost.estimate`, which times the model; `study.kind_costs` for the other kinds), the model caches are cleared (the
 run builds and reduces its model again, as a fresh `run` does), and the study is run
 in this process (`--workers 1`, figures included, no checkpoints).  Printed: the
 estimate's range and its geometric middle, the measured wall time, and their ratio
@@ -42,26 +42,25 @@ def measure(path, quick: bool = False, out_dir=None) -> Measured:
     from ..study.documents import load_study
     from ..study.run import run_study
 
+    from ..study.kind_costs import estimate_kind
+
     study = load_study(path, quick=quick)
-    est = estimate(study, workers=1)
+    kind = getattr(study, "kind", "response")
+    est = estimate(study, workers=1) if kind == "response" else estimate_kind(study)
     model_scene.timed_blade_model.cache_clear()   # the run builds its model, as `run` does
     model_scene.reduced_model.cache_clear()
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
         run_study(study, out_dir or tmp, workers=1, progress=False, checkpoints=False)
         wall = time.perf_counter() - t0
-    return Measured(Path(path).stem, quick, len(study.sweep.cases()), est, wall)
+    n_cases = (len(study.sweep.cases()) if kind == "response" else
+               len(getattr(study, "cases", ())) or 1)
+    return Measured(Path(path).stem, quick, n_cases, est, wall)
 
 
-def response_studies() -> list:
-    """The shipped studies `check` estimates by timing (response studies)."""
-    from ..study.documents import load_study
-
-    out = []
-    for p in sorted(STUDIES.glob("*.toml")):
-        if getattr(load_study(p), "kind", "response") == "response":
-            out.append(p)
-    return out
+def shipped_studies() -> list:
+    """Every shipped study (`check` estimates each kind)."""
+    return sorted(STUDIES.glob("*.toml"))
 
 
 def run(quick: bool = False, studies=()) -> int:
@@ -70,7 +69,7 @@ def run(quick: bool = False, studies=()) -> int:
     for name in ("pipeline", "distributed"):
         logging.getLogger(name).setLevel(logging.WARNING)
     paths = [Path(s) if Path(s).suffix == ".toml" else STUDIES / f"{s}.toml" for s in studies] \
-        or response_studies()
+        or shipped_studies()
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
     print(f"check's estimate against the measured run (--workers 1{', --quick' if quick else ''}); "
           f"load average {load}")

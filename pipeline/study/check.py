@@ -93,17 +93,14 @@ def describe(study, workers: int = 1, has_quick: bool = False) -> list:
         lines.append(f"scene: {sc.model}, Craig-Bampton mode counts "
                      f"{', '.join(map(str, study.mode_counts))}; {study.n_frequencies} "
                      "frequencies compared with the full model")
-        lines.append("estimated cost: one full and one reduced eigen-solve per mode count "
-                     "(no timing without building the mesh)")
-        return lines
+        return lines + _kind_estimate(study)
     if kind == "disk_modes":
         sc = study.scene
         lines.append(f"scene: disk of {sc.assembly.sectors} sectors, {len(sc.sector_dofs)} DOF(s) "
                      f"per sector, {len(sc.contacts)} contact(s); nodal diameters "
                      f"{', '.join(map(str, study.nodal_diameters))}; {study.n_frequencies} "
                      "frequencies each, contacts open and stuck")
-        lines.append(f"estimated cost: {2 * len(study.nodal_diameters)} sector eigen-solves")
-        return lines
+        return lines + _kind_estimate(study)
     if kind == "accuracy_cost":
         for c in study.cases:
             runs = c.runs()
@@ -111,8 +108,7 @@ def describe(study, workers: int = 1, has_quick: bool = False) -> list:
                          f"{c.frequency.stop:g} {c.frequency.unit}; {len(runs)} runs "
                          f"(reference, baseline, {len(runs) - 2} knob values) x {c.repeats} "
                          "timing repeat(s)")
-        lines.append("estimated cost: see README 'Accuracy vs cost' (measured wall times)")
-        return lines
+        return lines + _kind_estimate(study)
     sc, sw, sv = study.scene, study.sweep, study.solver
     n_cases = len(sw.cases())
     contacts = getattr(sc, "contacts", ())
@@ -147,6 +143,15 @@ def describe(study, workers: int = 1, has_quick: bool = False) -> list:
                     if o.optimum else ""))
     lines += estimate(study, n_cases, workers, linear)
     return lines
+
+
+def _kind_estimate(study) -> list:
+    """The cost line of a modes, disk-modes or accuracy-cost study (`kind_costs`)."""
+    from .kind_costs import estimate_kind
+
+    e = estimate_kind(study)
+    return [f"estimated cost: {_range(e.lo, e.hi)} (middle {seconds(e.mid)}): {e.detail}; "
+            "calibrated on the shipped studies (bench estimate)"]
 
 
 def estimate(study, n_cases: int, workers: int, linear: bool) -> list:

@@ -49,7 +49,9 @@ OVERHEAD = ((0.002, 0.008), (1e-4, 1.5e-3))   # s0 [s], s1 [s per DOF]: bookkeep
 #                                             output, recovery of every DOF
 STABILITY = {"off": (0.0, 0.0), "monodromy": (0.001, 0.03),
              "monodromy+check": (0.002, 0.25),   # + Floquet checks where in doubt
-             "hill": (0.001, 0.008), "hill+check": (0.2, 4.0), "floquet": (0.2, 4.0),
+             # a Floquet check (shooting + monodromy) at most points of a lightly damped
+             # structure: the 3-DOF blade's 100-140 points took 54-70 s on a quiet machine
+             "hill": (0.001, 0.008), "hill+check": (1.0, 10.0), "floquet": (1.0, 10.0),
              # the fold rule: a verdict at a branch's ends, nothing per point (the full
              # blade study took 28.2 s with it, 29.6 s without); "stretch": a few orbit
              # monodromies a stretch, 0.75 s a point on the quick blade, 2.4 on the full
@@ -109,13 +111,6 @@ def stability_key(stability) -> str:
 def time_point(study, repeats: int = 5) -> PointTiming:
     """`PointTiming` of the first case of `study` at the geometric middle of its
     frequency range, from the linear response there (medians of `repeats`)."""
-    import scipy.linalg as sla
-    import scipy.sparse as sp
-
-    from ..solve import hbm
-    from ..solve.newton import linear_solve
-    from ..solve.response import initial_guess
-
     sv, fr = study.solver, study.sweep.frequency
     t0 = time.perf_counter()
     system = study.system(study.sweep.cases()[0][1])
@@ -124,14 +119,32 @@ def time_point(study, repeats: int = 5) -> PointTiming:
         from ..model.scene import reduced_model, timed_blade_model
         setup += (timed_blade_model(study.scene.structure)[1]
                   + reduced_model(study.scene.structure, study.scene.reduction)[1])
-    prob = hbm.setup(system, sv.harmonics, sv.force_evaluation, sv.samples)
-    om = math.sqrt(fr.omega_start * fr.omega_stop)
-    x = initial_guess(prob, om, system.contact)
-    hbm.residual(prob, x, om, system.contact)          # compiled / warmed once, not timed
+    t_r, t_s, unknowns, sparse = time_system_point(
+        system, sv.harmonics, sv.force_evaluation, sv.samples,
+        math.sqrt(fr.omega_start * fr.omega_stop), repeats)
+    return PointTiming(t_r, t_s, unknowns, setup, sparse, slowdown())
+
+
+def time_system_point(system, H: int, method: str, samples: int, omega: float,
+                      repeats: int = 5) -> tuple:
+    """(t_R, t_S [s], unknowns, sparse) of one continuation point of `system` at H
+    harmonics, forces by `method` ("exact" / "aft" with `samples`), at `omega`
+    [rad/s] from the linear response there (medians of `repeats`)."""
+    import scipy.linalg as sla
+    import scipy.sparse as sp
+
+    from ..solve import hbm
+    from ..solve.newton import linear_solve
+    from ..solve.response import initial_guess
+
+    prob = hbm.setup(system, H, method, samples)
+    x = initial_guess(prob, omega, system.contact)
+    hbm.residual(prob, x, omega, system.contact)          # compiled / warmed once, not timed
     t_r, t_s = [], []
+    J = None
     for _ in range(repeats):
         t1 = time.perf_counter()
-        R, J, dR = hbm.residual(prob, x, om, system.contact)
+        R, J, dR = hbm.residual(prob, x, omega, system.contact)
         t2 = time.perf_counter()
         A = _bordered(J, dR)
         t3 = time.perf_counter()
@@ -145,8 +158,7 @@ def time_point(study, repeats: int = 5) -> PointTiming:
             pass
         t_r.append(t2 - t1)
         t_s.append(time.perf_counter() - t3)
-    return PointTiming(float(np.median(t_r)), float(np.median(t_s)), int(x.size), setup,
-                       bool(sp.issparse(J)), slowdown())
+    return float(np.median(t_r)), float(np.median(t_s)), int(x.size), bool(sp.issparse(J))
 
 
 def slowdown(repeats: int = 5) -> float:
@@ -205,13 +217,10 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
                  if study.scene.cyclic and study.scene.mistuning is None else 1)
         stab = tuple(waves * (st + k * cube) for st, k in zip(STABILITY["hill"], HILL_CUBE)) \
             if key == "hill" else (stab[0] + HILL_CUBE[0] * cube, stab[1] + HILL_CUBE[1] * cube)
-    pairs = SPARSE_PAIRS_PER_POINT if timing.sparse else PAIRS_PER_POINT
-    lus = (FACTORISATIONS_PER_POINT if not timing.sparse and timing.unknowns + 1 >= KEEP_ROWS
-           else pairs)
+    pairs, lus = work_per_point(timing.unknowns, timing.sparse)
     point = tuple(c * timing.t_residual + k * timing.t_solve + f * (s0 + s1 * n + st)
                   for c, k, s0, s1, st in zip(pairs, lus, *OVERHEAD, stab))
-    p_mid = 60.0 * (1 + m) ** 0.6
-    points = tuple(min(x * p_mid, sv.max_points * 1.1) for x in POINTS)
+    points = points_per_case(m, sv.max_points)
     case = (points[0] * point[0], points[1] * point[1])
     search = None
     lo = n_cases * case[0] / w + timing.setup
@@ -223,6 +232,20 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
         lo, hi = lo + search[0], hi + search[1]
     return Estimate(lo=lo, hi=hi, case=case, n_cases=n_cases, workers=w, timing=timing,
                     per_point=point, points=points, search=search, modes=m, pairs=pairs)
+
+
+def work_per_point(unknowns: int, sparse: bool) -> tuple:
+    """((lo, hi) residual evaluations, (lo, hi) Newton solves) a point (module docstring)."""
+    pairs = SPARSE_PAIRS_PER_POINT if sparse else PAIRS_PER_POINT
+    return pairs, (FACTORISATIONS_PER_POINT if not sparse and unknowns + 1 >= KEEP_ROWS
+                   else pairs)
+
+
+def points_per_case(m: int, max_points: int, scale: float = 1.0) -> tuple:
+    """(lo, hi) points of a curve through m natural frequencies (module docstring),
+    times `scale`, at most 1.1 max_points."""
+    p_mid = 60.0 * (1 + m) ** 0.6 * scale
+    return tuple(min(x * p_mid, max_points * 1.1) for x in POINTS)
 
 
 def model_line(study) -> str:
