@@ -412,3 +412,21 @@ def test_reversed_sweep_equals_forward(n0, ex3_sweeps):
     for a, b in ((down, up), (up, down)):
         ok, dist = on_curve(a, b, 1e-2)  # measured <= 5.5e-3: chords of the other curve
         assert ok, dist
+
+
+def test_first_point_homotopies_accept_on_the_roundoff_floor(monkeypatch):
+    """Stiff impact (k = 100) at 0.5 rad/s: Newton from the linear guesses fails and
+    the homotopies find the first point.  With a tolerance below what double precision
+    resolves (1e-17 of the force scale), they accept on the residual's round-off floor
+    as the continuation does, instead of failing the curve at its first point."""
+    from pipeline.solve import response
+
+    used = []
+    for name in ("_cold_start", "_stiffness_start"):
+        real = getattr(response, name)
+        monkeypatch.setattr(response, name,
+                            lambda *a, _real=real, _name=name: used.append(_name) or _real(*a))
+    c = frequency_response(stiff(100.0), 8, 0.5, 0.505, stability=False, peak_dofs=[0],
+                           dense_output=False, tol_rel=1e-17)
+    assert used and c.converged[0] and c.n_points >= 2
+    assert c.info["roundoff_points"] >= 1

@@ -144,7 +144,6 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     prob = hbm.setup(system, H, method, n_samples)
     elem = contact if contact is not None else system.contact
     tols = hbm.tolerances(prob, tol_rel, elem)
-    w = hbm.row_weights(prob, tols)
     floored = roundoff.FlooredWeights(prob, tols, roundoff.load_scales(prob, elem))
     fun = _weighted(lambda x, lam: hbm.residual(prob, x, lam, elem), floored)
     tol = 1.0  # on the weighted residual: every block within its own tolerance [N]
@@ -160,7 +159,7 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
                              f"({system.n_dof}, {prob.nh}), got {initial.shape}")
 
     def first_point(Om, guess=None):
-        return _first_point(prob, elem, Om, w, lambda x: fun(x, Om)[:2], guess)
+        return _first_point(prob, elem, Om, floored, lambda x: fun(x, Om)[:2], guess)
 
     br, spent = cover_range(fun, first_point, omega_start, omega_end, tol, groups, initial, **kw)
     dofs = peak_dofs if peak_dofs is not None else range(system.n_dof)
@@ -187,7 +186,9 @@ def dense_axes(dense_output) -> tuple:
 def _first_point(prob, elem, Om, w, fun_x, guess=None):
     """The first point at fixed parameter: Newton (weighted residual `fun_x`, tol 1)
     from `guess` (all DOFs' coefficients) if given, else from the better linear
-    guess; then the load and the stiffness homotopies.  (NewtonResult, nfev spent)."""
+    guess; then the load and the stiffness homotopies, their equations weighted by
+    `w(x, R, J)` (`roundoff.FlooredWeights`: a tolerance below round-off does not stop
+    them).  (NewtonResult, nfev spent)."""
     spent = 0
     if guess is not None:
         nr = newton(fun_x, guess[prob.c].ravel(), 1.0, max_iter=60)
@@ -210,11 +211,13 @@ def _cold_start(prob, elem, Om, w, failed):
     when Newton from the linear guesses fails (strong impact, a gap that closes).
     Returns (NewtonResult, nfev spent); `failed` if the homotopy fails."""
     _, _, Pt, _ = hbm.linear_part(prob, Om, derivatives=False)
-    wP = w * hbm.real_vector(Pt, prob.nh).ravel()
+    P = hbm.real_vector(Pt, prob.nh).ravel()
 
     def fun_s(x, s):
         R, J, _ = hbm.residual(prob, x, Om, elem)
-        return w * R + (1.0 - s) * wP, scale_rows(w, J), -wP
+        Rs = R + (1.0 - s) * P
+        ws = w(x, Rs, J)
+        return ws * Rs, scale_rows(ws, J), -ws * P
 
     st = newton(lambda x: fun_s(x, 0.0)[:2], np.zeros(prob.size), 1.0, max_iter=60)
     if not st.success:
@@ -245,7 +248,8 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
         d = 1e-6
         Gp = hbm.contact_terms(prob, Qc, el(p + d), False)[0]
         Gm = hbm.contact_terms(prob, Qc, el(p - d), False)[0]
-        return w * R, scale_rows(w, J), w * ((Gp - Gm) / (2 * d)).ravel()
+        wp = w(x, R, J)
+        return wp * R, scale_rows(wp, J), wp * ((Gp - Gm) / (2 * d)).ravel()
 
     groups = np.repeat(np.arange(prob.c.size), prob.nh)
     spent = 0
@@ -402,11 +406,11 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
     raw = fun
     loads = np.max([roundoff.load_scales(prob, _with_preload(base, p, shape))
                     for p in (preload_start, preload_end)], axis=0)
-    fun = _weighted(lambda x, lam: raw(x, lam), roundoff.FlooredWeights(prob, tols, loads))
-    w = hbm.row_weights(prob, tols)
+    floored = roundoff.FlooredWeights(prob, tols, loads)
+    fun = _weighted(lambda x, lam: raw(x, lam), floored)
 
     def first_point(lam, guess=None):
-        return _first_point(prob, _with_preload(base, lam, shape), omega, w,
+        return _first_point(prob, _with_preload(base, lam, shape), omega, floored,
                             lambda x: fun(x, lam)[:2], guess)
 
     guard = step_guard(prob, lambda lam: _with_preload(base, lam, shape), lambda lam: omega)
