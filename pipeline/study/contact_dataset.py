@@ -17,8 +17,10 @@ of the period stuck, slipping and separated, the energy dissipated per cycle by
 friction per element and per contact, and the normal contact force's mean and half
 peak-to-peak.  NaN at points that did not converge and at padding.
 
-Only for scenes whose elements are one sector's (not a mistuned disk's full
-assembly); without contacts nothing is added.
+A mistuned disk is solved as its full assembly: there `pair` runs over the elements
+of every sector (sector-major, coordinate `pair_sector`), and the per-contact
+totals sum a contact's elements over the whole wheel (per sector: group the `_pair`
+variables by `pair_sector`).  Without contacts nothing is added.
 """
 from __future__ import annotations
 
@@ -31,23 +33,46 @@ from .harmonics_dataset import add_harmonic_coefficients
 from ..model.static_load import NORMAL_LOAD, contact_owner, face_totals, static_normal_load
 
 
-def contact_coords(scene) -> dict:
-    """`contact` (names), `pair` (index) and `pair_contact` coordinates."""
-    owner = contact_owner(scene)
+def wheel_sectors(study) -> int | None:
+    """N where a case's system is a mistuned disk's full assembly, else None."""
+    sc = study.scene
+    return sc.assembly.sectors if getattr(sc, "mistuning", None) is not None else None
+
+
+def element_owner(study) -> np.ndarray:
+    """The index in `scene.contacts` of each element of a case's `System`: one sector's
+    (`contact_owner`), tiled over the sectors of a full assembly (sector-major)."""
+    owner = contact_owner(study.scene)
+    N = wheel_sectors(study)
+    return owner if N is None else np.tile(owner, N)
+
+
+def contact_coords(study) -> dict:
+    """`contact` (names), `pair` (index), `pair_contact` (and on a full assembly
+    `pair_sector`) coordinates."""
+    scene = study.scene
+    owner = element_owner(study)
     names = np.asarray([c.name for c in scene.contacts], dtype=str)
-    return {"contact": ("contact", names, {"long_name": "contact of the study "
-                                                        "([[scene.contact]] entry)"}),
-            "pair": ("pair", np.arange(owner.size, dtype=np.int32),
-                     {"units": "1", "long_name": "contact element (face node or node pair) index"}),
-            "pair_contact": ("pair", owner.astype(np.int32),
-                             {"units": "1", "long_name": "index of the contact the element "
-                                                         "belongs to"})}
+    out = {"contact": ("contact", names, {"long_name": "contact of the study "
+                                                       "([[scene.contact]] entry)"}),
+           "pair": ("pair", np.arange(owner.size, dtype=np.int32),
+                    {"units": "1", "long_name": "contact element (face node or node pair) index"}),
+           "pair_contact": ("pair", owner.astype(np.int32),
+                            {"units": "1", "long_name": "index of the contact the element "
+                                                        "belongs to"})}
+    N = wheel_sectors(study)
+    if N is not None:
+        out["pair_sector"] = ("pair", np.repeat(np.arange(N, dtype=np.int32),
+                                                owner.size // N),
+                              {"units": "1", "long_name": "sector j of the element (0 ... "
+                                                          "sectors - 1)"})
+    return out
 
 
 def static_variables(study, cases, systems) -> dict:
     """Nominal preload and static normal load per pair and per contact."""
     scene = study.scene
-    owner, C = contact_owner(scene), len(scene.contacts)
+    owner, C = element_owner(study), len(scene.contacts)
     shape, E = study.sweep.shape, owner.size
     n0 = np.full(shape + (E,), np.nan)
     s = np.full(shape + (E,), np.nan)
@@ -115,7 +140,7 @@ def cycle_variables(study, cases, curves, systems, converged) -> dict:
     """The per-point contact results of every case (module doc) at the dataset's
     converged points (`converged` (sweeps..., point))."""
     P = converged.shape[-1]
-    owner, C = contact_owner(study.scene), len(study.scene.contacts)
+    owner, C = element_owner(study), len(study.scene.contacts)
     shape, E = study.sweep.shape, owner.size
     out = {k: np.full(shape + (P, C if dim == "contact" else E), np.nan)
            for k, (dim, _, _) in CYCLE_META.items()}
@@ -185,16 +210,21 @@ def add_contact_variables(data_vars, coords, attrs, study, cases, curves, system
     """Add the per-contact variables (module doc) and the response's Fourier
     coefficients (`harmonics_dataset`) to a response dataset in place."""
     add_harmonic_coefficients(data_vars, coords, study, cases, curves, lay)
-    if not study.scene.contacts or lay.sectors is not None:
+    if not study.scene.contacts:
         return
-    coords.update(contact_coords(study.scene))
+    coords.update(contact_coords(study))
     data_vars.update(static_variables(study, cases, systems))
     data_vars.update(cycle_variables(study, cases, curves, systems, data_vars["converged"][1]))
-    if "hysteresis" in study.output.figures:
+    if "hysteresis" in study.output.figures and wheel_sectors(study) is None:
         data_vars.update(peak_motion_variables(study, cases, curves, systems, data_vars))
         coords.setdefault("coefficient", ("coefficient", np.arange(2 * study.solver.harmonics + 1,
                                                                    dtype=np.int32),
                                           {"units": "1", "long_name": "Fourier coefficient "
                                                                       "[a0, a1, b1, a2, b2, ...]"}))
+    if wheel_sectors(study) is not None:
+        for k in ("preload_total", "static_normal_load", "dissipated_energy", "normal_load_mean"):
+            data_vars[k][2]["comment"] = "; ".join(
+                filter(None, (data_vars[k][2].get("comment"),
+                              "a mistuned disk's full assembly: summed over every sector")))
     attrs["preload_given"] = ("static_normal_load" if NORMAL_LOAD in study.sweep.axes
                               else "n0")
