@@ -153,6 +153,12 @@ def test_hz_units_and_peaks_per_mode_window(ex2):
     assert ds["peak_window_low"].values.tolist() == [13.0, 38.0]
     a = ds["window_peak_amplitude"].sel(preload=0.0).values
     assert np.all(a[0] > a[1])               # mode 1 responds more than mode 2
+    assert ds["window_peak_complete"].sel(preload=0.0).values.tolist() == [True, True]
+    # a branch that stops at 40 Hz spans the first window only: the second window's
+    # largest amplitude is not its peak, and says so
+    short = linear_curve(ex2.system({"preload": 0.0}), 3, om[om <= 2 * np.pi * 40.0])
+    ds = to_dataset(ex2, [short] * 3)
+    assert ds["window_peak_complete"].sel(preload=0.0).values.tolist() == [True, False]
     np.testing.assert_allclose(ds["natural_frequency_stuck"].values[0], [23.5255, 56.9745], atol=1e-3)
 
 

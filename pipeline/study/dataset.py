@@ -175,6 +175,7 @@ def empty_arrays(lay: Layout) -> dict:
                 natural_frequency_free=full((n,), np.nan),
                 window_peak_amplitude=full((S, W, D), np.nan),
                 window_peak_frequency=full((S, W, D), np.nan),
+                window_peak_complete=full((W,), False, bool),
                 **sd.stability_arrays(lay.shape, P, lay.B))
 
 
@@ -196,6 +197,10 @@ def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
         inside = a["converged"] & (a["frequency"] >= lo) & (a["frequency"] <= hi)
         v["window_peak_amplitude"][idx][:, w], v["window_peak_frequency"][idx][:, w] = _peak(
             a["frequency"], a["amplitude"], inside)
+        f = a["frequency"][a["converged"]]
+        tol = 1e-9 * max(abs(lo), abs(hi))    # the window's edges in the stored unit
+        v["window_peak_complete"][idx][w] = bool(f.size and f.min() <= lo + tol
+                                                 and f.max() >= hi - tol)
     folds = np.asarray(c.fold_parameter, dtype=float).ravel() / lay.to_unit
     v["fold_frequency"][idx][:folds.size] = folds
     if c.fold_amplitude is not None and folds.size:
@@ -254,6 +259,10 @@ def response_meta(unit: str, computed: bool) -> dict:
                                   "largest amplitude over converged points inside the peak window"),
         "window_peak_frequency": (("sector", "peak_window", "dof"), unit,
                                   "frequency of the largest amplitude inside the peak window"),
+        "window_peak_complete": (("peak_window",), "1",
+                                 "1: the converged points span the whole peak window, so the "
+                                 "window's peak is its largest amplitude; 0: the branch does not "
+                                 "reach across it"),
         **sd.stability_meta(unit),
     }
 
