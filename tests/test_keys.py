@@ -138,3 +138,28 @@ def test_units_and_solver_defaults_come_from_the_code():
     s = SolverSettings()
     assert rows[("solver", "harmonics")][1] == str(s.harmonics)
     assert rows[("solver", "max_points")][1] == str(s.max_points)
+
+
+def test_the_walkthrough_study_in_studies_readme_is_valid():
+    """The study of "Write your own study" loads, full and quick, and declares what it says."""
+    from pipeline.study.documents import parse_study
+
+    text = (ROOT / "studies" / "README.md").read_text()
+    section = text.split("## Write your own study", 1)[1]
+    toml = re.search(r"```toml\n(.*?)```", section, re.S).group(1)
+    full = parse_study(toml, file="<walkthrough>", name="my_study")
+    quick = parse_study(toml, file="<walkthrough>", name="my_study", quick=True)
+    assert full.sweep.axes["preload"] == (0.5, 2.0, 10.0)
+    assert quick.sweep.axes["preload"] == (2.0,) and quick.solver.harmonics == 3
+    assert full.sweep.frequency.unit == "Hz"
+    # "its modes are at 22.5 and 45.0 Hz with the damper open, 26.3 and 51.0 Hz with it stuck"
+    import numpy as np
+    from pipeline.model.scene import build_system
+    from pipeline.model.system import natural_frequencies
+
+    stated = [float(x) for x in re.search(
+        r"modes are\s+at ([\d.]+) and ([\d.]+) Hz\s+with the damper open, ([\d.]+) and\s+"
+        r"([\d.]+) Hz\s+with it stuck", section).groups()]
+    s = build_system(full.scene, {"preload": 2.0})
+    got = np.concatenate([natural_frequencies(s, m)[:2] for m in ("open", "stuck")]) / (2 * np.pi)
+    np.testing.assert_allclose(got, stated, atol=0.05)
