@@ -19,7 +19,7 @@ def _prog() -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The command line: `run`, `check`, `hysteresis`, `optimise` and `bench`."""
+    """The command line: `run`, `check`, `hysteresis`, `optimise`, `bench` and `keys`."""
     p = argparse.ArgumentParser(
         prog=_prog(),
         description="Shrouded bladed disks with dry friction: Yang-Menq contact, "
@@ -67,7 +67,18 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--pyharm-python", metavar="PATH", default=None,
                    help="peers: a Python interpreter with pyHarm (default $PYHARM_PYTHON)")
     b.set_defaults(func=_cmd_bench)
+
+    k = sub.add_parser("keys", help="every study-file key with its unit and default "
+                                    "(markdown; the table in studies/README.md)")
+    k.set_defaults(func=_cmd_keys)
     return p
+
+
+def _cmd_keys(args) -> int:
+    from .study.keys import markdown
+
+    print(markdown(), end="")
+    return 0
 
 
 def _cmd_hysteresis(args) -> int:

@@ -43,7 +43,7 @@ def example3(n0):
 def blade3():
     """3-DOF shrouded-blade model (kg, N/m, N s/m): one Yang-Menq contact, u = x3 - x1,
     v = x2, ku = 16056.9 N/m, kv = 86511.2 N/m, mu = 0.287, preload 178.5 N; 5.85 N on
-    x2.  Hill's method calls some of its stable orbits unstable (README, stability)."""
+    x2.  Hill's method calls some of its stable orbits unstable (pipeline/solve/README.md, Stability)."""
     M = np.diag([1.19290, 1.00829, 1.23316])
     K = np.array([[9105.293, -3091.31, 0], [-3091.31, 85922.633, -82831.323],
                   [0, -82831.323, 86828.066]])

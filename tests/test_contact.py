@@ -259,7 +259,7 @@ def test_grazing_normal_load_touches_zero(eps):
 @pytest.mark.parametrize("ku", [1e2, 1e4, 1e6, 1e8])
 def test_stiff_tangential_spring_and_coulomb_limit(ku):
     # Jenkins under u = cos(tau) against the closed form; rounding in the stick
-    # force grows with the conditioning c = ku A / (mu n) (see README: limits)
+    # force grows with the conditioning c = ku A / (mu n) (see pipeline/contact/README.md: limits)
     U, V = one(U1=(1.0,), H=5)
     fs = 0.3 * 2.0
     f = forces(U, V, YangMenq(ku=ku, kv=0.0, mu=0.3, n0=2.0))

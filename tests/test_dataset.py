@@ -1,4 +1,4 @@
-"""Study datasets: layout per the dataset contract (README, Dataset), netCDF round
+"""Study datasets: layout per the dataset contract (studies/README.md, Dataset), netCDF round
 trip, the contract checker (and that it catches departures), atomic write, figures,
 and the study runner's plumbing (with a linear reference solver)."""
 from __future__ import annotations

@@ -297,7 +297,7 @@ def test_stiff_impact_full_range(k, nfev_pt, step, check, rtol):
     settles on period-2 or chaotic motion), so it is checked against the unstable
     periodic orbit found by shooting, and H = 14 is a truncation within 2 % (H = 56
     agrees with shooting to 1e-4 at 1.6 rad/s); steps fall to ~1e-6 at the many
-    small corners of the stiff branch (README, hard cases)."""
+    small corners of the stiff branch (pipeline/solve/README.md, hard cases)."""
     s = stiff(k)
     c = frequency_response(s, 14, 0.5, 1.6, stability=False, peak_dofs=[0])
     assert c.success, c.message

@@ -65,7 +65,7 @@ def test_the_cases_are_grid_nodes_not_recomputed(study, uninterrupted):
     assert float(ds["optimum_search_peak"].values[list(p).index(2.0)]) == pytest.approx(
         case_peak, rel=1e-12)
     assert len(preloads) == p.size - 1
-    # the optimum of Example 1 (README: 3.08 N) and no evaluated preload better
+    # the optimum of Example 1 (studies/README.md: 3.08 N) and no evaluated preload better
     assert 2.9 < float(ds["optimum_preload"]) < 3.3
     assert float(ds["optimum_peak_amplitude"]) == float(ds["optimum_search_peak"].min())
 

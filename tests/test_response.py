@@ -217,7 +217,7 @@ def test_optimum_preload_agrees_with_a_dense_scan():
     (step 0.02 N, 0.65 % of the optimum) to 1 %."""
     window = (190.0, 210.0)
     opt = optimum_preload(example1, 7, *window, 0, (0.5, 100.0), rtol=1e-3)
-    scan = np.arange(2.86, 3.32, 0.02)  # around the optimum; wider scans: README table
+    scan = np.arange(2.86, 3.32, 0.02)  # around the optimum; wider scans: the table in studies/README.md
     peaks = [frequency_response(example1(n), 7, *window, stability=False, peak_dofs=[0]).peak(0)[0]
              for n in scan]
     best = scan[int(np.argmin(peaks))]

@@ -4,7 +4,7 @@ the Floquet multipliers of the exact flow.
 References: the 3-DOF shrouded blade of test_floquet.py, whose stability is settled by
 time integration (Hill is wrong at most of its points); a seeded corpus of random
 2-4-DOF contact systems against the Floquet multipliers at every point; the stiff
-impact orbit that Hill calls stable (README, hard cases).
+impact orbit that Hill calls stable (pipeline/solve/README.md, hard cases).
 """
 import copy
 import logging
@@ -142,7 +142,7 @@ def test_corpus_hill_check_equals_floquet():
 
 @pytest.mark.slow
 def test_corpus_hill_check_equals_floquet_large():
-    """The README's number: 40 systems, H = 5, up to 30 points each."""
+    """pipeline/solve/README.md's number: 40 systems, H = 5, up to 30 points each."""
     wrong, hill_wrong, compared = corpus_counts(range(40), H=5, max_points=30)
     print(f"corpus (40 systems, H = 5): {compared} points compared, Hill alone wrong at "
           f"{hill_wrong}, hill+check wrong at {wrong}")
@@ -357,7 +357,7 @@ def test_corpus_monodromy_equals_floquet():
 
 @pytest.mark.slow
 def test_corpus_monodromy_equals_floquet_large():
-    """The README's number: 40 systems, H = 5, up to 30 points each."""
+    """pipeline/solve/README.md's number: 40 systems, H = 5, up to 30 points each."""
     compared, wrong = monodromy_corpus(range(40), 5, 30)
     print(f"corpus (40 systems, H = 5): {compared} points compared, monodromy wrong at {wrong}")
     assert wrong == 0

@@ -62,7 +62,7 @@ def test_propagation_decides_beside_each_fold():
 
 @pytest.mark.parametrize("n0, lo, hi", [(-20.0, 0.9, 1.15), (10.0, 1.15, 1.45)])
 def test_example3_propagated_equals_every_point(n0, lo, hi):
-    """Example 3 with a fold pair and an unstable middle branch (README figure): the
+    """Example 3 with a fold pair and an unstable middle branch (studies/README.md figure): the
     propagated flags equal the orbit monodromy's at every point, from a fraction of
     the decisions; the bifurcations (the two folds) are the same."""
     full = frequency_response(example3(n0), 5, lo, hi, stability="monodromy",

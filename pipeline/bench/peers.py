@@ -29,7 +29,7 @@ from ..solve.response import frequency_response
 SCRIPTS = Path(__file__).resolve().parent / "peer_scripts"
 LOADS = (1.0, 2.0, 5.0)       # normal loads n [N]
 H, OMEGA = 7, (150.0, 250.0)
-NLVIB_DS = 1.0                # NLvib step: its peaks within 0.1 % of ours (README, Speed)
+NLVIB_DS = 1.0                # NLvib step: its peaks within 0.1 % of ours (pipeline/bench/README.md)
 # pyHarm's default step (1 rad/s here) misses the sharp peak at n = 1 N by a third; a
 # second row with the step that brings it within 0.2 % (ds0 = ds_max)
 PYHARM_FINE_DS = {1.0: 0.06}

@@ -167,7 +167,7 @@ TIME_INTEGRATION = (
 
 def to_dataset(study: AccuracyStudy, results: list):
     """One `run` per measured setting (references, baselines, knob values, the
-    recommended combinations); per run the contract's response variables (README,
+    recommended combinations); per run the contract's response variables (studies/README.md,
     Dataset) of the case's DOF (frequency in rad/s), the settings, times, peaks,
     folds and errors."""
     # xarray is imported when a dataset is built: reading or checking a study does not

@@ -20,8 +20,8 @@ the first case's model (the one the run builds: the quick one with --quick) at t
 geometric middle of the frequency range, from the linear response there; m the
 natural frequencies (contacts open and stuck) inside the frequency range, which set
 how many points the curve needs.  c, s0, s1, s_stab and the spread of P are ranges
-calibrated on the shipped studies (`python -m pipeline bench estimate`, README "Cost
-estimates"); the estimate is the range they give, its middle the geometric mean.  The
+calibrated on the shipped studies (`python -m pipeline bench estimate`,
+pipeline/bench/README.md "Cost estimates"); the estimate is the range they give, its middle the geometric mean.  The
 study costs n_cases t_case / workers, plus the model's build and reduction (timed) and
 an optimum-preload search of SEARCH_CASES cases' worth without stability.  It assumes
 the compiled kernels are cached (a first run compiles them: up to 25 s more) and a

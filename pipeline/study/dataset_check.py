@@ -7,7 +7,7 @@ per file and exit 0; a file that is missing or not netCDF is one line and exit 2
 `problems(path)` is the same check as a function (the `check` command and the
 tests call it).
 
-The contract (README, section Dataset), as checked here:
+The contract (studies/README.md, section Dataset), as checked here:
 
 - global attributes `title`, `study`, `pipeline_version`, `created` and
   `Conventions = "CF-1.10"`, and for response datasets also `harmonics` and

@@ -281,7 +281,7 @@ def run_study(study: Study, out_dir="results", *, workers: int = 1, scheduler: s
 
 
 def configure_run_parser(r):
-    r.add_argument("study", metavar="STUDY.toml", help="study file (see README: Study files)")
+    r.add_argument("study", metavar="STUDY.toml", help="study file (see studies/README.md)")
     r.add_argument("--out", default="results", metavar="DIR",
                    help="output directory: DIR/<name>.nc and DIR/<name>/*.png (default: results)")
     r.add_argument("--workers", type=int, default=None, metavar="N",

@@ -2,7 +2,7 @@
 a `pipeline.model.scene.Scene` value (a `Lumped` structure, single or `Cyclic`).
 
 A study is a scene (model + physical effects), sweeps (grid axes and one
-continuation axis) and solver settings (README "Study files" documents the schema).
+continuation axis) and solver settings (studies/README.md documents the schema).
 Everything a user can get wrong raises `UsageError("<file>: <field>: <what>")`,
 where <field> is a dotted path with 0-based list indices (`scene.contact[0].mu`);
 the command line prints it as one line and exits 2.  Nothing here runs a solver.

@@ -36,8 +36,8 @@ SWEEP_AXES = {
 }
 INTEGER_SWEEP_AXES = ("eo", "mistuning_seed")
 FREQUENCY_UNITS = ("rad/s", "Hz")
-# `[solver] stability = true` selects the method recommended for the scene's model (README
-# "Which stability flag to trust"): the orbit monodromy checked by the exact Floquet
+# `[solver] stability = true` selects the method recommended for the scene's model
+# (pipeline/solve/README.md, "Which stability flag to trust"): the orbit monodromy checked by the exact Floquet
 # multipliers on lumped scenes (their default); Hill on a lumped cyclic sector (its
 # default); "stretch" on FE blades and FE disks (decided at a few points of each stretch
 # between folds and propagated), whose default is the fold rule ("folds": a cheap verdict
