@@ -106,6 +106,17 @@ def test_term_frequency_derivative_by_differences(case):
     ref = (hbm.residual(p, x, Om + d, jacobian=False)[0]
            - hbm.residual(p, x, Om - d, jacobian=False)[0]) / (2 * d)
     assert np.abs(dR - ref).max() <= 1e-6 * np.abs(ref).max()
+    # the real layout of the terms (full residual, full Jacobian): the recovered
+    # motion leaves no residual on the eliminated DOFs and the condensed one on c
+    R = hbm.residual(p, x, Om, jacobian=False)[0].reshape(p.c.size, p.nh)
+    Q = hbm.recover(p, x.reshape(p.c.size, p.nh), Om)
+    Rf = hbm.full_residual(p, Q, Om)
+    assert np.abs(Rf[p.o]).max() <= 1e-12 * np.abs(Rf[p.c]).max()
+    assert np.abs(Rf[p.c] - R).max() <= 1e-12 * np.abs(R).max()
+    dQ = np.random.default_rng(5).standard_normal(Q.shape)
+    ref = (hbm.full_residual(p, Q + d * dQ, Om) - hbm.full_residual(p, Q - d * dQ, Om)) / (2 * d)
+    J = full_operators.full_jacobian(p, Q, Om) @ dQ.ravel()
+    assert np.abs(J - ref.ravel()).max() <= 1e-6 * np.abs(ref).max()
 
 
 def test_parameter_derivative_hook_and_power_check():

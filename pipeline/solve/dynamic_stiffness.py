@@ -133,6 +133,8 @@ def prepare(sys, H: int, c, o, P, extra=(), strategy: str | None = None) -> Dyna
                                  [dense(A) for A in xs])
     elif strategy == "parts":
         blocks = part_blocks(sys, c, o, xs)
+    if strategy in ("blocks", "parts") and blocks is None:
+        raise ValueError(f"strategy {strategy!r} does not apply (no interior or no parts)")
     if strategy in ("blocks", "dense"):
         M, C = (np.asarray(dense(A), dtype=float) for A in (sys.M, sys.C))
         K = stiffness_stack(sys, H)
@@ -465,9 +467,9 @@ def full_operator(sys, Om: float, H: int, extra=()) -> np.ndarray:
 
 
 def motion_matrices(M, C, extra=()):
-    """Mass and damping (M, C) of the equation of motion with the added terms that are
-    one: A q' (power 1, imag) adds A to C, -A q'' (power 2, real) adds A to M... i.e.
-    w^2 A = -A d^2/dt^2 subtracts A from M (Hill's method needs M and C)."""
+    """Mass and damping (M, C) of M q'' + C q' + K q with the added terms that have that
+    form (for Hill's method): i w A is A q' (added to C), w^2 A is -A q'' (taken from
+    M); a term of another power has no place there (ValueError)."""
     for t in extra:
         if (t.power, t.imag) == (1, True):
             C = C + dense(t.matrix)
