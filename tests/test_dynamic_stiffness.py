@@ -88,14 +88,17 @@ def test_mass_proportional_term_on_a_wheel_of_parts():
 
 @pytest.mark.parametrize("case", ["blocks", "dense", "sparse"])
 def test_term_frequency_derivative_by_differences(case):
-    """A gyroscopic-like i (h Om)^3 G and a real (h Om)^2 A: dR/dOmega against central
-    differences of the residual in Omega (1e-6)."""
+    """A gyroscopic-like i (h Om)^3 G, a real (h Om)^2 A and an EPMC-like damping
+    i (h Om) Om B: dR/dOmega against central differences of the residual in Omega
+    (1e-6); the full residual of the recovered motion vanishes off the contact DOFs
+    and equals the condensed one on them; the full Jacobian against differences."""
     s = chain4() if case != "sparse" else sparse(chain4())
     G = 0.01 * np.array([[0, 1, 0, 0], [-1, 0, 2, 0], [0, -2, 0, 1], [0, 0, -1, 0.0]])
     A = 0.05 * np.diag([1.0, 2.0, 0.5, 1.0])
-    terms = (Term(G, 3, True), Term(A, 2))
+    terms = (Term(G, 3, True), Term(A, 2), Term(-0.02 * s.M, 1, True, 1))
     if case == "sparse":
-        terms = tuple(Term(sp.csr_matrix(t.matrix), t.power, t.imag) for t in terms)
+        terms = tuple(Term(sp.csr_matrix(t.matrix), t.power, t.imag, t.omega_power)
+                      for t in terms)
     p = hbm.setup(s, 3, extra=terms)
     if case == "dense":
         p = replace(p, linear=prepare(p.system, 3, p.c, p.o, p.P, terms, "dense"))
@@ -119,20 +122,41 @@ def test_term_frequency_derivative_by_differences(case):
     assert np.abs(J - ref.ravel()).max() <= 1e-6 * np.abs(ref).max()
 
 
+@pytest.mark.parametrize("case", ["blocks", "sparse"])
+def test_epmc_damping_equals_the_damping_at_that_frequency(case):
+    """The extended periodic motion concept's -2 zeta Omega M q', Term(-2 zeta M, 1, True,
+    1): at each Omega the residual, Jacobian and recovery of the problem with damping
+    C - 2 zeta Omega M; Hill's M and C the same."""
+    s = chain4() if case != "sparse" else sparse(chain4())
+    zeta = 0.05
+    b = hbm.setup(s, 3, extra=(Term(-2 * zeta * s.M, 1, True, 1),))
+    x = 0.3 * np.random.default_rng(6).standard_normal(b.size)
+    for Om in (0.7, 1.1):
+        a = hbm.setup(replace(s, C=s.C - 2 * zeta * Om * s.M), 3)
+        assert a.linear.strategy == b.linear.strategy == case
+        for u, v in list(zip(hbm.residual(b, x, Om), hbm.residual(a, x, Om)))[:2]:
+            close(u, v)
+        Q = hbm.recover(b, x.reshape(a.c.size, a.nh), Om)
+        close(Q, hbm.recover(a, x.reshape(a.c.size, a.nh), Om))
+        (_, Jb, Mb, Cb), = full_operators.wave_jacobians(b, Q, Om)
+        (_, Ja, Ma, Ca), = full_operators.wave_jacobians(a, Q, Om)
+        close(Jb, Ja), close(Mb, Ma), close(Cb, Ca)
+
+
 def test_parameter_derivative_hook_and_power_check():
-    """dS_h/dp of terms whose matrix depends on a parameter p, A(p) = p A1 + p^2 A2, is
-    `term_stiffness` of the terms (dA/dp, power, imag), against central differences of
-    S_h; a term of power 0 (a stiffness, to be added to K) is refused."""
+    """dS_h/dp of terms whose matrix depends on a parameter p (A(p) = p A1 + p^2 A2, and
+    an EPMC-like p Omega A1) is `term_stiffness` of the terms (dA/dp, ...), against
+    central differences of S_h; a term of power 0 (a stiffness: K) is refused."""
     s, H, Om = chain4(), 3, 1.3
     A1, A2 = np.diag([1.0, 0.0, 2.0, 0.5]), np.full((4, 4), 0.1)
     c, o = np.array([1, 2, 3]), np.array([0])
 
     def S(p):
-        terms = (Term(p * A1, 1, True), Term(p * p * A2, 2))
+        terms = (Term(p * A1, 1, True), Term(p * p * A2, 2), Term(p * A1, 1, True, 1))
         return dense_stack(prepare(s, H, c, o, s.forcing_coefficients(H), terms), Om)
 
     p, d = 0.8, 1e-6
-    hook = term_stiffness((Term(A1, 1, True), Term(2 * p * A2, 2)), H, Om)
+    hook = term_stiffness((Term(A1, 1, True), Term(2 * p * A2, 2), Term(A1, 1, True, 1)), H, Om)
     ref = (S(p + d) - S(p - d)) / (2 * d)
     assert np.abs(hook - ref).max() <= 1e-7 * np.abs(ref).max()
     with pytest.raises(ValueError, match="power"):

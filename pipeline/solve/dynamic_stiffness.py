@@ -4,15 +4,17 @@ condensation onto the contact DOFs: the one place where M and C meet a frequency
 Per harmonic h, at w = h Omega and for the complex amplitude Q_h = Qc_h - i Qs_h,
 
     S_h(Omega) = K_h - w^2 M + i w C + sum_t a_t(w) A_t,
-    dS_h/dOmega = h (-2 w M + i C + sum_t a_t'(w) A_t),
+    dS_h/dOmega = h (-2 w M + i C) + sum_t da_t/dOmega A_t,
 
 K_h the stiffness of harmonic h (K, or for a cyclic sector with a linear inter-sector
 coupling K + e^{i h phi} K_next + e^{-i h phi} K_next^T, `stiffness_stack`).  An added
-linear term t is one `Term` (A_t, p_t, imag_t), a_t(w) = w^p (times i if imag):
-a mass-proportional damping c' M q' is Term(c' M, 1, True), exactly C + c' M; a
-gyroscopic G q' is Term(G, 1, True).  Terms act on the harmonics h >= 1 only (p >= 1).
-The derivative with respect to a parameter on which the matrices A_t depend is the
-same sum over the terms (dA_t/dp, p_t, imag_t) (`term_stiffness`).
+linear term t is one `Term` (A_t, p_t, imag_t, q_t), a_t = w^p Omega^q (times i if
+imag): a mass-proportional damping c' M q' is Term(c' M, 1, True), exactly C + c' M;
+a gyroscopic G q' is Term(G, 1, True); the damping -2 zeta Omega M q' of the extended
+periodic motion concept (nonlinear modes) is Term(-2 zeta M, 1, True, 1).  Terms act
+on the harmonics h >= 1 only (p >= 1).  The derivative with respect to a parameter on
+which the matrices A_t depend (zeta) is the same sum over the terms
+(dA_t/dp, p_t, imag_t, q_t) (`term_stiffness`).
 
 Condensation: the contact DOFs c keep their unknowns, the others o are eliminated,
 
@@ -23,7 +25,8 @@ Condensation: the contact DOFs c keep their unknowns, the others o are eliminate
 and `recover` gives Q_o = S_oo^-1 (P_o - S_oc Q_c).  How S is formed and condensed is
 decided once per problem (`prepare`), by the storage of the matrices:
 
-    "blocks"  dense, interior DOFs: K, M, C blocks over (c, o) gathered once (`interior`)
+    "blocks"  dense, interior DOFs: K, M, C blocks over (c, o) gathered once; their
+              S and dS formed here and passed to the algebra of `interior`
     "dense"   dense otherwise (every DOF a contact DOF, or a K_next coupling)
     "parts"   sparse, the interior falls into equal independent parts (`parts`)
     "sparse"  sparse otherwise: one sparse LU per harmonic.
@@ -33,7 +36,7 @@ The operators of all DOFs in the real layout (Hill's method, the full residual) 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -49,25 +52,32 @@ STRATEGIES = ("blocks", "dense", "parts", "sparse")
 
 @dataclass(frozen=True, eq=False)
 class Term:
-    """An added linear term a(w) A of the dynamic stiffness, a(w) = w^power (times i
-    if imag), w = h Omega: A d^p q/dt^p is Term(A, p, p odd) times (-1)^(p//2)."""
+    """An added linear term a A of the dynamic stiffness, a = w^power Omega^omega_power
+    (times i if imag), w = h Omega: Omega^q A d^p q/dt^p is Term(A (-1)^(p//2), p, p odd,
+    q)."""
 
     matrix: object        # (n, n), dense or scipy.sparse, as the system's matrices
     power: int            # power of w = h Omega (>= 1)
     imag: bool = False    # multiplied by i
+    omega_power: int = 0  # power of Omega itself (a matrix proportional to Omega^q)
 
     def __post_init__(self):
         if int(self.power) < 1:
             raise ValueError(f"a term's power of h Omega must be >= 1, got {self.power}")
 
-    def factor(self, w):
-        """a(w)."""
+    def factor(self, w, Om):
+        """a at w = h Omega."""
         a = w ** self.power
+        if self.omega_power:
+            a = a * Om ** self.omega_power
         return 1j * a if self.imag else a
 
-    def rate(self, h, w):
-        """d a(h Omega) / dOmega = h p w^(p-1) (times i)."""
-        a = h * self.power * w ** (self.power - 1)
+    def rate(self, h, w, Om):
+        """da/dOmega = h p w^(p-1) Omega^q + q w^p Omega^(q-1) (times i)."""
+        p, q = self.power, self.omega_power
+        a = h * p * w ** (p - 1)
+        if q:
+            a = a * Om ** q + q * w ** p * Om ** (q - 1)
         return 1j * a if self.imag else a
 
 
@@ -92,16 +102,16 @@ class DynamicStiffness:
         return self.blocks if self.strategy == "parts" else None
 
 
-def phase(sys) -> float:
-    """Inter-sector phase phi [rad] of a cyclic sector (0 otherwise)."""
-    return sys.cyclic.phase if sys.cyclic is not None else 0.0
+def harmonic_stiffnesses(sys, H: int) -> list:
+    """Stiffness K_h of each harmonic h = 0..H (storage as given): K, or for a cyclic
+    sector with a linear inter-sector coupling K + e^{i h phi} K_next + e^{-i h phi} K_next^T."""
+    phi = sys.cyclic.phase if sys.cyclic is not None else 0.0
+    return [coupled_stiffness(sys, h * phi) for h in range(H + 1)]
 
 
 def stiffness_stack(sys, H: int) -> np.ndarray:
-    """(H+1, n, n) stiffness of each harmonic h: K, or for a cyclic sector with a
-    linear inter-sector coupling K + e^{i h phi} K_next + e^{-i h phi} K_next^T."""
-    phi = phase(sys)
-    return np.stack([dense(coupled_stiffness(sys, h * phi)) for h in range(H + 1)])
+    """(H+1, n, n) `harmonic_stiffnesses`, dense."""
+    return np.stack([dense(K) for K in harmonic_stiffnesses(sys, H)])
 
 
 def complex_loads(P) -> np.ndarray:
@@ -114,35 +124,30 @@ def complex_loads(P) -> np.ndarray:
 def prepare(sys, H: int, c, o, P, extra=(), strategy: str | None = None) -> DynamicStiffness:
     """The `DynamicStiffness` of a system (its load P (n, 2H+1) [N]), the strategy
     chosen from the matrices' storage (module doc) unless given."""
-    extra = tuple(extra)
-    coupled = sys.cyclic is not None and sys.cyclic.K_next is not None
-    xs = [t.matrix for t in extra]
-    blocks = None
-    if strategy is None:
-        if not sp.issparse(sys.K):
-            blocks = None if coupled else interior_blocks(
-                *(dense(A) for A in (sys.K, sys.M, sys.C)), c, o, [dense(A) for A in xs])
-            strategy = "blocks" if blocks is not None else "dense"
-        else:
-            blocks = None if sys.cyclic is not None else part_blocks(sys, c, o, xs)
-            strategy = "parts" if blocks is not None else "sparse"
-    elif strategy not in STRATEGIES:
+    if strategy is not None and strategy not in STRATEGIES:
         raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
-    elif strategy == "blocks":
+    extra, chosen = tuple(extra), strategy
+    if strategy is None:
+        coupled = sys.cyclic is not None and sys.cyclic.K_next is not None
+        strategy = (("sparse" if sys.cyclic is not None else "parts") if sp.issparse(sys.K)
+                    else ("dense" if coupled else "blocks"))
+    xs, blocks = [t.matrix for t in extra], None
+    if strategy == "blocks":
         blocks = interior_blocks(*(dense(A) for A in (sys.K, sys.M, sys.C)), c, o,
                                  [dense(A) for A in xs])
     elif strategy == "parts":
         blocks = part_blocks(sys, c, o, xs)
-    if strategy in ("blocks", "parts") and blocks is None:
-        raise ValueError(f"strategy {strategy!r} does not apply (no interior or no parts)")
+    if blocks is None and strategy in ("blocks", "parts"):
+        if chosen is not None:
+            raise ValueError(f"strategy {strategy!r} does not apply (no interior or no parts)")
+        strategy = "dense" if strategy == "blocks" else "sparse"
     if strategy in ("blocks", "dense"):
         M, C = (np.asarray(dense(A), dtype=float) for A in (sys.M, sys.C))
         K = stiffness_stack(sys, H)
-        extra = tuple(Term(np.asarray(dense(t.matrix), dtype=float), t.power, t.imag)
+        extra = tuple(replace(t, matrix=np.asarray(dense(t.matrix), dtype=float))
                       for t in extra)
     else:
-        M, C = sys.M, sys.C
-        K = tuple(coupled_stiffness(sys, h * phase(sys)) for h in range(H + 1))
+        M, C, K = sys.M, sys.C, tuple(harmonic_stiffnesses(sys, H))
     return DynamicStiffness(strategy, int(H), c, o, M, C, K, complex_loads(P), extra, blocks)
 
 
@@ -151,42 +156,49 @@ def prepare(sys, H: int, c, o, P, extra=(), strategy: str | None = None) -> Dyna
 # --------------------------------------------------------------------------
 
 def at_harmonic(K, M, C, h, Om: float, added=()):
-    """S_h = K - (h Om)^2 M + i h Om C + sum a_t(h Om) A_t, `added` the pairs (A_t, t);
+    """S_h = K - (h Om)^2 M + i h Om C + sum a_t A_t, `added` the pairs (A_t, a_t);
     h an int or an array broadcasting against the matrices (dense or sparse)."""
     S = K - (h * Om) ** 2 * M + 1j * h * Om * C
-    for A, t in added:
-        S = S + t.factor(h * Om) * A
+    for A, a in added:
+        S = S + a * A
     return S
 
 
 def harmonic_rate(M, C, h, Om: float, added=()):
-    """dS_h/dOmega = -2 h^2 Om M + i h C + sum h a_t'(h Om) A_t (`at_harmonic`)."""
+    """dS_h/dOmega = -2 h^2 Om M + i h C + sum da_t/dOmega A_t, `added` the pairs
+    (A_t, da_t/dOmega) (`at_harmonic`)."""
     dS = -2 * h * h * Om * M + 1j * h * C
-    for A, t in added:
-        dS = dS + t.rate(h, h * Om) * A
+    for A, a in added:
+        dS = dS + a * A
     return dS
 
 
 def at_frequency(K, M, C, w: float, added=()):
-    """S = K - w^2 M + i w C + sum a_t(w) A_t at one circular frequency w = h Omega."""
+    """S = K - w^2 M + i w C + sum a_t A_t at one circular frequency w = h Omega,
+    `added` the pairs (A_t, a_t)."""
     S = K - w * w * M + 1j * w * C
-    for A, t in added:
-        S = S + t.factor(w) * A
+    for A, a in added:
+        S = S + a * A
     return S
 
 
-def _pairs(ds: DynamicStiffness):
-    return [(t.matrix, t) for t in ds.extra]
+def _pairs(extra, h, Om, rate=False, matrices=None):
+    """(A_t, a_t) (or (A_t, da_t/dOmega)) of the terms at harmonic(s) h."""
+    mats = [t.matrix for t in extra] if matrices is None else matrices
+    return [(A, t.rate(h, h * Om, Om) if rate else t.factor(h * Om, Om))
+            for A, t in zip(mats, extra)]
 
 
 def dense_stack(ds: DynamicStiffness, Om: float) -> np.ndarray:
     """(H+1, n, n) S_h of the dense strategies."""
-    return at_harmonic(ds.K, ds.M, ds.C, np.arange(ds.H + 1)[:, None, None], Om, _pairs(ds))
+    h = np.arange(ds.H + 1)[:, None, None]
+    return at_harmonic(ds.K, ds.M, ds.C, h, Om, _pairs(ds.extra, h, Om))
 
 
 def dense_stack_derivative(ds: DynamicStiffness, Om: float) -> np.ndarray:
     """(H+1, n, n) dS_h/dOmega of the dense strategies."""
-    return harmonic_rate(ds.M, ds.C, np.arange(ds.H + 1)[:, None, None], Om, _pairs(ds))
+    h = np.arange(ds.H + 1)[:, None, None]
+    return harmonic_rate(ds.M, ds.C, h, Om, _pairs(ds.extra, h, Om, True))
 
 
 def dynamic(blocks: tuple, H: int, Om: float, extra=()):
@@ -196,8 +208,8 @@ def dynamic(blocks: tuple, H: int, Om: float, extra=()):
     S = np.empty((H + 1,) + K.shape, complex)
     np.subtract(K, w * w * M, out=S.real)
     np.multiply(w, C, out=S.imag)
-    for A, t in zip(blocks[3:], extra):
-        S += t.factor(w) * A
+    for A, a in _pairs(extra, np.arange(H + 1)[:, None, None], Om, matrices=blocks[3:]):
+        S += a * A
     return S
 
 
@@ -210,16 +222,17 @@ def dynamic_derivative(blocks: tuple, H: int, Om: float, V=None, extra=()):
         out = h * (-2 * h * Om * M + 1j * C)
     else:
         out = h * (-2 * h * Om * (M @ V) + 1j * (C @ V))
-    for A, t in zip(blocks[3:], extra):
-        out = out + t.rate(h, h * Om) * (A if V is None else A @ V)
+    for A, a in _pairs(extra, h, Om, True, blocks[3:]):
+        out = out + a * (A if V is None else A @ V)
     return out
 
 
-def _part_dS(blocks, h, w, extra):
+def _part_dS(blocks, h, Om, extra):
     M, C = blocks[1:3]
+    w = h * Om
     dS = -2 * h * w * M + 1j * h * C
-    for A, t in zip(blocks[3:], extra):
-        dS = dS + t.rate(h, w) * A
+    for A, a in _pairs(extra, h, Om, True, blocks[3:]):
+        dS = dS + a * A
     return dS
 
 
@@ -227,23 +240,22 @@ def sparse_stiffness(ds: DynamicStiffness, h: int, Om: float):
     """S_h of the sparse strategies (CSC; dense if K_h is, with a K_next coupling)."""
     K = ds.K[h]
     if sp.issparse(K):
-        return at_harmonic(K, ds.M, ds.C, h, Om, _pairs(ds)).tocsc()
+        return at_harmonic(K, ds.M, ds.C, h, Om, _pairs(ds.extra, h, Om)).tocsc()
     return at_harmonic(np.asarray(K), dense(ds.M), dense(ds.C), h, Om,
-                       [(dense(A), t) for A, t in _pairs(ds)])
+                       [(dense(A), a) for A, a in _pairs(ds.extra, h, Om)])
 
 
 def sparse_derivative(ds: DynamicStiffness, h: int, Om: float):
     """dS_h/dOmega of the sparse strategies."""
-    dS = harmonic_rate(ds.M, ds.C, h, Om, _pairs(ds))
+    dS = harmonic_rate(ds.M, ds.C, h, Om, _pairs(ds.extra, h, Om, True))
     return dS.tocsc() if sp.issparse(dS) else dS
 
 
 def term_stiffness(terms, H: int, Om: float, derivative: bool = False) -> np.ndarray:
     """(H+1, n, n) sum_t a_t(h Omega) A_t (or its d/dOmega) of dense terms: with the
-    terms (dA_t/dp, p_t, imag_t), dS_h/dp for a parameter p of the added terms."""
+    terms (dA_t/dp, p_t, imag_t, q_t), dS_h/dp for a parameter p of the added terms."""
     h = np.arange(H + 1)[:, None, None]
-    return sum((t.rate(h, h * Om) if derivative else t.factor(h * Om)) * dense(t.matrix)
-               for t in terms)
+    return sum(a * dense(A) for A, a in _pairs(terms, h, Om, derivative))
 
 
 # --------------------------------------------------------------------------
@@ -360,11 +372,12 @@ def condense_parts(ds: DynamicStiffness, h: int, Om: float, derivatives: bool):
     batched dense solves: S~ = S_cc - sum_k S_{c,o_k} S_{o_k o_k}^-1 S_{o_k,c}."""
     pb, c, w, xt = ds.blocks, ds.c, h * Om, ds.extra
     P = ds.loads[h]
-    Soo, Soc, Sco = (at_frequency(*b[:3], w, zip(b[3:], xt)) for b in (pb.oo, pb.oc, pb.co))
+    Soo, Soc, Sco = (at_frequency(*b[:3], w, _pairs(xt, h, Om, matrices=b[3:]))
+                     for b in (pb.oo, pb.oc, pb.co))
     Po = P[pb.o]                                              # (parts, m)
     sol = np.linalg.solve(Soo, np.concatenate([Soc, Po[..., None]], axis=2))
     X, z = sol[..., :-1], sol[..., -1]
-    St = at_frequency(*pb.cc[:3], w, zip(pb.cc[3:], xt)).astype(complex)
+    St = at_frequency(*pb.cc[:3], w, _pairs(xt, h, Om, matrices=pb.cc[3:])).astype(complex)
     Pt = P[c].astype(complex)
     rows = np.broadcast_to(pb.ck[:, :, None], X.shape[:1] + (pb.ck.shape[1],) * 2)
     cols = np.broadcast_to(pb.ck[:, None, :], rows.shape)
@@ -372,9 +385,9 @@ def condense_parts(ds: DynamicStiffness, h: int, Om: float, derivatives: bool):
     np.add.at(Pt, pb.ck, -(Sco @ z[..., None])[..., 0])
     if not derivatives:
         return St, None, Pt, None
-    dSoo, dSoc, dSco = (_part_dS(b, h, w, xt) for b in (pb.oo, pb.oc, pb.co))
+    dSoo, dSoc, dSco = (_part_dS(b, h, Om, xt) for b in (pb.oo, pb.oc, pb.co))
     Y = np.linalg.solve(np.swapaxes(Soo, 1, 2), np.swapaxes(Sco, 1, 2)).swapaxes(1, 2)
-    dSt = _part_dS(pb.cc, h, w, xt).astype(complex)
+    dSt = _part_dS(pb.cc, h, Om, xt).astype(complex)
     np.add.at(dSt, (rows, cols), -(dSco @ X + Y @ dSoc - Y @ (dSoo @ X)))
     dPt = np.zeros(c.size, complex)
     np.add.at(dPt, pb.ck, (-(dSco @ z[..., None]) + Y @ (dSoo @ z[..., None]))[..., 0])
@@ -423,12 +436,13 @@ def recover(ds: DynamicStiffness, Qc, Om: float) -> np.ndarray:
 # --------------------------------------------------------------------------
 
 def term_layout(t: Term, H: int, Om: float) -> np.ndarray:
-    """(2H+1, 2H+1) real-layout factor F of a term: A a(h Om) Q_h <-> (A Q) F^T; i w is
-    Om D (`derivative_matrix`), w^p the scale (h Om)^p of harmonic h."""
+    """(2H+1, 2H+1) real-layout factor F of a term: a A Q_h <-> (A Q) F^T; i w is Om D
+    (`derivative_matrix`), w^p Omega^q the scale (h Om)^p Om^q of harmonic h."""
     hh = np.concatenate([[0.0], np.repeat(np.arange(1.0, H + 1), 2)])
+    scale = Om ** t.omega_power
     if t.imag:
-        return (hh * Om)[:, None] ** (t.power - 1) * (Om * derivative_matrix(H))
-    return np.diag((hh * Om) ** t.power)
+        return scale * (hh * Om)[:, None] ** (t.power - 1) * (Om * derivative_matrix(H))
+    return scale * np.diag((hh * Om) ** t.power)
 
 
 def apply_full(K, C, M, Q, Om: float, D, extra=()):
@@ -466,15 +480,17 @@ def full_operator(sys, Om: float, H: int, extra=()) -> np.ndarray:
     return L
 
 
-def motion_matrices(M, C, extra=()):
-    """Mass and damping (M, C) of M q'' + C q' + K q with the added terms that have that
-    form (for Hill's method): i w A is A q' (added to C), w^2 A is -A q'' (taken from
-    M); a term of another power has no place there (ValueError)."""
+def motion_matrices(M, C, Om: float, extra=()):
+    """Mass and damping (M, C) at Omega of M q'' + C q' + K q with the added terms that
+    have that form (for Hill's method): i w Omega^q A is Omega^q A q' (added to C),
+    w^2 Omega^q A is -Omega^q A q'' (taken from M); a term of another power of w has
+    no place there (ValueError)."""
     for t in extra:
+        A = Om ** t.omega_power * dense(t.matrix)
         if (t.power, t.imag) == (1, True):
-            C = C + dense(t.matrix)
+            C = C + A
         elif (t.power, t.imag) == (2, False):
-            M = M - dense(t.matrix)
+            M = M - A
         else:
             raise ValueError(f"an added term w^{t.power}{' i' if t.imag else ''} A has no "
                              "place in M q'' + C q' + K q")

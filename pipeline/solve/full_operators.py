@@ -1,7 +1,8 @@
 """The harmonic balance operators of ALL DOFs (no condensation), for Hill's method.
 
 `full_linear_operator` is the linear part K (x) I + Om C (x) D + Om^2 M (x) D^2 of
-paper Eq. 7 on Q (n, 2H+1) row-major; `full_jacobian` adds the contact Jacobian of
+paper Eq. 7 on Q (n, 2H+1) row-major (formed in `dynamic_stiffness`, with the
+problem's added linear terms); `full_jacobian` adds the contact Jacobian of
 `hbm.contact_terms` (exact, paper Eq. 10-12 differentiated).  A cyclic sector's own
 Jacobian only sees perturbations with the solution's symmetry: `wave_jacobians`
 gives the Hill problem of every wave number r = 0..N/2 from the sector alone,
@@ -70,11 +71,12 @@ def wave_jacobians(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
     together as the real problem of twice the size
 
         [[L + A + c S, -s D], [s D, L + A + c S]],  A = J_ss + J_nn, S = J_sn + J_ns,
-        D = J_sn - J_ns, c + i s = z,   with M, C doubled.
+        D = J_sn - J_ns, c + i s = z,   with M, C doubled (M, C with the added
+    linear terms that are a velocity or an acceleration term, `motion_matrices`).
 
     The union of their exponents is the Hill spectrum of the full assembly."""
     sysm, nh, n = prob.system, prob.nh, prob.system.n_dof
-    M, C = motion_matrices(dense(sysm.M), dense(sysm.C), prob.linear.extra)
+    M, C = motion_matrices(dense(sysm.M), dense(sysm.C), Om, prob.linear.extra)
     if prob.nxt is None:
         return [(0, full_jacobian(prob, Q, Om, contact), M, C)]
     N = sysm.cyclic.sectors

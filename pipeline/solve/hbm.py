@@ -180,11 +180,11 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
     np.add.at(G, prob.idx, contrib)
     if not jacobian:
         return G, None, f
-    bt, bn = prob.bt, prob.bn
     # per element: d(b_a^T F)/d(Q_b) for element DOF pairs (a, b)
-    # (E, m m, 3) weights bt bt, bt bn, bn bn times (E, 3, nh nh) derivatives: one
-    # batched product, laid out (e, a, b, k, j) as `assemble` wants
-    E, m = bt.shape
+    # (E, m m, 3) weights bt bt, bt bn, bn bn (`slot_weights`, set up once) times
+    # (E, 3, nh nh) derivatives: one batched product, laid out (e, a, b, k, j) as
+    # `assemble` wants
+    E, m = prob.bt.shape
     W = prob.weights
     dF = np.stack([f.dFu_dU, f.dFu_dV, f.dFv_dV], axis=1).reshape(E, 3, nh * nh)
     Je = (W @ dF).reshape(E, m, m, nh, nh)

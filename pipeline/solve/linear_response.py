@@ -37,8 +37,8 @@ def is_linear(system: System) -> bool:
 
 def _solve(M, C, Ks, F, H, omega):
     """Q (n, 2H+1) in the real layout and the residual parts (static, harmonic) [N];
-    Ks[h] the stiffness of harmonic h (`dynamic_stiffness.stiffness_stack`), the
-    dynamic stiffness of harmonic h `dynamic_stiffness.at_frequency`."""
+    Ks[h] the stiffness of harmonic h (`dynamic_stiffness.stiffness_stack`); the
+    dynamic stiffness of harmonic h from `dynamic_stiffness.at_frequency`."""
     n = M.shape[0]
     K = Ks[0]
     Q = np.zeros((n, 2 * H + 1))
