@@ -163,6 +163,7 @@ def test_condensation_blade_by_blade_equals_the_whole():
     from dataclasses import replace as repl
 
     import pipeline.solve.hbm as hbm_mod
+    from pipeline.solve.dynamic_stiffness import prepare
     from pipeline.model.system import dense
     from pipeline.study.documents import load_study
 
@@ -172,8 +173,9 @@ def test_condensation_blade_by_blade_equals_the_whole():
     prob = hbm_mod.setup(s, 3)
     assert prob.parts is not None and prob.parts.o.shape[0] == 24
     by_parts = hbm_mod.linear_part(prob, 1700.0)
-    whole = hbm_mod.linear_part(repl(prob, system=repl(
-        s, M=dense(s.M), C=dense(s.C), K=dense(s.K))), 1700.0)
+    dense_sys = repl(s, M=dense(s.M), C=dense(s.C), K=dense(s.K))
+    whole = hbm_mod.linear_part(repl(prob, system=dense_sys, linear=prepare(
+        dense_sys, prob.H, prob.c, prob.o, prob.P, strategy="dense")), 1700.0)
     for a, b in zip(by_parts, whole):
         a, b = np.asarray(a), np.asarray(b)
         assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()

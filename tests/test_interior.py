@@ -1,6 +1,7 @@
-"""Condensation from dense blocks gathered once (`interior`) against the condensation
-of the whole System per call (`hbm.linear_part` with `interior=None`): condensed
-dynamic stiffness, load and their Omega-derivatives, and the recovered interior DOFs."""
+"""Condensation from dense blocks gathered once (`interior`, strategy "blocks" of
+`dynamic_stiffness`) against the condensation of the whole System per call (strategy
+"dense"): condensed dynamic stiffness, load and their Omega-derivatives, and the
+recovered interior DOFs."""
 from dataclasses import replace
 from pathlib import Path
 
@@ -8,11 +9,17 @@ import numpy as np
 import pytest
 
 from pipeline.model.system import System
-from pipeline.solve import hbm
+from pipeline.solve import dynamic_stiffness, hbm
 from pipeline.study.documents import load_study
 from tests.paper_systems import example1
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def whole(prob):
+    """The same problem condensed from the whole dense S_h per call."""
+    return replace(prob, linear=dynamic_stiffness.prepare(prob.system, prob.H, prob.c, prob.o,
+                                                          prob.P, strategy="dense"))
 
 
 def blade_problem(H=3):
@@ -31,8 +38,8 @@ def test_block_condensation_equals_the_whole(make):
     dS~/dOmega, P~, dP~/dOmega to 1e-12 of their largest entry, near and away from
     resonance, and the interior DOFs recovered from a contact motion to 1e-12."""
     prob = make()
-    assert prob.interior is not None and prob.o.size > 0
-    direct = replace(prob, interior=None)
+    assert prob.linear.strategy == "blocks" and prob.o.size > 0
+    direct = whole(prob)
     rng = np.random.default_rng(0)
     Qc = 1e-5 * rng.standard_normal((prob.c.size, prob.nh))
     for f_hz in (150.0, 318.0, 493.0):
@@ -69,12 +76,12 @@ def test_unsymmetric_blocks_take_the_transposed_solve():
     s = System(M=M, C=C, K=K, Bt=np.array([[0.0, 0.0, 1.0]]), Bn=np.zeros((1, 3)),
                contact=base.contact, forcing=np.array([[0.0, 0.0], [0.0, 1.0], [0.0, 0.0]], complex))
     prob = hbm.setup(s, 3)
-    assert prob.interior is not None and not prob.interior.symmetric
-    for a, b in zip(hbm.linear_part(prob, 120.0), hbm.linear_part(replace(prob, interior=None), 120.0)):
+    assert prob.linear.strategy == "blocks" and not prob.linear.blocks.symmetric
+    for a, b in zip(hbm.linear_part(prob, 120.0), hbm.linear_part(whole(prob), 120.0)):
         a, b = np.asarray(a), np.asarray(b)
         assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
     Qc = 1e-3 * np.random.default_rng(1).standard_normal((prob.c.size, prob.nh))
-    assert_applied_equals_matrix(replace(prob, interior=None), prob, Qc, 120.0)
+    assert_applied_equals_matrix(whole(prob), prob, Qc, 120.0)
 
 
 def test_static_harmonic_condensed_once_with_a_static_load():
@@ -91,9 +98,9 @@ def test_static_harmonic_condensed_once_with_a_static_load():
     s = System(M=M, C=C, K=K, Bt=np.array([[0.0, 0.0, 1.0]]), Bn=np.zeros((1, 3)),
                contact=base.contact, forcing=np.array([[0.0, 0.0], [3.0, 1.0], [0.0, 0.0]], complex))
     prob = hbm.setup(s, 3)
-    assert prob.interior.static is not None
+    assert prob.linear.blocks.static is not None
     for Om in (80.0, 150.0):
-        for a, b in zip(hbm.linear_part(prob, Om), hbm.linear_part(replace(prob, interior=None), Om)):
+        for a, b in zip(hbm.linear_part(prob, Om), hbm.linear_part(whole(prob), Om)):
             a, b = np.asarray(a), np.asarray(b)
             assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max()
     free = np.zeros((3, 3))

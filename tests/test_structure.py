@@ -216,3 +216,79 @@ def test_functions_are_short():
 def test_structure_summary():
     """Not a check: the report, shown with `pytest -s` (or -rP)."""
     print("\n" + report())
+
+
+KERNEL = "pipeline/solve/dynamic_stiffness.py"
+# Modules upstream of `solve` on the data path that cannot import the kernel, each with
+# its own (non-HBM) use: the receptance of a reduced blade model, checked against the
+# full model's in the structure folder.
+DYNAMIC_STIFFNESS_ELSEWHERE = {"pipeline/structure/reduction.py": "frf"}
+
+
+def _mentions(node, name: str) -> bool:
+    return any((isinstance(n, ast.Name) and n.id == name)
+               or (isinstance(n, ast.Attribute) and n.attr == name) for n in ast.walk(node))
+
+
+def _squared(node) -> bool:
+    """A square in the expression: `x ** 2` or `x * x` (the same sub-expression twice)."""
+    for n in ast.walk(node):
+        if isinstance(n, ast.BinOp) and isinstance(n.op, ast.Pow) and \
+                isinstance(n.right, ast.Constant) and n.right.value == 2:
+            return True
+        if isinstance(n, ast.BinOp) and isinstance(n.op, ast.Mult) and \
+                ast.dump(n.left) == ast.dump(n.right):
+            return True
+    return False
+
+
+def _imaginary(node) -> bool:
+    return any(isinstance(n, ast.Constant) and isinstance(n.value, complex)
+               for n in ast.walk(node))
+
+
+def dynamic_stiffness_terms(path: Path):
+    """(line, function, text) of every product, in one module, of an expression that
+    names the mass matrix `M` (a name or an attribute `.M`) with one that holds a
+    square (`x ** 2`, `x * x`), or of one that names the damping matrix `C` with one
+    that holds an imaginary literal (`1j`): the -(h Om)^2 M and i h Om C of a dynamic
+    stiffness, in whatever layout or spelling (`w * w * M`, `Om**2 * (M @ Q)`,
+    `(Om**2 * h2) * M`, `1j * h * Om * C`)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    where = {}
+    for f in ast.walk(tree):
+        if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            for n in ast.walk(f):
+                where.setdefault(id(n), f.name)
+    for n in ast.walk(tree):
+        if not (isinstance(n, ast.BinOp) and isinstance(n.op, ast.Mult)):
+            continue
+        for a, b in ((n.left, n.right), (n.right, n.left)):
+            if (_mentions(a, "M") and _squared(b)) or (_mentions(a, "C") and _imaginary(b)):
+                yield n.lineno, where.get(id(n)), ast.unparse(n)
+                break
+
+
+def test_dynamic_stiffness_is_formed_in_one_module():
+    """The harmonic dynamic stiffness K - (h Om)^2 M + i h Om C (and its real layout
+    K (x) I + Om C (x) D + Om^2 M (x) D^2) is formed in `solve/dynamic_stiffness.py`
+    only, so that an added linear term enters in one place.
+
+    Criterion (`dynamic_stiffness_terms`, read with `ast`): no product of an expression
+    naming `M` with a squared one, and no product of an expression naming `C` with an
+    imaginary literal, in any module of the package but the kernel.  Exempt, by
+    module and function: DYNAMIC_STIFFNESS_ELSEWHERE (upstream of `solve`, so unable
+    to import it).  Not caught: a frequency squared under another name (an eigenvalue
+    shift s = w^2 in K - s M, which is an eigen-problem, not a dynamic stiffness)."""
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE.parent).as_posix()
+        if rel == KERNEL:
+            continue
+        for line, func, text in dynamic_stiffness_terms(path):
+            if DYNAMIC_STIFFNESS_ELSEWHERE.get(rel) != func:
+                found.append(f"{rel}:{line} ({func}) {text}")
+    assert not found, ("the dynamic stiffness is formed outside "
+                       f"{KERNEL} (call it instead):\n" + "\n".join(found))
+    kernel = list(dynamic_stiffness_terms(PACKAGE.parent / KERNEL))
+    assert kernel, "the criterion finds no dynamic stiffness in the kernel itself"

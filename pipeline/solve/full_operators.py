@@ -1,7 +1,8 @@
 """The harmonic balance operators of ALL DOFs (no condensation), for Hill's method.
 
 `full_linear_operator` is the linear part K (x) I + Om C (x) D + Om^2 M (x) D^2 of
-paper Eq. 7 on Q (n, 2H+1) row-major; `full_jacobian` adds the contact Jacobian of
+paper Eq. 7 on Q (n, 2H+1) row-major (formed in `dynamic_stiffness`, with the
+problem's added linear terms); `full_jacobian` adds the contact Jacobian of
 `hbm.contact_terms` (exact, paper Eq. 10-12 differentiated).  A cyclic sector's own
 Jacobian only sees perturbations with the solution's symmetry: `wave_jacobians`
 gives the Hill problem of every wave number r = 0..N/2 from the sector alone,
@@ -11,35 +12,20 @@ contacts' slots on the next sector.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..contact import YangMenq
-from ..fourier.harmonics import derivative_matrix
 from ..fourier.harmonics import shift as time_shift
 from ..model.system import System, dense
+from .dynamic_stiffness import full_operator, motion_matrices
 from .hbm import HBMProblem, assemble, contact_terms
 
 
-def full_linear_operator(sys: System, Om: float, H: int, coupling: bool = True):
-    """K (x) I + Om C (x) D + Om^2 M (x) D^2 acting on Q (n, 2H+1) row-major (dense),
-    plus (coupling=True) a cyclic sector's linear inter-sector coupling
+def full_linear_operator(sys: System, Om: float, H: int, coupling: bool = True, extra=()):
+    """K (x) I + Om C (x) D + Om^2 M (x) D^2 (+ added terms, `dynamic_stiffness.Term`)
+    acting on Q (n, 2H+1) row-major (dense; `dynamic_stiffness.full_operator`), plus
+    (coupling=True) a cyclic sector's linear inter-sector coupling
     (`coupling_operators`, wave number 0)."""
-    if sp.issparse(sys.K):  # only the (n nh)^2 result is dense, no (n, n) copies
-        D, I = derivative_matrix(H), np.eye(2 * H + 1)
-        L = (sp.kron(sys.K, I) + Om * sp.kron(sys.C, D) + Om**2 * sp.kron(sys.M, D @ D)
-             ).toarray()
-    else:   # filled per harmonic (D^2 = diag(-h^2)); the same as the Kronecker sum
-        K, C, M = dense(sys.K), dense(sys.C), dense(sys.M)
-        n, nh = K.shape[0], 2 * H + 1
-        L4 = np.zeros((n, nh, n, nh))
-        h2 = np.concatenate([[0.0], np.repeat(np.arange(1.0, H + 1) ** 2, 2)])
-        k = np.arange(nh)
-        L4[:, k, :, k] = K - (Om**2 * h2)[:, None, None] * M
-        ci, si = np.arange(1, nh, 2), np.arange(2, nh, 2)
-        hD = Om * np.arange(1.0, H + 1)[:, None, None] * C     # Om C (x) D, D[c, s] = h
-        L4[:, ci, :, si] = hD
-        L4[:, si, :, ci] = -hD
-        L = L4.reshape(n * nh, n * nh)
+    L = full_operator(sys, Om, H, extra)
     parts = coupling_operators(sys, H) if coupling else None
     return L if parts is None else L + parts[0] + parts[1]
 
@@ -60,7 +46,8 @@ def coupling_operators(sys: System, H: int):
 def full_jacobian(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
     """dR/dQ of the full (uncondensed) system, dense (n nh)^2: for Hill's method."""
     nh, n = prob.nh, prob.system.n_dof
-    J = full_linear_operator(prob.system, Om, prob.H).reshape(n, nh, n, nh)
+    J = full_linear_operator(prob.system, Om, prob.H, extra=prob.linear.extra)
+    J = J.reshape(n, nh, n, nh)
     _, Jnl, _ = contact_terms(prob, Q[prob.c], contact, jacobian=True)
     nc = prob.c.size
     J[np.ix_(prob.c, np.arange(nh), prob.c, np.arange(nh))] += Jnl.reshape(nc, nh, nc, nh)
@@ -84,15 +71,16 @@ def wave_jacobians(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
     together as the real problem of twice the size
 
         [[L + A + c S, -s D], [s D, L + A + c S]],  A = J_ss + J_nn, S = J_sn + J_ns,
-        D = J_sn - J_ns, c + i s = z,   with M, C doubled.
+        D = J_sn - J_ns, c + i s = z,   with M, C doubled (M, C with the added
+    linear terms that are a velocity or an acceleration term, `motion_matrices`).
 
     The union of their exponents is the Hill spectrum of the full assembly."""
     sysm, nh, n = prob.system, prob.nh, prob.system.n_dof
-    M, C = dense(sysm.M), dense(sysm.C)
+    M, C = motion_matrices(dense(sysm.M), dense(sysm.C), Om, prob.linear.extra)
     if prob.nxt is None:
         return [(0, full_jacobian(prob, Q, Om, contact), M, C)]
     N = sysm.cyclic.sectors
-    L = full_linear_operator(sysm, Om, prob.H, coupling=False)
+    L = full_linear_operator(sysm, Om, prob.H, coupling=False, extra=prob.linear.extra)
     _, Je, _ = contact_terms(prob, Q[prob.c], contact, jacobian=True, blocks=True)
     nxt = prob.nxt
 

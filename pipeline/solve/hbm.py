@@ -2,7 +2,8 @@
 
 Unknowns are the real Fourier coefficients Q (n, 2H+1) of `harmonics.py`.  Per
 harmonic h the linear part is the dynamic stiffness S_h = K - (h Om)^2 M + i h Om C
-(complex amplitude Q_h = Qc_h - i Qs_h), so that Eq. 7 reads
+(complex amplitude Q_h = Qc_h - i Qs_h; formed, condensed and recovered in
+`dynamic_stiffness` only, with any added linear terms), so that Eq. 7 reads
 
     R_h = S_h Q_h + Bt^T Fu_h(Bt Q, Bn Q) + Bn^T Fv_h(Bt Q, Bn Q) - P_h.
 
@@ -35,26 +36,23 @@ previous sector's element reaches this sector shifted by -phi), so the Jacobian
 stays exact.  The linear part, the condensation and the recovery are unchanged.
 Without `System.cyclic` no shift is stored and nothing is rotated.  A linear
 inter-sector coupling (`CyclicCoupling.K_next`) enters the linear part per harmonic,
-K + e^{i h phi} K_next + e^{-i h phi} K_next^T (`stiffness_stack`).  The operators of
-all DOFs (no condensation, for Hill's method) are in `full_operators`.
+K + e^{i h phi} K_next + e^{-i h phi} K_next^T (`dynamic_stiffness.stiffness_stack`).
+The operators of all DOFs (no condensation, for Hill's method) are in `full_operators`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
 
 from ..contact import YangMenq, forces
 from ..contact.exact import exact_forces
 from ..fourier.harmonics import (complex_harmonics, derivative_matrix, real_blocks, real_vector,
                                  shift_tables, turn)
 from ..fourier.harmonics import shift as time_shift
-from ..model.system import System, coupled_stiffness, dense, element_rows
-from .interior import condense_blocks, interior_blocks, recover_blocks
-from .parts import (condense_parts, jacobian_pattern, linear_values, part_blocks,
-                    pattern_matrix)
+from ..model.system import System, element_rows
+from . import dynamic_stiffness as dyn
+from .parts import jacobian_pattern, linear_values, pattern_matrix
 
 
 @dataclass(frozen=True)
@@ -71,15 +69,17 @@ class HBMProblem:
     bt: np.ndarray         # (E, m) tangential weights
     bn: np.ndarray         # (E, m) normal weights
     P: np.ndarray          # (n, 2H+1) forcing coefficients [N]
+    linear: dyn.DynamicStiffness      # S_h(Om), its condensation and recovery (`dynamic_stiffness`)
+    weights: np.ndarray    # (E, m m, 3) slot-pair weights bt bt, bt bn, bn bn
     shift: np.ndarray | None = None   # (E, m) time shift theta of each slot [rad] (cyclic)
     rot: np.ndarray | None = None     # (2, E, m, 2H+1) cos, sin of h theta in the layout
     nxt: np.ndarray | None = None     # (E, m) bool: the slot is a DOF of the next sector
-    parts: object = None              # parts.PartBlocks of independent parts (a full wheel)
     pattern: object = None            # parts.JacobianPattern: the Jacobian is built sparse
-    interior: object = None           # interior.InteriorBlocks: dense blocks gathered once
-    stiffness: np.ndarray | None = None  # (H+1, n, n) `stiffness_stack` of a dense system
-    loads: np.ndarray | None = None      # (H+1, n) complex load per harmonic (`complex_loads`)
-    weights: np.ndarray | None = None    # (E, m m, 3) slot-pair weights bt bt, bt bn, bn bn
+
+    @property
+    def parts(self):
+        """parts.PartBlocks of independent parts (a full wheel), or None."""
+        return self.linear.parts
 
     @property
     def nh(self):
@@ -90,9 +90,11 @@ class HBMProblem:
         return self.c.size * self.nh
 
 
-def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -> HBMProblem:
+def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
+          extra=()) -> HBMProblem:
     """Find the contact DOFs and the element -> DOF maps (rows of Bt, Bn; dense or
-    scipy.sparse, never densified)."""
+    scipy.sparse, never densified); prepare the linear part (`dynamic_stiffness`),
+    with the added linear terms `extra` (`dynamic_stiffness.Term`)."""
     if H < 1:
         raise ValueError(f"H must be >= 1, got {H}")
     if method not in ("exact", "aft"):
@@ -117,180 +119,31 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256) -
             idx[e, sl] = np.searchsorted(c, r)
             bt[e, sl], bn[e, sl], shift[e, sl], nxt[e, sl] = vt, vn, th, is_next
             k += r.size
-    interior = (None if sp.issparse(system.K) or (cy is not None and cy.K_next is not None)
-                else interior_blocks(*(dense(A) for A in (system.K, system.M, system.C)), c, o))
-    stack = None if sp.issparse(system.K) else stiffness_stack(system, H)
     P = system.forcing_coefficients(H)
+    linear = dyn.prepare(system, H, c, o, P, extra)
+    parts = linear.parts
+    pattern = None if parts is None else jacobian_pattern(parts, idx, c.size, 2 * H + 1)
+    common = (system, int(H), method, int(n_samples), c, o, idx, bt, bn, P, linear,
+              slot_weights(bt, bn))
     if cy is None:
-        parts = part_blocks(system, c, o)
-        pattern = None if parts is None else jacobian_pattern(parts, idx, c.size, 2 * H + 1)
-        return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
-                          P, parts=parts, pattern=pattern, interior=interior,
-                          stiffness=stack, loads=complex_loads(P), weights=slot_weights(bt, bn))
-    return HBMProblem(system, int(H), method, int(n_samples), c, o, idx, bt, bn,
-                      P, shift, np.stack(shift_tables(shift, H)), nxt, interior=interior,
-                      stiffness=stack, loads=complex_loads(P), weights=slot_weights(bt, bn))
+        return HBMProblem(*common, pattern=pattern)
+    return HBMProblem(*common, shift, np.stack(shift_tables(shift, H)), nxt, pattern)
 
 
 # --------------------------------------------------------------------------
 # linear part, condensed
 # --------------------------------------------------------------------------
 
-def _phase(sys) -> float:
-    """Inter-sector phase phi [rad] of a cyclic sector (0 otherwise)."""
-    return sys.cyclic.phase if sys.cyclic is not None else 0.0
-
-
-def stiffness_stack(sys, H: int) -> np.ndarray:
-    """(H+1, n, n) stiffness of each harmonic h: K, or for a cyclic sector with a
-    linear inter-sector coupling K + e^{i h phi} K_next + e^{-i h phi} K_next^T."""
-    phi = _phase(sys)
-    Ks = [coupled_stiffness(sys, h * phi) for h in range(H + 1)]
-    return np.stack([dense(K) for K in Ks])
-
-
-def _S(sys, h, Om):
-    K, M, C = coupled_stiffness(sys, h * _phase(sys)), sys.M, sys.C
-    if sp.issparse(K):
-        return (K - (h * Om) ** 2 * M + 1j * h * Om * C).tocsc()
-    return np.asarray(K) - (h * Om) ** 2 * np.asarray(M) + 1j * h * Om * np.asarray(C)
-
-
-def _dS(sys, h, Om):
-    K, M, C = sys.K, sys.M, sys.C
-    if sp.issparse(K):
-        return (-2 * h * h * Om * M + 1j * h * C).tocsc()
-    return -2 * h * h * Om * np.asarray(M) + 1j * h * np.asarray(C)
-
-
-def _complex_forcing(P, h):
-    return P[:, 0].astype(complex) if h == 0 else P[:, 2 * h - 1] - 1j * P[:, 2 * h]
-
-
-def complex_loads(P) -> np.ndarray:
-    """(H+1, n) complex load per harmonic of real coefficients P (n, 2H+1)."""
-    return np.stack([_complex_forcing(P, h) for h in range((P.shape[1] - 1) // 2 + 1)])
-
-
-def _block(S, c, o):
-    if sp.issparse(S):
-        S = S.tocsr()
-        return (S[c][:, c].toarray(), S[c][:, o], S[o][:, c], S[o][:, o].tocsc())
-    return S[np.ix_(c, c)], S[np.ix_(c, o)], S[np.ix_(o, c)], S[np.ix_(o, o)]
-
-
-class _Solver:
-    """Factorisation of S_oo (dense LU or sparse LU), reused for several solves."""
-
-    def __init__(self, A):
-        if sp.issparse(A):
-            import scipy.sparse.linalg as spla
-            self.lu = spla.splu(A.tocsc())
-            self.solve = self.lu.solve
-        else:
-            self.lu = sla.lu_factor(A, check_finite=False)
-            self.solve = lambda b: sla.lu_solve(self.lu, b, check_finite=False)
-
-
 def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True, motion=None):
-    """Condensed dynamic stiffness per harmonic and condensed forcing.
+    """Condensed dynamic stiffness per harmonic and condensed forcing
+    (`dynamic_stiffness.condense`, the strategy fixed by `setup`).
 
     Returns (St, dSt, Pt, dPt): St[h], dSt[h] complex (nc, nc) for h = 0..H
     (dSt = d/dOm), Pt, dPt complex (H+1, nc).  With `motion` (H+1, nc) complex (the
     contact DOFs' harmonics, `complex_harmonics`), dSt is returned applied to it,
     dSt[h] @ motion[h] (H+1, nc): all the residual needs for dR/dOm.
     """
-    sys, c, o, H = prob.system, prob.c, prob.o, prob.H
-    if prob.interior is not None:   # dense blocks gathered once (interior.py)
-        P = prob.loads if prob.loads is not None else complex_loads(prob.P)
-        return condense_blocks(prob.interior, H, Om, P, c, o, derivatives, motion)
-    out = _linear_part(prob, Om, derivatives)
-    if not (derivatives and motion is not None):
-        return out
-    St, dSt, Pt, dPt = out
-    return St, np.einsum("hij,hj->hi", np.asarray(dSt), motion), Pt, dPt
-
-
-def _linear_part(prob: HBMProblem, Om: float, derivatives: bool):
-    sys, c, o, H = prob.system, prob.c, prob.o, prob.H
-    if not sp.issparse(sys.K):
-        return _linear_part_dense(prob, Om, derivatives)
-    if prob.parts is not None:   # a full wheel on a rigid disk: blade by blade (parts.py)
-        out = [condense_parts(prob.parts, h, Om, _complex_forcing(prob.P, h), c, derivatives)
-               for h in range(H + 1)]
-        St, dSt, Pt, dPt = zip(*out)
-        return (list(St), list(dSt) if derivatives else [], np.array(Pt),
-                np.array(dPt) if derivatives else None)
-    St, dSt, Pt, dPt = [], [], [], []
-    for h in range(H + 1):
-        S = _S(sys, h, Om)
-        Ph = _complex_forcing(prob.P, h)
-        if o.size == 0:
-            St.append(np.asarray(S.toarray() if sp.issparse(S) else S)[np.ix_(c, c)])
-            Pt.append(Ph[c])
-            if derivatives:
-                dS = _dS(sys, h, Om)
-                dSt.append(np.asarray(dS.toarray() if sp.issparse(dS) else dS)[np.ix_(c, c)])
-                dPt.append(np.zeros(c.size, complex))
-            continue
-        Scc, Sco, Soc, Soo = _block(S, c, o)
-        lu = _Solver(Soo)
-        rhs = np.column_stack([_dense_c(Soc), Ph[o][:, None]])
-        sol = lu.solve(rhs)
-        X, z = sol[:, :-1], sol[:, -1]           # X = Soo^-1 Soc, z = Soo^-1 P_o
-        St.append(Scc - _mul(Sco, X))
-        Pt.append(Ph[c] - _mul(Sco, z))
-        if derivatives:
-            dScc, dSco, dSoc, dSoo = _block(_dS(sys, h, Om), c, o)
-            # Y = Sco Soo^-1 via the transposed solve: Y^T = Soo^-T Sco^T
-            YT = _solve_T(lu, Soo, _dense_c(Sco).T)
-            Y = YT.T
-            dSt.append(dScc - _mul(dSco, X) - Y @ _dense_c(dSoc) + Y @ _mul(dSoo, X))
-            dPt.append(-_mul(dSco, z) + Y @ _mul(dSoo, z))
-    return St, dSt, np.array(Pt), np.array(dPt) if derivatives else None
-
-
-def _linear_part_dense(prob: HBMProblem, Om: float, derivatives: bool):
-    """`linear_part` for dense matrices: all harmonics in batched numpy calls."""
-    sys, c, o, H = prob.system, prob.c, prob.o, prob.H
-    M, C = (np.asarray(A, dtype=float) for A in (sys.M, sys.C))
-    h = np.arange(H + 1)[:, None, None]
-    Kh = prob.stiffness if prob.stiffness is not None else stiffness_stack(sys, H)
-    S = Kh - (h * Om) ** 2 * M + 1j * h * Om * C   # (H+1, n, n)
-    P = prob.loads if prob.loads is not None else complex_loads(prob.P)  # (H+1, n)
-    dS = -2 * h * h * Om * M + 1j * h * C if derivatives else None
-    if o.size == 0:   # every DOF is a contact DOF: c = 0..n-1
-        return S, dS, P, np.zeros((H + 1, c.size), complex) if derivatives else None
-    Scc, Sco, Soc, Soo = S[:, c][:, :, c], S[:, c][:, :, o], S[:, o][:, :, c], S[:, o][:, :, o]
-    sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, o, None]], axis=2))
-    # contiguous copies: batched matmul on strided complex views falls back to a slow
-    # loop in numpy (15-40x slower on a 136-DOF blade)
-    X, z = np.ascontiguousarray(sol[..., :-1]), sol[..., -1]   # Soo^-1 Soc, Soo^-1 P_o
-    St = Scc - Sco @ X
-    Pt = P[:, c] - (Sco @ z[..., None])[..., 0]
-    if not derivatives:
-        return St, None, Pt, None
-    dScc, dSco, dSoc, dSoo = (dS[:, c][:, :, c], dS[:, c][:, :, o], dS[:, o][:, :, c],
-                              dS[:, o][:, :, o])
-    Y = np.ascontiguousarray(
-        np.linalg.solve(Soo.transpose(0, 2, 1), Sco.transpose(0, 2, 1)).transpose(0, 2, 1))
-    dSt = dScc - dSco @ X - Y @ dSoc + Y @ dSoo @ X
-    dPt = (-(dSco @ z[..., None]) + Y @ (dSoo @ z[..., None]))[..., 0]
-    return St, dSt, Pt, dPt
-
-
-def _dense_c(A):
-    return A.toarray() if sp.issparse(A) else A
-
-
-def _mul(A, B):
-    return A @ B
-
-
-def _solve_T(lu, A, B):
-    if sp.issparse(A):
-        return lu.lu.solve(B, trans="T")
-    return sla.lu_solve(lu.lu, B, trans=1, check_finite=False)
+    return dyn.condense(prob.linear, Om, derivatives, motion)
 
 
 # --------------------------------------------------------------------------
@@ -327,12 +180,12 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
     np.add.at(G, prob.idx, contrib)
     if not jacobian:
         return G, None, f
-    bt, bn = prob.bt, prob.bn
     # per element: d(b_a^T F)/d(Q_b) for element DOF pairs (a, b)
-    # (E, m m, 3) weights bt bt, bt bn, bn bn times (E, 3, nh nh) derivatives: one
-    # batched product, laid out (e, a, b, k, j) as `assemble` wants
-    E, m = bt.shape
-    W = prob.weights if prob.weights is not None else slot_weights(bt, bn)
+    # (E, m m, 3) weights bt bt, bt bn, bn bn (`slot_weights`, set up once) times
+    # (E, 3, nh nh) derivatives: one batched product, laid out (e, a, b, k, j) as
+    # `assemble` wants
+    E, m = prob.bt.shape
+    W = prob.weights
     dF = np.stack([f.dFu_dU, f.dFu_dV, f.dFv_dV], axis=1).reshape(E, 3, nh * nh)
     Je = (W @ dF).reshape(E, m, m, nh, nh)
     if prob.rot is not None:  # T(theta_a)^T Je T(theta_b): rows by -theta_a, columns by -theta_b
@@ -395,50 +248,13 @@ def residual(prob: HBMProblem, x, Om, contact: YangMenq | None = None, jacobian=
 
 def recover(prob: HBMProblem, Qc, Om):
     """All DOFs' coefficients Q (n, nh) from the contact DOFs' Qc (nc, nh)."""
-    sys, c, o, H, nh = prob.system, prob.c, prob.o, prob.H, prob.nh
-    Q = np.zeros((sys.n_dof, nh))
-    Q[c] = Qc
-    if o.size == 0:
-        return Q
-    if prob.interior is not None:
-        Qh = complex_harmonics(Qc)
-        P_o = (prob.loads if prob.loads is not None else complex_loads(prob.P))[:, o]
-        Qo = recover_blocks(prob.interior, H, Om, Qh, P_o)              # (H+1, no)
-        Q[o, 0] = Qo[0].real
-        Q[o, 1::2], Q[o, 2::2] = Qo[1:].real.T, -Qo[1:].imag.T
-        return Q
-    if not sp.issparse(sys.K):
-        M, C = (np.asarray(A, dtype=float) for A in (sys.M, sys.C))
-        h = np.arange(H + 1)[:, None, None]
-        Kh = prob.stiffness if prob.stiffness is not None else stiffness_stack(sys, H)
-        S = (Kh - (h * Om) ** 2 * M + 1j * h * Om * C)[:, o]
-        Qh = complex_harmonics(Qc)
-        rhs = np.stack([_complex_forcing(prob.P, k)[o] for k in range(H + 1)])
-        rhs = rhs - (S[:, :, c] @ Qh[..., None])[..., 0]
-        Qo = np.linalg.solve(S[:, :, o], rhs[..., None])[..., 0]     # (H+1, no)
-        Q[o, 0] = Qo[0].real
-        Q[o, 1::2], Q[o, 2::2] = Qo[1:].real.T, -Qo[1:].imag.T
-        return Q
-    for h in range(H + 1):
-        _, _, Soc, Soo = _block(_S(sys, h, Om), c, o)
-        Qh = Qc[:, 0].astype(complex) if h == 0 else Qc[:, 2 * h - 1] - 1j * Qc[:, 2 * h]
-        rhs = _complex_forcing(prob.P, h)[o] - _mul(Soc, Qh)
-        Qo = _Solver(Soo).solve(rhs)
-        if h == 0:
-            Q[o, 0] = Qo.real
-        else:
-            Q[o, 2 * h - 1], Q[o, 2 * h] = Qo.real, -Qo.imag
-    return Q
-
-
+    return dyn.recover(prob.linear, Qc, Om)
 
 
 def full_residual(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
     """Residual of all n (2H+1) equations [N] (no condensation): every point's convergence check."""
     sys = prob.system
-    K, C, M = sys.K, sys.C, sys.M
-    D = derivative_matrix(prob.H)
-    lin = K @ Q + Om * (C @ Q) @ D.T + Om**2 * (M @ Q) @ (D @ D).T
+    lin = dyn.apply_full(sys.K, sys.C, sys.M, Q, Om, derivative_matrix(prob.H), prob.linear.extra)
     cy = sys.cyclic
     if cy is not None and cy.K_next is not None:
         Kn = np.asarray(cy.K_next, dtype=float)

@@ -24,6 +24,7 @@ from ..fourier.harmonics import amplitude_half_peak_to_peak
 from . import roundoff
 from .response import ResponseCurve
 from ..model.system import System, coupled_stiffness, dense, natural_frequencies
+from .dynamic_stiffness import at_frequency, stiffness_stack
 
 BASE_POINTS = 201                     # uniform part of the grid
 CLUSTER = np.array([-3e-2, -1e-2, -3e-3, -1e-3, 0.0, 1e-3, 3e-3, 1e-2, 3e-2])  # relative offsets
@@ -36,7 +37,8 @@ def is_linear(system: System) -> bool:
 
 def _solve(M, C, Ks, F, H, omega):
     """Q (n, 2H+1) in the real layout and the residual parts (static, harmonic) [N];
-    Ks[h] the stiffness of harmonic h (`harmonic_stiffnesses`)."""
+    Ks[h] the stiffness of harmonic h (`dynamic_stiffness.stiffness_stack`); the
+    dynamic stiffness of harmonic h from `dynamic_stiffness.at_frequency`."""
     n = M.shape[0]
     K = Ks[0]
     Q = np.zeros((n, 2 * H + 1))
@@ -48,19 +50,11 @@ def _solve(M, C, Ks, F, H, omega):
     for h in range(1, min(H, F.shape[1] - 1) + 1):
         if not np.any(F[:, h]):
             continue
-        w = h * omega
-        D = Ks[h] - w * w * M + 1j * w * C
+        D = at_frequency(Ks[h], M, C, h * omega)
         X = np.linalg.solve(D, F[:, h])
         Q[:, 2 * h - 1], Q[:, 2 * h] = X.real, -X.imag
         r_dyn += float(np.linalg.norm(D @ X - F[:, h]) ** 2)
     return Q, r_static, float(np.sqrt(r_dyn))
-
-
-def harmonic_stiffnesses(system: System, H: int) -> list:
-    """Dense stiffness [N/m] of each harmonic h = 0..H: K, or for a cyclic sector with a
-    linear inter-sector coupling its Hermitian K_h (`coupled_stiffness`, angle h phi)."""
-    phi = system.cyclic.phase if system.cyclic is not None else 0.0
-    return [dense(coupled_stiffness(system, h * phi)) for h in range(H + 1)]
 
 
 def wave_stiffnesses(system: System) -> list:
@@ -108,7 +102,7 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
     t0 = time.perf_counter()
     # dense even for sparse input: the grid needs every natural frequency and the
     # stability every eigenvalue of the state matrix (dense eigen-solves anyway)
-    M, C, Ks = dense(system.M), dense(system.C), harmonic_stiffnesses(system, H)
+    M, C, Ks = dense(system.M), dense(system.C), stiffness_stack(system, H)
     F = np.zeros((system.n_dof, H + 1), complex)
     Fh = np.asarray(system.forcing, complex)
     F[:, :min(H + 1, Fh.shape[1])] = Fh[:, :H + 1]

@@ -56,7 +56,7 @@ def part_spectra(system, pb: PartBlocks, c) -> PartSpectra:
 def count_below(ps: PartSpectra, Zh, s: float) -> int:
     """Number of eigenvalues of (K + Herm Zh, M) below s [rad^2/s^2] (module doc)."""
     pb = ps.pb
-    Doo, Doc, Dco = (K - s * M for K, M, _ in (pb.oo, pb.oc, pb.co))
+    Doo, Doc, Dco = (K - s * M for K, M, *_ in (pb.oo, pb.oc, pb.co))
     X = np.linalg.solve(Doo, Doc)                                   # (P, m, k)
     S = (pb.cc[0] - s * pb.cc[1]).astype(complex) + 0.5 * (Zh + Zh.conj().T)
     rows = np.broadcast_to(pb.ck[:, :, None], X.shape[:1] + (pb.ck.shape[1],) * 2)

@@ -8,7 +8,8 @@ S_oo is block-diagonal and the condensation (paper Eq. 7, condensed as in `hbm`)
 
 is a sum of small dense terms, one per part k (`part_blocks`, the connected
 components of the structure's pattern over the interior DOFs, gathered once per
-problem; `condense_parts`, all parts in one batched solve per harmonic): O(N) work
+problem; `dynamic_stiffness.condense_parts`, all parts in one batched solve per
+harmonic): O(N) work
 for N blades instead of the O(N^3) of one dense S_co S_oo^-1 S_oc.  The contacts couple
 neighbouring parts, so the condensed Jacobian is block-cyclic and mostly zero:
 `jacobian_pattern` decides once per problem whether to build it sparse and fixes its
@@ -28,25 +29,27 @@ class PartBlocks:
     """The dense blocks of P equal-sized independent parts (module doc), gathered once:
     interior DOFs o (P, m) and their contact DOFs (positions in c) ck (P, k); K, M, C
     over (o, o) (P, m, m), (o, c) (P, m, k), (c, o) (P, k, m); and K, M, C over the
-    contact DOFs (nc, nc), dense."""
+    contact DOFs (nc, nc), dense; then the same blocks of added terms' matrices A_t."""
 
     o: np.ndarray    # (P, m) interior DOFs of each part
     ck: np.ndarray   # (P, k) its contact DOFs, positions in c
-    oo: tuple        # (Koo, Moo, Coo)
+    oo: tuple        # (Koo, Moo, Coo, *A_t_oo)
     oc: tuple
     co: tuple
     cc: tuple
 
 
-def part_blocks(system, c, o) -> PartBlocks | None:
+def part_blocks(system, c, o, extra=()) -> PartBlocks | None:
     """The `PartBlocks` of a structure whose interior DOFs o fall into several
-    connected components (the pattern of |K| + |M| + |C|) of equal size, each coupled
-    to the same number of contact DOFs; None otherwise (one component, unequal parts,
-    dense matrices)."""
+    connected components (the pattern of |K| + |M| + |C| (+ |A_t|), the added terms'
+    matrices `extra` gathered after C) of equal size, each coupled to the same number
+    of contact DOFs; None otherwise (one component, unequal parts, dense matrices)."""
     if not sp.issparse(system.K) or o.size == 0:
         return None
-    mats = [sp.csr_matrix(A, dtype=float) for A in (system.K, system.M, system.C)]
+    mats = [sp.csr_matrix(A, dtype=float) for A in (system.K, system.M, system.C, *extra)]
     A = (abs(mats[0]) + abs(mats[1]) + abs(mats[2])).tocsr()
+    for B in mats[3:]:
+        A = (A + abs(B)).tocsr()
     n_parts, label = connected_components(A[o][:, o], directed=False)
     if n_parts < 2:
         return None
@@ -65,38 +68,6 @@ def part_blocks(system, c, o) -> PartBlocks | None:
                       oc=tuple(gather(B, oo, cg) for B in mats),
                       co=tuple(gather(B, cg, oo) for B in mats),
                       cc=tuple(B[c][:, c].toarray() for B in mats))
-
-
-def condense_parts(pb: PartBlocks, h: int, Om: float, P, c, derivatives: bool):
-    """(S~, dS~, P~, dP~) of harmonic h part by part, all parts in batched dense
-    solves: S = K - (h Om)^2 M + i h Om C per block, P (n,) the load [N]."""
-    w = h * Om
-
-    def S(K, M, C):
-        return K - w * w * M + 1j * w * C
-
-    def dS(K, M, C):
-        return -2 * h * w * M + 1j * h * C
-
-    Soo, Soc, Sco = S(*pb.oo), S(*pb.oc), S(*pb.co)
-    Po = P[pb.o]                                              # (parts, m)
-    sol = np.linalg.solve(Soo, np.concatenate([Soc, Po[..., None]], axis=2))
-    X, z = sol[..., :-1], sol[..., -1]
-    St = S(*pb.cc).astype(complex)
-    Pt = P[c].astype(complex)
-    rows = np.broadcast_to(pb.ck[:, :, None], X.shape[:1] + (pb.ck.shape[1],) * 2)
-    cols = np.broadcast_to(pb.ck[:, None, :], rows.shape)
-    np.add.at(St, (rows, cols), -(Sco @ X))
-    np.add.at(Pt, pb.ck, -(Sco @ z[..., None])[..., 0])
-    if not derivatives:
-        return St, None, Pt, None
-    dSoo, dSoc, dSco = dS(*pb.oo), dS(*pb.oc), dS(*pb.co)
-    Y = np.linalg.solve(np.swapaxes(Soo, 1, 2), np.swapaxes(Sco, 1, 2)).swapaxes(1, 2)
-    dSt = dS(*pb.cc).astype(complex)
-    np.add.at(dSt, (rows, cols), -(dSco @ X + Y @ dSoc - Y @ (dSoo @ X)))
-    dPt = np.zeros(c.size, complex)
-    np.add.at(dPt, pb.ck, (-(dSco @ z[..., None]) + Y @ (dSoo @ z[..., None]))[..., 0])
-    return St, dSt, Pt, dPt
 
 
 SPARSE_JACOBIAN_MIN = 500    # condensed unknowns from which a sparse Jacobian pays (measured)
@@ -138,6 +109,8 @@ def jacobian_pattern(pb: PartBlocks, idx, nc: int, nh: int) -> JacobianPattern |
     SPARSE_JACOBIAN_MIN unknowns and at most SPARSE_JACOBIAN_FILL of S~_h nonzero;
     None otherwise (the dense path)."""
     mask = (np.abs(pb.cc[0]) + np.abs(pb.cc[1]) + np.abs(pb.cc[2])) != 0
+    for B in pb.cc[3:]:
+        mask |= B != 0
     mask[pb.ck[:, :, None], pb.ck[:, None, :]] = True
     size = nc * nh
     if size < SPARSE_JACOBIAN_MIN or mask.sum() > SPARSE_JACOBIAN_FILL * nc * nc:

@@ -38,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.system import System, dense
+from .dynamic_stiffness import at_harmonic
 
 SEP, STICK, PS, NS = 0, 1, 2, 3
 STATE_NAMES = ("separation", "stick", "positive slip", "negative slip")
@@ -99,7 +100,7 @@ class _Mode:
         Om = mdl.Om
         Xh = np.zeros((2 * n, mdl.hs.size), dtype=complex)
         for k, h in enumerate(mdl.hs):
-            S = K - (h * Om) ** 2 * mdl.M + 1j * h * Om * mdl.C
+            S = at_harmonic(K, mdl.M, mdl.C, h, Om)
             Q = np.linalg.solve(S, mdl.Fh[:, k])
             Xh[:n, k] = Q
             Xh[n:, k] = 1j * h * Om * Q

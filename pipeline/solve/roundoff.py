@@ -41,6 +41,7 @@ import scipy.sparse as sp
 from . import hbm
 from ..fourier.harmonics import derivative_matrix
 from ..fourier.harmonics import shift as time_shift
+from .dynamic_stiffness import apply_full, term_layout
 
 ROUNDOFF_FACTOR = 8.0
 EPS = np.finfo(float).eps
@@ -72,19 +73,26 @@ def condensed_floor(prob, x, J, loads) -> tuple:
     return fs + c * loads[0], fd + c * loads[1]
 
 
-def linear_terms(system, Q, Om, P) -> np.ndarray:
+def linear_terms(system, Q, Om, P, extra=()) -> np.ndarray:
     """(n, 2H+1) absolute terms of the linear part of the full residual [N]:
-    |K||Q| + Om |C||Q||D|^T + Om^2 |M||Q||D^2|^T (+ the inter-sector coupling) + |P|."""
-    D = np.abs(derivative_matrix((Q.shape[1] - 1) // 2))
+    |K||Q| + Om |C||Q||D|^T + Om^2 |M||Q||D^2|^T (+ |A_t||Q||F_t|^T of added terms)
+    (+ the inter-sector coupling) + |P| (`dynamic_stiffness.apply_full`)."""
+    H = (Q.shape[1] - 1) // 2
+    D = np.abs(derivative_matrix(H))
     aQ = np.abs(Q)
-    K, M, C = (abs(A) if sp.issparse(A) else np.abs(np.asarray(A, dtype=float))
-               for A in (system.K, system.M, system.C))
-    A = np.asarray(K @ aQ + Om * (C @ aQ) @ D.T + Om ** 2 * (M @ aQ) @ (D @ D).T)
+    K, M, C = (_absolute(A) for A in (system.K, system.M, system.C))
+    A = np.asarray(apply_full(K, C, M, aQ, Om, D))
+    for t in extra:
+        A = A + np.asarray(_absolute(t.matrix) @ aQ) @ np.abs(term_layout(t, H, Om)).T
     cy = system.cyclic
     if cy is not None and cy.K_next is not None:
         Kn = np.abs(np.asarray(cy.K_next, dtype=float))
         A = A + Kn @ np.abs(time_shift(Q, cy.phase)) + Kn.T @ np.abs(time_shift(Q, -cy.phase))
     return A + np.abs(P)
+
+
+def _absolute(A):
+    return abs(A) if sp.issparse(A) else np.abs(np.asarray(A, dtype=float))
 
 
 def linear_floor(system, Q, Om, P) -> tuple:
@@ -95,7 +103,7 @@ def linear_floor(system, Q, Om, P) -> tuple:
 def full_floor(prob, Q, Om, contact=None) -> tuple:
     """(static, harmonic) floor [N] of the full residual (`hbm.full_residual`) at the
     coefficients Q (n, 2H+1) of all DOFs and Om [rad/s]."""
-    A = linear_terms(prob.system, Q, Om, prob.P)
+    A = linear_terms(prob.system, Q, Om, prob.P, prob.linear.extra)
     G, _, _ = hbm.contact_terms(prob, Q[prob.c], contact, jacobian=False)
     A[prob.c] += np.abs(G)
     return _blocks(A)
