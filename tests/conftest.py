@@ -3,9 +3,7 @@
 Set before numpy is imported by any test module (see pipeline/__init__.py).
 """
 import os
-import sys
 
 for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(var, "1")
 os.environ.setdefault("MPLBACKEND", "Agg")
-sys.path.insert(0, os.path.dirname(__file__))  # tests/paper_systems.py

@@ -25,6 +25,8 @@ from pipeline.study.run import run_study
 from pipeline.model.system import System, natural_frequencies
 from pipeline.model.scene import full_system
 
+from helpers import fd, solve_sector
+
 KU, MU, N0 = 2.0, 0.3, 0.5
 
 
@@ -42,10 +44,6 @@ def sector(N=6, kv=0.0, n0=N0, normal=False, static=False):
          else np.array([[0.0, 1.0], [0.0, 0.3j]]))
     return Sector(M=M, C=0.02 * K, K=K, Bt=-e2, Bn=Bn, Bt_next=e2, Bn_next=Bn_next,
                   contact=YangMenq(KU, kv, MU, n0), forcing=F, sectors=N, dof_names=("x1", "x2"))
-
-
-def fd(fun, x, h=1e-7):
-    return np.column_stack([(fun(x + h * e) - fun(x - h * e)) / (2 * h) for e in np.eye(x.size)])
 
 
 def check_curve(c):
@@ -83,14 +81,6 @@ def test_sector_jacobians_match_finite_differences(eo, method, normal):
 def test_non_cyclic_problem_has_no_shift():
     s = isolated_system(sector())
     assert s.cyclic is None and hbm.setup(s, 3).shift is None
-
-
-def solve_sector(sec, eo, Om, method="exact", n_samples=120, H=3):
-    prob = hbm.setup(sector_system(sec, eo), H, method, n_samples)
-    tol = 1e-12 * hbm.force_scale(prob)
-    nr = newton(lambda y: hbm.residual(prob, y, Om)[:2], np.zeros(prob.size), tol, max_iter=80)
-    assert nr.success
-    return prob, hbm.recover(prob, nr.x.reshape(prob.c.size, -1), Om)
 
 
 @pytest.mark.parametrize("eo", [0, 1, 2, 3])

@@ -5,24 +5,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.linalg import eigh
 
 from pipeline.errors import UsageError
 from pipeline.study.documents import load_study, parse_study
 from pipeline.study.run import run_study
 from pipeline.study.dataset_check import problems
 
+from helpers import closed_form_hz
+
 STUDY = Path(__file__).resolve().parents[1] / "studies" / "disk_laxalde.toml"
-MD, MB1, MB2, KG, K0, KB1, KB2, KU = 1.2, 0.35, 0.25, 6e5, 5e7, 1e6, 2e6, 2e5
-
-
-def closed_form_hz(nd, stuck, N=24):
-    c = 2.0 * (1.0 - np.cos(2 * np.pi * nd / N))
-    K = np.array([[KG + KB1 + K0 * c, -KB1, 0.0], [-KB1, KB1 + KB2, -KB2],
-                  [0.0, -KB2, KB2 + (KU * c if stuck else 0.0)]])
-    return np.sqrt(eigh(K, np.diag([MD, MB1, MB2]), eigvals_only=True)) / (2 * np.pi)
-
-
 def test_laxalde_study_gives_the_closed_form_frequency_nodal_diameter_diagram(tmp_path):
     res = run_study(load_study(STUDY), tmp_path)
     ds = res.dataset

@@ -10,7 +10,7 @@ import pytest
 from pipeline.model.system import System
 from pipeline.solve import hbm
 from pipeline.study.documents import load_study
-from tests.paper_systems import example1
+from pipeline.paper_systems import example1
 
 ROOT = Path(__file__).resolve().parents[1]
 

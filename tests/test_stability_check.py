@@ -8,7 +8,6 @@ impact orbit that Hill calls stable (README, hard cases).
 """
 import copy
 import logging
-import tomllib
 from dataclasses import replace
 from pathlib import Path
 
@@ -18,14 +17,14 @@ from scipy.linalg import expm
 
 from pipeline.contact import YangMenq
 from pipeline.model.system import System
-from pipeline.paper_systems import example1, example3
+from pipeline.paper_systems import blade3, example1, example3
 from pipeline.solve import floquet as fq
 from pipeline.solve import stability_check as sc
 from pipeline.solve.orbit_floquet import along_orbit
 from pipeline.solve.response import frequency_response
 from pipeline.study.documents import study_from_document
 
-from paper_systems import BLADE_STABLE, blade3
+from helpers import BLADE_STABLE, study_doc
 
 STUDIES = Path(__file__).resolve().parents[1] / "studies"
 log = logging.getLogger(__name__)
@@ -164,14 +163,10 @@ def test_stiff_impact_orbit_that_hill_calls_stable():
 
 
 # ------------------------------------------------------------------ defaults of study files
-def _doc(name):
-    return tomllib.loads((STUDIES / name).read_text())
-
-
 @pytest.mark.parametrize("name, expected", [("paper_example1.toml", "monodromy+check"),
                                             ("disk_cyclic.toml", "hill")])
 def test_default_mode_per_scene(name, expected):
-    doc = copy.deepcopy(_doc(name))
+    doc = copy.deepcopy(study_doc(name))
     doc["solver"].pop("stability", None)
     assert study_from_document(doc, file=name, name="s").solver.stability == expected
 
