@@ -6,6 +6,7 @@ comparisons of sets of complex numbers.
 
 The paper's example systems live in `pipeline.paper_systems`, not here.
 """
+import re
 import tomllib
 from pathlib import Path
 
@@ -28,10 +29,28 @@ def study_doc(name):
     return tomllib.loads((STUDIES / name).read_text())
 
 
+def stated(name, pattern):
+    """The numbers of the first match of `pattern` in the shipped study's text (its
+    comments state results), as floats."""
+    m = re.search(pattern, (STUDIES / name).read_text())
+    assert m, f"{name}: {pattern!r} not found"
+    return [float(g) for g in m.groups()]
+
+
 # --------------------------------------------------------------------------- numerics
 def fd(fun, x, h=1e-7):
     """Central-difference Jacobian d fun / d x, column j = (f(x + h e_j) - f(x - h e_j)) / 2h."""
     return np.column_stack([(fun(x + h * e) - fun(x - h * e)) / (2 * h) for e in np.eye(x.size)])
+
+
+def linear_peak(K, M, C, F, dof, lo, hi):
+    """Exact maximum of |x_dof| of the linear first-harmonic response
+    |(K - w^2 M + i w C)^-1 F| [m] over w in [lo, hi] [rad/s]: (amplitude, w, the
+    amplitude as a function of w)."""
+    amp = lambda om: abs(np.linalg.solve(K - om**2 * M + 1j * om * C, F)[dof])  # noqa: E731
+    r = minimize_scalar(lambda om: -amp(om), bounds=(lo, hi), method="bounded",
+                        options={"xatol": 1e-13})
+    return -r.fun, r.x, amp
 
 
 def assert_same_multiset(got, exact, atol):
