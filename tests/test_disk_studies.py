@@ -1,7 +1,8 @@
-"""Studies of FE blades in a disk (`studies/shrouded_disk*.toml`): their quick
-variants run through `run_study`, their datasets pass the contract checker, and
-their numbers are checked against independent linear limits; the FE disk's bad
-inputs are one-line errors naming the field."""
+"""Studies of FE blades in a disk (`studies/shrouded_disk*.toml`): a variant of the
+shrouded disk's quick study run through `run_study`, its dataset passing the contract
+checker and its numbers checked against independent linear limits; the FE disk's
+bad inputs are one-line errors naming the field.  The unmodified quick runs and
+their stated numbers: test_shipped_studies.py."""
 from pathlib import Path
 
 import numpy as np

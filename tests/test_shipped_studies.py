@@ -20,8 +20,12 @@ from pipeline.study.documents import load_study
 from helpers import STUDIES, closed_form_hz, linear_peak
 
 STUDY_FILES = sorted(STUDIES.glob("*.toml"))
-# the quick wheel of 24 beam blades solves three full sparse wheels (about 40 s): with -m slow
-SLOW = {"shrouded_disk_mistuned"}
+# with -m slow: the quick wheel of 24 beam blades solves three full sparse wheels (about
+# 40 s of CPU); the quick 3-DOF blade decides 337 points by exact Floquet multipliers
+# (about 90 s, more than any other test).  The blade's study file is checked against
+# pipeline.paper_systems.blade3 bit for bit (test_paper_systems.py) and its stated
+# window on that system at the stated H = 10 (test_stability_check.py) in every run.
+SLOW = {"shrouded_disk_mistuned", "blade3_stability"}
 # studies whose figures some test reads (here, test_accuracy_cost.py, test_blade_studies.py):
 # their shared run draws them, the others' runs do not
 FIGURES = {"accuracy_cost", "blade_modes", "disk_laxalde", "shrouded_disk_modes"}
