@@ -12,7 +12,6 @@ import scipy.sparse.linalg as spla
 
 from pipeline.__main__ import main as cli
 from pipeline.study.accuracy_spec import AccuracyStudy
-from pipeline.study.dataset import read_dataset
 from pipeline.study.dataset_check import problems
 from pipeline.errors import UsageError
 from pipeline.study.documents import load_study, parse_study
@@ -23,12 +22,12 @@ STUDY = ROOT / "studies" / "accuracy_cost.toml"
 
 
 @pytest.fixture(scope="module")
-def quick(tmp_path_factory):
-    out = tmp_path_factory.mktemp("accuracy")
+def quick(quick_run):
+    """The quick study, run through `pipeline run --quick` once per session (conftest)."""
     study = load_study(STUDY, quick=True)
     assert isinstance(study, AccuracyStudy) and study.kind == "accuracy_cost"
-    assert cli(["run", str(STUDY), "--quick", "--out", str(out)]) == 0   # through `run`
-    return out, read_dataset(out / "accuracy_cost.nc")
+    out, _, ds = quick_run("accuracy_cost", figures=True)
+    return out, ds
 
 
 def _run(ds, label):

@@ -22,6 +22,8 @@ from pipeline.structure.disk import pair_faces
 from pipeline.structure.fe_model import BladeParams, DiskPlacement, boundary_dofs, rotation_z
 from pipeline.structure.reduction import eigenmodes
 
+from helpers import frequencies, stuck_stiffness
+
 BEAM = BladeParams(kind="beam")                       # 100 x 30 x 4 mm steel, 20 elements
 DISK = DiskPlacement(hub_radius=0.05, sectors=6)      # R [m], N
 PAIR = ShroudPair("shroud", ku=1e5, kv=1e5, mu=0.3, n0=None)   # [N/m] per point pair
@@ -221,25 +223,6 @@ def test_rigid_rotation_of_a_beam_wheel_loads_no_shroud_pair():
     assert np.abs(wrong @ t).max() > 0.5 * scale          # measured 1.3e-4 m (0.89 scale)
     assert np.abs(wrong @ n).max() > 1e-3 * scale         # measured 3.8e-6 m
     assert np.abs(Bt @ q).max() > 0.5 * scale
-
-
-def frequencies(K, M):
-    """All undamped frequencies [rad/s] of (K, M), low ones from M x = K x / w^2
-    (dense solvers' error is eps times the largest eigenvalue of the formulation)."""
-    hi = np.sqrt(la.eigh(K, M, eigvals_only=True))
-    lo = 1.0 / np.sqrt(la.eigh(M, K, eigvals_only=True)[::-1])
-    return np.where(hi < np.sqrt(hi[0] * hi[-1]), lo, hi)
-
-
-def stuck_stiffness(s):
-    """K + B^H ku B + B_n^H kv B_n, the elements in contact (n0 > 0) stuck."""
-    Bt, Bn = dense(s.Bt), dense(s.Bn)
-    if s.cyclic is not None:
-        z = np.exp(1j * s.cyclic.phase)
-        Bt, Bn = Bt + z * s.cyclic.Bt_next, Bn + z * s.cyclic.Bn_next
-    el = s.contact
-    return (dense(s.K) + Bt.conj().T @ (el.ku[:, None] * Bt)
-            + Bn.conj().T @ ((el.kv * (el.n0 > 0))[:, None] * Bn))
 
 
 def test_beam_wheel_sector_is_cheap_and_reproduces_the_full_wheel():

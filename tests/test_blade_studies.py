@@ -35,10 +35,10 @@ QUICK_BLADE = BladeParams(n_chord=4, n_thick=1, n_span=6)
 # ---------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def modes_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("modes")
-    assert cli(["run", str(MODES), "--quick", "--out", str(out)]) == 0
-    return out, read_dataset(out / "blade_modes.nc")
+def modes_run(quick_run):
+    """The quick study, run through `pipeline run --quick` once per session (conftest)."""
+    out, _, ds = quick_run("blade_modes", figures=True)
+    return out, ds
 
 
 def test_modes_converge_from_above_and_within_0p1_percent(modes_run):

@@ -6,6 +6,8 @@ from hypothesis import given, settings, strategies as st
 from pipeline.contact import NSLIP, PSLIP, SEP, STICK, YangMenq, forces
 from pipeline.contact.exact import history
 
+from helpers import one
+
 TWO_PI = 2 * np.pi
 
 
@@ -148,14 +150,6 @@ def test_dissipation_nonnegative_and_normal_force_conservative():
         # the unilateral normal spring stores and returns energy: closed integral 0
         Wv = dissipated_energy(V, f.Fv)
         assert np.all(np.abs(Wv) <= 1e-10 * (1 + np.abs(f.Fv).sum(1) * np.abs(V).sum(1)))
-
-
-def one(U1=(), V1=(), H=3, U0=0.0, V0=0.0):
-    U = np.zeros((1, 2 * H + 1)); V = np.zeros((1, 2 * H + 1))
-    U[0, 0], V[0, 0] = U0, V0
-    U[0, 1:1 + len(U1)] = U1
-    V[0, 1:1 + len(V1)] = V1
-    return U, V
 
 
 def test_full_stick_is_linear_with_documented_slider_convention():

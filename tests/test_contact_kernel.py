@@ -9,6 +9,8 @@ from pipeline.contact import exact_reference
 from pipeline.contact.exact import history
 from pipeline.fourier.harmonics import basis
 
+from helpers import one
+
 TWO_PI = 2 * np.pi
 
 
@@ -95,14 +97,6 @@ def test_kernel_jacobian_matches_central_differences(H):
     # all but elements at a degenerate transition (a kink within h): FD noise ~1e-9
     assert np.mean(worst < 1e-6) >= 0.97, np.sort(worst)[-5:]
     assert np.median(worst) < 1e-8
-
-
-def one(U1=(), V1=(), H=3, U0=0.0, V0=0.0):
-    U, V = np.zeros((1, 2 * H + 1)), np.zeros((1, 2 * H + 1))
-    U[0, 0], V[0, 0] = U0, V0
-    U[0, 1:1 + len(U1)] = U1
-    V[0, 1:1 + len(V1)] = V1
-    return U, V
 
 
 def stacked(cases):

@@ -11,11 +11,7 @@ from pipeline.solve.continuation import continue_branch
 from pipeline.solve.newton import KeptFactors, newton
 from pipeline.solve.tracer import Tracer
 
-
-# ------------------------------------------------------------------ closed forms
-def scurve(x, lam):
-    """x^3 - 3x = lam: folds at (x, lam) = (-1, 2) and (1, -2)."""
-    return np.array([x[0] ** 3 - 3 * x[0] - lam]), np.array([[3 * x[0] ** 2 - 3]]), np.array([-1.0])
+from helpers import scurve
 
 
 def circle2(x, lam):

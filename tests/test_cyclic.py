@@ -9,21 +9,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.linalg import eigh
-from scipy.optimize import minimize_scalar
 
 from pipeline.solve import full_operators, hbm
 from pipeline.contact import YangMenq
 from pipeline.solve.newton import newton
 from pipeline.model.cyclic import (Sector, aft_samples_ok, expand, full_assembly, isolated_system,
                                    sector_forcing, sector_system)
-from pipeline.study.dataset_check import problems
 from pipeline.fourier.harmonics import evaluate
 from pipeline.solve.response import frequency_response
 from pipeline.solve.stability import hill_eigenvalues, is_stable
 from pipeline.study.documents import load_study, study_from_document, study_to_mapping
-from pipeline.study.run import run_study
 from pipeline.model.system import System, natural_frequencies
 from pipeline.model.scene import full_system
+
+from helpers import fd, linear_peak, solve_sector
 
 KU, MU, N0 = 2.0, 0.3, 0.5
 
@@ -42,10 +41,6 @@ def sector(N=6, kv=0.0, n0=N0, normal=False, static=False):
          else np.array([[0.0, 1.0], [0.0, 0.3j]]))
     return Sector(M=M, C=0.02 * K, K=K, Bt=-e2, Bn=Bn, Bt_next=e2, Bn_next=Bn_next,
                   contact=YangMenq(KU, kv, MU, n0), forcing=F, sectors=N, dof_names=("x1", "x2"))
-
-
-def fd(fun, x, h=1e-7):
-    return np.column_stack([(fun(x + h * e) - fun(x - h * e)) / (2 * h) for e in np.eye(x.size)])
 
 
 def check_curve(c):
@@ -83,14 +78,6 @@ def test_sector_jacobians_match_finite_differences(eo, method, normal):
 def test_non_cyclic_problem_has_no_shift():
     s = isolated_system(sector())
     assert s.cyclic is None and hbm.setup(s, 3).shift is None
-
-
-def solve_sector(sec, eo, Om, method="exact", n_samples=120, H=3):
-    prob = hbm.setup(sector_system(sec, eo), H, method, n_samples)
-    tol = 1e-12 * hbm.force_scale(prob)
-    nr = newton(lambda y: hbm.residual(prob, y, Om)[:2], np.zeros(prob.size), tol, max_iter=80)
-    assert nr.success
-    return prob, hbm.recover(prob, nr.x.reshape(prob.c.size, -1), Om)
 
 
 @pytest.mark.parametrize("eo", [0, 1, 2, 3])
@@ -211,14 +198,6 @@ def test_bad_arguments_are_named():
 # ---------------------------------------------------------------------------
 # Hard cases: standing waves, closed references
 # ---------------------------------------------------------------------------
-
-def linear_peak(K, M, C, F, dof, lo, hi):
-    """Exact maximum of |x_dof| of the linear first-harmonic response [m] and its frequency."""
-    amp = lambda om: abs(np.linalg.solve(K - om**2 * M + 1j * om * C, F)[dof])  # noqa: E731
-    r = minimize_scalar(lambda om: -amp(om), bounds=(lo, hi), method="bounded",
-                        options={"xatol": 1e-13})
-    return -r.fun, r.x, amp
-
 
 def test_eo0_is_the_isolated_linear_sector():
     """EO = 0: all sectors in phase, no relative motion in any contact (u = v = 0,
@@ -366,29 +345,3 @@ def test_disk_scene_builds_only_its_sector():
     assert study_to_mapping(u) == study_to_mapping(st)
 
 
-def test_disk_study_quick_run(tmp_path, monkeypatch):
-    """The quick variant end to end (EO = 0 and 12, H = 1) without ever building
-    the 24-sector assembly; EO = 0 is the uncoupled blade's linear FRF."""
-    import pipeline.model.cyclic as cyclic
-
-    def forbidden(*a, **k):
-        raise AssertionError("a disk run must not assemble all sectors")
-
-    monkeypatch.setattr(cyclic, "full_assembly", forbidden)
-    st = load_study(DISK, quick=True)
-    res = run_study(st, tmp_path, workers=1, figures=False, progress=False)
-    assert res.ok
-    ds = res.dataset
-    assert ds.attrs["sectors"] == 24 and list(ds["eo"].values) == [0, 12]
-    assert bool(ds["converged"].sum() > 0) and not np.isnan(ds["peak_amplitude"].values).any()
-    sc = st.scene
-    for dof in (0, 1):
-        lin = sc.structure
-        ref, om, _ = linear_peak(lin.K, lin.M, lin.C, sc.loads[0].amplitudes[:, 1], dof, 2 * np.pi * 370,
-                                 2 * np.pi * 385)
-        assert float(ds["peak_amplitude"][0, dof]) == pytest.approx(ref, rel=1e-8)
-        assert float(ds["peak_frequency"][0, dof]) == pytest.approx(om / (2 * np.pi), rel=1e-6)
-    assert float(ds["peak_amplitude"][0, 0]) == pytest.approx(3.5343649e-5, rel=1e-7)
-    assert float(ds["peak_amplitude"][1, 0]) < 0.2 * float(ds["peak_amplitude"][0, 0])
-    assert problems(res.path) == []
-    assert "sector" not in ds.dims            # tuned: one sector's DOFs, no sector dimension

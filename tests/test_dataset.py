@@ -530,93 +530,9 @@ def test_figure_marks_folds_and_dashes_unstable_parts(tmp_path):
 
 
 # ---------------------------------------------------------------------------
-# The paper studies with the real solver (quick mode): key numbers
+# Figures of a sweep over two axes (the paper studies' key numbers, quick: see
+# test_shipped_studies.py)
 # ---------------------------------------------------------------------------
-
-def _real_solver():
-    from pipeline.solve import response
-
-    fn = getattr(response, "frequency_response", None)
-    if fn is None:
-        pytest.skip("pipeline.solve.response.frequency_response is not available yet")
-    return fn
-
-
-@pytest.fixture(scope="module")
-def quick_runs(tmp_path_factory):
-    """The three paper studies in quick mode with the real solver, run once."""
-    solver = _real_solver()
-    out = tmp_path_factory.mktemp("studies")
-    runs = {}
-
-    def get(n):
-        if n not in runs:
-            st = load_study(STUDIES / f"paper_example{n}.toml", quick=True)
-            runs[n] = run_study(st, out, solver=solver, progress=False, figures=False)
-        return runs[n]
-    return get
-
-
-def test_example1_quick(quick_runs):
-    """Sec. 6.1, Fig. 2: n = 0 is the oscillator k, n = 1000 N the stuck k + ku; both
-    linear: peak F0 / (c w_n) at w_n.  n = 2 N damps by slip: far lower peak."""
-    res = quick_runs(1)
-    ds = read_dataset(res.path)
-    assert res.ok and bool(ds["success"].all())
-    for n, k in ((0.0, 3.55e4), (1000.0, 4.55e4)):
-        wn = np.sqrt(k)
-        assert float(ds["peak_frequency"].sel(preload=n, dof="x")) == pytest.approx(wn, rel=1e-4)
-        assert float(ds["peak_amplitude"].sel(preload=n, dof="x")) == pytest.approx(
-            1 / (0.3 * wn), rel=1e-3)
-    assert float(ds["peak_amplitude"].sel(preload=2.0, dof="x")) < 0.05 * 1 / (0.3 * np.sqrt(4.55e4))
-    # the optimum normal load, found by a search: between the paper's 2 N and 5 N
-    # curves and no worse than any preload the search evaluated
-    assert 2.0 < float(ds["optimum_preload"]) < 5.0
-    assert float(ds["optimum_peak_amplitude"]) <= float(ds["optimum_search_peak"].min()) + 1e-15
-    assert float(ds["optimum_peak_amplitude"]) < float(ds["peak_amplitude"].sel(preload=2.0, dof="x"))
-    assert problems(res.path) == []
-
-
-def test_example2_quick_both_modes(quick_runs):
-    """Sec. 6.2, Fig. 4: peaks at the free (19.67, 51.50 Hz) and stuck (23.52,
-    56.97 Hz) natural frequencies; a moderate load damps both modes."""
-    ds = read_dataset(quick_runs(2).path)
-    f = ds["window_peak_frequency"].sel(dof="x1")
-    np.testing.assert_allclose(f.sel(preload=0.0), [19.67, 51.50], atol=0.15)
-    np.testing.assert_allclose(f.sel(preload=1e5), [23.52, 56.97], atol=0.15)
-    a = ds["window_peak_amplitude"].sel(dof="x1")
-    assert np.all(a.sel(preload=300.0) < a.sel(preload=0.0))
-    assert float(a.sel(preload=300.0)[0]) < 0.25 * float(a.sel(preload=1e5)[0])
-
-
-def test_example3_quick_separation_and_softening(quick_runs):
-    """Sec. 6.3, Fig. 6: n0 = -100 never touches (linear, mode 1 at 1 rad/s with
-    u = 0.707 * 1.414 / (2 * 0.01) = 50); n0 = 500 stays stuck (1.414 rad/s);
-    n0 = 10 separates: the curve bends left with two folds and an unstable part."""
-    ds = read_dataset(quick_runs(3).path)
-    u = ds.sel(dof="u")
-    assert float(u["peak_frequency"].sel(preload=-100.0)) == pytest.approx(1.0, abs=1e-3)
-    assert float(u["peak_amplitude"].sel(preload=-100.0)) == pytest.approx(50.0, rel=5e-3)
-    wst = float(ds["natural_frequency_stuck"].sel(preload=500.0, mode=1))
-    assert wst == pytest.approx(1.4137, abs=1e-4)
-    assert float(u["peak_frequency"].sel(preload=500.0)) == pytest.approx(wst, abs=2e-3)
-    soft = ds.sel(preload=10.0)
-    # softening: the peak lies well below the stuck system's resonance, above the open one
-    f_soft = float(soft["peak_frequency"].sel(dof="u"))
-    assert f_soft < 0.95 * wst
-    assert f_soft > 1.0
-    assert ds["stable"].attrs["stability_computed"] == 1
-    folds = soft["fold_frequency"].values
-    assert np.isfinite(folds).sum() == 2
-    fold_u = soft["fold_amplitude"].sel(dof="u").values   # between the extremes of the curve
-    assert np.isfinite(fold_u).sum() == 2 and ds["fold_amplitude"].attrs["units"] == "m"
-    assert np.all((fold_u > soft["amplitude"].sel(dof="u").min().values)
-                  & (fold_u < float(u["peak_amplitude"].sel(preload=10.0))))
-    assert np.isnan(ds["fold_amplitude"].sel(preload=[-100.0, 500.0]).values).all()
-    conv = soft["converged"].values
-    assert 0 < int((conv & (soft["stable"].values == 0)).sum()) < int(conv.sum())
-    assert np.isnan(soft["stable"].values[~conv]).all()
-
 
 def test_two_axis_grid_gives_one_figure_per_other_axis_value(tmp_path):
     import copy

@@ -12,23 +12,15 @@ from scipy.optimize import minimize_scalar
 from pipeline.paper_systems import example2
 from pipeline.solve.branch_refinement import PLOT_MIN_CHORD, PLOT_TURN
 from pipeline.solve.response import frequency_response
-from paper_systems import BETA, K_CHAIN, chain_system
+from helpers import chain_system, stuck_chain_amplitude
 
 F_LO, F_HI = 4.0, 25.0  # Hz
-
-
-def stuck_amplitude(f, dof):
-    Ks = K_CHAIN.copy()
-    Ks[2, 2] += 1.1e4
-    w = 2 * np.pi * f
-    return abs(np.linalg.solve(Ks - w * w * np.eye(3) + 1j * w * BETA * K_CHAIN,
-                               [1.0, 0.0, 0.0])[dof])
 
 
 def test_antiresonance_depth_of_a_linear_branch():
     """x1 of the stuck chain has an antiresonance near 16.30 Hz 4.6x deeper than the
     coarse branch shows; the dense output finds its depth to 1 %."""
-    r = minimize_scalar(lambda f: stuck_amplitude(f, 0), bounds=(15.5, 17.0), method="bounded",
+    r = minimize_scalar(lambda f: stuck_chain_amplitude(2 * np.pi * f, 0), bounds=(15.5, 17.0), method="bounded",
                         options={"xatol": 1e-10})
     c = frequency_response(chain_system(1e5), 5, 2 * np.pi * F_LO, 2 * np.pi * F_HI,
                            stability=False, peak_dofs=[0, 1, 2])
@@ -69,7 +61,7 @@ def test_solver_key_turns_dense_output_off(tmp_path):
 
     text = (Path(__file__).parent / "studies" / "chain_stuck_resonance.toml").read_text()
     text = text.replace("preload = [0.0, 5.0, 1.0e5]", "preload = [1.0e5]")
-    stuck_peak = -minimize_scalar(lambda f: -stuck_amplitude(f, 2), bounds=(12.0, 13.0),
+    stuck_peak = -minimize_scalar(lambda f: -stuck_chain_amplitude(2 * np.pi * f, 2), bounds=(12.0, 13.0),
                                   method="bounded", options={"xatol": 1e-12}).fun
     n = {}
     for flag in ("true", "false"):

@@ -8,7 +8,6 @@ from dataclasses import replace
 import meshio
 import numpy as np
 import pytest
-import scipy.linalg as la
 
 from pipeline.model.contacts import ShroudPair
 from pipeline.model.cyclic import expand, sector_system
@@ -23,6 +22,8 @@ from pipeline.structure.blades import build_blade
 from pipeline.structure.disk import pair_faces
 from pipeline.structure.fe_model import BladeParams, DiskPlacement
 from pipeline.structure.mesh_io import write_mesh
+
+from helpers import frequencies, stuck_stiffness
 
 PARAMS = BladeParams(n_chord=2, n_thick=1, n_span=4)
 DISK = DiskPlacement(hub_radius=0.05, sectors=6)      # R [m], N
@@ -119,28 +120,6 @@ def test_open_shrouds_give_the_clamped_blade():
         assert np.abs(Q[:, 1] - 1j * Q[:, 2] - X).max() < 1e-7 * np.abs(X).max()
         assert max(np.abs(Q[:, 0]).max(), np.abs(Q[:, 3:]).max()) < 1e-12 * np.abs(X).max()
         assert np.abs(hbm.contact_terms(prob, Qc, jacobian=False)[0]).max() == 0
-
-
-def frequencies(K, M):
-    """All undamped frequencies [rad/s] of (K, M), each from the formulation that is
-    accurate for it: K x = w^2 M x above the geometric mean of the range, M x = K x / w^2
-    below it (a dense solver's error is eps times the largest eigenvalue of the
-    formulation; these Craig-Bampton models span w_max / w_min ~ 3e4)."""
-    hi = np.sqrt(la.eigh(K, M, eigvals_only=True))
-    lo = 1.0 / np.sqrt(la.eigh(M, K, eigvals_only=True)[::-1])
-    return np.where(hi < np.sqrt(hi[0] * hi[-1]), lo, hi)
-
-
-def stuck_stiffness(s):
-    """K + B^H ku B + B_n^H kv B_n of a system (B = Bt + exp(i phi) Bt_next for a
-    cyclic sector), the elements in contact (n0 > 0) stuck."""
-    Bt, Bn = dense(s.Bt), dense(s.Bn)     # the full wheel is stored sparse
-    if s.cyclic is not None:
-        z = np.exp(1j * s.cyclic.phase)
-        Bt, Bn = Bt + z * s.cyclic.Bt_next, Bn + z * s.cyclic.Bn_next
-    el = s.contact
-    return (dense(s.K) + Bt.conj().T @ (el.ku[:, None] * Bt)
-            + Bn.conj().T @ ((el.kv * (el.n0 > 0))[:, None] * Bn))
 
 
 def test_stuck_sector_frequencies_are_the_tied_wheel_frequencies():

@@ -1,46 +1,15 @@
 """Modes of a tuned disk per nodal diameter (`[study] kind = "modes"` on a disk
-scene): the Laxalde et al. (2007) lumped disk study against the closed form of its
-cyclic eigenproblem, written out here from the study's numbers."""
+scene): the study file's keys and their errors.  The Laxalde et al. (2007) lumped disk
+study's run against the closed form of its cyclic eigenproblem is in
+test_shipped_studies.py."""
 from pathlib import Path
 
-import numpy as np
 import pytest
-from scipy.linalg import eigh
 
 from pipeline.errors import UsageError
-from pipeline.study.documents import load_study, parse_study
-from pipeline.study.run import run_study
-from pipeline.study.dataset_check import problems
+from pipeline.study.documents import parse_study
 
 STUDY = Path(__file__).resolve().parents[1] / "studies" / "disk_laxalde.toml"
-MD, MB1, MB2, KG, K0, KB1, KB2, KU = 1.2, 0.35, 0.25, 6e5, 5e7, 1e6, 2e6, 2e5
-
-
-def closed_form_hz(nd, stuck, N=24):
-    c = 2.0 * (1.0 - np.cos(2 * np.pi * nd / N))
-    K = np.array([[KG + KB1 + K0 * c, -KB1, 0.0], [-KB1, KB1 + KB2, -KB2],
-                  [0.0, -KB2, KB2 + (KU * c if stuck else 0.0)]])
-    return np.sqrt(eigh(K, np.diag([MD, MB1, MB2]), eigvals_only=True)) / (2 * np.pi)
-
-
-def test_laxalde_study_gives_the_closed_form_frequency_nodal_diameter_diagram(tmp_path):
-    res = run_study(load_study(STUDY), tmp_path)
-    ds = res.dataset
-    assert list(ds.nodal_diameter.values) == list(range(13)) and ds.sizes["mode"] == 3
-    for nd in range(13):
-        np.testing.assert_allclose(ds.frequency_open.sel(nodal_diameter=nd),
-                                   closed_form_hz(nd, False), rtol=1e-12)
-        np.testing.assert_allclose(ds.frequency_stuck.sel(nodal_diameter=nd),
-                                   closed_form_hz(nd, True), rtol=1e-12)
-    assert ds.frequency_open.attrs["units"] == "Hz"
-    # EO = 0: the neighbours move together, the tip contact carries nothing
-    np.testing.assert_allclose(ds.frequency_open[0], ds.frequency_stuck[0], rtol=1e-12)
-    assert (ds.frequency_stuck[1:] > ds.frequency_open[1:]).all()
-    assert problems(res.path) == []
-    fig = tmp_path / "disk_laxalde" / "nodal_diameter_diagram.png"
-    assert res.figures == [fig] and fig.stat().st_size > 10_000
-
-
 def test_modes_subset_of_nodal_diameters_and_frequencies():
     text = STUDY.read_text().replace("n_frequencies = 3", "n_frequencies = 2\n"
                                      "nodal_diameters = [3, 12]")

@@ -11,15 +11,10 @@ from pipeline.model.cyclic import Sector, expand, full_assembly, sector_system, 
 from pipeline.model.system import natural_frequencies
 from pipeline.solve import full_operators, hbm
 from pipeline.solve.linear_response import frequency_response as linear_frequency_response
-from pipeline.solve.newton import newton
 from pipeline.solve.response import frequency_response
 from pipeline.solve.stability import hill_eigenvalues
 
-# Laxalde et al. (2007): per sector a disk mass md on ground (kG), neighbouring disk
-# masses tied by k0, blade masses mb1 (on the disk mass, kb1) and mb2 (on mb1, kb2)
-MD, MB1, MB2 = 1.2, 0.35, 0.25              # kg
-KG, K0, KB1, KB2 = 6e5, 5e7, 1e6, 2e6       # N/m
-KU = 2e5                                     # N/m, shroud contact between mb2 neighbours
+from helpers import K0, KB1, KB2, KG, KU, MB1, MB2, MD, closed_form_hz, fd, solve_sector
 
 
 def laxalde_sector(N=24, n0=5.0, mu=0.3, kv=0.0, normal=False, forcing=1.0):
@@ -36,19 +31,6 @@ def laxalde_sector(N=24, n0=5.0, mu=0.3, kv=0.0, normal=False, forcing=1.0):
     return Sector(M=M, C=2e-5 * K, K=K, Bt=-e[[2]], Bn=Bn, Bt_next=e[[2]], Bn_next=Bn_next,
                   contact=YangMenq(KU, kv, mu, n0), forcing=F, sectors=N,
                   dof_names=("xd", "xb1", "xb2"), K_spring=Ks, K_next=Kn)
-
-
-def closed_form_hz(N, nd, stuck):
-    """The 3 x 3 cyclic eigenproblem of nodal diameter nd written out by hand:
-    the disk spring and (stuck) the shroud spring give 2 k (1 - cos psi), psi = 2 pi nd / N."""
-    c = 2.0 * (1.0 - np.cos(2 * np.pi * nd / N))
-    K = np.array([[KG + KB1 + K0 * c, -KB1, 0.0], [-KB1, KB1 + KB2, -KB2],
-                  [0.0, -KB2, KB2 + (KU * c if stuck else 0.0)]])
-    return np.sqrt(eigh(K, np.diag([MD, MB1, MB2]), eigvals_only=True)) / (2 * np.pi)
-
-
-def fd(fun, x, h=1e-7):
-    return np.column_stack([(fun(x + h * e) - fun(x - h * e)) / (2 * h) for e in np.eye(x.size)])
 
 
 def test_spring_stiffness_is_the_energy_of_the_stretch():
@@ -77,7 +59,7 @@ def test_laxalde_frequencies_per_nodal_diameter_equal_the_closed_form_and_the_as
     mode = "stuck" if stuck else "open"
     per_nd = [natural_frequencies(sector_system(sec, nd), mode) / (2 * np.pi) for nd in range(13)]
     for nd, f in enumerate(per_nd):
-        np.testing.assert_allclose(f, closed_form_hz(24, nd, stuck), rtol=1e-12)
+        np.testing.assert_allclose(f, closed_form_hz(nd, stuck, 24), rtol=1e-12)
     full = full_assembly(sec, 0)
     Kf = full.K + (full.Bt.T @ (KU * full.Bt) if stuck else 0.0)
     ref = np.sqrt(eigh(Kf, full.M, eigvals_only=True)) / (2 * np.pi)
@@ -103,14 +85,6 @@ def test_sector_with_springs_jacobians_match_finite_differences(eo, normal):
     Jf = full_operators.full_jacobian(prob, Q, 2000.0)
     Jffd = fd(lambda q: hbm.full_residual(prob, q.reshape(3, -1), 2000.0).ravel(), Q.ravel(), 1e-9)
     assert np.max(np.abs(Jffd - Jf)) < 1e-6 * np.max(np.abs(Jf))
-
-
-def solve_sector(sec, eo, Om, H=3):
-    prob = hbm.setup(sector_system(sec, eo), H)
-    tol = 1e-12 * hbm.force_scale(prob)
-    nr = newton(lambda y: hbm.residual(prob, y, Om)[:2], np.zeros(prob.size), tol, max_iter=80)
-    assert nr.success
-    return prob, hbm.recover(prob, nr.x.reshape(prob.c.size, -1), Om)
 
 
 @pytest.mark.parametrize("eo", [0, 1, 2, 3])

@@ -12,7 +12,7 @@ import pytest
 from scipy.linalg import expm
 
 from pipeline.contact import YangMenq
-from pipeline.paper_systems import example1, example3
+from pipeline.paper_systems import blade3, example1, example3
 from pipeline.solve import floquet as fq
 from pipeline.solve import hbm, timesim as ts
 from pipeline.solve.events import integrate
@@ -20,7 +20,7 @@ from pipeline.solve.newton import newton
 from pipeline.solve.piecewise import PiecewiseModel
 from pipeline.solve.response import frequency_response
 
-from paper_systems import BLADE_STABLE, BLADE_UNSTABLE, assert_same_multiset, blade3
+from helpers import BLADE_STABLE, BLADE_UNSTABLE, assert_same_multiset
 
 
 def periodic_start(system, Om):

@@ -13,7 +13,7 @@ from pipeline.contact import YangMenq
 from pipeline.solve.hbm_state import state_at_zero
 from pipeline.solve.response import frequency_response
 from pipeline.model.system import System
-from paper_systems import example1, example3
+from pipeline.paper_systems import example1, example3
 
 DS_MIN = 1e-6  # continuation default
 
@@ -162,7 +162,7 @@ def test_sharp_folds_in_both_sweep_directions(n0, kv):
 
 
 def test_range_spanning_several_modes():
-    from paper_systems import example2
+    from pipeline.paper_systems import example2
     c = frequency_response(example2(300.0), 5, 2 * np.pi * 5, 2 * np.pi * 80, stability=False)
     sound(c)
     om = c.omega / (2 * np.pi)

@@ -7,6 +7,8 @@ from pipeline.solve.newton import newton
 from pipeline.contact import YangMenq
 from pipeline.model.system import System
 
+from helpers import fd
+
 
 def chain4(kv=1.5, n0=0.2, mu=0.3):
     """4-DOF random chain; element between DOFs 1 and 2 (+ normal on 1 and 3), so
@@ -18,10 +20,6 @@ def chain4(kv=1.5, n0=0.2, mu=0.3):
     return System(M=M, C=0.02 * K, K=K, Bt=np.array([[0, 1.0, -1.0, 0]]),
                   Bn=np.array([[0, 0.3, 0, 0.9]]), contact=YangMenq(2.0, kv, mu, n0),
                   forcing=np.array([[0, 1.0, 0], [0, 0.5j, 0.2], [0, 0, 0], [0.1, 0.3, 0]]))
-
-
-def fd(fun, x, h=1e-7):
-    return np.column_stack([(fun(x + h * e) - fun(x - h * e)) / (2 * h) for e in np.eye(x.size)])
 
 
 @pytest.mark.parametrize("H", [1, 3, 6])

@@ -11,7 +11,7 @@ import pytest
 from pipeline.model.system import System
 from pipeline.solve import dynamic_stiffness, hbm
 from pipeline.study.documents import load_study
-from tests.paper_systems import example1
+from pipeline.paper_systems import example1
 
 ROOT = Path(__file__).resolve().parents[1]
 

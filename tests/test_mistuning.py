@@ -191,20 +191,13 @@ def test_mistuning_factors_arguments_are_named():
     assert np.all(f >= 0.1) and np.all(np.abs(f - 1) <= 3 * 0.49)
 
 
-def test_mistuned_study_dataset(tmp_path):
-    """disk_mistuned.toml (one seed, a narrower band) end to end: the dataset reports
-    x1 of every sector on the sector dimension, passes the contract checker, and its
-    per-sector peaks differ; the mode dimension is that of the 24-DOF assembly."""
-    from pipeline.study.run import run_study
-
-    doc = copy.deepcopy(DOC)
-    doc["quick"]["sweep"] = {"mistuning_seed": [1],
-                             "frequency": {"start": 400.0, "stop": 460.0, "unit": "Hz"}}
-    st = study_from_document(doc, file=str(tmp_path / "disk_mistuned.toml"),
-                            name="disk_mistuned", text=MISTUNED.read_text(), quick=True)
-    res = run_study(st, tmp_path, workers=1, figures=False, progress=False)
-    assert res.ok
-    ds = res.dataset
+def test_mistuned_study_dataset(quick_run):
+    """disk_mistuned.toml (quick, the run shared through conftest) end to end: the
+    dataset reports x1 of every sector on the sector dimension, passes the contract
+    checker, and its per-sector peaks differ; the mode dimension is that of the 24-DOF
+    assembly."""
+    st = load_study(MISTUNED, quick=True)
+    _, nc, ds = quick_run("disk_mistuned")
     assert list(ds["dof"].values) == ["x1"] and list(ds["sector"].values) == list(range(12))
     np.testing.assert_array_equal(ds["mistuning_factor"].sel(mistuning_seed=1),
                                   stiffness_factors(st.scene, {"mistuning_seed": 1}))
@@ -212,7 +205,7 @@ def test_mistuned_study_dataset(tmp_path):
     assert int(ds["converged"].sum()) > 50
     peaks = ds["peak_amplitude"].isel(mistuning_seed=0).sel(dof="x1").values
     assert np.all(np.isfinite(peaks)) and np.ptp(peaks) > 1e-2 * peaks.max()
-    assert problems(res.path) == []
+    assert problems(nc) == []
 
 
 def factors_study(factors, N=6, **extra):

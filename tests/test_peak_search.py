@@ -5,30 +5,13 @@ References: each DOF's peak searched alone, and the closed-form FRF of the stuck
 chain (a linear system: its peak by a bounded search to 1e-12 in frequency)."""
 import numpy as np
 import pytest
-from scipy.optimize import minimize_scalar
 
 from pipeline.paper_systems import example3
 from pipeline.solve.response import frequency_response
 
-from paper_systems import BETA, K_CHAIN, chain_system
+from helpers import chain_system, stuck_peak
 
 H, BAND = 5, (25.0, 160.0)  # rad/s: the chain's first resonance, open to stuck
-
-
-def stuck_peak(dof):
-    """(amplitude [m], frequency [rad/s]) of |X_dof| of the chain with the contact
-    stuck (ku and kv both on x3), 1 N on x1."""
-    Ks = K_CHAIN.copy()
-    Ks[2, 2] += 1e4 + 1e3
-
-    def neg(w):
-        S = Ks - w * w * np.eye(3) + 1j * w * BETA * K_CHAIN
-        return -abs(np.linalg.solve(S, [1.0, 0.0, 0.0])[dof])
-
-    w0 = np.sqrt(np.linalg.eigvalsh(Ks)[0])
-    r = minimize_scalar(neg, bounds=(0.97 * w0, 1.03 * w0), method="bounded",
-                        options={"xatol": 1e-12})
-    return -r.fun, r.x
 
 
 @pytest.mark.parametrize("n0", [5.0, 1e5])

@@ -6,7 +6,7 @@ from pipeline.solve.hbm_state import state_at_zero
 from pipeline.solve.response import frequency_response, optimum_preload
 from pipeline.model.system import natural_frequencies
 from pipeline.solve import timesim
-from paper_systems import example1, example2, example3
+from pipeline.paper_systems import example1, example2, example3
 
 
 def linear_amplitude(K, M, C, F, Om):

@@ -13,7 +13,7 @@ from pipeline.contact import YangMenq
 from pipeline.model.system import System, coupled_stiffness
 from pipeline.solve import hbm, roundoff
 from pipeline.solve.response import frequency_response
-from paper_systems import example1
+from pipeline.paper_systems import example1
 
 K0, KC, ZETA = 1e4, 1e9, 1e-2   # N/m soft ground spring, N/m stiff coupling, damping ratio
 

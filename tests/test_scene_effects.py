@@ -19,7 +19,7 @@ from pipeline.study.documents import parse_study
 from pipeline.study.cases import default_solver
 from pipeline.study.run import run_study
 from pipeline.model.scene import reduced_model
-from tests.paper_systems import example1, example3
+from pipeline.paper_systems import example1, example3
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -7,7 +7,7 @@ from pipeline.solve.continuation import continue_branch
 from pipeline.fourier.harmonics import derivative_matrix, time_grid
 from pipeline.solve.stability import harmonic_centroid, hill_eigenvalues, is_stable
 
-from paper_systems import assert_same_multiset
+from helpers import assert_same_multiset
 
 
 def linear_J(K, C, M, Om, H):

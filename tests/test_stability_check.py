@@ -8,7 +8,6 @@ impact orbit that Hill calls stable (pipeline/solve/README.md, hard cases).
 """
 import copy
 import logging
-import tomllib
 from dataclasses import replace
 from pathlib import Path
 
@@ -18,14 +17,14 @@ from scipy.linalg import expm
 
 from pipeline.contact import YangMenq
 from pipeline.model.system import System
-from pipeline.paper_systems import example1, example3
+from pipeline.paper_systems import blade3, example1, example3
 from pipeline.solve import floquet as fq
 from pipeline.solve import stability_check as sc
 from pipeline.solve.orbit_floquet import along_orbit
 from pipeline.solve.response import frequency_response
 from pipeline.study.documents import study_from_document
 
-from paper_systems import BLADE_STABLE, blade3
+from helpers import BLADE_STABLE, stated, study_doc
 
 STUDIES = Path(__file__).resolve().parents[1] / "studies"
 log = logging.getLogger(__name__)
@@ -72,6 +71,23 @@ def test_blade_decided_where_hill_is_wrong(blade_curve):
     assert list(kinds.values()) == [sc.PERIOD_DOUBLING, sc.PERIOD_DOUBLING], kinds
     lo, hi = sorted(kinds)
     assert 115.073 < lo < 116.186 and 117.0 < hi < 118.120
+
+
+def test_blade3_study_states_the_window(blade_curve):
+    """studies/blade3_stability.toml: 'Hill's method calls every stable orbit of
+    112-121 rad/s unstable and misses a period-doubling window at 115.9-117.5 rad/s'
+    (the study builds this blade: test_paper_systems.py): the exact multipliers locate
+    the window's ends to the stated digit."""
+    lo_hill, hi_hill, lo, hi = stated("blade3_stability.toml",
+                                      r"every stable orbit of ([\d.]+)-([\d.]+) rad/s unstable and "
+                                      r"misses a\n# period-doubling window at ([\d.]+)-([\d.]+) rad/s")
+    c = blade_curve
+    kinds = dict(zip(c.bifurcation_parameter, c.bifurcation_kind))
+    assert list(kinds.values()) == [sc.PERIOD_DOUBLING] * 2
+    np.testing.assert_allclose(sorted(kinds), [lo, hi], atol=0.05)
+    stable = c.converged & c.stable
+    assert stable.sum() >= 10 and (c.hill_multiplier[stable] > 1).all()
+    assert c.omega[stable].min() == lo_hill and c.omega[stable].max() == hi_hill
 
 
 # ------------------------------------------------------------------ (b) random corpus
@@ -164,14 +180,10 @@ def test_stiff_impact_orbit_that_hill_calls_stable():
 
 
 # ------------------------------------------------------------------ defaults of study files
-def _doc(name):
-    return tomllib.loads((STUDIES / name).read_text())
-
-
 @pytest.mark.parametrize("name, expected", [("paper_example1.toml", "monodromy+check"),
                                             ("disk_cyclic.toml", "hill")])
 def test_default_mode_per_scene(name, expected):
-    doc = copy.deepcopy(_doc(name))
+    doc = copy.deepcopy(study_doc(name))
     doc["solver"].pop("stability", None)
     assert study_from_document(doc, file=name, name="s").solver.stability == expected
 

@@ -18,6 +18,8 @@ from pipeline.model.scene import build_system, sector
 from pipeline.model.system import natural_frequencies
 from pipeline.study.documents import load_study
 
+from helpers import stated
+
 STUDIES = Path(__file__).resolve().parents[1] / "studies"
 TWO_PI = 2 * np.pi
 
@@ -28,13 +30,6 @@ def hz(w):
 
 def text(name):
     return (STUDIES / name).read_text()
-
-
-def stated(name, pattern):
-    """The numbers of the first match of `pattern` in the study's text (as floats)."""
-    m = re.search(pattern, text(name))
-    assert m, f"{name}: {pattern!r} not found"
-    return [float(g) for g in m.groups()]
 
 
 # --------------------------------------------------------------------------- paper examples
@@ -144,7 +139,7 @@ CHECKED = {   # study -> the stated results above (numbers followed by Hz or rad
     "shrouded_disk.toml": {212.9, 300.9, 322.4},
     "shrouded_disk_modes.toml": {212.9, 213.9, 322.4, 877.1},
     "shrouded_disk_mistuned.toml": {271.3},
-    "blade3_stability.toml": {112.0, 121.0, 115.9, 117.5},
+    "blade3_stability.toml": {112.0, 121.0, 115.9, 117.5},   # test_stability_check.py
 }
 
 
@@ -224,25 +219,6 @@ def test_accuracy_cost_blade_meshes_share_the_stuck_flap_mode():
         p = replace(case.scene.structure.params, **dict(zip(("n_chord", "n_thick", "n_span"), counts)))
         sc = replace(case.scene, structure=replace(case.scene.structure, params=p))
         assert stuck_flap_hz(sc, case.preload) == pytest.approx(f, abs=0.05), counts
-
-
-def test_blade3_stability_window():
-    """Hill's method calls every stable orbit of the stated interval unstable; the
-    exact multipliers locate the period-doubling window's ends."""
-    from pipeline.solve import stability_check as sc
-    from pipeline.solve.response import frequency_response
-    from pipeline.paper_systems import blade3
-    lo_hill, hi_hill, lo, hi = stated("blade3_stability.toml",
-                                      r"every stable orbit of ([\d.]+)-([\d.]+) rad/s unstable and "
-                                      r"misses a\n# period-doubling window at ([\d.]+)-([\d.]+) rad/s")
-    c = frequency_response(blade3(), 10, lo_hill, hi_hill, stability="hill+check",
-                           dense_output=False)
-    kinds = dict(zip(c.bifurcation_parameter, c.bifurcation_kind))
-    assert list(kinds.values()) == [sc.PERIOD_DOUBLING] * 2
-    np.testing.assert_allclose(sorted(kinds), [lo, hi], atol=0.05)
-    stable = c.converged & c.stable
-    assert stable.sum() >= 10 and (c.hill_multiplier[stable] > 1).all()
-    assert c.omega[stable].min() == lo_hill and c.omega[stable].max() == hi_hill
 
 
 def test_shrouded_disk_mistuned_quick_window_holds_the_tuned_peak():

@@ -1,7 +1,6 @@
 """Input guards of study files: what `[solver] stability = true` selects per scene kind,
 the plausibility of FE disk dimensions, the size of the model `--quick` builds."""
 import copy
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -10,11 +9,9 @@ import pytest
 from pipeline.study.documents import load_study, study_from_document
 from pipeline.study.run import run_study
 
+from helpers import study_doc
+
 STUDIES = Path(__file__).resolve().parent.parent / "studies"
-
-
-def _doc(name):
-    return tomllib.loads((STUDIES / name).read_text())
 
 
 # ---------------------------------------------------------------------------
@@ -23,7 +20,7 @@ def _doc(name):
 
 def _small_example1(stability):
     """Example 1 at n0 = 2 N (stick-slip), H = 3, through its resonance."""
-    doc = _doc("paper_example1.toml")
+    doc = study_doc("paper_example1.toml")
     doc["sweep"] = {"preload": [2.0],
                     "frequency": {"start": 185.0, "stop": 200.0, "unit": "rad/s"}}
     doc["solver"] = {"harmonics": 3, "tolerance": 1e-9}
@@ -53,13 +50,13 @@ def test_stability_true_is_the_default_of_a_lumped_scene(tmp_path):
 def test_stability_true_per_scene_kind():
     """lumped -> monodromy+check; lumped disk -> hill (its default); FE blade and FE
     disk -> stretch (the fold rule when absent: "stretch" costs minutes a case)."""
-    disk = _doc("disk_cyclic.toml")
+    disk = study_doc("disk_cyclic.toml")
     assert disk["solver"]["stability"] is True
     assert study_from_document(disk, file="d.toml").solver.stability == "hill"
     del disk["solver"]["stability"]
     assert study_from_document(disk, file="d.toml").solver.stability == "hill"
     for name, absent in (("blade_shroud_contact.toml", "folds"), ("shrouded_disk.toml", "folds")):
-        doc = _doc(name)
+        doc = study_doc(name)
         assert study_from_document(copy.deepcopy(doc), file="b.toml",
                                    quick=True).solver.stability == absent
         doc["solver"]["stability"] = True
@@ -204,7 +201,7 @@ def test_quick_builds_only_the_quick_model(name, monkeypatch):
         return reduce_(blade, *a, **k)
     monkeypatch.setattr(blades, "build_blade", counting_build)
     monkeypatch.setattr(reduction, "reduce_blade", counting_reduce)
-    quick_mesh = tuple(_doc(name)["quick"]["scene"]["blade"][k]
+    quick_mesh = tuple(study_doc(name)["quick"]["scene"]["blade"][k]
                        for k in ("n_chord", "n_thick", "n_span"))
     st = load_study(STUDIES / name, quick=True)
     if getattr(st, "kind", "response") == "response":

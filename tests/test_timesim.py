@@ -4,35 +4,28 @@ References: the linear FRF |(K - Om^2 M + i Om C)^-1 F| in the separated / stuck
 limits, the energy balance of a periodic cycle, the friction limit at detected events,
 and the paper's Examples 1 and 3 (Sec. 6.1, 6.3).
 """
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from pipeline.solve import timesim as ts
 from pipeline.solve.piecewise import NS, PS, SEP, STICK
 from pipeline.contact import YangMenq
+from pipeline import paper_systems
 from pipeline.model.system import System
 
 
 def example1(n0=1.0, mu=0.5, ku=1e4):
-    """Paper Example 1: Jenkins sdof, m=1, c=0.3, k=3.55e4, F0=1 N (kv = 0)."""
-    F = np.zeros((1, 2), complex)
-    F[0, 1] = 1.0
-    return System(M=np.eye(1), C=np.array([[0.3]]), K=np.array([[3.55e4]]),
-                  Bt=np.array([[1.0]]), Bn=np.array([[0.0]]),
-                  contact=YangMenq(ku=ku, kv=0.0, mu=mu, n0=n0), forcing=F)
+    """Paper Example 1 (Jenkins sdof, m=1, c=0.3, k=3.55e4, F0=1 N, kv = 0) with its
+    friction coefficient and tangential stiffness free."""
+    return replace(paper_systems.example1(n0), contact=YangMenq(ku=ku, kv=0.0, mu=mu, n0=n0))
 
 
 def example3(n0, kv=1.0, mu=0.4):
-    """Paper Example 3: two DOFs (u, v) from modal data, Yang-Menq with ku = kv = 1."""
-    Phi = np.array([[0.707, 1.0], [0.707, -0.5]])
-    Pi = np.linalg.inv(Phi)
-    om, zeta = np.array([1.0, 10.0]), 0.01
-    F = np.zeros((2, 2), complex)
-    F[:, 1] = 1.0
-    return System(M=Pi.T @ Pi, C=Pi.T @ np.diag(2 * zeta * om) @ Pi,
-                  K=Pi.T @ np.diag(om ** 2) @ Pi, Bt=np.array([[1.0, 0.0]]),
-                  Bn=np.array([[0.0, 1.0]]), contact=YangMenq(ku=1.0, kv=kv, mu=mu, n0=n0),
-                  forcing=F)
+    """Paper Example 3 (two DOFs (u, v) from modal data, ku = 1) with its normal
+    stiffness and friction coefficient free."""
+    return replace(paper_systems.example3(n0), contact=YangMenq(ku=1.0, kv=kv, mu=mu, n0=n0))
 
 
 def frf(system, Om, K_add=0.0):
