@@ -147,14 +147,15 @@ def contact_stiffness(prob: hbm.HBMProblem, Qc, contact, h: int) -> np.ndarray:
     """Complex tangent stiffness Z_h (nc, nc) of the contacts at harmonic h [N/m]."""
     nc = prob.c.size
     Z = np.zeros((nc, nc), complex)
-    if prob.idx.shape[0] == 0:
+    if prob.slot_index.shape[0] == 0:
         return Z
     _, Je, _ = hbm.contact_terms(prob, Qc, contact, jacobian=True, blocks=True)
     a, b = 2 * h - 1, 2 * h
     z = 0.5 * (Je[..., a, a] + Je[..., b, b]) + 0.5j * (Je[..., a, b] - Je[..., b, a])
-    E, m = prob.idx.shape
-    ia = np.broadcast_to(prob.idx[:, :, None], (E, m, m))
-    ib = np.broadcast_to(prob.idx[:, None, :], (E, m, m))
+    idx = prob.slot_index
+    E, m = idx.shape
+    ia = np.broadcast_to(idx[:, :, None], (E, m, m))
+    ib = np.broadcast_to(idx[:, None, :], (E, m, m))
     np.add.at(Z, (ia, ib), z)
     return Z
 
