@@ -2,16 +2,19 @@
 
 Each entry names a law class; a class that a lumped study file can place declares
 `effect` (the scene effect that switches it on, `[scene] effects`), `study_table`
-(its array of tables, `[[scene.<study_table>]]`) and `study_keys` (key -> (unit,
-default or None when required, lower bound, strict)), and builds itself from those
-values with `from_study`.  The Yang-Menq element has its own `[[scene.contact]]`.
+(its array of tables, `[[scene.<study_table>]]`), `study_rows` (one key per
+direction: a signed DOF list, its row of the map) and `study_keys` (key -> (unit,
+default or None when required)), and builds one element from those values with
+`from_study`.  The Yang-Menq element has its own `[[scene.contact]]`.
 """
 from __future__ import annotations
 
+from .cubic_spring import CubicSpring
 from .laws import YangMenqLaw
 
 LAWS = {
     YangMenqLaw.name: YangMenqLaw,
+    CubicSpring.name: CubicSpring,
 }
 
 

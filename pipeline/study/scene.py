@@ -26,11 +26,13 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..contact.registry import study_laws
 from ..model.contacts import DofContact
 from ..model.loads import Forcing
 from ..model.scene import Cyclic, Lumped, Scene, Single, Spring
 from . import disk_scene
 from .checker import Checker, join_field, kind_of
+from .law_scene import law_tables
 from .rules import check_optimum_axes, check_scene_rules
 from .spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
                    MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, STABILITY_WHEN_TRUE, SWEEP_AXES,
@@ -209,7 +211,7 @@ def parse_scene(ck, tab, loaded: bool = True) -> Scene:
     """The `Scene` of a lumped or disk [scene] table (a `Lumped` structure, single or
     `Cyclic`); failures through ck.  loaded=False (modes): the excitation is optional."""
     ck.keys(tab, "scene", ("model", "effects", "dofs", "matrices", "modal", "contact",
-                           "excitation", "disk"), required=("model",))
+                           "excitation", "disk") + tuple(study_laws()), required=("model",))
     model = ck.string(tab["model"], "scene.model", MODELS)
     if model not in IMPLEMENTED_MODELS:
         ck.fail("scene.model", f"{model!r} is not implemented yet (available: "
@@ -261,8 +263,11 @@ def parse_scene(ck, tab, loaded: bool = True) -> Scene:
                else np.zeros((n, 2), complex))
     assembly = (Cyclic(sectors=sectors, engine_order=engine_order, mistuning=mistuning,
                        springs=springs) if disk else Single())
+    laws = law_tables(ck, tab, dofs, effects, disk, _signed_row)
     return Scene(structure=Lumped(M=M, C=C, K=K, dofs=dofs), contacts=contacts,
-                 loads=(Forcing(forcing),), assembly=assembly, effects=effects, model=model)
+                 loads=(Forcing(forcing),), assembly=assembly, effects=effects, model=model,
+                 laws=laws)
+
 
 
 def _matrices(ck, t, n):

@@ -1,0 +1,56 @@
+"""Study-file keys of the contact laws besides Yang-Menq (`contact.registry`).
+
+A lumped scene places the elements of a registered law with an array of tables
+named by the law (`study_table`), e.g. a cubic spring between two DOFs
+
+    [scene]
+    effects = ["cubic_stiffness"]
+    [[scene.spring]]
+    dofs = ["x1", "-x2"]     # stretch u = x1 - x2 (one DOF: against ground)
+    k3 = 1.0e9               # [N/m^3]
+    k1 = 0.0                 # [N/m], optional
+
+and declares the law's effect in `[scene] effects` exactly when it has some.
+"""
+from __future__ import annotations
+
+from ..contact.laws import LawElements
+from ..contact.registry import study_laws
+from .spec import NAME_PATTERN
+
+
+def law_tables(ck, tab, dofs, effects, disk, signed_row) -> tuple:
+    """`[[scene.<table>]]` of every registered contact law besides Yang-Menq
+    (`contact.registry`): per element a name, one signed DOF list per direction
+    (`study_rows`) and the law's numbers (`study_keys`), as `LawElements` with one
+    element each (`signed_row(ck, value, field, dofs, required)` reads a DOF list as
+    the lumped parser does).  A scene has such elements exactly when it declares the
+    law's effect."""
+    out = []
+    for table, cls in study_laws().items():
+        f = f"scene.{table}"
+        raw = tab.get(table, [])
+        if isinstance(raw, dict):
+            ck.fail(f, f"must be an array of tables: write [[scene.{table}]]")
+        items = ck.array(raw, f, min_length=0)
+        if items and disk:
+            ck.fail(f, f"a {cls.name} acts on one structure: not in a disk scene")
+        if bool(items) != (cls.effect in effects):
+            ck.fail("scene.effects", f"declare \"{cls.effect}\" exactly when the scene has "
+                                     f"[[scene.{table}]]")
+        for i, c in enumerate(items):
+            fi = f"{f}[{i}]"
+            c = ck.table(c, fi)
+            keys = tuple(cls.study_rows) + tuple(cls.study_keys)
+            needed = tuple(cls.study_rows) + tuple(k for k, (_, d) in cls.study_keys.items()
+                                                   if d is None)
+            ck.keys(c, fi, ("name",) + keys, required=needed)
+            ck.string(c.get("name", f"{table}{i}"), f"{fi}.name", pattern=NAME_PATTERN)
+            rows = tuple(signed_row(ck, c[r], f"{fi}.{r}", dofs, True)[None, :]
+                         for r in cls.study_rows)
+            values = {k: ck.number(c.get(k, d), f"{fi}.{k}") for k, (_, d) in cls.study_keys.items()}
+            try:
+                out.append(LawElements(cls.from_study(values), rows))
+            except ValueError as exc:
+                ck.fail(fi, str(exc))
+    return tuple(out)
