@@ -133,3 +133,9 @@ def require(law, solver: str) -> None:
     if solver not in law.supports:
         raise ValueError(f"the contact law {law.name!r} is not supported by {solver} "
                          f"(it supports {', '.join(s for s in SOLVERS if s in law.supports)})")
+
+
+def require_all(laws, solver: str) -> None:
+    """`require` for the law of every `LawElements` in `laws` (a `System.laws`)."""
+    for le in laws:
+        require(le.law, solver)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from ..contact.laws import LawElements
 from ..contact.registry import study_laws
+from ..solve.stability_modes import require_mode
 from .spec import NAME_PATTERN
 
 
@@ -54,3 +55,21 @@ def law_tables(ck, tab, dofs, effects, disk, signed_row) -> tuple:
             except ValueError as exc:
                 ck.fail(fi, str(exc))
     return tuple(out)
+
+
+def supported(laws, stability) -> bool:
+    """Every law of `laws` (`LawElements`) can be run by the solvers of `stability`."""
+    try:
+        require_mode(laws, stability)
+    except ValueError:
+        return False
+    return True
+
+
+def check_law_solvers(ck, laws, stability, field) -> None:
+    """Fail at `field` when a solver the stability mode needs cannot evaluate one of
+    the scene's laws (`stability_modes.MODE_SOLVERS`; Hill's method serves every law)."""
+    try:
+        require_mode(laws, stability)
+    except ValueError as exc:
+        ck.fail(field, f"{exc}; give stability = \"hill\" or false")
