@@ -243,3 +243,27 @@ def test_study_keys_are_checked(edit, field):
 
     with pytest.raises(UsageError, match=re.escape(f"duffing.toml: {field}: ")):
         parse_study(STUDY.replace(*edit), file="duffing.toml", name="duffing")
+
+
+def test_event_driven_solvers_name_the_law_they_cannot_run():
+    from pipeline.solve.floquet import from_hbm
+    from pipeline.solve.orbit_floquet import along_orbit
+    from pipeline.solve.timesim import simulate
+
+    sysm = duffing()
+    Q = np.zeros((1, 3))
+    with pytest.raises(ValueError, match="'cubic_spring' is not supported by timesim"):
+        simulate(sysm, 1.0, 10.0)
+    with pytest.raises(ValueError, match="'cubic_spring' is not supported by shooting"):
+        from_hbm(sysm, 1.0, Q)
+    with pytest.raises(ValueError, match="'cubic_spring' is not supported by orbit_floquet"):
+        along_orbit(sysm, 1.0, Q)
+    with pytest.raises(ValueError, match="stability 'monodromy': .*'cubic_spring'"):
+        frequency_response(sysm, 1, 0.5, 0.6, stability="monodromy")
+
+
+def test_default_stability_of_a_spring_study_is_hill():
+    from pipeline.study.documents import parse_study
+
+    text = STUDY.replace("stability = \"hill\"\n", "")
+    assert parse_study(text, file="duffing.toml", name="duffing").solver.stability == "hill"
