@@ -13,6 +13,15 @@ N = 3 (2H + 1) = 6H + 3 samples the coefficients F_k = W f and the Jacobian
 dF_k/dU_j = W diag(df/du) S are therefore those of the exact harmonic
 convolution (up to round-off), for either evaluation method.
 
+Lumped study file (`study.law_scene`):
+
+    [scene]
+    effects = ["cubic_stiffness"]
+    [[scene.spring]]
+    dofs = ["x1", "-x2"]     # stretch u = x1 - x2 (one DOF: against ground)
+    k3 = 1.0e9               # [N/m^3]
+    k1 = 0.0                 # [N/m], optional
+
 Solvers: the harmonic balance and Hill's method (any law with a Jacobian).  The
 event-driven time integration, shooting and the orbit monodromy are built on the
 Yang-Menq element's events and do not evaluate this law.

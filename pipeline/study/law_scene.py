@@ -1,16 +1,10 @@
 """Study-file keys of the contact laws besides Yang-Menq (`contact.registry`).
 
 A lumped scene places the elements of a registered law with an array of tables
-named by the law (`study_table`), e.g. a cubic spring between two DOFs
-
-    [scene]
-    effects = ["cubic_stiffness"]
-    [[scene.spring]]
-    dofs = ["x1", "-x2"]     # stretch u = x1 - x2 (one DOF: against ground)
-    k3 = 1.0e9               # [N/m^3]
-    k1 = 0.0                 # [N/m], optional
-
-and declares the law's effect in `[scene] effects` exactly when it has some.
+named by the law (`study_table`): per element an optional name, one signed DOF list
+per direction (`study_rows`, e.g. `dofs = ["x1", "-x2"]`: u = x1 - x2; one DOF:
+against ground) and the law's numbers (`study_keys`); it declares the law's effect
+in `[scene] effects` exactly when it has some.  The law's module documents its keys.
 """
 from __future__ import annotations
 
