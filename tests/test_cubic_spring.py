@@ -7,6 +7,7 @@ backbone), against time integration (H = 7), the law's Jacobian against finite
 differences, and a lumped study with a `[[scene.spring]]` run end to end.
 """
 import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -281,3 +282,34 @@ def test_default_stability_of_a_spring_study_is_hill():
 
     text = STUDY.replace("stability = \"hill\"\n", "")
     assert parse_study(text, file="duffing.toml", name="duffing").solver.stability == "hill"
+
+
+@pytest.mark.parametrize("method", ["exact", "aft"])
+def test_residual_jacobian_with_both_laws(method):
+    """A Yang-Menq contact (x2 against ground, with a normal DOF x3) and a cubic spring
+    between x1 and x2 in one residual: its Jacobian (the laws' blocks in one padded
+    layout) against central differences, and the spring's force as B^T f."""
+    elem = YangMenq(ku=[2.0], kv=[1.0], mu=[0.3], n0=[0.5])
+    law = CubicSpring(k3=[0.8], k1=[0.2])
+    K = np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, 0.0], [0.0, 0.0, 1.0]])
+    sysm = System(M=np.eye(3), C=0.02 * np.eye(3), K=K, Bt=np.array([[0.0, 1.0, 0.0]]),
+                  Bn=np.array([[0.0, 0.0, 1.0]]), contact=elem,
+                  forcing=np.array([[0, 0.3], [0, 0], [0, 0.1]], complex),
+                  laws=(LawElements(law, (np.array([[1.0, -1.0, 0.0]]),)),))
+    prob = hbm.setup(sysm, 3, method, 64)
+    assert prob.slot_index.shape == (2, 2) and list(prob.c) == [0, 1, 2]
+    rng = np.random.default_rng(7)
+    x = rng.normal(size=prob.size) * 0.4
+    R, J, _ = hbm.residual(prob, x, 1.3)
+    h = 1e-7
+    fd = np.column_stack([(hbm.residual(prob, x + h * e, 1.3, jacobian=False)[0]
+                           - hbm.residual(prob, x - h * e, 1.3, jacobian=False)[0]) / (2 * h)
+                          for e in np.eye(prob.size)])
+    assert np.abs(J - fd).max() < 1e-5 * np.abs(J).max()
+    Q = x.reshape(3, -1)
+    f = law.evaluate((Q[0] - Q[1])[None, None], jacobian=False).F[0, 0]
+    G = hbm.contact_terms(prob, Q, jacobian=False)[0]
+    only_contact = hbm.setup(replace(sysm, laws=()), 3, method, 64)   # c = x2, x3
+    G_ym = np.zeros_like(G)
+    G_ym[1:] = hbm.contact_terms(only_contact, Q[1:], jacobian=False)[0]
+    assert np.allclose(G - G_ym, np.stack([f, -f, 0 * f]), rtol=0, atol=1e-14)
