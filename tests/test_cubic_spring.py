@@ -243,7 +243,14 @@ def test_study_with_a_cubic_spring_runs(tmp_path):
     assert law.law.name == "cubic_spring" and np.array_equal(law.B, [[[1.0, -1.0]]])
     run_study(study, tmp_path, figures=False, progress=False, checkpoints=False)
     ds = xr.open_dataset(tmp_path / "duffing.nc")
-    assert ds["amplitude"].size > 0 and np.isfinite(ds["amplitude"].values).any()
+    assert ds.attrs["effects"] == "cubic_stiffness"
+    assert ds.attrs["solution_method"].startswith("harmonic balance")
+    assert "cubic_spring" in ds.attrs["solution_method"]
+    # the spring stretches in the second mode only (sqrt(3) rad/s, x1 = -x2), which it
+    # hardens: folds above that frequency
+    folds = ds["fold_frequency"].values
+    folds = folds[np.isfinite(folds)]
+    assert folds.size >= 2 and np.all(folds > np.sqrt(3.0))
 
 
 @pytest.mark.parametrize("edit, field", [

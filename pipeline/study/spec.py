@@ -176,8 +176,10 @@ class Study(StudyHeader):
 
 
 def is_linear_scene(scene) -> bool:
-    """A scene without friction and separation has no nonlinear force to solve for."""
-    return not ({"friction", "separation"} & set(getattr(scene, "effects", ()) or ()))
+    """A scene without friction, separation and the effect of any further contact law
+    (`contact.registry`) has no nonlinear force to solve for."""
+    nonlinear = {"friction", "separation"} | set(law_effects())
+    return not (nonlinear & set(getattr(scene, "effects", ()) or ()))
 
 
 @dataclass
