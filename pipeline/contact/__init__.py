@@ -9,10 +9,8 @@ YangMenq, forces` is the one import a caller needs.
 """
 from __future__ import annotations
 
-from .aft import aft_forces
 from .element import (NSLIP, PSLIP, SEP, STATE_NAMES, STICK, ContactForces, YangMenq,
                       check_coefficients)
-from .exact import exact_forces
 from .laws import yang_menq_forces
 
 __all__ = ["NSLIP", "PSLIP", "SEP", "STATE_NAMES", "STICK", "ContactForces", "YangMenq",
@@ -24,7 +22,7 @@ def forces(U, V, elem: YangMenq, method: str = "exact", n_samples: int = 1024,
     """Fourier coefficients of f_u, f_v (Eq. 9-11) for motions U, V (E, 2H+1).
 
     method "exact": transition times as roots of trigonometric polynomials and
-    closed-form Fourier integrals of each state's force piece (`exact_forces`);
-    "aft": alternating frequency-time with `n_samples` samples (`aft_forces`).
+    closed-form Fourier integrals of each state's force piece (`exact.exact_forces`);
+    "aft": alternating frequency-time with `n_samples` samples (`aft.aft_forces`).
     """
     return yang_menq_forces(U, V, elem, method, n_samples, jacobian)
