@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import pipeline.contact.laws as laws
 import pipeline.solve.hbm as hbm
 from pipeline.contact import YangMenq, forces
 from pipeline.solve.response import frequency_response
@@ -39,9 +40,10 @@ def counted(monkeypatch):
             return f
         return counted_call
 
-    # the HBM calls the exact forces directly, `forces` for AFT
-    monkeypatch.setattr(hbm, "forces", counting(hbm.forces))
-    monkeypatch.setattr(hbm, "exact_forces", counting(hbm.exact_forces))
+    # the HBM evaluates the Yang-Menq law (`contact.laws`): the exact forces directly,
+    # `yang_menq_forces` for AFT
+    monkeypatch.setattr(laws, "yang_menq_forces", counting(laws.yang_menq_forces))
+    monkeypatch.setattr(laws, "exact_forces", counting(laws.exact_forces))
     return seen
 
 
@@ -113,7 +115,8 @@ def test_linear_scene_is_solved_directly_without_newton(tmp_path, monkeypatch):
         raise AssertionError("a linear scene must not run Newton, continuation or the HBM")
 
     for mod, name in ((nwt, "newton"), (cont, "continue_branch"), (hbm, "residual"),
-                      (hbm, "forces"), (resp, "frequency_response")):
+                      (laws, "yang_menq_forces"), (laws, "exact_forces"),
+                      (resp, "frequency_response")):
         monkeypatch.setattr(mod, name, forbidden)
     study = parse_study(LINEAR, file="linear.toml")
     assert default_solver(study).__module__ == "pipeline.solve.linear_response"

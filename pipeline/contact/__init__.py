@@ -3,15 +3,15 @@ element (`contact.element` describes the element, its states and the layout).
 
 Layered one way: `contact.element` (the element as data, its states, the result type)
 <- `contact.exact`, `contact.aft` (the two force evaluations) <- this module, which
-dispatches between them and re-exports the element, so `from pipeline.contact import
+dispatches between them (`contact.laws.yang_menq_forces`, the Yang-Menq law of the
+contact-law interface) and re-exports the element, so `from pipeline.contact import
 YangMenq, forces` is the one import a caller needs.
 """
 from __future__ import annotations
 
-from .aft import aft_forces
 from .element import (NSLIP, PSLIP, SEP, STATE_NAMES, STICK, ContactForces, YangMenq,
                       check_coefficients)
-from .exact import exact_forces
+from .laws import yang_menq_forces
 
 __all__ = ["NSLIP", "PSLIP", "SEP", "STATE_NAMES", "STICK", "ContactForces", "YangMenq",
            "check_coefficients", "forces"]
@@ -22,16 +22,7 @@ def forces(U, V, elem: YangMenq, method: str = "exact", n_samples: int = 1024,
     """Fourier coefficients of f_u, f_v (Eq. 9-11) for motions U, V (E, 2H+1).
 
     method "exact": transition times as roots of trigonometric polynomials and
-    closed-form Fourier integrals of each state's force piece (`exact_forces`);
-    "aft": alternating frequency-time with `n_samples` samples (`aft_forces`).
+    closed-form Fourier integrals of each state's force piece (`exact.exact_forces`);
+    "aft": alternating frequency-time with `n_samples` samples (`aft.aft_forces`).
     """
-    E = elem.size
-    U = check_coefficients("U", U, E)
-    V = check_coefficients("V", V, E)
-    if U.shape != V.shape:
-        raise ValueError(f"U and V must have the same shape, got {U.shape} and {V.shape}")
-    if method == "exact":
-        return exact_forces(U, V, elem, jacobian)
-    if method == "aft":
-        return aft_forces(U, V, elem, int(n_samples), jacobian)
-    raise ValueError(f"method must be 'exact' or 'aft', got {method!r}")
+    return yang_menq_forces(U, V, elem, method, n_samples, jacobian)

@@ -138,8 +138,12 @@ class Scene:
     reduction: CraigBampton | None = None
     effects: tuple = ()
     model: str = ""
+    laws: tuple = ()         # `contact.laws.LawElements` of further laws over `dofs`
 
     def __post_init__(self):
+        if self.laws and (self.cyclic or not isinstance(self.structure, Lumped)):
+            raise ValueError("contact laws other than Yang-Menq act on a single lumped "
+                             "structure (not on a cyclic assembly or an FE blade)")
         disk = getattr(self.structure, "disk", None)
         if disk is not None and self.cyclic and self.assembly.sectors != disk.sectors:
             raise ValueError(f"assembly.sectors ({self.assembly.sectors}) must equal the blade's "
@@ -439,7 +443,7 @@ def build_system(scene: Scene, case: dict | None = None, reduced: bool = True) -
     if not scene.cyclic:
         p = scene_parts(scene, case, reduced)
         return System(M=p.M, C=p.C, K=p.K, Bt=p.Bt, Bn=p.Bn, contact=p.contact,
-                      forcing=p.forcing, dof_names=p.dofs)
+                      forcing=p.forcing, dof_names=p.dofs, laws=scene.laws)
     if scene.mistuning is None:
         return cyclic.sector_system(sector(scene, case), engine_order(scene, case))
     return replace(full_system(scene, case), dof_names=scene.dofs)

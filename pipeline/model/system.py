@@ -70,7 +70,11 @@ class CyclicCoupling:
 
 @dataclass(frozen=True)
 class System:
-    """Linear structure + Yang-Menq elements + harmonic excitation (SI units)."""
+    """Linear structure + Yang-Menq elements + harmonic excitation (SI units).
+
+    `laws`: elements of further contact laws (`contact.laws.LawElements`, each with its
+    own map from the DOFs); their forces add B^T f to the equations of motion.
+    """
 
     M: np.ndarray            # (n, n) mass [kg]
     C: np.ndarray            # (n, n) viscous damping [N s/m]
@@ -83,6 +87,7 @@ class System:
     forcing: np.ndarray      # (n, Hf+1) complex harmonic load amplitudes [N]
     dof_names: tuple = field(default=())
     cyclic: CyclicCoupling | None = None   # None: an ordinary (non-cyclic) structure
+    laws: tuple = ()         # further `contact.laws.LawElements` (other contact laws)
 
     @property
     def n_dof(self) -> int:

@@ -53,6 +53,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.linalg import expm
 
+from ..contact.laws import require_all
 from ..model.system import System
 from .events import integrate
 from .piecewise import NS, PS, SEP, STICK, PiecewiseModel
@@ -281,6 +282,7 @@ def classify(multipliers, tol: float = 1e-6):
 def _check(system, Omega, x0, w0, states0):
     if not isinstance(system, System):
         raise ValueError(f"system must be a pipeline.model.system.System, got {type(system).__name__}")
+    require_all(system.laws, "shooting")
     if system.cyclic is not None:
         raise ValueError("system is a cyclic sector (System.cyclic): use its N-sector assembly")
     if not (np.isfinite(Omega) and Omega > 0):
@@ -407,6 +409,7 @@ def from_hbm(system: System, Omega: float, Q, tol: float = 1e-6, shooting_tol: f
     (`timesim.steady_state`, Newton first, unstable orbits accepted) converges the
     orbit, whose multipliers are returned.  If it does not converge, the multipliers
     of the HBM-started period are returned, with orbit_converged False."""
+    require_all(system.laws, "shooting")
     q0, qd0, w0 = hbm_initial_state(system, Omega, Q)
     ss = steady_state(system, Omega, q0=q0, qd0=qd0, w0=w0, tol=shooting_tol,
                       transient_periods=0, newton_max=newton_max, periods_max=periods_max,

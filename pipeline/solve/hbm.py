@@ -41,17 +41,19 @@ The operators of all DOFs (no condensation, for Hill's method) are in `full_oper
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..contact import YangMenq, forces
-from ..contact.exact import exact_forces
+from ..contact import YangMenq
+from ..contact.laws import YangMenqLaw
 from ..fourier.harmonics import (complex_harmonics, derivative_matrix, real_blocks, real_vector,
                                  shift_tables, turn)
 from ..fourier.harmonics import shift as time_shift
 from ..model.system import System, element_rows
 from . import dynamic_stiffness as dyn
+from .law_terms import (LawSlots, assemble, combine, element_jacobian, law_columns, law_slots,
+                        motion, pair_weights, projected, slot_index)
 from .parts import jacobian_pattern, linear_values, pattern_matrix
 
 
@@ -75,6 +77,8 @@ class HBMProblem:
     rot: np.ndarray | None = None     # (2, E, m, 2H+1) cos, sin of h theta in the layout
     nxt: np.ndarray | None = None     # (E, m) bool: the slot is a DOF of the next sector
     pattern: object = None            # parts.JacobianPattern: the Jacobian is built sparse
+    laws: tuple = ()                  # law_terms.LawSlots of `System.laws`
+    slots: np.ndarray | None = None   # slot index of all laws (`law_terms.slot_index`)
 
     @property
     def parts(self):
@@ -88,6 +92,12 @@ class HBMProblem:
     @property
     def size(self):
         return self.c.size * self.nh
+
+    @property
+    def slot_index(self) -> np.ndarray:
+        """(E, m) positions in c of the slots of the Jacobian blocks `contact_terms`
+        returns: the Yang-Menq elements', then those of `System.laws` (padded)."""
+        return self.idx if self.slots is None else self.slots
 
 
 def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
@@ -104,7 +114,10 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
     cy = system.cyclic
     if cy is not None:  # slots on the next sector's DOFs, shifted by phi
         maps.append((element_rows(cy.Bt_next, cy.Bn_next), cy.phase, True))
-    cols = [r for rows, *_ in maps for r, *_ in rows]
+    cols = [r for rows, *_ in maps for r, *_ in rows] + [law_columns(le) for le in system.laws]
+    if system.laws and cy is not None:
+        raise ValueError("contact laws other than Yang-Menq act on one structure, "
+                         "not on a cyclic sector")
     c = np.unique(np.concatenate(cols)).astype(int) if cols else np.zeros(0, int)
     o = np.setdiff1d(np.arange(n), c)
     m = max([sum(rows[e][0].size for rows, *_ in maps) for e in range(E)] + [1])
@@ -126,7 +139,13 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
     common = (system, int(H), method, int(n_samples), c, o, idx, bt, bn, P, linear,
               slot_weights(bt, bn))
     if cy is None:
-        return HBMProblem(*common, pattern=pattern)
+        laws = tuple(law_slots(le, c) for le in system.laws)
+        own = LawSlots(None, idx, (bt, bn), np.zeros(0))
+        slots = slot_index((own,) + laws) if laws else None
+        if slots is not None and parts is not None:
+            pattern = jacobian_pattern(parts, slots, c.size, 2 * H + 1)
+        prob = HBMProblem(*common, pattern=pattern)
+        return replace(prob, laws=laws, slots=slots) if laws else prob
     return HBMProblem(*common, shift, np.stack(shift_tables(shift, H)), nxt, pattern)
 
 
@@ -159,61 +178,54 @@ def contact_motion(prob: HBMProblem, Qc):
     return np.einsum("em,emk->ek", prob.bt, Qe), np.einsum("em,emk->ek", prob.bn, Qe)
 
 
+def contact_slots(prob: HBMProblem, contact: YangMenq | None = None) -> tuple:
+    """((`law_terms.LawSlots`, rotation or None), ...) of every law of the problem:
+    the Yang-Menq elements `contact` (default the system's) on Bt, Bn, then
+    `System.laws`."""
+    elem = contact if contact is not None else prob.system.contact
+    W = prob.weights if prob.weights is not None else slot_weights(prob.bt, prob.bn)
+    own = LawSlots(YangMenqLaw(elem), prob.idx, (prob.bt, prob.bn), W)
+    return ((own, prob.rot),) + tuple((s, None) for s in prob.laws)
+
+
 def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobian=True,
                   blocks=False):
-    """Generalised contact force Bt^T Fu + Bn^T Fv (nc, nh) and its Jacobian
-    (nc nh, nc nh); with blocks=True the Jacobian is returned per element and slot
-    pair instead, (E, m, m, nh, nh), for `assemble` (see `wave_jacobians`)."""
-    elem = contact if contact is not None else prob.system.contact
+    """Generalised contact force B^T F of every law, Bt^T Fu + Bn^T Fv for Yang-Menq,
+    (nc, nh), and its Jacobian (nc nh, nc nh); with blocks=True the Jacobian is
+    returned per element and slot pair instead, (E, m, m, nh, nh), at
+    `HBMProblem.slot_index`, for `assemble` (see `wave_jacobians`).  The third
+    output is the Yang-Menq `ContactForces` (None without Yang-Menq elements)."""
     nc, nh = prob.c.size, prob.nh
-    if prob.idx.shape[0] == 0:
+    if prob.idx.shape[0] == 0 and not prob.laws:
         return np.zeros((nc, nh)), (np.zeros((nc * nh, nc * nh)) if jacobian else None), None
-    U, V = contact_motion(prob, Qc)
-    if prob.method == "exact" and elem.size == U.shape[0]:   # U, V built here: no re-check
-        f = exact_forces(U, V, elem, jacobian)
-    else:
-        f = forces(U, V, elem, prob.method, prob.n_samples, jacobian)
-    G = np.zeros((nc, nh))
-    contrib = prob.bt[..., None] * f.Fu[:, None, :] + prob.bn[..., None] * f.Fv[:, None, :]
-    if prob.rot is not None:  # back-projection T(theta_a)^T = T(-theta_a)
-        contrib = turn(contrib, prob.rot[0], -prob.rot[1])
-    np.add.at(G, prob.idx, contrib)
+    G, Jes, f = np.zeros((nc, nh)), [], None
+    for slots, rot in contact_slots(prob, contact):
+        if slots.idx.shape[0] == 0:
+            continue
+        out = slots.law.evaluate(motion(slots, Qc, rot, turn), prob.method, prob.n_samples,
+                                 jacobian)
+        f = out.detail if slots.idx is prob.idx else f
+        contrib = projected(slots, out.F)
+        if rot is not None:  # back-projection T(theta_a)^T = T(-theta_a)
+            contrib = turn(contrib, rot[0], -rot[1])
+        np.add.at(G, slots.idx, contrib)
+        if jacobian:
+            Je = element_jacobian(slots, out.J)
+            if rot is not None:  # T(theta_a)^T Je T(theta_b): rows by -theta_a, columns by -theta_b
+                c, s = rot
+                Je = turn(Je, c[:, :, None, :, None], -s[:, :, None, :, None], axis=-2)
+                Je = turn(Je, c[:, None, :, None, :], -s[:, None, :, None, :], axis=-1)
+            Jes.append(Je)
     if not jacobian:
         return G, None, f
-    # per element: d(b_a^T F)/d(Q_b) for element DOF pairs (a, b)
-    # (E, m m, 3) weights bt bt, bt bn, bn bn (`slot_weights`, set up once) times
-    # (E, 3, nh nh) derivatives: one batched product, laid out (e, a, b, k, j) as
-    # `assemble` wants
-    E, m = prob.bt.shape
-    W = prob.weights
-    dF = np.stack([f.dFu_dU, f.dFu_dV, f.dFv_dV], axis=1).reshape(E, 3, nh * nh)
-    Je = (W @ dF).reshape(E, m, m, nh, nh)
-    if prob.rot is not None:  # T(theta_a)^T Je T(theta_b): rows by -theta_a, columns by -theta_b
-        c, s = prob.rot
-        Je = turn(Je, c[:, :, None, :, None], -s[:, :, None, :, None], axis=-2)
-        Je = turn(Je, c[:, None, :, None, :], -s[:, None, :, None, :], axis=-1)
+    Je = combine(Jes) if prob.laws else Jes[0]   # laws: padded as `slot_index`
     return G, (Je if blocks else assemble(prob, Je)), f
 
 
 def slot_weights(bt, bn) -> np.ndarray:
     """(E, m m, 3) weights of the slot pairs (a, b) of each element: bt_a bt_b,
     bt_a bn_b, bn_a bn_b (`contact_terms`)."""
-    E, m = bt.shape
-    return np.stack([bt[:, :, None] * bt[:, None, :], bt[:, :, None] * bn[:, None, :],
-                     bn[:, :, None] * bn[:, None, :]], axis=-1).reshape(E, m * m, 3)
-
-
-def assemble(prob: HBMProblem, Je, out=None):
-    """Contact Jacobian (nc nh, nc nh) from per-element slot-pair blocks Je (E, m, m, nh, nh);
-    added into `out` (nc nh, nc nh, C-contiguous) if given."""
-    nc, nh = prob.c.size, prob.nh
-    J = (np.zeros((nc, nh, nc, nh), dtype=Je.dtype) if out is None
-         else out.reshape(nc, nh, nc, nh))
-    E, m = prob.idx.shape
-    ia = np.broadcast_to(prob.idx[:, :, None], (E, m, m))
-    ib = np.broadcast_to(prob.idx[:, None, :], (E, m, m))
-    np.add.at(J, (ia, slice(None), ib), Je)
-    return J.reshape(nc * nh, nc * nh)
+    return pair_weights((bt, bn), YangMenqLaw.pairs)
 
 
 # --------------------------------------------------------------------------
@@ -263,8 +275,6 @@ def full_residual(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
     R = np.asarray(lin) - prob.P
     R[prob.c] += G
     return R
-
-
 
 
 def force_scale(prob: HBMProblem, contact: YangMenq | None = None) -> float:

@@ -31,6 +31,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from ..contact.exact import periodic_segments
+from ..contact.laws import require_all
 from ..model.system import System, dense
 from .floquet import FloquetResult, cached_flow, classify, reduction, switch_saltation
 from .piecewise import SEP, STICK, PiecewiseModel
@@ -90,6 +91,7 @@ def along_orbit(system: System, Omega: float, Q, tol: float = 1e-6,
     max_work: None is also returned where (events + 1) (2n + E)^3 exceeds it (the
     matrix exponentials' work, which dominates)."""
     tic = time.perf_counter()
+    require_all(system.laws, "orbit_floquet")
     Q = np.asarray(Q, float)
     if Q.ndim != 2 or Q.shape[0] != system.n_dof or Q.shape[1] % 2 != 1:
         raise ValueError(f"Q must have shape ({system.n_dof}, 2H+1), got {Q.shape}")

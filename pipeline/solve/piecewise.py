@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contact.laws import require_all
 from ..model.system import System, dense
 from .dynamic_stiffness import at_harmonic
 
@@ -150,6 +151,7 @@ class PiecewiseModel:
     """System matrices, element parameters and a cache of `_Mode`s for one Omega."""
 
     def __init__(self, system: System, Om: float):
+        require_all(system.laws, "timesim")   # the flow has the Yang-Menq element's events only
         # dense: the closed-form pieces need eigenvectors of the whole state matrix
         self.M, self.C, self.K = dense(system.M), dense(system.C), dense(system.K)
         self.Bt = np.atleast_2d(dense(system.Bt))

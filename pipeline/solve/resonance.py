@@ -30,6 +30,12 @@ wide.  The rule holds for any continuation parameter (frequency or preload).
 Only the excited harmonics are counted: they carry the primary resonances, the
 only ones a linear branch has.
 
+Contact laws (`contact.laws`): the count reads every law's tangent stiffness from
+`hbm.contact_terms`, so it holds for any law with a Jacobian.  The bounding linear
+systems are those of the Yang-Menq elements; a further law (`System.laws`, e.g. a
+hardening spring, whose tangent stiffness has no upper limit) also takes zeta_k no
+larger than the damping ratio of the structure linearised at each end of the step.
+
 A structure of independent parts (a full wheel on a rigid disk, `parts`) is
 counted part by part and its few frequencies near h Omega found by a sparse
 shift-invert solve (`part_spectrum`), with no dense matrix of the whole; its
@@ -147,14 +153,15 @@ def contact_stiffness(prob: hbm.HBMProblem, Qc, contact, h: int) -> np.ndarray:
     """Complex tangent stiffness Z_h (nc, nc) of the contacts at harmonic h [N/m]."""
     nc = prob.c.size
     Z = np.zeros((nc, nc), complex)
-    if prob.idx.shape[0] == 0:
+    if prob.slot_index.shape[0] == 0:
         return Z
     _, Je, _ = hbm.contact_terms(prob, Qc, contact, jacobian=True, blocks=True)
     a, b = 2 * h - 1, 2 * h
     z = 0.5 * (Je[..., a, a] + Je[..., b, b]) + 0.5j * (Je[..., a, b] - Je[..., b, a])
-    E, m = prob.idx.shape
-    ia = np.broadcast_to(prob.idx[:, :, None], (E, m, m))
-    ib = np.broadcast_to(prob.idx[:, None, :], (E, m, m))
+    idx = prob.slot_index
+    E, m = idx.shape
+    ia = np.broadcast_to(idx[:, :, None], (E, m, m))
+    ib = np.broadcast_to(idx[:, None, :], (E, m, m))
     np.add.at(Z, (ia, ib), z)
     return Z
 
@@ -177,7 +184,10 @@ def natural_frequencies(rc: ResonanceCount, prob: hbm.HBMProblem, x, contact,
         K = (rc.K if cy is None or cy.K_next is None
              else coupled_stiffness(prob.system, h * cy.phase)).astype(complex)
         K[cc] += 0.5 * (Z + Z.conj().T)
-        out.append(DenseSpectrum(K if np.any(K.imag) else K.real, rc.M, rc.zeta))
+        zeta = rc.zeta
+        if prob.laws:   # no open/stuck limits bound these laws: also this point's damping
+            zeta = np.minimum(zeta, modal_damping(rc.M, dense(prob.system.C), K.real))
+        out.append(DenseSpectrum(K if np.any(K.imag) else K.real, rc.M, zeta))
     return tuple(out)
 
 

@@ -99,7 +99,8 @@ from .stability_modes import (CHECK_MARGIN, FLOQUET, FOLD, FOLD_RULE, HILL, KIND
                               MAX_MONODROMY_DOF, MAX_SHOOTING_SAMPLES, MAX_WHEEL_DOF,
                               MONODROMY, MONODROMY_MARGIN, NEIMARK_SACKER,
                               NOT_COMPUTED, PERIOD_DOUBLING, PROPAGATED, describe,
-                              effective_mode, flow_dof, shooting_samples, stability_mode)
+                              effective_mode, flow_dof, require_mode, shooting_samples,
+                              stability_mode)
 from .stretches import propagate, stretches
 
 log = logging.getLogger(__name__)
@@ -243,6 +244,7 @@ def branch_stability(prob, Q, omega, lam, elem_at, converged, mode, fold_lam=(),
     lam (P,), contact elements elem_at(lam)) in `mode` (`stability_mode`); `fold_lam`
     the detected folds, `amplitude` (P, n) for the peaks (module docstring)."""
     mode = stability_mode(mode)
+    require_mode(prob.system.laws, mode)
     P = omega.size
     pts = _Points(prob, Q, omega, np.asarray(lam, float), elem_at)
     conv = np.flatnonzero(np.asarray(converged, bool))

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contact.laws import require_all
 from ..model.system import dense
 
 MODES = ("hill", "floquet", "hill+check", "monodromy", "monodromy+check", "stretch", "folds")
@@ -18,6 +19,26 @@ MONODROMY_MARGIN = 0.1    # |log max |mu|| of the orbit monodromy below which Fl
 MAX_WHEEL_DOF = 200    # the shooting (Floquet) runs on exact flows of up to this many DOFs
 MAX_MONODROMY_DOF = 400   # ... the orbit monodromy on up to this many (an FE blade's 352)
 MAX_SHOOTING_SAMPLES = 1e5  # ... and whose event search samples a period at most this often
+
+
+# the solvers (`contact.laws.SOLVERS`) each mode may run: a contact law must support
+# all of them (the event-driven flow exists for the Yang-Menq element only)
+MODE_SOLVERS = {"hill": ("hill",), "floquet": ("hill", "shooting", "timesim"),
+                "hill+check": ("hill", "shooting", "timesim"),
+                "monodromy": ("hill", "orbit_floquet"),
+                "monodromy+check": ("hill", "orbit_floquet", "shooting", "timesim"),
+                "stretch": ("hill", "orbit_floquet"), "folds": ("hill", "orbit_floquet")}
+
+
+def require_mode(laws, mode) -> None:
+    """ValueError naming the law when one of `laws` (`System.laws`) cannot be run
+    by a solver the stability `mode` needs."""
+    mode = stability_mode(mode)
+    for solver in MODE_SOLVERS.get(mode, ()):
+        try:
+            require_all(laws, solver)
+        except ValueError as exc:
+            raise ValueError(f"stability {mode!r}: {exc}") from None
 
 
 def stability_mode(value) -> str | None:

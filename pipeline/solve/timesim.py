@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
+from ..contact.laws import require_all
 from ..model.system import System
 from .events import EVENT_DTYPE, integrate
 from .piecewise import NS, PS, PiecewiseModel, graded_steps
@@ -95,6 +96,7 @@ class TimeResult:
 def _check(system, Omega):
     if not isinstance(system, System):
         raise ValueError(f"system must be a pipeline.model.system.System, got {type(system).__name__}")
+    require_all(system.laws, "timesim")
     if system.cyclic is not None:
         raise ValueError("system is a cyclic sector (System.cyclic): integrate its N-sector "
                          "assembly, pipeline.model.cyclic.full_assembly, instead")

@@ -79,10 +79,14 @@ def solution_method(study) -> str:
     if is_linear_scene(study.scene):
         return "direct linear solve per frequency (no contact elements: no Newton, no continuation)"
     eff = set(study.scene.effects)
+    laws = sorted({le.law.name for le in getattr(study.scene, "laws", ())})
+    further = "; further contact laws: " + ", ".join(laws) if laws else ""
+    if laws and "friction" not in eff:
+        return "harmonic balance with pseudo-arclength continuation" + further
     normal = ("variable normal load, " + ("searched for separation" if "separation" in eff else "kept closed (a case that separates fails)") if "normal_load_variation" in eff
               else "constant normal load (Jenkins path: no separation search)")
     return (f"harmonic balance with pseudo-arclength continuation; Yang-Menq contacts: {normal}; "
-            "fully stuck or open elements evaluated as linear springs")
+            "fully stuck or open elements evaluated as linear springs" + further)
 
 
 def provenance(source: str) -> dict:

@@ -26,11 +26,13 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..contact.registry import study_laws
 from ..model.contacts import DofContact
 from ..model.loads import Forcing
 from ..model.scene import Cyclic, Lumped, Scene, Single, Spring
 from . import disk_scene
 from .checker import Checker, join_field, kind_of
+from .law_scene import check_law_solvers, law_tables, supported
 from .rules import check_optimum_axes, check_scene_rules
 from .spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
                    MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, STABILITY_WHEN_TRUE, SWEEP_AXES,
@@ -68,8 +70,8 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     solver = parse_solver(ck, solver_tab, "solver", model=(model := scene_tab.get("model")))
     sweep_axes, freq = parse_sweep(ck, sweep_tab, "sweep")
     scene = parse_scene(ck, scene_tab)
-    if "stability" not in solver_tab and scene.model == "disk":
-        solver = replace(solver, stability="hill")  # one sector's flow is not the wheel's
+    if "stability" not in solver_tab and (scene.model == "disk" or not supported(scene.laws, solver.stability)):
+        solver = replace(solver, stability="hill")  # one sector's flow is not the wheel's, nor has every law events
     output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
     variants = [(False, solver, sweep_axes, freq, "solver", "sweep")]
     if quick:
@@ -209,7 +211,7 @@ def parse_scene(ck, tab, loaded: bool = True) -> Scene:
     """The `Scene` of a lumped or disk [scene] table (a `Lumped` structure, single or
     `Cyclic`); failures through ck.  loaded=False (modes): the excitation is optional."""
     ck.keys(tab, "scene", ("model", "effects", "dofs", "matrices", "modal", "contact",
-                           "excitation", "disk"), required=("model",))
+                           "excitation", "disk") + tuple(study_laws()), required=("model",))
     model = ck.string(tab["model"], "scene.model", MODELS)
     if model not in IMPLEMENTED_MODELS:
         ck.fail("scene.model", f"{model!r} is not implemented yet (available: "
@@ -261,8 +263,11 @@ def parse_scene(ck, tab, loaded: bool = True) -> Scene:
                else np.zeros((n, 2), complex))
     assembly = (Cyclic(sectors=sectors, engine_order=engine_order, mistuning=mistuning,
                        springs=springs) if disk else Single())
+    laws = law_tables(ck, tab, dofs, effects, disk, _signed_row)
     return Scene(structure=Lumped(M=M, C=C, K=K, dofs=dofs), contacts=contacts,
-                 loads=(Forcing(forcing),), assembly=assembly, effects=effects, model=model)
+                 loads=(Forcing(forcing),), assembly=assembly, effects=effects, model=model,
+                 laws=laws)
+
 
 
 def _matrices(ck, t, n):
@@ -474,8 +479,9 @@ def parse_optimum(ck, t, scene):
 
 
 def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
-    """Cross-field rules of a lumped or disk scene (see `check_scene_rules`,
-    `disk_scene.check_disk_rules`)."""
+    """Cross-field rules of a lumped or disk scene (`check_scene_rules`,
+    `disk_scene.check_disk_rules`, `check_law_solvers`)."""
+    check_law_solvers(ck, scene.laws, solver.stability, f"{spath}.stability")
     disk = scene.model == "disk"
     if disk:
         disk_scene.check_disk_rules(ck, scene, axes, wpath, data)

@@ -12,6 +12,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..contact.registry import law_effects
 from ..model.scene import Scene
 from ..model.static_load import case_system
 from ..model.system import System
@@ -20,8 +21,9 @@ from ..solve.stability_modes import MODES as STABILITY_MODES
 
 MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
 IMPLEMENTED_MODELS = ("lumped", "disk")
+# the effects of the contact laws besides Yang-Menq come with their registry entry
 EFFECTS = ("friction", "normal_load_variation", "separation", "cyclic_coupling", "mistuning",
-           "disk_coupling")
+           "disk_coupling") + law_effects()
 # grid axes of [sweep]: name -> (units, long_name)
 SWEEP_AXES = {
     "preload": ("N", "normal preload n0 of every contact"),
@@ -174,8 +176,10 @@ class Study(StudyHeader):
 
 
 def is_linear_scene(scene) -> bool:
-    """A scene without friction and separation has no nonlinear force to solve for."""
-    return not ({"friction", "separation"} & set(getattr(scene, "effects", ()) or ()))
+    """A scene without friction, separation and the effect of any further contact law
+    (`contact.registry`) has no nonlinear force to solve for."""
+    nonlinear = {"friction", "separation"} | set(law_effects())
+    return not (nonlinear & set(getattr(scene, "effects", ()) or ()))
 
 
 @dataclass

@@ -1,0 +1,36 @@
+"""The contact laws by name (`contact.laws` describes the interface a law implements).
+
+Each entry names a law class; a class that a lumped study file can place declares
+`effect` (the scene effect that switches it on, `[scene] effects`), `study_table`
+(its array of tables, `[[scene.<study_table>]]`), `study_rows` (one key per
+direction: a signed DOF list, its row of the map) and `study_keys` (key -> (unit,
+default or None when required)), and builds one element from those values with
+`from_study`.  The Yang-Menq element has its own `[[scene.contact]]`.
+"""
+from __future__ import annotations
+
+from .cubic_spring import CubicSpring
+from .laws import YangMenqLaw
+
+LAWS = {
+    YangMenqLaw.name: YangMenqLaw,
+    CubicSpring.name: CubicSpring,
+}
+
+
+def law_class(name: str):
+    """The law class registered as `name`; ValueError listing the known ones."""
+    try:
+        return LAWS[name]
+    except KeyError:
+        raise ValueError(f"unknown contact law {name!r} (known: {', '.join(LAWS)})") from None
+
+
+def study_laws() -> dict:
+    """{study table name: law class} of the laws a lumped study file can place."""
+    return {c.study_table: c for c in LAWS.values() if getattr(c, "study_table", None)}
+
+
+def law_effects() -> tuple:
+    """The scene effects that declare a registered law."""
+    return tuple(c.effect for c in LAWS.values() if getattr(c, "effect", None))

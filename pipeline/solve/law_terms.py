@@ -1,0 +1,125 @@
+"""The nonlinear force of the harmonic balance, law by law (`contact.laws`).
+
+Every law's elements reach the condensed unknowns Qc (nc, 2H+1) through slots: slot a
+of element e is the contact DOF idx[e, a] with the weight b_d[e, a] in direction d,
+so that (cyclic sectors rotate Q_a by T(theta_a) first, `hbm`)
+
+    X[e, d] = sum_a b_d[e, a] Q_{idx[e, a]},     G_{idx[e, a]} += sum_d b_d[e, a] F[e, d],
+    dG_a/dQ_b = sum_p w_p[e, a, b] J_p[e],   w_p = b_d[e, a] b_d'[e, b], (d, d') = pairs[p],
+
+the back-projection being the transpose of the motion map (action = reaction) and
+the Jacobian exact.  The Yang-Menq contact of a `System` (Bt, Bn) is the first set;
+`System.laws` adds further `LawElements`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+
+@dataclass(frozen=True)
+class LawSlots:
+    """One law's elements on the condensed unknowns: idx (E, m) positions in c,
+    b (D arrays (E, m)) direction weights, weights (E, m m, P) slot-pair weights."""
+
+    law: object
+    idx: np.ndarray
+    b: tuple
+    weights: np.ndarray
+
+
+def pair_weights(b, pairs) -> np.ndarray:
+    """(E, m m, P) weights b_d[e, a] b_d'[e, b] of the slot pairs (a, b) for each
+    direction pair (d, d') of `pairs`."""
+    E, m = b[0].shape
+    return np.stack([b[d][:, :, None] * b[k][:, None, :] for d, k in pairs],
+                    axis=-1).reshape(E, m * m, len(pairs))
+
+
+def direction_rows(maps) -> list:
+    """Per element: (DOF columns where any direction's map is nonzero, ascending;
+    (D, k) values of each map there)."""
+    P = sp.csr_matrix(sum(abs(sp.csr_matrix(B, dtype=float)) for B in maps))
+    P.eliminate_zeros()
+    P.sort_indices()
+    rows = np.repeat(np.arange(P.shape[0]), np.diff(P.indptr))
+    vals = np.stack([np.asarray(sp.csr_matrix(B, dtype=float)[rows, P.indices]).ravel()
+                     for B in maps])
+    return [(P.indices[a:b], vals[:, a:b]) for a, b in zip(P.indptr[:-1], P.indptr[1:])]
+
+
+def law_columns(elements) -> np.ndarray:
+    """DOFs touched by the elements of one `LawElements`."""
+    rows = direction_rows(elements.maps)
+    return np.concatenate([r for r, _ in rows]) if rows else np.zeros(0, int)
+
+
+def law_slots(elements, c) -> LawSlots:
+    """`LawSlots` of one `LawElements` on the contact DOFs c (ascending)."""
+    rows = direction_rows(elements.maps)
+    D, E = len(elements.maps), len(rows)
+    m = max([r.size for r, _ in rows] + [1])
+    idx = np.zeros((E, m), int)
+    b = np.zeros((D, E, m))
+    for e, (r, v) in enumerate(rows):
+        idx[e, :r.size] = np.searchsorted(c, r)
+        b[:, e, :r.size] = v
+    b = tuple(np.ascontiguousarray(x) for x in b)
+    return LawSlots(elements.law, idx, b, pair_weights(b, elements.law.pairs))
+
+
+def slot_index(slots) -> np.ndarray:
+    """(E_all, m_all) positions in c of the element slots of all laws, padded with
+    slot 0 (zero weight): the layout of the Jacobian blocks of `combine`."""
+    m = max(s.idx.shape[1] for s in slots)
+    return np.concatenate([np.pad(s.idx, ((0, 0), (0, m - s.idx.shape[1]))) for s in slots])
+
+
+def motion(slots: LawSlots, Qc, rot=None, turn=None) -> np.ndarray:
+    """X (E, D, 2H+1) of the law's elements from Qc (nc, 2H+1); `rot` (cos, sin) of
+    each slot's time shift applied by `turn` first (cyclic sectors)."""
+    Qe = Qc[slots.idx]
+    if rot is not None:
+        Qe = turn(Qe, rot[0], rot[1])
+    return np.stack([np.einsum("em,emk->ek", b, Qe) for b in slots.b], axis=1)
+
+
+def projected(slots: LawSlots, F) -> np.ndarray:
+    """(E, m, 2H+1): sum_d b_d[e, a] F[e, d], each slot's share of the force."""
+    out = slots.b[0][..., None] * F[:, None, 0, :]
+    for d in range(1, len(slots.b)):
+        out = out + slots.b[d][..., None] * F[:, None, d, :]
+    return out
+
+
+def element_jacobian(slots: LawSlots, J) -> np.ndarray:
+    """(E, m, m, nh, nh) slot-pair blocks from the law's J (E, P, nh, nh): one batched
+    product of the pair weights with the derivative blocks."""
+    E, P, nh = J.shape[0], J.shape[1], J.shape[-1]
+    m = slots.idx.shape[1]
+    return (slots.weights @ J.reshape(E, P, nh * nh)).reshape(E, m, m, nh, nh)
+
+
+def combine(blocks) -> np.ndarray:
+    """Slot-pair blocks of several laws (E_k, m_k, m_k, nh, nh) in the layout of
+    `slot_index` (zero padded)."""
+    m = max(J.shape[1] for J in blocks)
+    pad = [((0, 0), (0, m - J.shape[1]), (0, m - J.shape[1]), (0, 0), (0, 0)) for J in blocks]
+    return np.concatenate([np.pad(J, p) for J, p in zip(blocks, pad)])
+
+
+def assemble(prob, Je, out=None, idx=None):
+    """Contact Jacobian (nc nh, nc nh) from per-element slot-pair blocks Je (E, m, m, nh, nh)
+    at the slots `idx` (default: the problem's, `HBMProblem.slot_index`); added into
+    `out` (nc nh, nc nh, C-contiguous) if given."""
+    nc, nh = prob.c.size, prob.nh
+    J = (np.zeros((nc, nh, nc, nh), dtype=Je.dtype) if out is None
+         else out.reshape(nc, nh, nc, nh))
+    idx = prob.slot_index if idx is None else idx
+    E, m = idx.shape
+    ia = np.broadcast_to(idx[:, :, None], (E, m, m))
+    ib = np.broadcast_to(idx[:, None, :], (E, m, m))
+    np.add.at(J, (ia, slice(None), ib), Je)
+    return J.reshape(nc * nh, nc * nh)
