@@ -58,6 +58,7 @@ class CubicSpring:
     study_table = "spring"
     study_rows = ("dofs",)
     study_keys = {"k3": ("N/m^3", None), "k1": ("N/m", 0.0)}
+    study_help = {"k3": "cubic stiffness: f = k1 u + k3 u^3", "k1": "linear stiffness"}
 
     def __post_init__(self):
         k3 = np.atleast_1d(np.asarray(self.k3, dtype=float))

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import fields
 
+from ..contact.registry import study_laws
 from ..structure.fe_model import BladeParams
 from ..structure.reduction import DEFAULT_MODES
 from .accuracy_spec import Settings
@@ -24,7 +25,9 @@ from .spec import EFFECTS, FIGURES, SWEEP_AXES, SolverSettings
 
 FILE = ""                    # the top level of a study file
 CASE = "<case>"              # an accuracy-cost case: [lumped] or [blade]
-ARRAYS = ("scene.contact", "scene.excitation", "scene.disk.spring")  # [[arrays of tables]]
+# [[arrays of tables]]; each registered contact law placed by study files adds its own
+ARRAYS = ("scene.contact", "scene.excitation", "scene.disk.spring") + tuple(
+    f"scene.{t}" for t in study_laws())
 
 # tables whose keys are those of another table (a path prefix maps to another prefix)
 ALIASES = {
@@ -267,14 +270,32 @@ _FIXED = [
 ALIASES[f"{CASE}.baseline"] = f"{CASE}.reference"
 
 
+def _law_rows() -> list:
+    """The tables of the contact laws a lumped study file places (`contact.registry`):
+    their signed DOF lists and parameters, as each law declares them."""
+    out = []
+    for table, law in study_laws().items():
+        out.append(("scene", table, "", "[]", f"`{law.name}` elements (array of tables; "
+                    f'the effect `"{law.effect}"`)'))
+        out.append((f"scene.{table}", "name", "", f"{table}0, {table}1, …", "a name"))
+        out += [(f"scene.{table}", k, "1", _REQ, f"{d}: DOFs with signs, as `tangential`")
+                for k, d in zip(law.study_rows, law.directions)]
+        out += [(f"scene.{table}", k, unit, _REQ if default is None else _fmt(default),
+                 getattr(law, "study_help", {}).get(k, f"{law.name} parameter"))
+                for k, (unit, default) in law.study_keys.items()]
+    return out
+
+
 def rows() -> list:
     """[(table, key, unit, default, meaning)] in the order of a study file."""
-    order = ["study", "scene", "scene.matrices", "scene.modal", "scene.contact",
+    laws = [f"scene.{t}" for t in study_laws()]
+    order = ["study", "scene", "scene.matrices", "scene.modal", "scene.contact", *laws,
              "scene.excitation", "scene.disk", "scene.disk.mistuning", "scene.disk.spring",
              "scene.blade", "sweep", "sweep.frequency", "solver", "output",
              "output.optimum_preload", "modes", "quick", "quick.scene", "recommendation",
              CASE, f"{CASE}.reference", f"{CASE}.knobs"]
-    every = _FIXED + _blade_rows() + _sweep_rows() + _solver_rows() + _settings_rows()
+    every = (_FIXED + _law_rows() + _blade_rows() + _sweep_rows() + _solver_rows()
+             + _settings_rows())
     out = [r for r in every if r[0] == FILE]
     for t in order:
         out += [r for r in every if r[0] == t]
