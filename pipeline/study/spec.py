@@ -9,6 +9,7 @@ from __future__ import annotations
 import itertools
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -148,6 +149,33 @@ class OutputSettings:
 
 
 @dataclass(frozen=True)
+class StudyKind:
+    """One kind of study in the registry (`kinds.KINDS`): how a document of it is
+    recognised and read, how `check` describes a study of it, how it is estimated and
+    run.  Each kind's module defines its entry; nothing else branches on the kind."""
+
+    name: str           # the `kind` of its studies (a dataset's `kind` attribute)
+    word: str           # what `[study] kind` says for it
+    fits: Callable      # document -> True if its scene is one this kind reads
+    by_default: Callable  # document -> True if read as this kind when `kind` is not given
+    parse: Callable     # (document, *, file, name, text, quick) -> validated study
+    describe: Callable  # (study, workers) -> lines `check` prints, the estimate included
+    estimate: Callable  # (study, workers) -> estimate [s]: .lo, .hi, .mid
+    run: Callable       # (study, out_dir, **options of `run.run_study`) -> StudyResult
+    cases: Callable     # study -> number of cases it runs
+
+
+def always(document) -> bool:
+    """A `StudyKind.fits` / `by_default` that holds for every document."""
+    return True
+
+
+def never(document) -> bool:
+    """A `StudyKind.by_default` of a kind a document must name."""
+    return False
+
+
+@dataclass(frozen=True)
 class StudyHeader:
     """What every study kind carries: where it came from and how it describes itself."""
 
@@ -168,6 +196,7 @@ class Study(StudyHeader):
     solver: SolverSettings
     output: OutputSettings
     quick: bool = False
+    kind: str = "response"
 
     def system(self, case: dict | None = None) -> System:
         return case_system(self.scene, case)
