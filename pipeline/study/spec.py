@@ -175,16 +175,17 @@ def never(document) -> bool:
     return False
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class StudyHeader:
-    """What every study kind carries: where it came from and how it describes itself."""
+    """What every study kind carries: where it came from and how it describes itself
+    (keywords only; a study written in Python may leave them out)."""
 
-    file: str
-    name: str                    # the file's stem: output DIR/<name>.nc
-    title: str
-    description: str
-    reference: str
-    text: str                    # the study file's text (dataset attribute `study`)
+    file: str = "<python>"
+    name: str = "study"          # the file's stem: output DIR/<name>.nc
+    title: str = ""
+    description: str = ""
+    reference: str = ""
+    text: str = ""               # the study file's text (dataset attribute `study`)
 
 
 @dataclass(frozen=True)
