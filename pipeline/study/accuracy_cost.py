@@ -36,8 +36,9 @@ the dataset contract per run, the settings, times and errors), `DIR/<name>/paret
 `DIR/<name>/table.md`.
 
 This module reads a study document (`study_from_mapping`, the scenes through scene.py
-and blade_scene.py) and runs it (`run_accuracy_study`); documents.py and run.py hand an
-accuracy-cost study to these two.  The plain data is in accuracy_spec.py, the runs,
+and blade_scene.py), describes it for `check` and runs it (`run_accuracy_study`): its
+registry entry `KIND` (`kinds`); the estimate is `kind_costs.accuracy_estimate`, the
+systems of its runs `accuracy_measure.case_systems`.  The plain data is in accuracy_spec.py, the runs,
 errors and recommendation in accuracy_measure.py, the Dataset and the table in
 accuracy_dataset.py, the figure in pareto_figure.py.
 """

@@ -1,8 +1,10 @@
 """Study specifications as plain frozen data: what a study file declares once it is
 validated (`Study`: a `pipeline.model.scene.Scene`, sweeps, solver and output
-settings) and what a run returns (`StudyResult`).  A leaf of the study layer: the
-parsers (`scene`, `blade_scene`, `accuracy_cost`) build these, `run` and `dataset`
-read them.
+settings), what a run returns (`StudyResult`), and what a registry entry of a study
+kind holds (`StudyKind`, listed in `kinds`).  A leaf of the study layer: the parsers
+(`scene`, `blade_scene`, `disk_modes`, `accuracy_cost`) build these, `run` and
+`dataset` read them.  A study written in Python builds `Study` directly (the header
+fields are keywords with defaults; `studies/python_example.py`).
 """
 from __future__ import annotations
 
