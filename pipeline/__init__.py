@@ -2,7 +2,19 @@
 
 Data flows one way: FE model -> reduction -> assembly with contact -> HBM ->
 continuation -> study / dataset.  See README.md.
+
+The names a script needs are here, imported when first used (`import pipeline`
+stays cheap: no xarray, no matplotlib until a dataset or figure is made):
+
+    load_study(path, quick=False) -> study      run_study(study, out_dir) -> StudyResult
+    Scene, Lumped, DofContact, Forcing, Single, Cyclic   a scene written in Python
+    build_system(scene, case) -> System          frequency_response(system, H, w0, w1, ...)
+    Study, Sweep, FrequencyRange, SolverSettings, OutputSettings   a response study
+    to_dataset(study, curves) -> xarray.Dataset  write_netcdf(ds, path), read_dataset(path)
+
+`studies/python_example.py` writes the paper's Example 1 this way.
 """
+import importlib as _importlib
 import os as _os
 
 # The dense systems here are small (contact DOFs x harmonics): BLAS threads cost
@@ -13,3 +25,40 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
 __version__ = "0.1.0"
+
+# public name -> the module that defines it (imported on first use)
+_PUBLIC = {
+    "load_study": "pipeline.study.documents",
+    "parse_study": "pipeline.study.documents",
+    "run_study": "pipeline.study.run",
+    "Scene": "pipeline.model.scene",
+    "Lumped": "pipeline.model.scene",
+    "Single": "pipeline.model.scene",
+    "Cyclic": "pipeline.model.scene",
+    "build_system": "pipeline.model.scene",
+    "DofContact": "pipeline.model.contacts",
+    "Forcing": "pipeline.model.loads",
+    "frequency_response": "pipeline.solve.response",
+    "Study": "pipeline.study.spec",
+    "Sweep": "pipeline.study.spec",
+    "FrequencyRange": "pipeline.study.spec",
+    "SolverSettings": "pipeline.study.spec",
+    "OutputSettings": "pipeline.study.spec",
+    "to_dataset": "pipeline.study.dataset",
+    "write_netcdf": "pipeline.study.dataset",
+    "read_dataset": "pipeline.study.dataset",
+    "UsageError": "pipeline.errors",
+}
+__all__ = ["__version__", *_PUBLIC]
+
+
+def __getattr__(name):
+    if name in _PUBLIC:
+        value = getattr(_importlib.import_module(_PUBLIC[name]), name)
+        globals()[name] = value   # found directly from now on
+        return value
+    raise AttributeError(f"module 'pipeline' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_PUBLIC))

@@ -169,7 +169,7 @@ def test_check_dataset(tmp_path, capsys):
 def test_progress_shows_the_frequency_in_the_study_unit(monkeypatch):
     import tqdm.auto
 
-    from pipeline.study.run import Progress
+    from pipeline.study.cases import Progress
 
     stream = io.StringIO()
     real = tqdm.auto.tqdm

@@ -292,3 +292,51 @@ def test_dynamic_stiffness_is_formed_in_one_module():
                        f"{KERNEL} (call it instead):\n" + "\n".join(found))
     kernel = list(dynamic_stiffness_terms(PACKAGE.parent / KERNEL))
     assert kernel, "the criterion finds no dynamic stiffness in the kernel itself"
+
+
+# The registry of study kinds and the one module allowed to compare a value with a
+# kind's name; dataset_check reads the `kind` attribute of a netCDF file (the dataset
+# contract of a file, whatever wrote it), not a study.
+KIND_REGISTRY = "pipeline/study/kinds.py"
+KIND_ATTRIBUTE_READERS = ("pipeline/study/dataset_check.py",)
+
+
+def kind_comparisons(path: Path, names) -> list:
+    """Lines of `path` that compare a value with a study kind's name: `x == "modes"`,
+    `x != "response"`, `x in ("disk_modes", ...)`, or look a value up in a table keyed
+    by kind names (`{"modes": f, ...}[x]`).  A name on the left of `in` (`"modes" in
+    data`: is there a [modes] table) looks a key up and is no dispatch."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Subscript) and isinstance(node.value, ast.Dict):
+            found += [f"{path.relative_to(PACKAGE.parent)}:{node.lineno} looks up {k.value!r}"
+                      for k in node.value.keys
+                      if isinstance(k, ast.Constant) and k.value in names]
+        if not isinstance(node, ast.Compare):
+            continue
+        operands = [node.left, *node.comparators]
+        for op, a, b in zip(node.ops, operands, operands[1:]):
+            sides = (b,) if isinstance(op, (ast.In, ast.NotIn)) else (a, b)
+            words = [e.value for s in sides
+                     for e in (s.elts if isinstance(s, (ast.Tuple, ast.List, ast.Set)) else (s,))
+                     if isinstance(e, ast.Constant) and e.value in names]
+            found += [f"{path.relative_to(PACKAGE.parent)}:{node.lineno} compares with {w!r}"
+                      for w in words]
+    return found
+
+
+def test_study_kinds_are_dispatched_in_one_place():
+    """A study's kind ("response", "modes", "disk_modes", "accuracy_cost": the names and
+    `[study] kind` words of the registry's entries) is compared with nothing outside
+    the registry module `study/kinds.py`: documents, run, check and bench estimate
+    reach a kind through its entry, and every entry comes from the kind's own module."""
+    from pipeline.study import kinds
+
+    names = {k.name for k in kinds.KINDS} | {k.word for k in kinds.KINDS}
+    assert {"response", "modes", "disk_modes", "accuracy_cost"} <= names
+    skip = {KIND_REGISTRY, *KIND_ATTRIBUTE_READERS}
+    found = [line for path in sorted(PACKAGE.rglob("*.py"))
+             if str(path.relative_to(PACKAGE.parent)) not in skip
+             for line in kind_comparisons(path, names)]
+    assert not found, "study kinds dispatched outside the registry:\n" + "\n".join(found)
+    assert len({k.name for k in kinds.KINDS}) == len(kinds.KINDS)

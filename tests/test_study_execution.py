@@ -254,13 +254,14 @@ def test_unreachable_scheduler_is_one_line_exit_2(study_file, tmp_path, monkeypa
     import argparse
     import socket
 
+    import pipeline.study.cases as cases_mod
     import pipeline.study.run as study_mod
 
     pytest.importorskip("dask.distributed")
     with socket.socket() as sock:           # a local port nobody listens on
         sock.bind(("127.0.0.1", 0))
         port = sock.getsockname()[1]
-    monkeypatch.setattr(study_mod, "SCHEDULER_TIMEOUT", "2s")
+    monkeypatch.setattr(cases_mod, "SCHEDULER_TIMEOUT", "2s")
     args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
                               scheduler=f"tcp://127.0.0.1:{port}", quick=False, figures=False)
     assert study_mod.cmd_run(args) == 2
@@ -368,12 +369,13 @@ def test_interrupt_before_any_case_does_not_promise_kept_cases(study_file, tmp_p
     import argparse
     import signal as sg
 
+    import pipeline.study.response_study as response_mod
     import pipeline.study.run as study_mod
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(study_mod, "_execute", interrupted)
+    monkeypatch.setattr(response_mod, "execute_cases", interrupted)
     before = sg.getsignal(sg.SIGINT)
     args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
                               scheduler=None, quick=False, figures=False)
@@ -397,9 +399,10 @@ def test_interrupt_wrapped_by_a_compiled_kernel_exits_130(study_file, tmp_path,
                                                           monkeypatch, capsys):
     import argparse
 
+    import pipeline.study.response_study as response_mod
     import pipeline.study.run as study_mod
 
-    monkeypatch.setattr(study_mod, "_execute", _kernel_dispatcher_interrupted)
+    monkeypatch.setattr(response_mod, "execute_cases", _kernel_dispatcher_interrupted)
     args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
                               scheduler=None, quick=False, figures=False)
     assert study_mod.cmd_run(args) == 130
@@ -411,12 +414,13 @@ def test_a_system_error_without_an_interrupt_is_not_called_one(study_file, tmp_p
                                                                monkeypatch):
     import argparse
 
+    import pipeline.study.response_study as response_mod
     import pipeline.study.run as study_mod
 
     def broken(*a, **k):
         raise SystemError("a real fault")
 
-    monkeypatch.setattr(study_mod, "_execute", broken)
+    monkeypatch.setattr(response_mod, "execute_cases", broken)
     args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
                               scheduler=None, quick=False, figures=False)
     with pytest.raises(SystemError, match="a real fault"):

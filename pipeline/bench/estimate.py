@@ -2,8 +2,9 @@
 
     python -m pipeline bench estimate [STUDY ...] [--quick]
 
-Each study (default: every one in studies/) is estimated as `check` does
-(`study.cost.estimate`, which times the model; `study.kind_costs` for the other kinds), the model caches are cleared (the
+Each study (default: every one in studies/) is estimated as `check` does (its
+kind's estimate, `study.kinds`: `study.cost` for a response, which times the model;
+`study.kind_costs` for the other kinds), the model caches are cleared (the
 run builds and reduces its model again, as a fresh `run` does), and the study is run
 in this process (`--workers 1`, figures included, no checkpoints).  Printed: the
 estimate's range and its geometric middle, the measured wall time, and their ratio
@@ -27,7 +28,7 @@ class Measured:
     name: str
     quick: bool
     n_cases: int
-    estimate: object       # study.cost.Estimate
+    estimate: object       # the kind's estimate: .lo, .hi, .mid [s]
     wall: float            # [s] measured
 
     @property
@@ -38,24 +39,20 @@ class Measured:
 def measure(path, quick: bool = False, out_dir=None) -> Measured:
     """Estimate, then run, the study at `path` (serially); `Measured`."""
     from ..model import scene as model_scene
-    from ..study.cost import estimate
     from ..study.documents import load_study
+    from ..study.kinds import kind_of
     from ..study.run import run_study
 
-    from ..study.kind_costs import estimate_kind
-
     study = load_study(path, quick=quick)
-    kind = getattr(study, "kind", "response")
-    est = estimate(study, workers=1) if kind == "response" else estimate_kind(study)
+    kind = kind_of(study)
+    est = kind.estimate(study, workers=1)
     model_scene.timed_blade_model.cache_clear()   # the run builds its model, as `run` does
     model_scene.reduced_model.cache_clear()
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
         run_study(study, out_dir or tmp, workers=1, progress=False, checkpoints=False)
         wall = time.perf_counter() - t0
-    n_cases = (len(study.sweep.cases()) if kind == "response" else
-               len(getattr(study, "cases", ())) or 1)
-    return Measured(Path(path).stem, quick, n_cases, est, wall)
+    return Measured(Path(path).stem, quick, kind.cases(study), est, wall)
 
 
 def shipped_studies() -> list:
@@ -64,7 +61,7 @@ def shipped_studies() -> list:
 
 
 def run(quick: bool = False, studies=()) -> int:
-    from ..study.check import seconds
+    from ..study.cost import seconds
 
     for name in ("pipeline", "distributed"):
         logging.getLogger(name).setLevel(logging.WARNING)

@@ -36,8 +36,9 @@ the dataset contract per run, the settings, times and errors), `DIR/<name>/paret
 `DIR/<name>/table.md`.
 
 This module reads a study document (`study_from_mapping`, the scenes through scene.py
-and blade_scene.py) and runs it (`run_accuracy_study`); documents.py and run.py hand an
-accuracy-cost study to these two.  The plain data is in accuracy_spec.py, the runs,
+and blade_scene.py), describes it for `check` and runs it (`run_accuracy_study`): its
+registry entry `KIND` (`kinds`); the estimate is `kind_costs.accuracy_estimate`, the
+systems of its runs `accuracy_measure.case_systems`.  The plain data is in accuracy_spec.py, the runs,
 errors and recommendation in accuracy_measure.py, the Dataset and the table in
 accuracy_dataset.py, the figure in pareto_figure.py.
 """
@@ -50,18 +51,20 @@ from pathlib import Path
 
 import numpy as np
 
-from ..model.scene import CraigBampton, build_system, reduced_model, timed_blade_model
 from ..structure.reduction import DEFAULT_MODES
 from .accuracy_dataset import recommendation_lines, results_table, to_dataset
-from .accuracy_measure import run_case
-from .accuracy_spec import (AccuracyStudy, Case, Settings, beyond_reference,
-                            check_settings, merge_quick, mesh_value)
-from .blade_scene import OUT_DOF_PATTERN, parse_blade_params, parse_blade_scene
+from .accuracy_measure import case_systems, run_case
+from .accuracy_spec import (MESH_FIELDS, AccuracyStudy, Case, Settings, beyond_reference,
+                            check_settings, mesh_value)
+from .blade_scene import OUT_DOF_PATTERN, base_dir_of, parse_blade_params, parse_blade_scene
 from .checker import Checker
+from .header import overlay, parse_header, quick_tables
 from .pareto_figure import pareto_figure
 from .rules import check_scene_rules
 from .scene import parse_scene, parse_sweep
-from .spec import MAX_HARMONICS, FrequencyRange, solver_rule_violations
+from .kind_costs import accuracy_estimate, estimate_lines
+from .spec import (MAX_HARMONICS, FrequencyRange, StudyKind, always, never,
+                   solver_rule_violations)
 
 log = logging.getLogger(__name__)
 
@@ -76,7 +79,6 @@ _CASE_KEYS = ("dof", "preload", "frequency", "repeats", "time_integration", "sce
               "baseline", "knobs")
 _QUICK_KEYS = ("dof", "preload", "frequency", "repeats", "time_integration", "reference",
                "baseline", "knobs")
-_MESH_FIELDS = ("n_chord", "n_thick", "n_span")
 
 
 # ---------------------------------------------------------------------------
@@ -111,37 +113,30 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     ck = Checker(file)
     ck.table(data, "(document)")
     ck.keys(data, "", ("study", "recommendation", "quick") + CASES, required=("study",))
-    head = ck.table(data["study"], "study")
-    ck.keys(head, "study", ("title", "description", "reference", "kind"), required=("title",))
-    title = ck.string(head["title"], "study.title")
-    description = ck.string(head.get("description", ""), "study.description")
-    reference = ck.string(head.get("reference", ""), "study.reference")
-    ck.string(head.get("kind", ""), "study.kind", ("accuracy_cost",))
+    header = parse_header(ck, data)
     rec = ck.table(data.get("recommendation"), "recommendation", required=False)
     ck.keys(rec, "recommendation", ("target",))
     target = ck.number(rec.get("target", 1e-3), "recommendation.target", gt=0.0, lt=1.0)
     present = [c for c in CASES if c in data]
     if not present:
         ck.fail("(document)", "no case: give a [lumped] and/or a [blade] table")
-    # [quick] is read only for --quick: a full run never depends on it
-    qt = ck.table(data.get("quick"), "quick", required=False) if quick else {}
-    ck.keys(qt, "quick", tuple(present))
-    base_dir = Path(file).parent if file and not file.startswith("<") else Path(".")
+    qt = quick_tables(ck, data, quick, present)   # read only for --quick
+    base_dir = base_dir_of(file)
     full, short = [], []
     for c in present:
         tab = ck.table(data[c], c)
         ck.keys(tab, c, _CASE_KEYS, required=("scene", "reference", "frequency"))
-        q = ck.table(qt.get(c), f"quick.{c}", required=False)
+        q = qt.get(c, {})
         ck.keys(q, f"quick.{c}", _QUICK_KEYS)
-        merged, origin = merge_quick(ck, c, tab, q)
-        w_full, w_quick = (lambda p, c=c: f"{c}.{p}"), (lambda p, o=origin: f"{o(p)}.{p}")
+        merged, w_quick = overlay(ck, tab, q, c, deep=("reference", "baseline"))
+        w_full = lambda p, c=c: f"{c}.{p}"  # noqa: E731
         # the FE blade is built (validated) once, on the chosen variant's reference mesh
         scene, h_excited = _case_scene(ck, c, merged if quick else tab, base_dir,
                                        w_quick if quick else w_full)
         full.append(_case(ck, c, tab, scene, h_excited, w_full))
         short.append(_case(ck, c, merged, scene, h_excited, w_quick))
-    return AccuracyStudy(file=file, name=name, title=title, description=description,
-                         reference=reference, text=text, cases=tuple(short if quick else full),
+    return AccuracyStudy(file=file, name=name, **header, text=text,
+                         cases=tuple(short if quick else full),
                          target=float(target), quick=bool(quick))
 
 
@@ -162,7 +157,7 @@ def _case_scene(ck, c, tab, base_dir, where):
         if k in raw:
             ck.fail(f"{c}.scene.{k}", "an accuracy setting: give it in reference, baseline or knobs")
     blade_tab = ck.table(raw.get("blade", {}), f"{c}.scene.blade")
-    for k in _MESH_FIELDS:
+    for k in MESH_FIELDS:
         if k in blade_tab:
             ck.fail(f"{c}.scene.blade.{k}", "an accuracy setting: give mesh = [n_chord, n_thick, "
                                             "n_span] in reference, baseline or knobs")
@@ -170,11 +165,11 @@ def _case_scene(ck, c, tab, base_dir, where):
     at = dict(raw)
     if "mesh" in ref:  # build (and so validate) the scene on the reference mesh
         counts = mesh_value(ck, ref["mesh"], where("reference.mesh"))
-        at["blade"] = {**blade_tab, **dict(zip(_MESH_FIELDS, counts))}
+        at["blade"] = {**blade_tab, **dict(zip(MESH_FIELDS, counts))}
     if "craig_bampton_modes" in ref:
         at["craig_bampton_modes"] = ck.integer(ref["craig_bampton_modes"],
                                                where("reference.craig_bampton_modes"), 0, 10_000)
-    scene = parse_blade_scene(pk, at, "response", base_dir, {})
+    scene = parse_blade_scene(pk, at, base_dir)
     if not scene.contacts:
         ck.fail(f"{c}.scene.contact", "a blade case needs at least one [[blade.scene.contact]]")
     return scene, max(ld.harmonic for ld in scene.loads)
@@ -326,36 +321,8 @@ def _check_mesh(ck, scene, counts, field_):
     t = {k: getattr(p, k) for k in ("length", "chord", "thickness", "shroud_chord",
                                     "shroud_width", "shroud_height", "shroud_angle",
                                     "stagger_angle", "E", "nu", "rho")}
-    t.update(dict(zip(_MESH_FIELDS, counts)))
-    parse_blade_params(_At(ck.file, field_), t, scene.model, {})
-
-
-# ---------------------------------------------------------------------------
-# The systems of a case's runs (measured by accuracy_measure)
-# ---------------------------------------------------------------------------
-
-def _system(case: Case, s: Settings):
-    """(System, index of the case's DOF, model time [s], n_dof_full) for settings s.
-    FE blades and their reductions are cached on their specs (`model.scene`); the
-    model time is what building and reducing took when first done."""
-    case_arg = {"preload": case.preload} if case.preload is not None else None
-    if case.name == "lumped":
-        system = build_system(case.scene, case_arg)
-        return system, case.scene.dof_index(case.dof), 0.0, system.n_dof
-    sc = case.scene
-    st = sc.structure if s.mesh is None else replace(
-        sc.structure, params=replace(sc.structure.params, **dict(zip(_MESH_FIELDS, s.mesh))))
-    v = replace(sc, structure=st, reduction=CraigBampton(s.craig_bampton_modes))
-    blade, t_fe = timed_blade_model(st)        # build and reduction times as measured
-    t_red = reduced_model(st, v.reduction)[1]  # when first made, cached or not
-    return (build_system(v, case_arg), v.dof_index(case.dof), t_fe + t_red, blade.n_dof)
-
-
-def case_systems(case: Case):
-    """`system_for` of `accuracy_measure.run_case`: settings -> (System, index of the
-    case's DOF, model time [s], n_dof_full), FE blades cached per mesh and their
-    reductions per (mesh, modes) for the case's runs."""
-    return lambda s: _system(case, s)
+    t.update(dict(zip(MESH_FIELDS, counts)))
+    parse_blade_params(_At(ck.file, field_), t, scene.model)
 
 
 # ---------------------------------------------------------------------------
@@ -404,3 +371,23 @@ def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool
         log.info("wrote %s", p)
     res.wall_time = time.perf_counter() - t0
     return res
+
+
+def describe(study: AccuracyStudy, workers: int = 1) -> list:
+    """The lines `check` prints for an accuracy-cost study, its cost estimate included."""
+    lines = []
+    for c in study.cases:
+        runs = c.runs()
+        lines.append(f"case {c.name}: {c.scene.model}, dof {c.dof}, {c.frequency.start:g} to "
+                     f"{c.frequency.stop:g} {c.frequency.unit}; {len(runs)} runs "
+                     f"(reference, baseline, {len(runs) - 2} knob values) x {c.repeats} "
+                     "timing repeat(s)")
+    return lines + estimate_lines(accuracy_estimate(study))
+
+
+KIND = StudyKind(name="accuracy_cost", word="accuracy_cost", fits=always, by_default=never,
+                 parse=study_from_mapping, describe=describe,
+                 estimate=lambda study, workers=1: accuracy_estimate(study),
+                 run=lambda study, out_dir, figures=True, progress=True, **_: run_accuracy_study(
+                     study, out_dir, figures=figures, progress=progress),
+                 cases=lambda study: len(study.cases))

@@ -23,7 +23,8 @@ from scipy.optimize import minimize_scalar
 from ..solve import timesim
 from ..solve.hbm_state import state_at_zero
 from ..solve.response import frequency_response
-from .accuracy_spec import Case, Settings
+from ..model.scene import CraigBampton, build_system, reduced_model, timed_blade_model
+from .accuracy_spec import MESH_FIELDS, Case, Settings
 from .spec import solver_rule_violations
 
 log = logging.getLogger(__name__)
@@ -258,3 +259,31 @@ def run_case(case: Case, target: float, system_for, solver=None) -> dict:
                  ti["amplitude_error"], ti["peak_amplitude_error"], ti["peak_frequency_error"],
                  ti["wall_time"])
     return {"case": case, "rows": rows, "recommendation": rec, "recommended": row, "ti": ti}
+
+
+# ---------------------------------------------------------------------------
+# The systems of a case's runs (measured by accuracy_measure)
+# ---------------------------------------------------------------------------
+
+def _system(case: Case, s: Settings):
+    """(System, index of the case's DOF, model time [s], n_dof_full) for settings s.
+    FE blades and their reductions are cached on their specs (`model.scene`); the
+    model time is what building and reducing took when first done."""
+    case_arg = {"preload": case.preload} if case.preload is not None else None
+    if case.name == "lumped":
+        system = build_system(case.scene, case_arg)
+        return system, case.scene.dof_index(case.dof), 0.0, system.n_dof
+    sc = case.scene
+    st = sc.structure if s.mesh is None else replace(
+        sc.structure, params=replace(sc.structure.params, **dict(zip(MESH_FIELDS, s.mesh))))
+    v = replace(sc, structure=st, reduction=CraigBampton(s.craig_bampton_modes))
+    blade, t_fe = timed_blade_model(st)        # build and reduction times as measured
+    t_red = reduced_model(st, v.reduction)[1]  # when first made, cached or not
+    return (build_system(v, case_arg), v.dof_index(case.dof), t_fe + t_red, blade.n_dof)
+
+
+def case_systems(case: Case):
+    """`system_for` of `accuracy_measure.run_case`: settings -> (System, index of the
+    case's DOF, model time [s], n_dof_full), FE blades cached per mesh and their
+    reductions per (mesh, modes) for the case's runs."""
+    return lambda s: _system(case, s)

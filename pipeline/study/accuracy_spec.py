@@ -17,6 +17,8 @@ from .spec import StudyHeader, solver_rule_violations
 # Plain data
 # ---------------------------------------------------------------------------
 
+MESH_FIELDS = ("n_chord", "n_thick", "n_span")   # the element counts of a blade's `mesh`
+
 @dataclass(frozen=True)
 class Settings:
     """Solver and model accuracy settings of one run."""
@@ -96,28 +98,6 @@ class AccuracyStudy(StudyHeader):
 # ---------------------------------------------------------------------------
 # Rules on settings (failures through the scene `Checker` ck)
 # ---------------------------------------------------------------------------
-
-def merge_quick(ck, c, tab, q):
-    """The case table with `[quick.<case>]` applied: reference and baseline are merged
-    key by key, every other key (knobs included) is replaced.  Returns (table,
-    origin(path) -> "quick.<case>" or "<case>")."""
-    merged, from_quick = dict(tab), set()
-    for k, v in q.items():
-        if k in ("reference", "baseline"):
-            sub = ck.table(v, f"quick.{c}.{k}")
-            merged[k] = {**ck.table(tab.get(k, {}), f"{c}.{k}"), **sub}
-            from_quick |= {f"{k}.{s}" for s in sub}
-        else:
-            merged[k] = v
-            from_quick.add(k)
-
-    def origin(path):
-        parts = path.split(".")
-        heads = {".".join(parts[:i]) for i in range(1, len(parts) + 1)}
-        head = parts[0].split("[")[0]
-        return f"quick.{c}" if (heads & from_quick or head in from_quick) else c
-    return merged, origin
-
 
 def mesh_value(ck, value, field_):
     """The element counts (n_chord, n_thick, n_span) of a `mesh = [..]` value."""

@@ -50,14 +50,14 @@ from . import blade_disk, disk_scene
 from .blade_size import check_blade_size
 from .checker import Checker
 from .rules import check_optimum_axes, check_scene_rules
+from .header import overlay, parse_header, quick_tables
 from .scene import (check_windows, output_common, parse_optimum, parse_solver, parse_sweep,
-                    quick_tables, solver_sweep_tables)
+                    quick_response_tables, solver_sweep_tables)
 from .spec import EFFECTS, MAX_HARMONICS, NAME_PATTERN, ModesStudy, OutputSettings, Study, Sweep
 
 log = logging.getLogger(__name__)
 
 BLADE_MODELS = ("solid_blade", "beam_blade")
-KINDS = ("response", "modes")
 FACES = ("shroud_left", "shroud_right")
 POINTS = ("excitation", "response")
 STIFFNESS = ("per_node", "per_face")  # how ku, kv of a face contact are given
@@ -83,50 +83,37 @@ _MAX_ELEMENTS = 200_000
 # ---------------------------------------------------------------------------
 
 def is_blade_document(data) -> bool:
+    """A document of an FE blade scene (single or in a disk)."""
     return (isinstance(data, dict) and isinstance(data.get("scene"), dict)
             and data["scene"].get("model") in BLADE_MODELS)
 
 
-def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quick: bool = False):
-    """Validate a blade study document: a `ModesStudy` or a `spec.Study`."""
+TOP = ("study", "scene", "sweep", "solver", "output", "quick", "modes")
+
+
+def base_dir_of(file: str) -> Path:
+    """The folder mesh files are relative to: the study file's."""
+    return Path(file).parent if file and not file.startswith("<") else Path(".")
+
+
+def scene_field(path: str) -> str:
+    """The field of a path inside [scene] (a quick override names its own, `header.overlay`)."""
+    return f"scene.{path}"
+
+
+def response_from_mapping(data: dict, *, file: str, name: str, text: str = "",
+                          quick: bool = False) -> Study:
+    """Validate a blade response study document: a `spec.Study`."""
     ck = Checker(file)
-    top = ("study", "scene", "sweep", "solver", "output", "quick", "modes")
-    ck.keys(data, "", top, required=("study", "scene"))
-    head = ck.table(data["study"], "study")
-    ck.keys(head, "study", ("title", "description", "reference", "kind"), required=("title",))
-    title = ck.string(head["title"], "study.title")
-    description = ck.string(head.get("description", ""), "study.description")
-    reference = ck.string(head.get("reference", ""), "study.reference")
-    kind = ck.string(head.get("kind", "modes" if "modes" in data else "response"),
-                     "study.kind", KINDS)
-    if kind == "modes":
-        for k in ("sweep", "solver", "output"):
-            if k in data:
-                ck.fail(k, "not used by a modes study (study.kind = \"modes\")")
-    else:
-        if "modes" in data:
-            ck.fail("modes", "only a modes study (study.kind = \"modes\") has a [modes] table")
-        if "sweep" not in data:
-            ck.fail("sweep", "missing table (required)")
-    # [quick] is read only for --quick, after the main tables (a full run never
-    # depends on it)
-    qt = ck.table(data.get("quick"), "quick", required=False) if quick else {}
-    base_dir = Path(file).parent if file and not file.startswith("<") else Path(".")
-
-    full_scene, quick_scene = blade_scenes(ck, data, qt, kind, base_dir)
+    ck.keys(data, "", TOP, required=("study", "scene"))
+    header = parse_header(ck, data)
+    if "modes" in data:
+        ck.fail("modes", "only a modes study (study.kind = \"modes\") has a [modes] table")
+    if "sweep" not in data:
+        ck.fail("sweep", "missing table (required)")
+    qt = quick_tables(ck, data, quick, ("scene", "sweep", "solver"))
+    full_scene, quick_scene = blade_scenes(ck, data, qt, base_dir_of(file))
     scene = quick_scene if quick else full_scene
-
-    if kind == "modes":
-        mt = ck.table(data.get("modes"), "modes", required=False)
-        q_modes = ck.table(qt.get("modes"), "quick.modes", required=False)
-        full = _modes(ck, mt, "modes", full_scene, built=full_scene is scene)
-        variant = _modes(ck, {**mt, **q_modes}, "quick.modes" if q_modes else "modes",
-                         quick_scene)
-        counts, nf, ns = variant if quick else full
-        return ModesStudy(file=file, name=name, title=title, description=description,
-                          reference=reference, text=text, scene=scene, mode_counts=counts,
-                          n_frequencies=nf, n_shapes=ns, quick=bool(quick))
-
     solver_tab, sweep_tab = solver_sweep_tables(ck, data)
     solver = parse_solver(ck, solver_tab, "solver", model=scene.model)
     if "stability" not in solver_tab:
@@ -142,7 +129,7 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
     output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
     variants = [(False, solver, axes, freq, "solver", "sweep", full_scene)]
     if quick:
-        q_solver, q_sweep = quick_tables(ck, {"quick": qt}, sweep_tab, ("scene", "sweep", "solver"))
+        q_solver, q_sweep = quick_response_tables(ck, qt, sweep_tab)
         q_solver_s = parse_solver(ck, q_solver, "quick.solver", base=solver, model=scene.model)
         q_axes, q_freq = parse_sweep(ck, q_sweep, "quick.sweep", partial=True)
         q_axes = {k: q_axes.get(k, v) for k, v in axes.items()}
@@ -154,51 +141,65 @@ def study_from_mapping(data: dict, *, file: str, name: str, text: str = "", quic
         _consistency(ck, scene, sv, ax, spath, wpath, data)  # the rules need no mesh: the
         # model run is checked (--quick builds and reduces the quick blade only)
         check_optimum_axes(ck, output, ax, wpath)
-        st = Study(file=file, name=name, title=title, description=description,
-                   reference=reference, text=text, scene=sc, sweep=Sweep(axes=ax, frequency=fr),
-                   solver=sv, output=output, quick=is_quick)
+        st = Study(file=file, name=name, **header, text=text, scene=sc,
+                   sweep=Sweep(axes=ax, frequency=fr), solver=sv, output=output, quick=is_quick)
         if is_quick == bool(quick):
             chosen = st
     check_windows(ck, output.peak_windows, freq)
     return chosen
 
 
-def blade_scenes(ck, data, qt, kind, base_dir) -> tuple:
+def modes_from_mapping(data: dict, *, file: str, name: str, text: str = "",
+                       quick: bool = False) -> ModesStudy:
+    """Validate a blade modes study document: a `ModesStudy`."""
+    ck = Checker(file)
+    ck.keys(data, "", TOP, required=("study", "scene"))
+    header = parse_header(ck, data)
+    for k in ("sweep", "solver", "output"):
+        if k in data:
+            ck.fail(k, "not used by a modes study (study.kind = \"modes\")")
+    qt = quick_tables(ck, data, quick, ("scene", "modes"))
+    full_scene, quick_scene = blade_scenes(ck, data, qt, base_dir_of(file), contacts=False)
+    scene = quick_scene if quick else full_scene
+    mt = ck.table(data.get("modes"), "modes", required=False)
+    full = _modes(ck, mt, lambda p: f"modes.{p}", full_scene, built=full_scene is scene)
+    if not quick:
+        counts, nf, ns = full
+    else:
+        counts, nf, ns = _modes(ck, *overlay(ck, mt, qt.get("modes", {}), "modes"), quick_scene)
+    return ModesStudy(file=file, name=name, **header, text=text, scene=scene,
+                      mode_counts=counts, n_frequencies=nf, n_shapes=ns, quick=bool(quick))
+
+
+def blade_scenes(ck, data, quick: dict, base_dir, contacts: bool = True,
+                 loaded: bool = True) -> tuple:
     """(scene of the full study, scene of its [quick] variant: the [quick.scene]
     overrides of blade, craig_bampton_modes and mesh merged in, errors naming them).
-    `qt` is the [quick] table of a --quick load ({} otherwise); when it changes the
-    scene, the full scene's tables are validated without building its blade."""
+    `quick` holds the [quick] tables of a --quick load ({} otherwise); when they change
+    the scene, the full scene's tables are validated without building its blade.
+    `contacts`: the scene has contacts and excitation; `loaded`: an excitation is required."""
     scene_tab = ck.table(data["scene"], "scene")
-    ck.keys(qt, "quick", ("scene", "modes") if kind in ("modes", "disk_modes")
-            else ("scene", "sweep", "solver"))
-    q_scene = ck.table(qt.get("scene"), "quick.scene", required=False)
-    full_scene = parse_blade_scene(ck, scene_tab, kind, base_dir, {}, build=not q_scene)
+    q_scene = quick.get("scene", {})
+    parts = dict(contacts=contacts, loaded=loaded)
+    full_scene = parse_blade_scene(ck, scene_tab, base_dir, build=not q_scene, **parts)
+    if not q_scene:
+        return full_scene, full_scene
     ck.keys(q_scene, "quick.scene", ("blade", "craig_bampton_modes", "mesh"))
-    merged = dict(scene_tab)
-    origin = {}
-    if "blade" in q_scene:
-        ck.table(q_scene["blade"], "quick.scene.blade")
-        merged["blade"] = {**ck.table(scene_tab.get("blade", {}), "scene.blade"), **q_scene["blade"]}
-        origin = {k: "quick.scene.blade" for k in q_scene["blade"]}
-    for k in ("craig_bampton_modes", "mesh"):
-        if k in q_scene:
-            merged[k] = q_scene[k]
-            origin[f"scene.{k}"] = f"quick.scene.{k}"
-    quick_scene = parse_blade_scene(ck, merged, kind, base_dir, origin) if q_scene else full_scene
-    return full_scene, quick_scene
+    merged, where = overlay(ck, scene_tab, q_scene, "scene", deep=("blade",))
+    return full_scene, parse_blade_scene(ck, merged, base_dir, where, **parts)
 
 
-def parse_blade_params(ck, t, model, origin):
+def parse_blade_params(ck, t, model, field=scene_field):
     """`fe_model.BladeParams` of the [scene.blade] table `t` for `model`, refusing a
-    mesh too fine to generate; `origin` maps a key to the field it came from (a quick
-    override), for the error message."""
+    mesh too fine to generate; `field(path)` is the field of a path inside [scene]
+    (a quick override names its own, `header.overlay`), for the error message."""
     def where(k):
-        return f"{origin.get(k, 'scene.blade')}.{k}"
+        return field(f"blade.{k}")
 
     allowed = _BLADE_KEYS
     for k in t:
         if k not in allowed:
-            ck.keys({k: None}, origin.get(k, "scene.blade"), allowed)
+            ck.keys({k: None}, where(k).rpartition(".")[0], allowed)
     kw = {}
     for k, v in t.items():
         if k in ("shroud_angle", "stagger_angle"):
@@ -233,17 +234,15 @@ def parse_blade_params(ck, t, model, origin):
         ck.fail(where(key) if key in _BLADE_KEYS else "scene.blade", msg)
 
 
-def parse_blade_scene(ck, tab, kind, base_dir, origin, build: bool = True) -> Scene:
-    """The `Scene` of a [scene] table for a study of `kind` ("response" or
-    "modes"), mesh files relative to `base_dir`; the blade is built once to check
-    node sets, faces and mode counts (`build`; without it the tables only).
-    `origin`: as in `parse_blade_params`."""
-
-    def fld(k):
-        return origin.get(f"scene.{k}", f"scene.{k}")
-
+def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
+                      contacts: bool = True, loaded: bool = True) -> Scene:
+    """The `Scene` of a [scene] table, mesh files relative to `base_dir`; the blade is
+    built once to check node sets, faces and mode counts (`build`; without it the
+    tables only).  `fld`: as `field` of `parse_blade_params`.  `contacts`: the scene
+    has contacts and excitation (a response or a disk's modes; a blade's modes have
+    none); `loaded`: an excitation is required (a response)."""
     allowed = ("model", "effects", "blade", "mesh", "craig_bampton_modes", "rayleigh", "disk")
-    if kind in ("response", "disk_modes"):
+    if contacts:
         allowed += ("contact", "excitation")
     ck.keys(tab, "scene", allowed, required=("model",))
     model = ck.string(tab["model"], "scene.model", BLADE_MODELS)
@@ -251,12 +250,12 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin, build: bool = True) -> Sc
     for i, e in enumerate(effects):
         if e not in EFFECTS:
             ck.fail(f"scene.effects[{i}]", f"unknown effect {e!r} (known: {', '.join(EFFECTS)})")
-    params = parse_blade_params(ck, ck.table(tab.get("blade", {}), "scene.blade"), model, origin)
+    params = parse_blade_params(ck, ck.table(tab.get("blade", {}), "scene.blade"), model, fld)
     mesh = None
     if "mesh" in tab:
         if model != "solid_blade":
             ck.fail(fld("mesh"), f"a mesh file needs model = \"solid_blade\", got {model!r}")
-        mesh = _mesh(ck, tab["mesh"], fld("mesh"), base_dir, tab, kind)
+        mesh = _mesh(ck, tab["mesh"], fld("mesh"), base_dir, tab, contacts)
     n_modes = ck.integer(tab.get("craig_bampton_modes", DEFAULT_MODES),
                          fld("craig_bampton_modes"), 0, 10_000)
     rayleigh = None
@@ -271,9 +270,9 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin, build: bool = True) -> Sc
     placement, assembly = (blade_disk.parse_placement(ck, tab) if "disk" in tab
                            else (None, Single()))
     if mesh is None:   # before anything is meshed: lengths in metres, a model of sane size
-        check_blade_size(ck, tab.get("blade", {}), params, placement, origin)
-    contacts, loads = (_contacts_and_loads(ck, tab, kind, model, params)
-                       if kind in ("response", "disk_modes") else ((), ()))
+        check_blade_size(ck, tab.get("blade", {}), params, placement,
+                         lambda k: fld(f"blade.{k}"))
+    contacts, loads = (_contacts_and_loads(ck, tab, loaded, params) if contacts else ((), ()))
     blade_disk.check_disk_contacts(ck, contacts, placement)
     scene = Scene(structure=Blade(params=params, mesh=mesh, rayleigh=rayleigh, disk=placement),
                   contacts=contacts, loads=loads, reduction=CraigBampton(n_modes),
@@ -309,7 +308,7 @@ def parse_blade_scene(ck, tab, kind, base_dir, origin, build: bool = True) -> Sc
     return scene
 
 
-def _contacts_and_loads(ck, tab, kind, model, params) -> tuple:
+def _contacts_and_loads(ck, tab, loaded, params) -> tuple:
     """(contacts, loads) of a blade [scene]: face contacts against walls or shroud
     pairs between neighbours (`blade_disk`), point loads (required for a response)."""
     raw = tab.get("contact", [])
@@ -329,13 +328,13 @@ def _contacts_and_loads(ck, tab, kind, model, params) -> tuple:
         if c.name in [d.name for d in contacts[:i]]:
             ck.fail(f"scene.contact[{i}].name", f"duplicate contact name {c.name!r}")
         ck.string(c.name, f"scene.contact[{i}].name", pattern=NAME_PATTERN)
-    if "excitation" not in tab and kind == "response":
+    if "excitation" not in tab and loaded:
         ck.fail("scene.excitation", "missing (required): at least one [[scene.excitation]]")
     loads = _loads(ck, tab["excitation"]) if "excitation" in tab else ()
     return contacts, loads
 
 
-def _mesh(ck, value, field_, base_dir, tab, kind):
+def _mesh(ck, value, field_, base_dir, tab, contacts):
     from ..structure.mesh_io import read_mesh  # deferred: meshio is slow to import
 
     s = ck.string(value, field_)
@@ -343,7 +342,7 @@ def _mesh(ck, value, field_, base_dir, tab, kind):
     if not path.is_file():
         ck.fail(field_, f"mesh file {str(path)!r} not found")
     required = ["root"]
-    if kind in ("response", "disk_modes"):
+    if contacts:
         for c in tab.get("contact", []) if isinstance(tab.get("contact"), list) else []:
             if isinstance(c, dict) and isinstance(c.get("face"), str):
                 required.append(c["face"])
@@ -429,28 +428,31 @@ def _output(ck, t, scene):
                           optimum=parse_optimum(ck, t, scene))
 
 
-def _modes(ck, t, path, scene, built: bool = True):
-    """(mode counts, frequencies, shapes) of a [modes] table; bounds from the blade of
-    `scene` if `built` (a --quick load does not build the full blade)."""
-    ck.keys(t, path, ("mode_counts", "n_frequencies", "mode_shapes"))
-    counts = (ck.array(t["mode_counts"], f"{path}.mode_counts") if "mode_counts" in t
+def _modes(ck, t, where, scene, built: bool = True):
+    """(mode counts, frequencies, shapes) of a [modes] table, `where(key)` the field of
+    a key (`header.overlay`); bounds from the blade of `scene` if `built` (a --quick
+    load does not build the full blade)."""
+    for k in t:
+        ck.keys({k: None}, where(k).rpartition(".")[0],
+                ("mode_counts", "n_frequencies", "mode_shapes"))
+    counts = (ck.array(t["mode_counts"], where("mode_counts")) if "mode_counts" in t
               else list(DEFAULT_MODE_COUNTS))
-    vals = [ck.integer(v, f"{path}.mode_counts[{i}]", 0, 10_000) for i, v in enumerate(counts)]
+    vals = [ck.integer(v, where(f"mode_counts[{i}]"), 0, 10_000) for i, v in enumerate(counts)]
     for i in range(1, len(vals)):
         if vals[i] <= vals[i - 1]:
-            ck.fail(f"{path}.mode_counts[{i}]", f"must increase strictly, got {vals[i - 1]} "
+            ck.fail(where(f"mode_counts[{i}]"), f"must increase strictly, got {vals[i - 1]} "
                                                 f"then {vals[i]}")
     blade = blade_model(scene.structure) if built else None
     n_int = blade.n_dof - boundary_dofs(blade)[0].size if built else math.inf
     if vals and vals[-1] > n_int:
-        ck.fail(f"{path}.mode_counts[{len(vals) - 1}]", f"must be <= {n_int} (interior DOFs), "
+        ck.fail(where(f"mode_counts[{len(vals) - 1}]"), f"must be <= {n_int} (interior DOFs), "
                                                         f"got {vals[-1]}")
     if scene.reduction.modes not in vals:  # the scene's own count is always reported
         vals = sorted(vals + [scene.reduction.modes])
-    nf = ck.integer(t.get("n_frequencies", 10), f"{path}.n_frequencies", 1, 200)
+    nf = ck.integer(t.get("n_frequencies", 10), where("n_frequencies"), 1, 200)
     if built and nf >= blade.n_dof - 1:
-        ck.fail(f"{path}.n_frequencies", f"must be < {blade.n_dof - 1} (DOFs of the blade)")
-    ns = ck.integer(t.get("mode_shapes", min(nf, 6)), f"{path}.mode_shapes", 0, nf)
+        ck.fail(where("n_frequencies"), f"must be < {blade.n_dof - 1} (DOFs of the blade)")
+    ns = ck.integer(t.get("mode_shapes", min(nf, 6)), where("mode_shapes"), 0, nf)
     return tuple(vals), nf, ns
 
 

@@ -31,12 +31,11 @@ MAX_FE_DOFS = 100_000
 LENGTHS = ("length", "chord", "thickness", "shroud_chord", "shroud_width", "shroud_height")
 
 
-def check_blade_size(ck, given: dict, p: BladeParams, placement, origin: dict) -> None:
+def check_blade_size(ck, given: dict, p: BladeParams, placement, where) -> None:
     """Fail through `ck` when the generated blade of `p` (placed by `placement`, a
     `DiskPlacement` or None) is implausible; `given` is the [scene.blade] table as
-    written (the fields to blame), `origin` maps a key to its table (quick overrides)."""
-    def where(k):
-        return f"{origin.get(k, 'scene.blade')}.{k}"
+    written (the fields to blame), `where(key)` the field of one of its keys (quick
+    overrides name their own)."""
 
     dims = {k: getattr(p, k) for k in LENGTHS
             if p.shroud or not k.startswith("shroud")}

@@ -1,10 +1,16 @@
-"""One sweep case of a study: the solver it calls for and one guarded continuation.
-`run` maps these over the grid; `disk_figures` and the optimum search reuse them."""
+"""The sweep cases of a response study: the solver they call for, one guarded
+continuation each (`run_case`), and all of them mapped over the grid in this
+process, a local process pool or a Dask cluster (`execute_cases`), each finished case
+kept at once (`checkpoint`).  `disk_figures` and the optimum search reuse `run_case`."""
 from __future__ import annotations
 
 import logging
+import sys
+
+import numpy as np
 
 from ..solve import linear_response, response
+from .checkpoint import load_cases, save_case
 from .declared import SeparationGuard, UndeclaredSeparation, needs_guard
 from .spec import Study, is_linear_scene
 
@@ -53,3 +59,141 @@ def separation_guard(study):
         return None
     names = tuple(getattr(c, "name", "") for c in getattr(scene, "contacts", ()))
     return SeparationGuard(unit=study.sweep.frequency.unit, names=names)
+
+
+log = logging.getLogger("pipeline.study.run")
+SCHEDULER_TIMEOUT = "20s"   # connecting to a --scheduler address
+
+
+class SchedulerUnreachable(RuntimeError):
+    """--scheduler names no reachable Dask scheduler (nothing was computed)."""
+
+
+class WorkerLost(RuntimeError):
+    """A worker process of the local pool died; the finished cases are kept."""
+
+
+class Progress:
+    """tqdm when it is installed (cases done, and the current case's frequency in the
+    study's unit when cases run in this process), otherwise one log line per
+    finished case.  While the bar is live, log records are written through tqdm
+    (`logging_redirect_tqdm`) so they do not break it."""
+
+    def __init__(self, total, desc, initial=0, unit="rad/s"):
+        self.total, self.desc, self.done = total, desc, initial
+        self.unit, self.to_rad_s = unit, (2.0 * np.pi if unit == "Hz" else 1.0)
+        self._redirect = None
+        try:
+            from tqdm.auto import tqdm
+            self.bar = tqdm(total=total, initial=initial, desc=desc, unit="case",
+                            disable=None, file=sys.stderr)
+        except ImportError:
+            self.bar = None
+        if self.live:
+            from tqdm.contrib.logging import logging_redirect_tqdm
+            self._redirect = logging_redirect_tqdm()
+            self._redirect.__enter__()
+
+    @property
+    def live(self) -> bool:
+        return self.bar is not None and not self.bar.disable
+
+    def frequency(self, omega):
+        """Callback of the continuation in this process: show where the case is."""
+        if self.live:
+            self.bar.set_postfix_str(f"{omega / self.to_rad_s:.5g} {self.unit}", refresh=False)
+            self.bar.update(0)
+        return False
+
+    def update(self, case, curve, err):
+        self.done += 1
+        what = (f"failed ({err})" if curve is None else
+                f"{curve.n_points} points, {int(np.sum(curve.converged))} converged, "
+                f"{curve.wall_time:.2f} s")
+        if self.live:
+            self.bar.update(1)
+            log.debug("case %s: %s", case, what)
+        else:
+            log.info("%s: %d/%d done, case %s: %s", self.desc, self.done, self.total, case, what)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+        if self._redirect is not None:
+            self._redirect.__exit__(None, None, None)
+            self._redirect = None
+
+
+
+def execute_cases(study, solver, workers, scheduler, progress, cdir=None):
+    """Run the cases not found in `cdir`; each finished case is kept there at once.
+    Returns (results aligned with the cases, number reused from checkpoints)."""
+    cases = study.sweep.cases()
+    H, fr = study.solver.harmonics, study.sweep.frequency
+    kw = study.solver.kwargs(study.output.yscale)  # curves smooth on the figures' axis
+    if study.scene.model != "lumped":  # FE scenes: exact peaks of the reported DOFs only
+        kw["peak_dofs"] = [study.scene.dof_index(d) for d in study.output.dofs]
+    results = [None] * len(cases)
+    reused = load_cases(cdir, cases) if cdir is not None else {}
+    for k, res in reused.items():
+        results[k] = res
+    todo = [k for k in range(len(cases)) if k not in reused]
+    if reused:
+        log.info("%s: resuming: %d of %d case(s) finished earlier (kept in %s), %d to compute",
+                 study.name, len(reused), len(cases), cdir, len(todo))
+    bar = (Progress(len(cases), study.name, initial=len(reused), unit=fr.unit)
+           if progress else None)
+    guard = separation_guard(study) if getattr(solver, "__module__", "") == "pipeline.solve.response" else None
+
+    def job(k):
+        return (solver, study.system(cases[k][1]), H, fr.omega_start, fr.omega_stop, kw, guard)
+
+    def done(k, res):
+        results[k] = res
+        if cdir is not None and res[0] is not None:
+            save_case(cdir, k, cases[k][1], res[0])
+        if bar is not None:
+            bar.update(cases[k][1], *res)
+
+    try:
+        if scheduler and todo:
+            from dask.distributed import Client, as_completed
+
+            try:
+                client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
+            except (OSError, TimeoutError) as exc:
+                raise SchedulerUnreachable(f"cannot reach the Dask scheduler at {scheduler} "
+                                           f"({type(exc).__name__}: {exc})") from None
+            with client:
+                futs = [client.submit(run_case, *job(k), pure=False) for k in todo]
+                index = {f.key: k for k, f in zip(todo, futs)}
+                for fut in as_completed(futs):
+                    done(index[fut.key], fut.result())
+        elif workers > 1 and len(todo) > 1:
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
+            try:
+                futs = {pool.submit(run_case, *job(k)): k for k in todo}
+                for fut in as_completed(futs):
+                    done(futs[fut], fut.result())
+            except BaseException as exc:  # Ctrl-C or a lost worker: stop the running cases now
+                for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                    proc.terminate()
+                pool.shutdown(wait=False, cancel_futures=True)
+                from concurrent.futures.process import BrokenProcessPool
+                if isinstance(exc, BrokenProcessPool):
+                    raise WorkerLost("a worker process died (killed, or out of memory)") from None
+                raise
+            pool.shutdown()
+        else:
+            for k in todo:
+                kwk = dict(kw)
+                if bar is not None and bar.live and getattr(solver, "__name__", "") == "frequency_response":
+                    kwk["callback"] = lambda x, lam: bar.frequency(lam)
+                solver_k, system, H_k, a, b, _, g = job(k)
+                done(k, run_case(solver_k, system, H_k, a, b, kwk, g))
+    finally:
+        if bar is not None:
+            bar.close()
+    return results, len(reused)

@@ -269,3 +269,22 @@ def model_line(study) -> str:
     return (f"model: {params.kind} blade, {s.elements:,} elements, {s.free_dofs:,} DOFs (from "
             f"the mesh parameters) -> Craig-Bampton {s.boundary_dofs} boundary DOFs + {modes} "
             f"modes = {s.boundary_dofs + modes} DOFs{whole}")
+
+
+def seconds(t: float) -> str:
+    """A duration [s] as the estimates print it."""
+    if t < 1.0:
+        return "under 1 s"
+    if t < 120.0:
+        return f"{t:.0f} s"
+    if t < 7200.0:
+        return f"{t / 60:.0f} min"
+    return f"{t / 3600:.1f} h"
+
+
+def time_range(lo: float, hi: float) -> str:
+    """A range of durations [s] as the estimates print it."""
+    a, b = seconds(lo), seconds(hi)
+    if a == b:
+        return a
+    return f"up to {b}" if lo < 1.0 else f"{a} to {b}"

@@ -32,10 +32,12 @@ import numpy as np
 from ..model.cyclic import sector_system
 from ..model.scene import Scene, sector
 from ..model.system import natural_frequencies
-from .blade_scene import BLADE_MODELS, blade_scenes
+from .blade_scene import BLADE_MODELS, base_dir_of, blade_scenes
 from .checker import Checker
+from .header import overlay, parse_header, quick_tables
 from .scene import parse_scene
-from .spec import StudyHeader, StudyResult
+from .kind_costs import disk_modes_estimate, estimate_lines
+from .spec import StudyHeader, StudyKind, StudyResult, never
 
 log = logging.getLogger(__name__)
 TOP = ("study", "scene", "modes", "quick")
@@ -53,13 +55,12 @@ class DiskModesStudy(StudyHeader):
     kind: str = "disk_modes"
 
 
-def is_disk_modes_document(data) -> bool:
-    """A modes study of a lumped disk (model "disk") or of FE blades in a disk
-    (a blade model with a [scene.disk] table)."""
-    head, scene = data.get("study"), data.get("scene")
-    return (isinstance(head, dict) and head.get("kind") == "modes" and isinstance(scene, dict)
-            and (scene.get("model") == "disk" or (scene.get("model") in BLADE_MODELS
-                                                   and "disk" in scene)))
+def is_disk_document(data) -> bool:
+    """A document of a lumped disk (model "disk") or of FE blades in a disk (a blade
+    model with a [scene.disk] table)."""
+    scene = data.get("scene")
+    return isinstance(scene, dict) and (scene.get("model") == "disk" or (
+        scene.get("model") in BLADE_MODELS and "disk" in scene))
 
 
 def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study",
@@ -67,35 +68,29 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     """Validate a disk modes study document; every mistake `<file>: <field>: <what>`."""
     ck = Checker(file)
     ck.keys(data, "", TOP, required=("study", "scene"))
-    head = ck.table(data["study"], "study")
-    ck.keys(head, "study", ("title", "description", "reference", "kind"), required=("title",))
-    qt = ck.table(data.get("quick"), "quick", required=False)
+    header = parse_header(ck, data)
     if data["scene"].get("model") == "disk":
+        qt = quick_tables(ck, data, quick, ("modes",))
         scene = parse_scene(ck, ck.table(data["scene"], "scene"), loaded=False)
-        ck.keys(qt, "quick", ("modes",))
     else:   # FE blades: [quick.scene] may coarsen the mesh
-        base = Path(file).parent if file and not file.startswith("<") else Path(".")
-        full, q_scene = blade_scenes(ck, data, qt if quick else {}, "disk_modes", base)
+        qt = quick_tables(ck, data, quick, ("scene", "modes"))
+        full, q_scene = blade_scenes(ck, data, qt, base_dir_of(file), loaded=False)
         scene = q_scene if quick else full
     check_modes_scene(ck, scene)
-    modes = ck.table(data.get("modes"), "modes", required=False)
-    if quick and "modes" in qt:
-        modes = {**modes, **ck.table(qt["modes"], "quick.modes")}
-    where = "quick.modes" if quick and "modes" in qt else "modes"
-    ck.keys(modes, where, ("n_frequencies", "nodal_diameters"))
+    modes, where = overlay(ck, ck.table(data.get("modes"), "modes", required=False),
+                           qt.get("modes", {}), "modes")
+    for k in modes:
+        ck.keys({k: None}, where(k).rpartition(".")[0], ("n_frequencies", "nodal_diameters"))
     N, n = scene.assembly.sectors, len(scene.sector_dofs)
     nf = ck.integer(modes.get("n_frequencies", min(n, DEFAULT_FREQUENCIES)),
-                    f"{where}.n_frequencies", 1, n)
-    nds = tuple(ck.integer(v, f"{where}.nodal_diameters[{i}]", 0, N // 2) for i, v in
+                    where("n_frequencies"), 1, n)
+    nds = tuple(ck.integer(v, where(f"nodal_diameters[{i}]"), 0, N // 2) for i, v in
                 enumerate(ck.array(modes.get("nodal_diameters", list(range(N // 2 + 1))),
-                                   f"{where}.nodal_diameters")))
+                                   where("nodal_diameters"))))
     if len(set(nds)) != len(nds):
-        ck.fail(f"{where}.nodal_diameters", "a nodal diameter is listed twice")
-    return DiskModesStudy(file=file, name=name, title=ck.string(head["title"], "study.title"),
-                          description=ck.string(head.get("description", ""), "study.description"),
-                          reference=ck.string(head.get("reference", ""), "study.reference"),
-                          text=text, scene=scene, nodal_diameters=nds, n_frequencies=nf,
-                          quick=bool(quick))
+        ck.fail(where("nodal_diameters"), "a nodal diameter is listed twice")
+    return DiskModesStudy(file=file, name=name, **header, text=text, scene=scene,
+                          nodal_diameters=nds, n_frequencies=nf, quick=bool(quick))
 
 
 def check_modes_scene(ck, scene: Scene):
@@ -150,3 +145,21 @@ def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: b
         log.info("wrote %s", written[-1])
     return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=0,
                        wall_time=time.perf_counter() - t0)
+
+
+def describe(study: DiskModesStudy, workers: int = 1) -> list:
+    """The lines `check` prints for a disk modes study, its cost estimate included."""
+    sc = study.scene
+    return [f"scene: disk of {sc.assembly.sectors} sectors, {len(sc.sector_dofs)} DOF(s) "
+            f"per sector, {len(sc.contacts)} contact(s); nodal diameters "
+            f"{', '.join(map(str, study.nodal_diameters))}; {study.n_frequencies} "
+            "frequencies each, contacts open and stuck"] + estimate_lines(
+                disk_modes_estimate(study))
+
+
+KIND = StudyKind(name="disk_modes", word="modes", fits=is_disk_document, by_default=never,
+                 parse=study_from_mapping, describe=describe,
+                 estimate=lambda study, workers=1: disk_modes_estimate(study),
+                 run=lambda study, out_dir, figures=True, **_: run_disk_modes_study(
+                     study, out_dir, figures=figures),
+                 cases=lambda study: 1)

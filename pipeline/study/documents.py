@@ -1,7 +1,6 @@
 """Study files -> validated studies: read, decode, parse TOML, and hand the document
-to the parser of its kind (the registry `KINDS`): an accuracy-cost study
-(`accuracy_cost`), an FE blade scene (`blade_scene`: response or modes), or a lumped
-or disk scene (`scene`).  Every problem is one `UsageError("<file>: <field>: <what>")`.
+to the parser of its kind (the registry `kinds.KINDS`: response, modes of a blade or
+of a disk, accuracy-cost).  Every problem is one `UsageError("<file>: <field>: <what>")`.
 """
 from __future__ import annotations
 
@@ -12,8 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
-from . import accuracy_cost, blade_scene, disk_modes, scene
 from .checker import Checker
+from .kinds import kind_of_document
 from .spec import Study
 
 
@@ -57,25 +56,13 @@ def parse_study(text, file: str = "<study>", name: str | None = None, quick: boo
     return study_from_document(data, file=file, name=name, text=text, quick=quick)
 
 
-def is_accuracy_document(data) -> bool:
-    head = data.get("study")
-    return isinstance(head, dict) and head.get("kind") == "accuracy_cost"
-
-
-# study kinds: (recognises a document, validates it); the first match parses it
-KINDS = ((is_accuracy_document, accuracy_cost.study_from_mapping),
-         (disk_modes.is_disk_modes_document, disk_modes.study_from_mapping),
-         (blade_scene.is_blade_document, blade_scene.study_from_mapping),
-         (lambda data: True, scene.study_from_mapping))
-
-
 def study_from_document(data, *, file: str = "<study>", name: str = "study", text: str = "",
                         quick: bool = False):
     """Validate an already-parsed study document of any kind (the dict `tomllib`
-    returns): a `spec.Study`, a `spec.ModesStudy` or an accuracy-cost study."""
+    returns): a `spec.Study`, a `spec.ModesStudy`, a disk modes or an accuracy-cost
+    study, as its kind reads it (`kinds.kind_of_document`)."""
     Checker(file).table(data, "(document)")
-    parse = next(parse for recognises, parse in KINDS if recognises(data))
-    return parse(data, file=file, name=name, text=text, quick=quick)
+    return kind_of_document(data, file).parse(data, file=file, name=name, text=text, quick=quick)
 
 
 def study_to_mapping(study: Study) -> dict:

@@ -87,7 +87,7 @@ def disk_modes_estimate(study) -> RangeEstimate:
 
 def accuracy_estimate(study) -> RangeEstimate:
     """An accuracy-cost study (module docstring): every distinct run timed now."""
-    from .accuracy_cost import case_systems
+    from .accuracy_measure import case_systems
 
     f = slowdown() / CALIBRATION_SLOWDOWN
     lo = hi = 0.0
@@ -112,7 +112,9 @@ def accuracy_estimate(study) -> RangeEstimate:
                                  "(one point) and counted as `check` counts a response case")
 
 
-def estimate_kind(study) -> RangeEstimate:
-    """The estimate of a modes, disk-modes or accuracy-cost study."""
-    return {"modes": modes_estimate, "disk_modes": disk_modes_estimate,
-            "accuracy_cost": accuracy_estimate}[study.kind](study)
+def estimate_lines(e: RangeEstimate) -> list:
+    """The cost line `check` prints for a modes, disk-modes or accuracy-cost study."""
+    from .cost import seconds, time_range
+
+    return [f"estimated cost: {time_range(e.lo, e.hi)} (middle {seconds(e.mid)}): {e.detail}; "
+            "calibrated on the shipped studies (bench estimate)"]

@@ -1,7 +1,9 @@
-"""Modes studies of an FE blade: full (shift-invert Lanczos) vs Craig-Bampton
-eigenfrequencies against the number of fixed-interface modes, with timings per
-stage, MAC and mode shapes (`modal_study`, `run_modes_study`).  The cost and
-accuracy of the reduction, shown before any response is computed."""
+"""Modes studies of an FE blade (`[study] kind = "modes"`, or a `[modes]` table): full
+(shift-invert Lanczos) vs Craig-Bampton eigenfrequencies against the number of
+fixed-interface modes, with timings per stage, MAC and mode shapes (`modal_study`,
+`run_modes_study`).  The cost and accuracy of the reduction, shown before any
+response is computed.  The document is read by `blade_scene.modes_from_mapping`;
+`KIND` is the registry entry (`kinds`)."""
 from __future__ import annotations
 
 import logging
@@ -12,12 +14,10 @@ import numpy as np
 
 from ..model.scene import Scene, blade_model
 from ..structure.fe_model import boundary_dofs
-from ..structure.mesh_io import write_fields
 from ..structure.reduction import eigenmodes, reduce, reduced_modes
-from .dataset import write_netcdf
-from .modes_dataset import modes_to_dataset
-from .plots import modal_convergence_figure
-from .spec import ModesStudy, StudyResult
+from .blade_scene import is_blade_document, modes_from_mapping
+from .kind_costs import estimate_lines, modes_estimate
+from .spec import ModesStudy, StudyKind, StudyResult
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +79,12 @@ def modal_study(scene: Scene, mode_counts, n_freqs: int, n_shapes: int = 0) -> d
 def run_modes_study(study: ModesStudy, out_dir="results", *, figures: bool = True):
     """Run a modes study: `out_dir/<name>.nc`, then `out_dir/<name>/mode_shapes.vtu`
     and `out_dir/<name>/modal_convergence.png`."""
+    # deferred: xarray, matplotlib and meshio are slow to import; reading a study needs none
+    from ..structure.mesh_io import write_fields
+    from .dataset import write_netcdf
+    from .modes_dataset import modes_to_dataset
+    from .plots import modal_convergence_figure
+
     t0 = time.perf_counter()
     sc = study.scene
     log.info("%s: %s, mode counts %s, %d frequencies%s", study.name, sc.model,
@@ -107,3 +113,23 @@ def run_modes_study(study: ModesStudy, out_dir="results", *, figures: bool = Tru
              time.perf_counter() - t0)
     return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=0,
                        wall_time=time.perf_counter() - t0)
+
+
+def describe(study: ModesStudy, workers: int = 1) -> list:
+    """The lines `check` prints for a blade modes study, its cost estimate included."""
+    return [f"scene: {study.scene.model}, Craig-Bampton mode counts "
+            f"{', '.join(map(str, study.mode_counts))}; {study.n_frequencies} "
+            "frequencies compared with the full model"] + estimate_lines(modes_estimate(study))
+
+
+def is_modes_default(data) -> bool:
+    """A blade document with a [modes] table is a modes study unless it says otherwise."""
+    return "modes" in data
+
+
+KIND = StudyKind(name="modes", word="modes", fits=is_blade_document, by_default=is_modes_default,
+                 parse=modes_from_mapping, describe=describe,
+                 estimate=lambda study, workers=1: modes_estimate(study),
+                 run=lambda study, out_dir, figures=True, **_: run_modes_study(
+                     study, out_dir, figures=figures),
+                 cases=lambda study: 1)

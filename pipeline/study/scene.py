@@ -32,6 +32,7 @@ from ..model.loads import Forcing
 from ..model.scene import Cyclic, Lumped, Scene, Single, Spring
 from . import disk_scene
 from .checker import Checker, join_field, kind_of
+from .header import parse_header, quick_tables
 from .law_scene import check_law_solvers, law_tables, supported
 from .rules import check_optimum_axes, check_scene_rules
 from .spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
@@ -57,11 +58,7 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     ck = Checker(file)
     ck.table(data, "(document)")
     ck.keys(data, "", _TOP, required=("study", "scene", "sweep"))
-    head = ck.table(data["study"], "study")
-    ck.keys(head, "study", ("title", "description", "reference"), required=("title",))
-    title = ck.string(head["title"], "study.title")
-    description = ck.string(head.get("description", ""), "study.description")
-    reference = ck.string(head.get("reference", ""), "study.reference")
+    header = parse_header(ck, data)
 
     # the main tables first (a typo there is reported as such), then [quick], and
     # [quick] only when the quick variant is asked for: a full run never depends on it
@@ -75,7 +72,8 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
     variants = [(False, solver, sweep_axes, freq, "solver", "sweep")]
     if quick:
-        q_solver, q_sweep = quick_tables(ck, data, sweep_tab)
+        q_solver, q_sweep = quick_response_tables(ck, quick_tables(ck, data, quick, ("sweep", "solver")),
+                                                  sweep_tab)
         q_solver_s = parse_solver(ck, q_solver, "quick.solver", base=solver, model=model)
         q_axes, q_freq = parse_sweep(ck, q_sweep, "quick.sweep", partial=True)
         q_axes = {k: q_axes.get(k, v) for k, v in sweep_axes.items()}
@@ -86,8 +84,7 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     for is_quick, sv, axes, fr, spath, wpath in variants:
         _check_consistency(ck, scene, sv, axes, spath, wpath, data)
         check_optimum_axes(ck, output, axes, wpath)
-        st = Study(file=file, name=name, title=title, description=description,
-                   reference=reference, text=text, scene=scene,
+        st = Study(file=file, name=name, **header, text=text, scene=scene,
                    sweep=Sweep(axes=axes, frequency=fr), solver=sv, output=output,
                    quick=is_quick)
         _check_build(ck, st)
@@ -108,13 +105,11 @@ def solver_sweep_tables(ck, data):
     return solver_tab, sweep_tab
 
 
-def quick_tables(ck, data, sweep_tab, allowed=("sweep", "solver")):
-    """[quick.solver] and [quick.sweep] of a response study, read only for `--quick`
-    (after the main tables); quick mode may only override axes that [sweep] has."""
-    quick_tab = ck.table(data.get("quick"), "quick", required=False)
-    ck.keys(quick_tab, "quick", allowed)
-    q_sweep = ck.table(quick_tab.get("sweep"), "quick.sweep", required=False)
-    q_solver = ck.table(quick_tab.get("solver"), "quick.solver", required=False)
+def quick_response_tables(ck, quick: dict, sweep_tab):
+    """([quick.solver], [quick.sweep]) of a response study from its quick tables
+    (`header.quick_tables`, read only for `--quick`, after the main tables); quick
+    mode may only override axes that [sweep] has."""
+    q_sweep, q_solver = quick.get("sweep", {}), quick.get("solver", {})
     for k in q_sweep:
         if k not in sweep_tab:
             ck.fail(join_field("quick.sweep", k), "quick mode may only override axes of [sweep] "

@@ -1,14 +1,17 @@
 """Study specifications as plain frozen data: what a study file declares once it is
 validated (`Study`: a `pipeline.model.scene.Scene`, sweeps, solver and output
-settings) and what a run returns (`StudyResult`).  A leaf of the study layer: the
-parsers (`scene`, `blade_scene`, `accuracy_cost`) build these, `run` and `dataset`
-read them.
+settings), what a run returns (`StudyResult`), and what a registry entry of a study
+kind holds (`StudyKind`, listed in `kinds`).  A leaf of the study layer: the parsers
+(`scene`, `blade_scene`, `disk_modes`, `accuracy_cost`) build these, `run` and
+`dataset` read them.  A study written in Python builds `Study` directly (the header
+fields are keywords with defaults; `studies/python_example.py`).
 """
 from __future__ import annotations
 
 import itertools
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -150,15 +153,43 @@ class OutputSettings:
 
 
 @dataclass(frozen=True)
-class StudyHeader:
-    """What every study kind carries: where it came from and how it describes itself."""
+class StudyKind:
+    """One kind of study in the registry (`kinds.KINDS`): how a document of it is
+    recognised and read, how `check` describes a study of it, how it is estimated and
+    run.  Each kind's module defines its entry; nothing else branches on the kind."""
 
-    file: str
-    name: str                    # the file's stem: output DIR/<name>.nc
-    title: str
-    description: str
-    reference: str
-    text: str                    # the study file's text (dataset attribute `study`)
+    name: str           # the `kind` of its studies (a dataset's `kind` attribute)
+    word: str           # what `[study] kind` says for it
+    fits: Callable      # document -> True if its scene is one this kind reads
+    by_default: Callable  # document -> True if read as this kind when `kind` is not given
+    parse: Callable     # (document, *, file, name, text, quick) -> validated study
+    describe: Callable  # (study, workers) -> lines `check` prints, the estimate included
+    estimate: Callable  # (study, workers) -> estimate [s]: .lo, .hi, .mid
+    run: Callable       # (study, out_dir, **options of `run.run_study`) -> StudyResult
+    cases: Callable     # study -> number of cases it runs
+
+
+def always(document) -> bool:
+    """A `StudyKind.fits` / `by_default` that holds for every document."""
+    return True
+
+
+def never(document) -> bool:
+    """A `StudyKind.by_default` of a kind a document must name."""
+    return False
+
+
+@dataclass(frozen=True, kw_only=True)
+class StudyHeader:
+    """What every study kind carries: where it came from and how it describes itself
+    (keywords only; a study written in Python may leave them out)."""
+
+    file: str = "<python>"
+    name: str = "study"          # the file's stem: output DIR/<name>.nc
+    title: str = ""
+    description: str = ""
+    reference: str = ""
+    text: str = ""               # the study file's text (dataset attribute `study`)
 
 
 @dataclass(frozen=True)
@@ -170,6 +201,7 @@ class Study(StudyHeader):
     solver: SolverSettings
     output: OutputSettings
     quick: bool = False
+    kind: str = "response"
 
     def system(self, case: dict | None = None) -> System:
         return case_system(self.scene, case)

@@ -1,0 +1,122 @@
+"""The public Python API (`import pipeline`): cheap to import, and a study written in
+Python (`studies/python_example.py`) gives the dataset the command line writes for the
+same study written as a file."""
+from __future__ import annotations
+
+import runpy
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pipeline
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "studies" / "python_example.py"
+
+# the scene, sweep and settings of studies/python_example.py as a study file
+EXAMPLE_TOML = """
+[study]
+title = "Example 1 in Python: single-DOF oscillator with a friction damper to ground"
+reference = "Sec. 6.1, Eq. 12-13, Fig. 2"
+
+[scene]
+model = "lumped"
+effects = ["friction"]
+dofs = ["x"]
+
+[scene.matrices]
+M = [[1.0]]
+C = [[0.3]]
+K = [[3.55e4]]
+
+[[scene.contact]]
+name = "damper"
+tangential = ["x"]
+ku = 1.0e4
+mu = 0.5
+
+[[scene.excitation]]
+dof = "x"
+amplitude = 1.0
+
+[sweep]
+preload = [0.0, 2.0, 1000.0]
+frequency = { start = 150.0, stop = 250.0, unit = "rad/s" }
+
+[solver]
+harmonics = 3
+
+[output]
+dofs = ["x"]
+yscale = "log"
+"""
+# attributes that say where a dataset came from, not what it holds
+PROVENANCE = ("study", "created")
+MEASURED = ("wall_time",)   # [s] each case's continuation took on this machine
+
+
+def test_import_is_cheap_and_names_resolve():
+    code = ("import sys, pipeline; heavy = [m for m in ('xarray', 'matplotlib', 'scipy', "
+            "'pipeline.study.dataset') if m in sys.modules]; print(heavy)")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                         text=True, check=True).stdout.strip()
+    assert out == "[]"
+    for name in pipeline.__all__:
+        assert getattr(pipeline, name) is not None, name
+    assert pipeline.load_study.__module__ == "pipeline.study.documents"
+    assert pipeline.Scene.__module__ == "pipeline.model.scene"
+    with pytest.raises(AttributeError):
+        pipeline.no_such_name  # noqa: B018
+
+
+def assert_same_attrs(a: dict, b: dict, skip=()):
+    assert sorted(a) == sorted(b)
+    for k in a:
+        if k not in skip:
+            assert np.array_equal(np.asarray(a[k]), np.asarray(b[k])), k
+
+
+def assert_same_dataset(a, b, encodings=True):
+    """Same variables, coordinates, attributes (and encodings, both read from files);
+    values identical; provenance attributes and measured times aside."""
+    assert sorted(a.variables) == sorted(b.variables)
+    assert sorted(a.coords) == sorted(b.coords)
+    assert_same_attrs(a.attrs, b.attrs, PROVENANCE)
+    for name in a.variables:
+        x, y = a[name], b[name]
+        assert x.dims == y.dims, name
+        assert_same_attrs(x.attrs, y.attrs)
+        if encodings:
+            assert x.encoding.get("dtype") == y.encoding.get("dtype"), name
+        if name in MEASURED:
+            continue
+        np.testing.assert_array_equal(x.values, y.values, err_msg=name)   # NaN == NaN here
+
+
+def test_python_example_gives_the_dataset_of_the_command_line(tmp_path, monkeypatch):
+    from pipeline.__main__ import main as cli
+    from pipeline.study.dataset import read_dataset
+
+    pytest.importorskip("matplotlib")
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    monkeypatch.setattr(sys, "argv", [str(EXAMPLE), str(tmp_path / "python")])
+    ns = runpy.run_path(str(EXAMPLE), run_name="__main__")
+    assert (tmp_path / "python" / "python_example.png").is_file()
+
+    study = tmp_path / "python_example.toml"
+    study.write_text(EXAMPLE_TOML)
+    assert cli(["run", str(study), "--out", str(tmp_path / "cli"), "--workers", "1",
+                "--no-figures"]) == 0
+    with read_dataset(tmp_path / "cli" / "python_example.nc") as from_cli, \
+            read_dataset(tmp_path / "python" / "python_example.nc") as from_python:
+        assert_same_dataset(from_cli, from_python)
+        assert int(from_python["converged"].sum()) > 100
+        # the dataset in memory is the one written
+        assert_same_dataset(from_python, ns["ds"], encodings=False)
+    # the Python study is the validated file's, field by field
+    loaded = pipeline.load_study(study)
+    for part in ("sweep", "solver", "output"):
+        assert getattr(loaded, part) == getattr(ns["study"], part), part
