@@ -120,3 +120,13 @@ def test_python_example_gives_the_dataset_of_the_command_line(tmp_path, monkeypa
     loaded = pipeline.load_study(study)
     for part in ("sweep", "solver", "output"):
         assert getattr(loaded, part) == getattr(ns["study"], part), part
+
+
+def test_readme_shows_the_example_that_runs():
+    """The README's Python block is the code of studies/python_example.py (its docstring
+    aside), so the example the README shows is the one this module runs."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = readme.split("<!-- python-example -->", 1)[1].split("```python\n", 1)[1]
+    block = block.split("```", 1)[0]
+    code = EXAMPLE.read_text(encoding="utf-8").split('"""', 2)[2].lstrip("\n")
+    assert block.strip() == code.strip()

@@ -92,12 +92,6 @@ def test_ci_runs_the_install_and_the_suite():
     assert "[project.scripts]" in (ROOT / "pyproject.toml").read_text()
 
 
-def test_python_example_block_is_marked():
-    blocks = _blocks(README.read_text())
-    assert any(tag == "python" and before.strip() == "<!-- python-example -->"
-               for tag, body, before in blocks)
-
-
 @pytest.fixture(scope="module")
 def here(tmp_path_factory):
     """A folder with the repository's studies, where the README's commands run."""
