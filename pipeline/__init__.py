@@ -28,9 +28,9 @@ __version__ = "0.1.0"
 
 # public name -> the module that defines it (imported on first use)
 _PUBLIC = {
-    "load_study": "pipeline.study.documents",
-    "parse_study": "pipeline.study.documents",
-    "run_study": "pipeline.study.run",
+    "load_study": "pipeline.study.files.documents",
+    "parse_study": "pipeline.study.files.documents",
+    "run_study": "pipeline.study.execution.run",
     "Scene": "pipeline.model.scene",
     "Lumped": "pipeline.model.scene",
     "Single": "pipeline.model.scene",
@@ -38,15 +38,15 @@ _PUBLIC = {
     "build_system": "pipeline.model.scene",
     "DofContact": "pipeline.model.contacts",
     "Forcing": "pipeline.model.loads",
-    "frequency_response": "pipeline.solve.response",
-    "Study": "pipeline.study.spec",
-    "Sweep": "pipeline.study.spec",
-    "FrequencyRange": "pipeline.study.spec",
-    "SolverSettings": "pipeline.study.spec",
-    "OutputSettings": "pipeline.study.spec",
-    "to_dataset": "pipeline.study.dataset",
-    "write_netcdf": "pipeline.study.dataset",
-    "read_dataset": "pipeline.study.dataset",
+    "frequency_response": "pipeline.solve.response.response",
+    "Study": "pipeline.study.files.spec",
+    "Sweep": "pipeline.study.files.spec",
+    "FrequencyRange": "pipeline.study.files.spec",
+    "SolverSettings": "pipeline.study.files.spec",
+    "OutputSettings": "pipeline.study.files.spec",
+    "to_dataset": "pipeline.study.datasets.dataset",
+    "write_netcdf": "pipeline.study.datasets.dataset",
+    "read_dataset": "pipeline.study.datasets.dataset",
     "UsageError": "pipeline.errors",
 }
 __all__ = ["__version__", *_PUBLIC]

@@ -28,7 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    from .study.run import add_run_parser
+    from .study.execution.run import add_run_parser
     add_run_parser(sub)
 
     c = sub.add_parser("check", help="validate a study without computing (cases, solver, "
@@ -75,14 +75,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _cmd_keys(args) -> int:
-    from .study.keys import markdown
+    from .study.files.keys import markdown
 
     print(markdown(), end="")
     return 0
 
 
 def _cmd_hysteresis(args) -> int:
-    from .study.plots import hysteresis_figure
+    from .study.figures.plots import hysteresis_figure
 
     out = Path(args.out)
     if out.is_dir():
@@ -99,14 +99,14 @@ def _cmd_optimise(args) -> int:
     """Optimum preload by a search on the exact peak (response.optimum_preload)."""
     from pathlib import Path
 
-    from .study.declared import UndeclaredSeparation
-    from .study.optimum_figure import optimum_figure
-    from .study.documents import load_study
-    from .study.optimum_search import find_optimum
-    from .study.cases import default_solver
-    from .study.checkpoint import checkpoint_dir
-    from .study.run import sigint_interrupts
-    from .study.search_checkpoint import search_file
+    from .study.files.declared import UndeclaredSeparation
+    from .study.figures.optimum_figure import optimum_figure
+    from .study.files.documents import load_study
+    from .study.execution.optimum_search import find_optimum
+    from .study.execution.cases import default_solver
+    from .study.execution.checkpoint import checkpoint_dir
+    from .study.execution.run import sigint_interrupts
+    from .study.execution.search_checkpoint import search_file
 
     study = load_study(args.study, quick=args.quick)
     if study.output.optimum is None:
@@ -163,7 +163,7 @@ def _cmd_bench(args) -> int:
 def _cmd_check(args) -> int:
     import logging
 
-    from .study.check import check
+    from .study.files.check import check
 
     if not args.verbose:   # a check prints its verdict only: no model-building chatter
         logging.getLogger("pipeline.structure").setLevel(logging.WARNING)
@@ -171,7 +171,7 @@ def _cmd_check(args) -> int:
 
 
 def main(argv=None) -> int:
-    from .study.run import configure_logging
+    from .study.execution.run import configure_logging
 
     args = build_parser().parse_args(argv)
     configure_logging(args.verbose)

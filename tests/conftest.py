@@ -24,8 +24,8 @@ def quick_run(tmp_path_factory):
     from pipeline.__main__ import main as cli
     import pipeline.model.cyclic as cyclic
     from pipeline.model.scene import Cyclic
-    from pipeline.study.dataset import read_dataset
-    from pipeline.study.documents import Study, load_study
+    from pipeline.study.datasets.dataset import read_dataset
+    from pipeline.study.files.documents import Study, load_study
 
     from helpers import STUDIES
 

@@ -17,8 +17,8 @@ from scipy.optimize import minimize_scalar
 from pipeline.contact import YangMenq
 from pipeline.model.cyclic import sector_system
 from pipeline.model.system import System, dense
-from pipeline.solve import hbm
-from pipeline.solve.newton import newton
+from pipeline.solve.harmonic_balance import hbm
+from pipeline.solve.continuation.newton import newton
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDIES = ROOT / "studies"

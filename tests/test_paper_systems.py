@@ -7,7 +7,7 @@ import pytest
 
 from pipeline import paper_systems
 from pipeline.model.system import dense
-from pipeline.study.documents import load_study
+from pipeline.study.files.documents import load_study
 
 from helpers import STUDIES, study_doc
 

@@ -60,13 +60,13 @@ MEASURED = ("wall_time",)   # [s] each case's continuation took on this machine
 
 def test_import_is_cheap_and_names_resolve():
     code = ("import sys, pipeline; heavy = [m for m in ('xarray', 'matplotlib', 'scipy', "
-            "'pipeline.study.dataset') if m in sys.modules]; print(heavy)")
+            "'pipeline.study.datasets.dataset') if m in sys.modules]; print(heavy)")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
                          text=True, check=True).stdout.strip()
     assert out == "[]"
     for name in pipeline.__all__:
         assert getattr(pipeline, name) is not None, name
-    assert pipeline.load_study.__module__ == "pipeline.study.documents"
+    assert pipeline.load_study.__module__ == "pipeline.study.files.documents"
     assert pipeline.Scene.__module__ == "pipeline.model.scene"
     with pytest.raises(AttributeError):
         pipeline.no_such_name  # noqa: B018
@@ -98,7 +98,7 @@ def assert_same_dataset(a, b, encodings=True):
 
 def test_python_example_gives_the_dataset_of_the_command_line(tmp_path, monkeypatch):
     from pipeline.__main__ import main as cli
-    from pipeline.study.dataset import read_dataset
+    from pipeline.study.datasets.dataset import read_dataset
 
     pytest.importorskip("matplotlib")
     monkeypatch.setenv("MPLBACKEND", "Agg")

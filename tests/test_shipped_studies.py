@@ -13,9 +13,9 @@ from decimal import Decimal
 import numpy as np
 import pytest
 
-from pipeline.solve import stability_check as sc
-from pipeline.study.dataset_check import problems
-from pipeline.study.documents import load_study
+from pipeline.solve.stability import branch_stability as sc
+from pipeline.study.datasets.conformance import problems
+from pipeline.study.files.documents import load_study
 
 from helpers import STUDIES, closed_form_hz, linear_peak
 

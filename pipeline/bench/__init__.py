@@ -11,11 +11,11 @@ import time
 
 import numpy as np
 
-from ..solve import timesim
+from ..solve.time_integration import timesim
 from ..contact import YangMenq, exact_reference, forces
 from ..fourier.harmonics import basis
 from ..paper_systems import example1, example3
-from ..solve.response import frequency_response
+from ..solve.response.response import frequency_response
 
 
 def _median_time(fn, repeat):
@@ -100,7 +100,7 @@ def hbm(quick=False):
     cases = [("Example 1, n = 2 N", 1, 2.0, 7, 150.0, 250.0),
              ("Example 1, n = 10 N", 1, 10.0, 7, 150.0, 250.0),
              ("Example 3, n0 = 10 N (folds)", 3, 10.0, 14, 0.5, 1.6)]
-    logging.getLogger("pipeline.solve.timesim").setLevel(logging.WARNING)  # its sweep's points
+    logging.getLogger("pipeline.solve.time_integration.timesim").setLevel(logging.WARNING)  # its sweep's points
     print("Harmonic balance + continuation, exact forces, one core; stability by Hill "
           "(time), by the monodromy along the orbit (mono s); median of 3")
     print(f"{'case':<30} {'H':>3} {'time s':>7} {'mono s':>7} {'points':>6} {'Newton/pt':>9} "
@@ -160,8 +160,8 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
     # deferred: the study layer imports xarray (slow), which the other benches never use
     import xarray as xr
 
-    from ..study.documents import load_study
-    from ..study.run import run_study
+    from ..study.files.documents import load_study
+    from ..study.execution.run import run_study
 
     for name in ("pipeline", "distributed"):
         logging.getLogger(name).setLevel(logging.WARNING)

@@ -42,12 +42,12 @@ from ..model.contacts import ShroudPair
 from ..model.loads import PointLoad
 from ..model.scene import Blade, CraigBampton, Cyclic, Scene, build_system, full_system
 from ..model.system import natural_frequencies
-from ..solve import hbm
-from ..solve.parts import SPARSE_JACOBIAN_MIN
-from ..solve.full_operators import wave_jacobians
-from ..solve.newton import newton
-from ..solve.response import frequency_response, initial_guess
-from ..solve.stability import is_stable
+from ..solve.harmonic_balance import hbm
+from ..solve.harmonic_balance.parts import SPARSE_JACOBIAN_MIN
+from ..solve.harmonic_balance.full_operators import wave_jacobians
+from ..solve.continuation.newton import newton
+from ..solve.response.response import frequency_response, initial_guess
+from ..solve.stability.hill import is_stable
 from ..structure.fe_model import BladeParams, DiskPlacement
 
 SHROUD_WIDTH = 0.15     # [m], the same for every N (module docstring)

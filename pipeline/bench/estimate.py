@@ -3,8 +3,8 @@
     python -m pipeline bench estimate [STUDY ...] [--quick]
 
 Each study (default: every one in studies/) is estimated as `check` does (its
-kind's estimate, `study.kinds`: `study.cost` for a response, which times the model;
-`study.kind_costs` for the other kinds), the model caches are cleared (the
+kind's estimate, `study.kinds`: `study.execution.cost` for a response, which times the model;
+`study.execution.kind_costs` for the other kinds), the model caches are cleared (the
 run builds and reduces its model again, as a fresh `run` does), and the study is run
 in this process (`--workers 1`, figures included, no checkpoints).  Printed: the
 estimate's range and its geometric middle, the measured wall time, and their ratio
@@ -39,9 +39,9 @@ class Measured:
 def measure(path, quick: bool = False, out_dir=None) -> Measured:
     """Estimate, then run, the study at `path` (serially); `Measured`."""
     from ..model import scene as model_scene
-    from ..study.documents import load_study
+    from ..study.files.documents import load_study
     from ..study.kinds import kind_of
-    from ..study.run import run_study
+    from ..study.execution.run import run_study
 
     study = load_study(path, quick=quick)
     kind = kind_of(study)
@@ -61,7 +61,7 @@ def shipped_studies() -> list:
 
 
 def run(quick: bool = False, studies=()) -> int:
-    from ..study.cost import seconds
+    from ..study.execution.cost import seconds
 
     for name in ("pipeline", "distributed"):
         logging.getLogger(name).setLevel(logging.WARNING)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..paper_systems import example1, example2, example3
-from ..solve.response import frequency_response
+from ..solve.response.response import frequency_response
 
 AIM = 3.0  # residual evaluations per point of the returned curve
 

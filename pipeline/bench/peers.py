@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..paper_systems import example1
-from ..solve.response import frequency_response
+from ..solve.response.response import frequency_response
 
 SCRIPTS = Path(__file__).resolve().parent / "peer_scripts"
 LOADS = (1.0, 2.0, 5.0)       # normal loads n [N]

@@ -1,7 +1,7 @@
 """What a trustworthy stability flag costs: `python -m pipeline bench stability`.
 
 One frequency-response curve (dense output on, exact forces) per stability mode
-(`solve.stability_check`) on paper Examples 1 and 3 and the 3-DOF shrouded blade,
+(`solve.stability.branch_stability`) on paper Examples 1 and 3 and the 3-DOF shrouded blade,
 each timed as this process's CPU time (single-threaded BLAS), with the points the
 exact Floquet multipliers decided, the unstable points and the bifurcations.
 
@@ -21,12 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from ..paper_systems import blade3, example1, example3
-from ..solve import hbm
-from ..solve.response import frequency_response
-from ..solve.orbit_floquet import along_orbit
-from ..solve.stability_check import branch_stability
-from ..solve.stability_modes import FLOQUET, KINDS, MONODROMY
-from ..study.documents import load_study
+from ..solve.harmonic_balance import hbm
+from ..solve.response.response import frequency_response
+from ..solve.stability.orbit_floquet import along_orbit
+from ..solve.stability.branch_stability import branch_stability
+from ..solve.stability.methods import FLOQUET, KINDS, MONODROMY
+from ..study.files.documents import load_study
 
 CURVES = [("Example 1, n = 2 N, H = 7, 150-250 rad/s", lambda: example1(2.0), 7, 150.0, 250.0),
           ("Example 3, n0 = 10 N, H = 14, 0.5-1.6 rad/s", lambda: example3(10.0), 14, 0.5, 1.6),
@@ -41,7 +41,7 @@ def run(quick=False):
           f"{'by Floquet':>10} {'by monodromy':>12} {'unstable':>8}  bifurcations [rad/s]")
     modes = MODES[:3] if quick else MODES
     # the shooting's notes on slider rests are not this table's business
-    logging.getLogger("pipeline.solve.timesim").setLevel(logging.WARNING)
+    logging.getLogger("pipeline.solve.time_integration.timesim").setLevel(logging.WARNING)
     for name, make, H, lo, hi in CURVES:
         system = make()
         frequency_response(system, H, lo, hi, stability="monodromy")   # warm-up

@@ -13,7 +13,7 @@ N = 3 (2H + 1) = 6H + 3 samples the coefficients F_k = W f and the Jacobian
 dF_k/dU_j = W diag(df/du) S are therefore those of the exact harmonic
 convolution (up to round-off), for either evaluation method.
 
-Lumped study file (`study.law_scene`):
+Lumped study file (`study.scenes.law_scene`):
 
     [scene]
     effects = ["cubic_stiffness"]

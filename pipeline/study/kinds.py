@@ -13,8 +13,11 @@ table is a modes study, anything else a response).
 """
 from __future__ import annotations
 
-from . import accuracy_cost, disk_modes, modes, response_study
-from .checker import Checker
+from .accuracy import study as accuracy_cost
+from .modes import disk_modes
+from .modes import modes
+from .execution import response_study
+from .files.validation import Checker
 
 KINDS = (
     accuracy_cost.KIND,     # [study] kind = "accuracy_cost"

@@ -1,0 +1,1 @@
+"""Arc-length continuation of a residual R(x, lam) = 0: predictor, Newton corrector, step control, branch refinement."""

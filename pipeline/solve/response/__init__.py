@@ -1,0 +1,1 @@
+"""Frequency-response curves: continuation of the harmonic balance over frequency, the linear response, resonance guard, optimum preload."""

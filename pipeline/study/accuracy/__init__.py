@@ -1,0 +1,1 @@
+"""Accuracy-versus-cost studies: what each accuracy setting buys."""

@@ -1,0 +1,1 @@
+"""Datasets: xarray/netCDF layout of results and its conformance check."""

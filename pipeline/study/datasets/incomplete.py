@@ -1,0 +1,54 @@
+"""Cases whose branch stopped short of the frequency interval: their largest
+amplitude is the largest traced, not the peak of the interval (`peak_complete` = 0
+in the dataset).  `incomplete_cases` words them for the end of `python -m pipeline run`;
+`CASE_FLAGS` describes that flag and the count of points accepted on the residual's
+round-off floor (`solve.harmonic_balance.roundoff`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+PEAK_NAME = ("largest amplitude over converged points (the peak of the frequency interval "
+             "only where peak_complete = 1)")
+# (dims after the sweep axes, units, long_name) of the per-case flags (`dataset`)
+CASE_FLAGS = {
+    "peak_complete": ((), "1", "1: the branch covers the frequency interval, so "
+                      "peak_amplitude is its peak; 0: the branch stopped short of it "
+                      "(see message), the peak may lie beyond its last point"),
+    "roundoff_points": ((), "1", "points accepted on the round-off floor of their residual, "
+                        "above residual_tolerance (-1: case failed)"),
+}
+
+
+def case_flags(curve) -> tuple:
+    """(peak_complete, roundoff_points) of a finished curve: whether it covers its
+    interval (`success`), and its points accepted on the round-off floor."""
+    return bool(curve.success), int(curve.info.get("roundoff_points", 0))
+
+
+def incomplete_cases(study, ds) -> list:
+    """[({axis: value}, what)] of every case with points whose branch did not cover
+    the study's frequency interval (failed cases, without points, are not listed)."""
+    if ds is None or "peak_complete" not in ds or "n_points" not in ds:
+        return []
+    fr = study.sweep.frequency
+    unit = ds["frequency"].attrs.get("units", "")
+    lo_end, hi_end = sorted((fr.start, fr.stop))
+    complete, n_points = ds["peak_complete"].values, ds["n_points"].values
+    freq, conv = ds["frequency"].values, ds["converged"].values
+    dofs = [str(d) for d in ds["dof"].values] if "dof" in ds.coords else []
+    out = []
+    for idx, case in study.sweep.cases():
+        if bool(complete[idx]) or int(n_points[idx]) == 0:
+            continue
+        f = freq[idx][conv[idx].astype(bool)]
+        covered = (f"{np.min(f):.6g}-{np.max(f):.6g} {unit}" if f.size
+                   else "no converged point")
+        peak = np.asarray(ds["peak_amplitude"].values[idx], float).ravel()
+        top = (f"; peak_amplitude ({dofs[0]}) {peak[0]:.4g} m is the largest amplitude traced,"
+               f" the peak may lie beyond" if dofs and peak.size and np.isfinite(peak[0])
+               else "")
+        why = str(ds["message"].values[idx]) if "message" in ds else ""
+        out.append((case, f"the branch covers {covered} of {lo_end:g}-{hi_end:g} {unit} "
+                          f"({why}){top}"))
+    return out

@@ -1,0 +1,1 @@
+"""Running studies: cases, workers, checkpoints, searches, cost estimates."""

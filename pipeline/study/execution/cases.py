@@ -1,0 +1,200 @@
+"""The sweep cases of a response study: the solver they call for, one guarded
+continuation each (`run_case`), and all of them mapped over the grid in this
+process, a local process pool or a Dask cluster (`execute_cases`), each finished case
+kept at once (`checkpoint`).  `disk_figures` and the optimum search reuse `run_case`."""
+from __future__ import annotations
+
+import logging
+import sys
+
+import numpy as np
+
+from ...solve.response import linear_response
+from ...solve.response import response
+from .checkpoint import load_cases, save_case
+from ..files.declared import SeparationGuard, UndeclaredSeparation, needs_guard
+from ..files.spec import Study, is_linear_scene
+
+
+def default_solver(study: Study | None = None):
+    """The solver of a study's cases: `linear_response.frequency_response` (direct
+    solve per frequency) when the scene calls for neither friction nor separation,
+    else `response.frequency_response` (HBM continuation)."""
+    scene = getattr(study, "scene", None)  # an accuracy-cost study has one scene per case
+    if scene is not None and is_linear_scene(scene):
+        return linear_response.frequency_response
+    fn = getattr(response, "frequency_response", None)
+    if fn is None:
+        raise RuntimeError("pipeline.solve.response.response.frequency_response is not available yet")
+    return fn
+
+
+def run_case(solver, system, H, omega_start, omega_stop, kwargs, guard=None):
+    """One continuation; returns (ResponseCurve or None, error text or None).
+
+    guard: a `declared.SeparationGuard` when the scene's normal load varies but
+    separation is not declared: the continuation stops at the first point that
+    separates, and every point of the finished curve is checked, so such a case
+    fails instead of being solved with separation."""
+    try:
+        if guard is not None:
+            kwargs = dict(kwargs)
+            check, progress = guard.callback(system, H), kwargs.get("callback")
+            kwargs["callback"] = (check if progress is None else
+                                  lambda x, lam: check(x, lam) or progress(x, lam))
+        curve = solver(system, H, omega_start, omega_stop, **kwargs)
+        if guard is not None:
+            guard.check_curve(system, curve)
+        return curve, None
+    except UndeclaredSeparation as exc:  # reported once, in the case's progress line
+        return None, f"{type(exc).__name__}: {exc}"
+    except Exception as exc:  # numerical failures of one case must not lose the others
+        logging.getLogger(__name__).exception("case failed")
+        return None, f"{type(exc).__name__}: {exc}"
+
+
+def separation_guard(study):
+    """The `declared.SeparationGuard` of a study's cases, or None."""
+    scene = getattr(study, "scene", None)
+    if scene is None or not needs_guard(scene):
+        return None
+    names = tuple(getattr(c, "name", "") for c in getattr(scene, "contacts", ()))
+    return SeparationGuard(unit=study.sweep.frequency.unit, names=names)
+
+
+log = logging.getLogger("pipeline.study.execution.run")
+SCHEDULER_TIMEOUT = "20s"   # connecting to a --scheduler address
+
+
+class SchedulerUnreachable(RuntimeError):
+    """--scheduler names no reachable Dask scheduler (nothing was computed)."""
+
+
+class WorkerLost(RuntimeError):
+    """A worker process of the local pool died; the finished cases are kept."""
+
+
+class Progress:
+    """tqdm when it is installed (cases done, and the current case's frequency in the
+    study's unit when cases run in this process), otherwise one log line per
+    finished case.  While the bar is live, log records are written through tqdm
+    (`logging_redirect_tqdm`) so they do not break it."""
+
+    def __init__(self, total, desc, initial=0, unit="rad/s"):
+        self.total, self.desc, self.done = total, desc, initial
+        self.unit, self.to_rad_s = unit, (2.0 * np.pi if unit == "Hz" else 1.0)
+        self._redirect = None
+        try:
+            from tqdm.auto import tqdm
+            self.bar = tqdm(total=total, initial=initial, desc=desc, unit="case",
+                            disable=None, file=sys.stderr)
+        except ImportError:
+            self.bar = None
+        if self.live:
+            from tqdm.contrib.logging import logging_redirect_tqdm
+            self._redirect = logging_redirect_tqdm()
+            self._redirect.__enter__()
+
+    @property
+    def live(self) -> bool:
+        return self.bar is not None and not self.bar.disable
+
+    def frequency(self, omega):
+        """Callback of the continuation in this process: show where the case is."""
+        if self.live:
+            self.bar.set_postfix_str(f"{omega / self.to_rad_s:.5g} {self.unit}", refresh=False)
+            self.bar.update(0)
+        return False
+
+    def update(self, case, curve, err):
+        self.done += 1
+        what = (f"failed ({err})" if curve is None else
+                f"{curve.n_points} points, {int(np.sum(curve.converged))} converged, "
+                f"{curve.wall_time:.2f} s")
+        if self.live:
+            self.bar.update(1)
+            log.debug("case %s: %s", case, what)
+        else:
+            log.info("%s: %d/%d done, case %s: %s", self.desc, self.done, self.total, case, what)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+        if self._redirect is not None:
+            self._redirect.__exit__(None, None, None)
+            self._redirect = None
+
+
+
+def execute_cases(study, solver, workers, scheduler, progress, cdir=None):
+    """Run the cases not found in `cdir`; each finished case is kept there at once.
+    Returns (results aligned with the cases, number reused from checkpoints)."""
+    cases = study.sweep.cases()
+    H, fr = study.solver.harmonics, study.sweep.frequency
+    kw = study.solver.kwargs(study.output.yscale)  # curves smooth on the figures' axis
+    if study.scene.model != "lumped":  # FE scenes: exact peaks of the reported DOFs only
+        kw["peak_dofs"] = [study.scene.dof_index(d) for d in study.output.dofs]
+    results = [None] * len(cases)
+    reused = load_cases(cdir, cases) if cdir is not None else {}
+    for k, res in reused.items():
+        results[k] = res
+    todo = [k for k in range(len(cases)) if k not in reused]
+    if reused:
+        log.info("%s: resuming: %d of %d case(s) finished earlier (kept in %s), %d to compute",
+                 study.name, len(reused), len(cases), cdir, len(todo))
+    bar = (Progress(len(cases), study.name, initial=len(reused), unit=fr.unit)
+           if progress else None)
+    guard = separation_guard(study) if getattr(solver, "__module__", "") == "pipeline.solve.response.response" else None
+
+    def job(k):
+        return (solver, study.system(cases[k][1]), H, fr.omega_start, fr.omega_stop, kw, guard)
+
+    def done(k, res):
+        results[k] = res
+        if cdir is not None and res[0] is not None:
+            save_case(cdir, k, cases[k][1], res[0])
+        if bar is not None:
+            bar.update(cases[k][1], *res)
+
+    try:
+        if scheduler and todo:
+            from dask.distributed import Client, as_completed
+
+            try:
+                client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
+            except (OSError, TimeoutError) as exc:
+                raise SchedulerUnreachable(f"cannot reach the Dask scheduler at {scheduler} "
+                                           f"({type(exc).__name__}: {exc})") from None
+            with client:
+                futs = [client.submit(run_case, *job(k), pure=False) for k in todo]
+                index = {f.key: k for k, f in zip(todo, futs)}
+                for fut in as_completed(futs):
+                    done(index[fut.key], fut.result())
+        elif workers > 1 and len(todo) > 1:
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
+            try:
+                futs = {pool.submit(run_case, *job(k)): k for k in todo}
+                for fut in as_completed(futs):
+                    done(futs[fut], fut.result())
+            except BaseException as exc:  # Ctrl-C or a lost worker: stop the running cases now
+                for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                    proc.terminate()
+                pool.shutdown(wait=False, cancel_futures=True)
+                from concurrent.futures.process import BrokenProcessPool
+                if isinstance(exc, BrokenProcessPool):
+                    raise WorkerLost("a worker process died (killed, or out of memory)") from None
+                raise
+            pool.shutdown()
+        else:
+            for k in todo:
+                kwk = dict(kw)
+                if bar is not None and bar.live and getattr(solver, "__name__", "") == "frequency_response":
+                    kwk["callback"] = lambda x, lam: bar.frequency(lam)
+                solver_k, system, H_k, a, b, _, g = job(k)
+                done(k, run_case(solver_k, system, H_k, a, b, kwk, g))
+    finally:
+        if bar is not None:
+            bar.close()
+    return results, len(reused)

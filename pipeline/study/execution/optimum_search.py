@@ -1,0 +1,113 @@
+"""The optimum-preload search of a study (`[output.optimum_preload]`): the study's
+systems at each trial preload, its cases' peaks reused as grid nodes, the evaluations
+kept on disk as they come so that an interrupted search resumes
+(`response.optimum_preload`, `search_checkpoint`)."""
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ...solve.response.response import optimum_preload
+from .cases import separation_guard
+from .search_checkpoint import load_search, save_search
+from ..files.spec import Study
+
+log = logging.getLogger("pipeline.study.execution.run")
+
+
+def study_optimum(study: Study, solver, curves, cdir=None) -> tuple:
+    """(optimum dict or None, error text or None) of a study run whose cases gave
+    `curves` with `solver`: `find_optimum`, the cases reused when they are HBM curves;
+    a search stopped by an undeclared separation is an error (the dataset is written
+    without it), logged."""
+    from ..files.declared import UndeclaredSeparation
+
+    if study.output.optimum is None:
+        return None, None
+    hbm = getattr(solver, "__module__", "") == "pipeline.solve.response.response"
+    try:
+        return find_optimum(study, list(zip([c for _, c in study.sweep.cases()], curves))
+                            if hbm else None, cdir), None
+    except UndeclaredSeparation as exc:
+        log.error("%s: optimum preload search stopped: %s", study.name, exc)
+        return None, str(exc)
+
+
+def optimum_figure_of(study: Study, optimum: dict, fig_dir):
+    """`fig_dir/optimum_preload.png`: the peak-versus-preload curve of the search."""
+    from ..figures.optimum_figure import optimum_figure   # deferred: matplotlib
+
+    return optimum_figure(Path(fig_dir) / "optimum_preload.png", optimum,
+                          study.output.optimum["dof"], study.title)
+
+
+def find_optimum(study: Study, cases=None, cdir=None) -> dict:
+    """The preload that minimises the resonant peak (`response.optimum_preload`): a
+    grid over the bounds, Brent in every bracketed minimum, the best taken; the other
+    sweep axes keep the scene's own values.
+
+    cases: [(grid case, ResponseCurve)] of the study's HBM cases; their peaks are
+    reused as grid nodes where they are the search's own curve (a preload-only case,
+    complete, over the search's window, its peak located exactly).  cdir: a checkpoint
+    folder where the evaluations are kept as they come (`search_checkpoint`), so an
+    interrupted search resumes where it stopped."""
+    o, sv = study.output.optimum, study.solver
+    window = o["window"] or study.sweep.frequency
+    dof = study.scene.dofs.index(o["dof"])
+    kw = {k: v for k, v in sv.kwargs().items() if k not in ("stability",)}
+    guard, current = separation_guard(study), {}
+    identity = {"dof": o["dof"], "bounds": list(o["bounds"]), "rtol": o["rtol"],
+                "window": [window.omega_start, window.omega_stop], "harmonics": sv.harmonics}
+    kept = load_search(cdir, identity) if cdir is not None else {}
+    free = case_peaks(study, cases or [], window, dof)
+    fr = study.sweep.frequency
+
+    def build(n0):
+        system = study.system({"preload": n0})
+        if guard is not None:  # each evaluation's continuation checked (declared.py)
+            current["check"] = guard.callback(system, sv.harmonics)
+        return system
+
+    def keep(n0, peak, omega):
+        kept[n0] = (peak, omega)
+        log.info("%s: optimum search: %.6g N: peak %.4g m at %.5g %s", study.name, n0, peak,
+                 omega / fr.to_rad_s, fr.unit)
+        if cdir is not None:
+            save_search(cdir, identity, kept)
+
+    if guard is not None:
+        kw["callback"] = lambda x, lam: current["check"](x, lam)
+    if kept:
+        log.info("%s: optimum search resumes with %d evaluation(s) kept in %s", study.name,
+                 len(kept), cdir)
+    t0 = time.perf_counter()
+    res = optimum_preload(build, sv.harmonics, window.omega_start, window.omega_stop, dof,
+                          o["bounds"], rtol=o["rtol"], known={**kept, **free},
+                          extra_nodes=list(free), on_evaluation=keep, **kw)
+    res["wall_time"] = time.perf_counter() - t0
+    log.info("%s: optimum preload %.4g N (peak %.4g m at %.4g %s), %d evaluations (%d "
+             "computed, %d reused), %d bracket(s), %.1f s", study.name, res["preload"],
+             res["peak"], res["peak_omega"] / fr.to_rad_s, fr.unit, len(res["evaluations"]),
+             res["computed"], res["reused"], len(res["brackets"]), res["wall_time"])
+    return res
+
+
+def case_peaks(study: Study, cases, window, dof) -> dict:
+    """{preload: (peak, omega)} of the cases that are the optimum search's own curve:
+    only the preload varies, the curve is complete, its window is the search's and its
+    peak of `dof` was located exactly (lumped scenes: every DOF; others: output DOFs)."""
+    fr = study.sweep.frequency
+    if (window.omega_start, window.omega_stop) != (fr.omega_start, fr.omega_stop):
+        return {}
+    if study.scene.model != "lumped" and study.scene.dofs[dof] not in study.output.dofs:
+        return {}
+    out = {}
+    for case, curve in cases:
+        if set(case) == {"preload"} and curve is not None and curve.success:
+            a, om, _ = curve.peak(dof)
+            if np.isfinite(a):
+                out[float(case["preload"])] = (a, om)
+    return out

@@ -1,0 +1,219 @@
+"""Run a study: grid of sweep cases -> response curves -> dataset -> figures.
+
+    python -m pipeline run STUDY.toml [--out DIR] [--workers N] [--scheduler ADDRESS] [--quick]
+
+Each grid case (one combination of the `[sweep]` axes) is one frequency
+continuation `pipeline.solve.response.response.frequency_response(system, H, omega_start,
+omega_stop, **solver.kwargs())`, or one direct solve per frequency for a linear
+scene (`pipeline.solve.response.linear_response`).  Cases run in a process pool sized to the
+machine (`--workers`, 1 = this process) or on a Dask cluster (`--scheduler`).
+
+Nothing is lost: each finished case is kept at once in `DIR/.<name>.<key>.cases/`
+(atomic writes of small netCDF files, `pipeline.study.execution.checkpoint`); a rerun after Ctrl-C, a killed worker or a restart computes only
+the missing cases.  The dataset `DIR/<name>.nc` is written atomically when all
+cases are done (then the checkpoints are removed), followed by the figures under
+`DIR/<name>/`.  A case that raises is logged and kept as an empty branch; the run
+then exits 1 (the dataset of the other cases is still written).
+
+That is a response study (`response_study`); every kind of study is run through
+its registry entry (`kinds`).
+"""
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+
+from ...errors import UsageError, interrupt_in_chain
+from .cases import SchedulerUnreachable, WorkerLost, default_solver
+from .checkpoint import kept_cases
+from ..files.documents import load_study
+from ..datasets.incomplete import incomplete_cases
+from ..kinds import kind_of
+from ..files.spec import SWEEP_AXES, StudyResult
+
+log = logging.getLogger("pipeline.study.execution.run")
+
+
+def run_study(study, out_dir="results", *, workers: int = 1, scheduler: str | None = None,
+              solver=None, figures: bool = True, progress: bool = True,
+              checkpoints: bool = True) -> StudyResult:
+    """Run a validated study of any kind (`kinds`), write `out_dir/<name>.nc` and its
+    figures; a response study's options (`response_study.run_response_study`):
+    `workers` processes or a Dask `scheduler`, the `solver` of its cases, `progress`,
+    and `checkpoints` (each finished case kept, a rerun computes only the missing
+    ones).  Other kinds take `figures` (and `progress`) only."""
+    return kind_of(study).run(study, out_dir, workers=workers, scheduler=scheduler,
+                              solver=solver, figures=figures, progress=progress,
+                              checkpoints=checkpoints)
+
+
+def configure_run_parser(r):
+    r.add_argument("study", metavar="STUDY.toml", help="study file (see studies/README.md)")
+    r.add_argument("--out", default="results", metavar="DIR",
+                   help="output directory: DIR/<name>.nc and DIR/<name>/*.png (default: results)")
+    r.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes (default: one per CPU core; 1 = run in this process)")
+    r.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="Dask scheduler address, e.g. tcp://host:8786 (overrides --workers)")
+    r.add_argument("--quick", action="store_true",
+                   help="use the study's [quick] overrides (fewer cases, fewer harmonics)")
+    r.add_argument("--no-figures", dest="figures", action="store_false", help="skip the figures")
+    r.set_defaults(func=cmd_run)
+
+
+def check_writable(file, out: Path):
+    """UsageError unless `out` is (or can be made) a directory we can write in,
+    checked before any computing."""
+    import os
+    import tempfile
+
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"{file}: --out: {out} exists and is not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".write-test.", dir=out)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise UsageError(f"{file}: --out: {out} is not writable "
+                         f"({exc.strerror or type(exc).__name__})") from None
+
+
+class sigint_interrupts:
+    """Context manager: SIGINT raises KeyboardInterrupt for the whole block, also when
+    the process started with SIGINT ignored (`nohup`, `cmd &` in a script), so an
+    interrupt at any stage (cases, optimum search, final write, figures) stops the
+    run the same way; the previous handler is restored on exit.  An interrupt that
+    a compiled kernel's dispatcher wrapped in a SystemError leaves the block as the
+    KeyboardInterrupt it is (`interrupt_in_chain`).  No-op outside the main thread
+    (signal handlers can only be set there)."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self._old = None
+        if threading.current_thread() is threading.main_thread():
+            self._old = signal.signal(signal.SIGINT, signal.default_int_handler)
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        import signal
+
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+        if isinstance(exc, SystemError) and interrupt_in_chain(exc):
+            raise KeyboardInterrupt from exc
+        return False
+
+
+def configure_logging(verbose: bool):
+    """Root logging for the command line; scikit-fem's per-step INFO lines and the
+    continuation's per-branch summary only with --verbose."""
+    logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
+                        format="%(levelname)s %(name)s: %(message)s")
+    quiet = logging.NOTSET if verbose else logging.WARNING
+    for name in ("skfem", "pipeline.solve.continuation.pseudo_arclength"):
+        logging.getLogger(name).setLevel(quiet)
+
+
+def _kept(out, name) -> str:
+    """Where the finished cases are, said only when a folder holds some."""
+    d, n = kept_cases(out, name)
+    if d is None:
+        return "no finished case was kept"
+    return f"{n} finished case(s) are kept in {d}, rerun the same command to resume"
+
+
+def _case_words(case: dict) -> str:
+    """'preload = 10 N, ...': a case's sweep values with their units."""
+    return ", ".join(f"{k} = {v:g}" + ("" if SWEEP_AXES[k][0] == "1" else f" {SWEEP_AXES[k][0]}")
+                     for k, v in case.items())
+
+
+def cmd_run(args) -> int:
+    """`python -m pipeline run`: 0 ok, 1 a case failed or nothing converged, 2 bad input."""
+    try:
+        study = load_study(args.study, quick=getattr(args, "quick", False))
+        workers = getattr(args, "workers", None)
+        if workers is None:
+            import os
+            workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        if workers < 1:
+            raise UsageError(f"{args.study}: --workers: must be >= 1, got {workers}")
+        out = Path(getattr(args, "out", "results"))
+        check_writable(args.study, out)
+        scheduler = getattr(args, "scheduler", None)
+        if scheduler:
+            try:
+                import dask.distributed  # noqa: F401
+            except ImportError:
+                raise UsageError(f"{args.study}: --scheduler: dask.distributed is not installed "
+                                 "(pip install 'dask[distributed]')") from None
+    except UsageError as exc:
+        # printed here too so the one-line contract holds however `run` is wired
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    try:
+        solver = default_solver(study)
+    except RuntimeError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    try:
+        with sigint_interrupts():
+            res = run_study(study, out, workers=workers, scheduler=scheduler, solver=solver,
+                            figures=getattr(args, "figures", True))
+    except OSError as exc:
+        print(f"error: {args.study}: --out: cannot write: {exc}; {_kept(out, study.name)}",
+              file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"interrupted: {_kept(out, study.name)}", file=sys.stderr)
+        return 130
+    except SchedulerUnreachable as exc:
+        print(f"error: {args.study}: --scheduler: {exc}", file=sys.stderr)
+        return 2
+    except WorkerLost as exc:
+        print(f"error: {args.study}: {exc}; {_kept(out, study.name)}", file=sys.stderr)
+        return 1
+    for case, reason in res.failed:  # one line each, whether or not a progress bar hid the log
+        print(f"error: {args.study}: case {_case_words(case)}: {reason}", file=sys.stderr)
+    for case, what in incomplete_cases(study, res.dataset):  # a peak that may lie beyond
+        print(f"warning: {args.study}: case {_case_words(case)}: {what}", file=sys.stderr)
+    if res.reused:
+        log.info("%s: %d case(s) reused from the interrupted run, %d computed",
+                 study.name, res.reused, res.computed)
+    log.info("%s: done in %.1f s", study.name, res.wall_time)
+    return 0 if res.ok else 1
+
+
+def main(argv=None) -> int:
+    """`python -m pipeline.study.execution.run STUDY.toml ...` (same as `python -m pipeline run`)."""
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python -m pipeline.study.execution.run", description=__doc__.splitlines()[0])
+    p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    configure_run_parser(p)
+    args = p.parse_args(argv)
+    configure_logging(args.verbose)
+    try:
+        return cmd_run(args)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
+
+
+# ---------------------------------------------------------------------------
+# Command line
+# ---------------------------------------------------------------------------
+
+def add_run_parser(subparsers):
+    """Register `run` on the CLI's subparsers (`pipeline/__main__.py`)."""
+    r = subparsers.add_parser("run", help="run a study file: dataset (netCDF) and figures")
+    configure_run_parser(r)
+    return r

@@ -1,0 +1,56 @@
+"""The face-total hysteresis loop at each case's peak (paper Fig. 5b, for a whole
+contact): the friction force summed over the elements of the contact that
+dissipates most there, against the mean tangential relative displacement of its
+elements, drawn exactly from the dataset's per-element coefficients
+(`contact_dataset.peak_motion_variables`, `contact.exact.history`).  The legend
+gives the energy the contact dissipates per cycle [J] (`dissipated_energy`, the sum
+of its elements' slider work)."""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from ...contact import YangMenq
+from ...contact.exact import history
+from .plots import wrapped_title
+
+
+def face_loop(ds, sel: dict, tau) -> dict | None:
+    """(u [m], f [N], contact name, element count, energy [J]) of the contact that
+    dissipates most at the peak of the case `sel` (isel of the sweep axes); None
+    when the case has no converged peak."""
+    sub = ds.isel(sel)
+    p = int(sub["peak_contact_point"])
+    if p < 0:
+        return None
+    energy = sub["dissipated_energy"].isel(point=p).values
+    c = int(np.nanargmax(energy)) if np.isfinite(energy).any() else 0
+    pairs = np.flatnonzero(ds["pair_contact"].values == c)
+    el = YangMenq(*(sub[f"{k}_pair"].values[pairs] for k in ("ku", "kv", "mu")),
+                  n0=sub["preload_pair"].values[pairs])
+    h = history(sub["peak_contact_u"].values[pairs], sub["peak_contact_v"].values[pairs], el, tau)
+    return dict(u=h["u"].mean(axis=0), f=h["fu"].sum(axis=0), name=str(ds["contact"].values[c]),
+                elements=pairs.size, energy=float(energy[c]),
+                frequency=float(sub["frequency"].isel(point=p)))
+
+
+def draw_face_loops(study, ds, ax) -> None:
+    """One face-total loop per case on `ax` (module doc), labelled."""
+    tau = np.linspace(0.0, 2 * np.pi, 1201)
+    axes = list(study.sweep.axes)
+    unit = ds["frequency"].attrs["units"]
+    for idx in itertools.product(*(range(len(study.sweep.axes[a])) for a in axes)):
+        sel = dict(zip(axes, idx))
+        loop = face_loop(ds, sel, tau)
+        if loop is None:
+            continue
+        case = ", ".join(f"{a} = {study.sweep.axes[a][i]:g} {ds[a].attrs.get('units', '')}"
+                         for a, i in sel.items())
+        ax.plot(loop["u"], loop["f"], lw=1.6,
+                label=f"{case}: {loop['name']} ({loop['elements']} elements) at "
+                      f"{loop['frequency']:.4g} {unit}, W = {loop['energy']:.3g} J/cycle")
+    ax.set_xlabel("mean tangential relative displacement of its elements [m]")
+    ax.set_ylabel("contact's total friction force [N]")
+    wrapped_title(ax, f"{study.title}\nat the peak: the contact dissipating most, face total "
+                      "(W: energy dissipated per cycle)", fontsize=9)

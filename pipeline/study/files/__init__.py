@@ -1,0 +1,1 @@
+"""Study files: reading, validating and describing TOML studies."""

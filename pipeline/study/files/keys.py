@@ -1,0 +1,360 @@
+"""Every key a study file may hold: one row per (table, key) with its unit, default and
+meaning -- the table `studies/README.md` shows (`python -m pipeline keys` prints it)
+and `tests/test_keys.py` holds against the parsers: each key a parser accepts is a
+row here and each row is accepted by some parser (probed with an unknown key in every
+table of the shipped studies, whose one-line error lists the keys allowed there).
+
+Units and defaults are taken from the code where it states them: the sweep axes'
+units from `spec.SWEEP_AXES`, the solver defaults from `spec.SolverSettings`, the
+blade's from `structure.fe_model.BladeParams`, the mode count from
+`structure.reduction.DEFAULT_MODES`.
+
+Table paths are dotted as in the error messages, without list indices.  `<case>` is
+an accuracy-cost case table, `[lumped]` or `[blade]`; `ALIASES` maps the tables that
+take the keys of another one (`[quick.solver]` those of `[solver]`, ...).
+"""
+from __future__ import annotations
+
+from dataclasses import fields
+
+from ...contact.registry import study_laws
+from ...structure.fe_model import BladeParams
+from ...structure.reduction import DEFAULT_MODES
+from ..accuracy.spec import Settings
+from .spec import EFFECTS, FIGURES, SWEEP_AXES, SolverSettings
+
+FILE = ""                    # the top level of a study file
+CASE = "<case>"              # an accuracy-cost case: [lumped] or [blade]
+# [[arrays of tables]]; each registered contact law placed by study files adds its own
+ARRAYS = ("scene.contact", "scene.excitation", "scene.disk.spring") + tuple(
+    f"scene.{t}" for t in study_laws())
+
+# tables whose keys are those of another table (a path prefix maps to another prefix)
+ALIASES = {
+    "quick.sweep": "sweep",
+    "quick.solver": "solver",
+    "quick.modes": "modes",
+    "quick.scene.blade": "scene.blade",
+    "output.optimum_preload.frequency": "sweep.frequency",
+    "lumped": CASE,
+    "blade": CASE,
+    "quick.lumped": CASE,    # a case's keys but `scene`
+    "quick.blade": CASE,
+    f"{CASE}.scene": "scene",
+    f"{CASE}.frequency": "sweep.frequency",
+}
+
+_REQ = "required"
+_STABILITY = ('`"monodromy+check"` lumped, `"hill"` lumped disk, `"folds"` FE blades')
+
+
+def _fmt(v) -> str:
+    """A default as a study file writes it."""
+    if isinstance(v, bool):
+        return str(v).lower()
+    if isinstance(v, str):
+        return f'"{v}"'
+    if isinstance(v, (tuple, list)):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return f"{v:.4g}"
+
+
+def _settings_rows() -> list:
+    """[<case>.reference]: the accuracy settings, defaults from `accuracy_spec.Settings`
+    (a blade's mode count and mesh from the reduction's and the blade's)."""
+    d = {f.name: f.default for f in fields(Settings)}
+    p = BladeParams()
+    d["craig_bampton_modes"] = DEFAULT_MODES
+    d["mesh"] = (p.n_chord, p.n_thick, p.n_span)
+    meaning = {"harmonics": ("1", "H"), "force_evaluation": ("", '`"exact"` or `"aft"`'),
+               "samples": ("1", "AFT samples"), "tolerance": ("1", "Newton tolerance"),
+               "max_step": ("1", "largest step"), "initial_step": ("1", "first step"),
+               "craig_bampton_modes": ("1", "blade case"),
+               "mesh": ("1", "blade case: `[n_chord, n_thick, n_span]`")}
+    return [(f"{CASE}.reference", k, u, _fmt(d[k]), t) for k, (u, t) in meaning.items()]
+
+
+def _solver_rows() -> list:
+    """[solver]: defaults from `SolverSettings` (stability per model: its parsers)."""
+    d = {f.name: f.default for f in fields(SolverSettings)}
+    meaning = {
+        "harmonics": ("1", "H, harmonics of the balance (1 ... 200)"),
+        "force_evaluation": ("", '`"exact"` (event-based contact forces) or `"aft"` '
+                                 "(alternating frequency-time on `samples`)"),
+        "samples": ("1", "AFT samples per period (>= 2H + 1)"),
+        "tolerance": ("1", "Newton residual tolerance, relative to the force scale "
+                           "‖P‖ + Σ|n0|·‖Bn‖"),
+        "stability": ("", '`"monodromy+check"`, `"monodromy"`, `"hill"`, `"hill+check"`, '
+                          '`"floquet"`, `"stretch"`, `"folds"`, `false`, or `true` (the method '
+                          "recommended for the scene); see pipeline/solve/README.md"),
+        "initial_step": ("1", "first continuation step (scaled arclength)"),
+        "max_step": ("1", "largest continuation step (scaled arclength); peaks and folds are "
+                          "refined whatever the step"),
+        "max_points": ("1", "most points a branch may have"),
+        "dense_output": ("", "add points where the drawn curve bends (on `[output] yscale`)"),
+    }
+    rows = []
+    for k, (unit, text) in meaning.items():
+        v = d[k]
+        default = _STABILITY if k == "stability" else "the solver's" if v is None else _fmt(v)
+        rows.append(("solver", k, unit, default, text))
+    return rows
+
+
+def _blade_rows() -> list:
+    """[scene.blade]: the fields of `BladeParams` a study may set, defaults from it."""
+    d = {f.name: f.default for f in fields(BladeParams)}
+    units = {"length": ("m", "blade length (span)"), "chord": ("m", "airfoil chord"),
+             "thickness": ("m", "airfoil thickness"),
+             "shroud_chord": ("m", "tip shroud size along the chord"),
+             "shroud_width": ("m", "tip shroud size across (a wheel derives it from R and N)"),
+             "shroud_height": ("m", "tip shroud height"),
+             "shroud_angle": ("rad", "contact faces' angle from the circumferential axis"),
+             "stagger_angle": ("rad", "airfoil stagger about the span"),
+             "E": ("Pa", "Young's modulus"), "nu": ("1", "Poisson's ratio"),
+             "rho": ("kg/m³", "density"),
+             "n_chord": ("1", "elements across the chord"),
+             "n_thick": ("1", "elements through the thickness"),
+             "n_span": ("1", "elements along the span"),
+             "damping_ratios": ("1", "modal damping ratios (the last repeats); not with "
+                                     "`rayleigh`"),
+             "shroud": ("", "with the tip shroud and its contact faces")}
+    rows = []
+    for k, (unit, text) in units.items():
+        rows.append(("scene.blade", k, unit, _fmt(d[k]), text))
+    return rows
+
+
+def _sweep_rows() -> list:
+    """[sweep]: the continuation interval and the grid axes of `spec.SWEEP_AXES`."""
+    rows = [("sweep", "frequency", "", _REQ, "continuation interval `{start, stop, unit}`")]
+    for k, (unit, text) in SWEEP_AXES.items():
+        extra = {"preload": "; not with a contact's `n0`",
+                 "normal_load": "; instead of `preload`, > 0",
+                 "eo": "; integers 0 ... N/2", "mistuning_seed": "; integers"}.get(k, "")
+        rows.append(("sweep", k, unit, "", f"list: {text}{extra}"))
+    rows += [("sweep.frequency", "start", "`unit`", _REQ, "first frequency of the continuation"),
+             ("sweep.frequency", "stop", "`unit`", _REQ, "last frequency (below `start`: a "
+                                                         "downward sweep)"),
+             ("sweep.frequency", "unit", "", _REQ, '`"rad/s"` or `"Hz"` (also the dataset\'s)')]
+    return rows
+
+
+_FIXED = [
+    (FILE, "study", "", _REQ, "title and description"),
+    (FILE, "scene", "", _REQ, "the structure, contacts and loads"),
+    (FILE, "sweep", "", "", "grid axes and the frequency interval (response studies: required)"),
+    (FILE, "solver", "", "", "solver settings"),
+    (FILE, "output", "", "", "response DOFs, figures, peak windows, optimum preload"),
+    (FILE, "modes", "", "", "settings of a modes study"),
+    (FILE, "quick", "", "", "the `--quick` variant, read only with `--quick`, merged key by key"),
+    (FILE, "recommendation", "", "", "accuracy-cost study: the error target"),
+    (FILE, "lumped", "", "", "accuracy-cost study: the lumped case"),
+    (FILE, "blade", "", "", "accuracy-cost study: the FE blade case"),
+    ("study", "title", "", _REQ, "text, copied to the dataset"),
+    ("study", "description", "", '""', "text, copied to the dataset"),
+    ("study", "reference", "", '""', "text (a paper), copied to the dataset"),
+    ("study", "kind", "", '"response"', '`"response"`, `"modes"` (blade and disk scenes; '
+                                        'default with a `[modes]` table), `"accuracy_cost"`'),
+    ("scene", "model", "", _REQ, '`"lumped"`, `"disk"` (one sector of a tuned disk), '
+                                 '`"solid_blade"`, `"beam_blade"`'),
+    ("scene", "effects", "", "[]", "subset of " + ", ".join(f'`"{e}"`' for e in EFFECTS)
+     + ", checked against the scene; `[]`: a linear scene, solved directly"),
+    ("scene", "dofs", "", _REQ, "lumped and disk scenes: DOF names (`x1`, `u`, ...)"),
+    ("scene", "matrices", "", "", "lumped and disk scenes: M, C, K (or `modal`)"),
+    ("scene", "modal", "", "", "lumped and disk scenes: modal data instead of `matrices`"),
+    ("scene", "contact", "", "[]", "Yang–Menq contacts (array of tables)"),
+    ("scene", "excitation", "", _REQ, "harmonic loads (array of tables; not in a modes study)"),
+    ("scene", "disk", "", "", "a disk: sectors, engine order, mistuning, springs, hub radius"),
+    ("scene", "blade", "", "{}", "FE blades: `BladeParams` fields"),
+    ("scene", "mesh", "", "", "solid blades: a mesh file with named node sets "
+                              "(meshes/README.md), relative to the study file"),
+    ("scene", "craig_bampton_modes", "1", str(DEFAULT_MODES), "FE blades: fixed-interface modes "
+                                                             "of the reduction"),
+    ("scene", "rayleigh", "1/s, s", "", "FE blades: `[α, β]`, C = αM + βK (instead of "
+                                        "`damping_ratios`)"),
+    ("scene.matrices", "M", "kg", _REQ, "list of rows; symmetric positive definite"),
+    ("scene.matrices", "K", "N/m", _REQ, "list of rows; symmetric positive definite"),
+    ("scene.matrices", "C", "N s/m", "zeros", "list of rows; symmetric positive semi-definite"),
+    ("scene.modal", "masses", "kg", _REQ, "modal masses m"),
+    ("scene.modal", "frequencies", "rad/s", _REQ, "natural frequencies ω"),
+    ("scene.modal", "damping_ratios", "1", _REQ, "modal damping ratios ζ"),
+    ("scene.modal", "mode_shapes", "1", _REQ, "Φ, the mode shapes as COLUMNS: M = Φ⁻ᵀ diag(m) "
+                                              "Φ⁻¹, K = Φ⁻ᵀ diag(mω²) Φ⁻¹, C = Φ⁻ᵀ diag(2ζmω) Φ⁻¹"),
+    ("scene.contact", "name", "", "contact0, contact1, …; the face; shroud", "a name (dataset `contact`)"),
+    ("scene.contact", "tangential", "1", "", "lumped and disk: DOFs with signs, "
+                                             '`["x1", "-x2"]`, or coefficients `{x1 = 0.8}`; '
+                                             "`next.<dof>` in a disk (required there)"),
+    ("scene.contact", "normal", "1", "none", "lumped and disk: the normal DOFs, as `tangential`"),
+    ("scene.contact", "face", "", "", 'FE blade against a rigid wall: `"shroud_left"` or '
+                                      '`"shroud_right"`'),
+    ("scene.contact", "pair", "", "", 'FE blades in a disk: `"shroud"`, right face of blade j '
+                                      "against the left face of blade j+1"),
+    ("scene.contact", "ku", "N/m", _REQ, "tangential stiffness (> 0)"),
+    ("scene.contact", "kv", "N/m", "0", "normal stiffness (kv > 0 needs normal DOFs)"),
+    ("scene.contact", "mu", "1", _REQ, "friction coefficient"),
+    ("scene.contact", "n0", "N", "the sweep's", "preload (< 0: a gap); a face's total"),
+    ("scene.contact", "stiffness", "", '"per_node"', 'FE faces: `"per_node"` (ku, kv per node) '
+                                                     'or `"per_face"` (face totals by node area)'),
+    ("scene.contact", "tangent", "1", "circumferential", "shroud pairs: slip direction [x, y, z], "
+                                                         "projected into the face"),
+    ("scene.excitation", "dof", "", "", "lumped and disk: the loaded DOF (required there)"),
+    ("scene.excitation", "set", "", "", 'FE blades: `"excitation"` or `"response"` node set'),
+    ("scene.excitation", "direction", "1", "", "FE blades: [x, y, z] (required there)"),
+    ("scene.excitation", "amplitude", "N", _REQ, "F(t) = amplitude · cos(hΩt + phase)"),
+    ("scene.excitation", "harmonic", "1", "1", "h; 0 is a static load"),
+    ("scene.excitation", "phase", "rad", "0", "phase of the load"),
+    ("scene.disk", "sectors", "1", _REQ, "N, sectors (blades) of the disk"),
+    ("scene.disk", "engine_order", "1", "the sweep's `eo`", "EO, 0 ≤ EO ≤ N/2: sector j loaded "
+                                                            "with the phase j·2π·EO/N"),
+    ("scene.disk", "mistuning", "", "tuned", "`{stiffness_std, seed}` or `{factors}`"),
+    ("scene.disk", "spring", "", "[]", "lumped disks: linear springs to the next sector"),
+    ("scene.disk", "hub_radius", "m", "", "FE blades: R, the blade root's radius (required "
+                                          "there)"),
+    ("scene.disk.mistuning", "stiffness_std", "1", "", "s: sector j stiffness (1 + δ_j)K, "
+                                                        "δ_j ~ N(0, s²) cut at 3s, 0 ≤ s < 0.5"),
+    ("scene.disk.mistuning", "seed", "1", "the sweep's `mistuning_seed`",
+     "seed of `numpy.random.default_rng`"),
+    ("scene.disk.mistuning", "factors", "1", "", "instead: N stiffness factors f_j, sector "
+                                                 "order"),
+    ("scene.disk.spring", "name", "", "spring0, spring1, …", "a name"),
+    ("scene.disk.spring", "elongation", "1", _REQ, 'row as a contact\'s, e.g. '
+                                                   '`["next.xd", "-xd"]`'),
+    ("scene.disk.spring", "k", "N/m", _REQ, "stiffness"),
+    ("output", "dofs", "", "every DOF; `response.x/y/z` (blades)",
+     "response DOFs (`x1`, `response.y`, `x1@3` one sector of a mistuned disk)"),
+    ("output", "figures", "", '["amplitude"]', "of " + ", ".join(f'`"{f}"`' for f in FIGURES)
+     + ": response curves; the face-total loop of the contact dissipating most at each peak"),
+    ("output", "yscale", "", '"linear"', '`"linear"` or `"log"`: figures\' amplitude axis'),
+    ("output", "peak_windows", "`unit`", "[]", "`[[lo, hi], ...]`: one resonance peak per "
+                                               "window"),
+    ("output", "optimum_preload", "", "", "the optimum-preload search (lumped and blade scenes)"),
+    ("output.optimum_preload", "dof", "", _REQ, "the DOF whose peak is minimised"),
+    ("output.optimum_preload", "bounds", "N", _REQ, "`[lo, hi]` of the preload"),
+    ("output.optimum_preload", "frequency", "", "the sweep's", "window `{start, stop, unit}`"),
+    ("output.optimum_preload", "rtol", "1", "0.01", "tolerance of the optimum in log n0 "
+                                                    "(Brent to a tenth of it)"),
+    ("modes", "mode_counts", "1", "[0, 5, 10, 20, 40]", "blade modes study: Craig–Bampton "
+                                                         "mode counts to compare"),
+    ("modes", "n_frequencies", "1", "10", "frequencies compared (per nodal diameter on a disk)"),
+    ("modes", "mode_shapes", "1", "min(n_frequencies, 6)", "blade: mode shapes written as VTU"),
+    ("modes", "nodal_diameters", "1", "0 ... N/2", "disk modes study: the nodal diameters"),
+    ("quick", "sweep", "", "", "overrides of `[sweep]` (only axes it has)"),
+    ("quick", "solver", "", "", "overrides of `[solver]`"),
+    ("quick", "scene", "", "", "FE blades: a coarser blade"),
+    ("quick", "modes", "", "", "overrides of `[modes]`"),
+    ("quick", "lumped", "", "", "accuracy-cost: overrides of `[lumped]` (not `scene`)"),
+    ("quick", "blade", "", "", "accuracy-cost: overrides of `[blade]` (not `scene`)"),
+    ("quick.scene", "blade", "", "", "`[scene.blade]` fields merged in"),
+    ("quick.scene", "craig_bampton_modes", "1", "", "replaces the scene's"),
+    ("quick.scene", "mesh", "", "", "replaces the scene's"),
+    ("recommendation", "target", "1", "0.001", "error target of the recommended settings"),
+    (CASE, "dof", "", _REQ, "the DOF whose peak is measured (`response.y` on a blade)"),
+    (CASE, "preload", "N", "the contacts' n0", "preload of every contact"),
+    (CASE, "frequency", "", _REQ, "window `{start, stop, unit}`"),
+    (CASE, "repeats", "1", "1", "runs per setting, the shortest time counts"),
+    (CASE, "time_integration", "", "false", "lumped: check the reference by event-driven time "
+                                            "integration"),
+    (CASE, "scene", "", _REQ, "written as a study's `[scene]`"),
+    (CASE, "reference", "", _REQ, "the most accurate settings"),
+    (CASE, "baseline", "", "the reference", "settings each knob is varied around"),
+    (CASE, "knobs", "", _REQ, "lists of values per knob"),
+    (f"{CASE}.knobs", "harmonics", "1", "", "values of H"),
+    (f"{CASE}.knobs", "samples", "1", "", "AFT on N samples instead of exact forces"),
+    (f"{CASE}.knobs", "tolerance", "1", "", "Newton tolerances"),
+    (f"{CASE}.knobs", "max_step", "1", "", "largest steps"),
+    (f"{CASE}.knobs", "craig_bampton_modes", "1", "", "blade case: mode counts"),
+    (f"{CASE}.knobs", "mesh", "1", "", "blade case: meshes `[n_chord, n_thick, n_span]`"),
+]
+# [<case>.baseline] takes the keys of [<case>.reference]
+ALIASES[f"{CASE}.baseline"] = f"{CASE}.reference"
+
+
+def _law_rows() -> list:
+    """The tables of the contact laws a lumped study file places (`contact.registry`):
+    their signed DOF lists and parameters, as each law declares them."""
+    out = []
+    for table, law in study_laws().items():
+        out.append(("scene", table, "", "[]", f"`{law.name}` elements (array of tables; "
+                    f'the effect `"{law.effect}"`)'))
+        out.append((f"scene.{table}", "name", "", f"{table}0, {table}1, …", "a name"))
+        out += [(f"scene.{table}", k, "1", _REQ, f"{d}: DOFs with signs, as `tangential`")
+                for k, d in zip(law.study_rows, law.directions)]
+        out += [(f"scene.{table}", k, unit, _REQ if default is None else _fmt(default),
+                 getattr(law, "study_help", {}).get(k, f"{law.name} parameter"))
+                for k, (unit, default) in law.study_keys.items()]
+    return out
+
+
+def rows() -> list:
+    """[(table, key, unit, default, meaning)] in the order of a study file."""
+    laws = [f"scene.{t}" for t in study_laws()]
+    order = ["study", "scene", "scene.matrices", "scene.modal", "scene.contact", *laws,
+             "scene.excitation", "scene.disk", "scene.disk.mistuning", "scene.disk.spring",
+             "scene.blade", "sweep", "sweep.frequency", "solver", "output",
+             "output.optimum_preload", "modes", "quick", "quick.scene", "recommendation",
+             CASE, f"{CASE}.reference", f"{CASE}.knobs"]
+    every = (_FIXED + _law_rows() + _blade_rows() + _sweep_rows() + _solver_rows()
+             + _settings_rows())
+    out = [r for r in every if r[0] == FILE]
+    for t in order:
+        out += [r for r in every if r[0] == t]
+    assert len(out) == len(every), "a table missing from the order"
+    return out
+
+
+def keys_by_table() -> dict:
+    """{table: set of keys}."""
+    out: dict = {}
+    for t, k, *_ in rows():
+        out.setdefault(t, set()).add(k)
+    return out
+
+
+def canonical(path: str) -> str:
+    """The table whose keys the table at dotted `path` takes (list indices dropped,
+    `ALIASES` applied)."""
+    import re
+
+    path = re.sub(r"\[\d+\]", "", path)
+    for _ in range(8):
+        hit = max((a for a in ALIASES if path == a or path.startswith(a + ".")),
+                  key=len, default=None)
+        if hit is None:
+            return path
+        path = ALIASES[hit] + path[len(hit):]
+    return path
+
+
+def _shown(table: str) -> str:
+    if table == FILE:
+        return "(file)"
+    if table.startswith(CASE):
+        rest = table[len(CASE):]
+        return f"`[lumped{rest}]`, `[blade{rest}]`"
+    return f"`[[{table}]]`" if table in ARRAYS else f"`[{table}]`"
+
+
+def _cell(text: str) -> str:
+    return str(text).replace("|", "\\|")
+
+
+# the tables that take another's keys, as the markdown says it
+_ALIAS_TEXT = ("`[quick.sweep]`, `[quick.solver]`, `[quick.modes]`, `[quick.scene.blade]` take "
+               "the keys of `[sweep]`, `[solver]`, `[modes]`, `[scene.blade]`; "
+               "`[sweep.frequency]` is also `[output.optimum_preload.frequency]` and a case's "
+               "`frequency`; `[lumped.scene]`, `[blade.scene]` are written as `[scene]`; "
+               "`[lumped.baseline]`, `[blade.baseline]` take the keys of their `reference`; "
+               "`[quick.lumped]`, `[quick.blade]` those of their case but `scene`.")
+
+
+def markdown() -> str:
+    """The table as markdown, with the tables that take another's keys below it."""
+    lines = ["| table | key | unit | default | meaning |", "|---|---|---|---|---|"]
+    last = None
+    for t, k, unit, default, meaning in rows():
+        cell = _shown(t) if t != last else ""
+        last = t
+        lines.append("| " + " | ".join(_cell(c) for c in (cell, f"`{k}`", unit, default,
+                                                             meaning)) + " |")
+    return "\n".join(lines) + "\n\n" + _ALIAS_TEXT + "\n"

@@ -1,0 +1,1 @@
+"""Modal studies: blade modal convergence, frequency vs nodal diameter."""

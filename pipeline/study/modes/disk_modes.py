@@ -1,0 +1,165 @@
+"""Modes of a tuned disk per nodal diameter: `[study] kind = "modes"` on a disk scene.
+
+A tuned disk of N sectors has, for each nodal diameter ND = 0..N/2, the modes of
+one sector whose neighbour moves as this sector times exp(i psi), psi = 2 pi ND / N
+(the cyclic eigenproblem; ND and N - ND are the same pair of standing waves):
+
+    [K + e^{i psi} K_next + e^{-i psi} K_next^T + B(psi)^H k B(psi)] x = w^2 M x,
+    B(psi) = B + e^{i psi} B_next,
+
+with the contact springs k = (ku along the tangents, kv along the normals) left
+out (contacts OPEN) or added for every contact (contacts STUCK: closed and stuck,
+whatever the preload) -- the two linear limits between which every friction-damped
+resonance lies (`model.system.natural_frequencies`).  Frequency against nodal
+diameter is the diagram engineers read engine-order crossings from: an engine
+order EO excites only the family ND = EO (mod N, folded into 0..N/2).
+
+    [study] kind = "modes"            [modes] n_frequencies = 3   (default: all)
+                                              nodal_diameters = [0, 1, ...]  (default 0..N/2)
+
+The dataset has `frequency_open` and `frequency_stuck` [Hz] on (nodal_diameter,
+mode); the figure `<name>/nodal_diameter_diagram.png` draws both.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ...model.cyclic import sector_system
+from ...model.scene import Scene, sector
+from ...model.system import natural_frequencies
+from ..scenes.blade_scene import BLADE_MODELS, base_dir_of, blade_scenes
+from ..files.validation import Checker
+from ..files.header import overlay, parse_header, quick_tables
+from ..scenes.lumped_scene import parse_scene
+from ..execution.kind_costs import disk_modes_estimate, estimate_lines
+from ..files.spec import StudyHeader, StudyKind, StudyResult, never
+
+log = logging.getLogger(__name__)
+TOP = ("study", "scene", "modes", "quick")
+DEFAULT_FREQUENCIES = 10      # per nodal diameter, when [modes] n_frequencies is not given
+
+
+@dataclass(frozen=True)
+class DiskModesStudy(StudyHeader):
+    """Natural frequencies of a tuned disk per nodal diameter, contacts open and stuck."""
+
+    scene: Scene
+    nodal_diameters: tuple
+    n_frequencies: int
+    quick: bool = False
+    kind: str = "disk_modes"
+
+
+def is_disk_document(data) -> bool:
+    """A document of a lumped disk (model "disk") or of FE blades in a disk (a blade
+    model with a [scene.disk] table)."""
+    scene = data.get("scene")
+    return isinstance(scene, dict) and (scene.get("model") == "disk" or (
+        scene.get("model") in BLADE_MODELS and "disk" in scene))
+
+
+def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study",
+                       text: str = "", quick: bool = False) -> DiskModesStudy:
+    """Validate a disk modes study document; every mistake `<file>: <field>: <what>`."""
+    ck = Checker(file)
+    ck.keys(data, "", TOP, required=("study", "scene"))
+    header = parse_header(ck, data)
+    if data["scene"].get("model") == "disk":
+        qt = quick_tables(ck, data, quick, ("modes",))
+        scene = parse_scene(ck, ck.table(data["scene"], "scene"), loaded=False)
+    else:   # FE blades: [quick.scene] may coarsen the mesh
+        qt = quick_tables(ck, data, quick, ("scene", "modes"))
+        full, q_scene = blade_scenes(ck, data, qt, base_dir_of(file), loaded=False)
+        scene = q_scene if quick else full
+    check_modes_scene(ck, scene)
+    modes, where = overlay(ck, ck.table(data.get("modes"), "modes", required=False),
+                           qt.get("modes", {}), "modes")
+    for k in modes:
+        ck.keys({k: None}, where(k).rpartition(".")[0], ("n_frequencies", "nodal_diameters"))
+    N, n = scene.assembly.sectors, len(scene.sector_dofs)
+    nf = ck.integer(modes.get("n_frequencies", min(n, DEFAULT_FREQUENCIES)),
+                    where("n_frequencies"), 1, n)
+    nds = tuple(ck.integer(v, where(f"nodal_diameters[{i}]"), 0, N // 2) for i, v in
+                enumerate(ck.array(modes.get("nodal_diameters", list(range(N // 2 + 1))),
+                                   where("nodal_diameters"))))
+    if len(set(nds)) != len(nds):
+        ck.fail(where("nodal_diameters"), "a nodal diameter is listed twice")
+    return DiskModesStudy(file=file, name=name, **header, text=text, scene=scene,
+                          nodal_diameters=nds, n_frequencies=nf, quick=bool(quick))
+
+
+def check_modes_scene(ck, scene: Scene):
+    """Contacts to open and stick, a tuned disk, and the couplings declared exactly."""
+    if not scene.contacts:
+        ck.fail("scene.contact", "a modes study compares the contacts open and stuck: give at "
+                                 "least one [[scene.contact]]")
+    if scene.mistuning is not None:
+        ck.fail("scene.disk.mistuning", "modes per nodal diameter need a tuned disk (a mistuned "
+                                        "disk has no nodal diameters)")
+    for effect, present, what in (("cyclic_coupling", scene.coupled,
+                                   "a contact reaches the next sector (next.<dof>)"),
+                                  ("disk_coupling", bool(scene.assembly.springs),
+                                   "[[scene.disk.spring]] couples neighbouring sectors")):
+        if present != (effect in scene.effects):
+            ck.fail("scene.effects", f"{what}: declare \"{effect}\"" if present else
+                    f"\"{effect}\" is declared but nothing in the scene needs it")
+
+
+def nodal_diameter_frequencies(scene: Scene, nodal_diameters, n_frequencies: int) -> dict:
+    """{"open", "stuck"}: (len(nodal_diameters), n_frequencies) natural frequencies [Hz]
+    of the tuned disk per nodal diameter; "time_s": the wall time [s]."""
+    t0 = time.perf_counter()
+    preset = all(getattr(c, "n0", None) is not None for c in scene.contacts)
+    sec = sector(scene, None if preset else {"preload": 0.0})  # n0 plays no part here
+    out = {m: np.array([natural_frequencies(sector_system(sec, nd), c)[:n_frequencies]
+                        for nd in nodal_diameters]) / (2 * np.pi)
+           for m, c in (("open", "open"), ("stuck", "tied"))}
+    out["time_s"] = time.perf_counter() - t0
+    return out
+
+
+def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: bool = True):
+    """`out_dir/<name>.nc` and `out_dir/<name>/nodal_diameter_diagram.png`."""
+    # deferred: xarray and matplotlib cost a second to import; validation needs neither
+    from ..datasets.dataset import write_netcdf
+    from .modes_dataset import disk_modes_to_dataset
+    from ..figures.nd_figure import nodal_diameter_figure
+
+    t0 = time.perf_counter()
+    sc = study.scene
+    log.info("%s: %d sectors, nodal diameters %s, %d frequencies", study.name,
+             sc.assembly.sectors, list(study.nodal_diameters), study.n_frequencies)
+    res = nodal_diameter_frequencies(sc, study.nodal_diameters, study.n_frequencies)
+    ds = disk_modes_to_dataset(study, res)
+    path = write_netcdf(ds, Path(out_dir) / f"{study.name}.nc")
+    log.info("wrote %s", path)
+    written = []
+    if figures:
+        written.append(nodal_diameter_figure(Path(out_dir) / study.name /
+                                             "nodal_diameter_diagram.png", ds))
+        log.info("wrote %s", written[-1])
+    return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=0,
+                       wall_time=time.perf_counter() - t0)
+
+
+def describe(study: DiskModesStudy, workers: int = 1) -> list:
+    """The lines `check` prints for a disk modes study, its cost estimate included."""
+    sc = study.scene
+    return [f"scene: disk of {sc.assembly.sectors} sectors, {len(sc.sector_dofs)} DOF(s) "
+            f"per sector, {len(sc.contacts)} contact(s); nodal diameters "
+            f"{', '.join(map(str, study.nodal_diameters))}; {study.n_frequencies} "
+            "frequencies each, contacts open and stuck"] + estimate_lines(
+                disk_modes_estimate(study))
+
+
+KIND = StudyKind(name="disk_modes", word="modes", fits=is_disk_document, by_default=never,
+                 parse=study_from_mapping, describe=describe,
+                 estimate=lambda study, workers=1: disk_modes_estimate(study),
+                 run=lambda study, out_dir, figures=True, **_: run_disk_modes_study(
+                     study, out_dir, figures=figures),
+                 cases=lambda study: 1)

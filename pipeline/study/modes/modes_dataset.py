@@ -1,0 +1,91 @@
+"""Datasets of the modal studies: a blade's full vs Craig-Bampton eigenfrequencies
+against the mode count (`modes_to_dataset`), and a tuned disk's natural
+frequencies per nodal diameter with the contacts open and stuck
+(`disk_modes_to_dataset`).  Both carry the same provenance attributes as the
+response datasets (`describe.provenance`) and are written by `dataset.write_netcdf`."""
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from ..datasets.describe import provenance, scene_attrs
+
+
+def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset:
+    """Dataset of a blade modes study (`modes.modal_study` result `res`): full and
+    Craig-Bampton eigenfrequencies against the mode count, errors and timings."""
+    counts = np.asarray(res["mode_counts"], dtype=np.int32)
+    nf = len(res["full_hz"])
+    ci = list(counts).index(study.scene.reduction.modes)
+
+    def var(dims, data, units, long_name):
+        return (dims, np.asarray(data), {"units": units, "long_name": long_name})
+
+    data_vars = {
+        "full_frequency": var(("mode",), res["full_hz"], "Hz",
+                              "eigenfrequency of the unreduced FE model (shift-invert Lanczos)"),
+        "reduced_frequency": var(("mode_count", "mode"), res["reduced_hz"], "Hz",
+                                 "eigenfrequency of the Craig-Bampton model"),
+        "relative_error": var(("mode_count", "mode"), res["rel_error"], "1",
+                              "reduced/full - 1 (Rayleigh-Ritz: >= 0)"),
+        "max_relative_error": var(("mode_count",), np.nanmax(res["rel_error"], axis=1), "1",
+                                  "largest relative frequency error over the modes"),
+        "reduction_time": var(("mode_count",), res["time_reduce_s"], "s",
+                              "wall time of the Craig-Bampton reduction (all stages)"),
+        "reduction_stage_time": var(("mode_count", "stage"), res["time_stage_s"], "s",
+                                    "wall time of each stage of the reduction"),
+        "reduced_size": var(("mode_count",), np.asarray(res["reduced_size"], np.int32), "1",
+                            "reduced coordinates: boundary DOFs + modes"),
+        "full_eigen_time": var((), float(res["time_full_s"]), "s",
+                               "wall time of the unreduced eigen solve (factorisation included)"),
+        "mac": var(("mode",), res["mac"], "1", "modal assurance criterion, full vs reduced "
+                                               f"mode at {study.scene.reduction.modes} modes"),
+        "n_dof": var((), np.int32(res["n_dof"]), "1", "free DOFs of the unreduced blade"),
+        "n_boundary": var((), np.int32(res["n_boundary"]), "1",
+                          "boundary DOFs kept physical (contact faces, excitation, response)"),
+    }
+    coords = {
+        "mode_count": ("mode_count", counts, {"units": "1",
+                                              "long_name": "Craig-Bampton fixed-interface modes"}),
+        "mode": ("mode", np.arange(1, nf + 1, dtype=np.int32), {"units": "1",
+                                                              "long_name": "mode number"}),
+        "stage": ("stage", np.asarray(res["stage_names"], dtype=str),
+                  {"long_name": "stage of the reduction"}),
+    }
+    sc = study.scene
+    attrs = {
+        "title": study.title, "study": study.text, "study_name": study.name,
+        "description": study.description, "reference": study.reference,
+        "kind": "modes", "model": sc.model, "mesh": sc.structure.mesh or "generated",
+        "blade_parameters": repr(sc.structure.params),
+        "default_mode_count": int(sc.reduction.modes),
+        "max_relative_error_at_default": float(np.nanmax(res["rel_error"][ci])),
+        "mode_shapes": mode_shapes_file,
+        "quick": int(study.quick),
+        **provenance("pipeline (scikit-fem blade, sparse Craig-Bampton reduction)"),
+    }
+    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+def disk_modes_to_dataset(study, res: dict) -> xr.Dataset:
+    """Dataset of a disk modes study (`disk_modes.nodal_diameter_frequencies` result):
+    natural frequencies per nodal diameter with the contacts open and stuck."""
+    def var(data, long_name):
+        return (("nodal_diameter", "mode"), np.asarray(data, float),
+                {"units": "Hz", "long_name": long_name})
+
+    nd, nf = np.asarray(study.nodal_diameters, np.int32), res["open"].shape[1]
+    sc = study.scene
+    return xr.Dataset(
+        {"frequency_open": var(res["open"], "natural frequency, contacts open"),
+         "frequency_stuck": var(res["stuck"], "natural frequency, every contact closed and "
+                                              "stuck (ku, kv)"),
+         "solve_time": ((), float(res["time_s"]), {"units": "s", "long_name": "wall time of "
+                                                   "the eigen-solves"})},
+        coords={"nodal_diameter": ("nodal_diameter", nd, {"units": "1", "long_name":
+                                                          "nodal diameter ND (EO = ND excites it)"}),
+                "mode": ("mode", np.arange(1, nf + 1, dtype=np.int32),
+                         {"units": "1", "long_name": "mode number within the family"})},
+        attrs={"title": study.title, "study": study.text, "study_name": study.name,
+               "description": study.description, "reference": study.reference,
+               "kind": "modes", "quick": int(study.quick), **scene_attrs(sc),
+               **provenance("pipeline (cyclic eigenproblem of one sector per nodal diameter)")})

@@ -1,0 +1,103 @@
+"""FE blades in a disk in study files: `[scene.disk]` and shroud-pair contacts of a
+blade scene (`model = "solid_blade"`, or `"beam_blade"`: a beam with a rigid tip
+shroud carrying 2 x 2 contact points per face).
+
+    [scene.disk]
+    sectors = 24            # N
+    hub_radius = 0.25       # R [m]: the blade root sits at radius R
+    engine_order = 3        # or the sweep axis eo; 0 <= EO <= N/2
+
+    [[scene.contact]]
+    pair = "shroud"         # the right shroud face of blade j against the left face of
+    ku = 1e6                # blade j+1, node to node (pairs found by the rotation 2 pi / N)
+    kv = 1e6
+    mu = 0.3
+    stiffness = "per_face"  # ku, kv, preload as face totals shared by node area
+    tangent = [1, 0, 0]     # optional slip direction, projected into the face
+
+The generated wheel derives the shroud width from R and N so that neighbouring
+faces coincide (`structure.disk.wheel_params`); a user mesh (`mesh = "file"`, in the
+blade's frame, the disk axis parallel to X through (0, 0, -R)) is paired by the same
+rotation, and faces that do not match are a one-line error naming the first
+unmatched node.  Each case is solved on ONE sector by the cyclic reduction
+(`model.cyclic`), the neighbour's displacement turned by 2 pi / N into this
+sector's frame (`model.contacts.ShroudPair`).  A shroud pair is the effect
+"cyclic_coupling"; the engine-order rules are those of the lumped disk
+(`disk_scene.check_disk_rules`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ...model.contacts import ShroudPair, fe_contact_maps
+from ...model.scene import Cyclic
+from ...structure.fe_model import DiskPlacement
+from . import lumped_disk_scene as disk_scene
+
+PAIRS = ("shroud",)
+STIFFNESS = ("per_node", "per_face")
+
+
+def parse_placement(ck, tab) -> tuple:
+    """(DiskPlacement, Cyclic) of the `[scene.disk]` table of a blade scene."""
+    t = ck.table(tab["disk"], "scene.disk")
+    ck.keys(t, "scene.disk", ("sectors", "hub_radius", "engine_order", "mistuning"),
+            required=("sectors", "hub_radius"))
+    N = ck.integer(t["sectors"], "scene.disk.sectors", 3, disk_scene.MAX_SECTORS)
+    R = ck.number(t["hub_radius"], "scene.disk.hub_radius", gt=0.0)
+    eo = (disk_scene.check_engine_order(ck, t["engine_order"], "scene.disk.engine_order", N)
+          if "engine_order" in t else None)
+    mis = disk_scene.parse_mistuning(ck, t["mistuning"], N) if "mistuning" in t else None
+    return DiskPlacement(hub_radius=R, sectors=N), Cyclic(sectors=N, engine_order=eo,
+                                                         mistuning=mis)
+
+
+def parse_pair(ck, c, f, i) -> ShroudPair:
+    """A `[[scene.contact]]` with `pair = "shroud"`."""
+    ck.keys(c, f, ("name", "pair", "ku", "kv", "mu", "n0", "stiffness", "tangent"),
+            required=("pair", "ku", "mu"))
+    ck.string(c["pair"], f"{f}.pair", PAIRS)
+    name = ck.string(c.get("name", "shroud"), f"{f}.name")
+    tangent = None
+    if "tangent" in c:
+        tangent = tuple(float(v) for v in ck.numbers(c["tangent"], f"{f}.tangent", 3))
+        if not np.linalg.norm(tangent) > 0:
+            ck.fail(f"{f}.tangent", "must not be the zero vector")
+    return ShroudPair(name=name, ku=ck.number(c["ku"], f"{f}.ku", gt=0.0),
+                      kv=ck.number(c.get("kv", 0.0), f"{f}.kv", ge=0.0),
+                      mu=ck.number(c["mu"], f"{f}.mu", ge=0.0),
+                      n0=ck.number(c["n0"], f"{f}.n0") if "n0" in c else None,
+                      tangent=tangent,
+                      stiffness=ck.string(c.get("stiffness", "per_node"), f"{f}.stiffness",
+                                          STIFFNESS))
+
+
+def check_disk_contacts(ck, contacts, placement):
+    """Shroud pairs need a disk, and a disk of FE blades needs a shroud pair (checked
+    before the blade is built)."""
+    pairs = [i for i, c in enumerate(contacts) if isinstance(c, ShroudPair)]
+    if pairs and placement is None:
+        ck.fail(f"scene.contact[{pairs[0]}].pair", "a shroud pair couples neighbouring blades: "
+                                                  "give [scene.disk] sectors and hub_radius")
+    if placement is not None and not pairs:
+        ck.fail("scene.contact", "a disk of FE blades couples them through their shrouds: give "
+                                 "a [[scene.contact]] with pair = \"shroud\"")
+
+
+def check_pairs(ck, blade, contacts, placement, mesh_field):
+    """Shroud faces that pair by the rotation 2 pi / N (one line naming the first
+    unmatched node otherwise)."""
+    if any(isinstance(c, ShroudPair) for c in contacts):
+        try:
+            fe_contact_maps(blade, contacts, placement)
+        except ValueError as exc:
+            ck.fail(mesh_field, str(exc))
+
+
+def placement_field(message: str) -> tuple:
+    """(the study field a geometry error of the wheel names, or None; the message
+    without its `disk.<key>: ` prefix)."""
+    for key in ("hub_radius", "sectors"):
+        if message.startswith(f"disk.{key}: "):
+            return f"scene.disk.{key}", message[len(f"disk.{key}: "):]
+    return None, message

@@ -1,0 +1,486 @@
+"""Running studies: serial = process pool = Dask, resume after a kill, output errors
+(output directory not writable, disk full, an existing dataset from an older version).
+"""
+from __future__ import annotations
+
+import os
+import re
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from pipeline.study.execution import checkpoint
+from pipeline.study.datasets.dataset import read_dataset
+from pipeline.study.files.documents import parse_study
+from pipeline.study.execution.checkpoint import checkpoint_dir
+from pipeline.study.execution.run import run_study
+from pipeline.study.execution.cases import default_solver
+
+ROOT = Path(__file__).resolve().parents[3]
+
+# Example 1 with six preloads, H = 7
+STUDY = (ROOT / "studies" / "paper_example1.toml").read_text()
+STUDY = STUDY[:STUDY.index("[output.optimum_preload]")]
+STUDY = STUDY.replace("preload = [0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 1000.0]",
+                      "preload = [0.5, 1.0, 2.0, 3.0, 5.0, 10.0]")
+# STUDY: cases of about a second each (stability checked by Floquet where in doubt), so
+# that a run can be interrupted, or a worker killed, while its workers are busy
+# FAST: Hill's stability, about 0.15 s a case, for the runs nobody interrupts
+FAST = STUDY.replace("stability = true", 'stability = "hill"')
+STUDY = STUDY.replace("stability = true", 'stability = "monodromy+check"')
+assert 'stability = "monodromy+check"' in STUDY and 'stability = "hill"' in FAST
+N_CASES = 6
+
+
+def comparable(ds: xr.Dataset) -> xr.Dataset:
+    """The dataset without what is meant to differ between runs (timing, creation)."""
+    ds = ds.drop_vars([v for v in ("wall_time",) if v in ds])
+    ds.attrs = {k: v for k, v in ds.attrs.items() if k != "created"}
+    return ds
+
+
+@pytest.fixture(scope="module")
+def study_file(tmp_path_factory):
+    p = tmp_path_factory.mktemp("study") / "six_preloads.toml"
+    p.write_text(STUDY)
+    return p
+
+
+@pytest.fixture(scope="module")
+def fast_file(tmp_path_factory):
+    p = tmp_path_factory.mktemp("fast") / "six_preloads.toml"
+    p.write_text(FAST)
+    return p
+
+
+def _serial(text, file, out):
+    study = parse_study(text, file=str(file), name="six_preloads")
+    res = run_study(study, out, workers=1, figures=False, progress=False)
+    assert res.ok and res.computed == N_CASES and res.reused == 0
+    assert not list(out.glob(".six_preloads.*.cases"))  # checkpoints removed once written
+    return read_dataset(res.path)
+
+
+@pytest.fixture(scope="module")
+def serial(study_file, tmp_path_factory):
+    return _serial(STUDY, study_file, tmp_path_factory.mktemp("serial"))
+
+
+@pytest.fixture(scope="module")
+def fast_serial(fast_file, tmp_path_factory):
+    return _serial(FAST, fast_file, tmp_path_factory.mktemp("fast_serial"))
+
+
+def test_process_pool_equals_serial(fast_serial, fast_file, tmp_path):
+    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
+    res = run_study(study, tmp_path, workers=2, figures=False, progress=False)
+    assert res.ok
+    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(fast_serial))
+
+
+def test_dask_local_cluster_equals_serial(fast_serial, fast_file, tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        res = run_study(study, tmp_path, scheduler=cluster.scheduler_address,
+                        figures=False, progress=False)
+    assert res.ok
+    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(fast_serial))
+
+
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT], ids=["SIGKILL", "SIGINT"])
+def test_interrupted_study_resumes_without_recomputing(serial, study_file, tmp_path, sig):
+    out = tmp_path / "out"
+    final = out / "six_preloads.nc"
+    cmd = [sys.executable, "-m", "pipeline", "run", str(study_file), "--out", str(out),
+           "--workers", "1", "--no-figures"]
+    env = dict(os.environ, MPLBACKEND="Agg")
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    cdirs = lambda: list(out.glob(".six_preloads.*.cases"))  # noqa: E731
+    t_end = time.time() + 120
+    while time.time() < t_end and proc.poll() is None:
+        if cdirs() and list(cdirs()[0].glob("case-*.nc")):
+            break
+        assert not final.exists()
+        time.sleep(0.02)
+    time.sleep(random.Random(int(sig)).uniform(0.0, 0.6))   # somewhere in a later case
+    assert proc.poll() is None, "the study finished before it could be interrupted"
+    n_before = len(list(cdirs()[0].glob("case-*.nc")))      # finished when the signal left
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == (130 if sig == signal.SIGINT else -signal.SIGKILL)
+    if sig == signal.SIGINT:
+        assert b"rerun the same command to resume" in err and b"Traceback" not in err
+    assert not final.exists()                       # never a partial dataset
+    assert not list(out.glob("*.nc")) and not list(out.glob("*.nc.*"))
+    files = sorted(cdirs()[0].glob("case-*.nc"))
+    kept = len(files)
+    # every case finished before the signal is kept; at most the one just ending joins them
+    assert n_before >= 1 and n_before <= kept <= n_before + 1, (n_before, kept)
+    assert kept < N_CASES
+    assert not list(cdirs()[0].glob(".case-*.tmp")) or sig == signal.SIGKILL
+    for f in files:  # each kept case is complete and equals the uninterrupted run's
+        case, curve = checkpoint.read(f)
+        k = int(f.stem.split("-")[1])
+        assert case == {"preload": float(serial["preload"][k])}
+        np.testing.assert_array_equal(curve.peak(0)[0],
+                                      serial["peak_amplitude"].isel(preload=k, dof=0).values)
+
+    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    res = run_study(study, out, workers=1, figures=False, progress=False)
+    assert res.ok and res.reused == kept and res.computed == N_CASES - kept >= 1
+    xr.testing.assert_identical(comparable(read_dataset(final)), comparable(serial))
+    assert not cdirs()
+
+
+def test_killed_pool_worker_loses_nothing(serial, study_file, tmp_path):
+    """A worker of the process pool is killed (OOM killer, operator): the run stops
+    with one error line, the finished cases stay, and the rerun completes them."""
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pipeline", "run", str(study_file), "--out", str(out),
+           "--workers", "2", "--no-figures"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env=dict(os.environ, MPLBACKEND="Agg"))
+    t_end = time.time() + 120
+    while time.time() < t_end and proc.poll() is None:
+        cd = list(out.glob(".six_preloads.*.cases"))
+        if cd and list(cd[0].glob("case-*.nc")):
+            break
+        time.sleep(0.02)
+    kids = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
+    assert proc.poll() is None and kids, "no running worker to kill"
+    os.kill(int(kids[-1]), signal.SIGKILL)
+    _, err = proc.communicate(timeout=60)
+    err = err.decode()
+    assert proc.returncode == 1 and "Traceback" not in err
+    assert "a worker process died" in err and "rerun the same command to resume" in err
+    assert not (out / "six_preloads.nc").exists()
+    kept = len(list(next(out.glob(".six_preloads.*.cases")).glob("case-*.nc")))
+    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    res = run_study(study, out, workers=2, figures=False, progress=False)
+    assert res.ok and res.reused == kept and res.computed == N_CASES - kept
+    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(serial))
+
+
+def test_changed_study_does_not_reuse_old_cases(study_file, tmp_path):
+    a = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    b = parse_study(STUDY.replace("mu = 0.5", "mu = 0.4"), file=str(study_file), name="six_preloads")
+    solver = default_solver(a)
+    assert checkpoint_dir(a, tmp_path, solver) != checkpoint_dir(b, tmp_path, solver)
+    assert checkpoint_dir(a, tmp_path, solver) == checkpoint_dir(
+        parse_study(STUDY, file=str(study_file), name="six_preloads"), tmp_path, solver)
+
+
+# ---------------------------------------------------------------------------
+# Output problems: clear messages, nothing corrupted or lost
+# ---------------------------------------------------------------------------
+
+def run_cli(*args):
+    env = dict(os.environ, MPLBACKEND="Agg")
+    return subprocess.run([sys.executable, "-m", "pipeline", "run", *map(str, args)],
+                          capture_output=True, text=True, env=env, timeout=300)
+
+
+@pytest.mark.parametrize("where", ["/proc/pipeline-out", "file"], ids=["read-only-fs", "a-file"])
+def test_unwritable_output_directory_fails_before_computing(study_file, tmp_path, where):
+    out = Path(where) if where.startswith("/") else tmp_path / "taken"
+    if where == "file":
+        out.write_text("not a directory")
+    t0 = time.perf_counter()
+    r = run_cli(study_file, "--out", out, "--workers", "1")
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith("error:")]
+    assert len(lines) == 1 and f"{study_file}: --out: " in lines[0], r.stderr
+    assert time.perf_counter() - t0 < 30   # refused up front, not after the cases
+
+
+def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(fast_serial, fast_file,
+                                                                tmp_path, monkeypatch):
+    import pipeline.study.datasets.dataset as dsmod
+
+    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
+    target = tmp_path / "six_preloads.nc"
+    fast_serial.to_netcdf(target)             # a previous result of the same version
+    before = target.read_bytes()
+
+    real_to_netcdf = xr.Dataset.to_netcdf
+
+    def full_disk(self, path, *a, **k):
+        if ".cases" in str(path):   # the case checkpoints fit; the final dataset does not
+            return real_to_netcdf(self, path, *a, **k)
+        Path(path).write_bytes(b"\0" * 1000)   # something half-written, then ENOSPC
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        run_study(study, tmp_path, workers=1, figures=False, progress=False)
+    assert target.read_bytes() == before                     # the old result intact
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+    cdir = checkpoint_dir(study, tmp_path, default_solver(study))
+    assert len(list(cdir.glob("case-*.nc"))) == N_CASES     # nothing computed is lost
+    monkeypatch.undo()
+    res = run_study(study, tmp_path, workers=1, figures=False, progress=False)
+    assert res.ok and res.reused == N_CASES and res.computed == 0
+    assert dsmod.read_dataset(target).attrs["study_name"] == "six_preloads"
+
+
+def test_dataset_of_an_older_version_is_kept_not_overwritten(fast_serial, fast_file, tmp_path):
+    old = fast_serial.copy()
+    old.attrs["pipeline_version"] = "0.0.1"
+    target = tmp_path / "six_preloads.nc"
+    old.to_netcdf(target)
+    garbage = tmp_path / "six_preloads.v0.0.1.nc"   # a backup name already taken
+    garbage.write_bytes(b"keep me")
+    r = run_cli(fast_file, "--out", tmp_path, "--workers", "1", "--no-figures")
+    assert r.returncode == 0, r.stderr
+    assert "written by pipeline 0.0.1; kept it as six_preloads.v0.0.1.2.nc" in r.stderr
+    kept = read_dataset(tmp_path / "six_preloads.v0.0.1.2.nc")
+    assert kept.attrs["pipeline_version"] == "0.0.1"
+    assert garbage.read_bytes() == b"keep me"
+    new = read_dataset(target)
+    assert new.attrs["pipeline_version"] != "0.0.1"
+    np.testing.assert_array_equal(new["peak_amplitude"], fast_serial["peak_amplitude"])
+
+
+def test_unreachable_scheduler_is_one_line_exit_2(study_file, tmp_path, monkeypatch, capsys):
+    import argparse
+    import socket
+
+    import pipeline.study.execution.cases as cases_mod
+    import pipeline.study.execution.run as study_mod
+
+    pytest.importorskip("dask.distributed")
+    with socket.socket() as sock:           # a local port nobody listens on
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    monkeypatch.setattr(cases_mod, "SCHEDULER_TIMEOUT", "2s")
+    args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
+                              scheduler=f"tcp://127.0.0.1:{port}", quick=False, figures=False)
+    assert study_mod.cmd_run(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(
+        f"error: {study_file}: --scheduler: cannot reach the Dask scheduler at tcp://127.0.0.1:{port}")
+    assert not list((tmp_path / "out").glob("*.nc"))
+
+
+# ---------------------------------------------------------------------------
+# Checkpoints are data (netCDF), never code
+# ---------------------------------------------------------------------------
+
+def _curve_of(serial_study):
+    from pipeline.solve.response.response import frequency_response
+    return frequency_response(serial_study.system({"preload": 2.0}), 3, 150.0, 250.0,
+                              stability=False, tol_rel=1e-9)
+
+
+def test_checkpoint_round_trip_keeps_every_field(study_file, tmp_path):
+    import dataclasses
+
+    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    curve = _curve_of(study)
+    curve = dataclasses.replace(curve, info={**curve.info, "note": "é", "big": float("inf")})
+    path = checkpoint.write(tmp_path / "case-00003.nc", curve, {"preload": 2.0})
+    case, back = checkpoint.read(path)
+    assert case == {"preload": 2.0} and type(back) is type(curve)
+    for f in dataclasses.fields(curve):
+        a, b = getattr(curve, f.name), getattr(back, f.name)
+        if isinstance(a, np.ndarray):
+            assert a.dtype == b.dtype and a.shape == b.shape, f.name
+            np.testing.assert_array_equal(a, b, err_msg=f.name)
+        else:
+            assert type(a) is type(b) and a == b, f.name
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+class _Payload:
+    """Would create `marker` if a checkpoint were ever unpickled."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return (Path.touch, (Path(self.marker),))
+
+
+def test_foreign_or_corrupt_checkpoints_are_recomputed_not_executed(fast_serial, fast_file,
+                                                                    tmp_path):
+    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
+    cdir = checkpoint_dir(study, tmp_path, default_solver(study))
+    cdir.mkdir(parents=True)
+    marker = tmp_path / "executed"
+    payload = pickle_bytes = __import__("pickle").dumps({"case": {"preload": 0.5},
+                                                         "curve": _Payload(marker)})
+    (cdir / "case-00000.nc").write_bytes(payload)          # a pickle under the new name
+    (cdir / "case-00001.pkl").write_bytes(pickle_bytes)    # a checkpoint of the old format
+    (cdir / "case-00002.nc").write_bytes(b"CDF\x01 truncated")
+    good = _curve_of(study)
+    checkpoint.write(cdir / "case-00003.nc", good, {"preload": 999.0})   # another case's data
+    xr.Dataset({"frequency": ("p", [1.0])}).to_netcdf(cdir / "case-00004.nc")  # foreign netCDF
+    res = run_study(study, tmp_path, workers=1, figures=False, progress=False)
+    assert not marker.exists()
+    assert res.ok and res.reused == 0 and res.computed == N_CASES
+    xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(fast_serial))
+
+
+# ---------------------------------------------------------------------------
+# SIGINT at any stage, also when the process started with SIGINT ignored
+# ---------------------------------------------------------------------------
+
+def test_sigint_during_the_optimum_search_with_sigint_ignored_at_start(tmp_path):
+    """`cmd &` in a script starts the run with SIGINT ignored: an interrupt after the
+    cases (in the optimum search) still stops it with 130, the case kept, no dataset."""
+    text = (ROOT / "studies" / "paper_example1.toml").read_text()
+    text = text.replace("preload = [0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 1000.0]", "preload = [2.0]")
+    text = text.replace("stability = true", "stability = false")
+    f = tmp_path / "one_case.toml"
+    f.write_text(text)
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "pipeline", "run", str(f), "--out", str(out),
+                             "--workers", "1", "--no-figures"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env=dict(os.environ, MPLBACKEND="Agg"),
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    t_end = time.time() + 120
+    while time.time() < t_end and proc.poll() is None:
+        if list(out.glob(".one_case.*.cases/case-*.nc")):
+            break
+        time.sleep(0.02)
+    time.sleep(0.05)                    # the optimum search (about 0.5 s) is running
+    assert proc.poll() is None, "the run ended before the optimum search was interrupted"
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    err = err.decode()
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "1 finished case(s) are kept in" in err
+    assert not list(out.glob("*.nc")) and not list(out.glob(".*.tmp"))
+    assert len(list(out.glob(".one_case.*.cases/case-*.nc"))) == 1
+
+
+def test_interrupt_before_any_case_does_not_promise_kept_cases(study_file, tmp_path,
+                                                               monkeypatch, capsys):
+    import argparse
+    import signal as sg
+
+    import pipeline.study.execution.response_study as response_mod
+    import pipeline.study.execution.run as study_mod
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(response_mod, "execute_cases", interrupted)
+    before = sg.getsignal(sg.SIGINT)
+    args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
+                              scheduler=None, quick=False, figures=False)
+    assert study_mod.cmd_run(args) == 130
+    err = capsys.readouterr().err
+    assert "kept in" not in err and "no finished case was kept" in err
+    assert sg.getsignal(sg.SIGINT) is before        # the handler is restored
+
+
+def _kernel_dispatcher_interrupted(*a, **k):
+    """What an interrupt inside a compiled kernel's call looks like to its caller: the
+    dispatcher ran Python code (unpickling its constants) when SIGINT arrived."""
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as exc:
+        raise SystemError("CPUDispatcher(<function hermite_point>) returned a result "
+                          "with an exception set") from exc
+
+
+def test_interrupt_wrapped_by_a_compiled_kernel_exits_130(study_file, tmp_path,
+                                                          monkeypatch, capsys):
+    import argparse
+
+    import pipeline.study.execution.response_study as response_mod
+    import pipeline.study.execution.run as study_mod
+
+    monkeypatch.setattr(response_mod, "execute_cases", _kernel_dispatcher_interrupted)
+    args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
+                              scheduler=None, quick=False, figures=False)
+    assert study_mod.cmd_run(args) == 130
+    err = capsys.readouterr().err
+    assert err.startswith("interrupted: ") and "Traceback" not in err
+
+
+def test_a_system_error_without_an_interrupt_is_not_called_one(study_file, tmp_path,
+                                                               monkeypatch):
+    import argparse
+
+    import pipeline.study.execution.response_study as response_mod
+    import pipeline.study.execution.run as study_mod
+
+    def broken(*a, **k):
+        raise SystemError("a real fault")
+
+    monkeypatch.setattr(response_mod, "execute_cases", broken)
+    args = argparse.Namespace(study=str(study_file), out=str(tmp_path / "out"), workers=1,
+                              scheduler=None, quick=False, figures=False)
+    with pytest.raises(SystemError, match="a real fault"):
+        study_mod.cmd_run(args)
+
+
+# ---------------------------------------------------------------------------
+# What is declared is solved: no silent separation
+# ---------------------------------------------------------------------------
+
+EX3_CLOSED = (ROOT / "studies" / "paper_example3.toml").read_text()
+EX3_CLOSED = EX3_CLOSED[:EX3_CLOSED.index("[quick.sweep]")]
+EX3_CLOSED = EX3_CLOSED.replace('effects = ["friction", "normal_load_variation", "separation"]',
+                                'effects = ["friction", "normal_load_variation"]')
+EX3_CLOSED = EX3_CLOSED.replace("preload = [-100.0, -20.0, 10.0, 500.0]", "preload = [10.0, 500.0]")
+EX3_CLOSED = EX3_CLOSED.replace("harmonics = 14", "harmonics = 3").replace("stability = true",
+                                                                           "stability = false")
+
+
+def test_separation_not_declared_fails_the_case_that_separates(tmp_path):
+    """Example 3 without "separation": n0 = 500 N stays closed and is solved; n0 = 10 N
+    separates near resonance, so that case fails (never stored as a solution with
+    separation) and the run exits 1 saying what to declare."""
+    from pipeline.study.files.declared import SeparationGuard, separating
+    from pipeline.solve.harmonic_balance import hbm
+
+    study = parse_study(EX3_CLOSED, file="ex3_closed.toml", name="ex3_closed")
+    res = run_study(study, tmp_path, workers=1, figures=False, progress=False)
+    assert res.failures == 1 and not res.ok
+    ds = read_dataset(res.path)
+    assert int(ds["converged"].sel(preload=10.0).sum()) == 0
+    assert int(ds["converged"].sel(preload=500.0).sum()) > 10
+    assert "separation" not in ds.attrs["effects"]
+    assert "kept closed (a case that separates fails)" in ds.attrs["solution_method"]
+    assert "searched for separation" not in ds.attrs["solution_method"]
+    # the kept case really stays closed at every point
+    from pipeline.solve.response.response import frequency_response
+    sysm = study.system({"preload": 500.0})
+    curve = frequency_response(sysm, 3, 0.5, 1.6, stability=False)
+    SeparationGuard().check_curve(sysm, curve)
+    prob = hbm.setup(sysm, 3)
+    assert not any(separating(prob, q[prob.c], sysm.contact).any() for q in curve.Q)
+    # and the same scene with separation declared solves n0 = 10 N with separation
+    sys10 = study.system({"preload": 10.0})
+    c10 = frequency_response(sys10, 3, 0.5, 1.6, stability=False)
+    assert any(separating(prob, q[prob.c], sys10.contact).any() for q in c10.Q)
+
+
+def test_separation_not_declared_is_one_error_line_from_the_cli(tmp_path):
+    f = tmp_path / "ex3_closed.toml"
+    f.write_text(EX3_CLOSED.replace("preload = [10.0, 500.0]", "preload = [10.0]"))
+    r = run_cli(f, "--out", tmp_path / "out", "--workers", "1", "--no-figures")
+    assert r.returncode == 1 and "Traceback" not in r.stderr
+    assert re.search(r"contact 'shroud' separates at [0-9.]+ rad/s .*does not declare "
+                     r"\"separation\"", r.stderr), r.stderr
+    # with a case that stays closed the dataset is written, and the failed case is
+    # still one error line, naming it (also where a progress bar hides the log)
+    f.write_text(EX3_CLOSED)
+    r = run_cli(f, "--out", tmp_path / "out2", "--workers", "1", "--no-figures")
+    errors = [line for line in r.stderr.splitlines() if line.startswith("error:")]
+    assert r.returncode == 1 and (tmp_path / "out2" / "ex3_closed.nc").is_file()
+    assert len(errors) == 1 and errors[0].startswith(f"error: {f}: case preload = 10 N: ")
+    assert "contact 'shroud' separates at" in errors[0]
