@@ -7,6 +7,7 @@ backbone), against time integration (H = 7), the law's Jacobian against finite
 differences, and a lumped study with a `[[scene.spring]]` run end to end.
 """
 import re
+from pathlib import Path
 from dataclasses import replace
 
 import numpy as np
@@ -320,3 +321,12 @@ def test_residual_jacobian_with_both_laws(method):
     G_ym = np.zeros_like(G)
     G_ym[1:] = hbm.contact_terms(only_contact, Q[1:], jacobian=False)[0]
     assert np.allclose(G - G_ym, np.stack([f, -f, 0 * f]), rtol=0, atol=1e-14)
+
+
+def test_check_counts_the_springs(capsys):
+    """`check` names the elements of every law a scene places, not only its contacts."""
+    from pipeline.__main__ import main
+
+    path = Path(__file__).resolve().parents[1] / "studies" / "duffing_spring.toml"
+    assert main(["check", str(path)]) == 0
+    assert "0 contact(s), 1 cubic_spring element(s)" in capsys.readouterr().out

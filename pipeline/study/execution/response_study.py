@@ -45,7 +45,9 @@ def describe(study: Study, workers: int = 1) -> list:
     n_cases = len(sw.cases())
     contacts = getattr(sc, "contacts", ())
     ndof = len(getattr(sc, "dofs", ()) or ())
-    lines.append(f"scene: {sc.model}, {ndof} DOF(s), {len(contacts)} contact(s); effects: "
+    laws = "".join(f", {le.B.shape[0]} {le.law.name} element(s)"
+                   for le in getattr(sc, "laws", ()))
+    lines.append(f"scene: {sc.model}, {ndof} DOF(s), {len(contacts)} contact(s){laws}; effects: "
                  f"{', '.join(sc.effects) or 'none (linear)'}")
     grid = " x ".join(f"{a} ({len(v)})" for a, v in sw.axes.items()) or "one case"
     lines.append(f"cases: {n_cases} = {grid}")
