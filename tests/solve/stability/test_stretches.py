@@ -126,16 +126,22 @@ def test_fe_blade_propagated_equals_every_point(fe_curve):
     assert c.fold_parameter.size >= 2 and (~full.stable[m]).any() and full.stable[m].any()
 
 
-def test_fe_study_figure_draws_stable_solid_and_unstable_dashed(fe_curve):
+@pytest.fixture(scope="module")
+def fe_stretch(fe_curve):
+    """The coarse FE blade's flags in "stretch" mode (what `stability = true` selects)."""
+    _, system, c = fe_curve
+    return sc.branch_stability(hbm.setup(system, 3), c.Q, c.omega, c.omega,
+                               lambda lam: system.contact, c.converged, "stretch",
+                               c.fold_parameter, c.amplitude)
+
+
+def test_fe_study_figure_draws_stable_solid_and_unstable_dashed(fe_curve, fe_stretch):
     """FE blade scenes asked for stability (`stability = true`: "stretch") draw solid
     (stable) and dashed (unstable) stretches and no dotted one."""
     from pipeline.study.figures.plots import pyplot, response_curves_plot
     _, system, c = fe_curve
-    study = tiny_blade_study_with_stability()
-    assert study.solver.stability == "stretch"
-    bs = sc.branch_stability(hbm.setup(system, 3), c.Q, c.omega, c.omega,
-                             lambda lam: system.contact, c.converged, study.solver.stability,
-                             c.fold_parameter, c.amplitude)
+    assert tiny_blade_study_with_stability().solver.stability == "stretch"
+    bs = fe_stretch
     stable = np.where(c.converged, bs.stable.astype(float), np.nan)
     fig = response_curves_plot([("preload = 3 N", c.omega / (2 * np.pi), c.amplitude[:, 0],
                                  stable, c.converged)])
@@ -195,14 +201,14 @@ def test_example3_fold_rule_equals_every_point(n0, lo, hi):
     assert list(folds.bifurcation_kind) == [sc.FOLD, sc.FOLD]
 
 
-def test_fe_blade_fold_rule_equals_stretch(fe_curve):
+def test_fe_blade_fold_rule_equals_stretch(fe_curve, fe_stretch):
     """The coarse FE blade through two folds: the fold rule (its default) gives the
     flags the orbit monodromy decides stretch by stretch, from the ends alone."""
     _, system, c = fe_curve
     prob = hbm.setup(system, 3)
     args = (prob, c.Q, c.omega, c.omega, lambda lam: system.contact, c.converged)
     rule = sc.branch_stability(*args, "folds", c.fold_parameter, c.amplitude)
-    ref = sc.branch_stability(*args, "stretch", c.fold_parameter, c.amplitude)
+    ref = fe_stretch
     m = c.converged
     parity = fold_parity(c.omega, m)
     turning = set(np.flatnonzero(np.diff(parity[m]) != 0).tolist())
