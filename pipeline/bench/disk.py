@@ -55,7 +55,7 @@ EO = 2
 PRELOAD = 30.0          # [N] over each shroud face: stick-slip at resonance
 PAIR = ShroudPair("shroud", ku=1e5, kv=1e5, mu=0.3, n0=None)   # [N/m] per node pair
 LOAD = PointLoad("excitation", (0.0, 1.0, 0.0), 1.0, 1, 0.0)   # 1 N in Y, first harmonic
-# table 1: the coarse mesh of tests/test_disk_blades.py
+# table 1: the coarse mesh of tests/study/scenes/test_disk_blades.py
 SECTOR_BLADE = BladeParams(n_chord=2, n_thick=1, n_span=4)
 SECTOR_MODES = 6
 SECTOR_PHASE_DIVISOR = 6    # table 1: EO = N / 6, the interblade phase 2 pi / 6 for every N

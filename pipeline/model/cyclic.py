@@ -185,7 +185,7 @@ def full_assembly(sector: Sector, engine_order: int, stiffness_factors=None,
     with Young's modulus f E: K(f E) = f K(E), so the constraint modes -K_ii^-1 K_ib
     are unchanged and the fixed-interface modes keep their shapes (frequencies times
     sqrt(f)); the basis is the same, the reduced stiffness f K_r, M_r unchanged
-    (tests/test_reduction_mistuning.py; the directly reduced blade's modal damping
+    (tests/structure/test_reduction_mistuning.py; the directly reduced blade's modal damping
     would be sqrt(f) C_r).
 
     With a rigid disk the sectors interact only through the elements (and the

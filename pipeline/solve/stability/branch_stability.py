@@ -40,10 +40,10 @@ Modes (`solver.stability` of a study, `stability=` of `response.frequency_respon
     None / False  not computed.
 
 CHECK_MARGIN = 0.5 (rho_H in [0.61, 1.65]).  Measured: on a 3-DOF shrouded blade with
-one Yang-Menq contact (tests/test_floquet.py) Hill calls unstable, with margins up to
+one Yang-Menq contact (tests/solve/stability/test_floquet.py) Hill calls unstable, with margins up to
 0.28, orbits whose multipliers are 0.83-0.93; at stiff impact it calls stable, with
 margin 0.39, an orbit whose largest multiplier is 1.05; in a seeded corpus of 40 random
-2-4-DOF contact systems (tests/test_stability_check.py) the largest Hill margin at a
+2-4-DOF contact systems (tests/solve/stability/test_stability_check.py) the largest Hill margin at a
 wrong Hill flag is 0.18.  A lightly damped structure (max Re lam T ~ -2 pi zeta) lies
 inside the margin: there every point is checked.  A Floquet check costs one shooting + one monodromy (0.1-0.2 s
 on a few DOFs), about a tenth of a continuation point at H = 10.

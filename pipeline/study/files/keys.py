@@ -1,6 +1,6 @@
 """Every key a study file may hold: one row per (table, key) with its unit, default and
 meaning -- the table `studies/README.md` shows (`python -m pipeline keys` prints it)
-and `tests/test_keys.py` holds against the parsers: each key a parser accepts is a
+and `tests/study/files/test_keys.py` holds against the parsers: each key a parser accepts is a
 row here and each row is accepted by some parser (probed with an unknown key in every
 table of the shipped studies, whose one-line error lists the keys allowed there).
 

@@ -189,7 +189,7 @@ def test_default_mode_per_scene(name, expected):
 
 
 def separating_sector():
-    """The 4-sector cyclic case of tests/test_cyclic.py with separation (EO = 1): a
+    """The 4-sector cyclic case of tests/model/test_cyclic.py with separation (EO = 1): a
     2-DOF sector, one Yang-Menq element to the next sector's shroud, ku = 2, kv = 3,
     mu = 0.3, n0 = 0.1 N."""
     from pipeline.model.cyclic import Sector, sector_system

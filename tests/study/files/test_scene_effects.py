@@ -2,7 +2,7 @@
 
 1. constant normal load (Jenkins path): the normal load is never searched for zeros;
 2. no friction, no separation: a direct linear solve per frequency, no Newton;
-3. one blade: no cyclic assembly (see tests/test_blade_studies.py / test_cyclic.py);
+3. one blade: no cyclic assembly (see tests/study/scenes/test_blade_studies.py / test_cyclic.py);
 4. elements fully stuck or fully open over the cycle: no transition search (march).
 """
 from __future__ import annotations
