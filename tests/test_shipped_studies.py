@@ -126,9 +126,14 @@ def paper_example3(out, nc, ds, st):
     # softening: the 10 N peak well below the stuck resonance, above the open one
     soft = ds.sel(preload=10.0)
     f_soft = float(soft["peak_frequency"].sel(dof="u"))
-    assert 1.0 < f_soft < 0.95 * wst
-    assert ds["stable"].attrs["stability_computed"] == 1
     assert np.isfinite(soft["fold_frequency"].values).sum() == 2
+    lo, hi = np.sort(soft["fold_frequency"].values[np.isfinite(soft["fold_frequency"].values)])
+    # the peak tops the overhang between the two folds (1.2419, 1.2776 rad/s stated above),
+    # 12 % below the stuck resonance and above the open one (1 rad/s)
+    assert lo <= f_soft <= hi
+    assert f_soft < 0.95 * wst
+    assert f_soft > 1.0
+    assert ds["stable"].attrs["stability_computed"] == 1
     fold_u = soft["fold_amplitude"].sel(dof="u").values   # between the extremes of the curve
     assert np.isfinite(fold_u).sum() == 2 and ds["fold_amplitude"].attrs["units"] == "m"
     assert np.all((fold_u > soft["amplitude"].sel(dof="u").min().values)

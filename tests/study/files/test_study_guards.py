@@ -216,6 +216,7 @@ def test_quick_builds_only_the_quick_model(name, monkeypatch):
 
 def _within(m):
     from pipeline.bench.estimate import ACCEPT
+    assert ACCEPT == 3.0 and m.wall > 0.0 and 0.0 < m.estimate.lo <= m.estimate.hi < np.inf
     assert 1 / ACCEPT <= m.ratio <= ACCEPT, (
         f"{m.name}{' --quick' if m.quick else ''}: estimate {m.estimate.lo:.3g}-"
         f"{m.estimate.hi:.3g} s (middle {m.estimate.mid:.3g} s), measured {m.wall:.3g} s")
