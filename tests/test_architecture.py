@@ -342,6 +342,42 @@ def test_study_kinds_are_dispatched_in_one_place():
     assert len({k.name for k in kinds.KINDS}) == len(kinds.KINDS)
 
 
+# Where the Yang-Menq element may be named: the contact layer, the study layer (study
+# files, their scenes, and the law-specific outputs: hysteresis loops and contact
+# states), the modules that turn a declared scene into elements, the paper's systems
+# (declared data) and the contact element's benchmark.  The solvers, the structures and
+# the generic model reach the elements through `contact.laws` / `contact.registry`.
+YANG_MENQ_NAMED_IN = ("pipeline/contact/", "pipeline/study/", "pipeline/model/scene.py",
+                      "pipeline/model/contacts.py", "pipeline/paper_systems.py",
+                      "pipeline/bench/")
+
+
+def law_names(path: Path, prefix: str = "YangMenq") -> list:
+    """Lines of `path` that name a class starting with `prefix` (as a name, an
+    attribute or an imported name); prose in docstrings does not count."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        names = ([a.name for a in node.names] if isinstance(node, (ast.Import, ast.ImportFrom))
+                 else [node.id] if isinstance(node, ast.Name)
+                 else [node.attr] if isinstance(node, ast.Attribute) else [])
+        found += [f"{path.relative_to(PACKAGE.parent)}:{node.lineno} names {n}"
+                  for n in names if n.startswith(prefix)]
+    return found
+
+
+def test_yang_menq_is_named_only_in_the_contact_and_study_layers():
+    """The harmonic balance, continuation, stability, time integration, the structures
+    and the generic model (`System`, cyclic assembly, static load) never name the
+    Yang-Menq element: they hold `contact.laws.ContactElements` and evaluate them through
+    the law `contact.registry.law_of` returns, so a second law plugs in beside it."""
+    found = [line for path in sorted(PACKAGE.rglob("*.py"))
+             if not str(path.relative_to(PACKAGE.parent)).startswith(YANG_MENQ_NAMED_IN)
+             for line in law_names(path)]
+    assert not found, "Yang-Menq named outside its layers:\n" + "\n".join(found)
+    assert law_names(PACKAGE / "solve" / "harmonic_balance" / "hbm.py") == []
+    assert law_names(PACKAGE / "contact" / "registry.py")   # the scan sees names
+
+
 MAX_FOLDER = 12   # modules of one folder of pipeline/ (its __init__ aside)
 
 

@@ -75,6 +75,18 @@ class YangMenq:
     def size(self) -> int:
         return self.ku.size
 
+    def take(self, index) -> "YangMenq":
+        """The elements selected by `index` (integer or boolean array), same order."""
+        w = self.slider_rest
+        return YangMenq(self.ku[index], self.kv[index], self.mu[index], self.n0[index],
+                        None if w is None else w[index])
+
+    def tile(self, reps: int) -> "YangMenq":
+        """`reps` copies of the E elements one after the other (reps E elements): the
+        elements of every sector of a wheel."""
+        t = lambda a: None if a is None else np.tile(a, int(reps))  # noqa: E731
+        return YangMenq(t(self.ku), t(self.kv), t(self.mu), t(self.n0), t(self.slider_rest))
+
 
 # ---------------------------------------------------------------------------
 # States and results of an evaluation

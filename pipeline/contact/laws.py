@@ -28,6 +28,7 @@ element of the paper (Eq. 9-11) evaluated exactly or by AFT (`contact.forces`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
@@ -40,6 +41,21 @@ from .exact import exact_forces
 # Fourier coefficients of the forces and their Jacobian), the event-driven time
 # integration and shooting, and the monodromy of the event-driven orbit (Floquet)
 SOLVERS = ("hbm", "hill", "timesim", "shooting", "orbit_floquet")
+
+
+class ContactElements(Protocol):
+    """The parameter set of E elements acting along a structure's tangential and
+    normal maps (`model.System.contact`, maps Bt, Bn); `registry.law_of` gives the
+    law that evaluates them.  Today the Yang-Menq element (`contact.element`)."""
+
+    n0: np.ndarray           # (E,) preload [N] (negative: a gap)
+
+    @property
+    def size(self) -> int: ...
+
+    def take(self, index) -> "ContactElements": ...
+
+    def tile(self, reps: int) -> "ContactElements": ...
 
 
 @dataclass(frozen=True)

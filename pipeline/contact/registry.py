@@ -10,12 +10,26 @@ default or None when required)), and builds one element from those values with
 from __future__ import annotations
 
 from .cubic_spring import CubicSpring
+from .element import YangMenq
 from .laws import YangMenqLaw
 
 LAWS = {
     YangMenqLaw.name: YangMenqLaw,
     CubicSpring.name: CubicSpring,
 }
+
+
+# the law that evaluates each kind of `laws.ContactElements` (a structure's own
+# tangential/normal elements)
+ELEMENT_LAWS = {YangMenq: YangMenqLaw}
+
+
+def law_of(elements):
+    """The contact law evaluating `elements` (a `laws.ContactElements`)."""
+    try:
+        return ELEMENT_LAWS[type(elements)](elements)
+    except KeyError:
+        raise TypeError(f"no contact law evaluates {type(elements).__name__}") from None
 
 
 def law_class(name: str):

@@ -42,7 +42,7 @@ from math import gcd
 import numpy as np
 import scipy.sparse as sp
 
-from ..contact import YangMenq
+from ..contact.laws import ContactElements
 from ..fourier.harmonics import shift
 from .system import CyclicCoupling, System
 
@@ -64,7 +64,7 @@ class Sector:
     Bn: np.ndarray           # (E, n) normal map on this sector's DOFs [-]
     Bt_next: np.ndarray      # (E, n) tangential map on the next sector's DOFs [-]
     Bn_next: np.ndarray      # (E, n) normal map on the next sector's DOFs [-]
-    contact: YangMenq        # E elements (one set per sector)
+    contact: ContactElements  # E elements (one set per sector)
     forcing: np.ndarray      # (n, Hf+1) complex load of sector 0, F_{0,h} [N]
     sectors: int             # N >= 2
     dof_names: tuple = field(default=())
@@ -141,9 +141,7 @@ def isolated_system(sector: Sector) -> System:
     `_next` part dropped): the linear limit of EO = 0 for pure pair contacts
     (inter-sector springs in their EO = 0 state, K + K_next + K_next^T)."""
     keep = ~(np.any(sector.Bt_next != 0, 1) | np.any(sector.Bn_next != 0, 1))
-    el = sector.contact
-    sub = YangMenq(el.ku[keep], el.kv[keep], el.mu[keep], el.n0[keep],
-                   None if el.slider_rest is None else el.slider_rest[keep])
+    sub = sector.contact.take(keep)
     K = sector.K_own if sector.K_next is None else sector.K_own + sector.K_next + sector.K_next.T
     return System(M=sector.M, C=sector.C, K=K, Bt=np.asarray(sector.Bt)[keep],
                   Bn=np.asarray(sector.Bn)[keep], contact=sub,
@@ -213,9 +211,7 @@ def full_assembly(sector: Sector, engine_order: int, stiffness_factors=None,
                      + blk(ring.T, np.asarray(sector.K_next).T)).tocsr()
     if not (N * sector.n_dof > DENSE_MAX_DOF if sparse is None else sparse):
         mats = {k: A.toarray() for k, A in mats.items()}
-    el = sector.contact
-    tile = lambda a: None if a is None else np.tile(a, N)  # noqa: E731
-    contact = YangMenq(tile(el.ku), tile(el.kv), tile(el.mu), tile(el.n0), tile(el.slider_rest))
+    contact = sector.contact.tile(N)
     F = np.concatenate([sector_forcing(sector, eo, j) for j in range(N)])
     names = tuple(f"s{j}.{d}" for j in range(N) for d in sector.dof_names)
     return System(**mats, contact=contact, forcing=F, dof_names=names)

@@ -3,7 +3,7 @@ structure deflects under it (paper Eq. 1, 4).
 
 The element's normal load is n = n0 + kv v (Eq. 1).  At zero excitation with every
 contact closed and stuck, the harmonic-0 balance is linear: a fully stuck slider
-sits in the middle of its band (`contact.YangMenq`), i.e. at the static tangential
+sits in the middle of its band (`contact.element`), i.e. at the static tangential
 displacement, so f_u = 0 and only the normal springs act,
 
     (K0 + Bn0^T diag(kv) Bn0) q0 = F0 - Bn0^T n0,     v0 = Bn0 q0,

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from ..contact import YangMenq
+from ..contact.laws import ContactElements
 
 
 def dense(A) -> np.ndarray:
@@ -83,7 +83,7 @@ class System:
     Bn: np.ndarray           # (E, n) normal relative displacement map [-]
     # M, C, K, Bt, Bn: ndarrays or scipy.sparse matrices (an unreduced FE blade, a
     # large N-sector assembly); `dense` gives an ndarray where one is needed
-    contact: YangMenq        # E element parameter sets
+    contact: ContactElements  # E element parameter sets
     forcing: np.ndarray      # (n, Hf+1) complex harmonic load amplitudes [N]
     dof_names: tuple = field(default=())
     cyclic: CyclicCoupling | None = None   # None: an ordinary (non-cyclic) structure

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...contact import YangMenq
+from ...contact.laws import ContactElements
 from ...fourier.harmonics import shift as time_shift
 from ...model.system import System, dense
 from .dynamic_stiffness import full_operator, motion_matrices
@@ -43,7 +43,7 @@ def coupling_operators(sys: System, H: int):
     return np.kron(Kn, T.T), np.kron(Kn.T, T)
 
 
-def full_jacobian(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
+def full_jacobian(prob: HBMProblem, Q, Om, contact: ContactElements | None = None):
     """dR/dQ of the full (uncondensed) system, dense (n nh)^2: for Hill's method."""
     nh, n = prob.nh, prob.system.n_dof
     J = full_linear_operator(prob.system, Om, prob.H, extra=prob.linear.extra)
@@ -54,7 +54,7 @@ def full_jacobian(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
     return J.reshape(n * nh, n * nh)
 
 
-def wave_jacobians(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
+def wave_jacobians(prob: HBMProblem, Q, Om, contact: ContactElements | None = None):
     """Hill's problems [(r, J, M, C), ...] of a solution Q (n, nh) for every family of
     perturbations, so that the travelling wave is stable iff each one is.
 

@@ -45,8 +45,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...contact import YangMenq
-from ...contact.laws import YangMenqLaw
+from ...contact.laws import ContactElements
+from ...contact.registry import law_of
 from ...fourier.harmonics import (complex_harmonics, derivative_matrix, real_blocks, real_vector,
                                  shift_tables, turn)
 from ...fourier.harmonics import shift as time_shift
@@ -137,7 +137,7 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
     parts = linear.parts
     pattern = None if parts is None else jacobian_pattern(parts, idx, c.size, 2 * H + 1)
     common = (system, int(H), method, int(n_samples), c, o, idx, bt, bn, P, linear,
-              slot_weights(bt, bn))
+              slot_weights(bt, bn, law_of(system.contact).pairs))
     if cy is None:
         laws = tuple(law_slots(le, c) for le in system.laws)
         own = LawSlots(None, idx, (bt, bn), np.zeros(0))
@@ -178,23 +178,24 @@ def contact_motion(prob: HBMProblem, Qc):
     return np.einsum("em,emk->ek", prob.bt, Qe), np.einsum("em,emk->ek", prob.bn, Qe)
 
 
-def contact_slots(prob: HBMProblem, contact: YangMenq | None = None) -> tuple:
+def contact_slots(prob: HBMProblem, contact: ContactElements | None = None) -> tuple:
     """((`law_terms.LawSlots`, rotation or None), ...) of every law of the problem:
-    the Yang-Menq elements `contact` (default the system's) on Bt, Bn, then
+    the elements `contact` (default the system's, `System.contact`) on Bt, Bn, then
     `System.laws`."""
-    elem = contact if contact is not None else prob.system.contact
-    W = prob.weights if prob.weights is not None else slot_weights(prob.bt, prob.bn)
-    own = LawSlots(YangMenqLaw(elem), prob.idx, (prob.bt, prob.bn), W)
+    law = law_of(contact if contact is not None else prob.system.contact)
+    W = prob.weights if prob.weights is not None else slot_weights(prob.bt, prob.bn, law.pairs)
+    own = LawSlots(law, prob.idx, (prob.bt, prob.bn), W)
     return ((own, prob.rot),) + tuple((s, None) for s in prob.laws)
 
 
-def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobian=True,
+def contact_terms(prob: HBMProblem, Qc, contact: ContactElements | None = None, jacobian=True,
                   blocks=False):
     """Generalised contact force B^T F of every law, Bt^T Fu + Bn^T Fv for Yang-Menq,
     (nc, nh), and its Jacobian (nc nh, nc nh); with blocks=True the Jacobian is
     returned per element and slot pair instead, (E, m, m, nh, nh), at
     `HBMProblem.slot_index`, for `assemble` (see `wave_jacobians`).  The third
-    output is the Yang-Menq `ContactForces` (None without Yang-Menq elements)."""
+    output is the `LawForces.detail` of the system's own elements (for Yang-Menq the
+    `ContactForces`; None without such elements)."""
     nc, nh = prob.c.size, prob.nh
     if prob.idx.shape[0] == 0 and not prob.laws:
         return np.zeros((nc, nh)), (np.zeros((nc * nh, nc * nh)) if jacobian else None), None
@@ -222,17 +223,17 @@ def contact_terms(prob: HBMProblem, Qc, contact: YangMenq | None = None, jacobia
     return G, (Je if blocks else assemble(prob, Je)), f
 
 
-def slot_weights(bt, bn) -> np.ndarray:
-    """(E, m m, 3) weights of the slot pairs (a, b) of each element: bt_a bt_b,
-    bt_a bn_b, bn_a bn_b (`contact_terms`)."""
-    return pair_weights((bt, bn), YangMenqLaw.pairs)
+def slot_weights(bt, bn, pairs) -> np.ndarray:
+    """(E, m m, P) weights of the slot pairs (a, b) of each element for the law's
+    direction pairs, e.g. bt_a bt_b, bt_a bn_b, bn_a bn_b (`contact_terms`)."""
+    return pair_weights((bt, bn), pairs)
 
 
 # --------------------------------------------------------------------------
 # residual, recovery, full-system check
 # --------------------------------------------------------------------------
 
-def residual(prob: HBMProblem, x, Om, contact: YangMenq | None = None, jacobian=True):
+def residual(prob: HBMProblem, x, Om, contact: ContactElements | None = None, jacobian=True):
     """Condensed residual R(x, Om) [N] with x = Qc.ravel(); (R, dR/dx, dR/dOm).
     dR/dx is scipy.sparse for a full wheel (`HBMProblem.pattern`), else dense."""
     nh = prob.nh
@@ -263,7 +264,7 @@ def recover(prob: HBMProblem, Qc, Om):
     return dyn.recover(prob.linear, Qc, Om)
 
 
-def full_residual(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
+def full_residual(prob: HBMProblem, Q, Om, contact: ContactElements | None = None):
     """Residual of all n (2H+1) equations [N] (no condensation): every point's convergence check."""
     sys = prob.system
     lin = dyn.apply_full(sys.K, sys.C, sys.M, Q, Om, derivative_matrix(prob.H), prob.linear.extra)
@@ -277,7 +278,7 @@ def full_residual(prob: HBMProblem, Q, Om, contact: YangMenq | None = None):
     return R
 
 
-def force_scale(prob: HBMProblem, contact: YangMenq | None = None) -> float:
+def force_scale(prob: HBMProblem, contact: ContactElements | None = None) -> float:
     """Reference force [N] for tolerances: |P| + sum |n0_e| |Bn_e| (never 0).
 
     A preload counts only where it loads the structure (through Bn); the Jenkins
@@ -289,7 +290,7 @@ def force_scale(prob: HBMProblem, contact: YangMenq | None = None) -> float:
     return s if s > 0 else 1.0
 
 
-def tolerances(prob: HBMProblem, tol_rel: float, contact: YangMenq | None = None):
+def tolerances(prob: HBMProblem, tol_rel: float, contact: ContactElements | None = None):
     """Residual tolerances [N] of the static (h = 0) and the harmonic (h >= 1) equations.
 
     static:  tol_rel * (|P_0| + sum |n0_e| |Bn_e| + |P_h>=1|)
