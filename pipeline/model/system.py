@@ -137,9 +137,21 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     """
     import scipy.linalg as sla
 
+    # every frequency: one dense eigen-solve of the whole structure (N n DOFs for an
+    # N-sector assembly), whether the matrices are stored sparse or not
+    K = linear_stiffness(system, contacts)
+    return np.sqrt(np.abs(sla.eigh(K, dense(system.M), eigvals_only=True)))
+
+
+def linear_stiffness(system: System, contacts: str = "open") -> np.ndarray:
+    """The dense stiffness [N/m] of a linear limit (`natural_frequencies`' meaning of
+    `contacts`): K plus the stuck contacts' springs; for a cyclic sector the Hermitian
+    stiffness of the engine-order family (complex unless phi = 0 or pi).  "small":
+    the limit of vanishing vibration, the preloaded elements (n0 > 0) stuck in both
+    directions and the others (a gap) open."""
     cy = system.cyclic
     K = dense(coupled_stiffness(system, cy.phase if cy is not None else 0.0))
-    if contacts in ("stuck", "tied"):
+    if contacts in ("stuck", "tied", "small"):
         el = system.contact
         closed = np.ones(el.size, bool) if contacts == "tied" else el.n0 > 0
         Bt, Bn = system.Bt, system.Bn
@@ -147,12 +159,12 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
             z = np.exp(1j * cy.phase)
             Bt = dense(Bt) + z * dense(cy.Bt_next)
             Bn = dense(Bn) + z * dense(cy.Bn_next)
-        K = K + (stiffness_along(Bt, el.ku) + stiffness_along(Bn, el.kv * closed))
+        ku = el.ku * closed if contacts == "small" else el.ku
+        K = K + (stiffness_along(Bt, ku) + stiffness_along(Bn, el.kv * closed))
     elif contacts != "open":
-        raise ValueError(f"contacts must be 'open', 'stuck' or 'tied', got {contacts!r}")
-    # every frequency: one dense eigen-solve of the whole structure (N n DOFs for an
-    # N-sector assembly), whether the matrices are stored sparse or not
-    return np.sqrt(np.abs(sla.eigh(K, dense(system.M), eigvals_only=True)))
+        raise ValueError("contacts must be 'open', 'stuck', 'tied' or 'small', "
+                         f"got {contacts!r}")
+    return K
 
 
 def stiffness_along(B, k) -> np.ndarray:

@@ -151,9 +151,7 @@ def prepare(sys, H: int, c, o, P, extra=(), strategy: str | None = None) -> Dyna
     return DynamicStiffness(strategy, int(H), c, o, M, C, K, complex_loads(P), extra, blocks)
 
 
-# --------------------------------------------------------------------------
-# S and dS/dOmega, as each strategy forms them
-# --------------------------------------------------------------------------
+# ---- S and dS/dOmega, as each strategy forms them
 
 def at_harmonic(K, M, C, h, Om: float, added=()):
     """S_h = K - (h Om)^2 M + i h Om C + sum a_t A_t, `added` the pairs (A_t, a_t);
@@ -176,10 +174,7 @@ def harmonic_rate(M, C, h, Om: float, added=()):
 def at_frequency(K, M, C, w: float, added=()):
     """S = K - w^2 M + i w C + sum a_t A_t at one circular frequency w = h Omega,
     `added` the pairs (A_t, a_t)."""
-    S = K - w * w * M + 1j * w * C
-    for A, a in added:
-        S = S + a * A
-    return S
+    return at_harmonic(K, M, C, 1, w, added)
 
 
 def _pairs(extra, h, Om, rate=False, matrices=None):
@@ -258,9 +253,7 @@ def term_stiffness(terms, H: int, Om: float, derivative: bool = False) -> np.nda
     return sum(a * dense(A) for A, a in _pairs(terms, h, Om, derivative))
 
 
-# --------------------------------------------------------------------------
-# condensation onto the contact DOFs
-# --------------------------------------------------------------------------
+# ---- condensation onto the contact DOFs
 
 def condense(ds: DynamicStiffness, Om: float, derivatives: bool = True, motion=None):
     """(St, dSt, Pt, dPt): condensed S_h, dS_h/dOmega (H+1 complex (nc, nc)), load and
@@ -394,9 +387,7 @@ def condense_parts(ds: DynamicStiffness, h: int, Om: float, derivatives: bool):
     return St, dSt, Pt, dPt
 
 
-# --------------------------------------------------------------------------
-# recovery of the eliminated DOFs
-# --------------------------------------------------------------------------
+# ---- recovery of the eliminated DOFs
 
 def recover(ds: DynamicStiffness, Qc, Om: float) -> np.ndarray:
     """All DOFs' real coefficients Q (n, 2H+1) from the contact DOFs' Qc (nc, 2H+1):
@@ -431,9 +422,7 @@ def recover(ds: DynamicStiffness, Qc, Om: float) -> np.ndarray:
     return Q
 
 
-# --------------------------------------------------------------------------
-# operators of all DOFs in the real layout (no condensation)
-# --------------------------------------------------------------------------
+# ---- operators of all DOFs in the real layout (no condensation)
 
 def term_layout(t: Term, H: int, Om: float) -> np.ndarray:
     """(2H+1, 2H+1) real-layout factor F of a term: a A Q_h <-> (A Q) F^T; i w is Om D
@@ -445,14 +434,24 @@ def term_layout(t: Term, H: int, Om: float) -> np.ndarray:
     return scale * np.diag((hh * Om) ** t.power)
 
 
-def apply_full(K, C, M, Q, Om: float, D, extra=()):
+def apply_full(K, C, M, Q, Om: float, D, extra=(), rate: bool = False):
     """K Q + Om C Q D^T + Om^2 M Q (D D)^T (+ the terms' A Q F^T) of coefficients Q
     (n, 2H+1): the linear part of the full residual (with |K|, |C|, |M|, |D| the
-    absolute terms of its round-off)."""
-    out = K @ Q + Om * (C @ Q) @ D.T + Om**2 * (M @ Q) @ (D @ D).T
+    absolute terms of its round-off); rate=True: its derivative d/dOmega,
+    C Q D^T + 2 Om M Q (D D)^T + (p + q)/Om A Q F^T (F_t is Om^(p+q) times a constant)."""
+    if rate:
+        return (C @ Q) @ D.T + 2.0 * Om * (M @ Q) @ (D @ D).T + apply_terms(Q, Om, extra, True)
+    return K @ Q + Om * (C @ Q) @ D.T + Om**2 * (M @ Q) @ (D @ D).T + apply_terms(Q, Om, extra)
+
+
+def apply_terms(Q, Om: float, terms, rate: bool = False):
+    """sum_t A_t Q F_t^T (rate=True: d/dOmega of it) of coefficients Q (n, 2H+1): the
+    added terms alone, e.g. the derivative of an EPMC term in zeta (its A_t = dA/dzeta)."""
     H = (Q.shape[1] - 1) // 2
-    for t in extra:
-        out = out + (t.matrix @ Q) @ term_layout(t, H, Om).T
+    out = np.zeros(Q.shape)
+    for t in terms:
+        f = (t.power + t.omega_power) / Om if rate else 1.0
+        out = out + f * (t.matrix @ Q) @ term_layout(t, H, Om).T
     return out
 
 

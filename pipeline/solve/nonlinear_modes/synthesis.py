@@ -1,0 +1,143 @@
+"""Forced responses synthesised from one nonlinear mode (single-nonlinear-mode theory,
+Krack 2015, with the mode's dissipation split into its viscous and its friction part).
+
+Near a resonance of a well separated mode the forced motion is taken as the nonlinear
+mode at the amplitude a it reaches, q(t) = a Psi(a) at the excitation's frequency
+Omega.  Projecting the first harmonic of the equation of motion onto the mode's first
+harmonic Psi_1 = Psi_1c - i Psi_1s (complex, `epmc`), and subtracting the EPMC
+equation the mode satisfies at its own frequency omega, gives the modal equation
+
+    [(omega^2 - Omega^2) m_1 + i ((Omega - omega) c_1 + 2 zeta omega^2 m_1)] a
+        = Psi_1^H F_1 e^{-i theta},
+    m_1 = Psi_1^H M Psi_1,  c_1 = Re Psi_1^H C Psi_1,
+
+F_1 the complex first-harmonic load [N] (a cyclic sector's engine-order load, the
+mode the travelling wave of that nodal diameter).  The viscous part c_1 scales with
+the frequency, the friction forces' part 2 zeta omega^2 m_1 - c_1 omega does not (they
+are rate independent): for one DOF and one harmonic this is exact; Krack's viscous
+form 2 zeta omega Omega m_1 is the same where Omega = omega.  With r = |Psi_1^H F_1| / a
+the frequencies at which the amplitude a is reached are the positive roots Omega of
+
+    ((omega^2 - Omega^2) m_1)^2 + ((Omega - omega) c_1 + 2 zeta omega^2 m_1)^2 = r^2,
+
+and the peak is the largest a with a root.  Any force level, for any load and preload
+already on a backbone: no further harmonic balance.  What it neglects (the other
+modes' contributions, higher harmonics of the load) is what the comparison with the
+full harmonic balance on the same scene shows.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .backbone import Backbone, point_at
+from .epmc import ModeProblem
+
+
+@dataclass(frozen=True)
+class Synthesis:
+    """The synthesised forced response along the backbone's points (P,): `below` and
+    `above` the frequencies [rad/s] at which each amplitude is reached (NaN where it is
+    not), `modal_force` |Psi_1^H F_1| [N kg^-0.5], and the peak: the modal amplitude
+    `peak_amplitude` [kg^0.5 m] and frequency `peak_omega` [rad/s] (NaN when the
+    backbone does not reach it)."""
+
+    below: np.ndarray
+    above: np.ndarray
+    modal_force: np.ndarray
+    peak_s: float
+    peak_omega: float
+
+    @property
+    def peak_amplitude(self) -> float:
+        return 10.0 ** self.peak_s
+
+
+def first_harmonic(bb: Backbone) -> np.ndarray:
+    """(P, n) complex first harmonic of the shape, Psi_1 = (Q_1c - i Q_1s) / a."""
+    return (bb.Q[:, :, 1] - 1j * bb.Q[:, :, 2]) / bb.amplitude[:, None]
+
+
+def modal_quantities(bb: Backbone, M, C, F1):
+    """(|Psi_1^H F_1| [N kg^-0.5], m_1 [-], c_1 [s^-1]) per backbone point; F1 (n,)
+    complex [N]."""
+    psi = first_harmonic(bb)
+    m1 = np.einsum("pi,ij,pj->p", psi.conj(), np.asarray(M, float), psi).real
+    c1 = np.einsum("pi,ij,pj->p", psi.conj(), np.asarray(C, float), psi).real
+    return np.abs(psi.conj() @ np.asarray(F1, complex)), m1, c1
+
+
+def _quartic(omega, zeta, m1, c1):
+    """Coefficients (Omega^4 .. Omega^0) of the left side of the modal equation."""
+    d = 2.0 * zeta * omega**2 * m1 - c1 * omega
+    return np.array([m1**2, 0.0, c1**2 - 2.0 * omega**2 * m1**2, 2.0 * c1 * d,
+                     omega**4 * m1**2 + d**2])
+
+
+def frequencies(omega, zeta, m1, c1, r):
+    """(below, above) [rad/s]: the smallest and largest root Omega > 0 of the modal
+    equation at amplitude-scaled force r, NaN where there is none (above the peak)."""
+    out = np.full((2, np.size(omega)), np.nan)
+    for p, args in enumerate(zip(*(np.atleast_1d(v) for v in (omega, zeta, m1, c1, r)))):
+        co = _quartic(*args[:4])
+        co[-1] -= args[4] ** 2
+        roots = np.roots(co)
+        real = roots[(np.abs(roots.imag) <= 1e-9 * np.abs(roots)) & (roots.real > 0)].real
+        if real.size:
+            out[:, p] = real.min(), real.max()
+    return out[0], out[1]
+
+
+def peak_gap(omega, zeta, m1, c1, r):
+    """(r^2 - min over Omega > 0 of the left side, the minimising Omega [rad/s]) per
+    point: positive below the peak amplitude, zero at it."""
+    gaps, where = [], []
+    for args in zip(*(np.atleast_1d(v) for v in (omega, zeta, m1, c1, r))):
+        co = _quartic(*args[:4])
+        crit = np.roots(np.polyder(co))
+        crit = crit[(np.abs(crit.imag) <= 1e-9 * np.abs(crit)) & (crit.real > 0)].real
+        vals = np.polyval(co, crit)
+        i = int(np.argmin(vals))
+        gaps.append(args[4] ** 2 - vals[i])
+        where.append(crit[i])
+    return np.array(gaps), np.array(where)
+
+
+def synthesise(bb: Backbone, M, C, F1, refine=None) -> Synthesis:
+    """The forced response to the first-harmonic load F1 (n,) [N] synthesised from the
+    backbone `bb` of a system with mass M and damping C.  The peak lies between the
+    last backbone point below it and the next; `refine(s)` (a one-point `Backbone`, the
+    mode recomputed at s, `refiner`) locates it by Brent's method to 1e-12 in s, else it
+    is interpolated linearly in s."""
+    f, m1, c1 = modal_quantities(bb, M, C, F1)
+    r = f / bb.amplitude
+    below, above = frequencies(bb.omega, bb.zeta, m1, c1, r)
+    g, at = peak_gap(bb.omega, bb.zeta, m1, c1, r)
+    cross = np.nonzero((g[:-1] > 0) & (g[1:] <= 0))[0]
+    if cross.size == 0:
+        return Synthesis(below, above, f, np.nan, np.nan)
+    i = int(cross[0])
+    if refine is None:
+        t = g[i] / (g[i] - g[i + 1])
+        return Synthesis(below, above, f, float(bb.s[i] + t * (bb.s[i + 1] - bb.s[i])),
+                         float(at[i] + t * (at[i + 1] - at[i])))
+
+    def gap(s):
+        one = refine(s)
+        fs, ms, cs = modal_quantities(one, M, C, F1)
+        return peak_gap(one.omega, one.zeta, ms, cs, fs / one.amplitude)
+
+    s = brentq(lambda s: gap(s)[0][0], bb.s[i], bb.s[i + 1], xtol=1e-12, rtol=1e-14)
+    return Synthesis(below, above, f, float(s), float(gap(s)[1][0]))
+
+
+def refiner(mp: ModeProblem, bb: Backbone, tol_rel: float = 1e-10):
+    """`synthesise`'s `refine`: the mode recomputed at s (`backbone.point_at`) as a
+    one-point `Backbone`."""
+    def refine(s):
+        om, ze, Q = point_at(mp, bb, s, tol_rel)
+        return Backbone(np.array([s]), np.array([om]), np.array([ze]), Q[None],
+                        np.zeros(1), np.zeros(1), np.zeros(1, int))
+    return refine

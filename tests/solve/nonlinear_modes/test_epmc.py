@@ -1,0 +1,186 @@
+"""Nonlinear modes (EPMC) against independent references: central differences of the
+residual, the closed-form one-harmonic Duffing backbone, the exact period of the
+undamped Duffing oscillator (complete elliptic integral), the Jenkins element's
+closed-form describing function, the energy balance of every point, the cyclic
+sector's mode against the assembled wheel, and the linear limits."""
+import numpy as np
+import pytest
+from scipy.special import ellipk
+
+from pipeline.contact import YangMenq
+from pipeline.contact.cubic_spring import CubicSpring
+from pipeline.contact.laws import LawElements
+from pipeline.fourier.harmonics import evaluate
+from pipeline.model import cyclic
+from pipeline.model.system import System, natural_frequencies
+from pipeline.solve.nonlinear_modes import epmc
+from pipeline.solve.nonlinear_modes.backbone import continue_mode, point_at
+from pipeline.model.scene import sector
+from pipeline.study.files.documents import load_study
+from helpers import STUDIES
+
+NONE = YangMenq(ku=np.zeros(0), kv=np.zeros(0), mu=np.zeros(0), n0=np.zeros(0))
+
+
+def duffing(k3=0.5, c=0.05):
+    """m x'' + c x' + k x + k3 x^3 = 0, m = k = 1."""
+    return System(M=np.eye(1), C=np.array([[c]]), K=np.eye(1), Bt=np.zeros((0, 1)),
+                  Bn=np.zeros((0, 1)), contact=NONE, forcing=np.zeros((1, 2), complex),
+                  laws=(LawElements(CubicSpring(k3=[k3]), (np.ones((1, 1)),)),))
+
+
+def jenkins(c=0.0, ku=3.0, fc=0.5):
+    """m x'' + c x' + k x + f_Jenkins(x) = 0, m = k = 1, slip force fc [N]."""
+    return System(M=np.eye(1), C=np.array([[c]]), K=np.eye(1), Bt=np.eye(1),
+                  Bn=np.zeros((1, 1)), contact=YangMenq(ku=ku, kv=0.0, mu=0.5, n0=fc / 0.5),
+                  forcing=np.zeros((1, 2), complex))
+
+
+def two_dof_separating():
+    """Two DOFs, one element with a normal spring that separates and a second one
+    stuck to ground: every state of the Yang-Menq element along the backbone."""
+    M = np.diag([1.0, 0.5])
+    K = np.array([[2.0, -1.0], [-1.0, 1.5]])
+    el = YangMenq(ku=[2.0, 1.0], kv=[1.5, 0.0], mu=[0.3, 0.4], n0=[0.4, 0.5])
+    return System(M=M, C=0.01 * K, K=K, Bt=np.array([[1.0, -0.3], [0.0, 1.0]]),
+                  Bn=np.array([[0.5, 1.0], [0.0, 0.0]]), contact=el,
+                  forcing=np.zeros((2, 2), complex))
+
+
+def fd_jacobian(mp, y, s, e=1e-7):
+    J = np.zeros((y.size, y.size))
+    for j in range(y.size):
+        d = np.zeros(y.size)
+        d[j] = e * max(1.0, abs(y[j]))
+        J[:, j] = (epmc.residual(mp, y + d, s, False)[0]
+                   - epmc.residual(mp, y - d, s, False)[0]) / (2 * d[j])
+    ds = (epmc.residual(mp, y, s + e, False)[0] - epmc.residual(mp, y, s - e, False)[0]) / (2 * e)
+    return J, ds
+
+
+@pytest.mark.parametrize("method", ["exact", "aft"])
+def test_jacobian_equals_central_differences(method):
+    """dR/dy (every unknown: Q_0, Psi, omega, zeta) and dR/ds against central
+    differences, at a point where the first element slips and separates."""
+    mp = epmc.mode_problem(two_dof_separating(), 3, method=method, n_samples=512)
+    rng = np.random.default_rng(3)
+    y = epmc.linear_guess(mp) + 0.05 * rng.standard_normal(mp.size)
+    y[-2], y[-1] = 1.1 * mp.omega0, 0.03
+    s = 0.2
+    _, J, ds = epmc.residual(mp, y, s)
+    Jfd, dsfd = fd_jacobian(mp, y, s)
+    assert np.abs(J - Jfd).max() <= 1e-6 * np.abs(J).max()
+    assert np.abs(ds - dsfd).max() <= 1e-6 * np.abs(ds).max()
+
+
+def test_duffing_one_harmonic_backbone_is_the_closed_form():
+    """H = 1: omega^2 = k/m + 3/4 k3 a^2 (mass 1: a is the amplitude) and zeta = c/(2 omega)."""
+    mp = epmc.mode_problem(duffing(), 1)
+    bb = continue_mode(mp, -2.0, 0.5, tol_rel=1e-13)
+    assert bb.message == "" and bb.s[-1] == 0.5
+    a = bb.amplitude
+    assert np.abs(bb.omega**2 / (1.0 + 0.75 * 0.5 * a**2) - 1).max() < 1e-10
+    assert np.abs(bb.zeta * 2 * bb.omega / 0.05 - 1).max() < 1e-10
+
+
+def test_undamped_duffing_period_is_the_elliptic_integral():
+    """c = 0, H = 15: the frequency of the periodic orbit with maximum displacement A
+    = x(0) (velocity zero at t = 0, the phase condition) is
+    omega = pi sqrt(k + k3 A^2) / (2 K(m)), m = k3 A^2 / (2 (k + k3 A^2)), and zeta = 0."""
+    k3 = 2.0
+    mp = epmc.mode_problem(duffing(k3=k3, c=0.0), 15)
+    bb = continue_mode(mp, -1.0, 0.3, tol_rel=1e-13)
+    A = evaluate(bb.Q[:, 0, :], np.zeros(1))[:, 0]
+    w = np.pi * np.sqrt(1 + k3 * A**2) / (2 * ellipk(k3 * A**2 / (2 * (1 + k3 * A**2))))
+    assert np.abs(bb.omega / w - 1).max() < 1e-9
+    assert np.abs(bb.zeta).max() < 1e-12
+    assert bb.omega[-1] > 1.5   # the hardening is large at the end
+
+
+def jenkins_describing_function(A, ku, fc):
+    """Closed form of the Jenkins element at x = A cos(tau): equivalent stiffness Kc
+    [N/m] and dissipated energy per cycle W = 4 fc (A - fc/ku) [J] in macroslip."""
+    slips = ku * A > fc
+    th = np.arccos(np.clip(1 - 2 * fc / (ku * A), -1, 1))
+    Kc = np.where(slips, ku / np.pi * (th - np.sin(2 * th) / 2), ku)
+    return Kc, np.where(slips, 4 * fc * (A - fc / ku), 0.0)
+
+
+def test_jenkins_one_harmonic_frequency_and_damping_are_the_closed_form():
+    """H = 1, no viscous damping: omega^2 = k + Kc(a), 2 pi zeta omega^2 a^2 = W(a),
+    from stuck (omega^2 = k + ku) through microslip to macroslip (omega -> 1)."""
+    ku, fc = 3.0, 0.5
+    mp = epmc.mode_problem(jenkins(ku=ku, fc=fc), 1)
+    bb = continue_mode(mp, -2.0, 3.0, tol_rel=1e-13)
+    assert bb.message == ""
+    Kc, W = jenkins_describing_function(bb.amplitude, ku, fc)
+    assert np.abs(bb.omega**2 / (1 + Kc) - 1).max() < 1e-11
+    assert np.abs(bb.zeta - W / (2 * np.pi * bb.omega**2 * bb.amplitude**2)).max() < 1e-11
+    assert bb.omega[0] == pytest.approx(2.0, rel=1e-12) and bb.omega[-1] < 1.001
+    assert bb.zeta.max() > 0.2
+
+
+def dissipated(mp, Q, om):
+    """(contact work per cycle, viscous work per cycle) [J] of the motion Q at omega."""
+    _, _, G = epmc.forces(mp, Q, om, 0.0, jacobian=False)
+    H = (Q.shape[1] - 1) // 2
+    h = np.arange(1, H + 1)
+    Qc, Qs, Gc, Gs = Q[:, 1::2], Q[:, 2::2], G[:, 1::2], G[:, 2::2]
+    contact = np.pi * np.sum(h * (np.sum(Gc * Qs, 0) - np.sum(Gs * Qc, 0)))
+    visc = np.pi * om * np.sum(h**2 * (np.sum(Qc * (mp.C @ Qc), 0) + np.sum(Qs * (mp.C @ Qs), 0)))
+    return contact, visc
+
+
+def test_every_point_balances_the_energy():
+    """The EPMC damping supplies exactly what the contacts and C dissipate per cycle:
+    2 pi zeta omega^2 sum_h h^2 |Q_h|_M^2 = W_contact + W_viscous (H = 5, two DOFs,
+    stick, slip and separation); the modal amplitude is the mass norm of the harmonics."""
+    mp = epmc.mode_problem(two_dof_separating(), 5)
+    bb = continue_mode(mp, -2.0, 1.0, tol_rel=1e-12)
+    assert bb.message == "" and bb.s.size > 10
+    h = np.arange(1, 6)
+    for s, om, ze, Q in zip(bb.s, bb.omega, bb.zeta, bb.Q):
+        Qc, Qs = Q[:, 1::2], Q[:, 2::2]
+        kin = np.sum(h**2 * (np.sum(Qc * (mp.M @ Qc), 0) + np.sum(Qs * (mp.M @ Qs), 0)))
+        contact, visc = dissipated(mp, Q, om)
+        assert 2 * np.pi * ze * om**2 * kin == pytest.approx(contact + visc, rel=1e-8)
+        norm = np.sum(Qc * (mp.M @ Qc)) + np.sum(Qs * (mp.M @ Qs))
+        assert norm == pytest.approx(10 ** (2 * s), rel=1e-10)
+
+
+def test_exact_and_aft_backbones_agree():
+    """The same mode with AFT forces (2^12 samples) to 1e-4 in frequency and damping."""
+    sysm = two_dof_separating()
+    bbs = [continue_mode(epmc.mode_problem(sysm, 3, method=m, n_samples=4096), -1.0, 0.5)
+           for m in ("exact", "aft")]
+    s = np.linspace(-1.0, 0.5, 7)
+    w = [np.interp(s, b.s, b.omega) for b in bbs]
+    z = [np.interp(s, b.s, b.zeta) for b in bbs]
+    assert np.abs(w[1] / w[0] - 1).max() < 1e-4
+    assert np.abs(z[1] - z[0]).max() < 1e-4 * np.abs(z[0]).max()
+
+
+@pytest.mark.parametrize("eo", [3, 12])
+def test_cyclic_sector_mode_is_a_mode_of_the_assembled_wheel(eo):
+    """The travelling-wave mode of nodal diameter EO on one sector, expanded to all 24
+    sectors, satisfies the EPMC equations of the assembled wheel (no symmetry used)
+    to 1e-10 of its forces; at small amplitude it is the stuck linear mode of that
+    nodal diameter, at large amplitude it tends to the open one."""
+    sec = sector(load_study(STUDIES / "disk_cyclic.toml").scene, {"eo": eo})
+    sysS = cyclic.sector_system(sec, eo)
+    mp = epmc.mode_problem(sysS, 3)
+    bb = continue_mode(mp, -7.5, -1.0, tol_rel=1e-12)
+    assert bb.message == ""
+    full = cyclic.full_assembly(sec, eo, sparse=False)
+    mpf = epmc.ModeProblem(epmc.setup(full, 3), 0, full.M, full.C, 1.0, 0.0,
+                           np.zeros(full.n_dof))
+    for i in (3, bb.s.size // 2, bb.s.size - 1):
+        Qf = cyclic.expand(bb.Q[i], sec.sectors, eo)
+        F, _, G = epmc.forces(mpf, Qf, bb.omega[i], bb.zeta[i], jacobian=False)
+        assert np.abs(F).max() <= 1e-10 * np.abs(full.K @ Qf).max()
+        assert np.abs(G).max() > 0
+    stuck = natural_frequencies(sysS, "small")[0]
+    open_ = natural_frequencies(sysS, "open")[0]
+    assert bb.omega[0] == pytest.approx(stuck, rel=1e-4)
+    assert bb.omega[-1] == pytest.approx(open_, rel=1e-3)
+    assert point_at(mp, bb, -4.0)[0] == pytest.approx(np.interp(-4.0, bb.s, bb.omega), rel=1e-3)
