@@ -16,6 +16,7 @@ from __future__ import annotations
 from .accuracy import study as accuracy_cost
 from .modes import disk_modes
 from .modes import modes
+from .modes import nonlinear_modes
 from .execution import response_study
 from .files.validation import Checker
 
@@ -23,6 +24,7 @@ KINDS = (
     accuracy_cost.KIND,     # [study] kind = "accuracy_cost"
     disk_modes.KIND,        # "modes" of a lumped disk or of FE blades in a disk
     modes.KIND,             # "modes" of an FE blade
+    nonlinear_modes.KIND,   # "nonlinear_modes": backbones, modal damping, synthesis
     response_study.KIND,    # "response" (the default): lumped, disk and blade scenes
 )
 

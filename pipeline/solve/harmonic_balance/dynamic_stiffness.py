@@ -174,7 +174,10 @@ def harmonic_rate(M, C, h, Om: float, added=()):
 def at_frequency(K, M, C, w: float, added=()):
     """S = K - w^2 M + i w C + sum a_t A_t at one circular frequency w = h Omega,
     `added` the pairs (A_t, a_t)."""
-    return at_harmonic(K, M, C, 1, w, added)
+    S = K - w * w * M + 1j * w * C
+    for A, a in added:
+        S = S + a * A
+    return S
 
 
 def _pairs(extra, h, Om, rate=False, matrices=None):

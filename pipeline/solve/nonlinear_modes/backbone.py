@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .epmc import ModeProblem, check, linear_guess, residual, unpack
+from .epmc import ModeProblem, check_values, evaluate, linear_guess, unpack
 
 
 @dataclass(frozen=True)
@@ -42,11 +42,13 @@ class Backbone:
 
 def newton(mp: ModeProblem, y, s: float, tol_rel: float, max_iter: int = 30):
     """(y, iterations, ModeCheck) of Newton's method at fixed s from y; backtracking
-    halves a step that does not reduce |R| (up to 10 times).  y None when it fails."""
-    ok = check(mp, y, s, tol_rel)
+    halves a step that does not reduce |R| (up to 10 times).  Every iterate's residual
+    is evaluated afresh and held to the tolerance in newtons (`epmc.check_values`);
+    y None when it fails."""
+    R, J, _, F, G, Q = evaluate(mp, y, s)
+    ok = check_values(mp, R, F, G, Q, tol_rel)
     if ok.converged:
         return y, 0, ok
-    R, J, _ = residual(mp, y, s)
     r = np.linalg.norm(R)
     for it in range(1, max_iter + 1):
         try:
@@ -55,18 +57,18 @@ def newton(mp: ModeProblem, y, s: float, tol_rel: float, max_iter: int = 30):
             return None, it, None
         t = 1.0
         for _ in range(11):
-            y_try = y + t * dy
-            R_try, J_try, _ = residual(mp, y_try, s)
-            r_try = np.linalg.norm(R_try)
+            out = evaluate(mp, y + t * dy, s)
+            r_try = np.linalg.norm(out[0])
             if np.isfinite(r_try) and r_try < max(r, 1e-300) * (1 - 1e-4 * t) or r_try == 0:
                 break
             t *= 0.5
         else:   # no decrease: at round-off, the full step is as good as any
-            y_try = y + dy
-            R_try, J_try, _ = residual(mp, y_try, s)
-            r_try = np.linalg.norm(R_try)
-        y, R, J, r = y_try, R_try, J_try, r_try
-        ok = check(mp, y, s, tol_rel)
+            t = 1.0
+            out = evaluate(mp, y + dy, s)
+        y = y + t * dy
+        R, J, _, F, G, Q = out
+        r = np.linalg.norm(R)
+        ok = check_values(mp, R, F, G, Q, tol_rel)
         if ok.converged:
             return y, it, ok
     return None, max_iter, None
@@ -74,9 +76,12 @@ def newton(mp: ModeProblem, y, s: float, tol_rel: float, max_iter: int = 30):
 
 def continue_mode(mp: ModeProblem, s_from: float, s_to: float, step: float = 0.1,
                   min_step: float = 1e-4, max_step: float = 0.25, tol_rel: float = 1e-8,
-                  max_points: int = 2000, progress=None) -> Backbone:
+                  max_points: int = 2000, progress=None, resolution=(0.005, 0.05)) -> Backbone:
     """Backbone of `mp` from s_from to s_to (s = log10 a, a [kg^0.5 m]), starting from
-    the linear mode at s_from.  `progress(s)` is called after every accepted point."""
+    the linear mode at s_from.  A step that changes omega by more than twice
+    resolution[0] (relative) or zeta by more than twice resolution[1] (relative to the
+    larger) is halved and retried, so the curves are resolved where they turn.
+    `progress(s)` is called after every accepted point."""
     if not (np.isfinite(s_from) and np.isfinite(s_to)) or s_to <= s_from:
         raise ValueError(f"need s_from < s_to (log10 of the modal amplitude), got "
                          f"{s_from}, {s_to}")
@@ -103,10 +108,15 @@ def continue_mode(mp: ModeProblem, s_from: float, s_to: float, step: float = 0.1
                            "resonance, or a degenerate normalisation)")
                 break
             continue
+        change = max(abs(y1[-2] - y0[-2]) / abs(y0[-2]) / resolution[0],
+                     abs(y1[-1] - y0[-1]) / max(abs(y0[-1]), abs(y1[-1]), 1e-4) / resolution[1])
+        if change > 2.0 and ds > 4 * min_step:   # too coarse to draw: a shorter step
+            ds *= 0.5
+            continue
         pts.append((s1, y1, it, ok))
         if progress is not None:
             progress(s1)
-        ds = min(ds * (1.5 if it <= 4 else 1.0), max_step)
+        ds = min(ds * (1.5 if it <= 4 and change < 0.5 else 1.0), max_step)
     if not message and pts[-1][0] < s_to:
         message = f"stopped at log10 a = {pts[-1][0]:.4g}: {max_points} points reached"
     return _backbone(mp, pts, message)

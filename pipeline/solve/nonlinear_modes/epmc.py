@@ -157,16 +157,21 @@ def forces(mp: ModeProblem, Q, omega: float, zeta: float, jacobian: bool = True)
 
 def residual(mp: ModeProblem, y, s: float, jacobian: bool = True):
     """(R (size,), dR/dy (size, size), dR/ds (size,)) of the EPMC at s = log10 a."""
+    return evaluate(mp, y, s, jacobian)[:3]
+
+
+def evaluate(mp: ModeProblem, y, s: float, jacobian: bool = True):
+    """`residual`'s three outputs, then F = L Q + G [N], G [N] and Q [m] (n, 2H+1)."""
     Z, om, zeta, scale = unpack(mp, y, s)
     n, nh = Z.shape
     Q = Z * scale
-    F, J, _ = forces(mp, Q, om, zeta, jacobian)
+    F, J, G = forces(mp, Q, om, zeta, jacobian)
     harm = Z[:, 1:]
     h = np.arange(1, mp.H + 1)
     R = np.concatenate([(F / scale).ravel(),
                         [np.sum(harm * (mp.M @ harm)) - 1.0, h @ Z[mp.ref, 2::2]]])
     if not jacobian:
-        return R, None, None
+        return R, None, None, F, G, Q
     sv = np.tile(scale, n)
     dF_dom = apply_full(None, mp.C, mp.M, Q, om, derivative_matrix(mp.H),
                         (epmc_term(mp, zeta),), rate=True)
@@ -185,7 +190,7 @@ def residual(mp: ModeProblem, y, s: float, jacobian: bool = True):
     dR_ds = np.zeros(R.size)
     dR_ds[:m] = LN10 * (J @ Qh.ravel()) / sv
     dR_ds[:m] -= LN10 * np.where(np.arange(m) % nh == 0, 0.0, R[:m])
-    return R, Jy, dR_ds
+    return R, Jy, dR_ds, F, G, Q
 
 
 @dataclass(frozen=True)
@@ -211,12 +216,14 @@ def check(mp: ModeProblem, y, s: float, tol_rel: float = 1e-8) -> ModeCheck:
     scale of its own terms per part: harmonic |K Q_h| + |G_h| (never below 1e-300 N;
     the inertia balances them), static |K Q_0| + |G_0| plus the harmonic scale (the static
     equations carry the rectified forces of the vibration, as `hbm.tolerances`)."""
-    Z, om, zeta, scale = unpack(mp, y, s)
-    Q = Z * scale
-    F, _, G = forces(mp, Q, om, zeta, jacobian=False)
+    R, _, _, F, G, Q = evaluate(mp, y, s, jacobian=False)
+    return check_values(mp, R, F, G, Q, tol_rel)
+
+
+def check_values(mp: ModeProblem, R, F, G, Q, tol_rel: float) -> ModeCheck:
+    """`check` of a point from its evaluation (`evaluate`'s R, F, G, Q)."""
     KQ = dense(mp.hbm.system.K) @ Q
     hs = max(float(np.linalg.norm(KQ[:, 1:]) + np.linalg.norm(G[:, 1:])), 1e-300)
     st = float(np.linalg.norm(KQ[:, 0]) + np.linalg.norm(G[:, 0])) + hs
-    R, _, _ = residual(mp, y, s, jacobian=False)
     return ModeCheck(float(np.linalg.norm(F[:, 0])), tol_rel * st,
                      float(np.linalg.norm(F[:, 1:])), tol_rel * hs, float(np.max(np.abs(R[-2:]))))

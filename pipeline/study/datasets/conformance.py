@@ -45,7 +45,8 @@ The contract (studies/README.md, section Dataset), as checked here:
 The per-contact variables and the response coefficients: `contact_check`.
 
 A modal dataset (global attribute `kind = "modes"`: eigenfrequencies, no
-response curves) is held to the attribute, units and coordinate rules only.
+response curves) is held to the attribute, units and coordinate rules only; a
+nonlinear modes dataset (`kind = "nonlinear_modes"`) to those and `mode_conformance`.
 """
 from __future__ import annotations
 
@@ -56,6 +57,7 @@ import numpy as np
 
 from ...errors import UsageError
 from .contact_conformance import check_contacts
+from .mode_conformance import check_nonlinear_modes
 
 CONVENTIONS = "CF-1.10"
 FREQUENCY_UNITS = ("rad/s", "rad s-1", "Hz", "s-1", "1/s")
@@ -109,6 +111,9 @@ def _check_dataset(ds, name):
     if kind == "modes":
         n = ds.sizes.get("mode", 0)
         return out, f"{name}: ok: modal dataset, {n} modes"
+    if kind == "nonlinear_modes":
+        n = check_nonlinear_modes(ds, say)
+        return out, f"{name}: ok: nonlinear modes, {n} converged backbone points"
     sweeps = _check_frequency(ds, say)
     if sweeps is None:
         return out, ""

@@ -146,7 +146,7 @@ _FIXED = [
     (FILE, "sweep", "", "", "grid axes and the frequency interval (response studies: required)"),
     (FILE, "solver", "", "", "solver settings"),
     (FILE, "output", "", "", "response DOFs, figures, peak windows, optimum preload"),
-    (FILE, "modes", "", "", "settings of a modes study"),
+    (FILE, "modes", "", "", "settings of a modes or nonlinear modes study"),
     (FILE, "quick", "", "", "the `--quick` variant, read only with `--quick`, merged key by key"),
     (FILE, "recommendation", "", "", "accuracy-cost study: the error target"),
     (FILE, "lumped", "", "", "accuracy-cost study: the lumped case"),
@@ -155,7 +155,8 @@ _FIXED = [
     ("study", "description", "", '""', "text, copied to the dataset"),
     ("study", "reference", "", '""', "text (a paper), copied to the dataset"),
     ("study", "kind", "", '"response"', '`"response"`, `"modes"` (blade and disk scenes; '
-                                        'default with a `[modes]` table), `"accuracy_cost"`'),
+                                        'default with a `[modes]` table), `"nonlinear_modes"`, '
+                                        '`"accuracy_cost"`'),
     ("scene", "model", "", _REQ, '`"lumped"`, `"disk"` (one sector of a tuned disk), '
                                  '`"solid_blade"`, `"beam_blade"`'),
     ("scene", "effects", "", "[]", "subset of " + ", ".join(f'`"{e}"`' for e in EFFECTS)
@@ -238,7 +239,16 @@ _FIXED = [
                                                          "mode counts to compare"),
     ("modes", "n_frequencies", "1", "10", "frequencies compared (per nodal diameter on a disk)"),
     ("modes", "mode_shapes", "1", "min(n_frequencies, 6)", "blade: mode shapes written as VTU"),
-    ("modes", "nodal_diameters", "1", "0 ... N/2", "disk modes study: the nodal diameters"),
+    ("modes", "nodal_diameters", "1", "0 ... N/2", "disk modes study: the nodal diameters "
+                                                   "(nonlinear modes of a disk: required)"),
+    ("modes", "mode", "1", "0", "nonlinear modes: the family, 0 the lowest small-amplitude "
+                                "linear mode (per nodal diameter)"),
+    ("modes", "amplitude", "1", "[0.01, 1000]", "nonlinear modes: `[lo, hi]` modal amplitude "
+                                                "range in multiples of the slip onset"),
+    ("modes", "force_scales", "1", "[1.0]", "nonlinear modes: factors on the excitation for "
+                                            "the synthesised forced responses"),
+    ("modes", "compare", "", "true", "nonlinear modes: also the full harmonic balance of "
+                                     "every case (force scale 1)"),
     ("quick", "sweep", "", "", "overrides of `[sweep]` (only axes it has)"),
     ("quick", "solver", "", "", "overrides of `[solver]`"),
     ("quick", "scene", "", "", "FE blades: a coarser blade"),

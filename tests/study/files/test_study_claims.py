@@ -140,6 +140,8 @@ CHECKED = {   # study -> the stated results above (numbers followed by Hz or rad
     "shrouded_disk_modes.toml": {212.9, 213.9, 322.4, 877.1},
     "shrouded_disk_mistuned.toml": {271.3},
     "blade3_stability.toml": {112.0, 121.0, 115.9, 117.5},   # test_stability_check.py
+    # 377.6, 383.4, 458.3, 508.6: test_shipped_studies.py; 498.0 (ND 6) below
+    "disk_nonlinear_modes.toml": {377.6, 383.4, 458.3, 498.0, 508.6},
 }
 
 
@@ -228,3 +230,18 @@ def test_shrouded_disk_mistuned_quick_window_holds_the_tuned_peak():
     t = tuned_reference(st, {"preload": st.sweep.axes["preload"][0]}, ["response.y"])
     a = np.where(t.converged, t.amplitude["response.y"], -np.inf)
     assert t.frequency[int(np.argmax(a))] == pytest.approx(f, abs=0.05)
+
+
+def test_disk_nonlinear_modes_nd6_starts_at_the_stated_frequency():
+    """'ND 6: 498.0 Hz -> ...': the first backbone point (0.01 times the slip onset) of
+    the ND 6 mode, one Newton solve of the EPMC equations (the quick run has ND 3, 12)."""
+    from pipeline.solve.nonlinear_modes import epmc
+    from pipeline.solve.nonlinear_modes.backbone import newton
+    from pipeline.study.modes.nonlinear_modes import onset_amplitude
+
+    study = load_study(STUDIES / "disk_nonlinear_modes.toml")
+    mp = epmc.mode_problem(study.response.system({"preload": 2.0, "eo": 6}), 3)
+    y, _, ok = newton(mp, epmc.linear_guess(mp), np.log10(0.01 * onset_amplitude(mp)), 1e-9)
+    assert ok.converged
+    f0 = stated("disk_nonlinear_modes.toml", r"ND 6: +([\d.]+) Hz")[0]
+    assert y[-2] / (2 * np.pi) == pytest.approx(f0, abs=0.05)

@@ -1,0 +1,264 @@
+"""Nonlinear modes of a scene with friction contacts: `[study] kind = "nonlinear_modes"`.
+
+For each case (preload, contact parameters; on a disk each nodal diameter) the
+nonlinear mode of one family is continued in its modal amplitude by the extended
+periodic motion concept (`solve.nonlinear_modes`): frequency and modal damping ratio
+from the stuck linear mode through microslip, macroslip and separation towards the
+open one.  From each backbone the forced response to the scene's excitation is
+synthesised for every force scale asked (milliseconds each), and with `compare` the
+full harmonic balance of the same case is run over the `[sweep] frequency` range, so
+the dataset shows what the single-mode synthesis gains and what it misses.
+
+    [study] kind = "nonlinear_modes"
+    [modes] mode = 0                  the family: 0 is the lowest linear mode (per ND)
+            amplitude = [0.01, 1000]  modal amplitudes, in multiples of the slip onset
+            nodal_diameters = [...]   disk scenes: one mode per ND (EO = ND excites it)
+            force_scales = [1.0]      synthesis: factors on the scene's excitation
+            compare = true            also the full harmonic balance (force scale 1)
+
+The rest is a response study's file (`[scene]`, `[sweep]` with its frequency range
+and grid axes but `eo`, `[solver]`, `[output]`).  The slip onset is the smallest
+modal amplitude at which an element of the linear mode would slip (mu n0 / (ku |u|))
+or lift off (n0 / (kv |v|)), u, v its relative motions per unit modal amplitude.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import UsageError
+from ...model.system import dense
+from ...solve.nonlinear_modes.backbone import continue_mode
+from ...solve.nonlinear_modes.epmc import mode_problem
+from ...solve.nonlinear_modes.synthesis import refiner, synthesise
+from ..execution import response_study
+from ..execution.kind_costs import RangeEstimate, estimate_lines
+from ..files.header import overlay
+from ..files.spec import StudyHeader, StudyKind, Study, StudyResult, always, never
+from ..files.validation import Checker
+from .disk_modes import is_disk_document
+
+log = logging.getLogger(__name__)
+KEYS = ("mode", "amplitude", "nodal_diameters", "force_scales", "compare")
+DEFAULT_AMPLITUDE = (0.01, 1000.0)
+MAX_MODE = 1000
+
+
+@dataclass(frozen=True)
+class NonlinearModesStudy(StudyHeader):
+    """A response study's scene, sweep, solver and output, and the modes asked."""
+
+    response: Study
+    mode: int = 0
+    amplitude: tuple = DEFAULT_AMPLITUDE
+    nodal_diameters: tuple = ()     # () for a scene that is not a disk
+    force_scales: tuple = (1.0,)
+    compare: bool = True
+    quick: bool = False
+    kind: str = "nonlinear_modes"
+
+    @property
+    def scene(self):
+        return self.response.scene
+
+    def cases(self) -> list:
+        """[(index tuple, case dict)] of the sweep's grid; on a disk its `eo` axis holds
+        the nodal diameters (EO = ND excites the travelling wave of ND)."""
+        return self.response.sweep.cases()
+
+
+def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str = "",
+          quick: bool = False) -> NonlinearModesStudy:
+    """Validate a nonlinear modes document: its response part by the response parser,
+    `[modes]` (and `[quick.modes]`) here; every mistake `<file>: <field>: <what>`."""
+    ck = Checker(file)
+    modes_tbl = ck.table(data.get("modes", {}), "modes", required=False)
+    q = ck.table(data.get("quick", {}), "quick", required=False)
+    quick_modes = ck.table(q.get("modes", {}), "quick.modes", required=False) if quick else {}
+    modes, where = overlay(ck, modes_tbl, quick_modes, "modes")
+    ck.keys(modes, "modes", KEYS)
+    sweep = ck.table(data.get("sweep", {}), "sweep", required=False)
+    for axis in ("eo", "excitation_scale", "mistuning_seed"):
+        if axis in sweep or axis in ck.table(q.get("sweep", {}), "quick.sweep", required=False):
+            ck.fail(f"sweep.{axis}", "not an axis of a nonlinear modes study (nodal diameters: "
+                                     "[modes] nodal_diameters; force levels: [modes] force_scales)")
+    nds, disk = (), is_disk_document(data)
+    if disk and "nodal_diameters" not in modes:
+        ck.fail("modes.nodal_diameters", "missing: a disk scene needs the nodal diameters "
+                                         "of its modes, e.g. nodal_diameters = [0, 3]")
+    if not disk and "nodal_diameters" in modes:
+        ck.fail(where("nodal_diameters"), "only a disk scene has nodal diameters")
+    if disk:   # the response part sweeps them as its engine orders
+        nds = tuple(ck.integer(v, where(f"nodal_diameters[{i}]"), 0, MAX_MODE) for i, v in
+                    enumerate(ck.array(modes["nodal_diameters"], where("nodal_diameters"))))
+        if len(set(nds)) != len(nds):
+            ck.fail(where("nodal_diameters"), "a nodal diameter is listed twice")
+        N = (data["scene"].get("disk") or {}).get("sectors")
+        if isinstance(N, int) and max(nds) > N // 2:
+            ck.fail(where("nodal_diameters"), f"a nodal diameter of {N} sectors is 0 ... "
+                                              f"{N // 2}, got {max(nds)}")
+        sweep = {**sweep, "eo": list(nds)}
+    rest = {**data, "sweep": sweep}      # the response part: without [modes]
+    rest.pop("modes", None)
+    if "quick" in rest:
+        rest["quick"] = dict(q)
+        rest["quick"].pop("modes", None)
+        if nds and "sweep" in rest["quick"]:
+            rest["quick"]["sweep"] = {**rest["quick"]["sweep"], "eo": list(nds)}
+    resp = response_study.parse(rest, file=file, name=name, text=text, quick=quick)
+    sc = resp.scene
+    if not {"friction", "separation"} & set(sc.effects):
+        ck.fail("scene.effects", "a nonlinear modes study needs friction or separation at "
+                                 "the contacts (declare \"friction\" and give a [[scene.contact]])")
+    if getattr(sc, "mistuning", None) is not None:
+        ck.fail("scene.disk.mistuning", "nonlinear modes per nodal diameter need a tuned disk")
+    amp = tuple(ck.number(v, where(f"amplitude[{i}]"), gt=0.0)
+                for i, v in enumerate(ck.array(modes.get("amplitude", list(DEFAULT_AMPLITUDE)),
+                                               where("amplitude"))))
+    if len(amp) != 2 or not amp[0] < amp[1]:
+        ck.fail(where("amplitude"), "give [lowest, highest] with lowest < highest (multiples "
+                                    "of the slip-onset modal amplitude)")
+    scales = tuple(ck.number(v, where(f"force_scales[{i}]"), gt=0.0)
+                   for i, v in enumerate(ck.array(modes.get("force_scales", [1.0]),
+                                                  where("force_scales"))))
+    compare = modes.get("compare", True)
+    if not isinstance(compare, bool):
+        ck.fail(where("compare"), f"must be true or false, got {compare!r}")
+    mode = ck.integer(modes.get("mode", 0), where("mode"), 0, MAX_MODE)
+    return NonlinearModesStudy(file=file, name=name, title=resp.title,
+                               description=resp.description, reference=resp.reference,
+                               text=text, response=resp, mode=mode, amplitude=amp,
+                               nodal_diameters=nds, force_scales=scales, compare=compare,
+                               quick=bool(quick))
+
+
+def onset_amplitude(mp) -> float:
+    """The smallest modal amplitude [kg^0.5 m] at which an element of the linear mode
+    slips (mu n0 / (ku |u|)) or lifts off (n0 / (kv |v|)), u, v per unit amplitude."""
+    sysm = mp.hbm.system
+    Bt, Bn = dense(sysm.Bt).astype(complex), dense(sysm.Bn).astype(complex)
+    cy = sysm.cyclic
+    if cy is not None:
+        z = np.exp(1j * cy.phase)
+        Bt, Bn = Bt + z * dense(cy.Bt_next), Bn + z * dense(cy.Bn_next)
+    u, v = np.abs(Bt @ mp.shape), np.abs(Bn @ mp.shape)
+    el = sysm.contact
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.concatenate([np.where((el.n0 > 0) & (el.ku * u > 0), el.mu * el.n0 / (el.ku * u),
+                                     np.inf),
+                            np.where((el.n0 > 0) & (el.kv * v > 0), el.n0 / (el.kv * v), np.inf)])
+    return float(np.min(a)) if a.size else np.inf
+
+
+def run_case(study: NonlinearModesStudy, case: dict) -> dict:
+    """Backbone, synthesis per force scale and (compare) the full response of one case."""
+    sv, resp = study.response.solver, study.response
+    system = resp.system(case)
+    t0 = time.perf_counter()
+    mp = mode_problem(system, sv.harmonics, study.mode, sv.force_evaluation, sv.samples)
+    a_on = onset_amplitude(mp)
+    if not np.isfinite(a_on):
+        raise UsageError(f"{study.file}: modes.mode: mode {study.mode} moves no preloaded "
+                         f"contact (case {case}): it has no nonlinear range")
+    lo, hi = (np.log10(a_on * f) for f in study.amplitude)
+    bb = continue_mode(mp, lo, hi, tol_rel=sv.tolerance)
+    t_bb = time.perf_counter() - t0
+    out = {"case": case, "backbone": bb, "onset": a_on, "problem": mp, "time": t_bb,
+           "synthesis": [], "synthesis_time": []}
+    F1 = np.asarray(system.forcing, complex)[:, 1] if system.forcing.shape[1] > 1 else None
+    for f in study.force_scales:
+        t1 = time.perf_counter()
+        syn = None if F1 is None or bb.s.size < 2 else synthesise(
+            bb, mp.M, mp.C, f * F1, refine=refiner(mp, bb, sv.tolerance))
+        out["synthesis"].append(syn)
+        out["synthesis_time"].append(time.perf_counter() - t1)
+    out["curve"] = None
+    if study.compare:
+        fr = resp.sweep.frequency
+        t1 = time.perf_counter()
+        kw = sv.kwargs()
+        kw["stability"] = False
+        kw["peak_dofs"] = [list(system.dof_names).index(d) for d in resp.output.dofs]
+        out["curve"] = response_study.default_solver(resp)(
+            system, sv.harmonics, fr.omega_start, fr.omega_stop, **kw)
+        out["curve_time"] = time.perf_counter() - t1
+    return out
+
+
+def run(study: NonlinearModesStudy, out_dir="results", *, figures: bool = True,
+        progress: bool = True, **_) -> StudyResult:
+    """`out_dir/<name>.nc` and the figures `out_dir/<name>/backbones.png`,
+    `synthesis_<dof>.png`."""
+    from ..datasets.dataset import write_netcdf
+    from .nonlinear_modes_dataset import modes_dataset
+    from ..figures.backbone_figures import write_backbone_figures
+
+    t0 = time.perf_counter()
+    cases = study.cases()
+    results = []
+    for k, (_, case) in enumerate(cases, 1):
+        res = run_case(study, case)
+        results.append(res)
+        bb = res["backbone"]
+        log.info("case %d/%d %s: %d points, %.4g to %.4g Hz, zeta up to %.3g, %.2f s%s", k,
+                 len(cases), case, bb.s.size, *(bb.omega[[0, -1]] / (2 * np.pi)
+                                                 if bb.s.size else (np.nan, np.nan)),
+                 np.max(bb.zeta) if bb.s.size else np.nan, res["time"],
+                 f" ({bb.message})" if bb.message else "")
+    ds = modes_dataset(study, results)
+    path = write_netcdf(ds, Path(out_dir) / f"{study.name}.nc")
+    log.info("wrote %s", path)
+    written = write_backbone_figures(Path(out_dir) / study.name, ds) if figures else []
+    failures = sum(1 for r in results if r["backbone"].message)
+    return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=failures,
+                       failed=[(r["case"], r["backbone"].message) for r in results
+                               if r["backbone"].message],
+                       wall_time=time.perf_counter() - t0)
+
+
+POINTS, ITERATIONS = 40, 4   # a backbone's points and Newton iterations a point (typical)
+
+
+def estimate(study: NonlinearModesStudy, workers: int = 1) -> RangeEstimate:
+    """One EPMC Jacobian timed now on the first case's model, times the points and
+    iterations of a typical backbone, per case; plus the response estimate (compare)."""
+    from ...solve.nonlinear_modes.epmc import linear_guess, residual
+
+    cases = study.cases()
+    sv = study.response.solver
+    mp = mode_problem(study.response.system(cases[0][1]), sv.harmonics, study.mode,
+                      sv.force_evaluation, sv.samples)
+    y = linear_guess(mp)
+    residual(mp, y, 0.0)                       # the first call loads the compiled kernels
+    t0 = time.perf_counter()
+    R, J, _ = residual(mp, y, 0.0)
+    np.linalg.solve(J, R)
+    one = time.perf_counter() - t0
+    mid = len(cases) * POINTS * ITERATIONS * one
+    detail = f"{len(cases)} backbone(s), one EPMC step timed now ({one * 1e3:.1f} ms)"
+    if study.compare:
+        e = response_study.estimate(study.response, workers)
+        mid += e.mid
+        detail += f"; the full harmonic balance of every case {e.mid:.3g} s"
+    return RangeEstimate(mid / 3.0, mid * 3.0, detail)
+
+
+def describe(study: NonlinearModesStudy, workers: int = 1) -> list:
+    sc = study.scene
+    nd = (f"; nodal diameters {', '.join(map(str, study.nodal_diameters))}"
+          if study.nodal_diameters else "")
+    return ([f"scene: {sc.model}, {len(sc.contacts)} contact(s); nonlinear mode {study.mode}"
+             f"{nd}; amplitude {study.amplitude[0]:g} to {study.amplitude[1]:g} x slip onset",
+             f"cases: {len(study.cases())}; synthesis at force scales "
+             f"{', '.join(f'{f:g}' for f in study.force_scales)}"
+             + ("; full harmonic balance compared" if study.compare else "")]
+            + estimate_lines(estimate(study, workers)))
+
+
+KIND = StudyKind(name="nonlinear_modes", word="nonlinear_modes", fits=always, by_default=never,
+                 parse=parse, describe=describe, estimate=estimate, run=run,
+                 cases=lambda study: len(study.cases()))

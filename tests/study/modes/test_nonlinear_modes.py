@@ -1,0 +1,114 @@
+"""The nonlinear modes study kind: a lumped scene run end to end through the command
+line (dataset against its contract and against the solver called directly, figures),
+and one clear line, exit code 2, for each mistake in `[modes]`."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from pipeline.solve.nonlinear_modes import epmc
+from pipeline.solve.nonlinear_modes.backbone import continue_mode
+from pipeline.study.datasets.conformance import problems
+from pipeline.study.files.documents import parse_study
+from pipeline.errors import UsageError
+from helpers import ROOT
+
+LUMPED = """
+[study]
+kind = "nonlinear_modes"
+title = "Jenkins oscillator: backbone and damping"
+
+[scene]
+model = "lumped"
+effects = ["friction"]
+dofs = ["x"]
+
+[scene.matrices]
+M = [[1.0]]
+K = [[1.0e4]]
+C = [[0.2]]
+
+[[scene.contact]]
+name = "damper"
+tangential = ["x"]
+ku = 3.0e4
+mu = 0.5
+n0 = 1.0
+
+[[scene.excitation]]
+dof = "x"
+amplitude = 0.3
+
+[modes]
+amplitude = [0.1, 100.0]
+force_scales = [0.5, 1.0]
+
+[sweep]
+preload = [1.0, 2.0]
+frequency = { start = 80.0, stop = 220.0, unit = "rad/s" }
+
+[solver]
+harmonics = 3
+"""
+
+
+def test_lumped_study_runs_and_its_dataset_is_the_solvers(tmp_path):
+    """`pipeline run` writes a conforming dataset and both figures; its backbone is the
+    one `continue_mode` gives for the same system and range (same code path, read back
+    from netCDF), starting at the stuck frequency sqrt((k + ku)/m) and ending near the
+    open one sqrt(k/m); the friction energy is positive only once the element slips."""
+    f = tmp_path / "jenkins_modes.toml"
+    f.write_text(LUMPED)
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "pipeline", "run", str(f), "--out", str(out)],
+                       capture_output=True, text=True, cwd=ROOT,
+                       env={"MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"})
+    assert r.returncode == 0, r.stderr
+    nc = out / "jenkins_modes.nc"
+    assert problems(nc) == []
+    assert (out / "jenkins_modes" / "backbones.png").stat().st_size > 10_000
+    assert (out / "jenkins_modes" / "synthesis_x.png").stat().st_size > 10_000
+    ds = xr.open_dataset(nc)
+    study = parse_study(LUMPED)
+    for n0 in (1.0, 2.0):
+        mp = epmc.mode_problem(study.response.system({"preload": n0}), 3)
+        onset = 0.5 * n0 / 3.0e4          # mu n0 / ku at a unit modal amplitude (m = 1)
+        bb = continue_mode(mp, np.log10(0.1 * onset), np.log10(100 * onset), tol_rel=1e-9)
+        one = ds.sel(preload=n0)
+        ok = one["converged"].values == 1
+        assert float(one["slip_onset_amplitude"]) == pytest.approx(onset, rel=1e-12)
+        assert np.array_equal(one["frequency"].values[ok], bb.omega / (2 * np.pi))
+        assert one["frequency"].values[ok][0] == pytest.approx(200 / (2 * np.pi), rel=1e-5)
+        assert one["frequency"].values[ok][-1] == pytest.approx(100 / (2 * np.pi), rel=0.02)
+        e = one["dissipated_energy"].values[ok]
+        a = one["modal_amplitude"].values[ok]
+        assert np.all(e[a < 0.99 * onset] == 0) and np.all(e[a > 1.01 * onset] > 0)
+        assert np.isfinite(one["synthesis_peak_frequency"].values).all()
+
+
+@pytest.mark.parametrize("edit, field", [
+    (('[modes]', '[modes]\nnodal_diameters = [1]'), "modes.nodal_diameters"),
+    (('amplitude = [0.1, 100.0]', 'amplitude = [100.0, 0.1]'), "modes.amplitude"),
+    (('force_scales = [0.5, 1.0]', 'force_scales = [0.0]'), "modes.force_scales[0]"),
+    (('[modes]', '[modes]\nharmonics = 3'), "modes"),
+    (('[modes]', '[modes]\ncompare = "yes"'), "modes.compare"),
+    (('preload = [1.0, 2.0]', 'preload = [1.0]\nexcitation_scale = [1.0]'),
+     "sweep.excitation_scale"),
+    (('effects = ["friction"]', 'effects = []'), "scene"),
+])
+def test_a_mistake_is_one_line_naming_the_field(edit, field):
+    with pytest.raises(UsageError) as exc:
+        parse_study(LUMPED.replace(*edit), file="m.toml")
+    msg = str(exc.value)
+    assert msg.startswith(f"m.toml: {field}") and "\n" not in msg, msg
+
+
+def test_a_disk_needs_its_nodal_diameters():
+    text = (ROOT / "studies" / "disk_nonlinear_modes.toml").read_text()
+    with pytest.raises(UsageError, match=r"^d.toml: modes.nodal_diameters: missing"):
+        parse_study(text.replace("nodal_diameters = [3, 6, 12]\n", "")
+                    .replace("nodal_diameters = [3, 12]\n", ""), file="d.toml")
+    with pytest.raises(UsageError, match=r"^d.toml: modes.nodal_diameters: .* 0 ... 12"):
+        parse_study(text.replace("[3, 6, 12]", "[3, 13]"), file="d.toml")
