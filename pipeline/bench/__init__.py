@@ -221,6 +221,11 @@ def peers_bench(quick=False, nlvib=None, pyharm_python=None):
     return run_peers(quick, nlvib=nlvib, pyharm_python=pyharm_python)
 
 
+def modes_bench(quick=False):
+    from .modes import run as run_modes
+    return run_modes(quick)
+
+
 def estimate_bench(quick=False, studies=()):
     from .estimate import run as run_estimate
     return run_estimate(quick, studies)
@@ -228,7 +233,7 @@ def estimate_bench(quick=False, studies=()):
 
 BENCHES = {"contact": contact, "hbm": hbm, "evaluations": evaluations_bench, "blade": blade,
            "disk": disk_bench, "parallel": parallel, "peers": peers_bench,
-           "stability": stability_bench, "estimate": estimate_bench}
+           "stability": stability_bench, "estimate": estimate_bench, "modes": modes_bench}
 
 
 def run(what, quick=False, **options):

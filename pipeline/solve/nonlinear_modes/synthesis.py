@@ -70,39 +70,56 @@ def modal_quantities(bb: Backbone, M, C, F1):
 
 
 def _quartic(omega, zeta, m1, c1):
-    """Coefficients (Omega^4 .. Omega^0) of the left side of the modal equation."""
+    """Coefficients (P, 5) (Omega^4 .. Omega^0) of the left side of the modal equation."""
+    omega, zeta, m1, c1 = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, float))
+                                                for v in (omega, zeta, m1, c1)))
     d = 2.0 * zeta * omega**2 * m1 - c1 * omega
-    return np.array([m1**2, 0.0, c1**2 - 2.0 * omega**2 * m1**2, 2.0 * c1 * d,
-                     omega**4 * m1**2 + d**2])
+    return np.stack([m1**2, np.zeros_like(m1), c1**2 - 2.0 * omega**2 * m1**2,
+                     2.0 * c1 * d, omega**4 * m1**2 + d**2], axis=-1)
+
+
+def _roots(co):
+    """(P, d) roots of the P polynomials co (P, d + 1), highest power first: the
+    eigenvalues of their companion matrices, in one batched call."""
+    P, d = co.shape[0], co.shape[1] - 1
+    comp = np.zeros((P, d, d))
+    comp[:, 0, :] = -co[:, 1:] / co[:, :1]
+    comp[:, np.arange(1, d), np.arange(d - 1)] = 1.0
+    return np.linalg.eigvals(comp)
+
+
+def _positive_real(roots):
+    """The roots that are real (to 1e-9 relative) and positive; NaN elsewhere."""
+    real = (np.abs(roots.imag) <= 1e-9 * np.abs(roots)) & (roots.real > 0)
+    return np.where(real, roots.real, np.nan)
 
 
 def frequencies(omega, zeta, m1, c1, r):
     """(below, above) [rad/s]: the smallest and largest root Omega > 0 of the modal
     equation at amplitude-scaled force r, NaN where there is none (above the peak)."""
-    out = np.full((2, np.size(omega)), np.nan)
-    for p, args in enumerate(zip(*(np.atleast_1d(v) for v in (omega, zeta, m1, c1, r)))):
-        co = _quartic(*args[:4])
-        co[-1] -= args[4] ** 2
-        roots = np.roots(co)
-        real = roots[(np.abs(roots.imag) <= 1e-9 * np.abs(roots)) & (roots.real > 0)].real
-        if real.size:
-            out[:, p] = real.min(), real.max()
-    return out[0], out[1]
+    co = _quartic(omega, zeta, m1, c1)
+    co[:, -1] -= np.atleast_1d(np.asarray(r, float)) ** 2
+    return _ends(_positive_real(_roots(co)))
+
+
+def _ends(x):
+    """(smallest, largest) of each row of x, NaN where a row has no number."""
+    none = np.all(np.isnan(x), axis=1)
+    lo = np.where(none, np.nan, np.min(np.where(np.isnan(x), np.inf, x), axis=1))
+    hi = np.where(none, np.nan, np.max(np.where(np.isnan(x), -np.inf, x), axis=1))
+    return lo, hi
 
 
 def peak_gap(omega, zeta, m1, c1, r):
     """(r^2 - min over Omega > 0 of the left side, the minimising Omega [rad/s]) per
     point: positive below the peak amplitude, zero at it."""
-    gaps, where = [], []
-    for args in zip(*(np.atleast_1d(v) for v in (omega, zeta, m1, c1, r))):
-        co = _quartic(*args[:4])
-        crit = np.roots(np.polyder(co))
-        crit = crit[(np.abs(crit.imag) <= 1e-9 * np.abs(crit)) & (crit.real > 0)].real
-        vals = np.polyval(co, crit)
-        i = int(np.argmin(vals))
-        gaps.append(args[4] ** 2 - vals[i])
-        where.append(crit[i])
-    return np.array(gaps), np.array(where)
+    co = _quartic(omega, zeta, m1, c1)
+    crit = _positive_real(_roots(co[:, :-1] * np.arange(4, 0, -1)))
+    vals = np.where(np.isnan(crit), np.inf, sum(co[:, [k]] * np.nan_to_num(crit) ** (4 - k)
+                                                for k in range(5)))
+    i = np.argmin(vals, axis=1)
+    rows = np.arange(co.shape[0])
+    return np.atleast_1d(np.asarray(r, float)) ** 2 - vals[rows, i], crit[rows, i]
 
 
 def synthesise(bb: Backbone, M, C, F1, refine=None) -> Synthesis:
