@@ -249,6 +249,8 @@ _FIXED = [
                                             "the synthesised forced responses"),
     ("modes", "compare", "", "true", "nonlinear modes: also the full harmonic balance of "
                                      "every case (force scale 1)"),
+    ("modes", "reference_dof", "", "largest kinetic share", "nonlinear modes: the DOF whose "
+                                                            "velocity vanishes at t = 0"),
     ("quick", "sweep", "", "", "overrides of `[sweep]` (only axes it has)"),
     ("quick", "solver", "", "", "overrides of `[solver]`"),
     ("quick", "scene", "", "", "FE blades: a coarser blade"),

@@ -15,6 +15,9 @@ the dataset shows what the single-mode synthesis gains and what it misses.
             nodal_diameters = [...]   disk scenes: one mode per ND (EO = ND excites it)
             force_scales = [1.0]      synthesis: factors on the scene's excitation
             compare = true            also the full harmonic balance (force scale 1)
+            reference_dof = "x1"      its velocity vanishes at t = 0 (the phase
+                                      condition; default: the DOF with the largest
+                                      share of the linear mode's kinetic energy)
 
 The rest is a response study's file (`[scene]`, `[sweep]` with its frequency range
 and grid axes but `eo`, `[solver]`, `[output]`).  The slip onset is the smallest
@@ -43,7 +46,7 @@ from ..files.validation import Checker
 from .disk_modes import is_disk_document
 
 log = logging.getLogger(__name__)
-KEYS = ("mode", "amplitude", "nodal_diameters", "force_scales", "compare")
+KEYS = ("mode", "amplitude", "nodal_diameters", "force_scales", "compare", "reference_dof")
 DEFAULT_AMPLITUDE = (0.01, 1000.0)
 MAX_MODE = 1000
 
@@ -56,6 +59,7 @@ class NonlinearModesStudy(StudyHeader):
     mode: int = 0
     amplitude: tuple = DEFAULT_AMPLITUDE
     nodal_diameters: tuple = ()     # () for a scene that is not a disk
+    reference_dof: str | None = None   # phase condition's DOF (None: largest kinetic share)
     force_scales: tuple = (1.0,)
     compare: bool = True
     quick: bool = False
@@ -81,6 +85,12 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
     quick_modes = ck.table(q.get("modes", {}), "quick.modes", required=False) if quick else {}
     modes, where = overlay(ck, modes_tbl, quick_modes, "modes")
     ck.keys(modes, "modes", KEYS)
+    effects = (data.get("scene") or {}).get("effects", []) if isinstance(data.get("scene"),
+                                                                        dict) else []
+    if not (isinstance(effects, list) and {"friction", "separation"} & set(map(str, effects))):
+        ck.fail("scene.effects", "a nonlinear modes study needs contacts that slip or "
+                                 "separate: declare \"friction\" (or \"separation\") and give a "
+                                 "[[scene.contact]]")
     sweep = ck.table(data.get("sweep", {}), "sweep", required=False)
     for axis in ("eo", "excitation_scale", "mistuning_seed"):
         if axis in sweep or axis in ck.table(q.get("sweep", {}), "quick.sweep", required=False):
@@ -111,9 +121,6 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
             rest["quick"]["sweep"] = {**rest["quick"]["sweep"], "eo": list(nds)}
     resp = response_study.parse(rest, file=file, name=name, text=text, quick=quick)
     sc = resp.scene
-    if not {"friction", "separation"} & set(sc.effects):
-        ck.fail("scene.effects", "a nonlinear modes study needs friction or separation at "
-                                 "the contacts (declare \"friction\" and give a [[scene.contact]])")
     if getattr(sc, "mistuning", None) is not None:
         ck.fail("scene.disk.mistuning", "nonlinear modes per nodal diameter need a tuned disk")
     amp = tuple(ck.number(v, where(f"amplitude[{i}]"), gt=0.0)
@@ -129,10 +136,15 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
     if not isinstance(compare, bool):
         ck.fail(where("compare"), f"must be true or false, got {compare!r}")
     mode = ck.integer(modes.get("mode", 0), where("mode"), 0, MAX_MODE)
+    ref = modes.get("reference_dof")
+    if ref is not None and ref not in sc.dofs:
+        ck.fail(where("reference_dof"), f"{ref!r} is not a DOF of the scene (its DOFs: "
+                                        f"{', '.join(sc.dofs[:8])}{', ...' if len(sc.dofs) > 8 else ''})")
     return NonlinearModesStudy(file=file, name=name, title=resp.title,
                                description=resp.description, reference=resp.reference,
                                text=text, response=resp, mode=mode, amplitude=amp,
                                nodal_diameters=nds, force_scales=scales, compare=compare,
+                               reference_dof=ref,
                                quick=bool(quick))
 
 
@@ -159,7 +171,9 @@ def run_case(study: NonlinearModesStudy, case: dict) -> dict:
     sv, resp = study.response.solver, study.response
     system = resp.system(case)
     t0 = time.perf_counter()
-    mp = mode_problem(system, sv.harmonics, study.mode, sv.force_evaluation, sv.samples)
+    ref = (None if study.reference_dof is None
+           else list(system.dof_names).index(study.reference_dof))
+    mp = mode_problem(system, sv.harmonics, study.mode, sv.force_evaluation, sv.samples, ref)
     a_on = onset_amplitude(mp)
     if not np.isfinite(a_on):
         raise UsageError(f"{study.file}: modes.mode: mode {study.mode} moves no preloaded "
