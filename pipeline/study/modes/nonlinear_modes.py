@@ -204,25 +204,36 @@ def run_case(study: NonlinearModesStudy, case: dict) -> dict:
 
 
 def run(study: NonlinearModesStudy, out_dir="results", *, figures: bool = True,
-        progress: bool = True, **_) -> StudyResult:
+        workers: int = 1, **_) -> StudyResult:
     """`out_dir/<name>.nc` and the figures `out_dir/<name>/backbones.png`,
-    `synthesis_<dof>.png`."""
+    `synthesis_<dof>.png`; the cases on `workers` processes."""
     from ..datasets.dataset import write_netcdf
     from .nonlinear_modes_dataset import modes_dataset
     from ..figures.backbone_figures import write_backbone_figures
 
     t0 = time.perf_counter()
-    cases = study.cases()
-    results = []
-    for k, (_, case) in enumerate(cases, 1):
-        res = run_case(study, case)
-        results.append(res)
+    cases = [c for _, c in study.cases()]
+    results = [None] * len(cases)
+
+    def done(k, res):
+        results[k] = res
         bb = res["backbone"]
-        log.info("case %d/%d %s: %d points, %.4g to %.4g Hz, zeta up to %.3g, %.2f s%s", k,
-                 len(cases), case, bb.s.size, *(bb.omega[[0, -1]] / (2 * np.pi)
-                                                 if bb.s.size else (np.nan, np.nan)),
+        log.info("case %d/%d %s: %d points, %.4g to %.4g Hz, zeta up to %.3g, %.2f s%s",
+                 sum(r is not None for r in results), len(cases), cases[k], bb.s.size,
+                 *(bb.omega[[0, -1]] / (2 * np.pi) if bb.s.size else (np.nan, np.nan)),
                  np.max(bb.zeta) if bb.s.size else np.nan, res["time"],
                  f" ({bb.message})" if bb.message else "")
+
+    if workers > 1 and len(cases) > 1:   # a process pool, as the response studies' cases
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        with ProcessPoolExecutor(max_workers=min(workers, len(cases))) as pool:
+            futs = {pool.submit(run_case, study, c): k for k, c in enumerate(cases)}
+            for fut in as_completed(futs):
+                done(futs[fut], fut.result())
+    else:
+        for k, c in enumerate(cases):
+            done(k, run_case(study, c))
     ds = modes_dataset(study, results)
     path = write_netcdf(ds, Path(out_dir) / f"{study.name}.nc")
     log.info("wrote %s", path)
