@@ -304,7 +304,8 @@ def disk_nonlinear_modes(out, nc, ds, st):
         ok = one["converged"].values == 1
         assert_stated(one["frequency"].values[ok][0], f0)
         assert_stated(one["frequency"].values[ok][-1], "377.6")
-        assert_stated(one["damping_ratio"].values[ok].max(), zmax)
+        assert_stated(float(one["peak_damping_ratio"]), zmax)
+        assert float(one["peak_damping_ratio"]) >= one["damping_ratio"].values[ok].max()
     nd3 = ds.sel(preload=2.0, nodal_diameter=3, force_scale=1.0, dof="x1")
     assert_stated(float(nd3["synthesis_peak_amplitude"]), "8.75e-6")
     assert_stated(float(nd3["hbm_peak_amplitude"]), "8.92e-6")

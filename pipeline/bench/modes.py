@@ -85,7 +85,7 @@ def synthesis_table():
         F1 = system.forcing[:, 1]
         for syn, out in ((synthesise(bb, mp.M, mp.C, F1), errs),
                          (synthesise(bb, mp.M, mp.C, F1, refine=refiner(mp, bb)), errs_exact)):
-            _, _, Q = point_at(mp, bb, syn.peak_s)
+            _, _, Q = point_at(mp, bb, syn.peak_s, segment=syn.peak_index)
             out.append(amplitude_half_peak_to_peak(Q)[0] / ref - 1.0)
     n = len(PRELOADS) * FORCES.size
     print(f"\nSynthesis from stored backbones: lumped disk (disk_nonlinear_modes.toml), ND 3, "

@@ -2,12 +2,13 @@
 damping ratio zeta(a) and the shape, from the small-amplitude linear mode through
 microslip, macroslip and separation (`epmc` gives the equations).
 
-Continuation in s = log10 a with a secant predictor and Newton's method on the
-EPMC equations (analytic Jacobian, backtracking on the residual norm); the step in s
-grows after easy points and halves after a failed one.  Every point is accepted only if
-its recomputed residual meets the tolerance in newtons (`epmc.check`).  Where the step
-falls below `min_step` decades (the amplitude turns back: an internal resonance, or a
-normalisation that degenerates) the backbone ends there and says so in `message`.
+The first point is Newton's method on the EPMC equations from the linear mode
+(analytic Jacobian, backtracking on the residual norm); the rest is the pipeline's
+pseudo-arclength continuation (`continuation.continue_branch`) in the unknowns and
+s = log10 a, so a fold in the amplitude is passed.  Every point is accepted only if
+its recomputed residual meets the tolerance in newtons (`epmc.check`).  Where the
+continuation stops early (a branch point, a normalisation that degenerates) the
+backbone ends there and says so in `message`.
 """
 from __future__ import annotations
 
@@ -15,7 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .epmc import ModeProblem, check_values, evaluate, linear_guess, unpack
+from ...model.system import dense
+from ..continuation.pseudo_arclength import continue_branch
+from .epmc import ModeProblem, check_values, evaluate, linear_guess, residual, unpack
 
 
 @dataclass(frozen=True)
@@ -74,51 +77,52 @@ def newton(mp: ModeProblem, y, s: float, tol_rel: float, max_iter: int = 30):
     return None, max_iter, None
 
 
-def continue_mode(mp: ModeProblem, s_from: float, s_to: float, step: float = 0.1,
-                  min_step: float = 1e-4, max_step: float = 0.25, tol_rel: float = 1e-8,
-                  max_points: int = 2000, progress=None, resolution=(0.005, 0.05)) -> Backbone:
+def continue_mode(mp: ModeProblem, s_from: float, s_to: float, tol_rel: float = 1e-8,
+                  max_points: int = 2000, ds: float = 0.01, ds_max: float = 0.02,
+                  progress=None) -> Backbone:
     """Backbone of `mp` from s_from to s_to (s = log10 a, a [kg^0.5 m]), starting from
-    the linear mode at s_from.  A step that changes omega by more than twice
-    resolution[0] (relative) or zeta by more than twice resolution[1] (relative to the
-    larger) is halved and retried, so the curves are resolved where they turn.
-    `progress(s)` is called after every accepted point."""
+    the linear mode at s_from (Newton), then by the pseudo-arclength continuation of
+    `continuation.continue_branch` in (y, s): it follows the mode through a fold in
+    the amplitude (an internal resonance turns it) as through any other point.  Every
+    point is recomputed and held to the tolerance in newtons (`epmc.check`); the
+    backbone keeps the points up to the first that fails it.  `progress(s)` is called
+    after every accepted point."""
     if not (np.isfinite(s_from) and np.isfinite(s_to)) or s_to <= s_from:
         raise ValueError(f"need s_from < s_to (log10 of the modal amplitude), got "
                          f"{s_from}, {s_to}")
-    pts, message = [], ""
-    y, it, ok = newton(mp, linear_guess(mp), s_from, tol_rel)
-    if y is None:
+    y0, _, ok = newton(mp, linear_guess(mp), s_from, tol_rel)
+    if y0 is None:
         return _backbone(mp, [], f"no converged point at the start log10 a = {s_from:.3g}")
-    pts.append((s_from, y, it, ok))
-    ds = step
-    while pts[-1][0] < s_to and len(pts) < max_points:
-        s0, y0 = pts[-1][0], pts[-1][1]
-        s1 = min(s0 + ds, s_to)
-        if len(pts) > 1:   # secant predictor in s
-            sp, yp = pts[-2][0], pts[-2][1]
-            guess = y0 + (y0 - yp) * (s1 - s0) / (s0 - sp)
-        else:
-            guess = y0
-        y1, it, ok = newton(mp, guess, s1, tol_rel)
-        if y1 is None:
-            ds *= 0.5
-            if ds < min_step:
-                message = (f"stopped at log10 a = {s0:.4g}: no converged point within "
-                           f"{min_step:g} decades (the amplitude turns back: an internal "
-                           "resonance, or a degenerate normalisation)")
-                break
-            continue
-        change = max(abs(y1[-2] - y0[-2]) / abs(y0[-2]) / resolution[0],
-                     abs(y1[-1] - y0[-1]) / max(abs(y0[-1]), abs(y1[-1]), 1e-4) / resolution[1])
-        if change > 2.0 and ds > 4 * min_step:   # too coarse to draw: a shorter step
-            ds *= 0.5
-            continue
-        pts.append((s1, y1, it, ok))
+    nh = 2 * mp.H + 1
+    groups = np.concatenate([np.repeat(np.arange(mp.n), nh), [mp.n, mp.n + 1]])
+    r_ref = float(np.linalg.norm(residual(mp, y0, s_from, jacobian=False)[0][:-2]) +
+                  np.linalg.norm(dense(mp.hbm.system.K) @ unpack(mp, y0, s_from)[0]))
+
+    def callback(y, s):
         if progress is not None:
-            progress(s1)
-        ds = min(ds * (1.5 if it <= 4 and change < 0.5 else 1.0), max_step)
-    if not message and pts[-1][0] < s_to:
-        message = f"stopped at log10 a = {pts[-1][0]:.4g}: {max_points} points reached"
+            progress(s)
+        return False
+
+    br = continue_branch(lambda y, s: residual(mp, y, s), y0, s_from, s_to,
+                         tol=1e-12 * r_ref, tol_rel=tol_rel, r_ref=r_ref, ds=ds,
+                         ds_max=ds_max, max_points=max_points, groups=groups,
+                         callback=callback)
+    pts, message = [], ""
+    for y, s, it in zip(br.x, br.lam, br.nit):
+        R, _, _, F, G, Q = evaluate(mp, y, s, jacobian=False)
+        ok = check_values(mp, R, F, G, Q, tol_rel)
+        if not ok.converged:    # the continuation's norm is not the check's: polish at s
+            y, it, ok = newton(mp, y, s, tol_rel)
+        if ok is None or not ok.converged:
+            message = (f"stopped at log10 a = {s:.4g}: no point there meets the residual "
+                       "tolerance in newtons")
+            break
+        pts.append((s, y, int(it), ok))
+    if not message and not br.success:
+        message = (f"stopped at log10 a = {br.lam[-1]:.4g}: {br.message} (a branch point, "
+                   "or a degenerate normalisation)")
+    elif not message and br.lam[-1] < s_to:
+        message = f"stopped at log10 a = {br.lam[-1]:.4g}: the amplitude turned back"
     return _backbone(mp, pts, message)
 
 
@@ -139,21 +143,58 @@ def _backbone(mp: ModeProblem, pts, message: str) -> Backbone:
                     np.array([p[2] for p in pts]), message)
 
 
-def point_at(mp: ModeProblem, bb: Backbone, s: float, tol_rel: float = 1e-8):
-    """(omega [rad/s], zeta [-], Q (n, 2H+1) [m]) of the mode at s = log10 a inside the
-    backbone's range: Newton from the points interpolated linearly in s.  ValueError
-    when it does not converge."""
-    if not bb.s[0] <= s <= bb.s[-1]:
-        raise ValueError(f"log10 a = {s} is outside the backbone ({bb.s[0]}, {bb.s[-1]})")
+def segment_of(bb: Backbone, s: float) -> int:
+    """The first i with s between bb.s[i] and bb.s[i + 1] (a backbone that folds in
+    the amplitude holds several); ValueError when none does."""
+    lo, hi = np.minimum(bb.s[:-1], bb.s[1:]), np.maximum(bb.s[:-1], bb.s[1:])
+    inside = np.nonzero((lo <= s) & (s <= hi))[0]
+    if inside.size == 0:
+        raise ValueError(f"log10 a = {s} is outside the backbone ({bb.s.min()}, {bb.s.max()})")
+    return int(inside[0])
+
+
+def point_at(mp: ModeProblem, bb: Backbone, s: float, tol_rel: float = 1e-8,
+             segment: int | None = None):
+    """(omega [rad/s], zeta [-], Q (n, 2H+1) [m]) of the mode at s = log10 a between the
+    backbone points `segment` and `segment` + 1 (default `segment_of`): Newton from
+    them interpolated linearly in s.  ValueError when it does not converge."""
+    i = segment_of(bb, s) if segment is None else int(segment)
+    s0, s1 = bb.s[i], bb.s[i + 1]
+    t = 0.0 if s1 == s0 else (s - s0) / (s1 - s0)
     scale = np.full(bb.Q.shape[2], 10.0 ** s)
     scale[0] = 1.0
-    Z = np.stack([np.interp(s, bb.s, q) for q in bb.Q.reshape(bb.s.size, -1).T], axis=-1)
-    Z = Z.reshape(bb.Q.shape[1:])
-    Z[:, 1:] /= 10.0 ** np.interp(s, bb.s, bb.s)
-    guess = np.concatenate([Z.ravel(), [np.interp(s, bb.s, bb.omega),
-                                        np.interp(s, bb.s, bb.zeta)]])
+    Z = (1 - t) * bb.Q[i] + t * bb.Q[i + 1]
+    Z[:, 1:] /= 10.0 ** s
+    guess = np.concatenate([Z.ravel(), [(1 - t) * bb.omega[i] + t * bb.omega[i + 1],
+                                        (1 - t) * bb.zeta[i] + t * bb.zeta[i + 1]]])
     y, _, ok = newton(mp, guess, s, tol_rel)
     if y is None:
         raise ValueError(f"no converged point of the mode at log10 a = {s:.6g}")
     Zs, om, ze, _ = unpack(mp, y, s)
     return om, ze, Zs * scale
+
+
+def damping_peak(mp: ModeProblem, bb: Backbone, tol_rel: float = 1e-10):
+    """(s, zeta, omega) of the largest modal damping ratio along the backbone, located
+    between the points either side of the largest sampled one by Brent's method on the
+    mode recomputed at s (`point_at`), so no larger value hides between two points of a
+    smooth stretch.  (NaN, NaN, NaN) for fewer than three points."""
+    from scipy.optimize import minimize_scalar
+
+    if bb.s.size < 3:
+        return np.nan, np.nan, np.nan
+    i = int(np.argmax(bb.zeta))
+    best = (bb.s[i], bb.zeta[i], bb.omega[i])
+    for seg in (i - 1, i):
+        if not 0 <= seg < bb.s.size - 1 or bb.s[seg] == bb.s[seg + 1]:
+            continue
+        lo, hi = sorted((bb.s[seg], bb.s[seg + 1]))
+        try:
+            r = minimize_scalar(lambda s: -point_at(mp, bb, s, tol_rel, seg)[1], bounds=(lo, hi),
+                                method="bounded", options={"xatol": 1e-9})
+        except ValueError:    # a point there does not converge: keep the samples
+            continue
+        if -r.fun > best[1]:
+            om, ze, _ = point_at(mp, bb, r.x, tol_rel, seg)
+            best = (float(r.x), ze, om)
+    return best

@@ -95,13 +95,20 @@ def linear_mode(system: System, mode: int = 0):
 
 
 def mode_problem(system: System, H: int, mode: int = 0, method: str = "exact",
-                 n_samples: int = 256, ref: int | None = None) -> ModeProblem:
+                 n_samples: int = 256, ref: int | None = None, start=None) -> ModeProblem:
     """Prepare the EPMC of the linear mode `mode` of `system` (its forcing is ignored).
     `ref` (default: the DOF with the largest kinetic-energy share of the linear mode,
-    |phi_i (M phi)_i|) carries the phase condition."""
+    |phi_i (M phi)_i|) carries the phase condition.  `start` = (omega [rad/s], shape
+    (n,) complex) replaces the linear mode the continuation starts from (e.g. a cyclic
+    sector's travelling wave expanded to the whole wheel, where the linear modes of a
+    nodal diameter come in degenerate pairs); it is M-normalised here."""
     prob = setup(system, H, method, n_samples)
     M, C = dense(system.M), dense(system.C)
-    omega0, phi = linear_mode(system, mode)
+    if start is None:
+        omega0, phi = linear_mode(system, mode)
+    else:
+        omega0, phi = float(start[0]), np.asarray(start[1], complex)
+        phi = phi / np.sqrt(np.real(phi.conj() @ M @ phi))
     if ref is None:
         ref = int(np.argmax(np.abs(phi.conj() * (M @ phi))))
     if not 0 <= ref < system.n_dof:

@@ -49,6 +49,7 @@ class Synthesis:
     modal_force: np.ndarray
     peak_s: float
     peak_omega: float
+    peak_index: int = -1     # the peak lies between backbone points peak_index and + 1
 
     @property
     def peak_amplitude(self) -> float:
@@ -125,8 +126,9 @@ def peak_gap(omega, zeta, m1, c1, r):
 def synthesise(bb: Backbone, M, C, F1, refine=None) -> Synthesis:
     """The forced response to the first-harmonic load F1 (n,) [N] synthesised from the
     backbone `bb` of a system with mass M and damping C.  The peak lies between the
-    last backbone point below it and the next; `refine(s)` (a one-point `Backbone`, the
-    mode recomputed at s, `refiner`) locates it by Brent's method to 1e-12 in s, else it
+    last backbone point below it and the next (the first such pair along a backbone
+    that folds); `refine(s, i)` (a one-point `Backbone`, the mode recomputed at s
+    between points i and i + 1, `refiner`) locates it by Brent's method to 1e-12 in s, else it
     is interpolated linearly in s."""
     f, m1, c1 = modal_quantities(bb, M, C, F1)
     r = f / bb.amplitude
@@ -139,22 +141,23 @@ def synthesise(bb: Backbone, M, C, F1, refine=None) -> Synthesis:
     if refine is None:
         t = g[i] / (g[i] - g[i + 1])
         return Synthesis(below, above, f, float(bb.s[i] + t * (bb.s[i + 1] - bb.s[i])),
-                         float(at[i] + t * (at[i + 1] - at[i])))
+                         float(at[i] + t * (at[i + 1] - at[i])), i)
 
     def gap(s):
-        one = refine(s)
+        one = refine(s, i)
         fs, ms, cs = modal_quantities(one, M, C, F1)
         return peak_gap(one.omega, one.zeta, ms, cs, fs / one.amplitude)
 
-    s = brentq(lambda s: gap(s)[0][0], bb.s[i], bb.s[i + 1], xtol=1e-12, rtol=1e-14)
-    return Synthesis(below, above, f, float(s), float(gap(s)[1][0]))
+    s = brentq(lambda s: gap(s)[0][0], *sorted((bb.s[i], bb.s[i + 1])), xtol=1e-12,
+               rtol=1e-14)
+    return Synthesis(below, above, f, float(s), float(gap(s)[1][0]), i)
 
 
 def refiner(mp: ModeProblem, bb: Backbone, tol_rel: float = 1e-10):
-    """`synthesise`'s `refine`: the mode recomputed at s (`backbone.point_at`) as a
-    one-point `Backbone`."""
-    def refine(s):
-        om, ze, Q = point_at(mp, bb, s, tol_rel)
+    """`synthesise`'s `refine`: the mode recomputed at s between the points i and i + 1
+    (`backbone.point_at`) as a one-point `Backbone`."""
+    def refine(s, i):
+        om, ze, Q = point_at(mp, bb, s, tol_rel, segment=i)
         return Backbone(np.array([s]), np.array([om]), np.array([ze]), Q[None],
                         np.zeros(1), np.zeros(1), np.zeros(1, int))
     return refine

@@ -248,7 +248,8 @@ _FIXED = [
     ("modes", "force_scales", "1", "[1.0]", "nonlinear modes: factors on the excitation for "
                                             "the synthesised forced responses"),
     ("modes", "compare", "", "true", "nonlinear modes: also the full harmonic balance of "
-                                     "every case (force scale 1)"),
+                                     "every case (force scale 1); on a disk: or a list of "
+                                     "nodal diameters"),
     ("modes", "reference_dof", "", "largest kinetic share", "nonlinear modes: the DOF whose "
                                                             "velocity vanishes at t = 0"),
     ("quick", "sweep", "", "", "overrides of `[sweep]` (only axes it has)"),

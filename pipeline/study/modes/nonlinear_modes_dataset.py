@@ -76,7 +76,8 @@ def synthesis_values(study, res, dofs):
         out["synthesis_frequency_above"].append(syn.above / TWO_PI)
         out["synthesis_peak_frequency"].append(syn.peak_omega / TWO_PI)
         if np.isfinite(syn.peak_s):
-            _, _, Q = point_at(mp, bb, syn.peak_s, study.response.solver.tolerance)
+            _, _, Q = point_at(mp, bb, syn.peak_s, study.response.solver.tolerance,
+                               segment=syn.peak_index)
             out["synthesis_peak_amplitude"].append(amplitude_half_peak_to_peak(Q)[dofs])
         else:
             out["synthesis_peak_amplitude"].append(np.full(len(dofs), np.nan))
@@ -104,6 +105,10 @@ def fill_case(arrays, idx, row, res, cur, grid, sizes):
     arrays.setdefault("backbone_time", grid(()))[idx] = res["time"]
     arrays.setdefault("slip_onset_amplitude", grid(()))[idx] = res["onset"]
     arrays.setdefault("linear_frequency", grid(()))[idx] = res["problem"].omega0 / TWO_PI
+    s_pk, z_pk, w_pk = res["damping_peak"]
+    arrays.setdefault("peak_damping_ratio", grid(()))[idx] = z_pk
+    arrays.setdefault("peak_damping_amplitude", grid(()))[idx] = 10.0 ** s_pk
+    arrays.setdefault("peak_damping_frequency", grid(()))[idx] = w_pk / TWO_PI
     arrays.setdefault("message", grid((), "", object))[idx] = res["backbone"].message
     if cur is not None:
         m = cur.omega.size
@@ -189,6 +194,7 @@ DIMS = {
     "synthesis_peak_frequency": ("force_scale",),
     "synthesis_peak_amplitude": ("force_scale", "dof"), "synthesis_time": ("force_scale",),
     "backbone_time": (), "slip_onset_amplitude": (), "linear_frequency": (),
+    "peak_damping_ratio": (), "peak_damping_amplitude": (), "peak_damping_frequency": (),
     "hbm_frequency": ("hbm_point",), "hbm_amplitude": ("hbm_point", "dof"),
     "hbm_peak_frequency": (), "hbm_peak_amplitude": ("dof",), "hbm_time": (),
 }
@@ -221,6 +227,10 @@ META = {
                                         "linear mode slips or lifts off"),
     "linear_frequency": ("Hz", "frequency of the small-amplitude linear mode (preloaded "
                                "contacts stuck)"),
+    "peak_damping_ratio": ("1", "largest modal damping ratio along the backbone (located "
+                                "between the points)"),
+    "peak_damping_amplitude": ("kg0.5 m", "modal amplitude of the largest damping ratio"),
+    "peak_damping_frequency": ("Hz", "frequency of the mode at the largest damping ratio"),
     "hbm_frequency": ("Hz", "full harmonic balance: excitation frequency"),
     "hbm_amplitude": ("m", "full harmonic balance: half peak-to-peak amplitude of the DOF"),
     "hbm_peak_frequency": ("Hz", "full harmonic balance: frequency of the highest point"),

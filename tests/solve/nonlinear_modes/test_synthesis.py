@@ -9,7 +9,7 @@ from pipeline.fourier.harmonics import amplitude_half_peak_to_peak
 from pipeline.model.system import System
 from pipeline.model.scene import build_system
 from pipeline.solve.nonlinear_modes import epmc
-from pipeline.solve.nonlinear_modes.backbone import continue_mode, point_at
+from pipeline.solve.nonlinear_modes.backbone import continue_mode, point_at, segment_of
 from pipeline.solve.nonlinear_modes.synthesis import frequencies, modal_quantities, refiner, \
     synthesise
 from pipeline.solve.response.response import frequency_response
@@ -41,7 +41,7 @@ def test_one_dof_one_harmonic_synthesis_is_the_harmonic_balance():
         A, W = cur.amplitude[j, 0], cur.omega[j]
         if not 10 ** bb.s[0] < A < 0.999 * syn.peak_amplitude:
             continue
-        pt = one(np.log10(A))     # mass 1, one harmonic: a = A
+        pt = one(np.log10(A), segment_of(bb, np.log10(A)))     # mass 1, one harmonic: a = A
         f, m1, c1 = modal_quantities(pt, mp.M, mp.C, F1)
         lo, hi = frequencies(pt.omega, pt.zeta, m1, c1, f / pt.amplitude)
         assert min(abs(lo[0] - W), abs(hi[0] - W)) <= 1e-9 * W
@@ -62,7 +62,7 @@ def test_cyclic_sector_synthesis_against_the_harmonic_balance():
     cur = frequency_response(sysS, 3, 2 * np.pi * 330, 2 * np.pi * 560, stability=False,
                              peak_dofs=[0])
     i = np.argmax(cur.amplitude[:, 0])
-    _, _, Q = point_at(mp, bb, syn.peak_s)
+    _, _, Q = point_at(mp, bb, syn.peak_s, segment=syn.peak_index)
     A = amplitude_half_peak_to_peak(Q)[0]
     assert A == pytest.approx(cur.amplitude[i, 0], rel=0.03)
     assert syn.peak_omega == pytest.approx(cur.omega[i], rel=2e-3)
