@@ -25,7 +25,7 @@ from ..solve.nonlinear_modes.epmc import mode_problem
 from ..solve.nonlinear_modes.synthesis import refiner, synthesise
 from ..solve.response.response import frequency_response
 from ..study.files.documents import load_study
-from ..study.modes.nonlinear_modes import onset_amplitude
+from ..solve.nonlinear_modes.epmc import onset_amplitude
 
 PRELOADS = (0.5, 1.0, 2.0, 4.0, 8.0)      # N, the lumped disk's synthesis table
 FORCES = np.geomspace(0.25, 4.0, 100)     # factors on the 1 N engine-order load

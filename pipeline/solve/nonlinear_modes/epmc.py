@@ -118,6 +118,24 @@ def mode_problem(system: System, H: int, mode: int = 0, method: str = "exact",
     return ModeProblem(prob, int(ref), M, C, omega0, zeta0, phi)
 
 
+def onset_amplitude(mp) -> float:
+    """The smallest modal amplitude [kg^0.5 m] at which an element of the linear mode
+    slips (mu n0 / (ku |u|)) or lifts off (n0 / (kv |v|)), u, v per unit amplitude."""
+    sysm = mp.hbm.system
+    Bt, Bn = dense(sysm.Bt).astype(complex), dense(sysm.Bn).astype(complex)
+    cy = sysm.cyclic
+    if cy is not None:
+        z = np.exp(1j * cy.phase)
+        Bt, Bn = Bt + z * dense(cy.Bt_next), Bn + z * dense(cy.Bn_next)
+    u, v = np.abs(Bt @ mp.shape), np.abs(Bn @ mp.shape)
+    el = sysm.contact
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.concatenate([np.where((el.n0 > 0) & (el.ku * u > 0), el.mu * el.n0 / (el.ku * u),
+                                     np.inf),
+                            np.where((el.n0 > 0) & (el.kv * v > 0), el.n0 / (el.kv * v), np.inf)])
+    return float(np.min(a)) if a.size else np.inf
+
+
 def linear_guess(mp: ModeProblem) -> np.ndarray:
     """y of the linear mode: Q_0 = 0, Psi_1 = (Re phi, -Im phi), omega0, zeta0."""
     Z = np.zeros((mp.n, 2 * mp.H + 1))

@@ -161,3 +161,48 @@ def refiner(mp: ModeProblem, bb: Backbone, tol_rel: float = 1e-10):
         return Backbone(np.array([s]), np.array([om]), np.array([ze]), Q[None],
                         np.zeros(1), np.zeros(1), np.zeros(1, int))
     return refine
+
+
+def synthesised_curve(system, H: int, dof: int, method: str = "exact", n_samples: int = 256,
+                      tol_rel: float = 1e-9, span=(0.01, 1000.0)) -> dict:
+    """The forced response of `system` to its own first-harmonic load synthesised from
+    its first nonlinear mode (backbone over `span` slip onsets): `omega` [rad/s] and
+    `amplitude` [m] of DOF `dof` along the curve (the lower flank with the amplitude
+    rising, the peak of the modal amplitude located exactly, then the upper flank
+    back), `harmonic_amplitude` (P, H+1) [m], the largest amplitude of the DOF on it
+    (`peak_amplitude` [m], `peak_omega` [rad/s]), `folds` [rad/s] (where a flank turns,
+    at the backbone's points) and `message`."""
+    from ...fourier.harmonics import amplitude_half_peak_to_peak
+    from .backbone import continue_mode
+    from .epmc import mode_problem, onset_amplitude
+
+    mp = mode_problem(system, H, 0, method, n_samples)
+    a = onset_amplitude(mp)
+    a = a if np.isfinite(a) else 1.0
+    bb = continue_mode(mp, np.log10(span[0] * a), np.log10(span[1] * a), tol_rel=tol_rel)
+    F1 = np.asarray(system.forcing, complex)[:, 1]
+    syn = synthesise(bb, mp.M, mp.C, F1, refine=refiner(mp, bb, tol_rel))
+    amp = np.array([amplitude_half_peak_to_peak(Q)[dof] for Q in bb.Q])
+    Qd = bb.Q[:, dof, :]
+    harm = np.column_stack([np.abs(Qd[:, 0]), np.hypot(Qd[:, 1::2], Qd[:, 2::2])])
+    folds = []
+    for flank in (syn.below, syn.above):
+        ok = np.isfinite(flank)
+        d = np.diff(flank[ok])
+        turns = np.nonzero(d[:-1] * d[1:] < 0)[0] + 1
+        folds += list(flank[ok][turns])
+    order = np.r_[np.arange(bb.s.size), np.arange(bb.s.size)[::-1]]
+    omega, amp, harm = np.r_[syn.below, syn.above[::-1]], amp[order], harm[order]
+    if np.isfinite(syn.peak_s):   # the peak of the modal amplitude joins the two flanks
+        _, _, Q = point_at(mp, bb, syn.peak_s, tol_rel, segment=syn.peak_index)
+        k = bb.s.size
+        Qp = Q[dof]
+        omega = np.r_[omega[:k], syn.peak_omega, omega[k:]]
+        amp = np.r_[amp[:k], amplitude_half_peak_to_peak(Q)[dof], amp[k:]]
+        harm = np.vstack([harm[:k], np.r_[abs(Qp[0]), np.hypot(Qp[1::2], Qp[2::2])], harm[k:]])
+    drawn = np.isfinite(omega)
+    i = int(np.argmax(np.where(drawn, amp, -np.inf))) if drawn.any() else None
+    return {"omega": omega, "amplitude": amp, "harmonic_amplitude": harm,
+            "peak_amplitude": np.nan if i is None else float(amp[i]),
+            "peak_omega": np.nan if i is None else float(omega[i]),
+            "folds": np.sort(np.asarray(folds, float)), "message": bb.message}

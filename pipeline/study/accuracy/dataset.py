@@ -148,6 +148,9 @@ VARIABLES = (
     Variable("craig_bampton_modes", RUN, "1", "Craig-Bampton fixed-interface modes (-1: lumped)",
              np.int32, _modes),
     Variable("mesh", RUN, None, "blade mesh n_chord x n_thick x n_span ('' : lumped)", str, _mesh),
+    Variable("forced_response", RUN, None, "forced response: harmonic_balance (traced) or "
+             "nonlinear_mode (synthesised from the first nonlinear mode)", str,
+             _setting("forced_response")),
 ) + _error_variables() + (
     Variable("response_dof", RUN, None, "the case's response DOF (dof = 'response')"),
 )

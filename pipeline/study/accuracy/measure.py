@@ -23,6 +23,7 @@ from scipy.optimize import minimize_scalar
 from ...solve.time_integration import timesim
 from ...solve.harmonic_balance.hbm_state import state_at_zero
 from ...solve.response.response import frequency_response
+from ...solve.nonlinear_modes.synthesis import synthesised_curve
 from ...model.scene import CraigBampton, build_system, reduced_model, timed_blade_model
 from .spec import MESH_FIELDS, Case, Settings
 from ..files.spec import solver_rule_violations
@@ -64,6 +65,8 @@ class Measurement:
 def measure(case: Case, s: Settings, system_for, solver=None) -> Measurement:
     """Trace the case once with settings s: the result and its cost (`retime` adds
     timing runs).  `system_for(s)`: (System, DOF index, model time [s], n_dof_full)."""
+    if s.forced_response == "nonlinear_mode":
+        return measure_mode(case, s, system_for)
     solver = solver or frequency_response
     try:
         system, dof, t_model, n_full = system_for(s)
@@ -97,10 +100,42 @@ def measure(case: Case, s: Settings, system_for, solver=None) -> Measurement:
     return m
 
 
+def measure_mode(case: Case, s: Settings, system_for) -> Measurement:
+    """The forced response synthesised from the first nonlinear mode (its backbone from
+    0.01 to 1000 slip onsets, `solve.nonlinear_modes`) with the settings s: its cost
+    (backbone and synthesis), peak and folds (where a flank turns) and its curve."""
+    try:
+        system, dof, t_model, n_full = system_for(s)
+        t0, c0 = time.perf_counter(), time.process_time()
+        c = synthesised_curve(system, s.harmonics, dof, s.force_evaluation, s.samples,
+                              s.tolerance)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    except Exception as exc:  # a failing setting is a finding, not the end of the study
+        log.exception("%s: %s failed", case.name, s.describe())
+        return Measurement(success=False, message=f"{type(exc).__name__}: {exc}", crashed=True)
+    lo, hi = case.frequency.omega_start, case.frequency.omega_stop
+    inside = lo <= c["peak_omega"] <= hi
+    folds = c["folds"][(c["folds"] >= lo) & (c["folds"] <= hi)]     # the window's, as traced
+    return Measurement(success=bool(np.isfinite(c["peak_amplitude"]) and inside),
+                       message=c["message"] or ("" if inside else "peak outside the window"),
+                       wall_time=wall + t_model, cpu_time=cpu, model_time=t_model,
+                       peak_amplitude=c["peak_amplitude"], peak_frequency=c["peak_omega"],
+                       folds=folds, n_points=int(c["omega"].size), n_dof=int(system.n_dof),
+                       n_dof_full=int(n_full), omega=c["omega"], amplitude=c["amplitude"],
+                       harmonic_amplitude=c["harmonic_amplitude"],
+                       converged=np.isfinite(c["omega"]))
+
+
 def retime(case: Case, s: Settings, m: Measurement, system_for, solver=None) -> None:
     """Run the continuation of `m` again and keep the shorter time (wall and CPU
     of the same run)."""
     if m.crashed:
+        return
+    if s.forced_response == "nonlinear_mode":
+        again = measure_mode(case, s, system_for)
+        if again.wall_time < m.wall_time:
+            m.wall_time, m.cpu_time = again.wall_time, again.cpu_time
+        m.repeats += 1
         return
     solver = solver or frequency_response
     system, dof, t_model, _ = system_for(s)

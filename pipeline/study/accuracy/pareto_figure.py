@@ -94,7 +94,8 @@ def pareto_plot(ds, title: str | None = None):
 
 _KNOB_LABELS = {"harmonics": "harmonics H", "samples": "AFT samples N (then exact)",
                 "tolerance": "Newton tolerance", "max_step": "largest continuation step",
-                "craig_bampton_modes": "Craig-Bampton modes", "mesh": "mesh (chord x thickness x span)"}
+                "craig_bampton_modes": "Craig-Bampton modes", "mesh": "mesh (chord x thickness x span)",
+                "forced_response": "synthesised from the nonlinear mode"}
 
 
 def _wrap(text: str) -> str:
@@ -106,8 +107,8 @@ def _knob_value(sub, i, knob):
     if knob == "samples":
         n = int(sub["samples"].values[i])
         return "exact" if n < 0 else n
-    if knob == "mesh":
-        return str(sub["mesh"].values[i])
+    if knob in ("mesh", "forced_response"):
+        return str(sub[knob].values[i])
     v = sub[knob].values[i]
     return float(v) if knob in ("tolerance", "max_step") else int(v)
 
@@ -122,6 +123,8 @@ def _order(sub, i, knob):
     if knob == "mesh":
         counts = tuple(int(x) for x in v.split("x"))
         return (int(np.prod(counts)), counts)
+    if knob == "forced_response":     # the synthesis, then the harmonic balance (baseline)
+        return 0 if v == "nonlinear_mode" else 1
     return v
 
 

@@ -31,6 +31,9 @@ class Settings:
     initial_step: float = 0.02          # first continuation step
     craig_bampton_modes: int | None = None   # blades: fixed-interface modes
     mesh: tuple | None = None           # blades: (n_chord, n_thick, n_span)
+    # "harmonic_balance": the forced response traced; "nonlinear_mode": synthesised
+    # from the first mode's backbone (`solve.nonlinear_modes`)
+    forced_response: str = "harmonic_balance"
 
     def with_knob(self, knob: str, value) -> "Settings":
         """These settings with one knob changed (`samples` switches to AFT; a max_step
@@ -59,6 +62,8 @@ class Settings:
             parts.append(f"{self.craig_bampton_modes} CB modes")
         if self.mesh is not None:
             parts.append("mesh " + "x".join(map(str, self.mesh)))
+        if self.forced_response != "harmonic_balance":
+            parts.append("synthesised from the nonlinear mode")
         return ", ".join(parts)
 
 

@@ -69,7 +69,8 @@ from ..files.spec import (MAX_HARMONICS, FrequencyRange, StudyKind, always, neve
 log = logging.getLogger(__name__)
 
 CASES = ("lumped", "blade")
-_LUMPED_KNOBS = ("harmonics", "samples", "tolerance", "max_step")
+_LUMPED_KNOBS = ("harmonics", "samples", "tolerance", "max_step", "forced_response")
+RESPONSES = ("harmonic_balance", "nonlinear_mode")
 KNOBS = {"lumped": _LUMPED_KNOBS, "blade": _LUMPED_KNOBS + ("craig_bampton_modes", "mesh")}
 _SETTINGS = {"lumped": ("harmonics", "force_evaluation", "samples", "tolerance", "max_step",
                         "initial_step"),
@@ -194,6 +195,8 @@ def _setting(ck, key, value, field_, h_excited):
         return ck.integer(value, field_, 0, 10_000)
     if key == "mesh":
         return mesh_value(ck, value, field_)
+    if key == "forced_response":
+        return ck.string(value, field_, RESPONSES)
     raise AssertionError(key)
 
 

@@ -278,6 +278,9 @@ _FIXED = [
     (f"{CASE}.knobs", "max_step", "1", "", "largest steps"),
     (f"{CASE}.knobs", "craig_bampton_modes", "1", "", "blade case: mode counts"),
     (f"{CASE}.knobs", "mesh", "1", "", "blade case: meshes `[n_chord, n_thick, n_span]`"),
+    (f"{CASE}.knobs", "forced_response", "", "", '`"nonlinear_mode"`: the forced response '
+                                                 'synthesised from the first nonlinear mode '
+                                                 '(baseline: `"harmonic_balance"`)'),
 ]
 # [<case>.baseline] takes the keys of [<case>.reference]
 ALIASES[f"{CASE}.baseline"] = f"{CASE}.reference"

@@ -34,9 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...model.system import dense
 from ...solve.nonlinear_modes.backbone import continue_mode, damping_peak
-from ...solve.nonlinear_modes.epmc import mode_problem
+from ...solve.nonlinear_modes.epmc import mode_problem, onset_amplitude
 from ...solve.nonlinear_modes.synthesis import refiner, synthesise
 from ..execution import response_study
 from ..execution.kind_costs import RangeEstimate, estimate_lines
@@ -153,24 +152,6 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
                                nodal_diameters=nds, force_scales=scales, compare=compare,
                                reference_dof=ref,
                                quick=bool(quick))
-
-
-def onset_amplitude(mp) -> float:
-    """The smallest modal amplitude [kg^0.5 m] at which an element of the linear mode
-    slips (mu n0 / (ku |u|)) or lifts off (n0 / (kv |v|)), u, v per unit amplitude."""
-    sysm = mp.hbm.system
-    Bt, Bn = dense(sysm.Bt).astype(complex), dense(sysm.Bn).astype(complex)
-    cy = sysm.cyclic
-    if cy is not None:
-        z = np.exp(1j * cy.phase)
-        Bt, Bn = Bt + z * dense(cy.Bt_next), Bn + z * dense(cy.Bn_next)
-    u, v = np.abs(Bt @ mp.shape), np.abs(Bn @ mp.shape)
-    el = sysm.contact
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = np.concatenate([np.where((el.n0 > 0) & (el.ku * u > 0), el.mu * el.n0 / (el.ku * u),
-                                     np.inf),
-                            np.where((el.n0 > 0) & (el.kv * v > 0), el.n0 / (el.kv * v), np.inf)])
-    return float(np.min(a)) if a.size else np.inf
 
 
 def run_case(study: NonlinearModesStudy, case: dict) -> dict:

@@ -15,7 +15,7 @@ from pipeline.model.scene import full_system
 from pipeline.solve.nonlinear_modes import epmc
 from pipeline.solve.nonlinear_modes.backbone import continue_mode, newton, point_at
 from pipeline.study.files.documents import load_study
-from pipeline.study.modes.nonlinear_modes import onset_amplitude
+from pipeline.solve.nonlinear_modes.epmc import onset_amplitude
 from helpers import ROOT, STUDIES
 
 BEAMS = ROOT / "tests" / "studies" / "beam_disk6_nonlinear_modes.toml"

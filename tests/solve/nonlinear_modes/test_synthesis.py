@@ -76,7 +76,7 @@ def test_paper_example1_synthesis_against_the_harmonic_balance(preload):
     higher harmonics of the friction force, which one mode at its own frequency does
     not see, are largest where the element slips most)."""
     from pipeline.paper_systems import example1
-    from pipeline.study.modes.nonlinear_modes import onset_amplitude
+    from pipeline.solve.nonlinear_modes.epmc import onset_amplitude
 
     system = example1(preload)
     for H, rel_a, rel_w in ((1, 1e-8, 1e-8), (7, 5e-4, 5e-5)):

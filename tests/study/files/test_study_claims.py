@@ -237,7 +237,7 @@ def test_disk_nonlinear_modes_nd6_starts_at_the_stated_frequency():
     the ND 6 mode, one Newton solve of the EPMC equations (the quick run has ND 3, 12)."""
     from pipeline.solve.nonlinear_modes import epmc
     from pipeline.solve.nonlinear_modes.backbone import newton
-    from pipeline.study.modes.nonlinear_modes import onset_amplitude
+    from pipeline.solve.nonlinear_modes.epmc import onset_amplitude
 
     study = load_study(STUDIES / "disk_nonlinear_modes.toml")
     mp = epmc.mode_problem(study.response.system({"preload": 2.0, "eo": 6}), 3)
