@@ -5,9 +5,9 @@ dataset meets (attributes, units, coordinates: `conformance`):
 - `frequency` [Hz], `damping_ratio` [1], `modal_amplitude` [kg0.5 m] and `converged`
   on (case axes..., point), `message` on the case axes;
 - `converged` is 0 or 1, and 1 on a leading run of each case's points (padding after);
-- where converged: frequency and modal amplitude finite and positive, the modal
-  amplitude strictly increasing along `point`, the damping ratio finite; where not:
-  all three NaN;
+- where converged: frequency and modal amplitude finite and positive (the modal
+  amplitude may turn back where the backbone folds), the damping ratio finite; where
+  not: all three NaN;
 - where present, `stick_fraction` + `slip_fraction` + `separation_fraction` = 1 at
   every converged point and element.
 """
@@ -45,10 +45,6 @@ def check_nonlinear_modes(ds, say) -> int:
         say("frequency, modal_amplitude (> 0) and damping_ratio must be finite where converged")
     if not np.all(np.isnan(f[~ok]) & np.isnan(a[~ok]) & np.isnan(z[~ok])):
         say("frequency, modal_amplitude and damping_ratio must be NaN where not converged")
-    with np.errstate(invalid="ignore"):
-        steps = np.diff(np.where(ok, a, np.inf), axis=-1)
-    if np.any(steps[ok[..., 1:]] <= 0):
-        say("variable 'modal_amplitude' must increase strictly along 'point'")
     names = ("stick_fraction", "slip_fraction", "separation_fraction")
     if all(n in ds.variables for n in names):
         total = sum(ds[n].values for n in names)

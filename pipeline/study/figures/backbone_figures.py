@@ -6,7 +6,7 @@ diameter (or case), line style = preload.  `synthesis_<dof>.png`: per case, the 
 response synthesised from the backbone for every force scale (dashed) and, where it
 was computed, the full harmonic balance at force scale 1 (solid black), the two peaks
 marked (the synthesis's where the modal amplitude peaks), within the sweep's frequency
-range (far from it one mode says nothing).
+range (far from it one mode says nothing); the compared cases first, at most six panels.
 """
 from __future__ import annotations
 
@@ -33,12 +33,19 @@ def case_labels(ds) -> list:
     return out
 
 
+MAX_LEGEND = 9    # more nodal diameters than this: a colour scale instead of a legend
+
+
 def _colour_and_style(ds, sel):
     nd = sel.get("nodal_diameter", 0)
     others = [v for d, v in sel.items() if d != "nodal_diameter"]
     if "nodal_diameter" not in sel and others:
         return f"C{others[0] % 10}", STYLES[0]
-    return f"C{nd % 10}", STYLES[(others[0] if others else 0) % len(STYLES)]
+    style = STYLES[(others[0] if others else 0) % len(STYLES)]
+    n = ds.sizes.get("nodal_diameter", 1)
+    if n > MAX_LEGEND:
+        return plots.pyplot().get_cmap("viridis")(nd / max(n - 1, 1)), style
+    return f"C{nd % 10}", style
 
 
 def backbone_figure(path, ds):
@@ -50,7 +57,9 @@ def backbone_figure(path, ds):
         ok = one["converged"].values == 1
         a = one["modal_amplitude"].values[ok]
         c, ls = _colour_and_style(ds, sel)
-        top.plot(a, one["frequency"].values[ok], ls, color=c, label=label or None)
+        top.plot(a, one["frequency"].values[ok], ls, color=c,
+                 label=(label or None) if ds.sizes.get("nodal_diameter", 1) <= MAX_LEGEND
+                 else None)
         bottom.plot(a, one["damping_ratio"].values[ok], ls, color=c)
     bottom.set_xscale("log")
     bottom.set_xlabel("modal amplitude a [kg$^{1/2}$ m]")
@@ -58,7 +67,22 @@ def backbone_figure(path, ds):
     bottom.set_ylabel("modal damping ratio [-]")
     for ax in (top, bottom):
         ax.grid(alpha=0.3, which="both")
-    if top.get_legend_handles_labels()[0]:
+    n = ds.sizes.get("nodal_diameter", 1)
+    if n > MAX_LEGEND:    # colour = nodal diameter on a scale; line style = the other axes
+        nds = ds["nodal_diameter"].values
+        sm = plt.cm.ScalarMappable(cmap="viridis", norm=plt.Normalize(0, n - 1))
+        bar = fig.colorbar(sm, ax=[top, bottom], location="right", shrink=0.8)
+        ticks = np.unique(np.linspace(0, n - 1, min(n, 7)).round().astype(int))
+        bar.set_ticks(ticks, labels=[str(nds[t]) for t in ticks])
+        bar.set_label("nodal diameter")
+        others = [d for d in ds["frequency"].dims if d not in ("point", "nodal_diameter")]
+        if others and ds.sizes[others[0]] > 1:
+            d = others[0]
+            handles = [top.plot([], [], STYLES[k % len(STYLES)], color="0.3")[0]
+                       for k in range(ds.sizes[d])]
+            fig.legend(handles, [f"{d} {v:g}" for v in ds[d].values], fontsize=7,
+                       loc="outside lower center", ncol=5, frameon=False)
+    elif top.get_legend_handles_labels()[0]:
         fig.legend(fontsize=7, loc="outside lower center", ncol=3, frameon=False)
     plots.wrapped_title(fig, ds.attrs.get("title", ""), fontsize=9)
     out = plots.atomic_savefig(fig, path)
@@ -68,7 +92,13 @@ def backbone_figure(path, ds):
 
 def synthesis_figure(path, ds, dof: int):
     plt = plots.pyplot()
-    cases = case_labels(ds)[:MAX_PANELS]
+    cases = case_labels(ds)
+    if "hbm_frequency" in ds:    # the cases compared with the harmonic balance first
+        compared = [bool(np.isfinite(ds["hbm_frequency"].isel(sel).values).any())
+                    for sel, _ in cases]
+        cases = [c for c, k in zip(cases, compared) if k] + \
+                [c for c, k in zip(cases, compared) if not k]
+    cases = cases[:MAX_PANELS]
     cols = min(3, len(cases))
     rows = -(-len(cases) // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(3.3 * cols + 0.6, 2.9 * rows + 0.8),
