@@ -35,6 +35,7 @@ RUN_HERE = [
     "python -m pipeline run studies/paper_example3.toml",
     "python -m pipeline check results/paper_example3.nc",
     "python -m pipeline run studies/disk_laxalde.toml",
+    "python -m pipeline run studies/disk_nonlinear_modes.toml",
     "python -m pipeline check studies/disk_cyclic.toml",
     "python -m pipeline hysteresis",
     "python -m pipeline optimise studies/paper_example1.toml",
