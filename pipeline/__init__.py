@@ -11,6 +11,8 @@ stays cheap: no xarray, no matplotlib until a dataset or figure is made):
     build_system(scene, case) -> System          frequency_response(system, H, w0, w1, ...)
     Study, Sweep, FrequencyRange, SolverSettings, OutputSettings   a response study
     to_dataset(study, curves) -> xarray.Dataset  write_netcdf(ds, path), read_dataset(path)
+    mode_problem(system, H, mode=0) -> ModeProblem   continue_mode(problem, s0, s1) -> Backbone
+    synthesise(backbone, M, C, F1) -> Synthesis  nonlinear modes and forced responses from them
 
 `studies/python_example.py` writes the paper's Example 1 this way.
 """
@@ -48,6 +50,9 @@ _PUBLIC = {
     "write_netcdf": "pipeline.study.datasets.dataset",
     "read_dataset": "pipeline.study.datasets.dataset",
     "UsageError": "pipeline.errors",
+    "mode_problem": "pipeline.solve.nonlinear_modes.epmc",
+    "continue_mode": "pipeline.solve.nonlinear_modes.backbone",
+    "synthesise": "pipeline.solve.nonlinear_modes.synthesis",
 }
 __all__ = ["__version__", *_PUBLIC]
 
