@@ -344,11 +344,11 @@ def test_study_kinds_are_dispatched_in_one_place():
 
 # Where the Yang-Menq element may be named: the contact layer, the study layer (study
 # files, their scenes, and the law-specific outputs: hysteresis loops and contact
-# states), the modules that turn a declared scene into elements, the paper's systems
-# (declared data) and the contact element's benchmark.  The solvers, the structures and
-# the generic model reach the elements through `contact.laws` / `contact.registry`.
-YANG_MENQ_NAMED_IN = ("pipeline/contact/", "pipeline/study/", "pipeline/model/scene.py",
-                      "pipeline/model/contacts.py", "pipeline/paper_systems.py",
+# states), the paper's systems (declared data) and the contact element's benchmark.
+# The solvers, the structures and the model (scenes become elements through
+# `contact.registry.friction_elements`) reach the elements through `contact.laws` and
+# `contact.registry`.
+YANG_MENQ_NAMED_IN = ("pipeline/contact/", "pipeline/study/", "pipeline/paper_systems.py",
                       "pipeline/bench/")
 
 

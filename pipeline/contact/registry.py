@@ -24,6 +24,18 @@ LAWS = {
 ELEMENT_LAWS = {YangMenq: YangMenqLaw}
 
 
+def friction_elements(law: str = "yang_menq", **parameters):
+    """The element set (`laws.ContactElements`) of a structure's shroud contacts under
+    the law named `law`, from per-element parameters (Yang-Menq: ku, kv [N/m], mu [-],
+    n0 [N]): where a scene's declared contacts become elements, so a second law of the
+    tangential/normal kind plugs in here."""
+    kinds = {YangMenqLaw.name: YangMenq}
+    if law not in kinds:
+        raise ValueError(f"no element set for the contact law {law!r} (known: "
+                         f"{', '.join(kinds)})")
+    return kinds[law](**parameters)
+
+
 def law_of(elements):
     """The contact law evaluating `elements` (a `laws.ContactElements`)."""
     try:

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..contact import YangMenq
+from ..contact.laws import ContactElements
+from ..contact.registry import friction_elements
 from ..structure.disk import pair_faces
 from ..structure.fe_model import project_rows
 
@@ -180,8 +181,9 @@ def case_parameter(contacts, owner, case, name, attr):
     return np.array(vals, dtype=float)[owner]
 
 
-def contact_elements(contacts, case: dict, owner=None, weights=None) -> YangMenq:
-    """Yang-Menq parameters of `contacts` with a case applied, one element per row of
+def contact_elements(contacts, case: dict, owner=None, weights=None) -> ContactElements:
+    """The elements (Yang-Menq parameters, `registry.friction_elements`) of `contacts`
+    with a case applied, one element per row of
     `owner` (the contact of each element; default one per contact).  A `FaceContact`'s
     (or `ShroudPair`'s) preload is the total of its face: shared equally ("per_node")
     or, with ku and kv, by node area ("per_face"; `weights[i]` the areas of contact
@@ -203,4 +205,4 @@ def contact_elements(contacts, case: dict, owner=None, weights=None) -> YangMenq
             ku[on], kv[on], n0[on] = ku[on] * share, kv[on] * share, n0[on] * share
         else:
             n0[on] = n0[on] / max(int(on.sum()), 1)
-    return YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)
+    return friction_elements(ku=ku, kv=kv, mu=mu, n0=n0)

@@ -38,7 +38,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..contact import YangMenq
+from ..contact.laws import ContactElements
 from . import cyclic
 from .contacts import DofContact, FaceContact, ShroudPair, contact_elements, fe_contact_maps
 from .loads import Forcing, point_forcing
@@ -266,7 +266,7 @@ def full_dof(scene: Scene, name: str) -> int:
 # ---------------------------------------------------------------------------
 
 
-def blade_elements(scene: Scene, case: dict | None = None) -> YangMenq:
+def blade_elements(scene: Scene, case: dict | None = None) -> ContactElements:
     """The Yang-Menq parameters of an FE scene's face contacts and shroud pairs, one
     per face node (node pair)."""
     *_, owner, weights = blade_contact_maps(scene, full=True)
@@ -303,7 +303,7 @@ class Parts:
     Bn: object
     Bt_next: np.ndarray
     Bn_next: np.ndarray
-    contact: YangMenq
+    contact: ContactElements
     forcing: np.ndarray
     dofs: tuple
 
