@@ -438,24 +438,25 @@ def term_layout(t: Term, H: int, Om: float) -> np.ndarray:
 
 
 def apply_full(K, C, M, Q, Om: float, D, extra=(), rate: bool = False):
-    """K Q + Om C Q D^T + Om^2 M Q (D D)^T (+ the terms' A Q F^T) of coefficients Q
-    (n, 2H+1): the linear part of the full residual (with |K|, |C|, |M|, |D| the
-    absolute terms of its round-off); rate=True: its derivative d/dOmega,
+    """K Q + Om C Q D^T + Om^2 M Q (D D)^T (+ the terms' A Q F^T) of Q (n, 2H+1): the
+    full residual's linear part (|K|, |C|, |M|, |D|: its round-off); rate=True: d/dOmega,
     C Q D^T + 2 Om M Q (D D)^T + (p + q)/Om A Q F^T (F_t is Om^(p+q) times a constant)."""
     if rate:
-        return (C @ Q) @ D.T + 2.0 * Om * (M @ Q) @ (D @ D).T + apply_terms(Q, Om, extra, True)
-    return K @ Q + Om * (C @ Q) @ D.T + Om**2 * (M @ Q) @ (D @ D).T + apply_terms(Q, Om, extra)
+        out = (C @ Q) @ D.T + 2.0 * Om * (M @ Q) @ (D @ D).T
+    else:
+        out = K @ Q + Om * (C @ Q) @ D.T + Om**2 * (M @ Q) @ (D @ D).T
+    return apply_terms(Q, Om, extra, rate, out)
 
 
-def apply_terms(Q, Om: float, terms, rate: bool = False):
-    """sum_t A_t Q F_t^T (rate=True: d/dOmega of it) of coefficients Q (n, 2H+1): the
-    added terms alone, e.g. the derivative of an EPMC term in zeta (its A_t = dA/dzeta)."""
+def apply_terms(Q, Om: float, terms, rate: bool = False, out=None):
+    """out + sum_t A_t Q F_t^T (rate=True: d/dOmega of the sum) of Q (n, 2H+1); out None:
+    the terms alone (an EPMC term's derivative in zeta: A_t = dA/dzeta)."""
     H = (Q.shape[1] - 1) // 2
-    out = np.zeros(Q.shape)
     for t in terms:
         f = (t.power + t.omega_power) / Om if rate else 1.0
-        out = out + f * (t.matrix @ Q) @ term_layout(t, H, Om).T
-    return out
+        add = f * (t.matrix @ Q) @ term_layout(t, H, Om).T
+        out = add if out is None else out + add
+    return np.zeros(Q.shape) if out is None else out
 
 
 def full_operator(sys, Om: float, H: int, extra=()) -> np.ndarray:
