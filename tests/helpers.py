@@ -37,6 +37,49 @@ def stated(name, pattern):
     return [float(g) for g in m.groups()]
 
 
+def example1_study(title, *, study="", preload="[0.0, 2.0]", solver="harmonics = 3",
+                   output='dofs = ["x"]', extra=""):
+    """The text of a study file of the paper's Example 1 (m = 1 kg, c = 0.3 N s/m,
+    k = 3.55e4 N/m, a Jenkins damper to ground ku = 1e4 N/m, mu = 0.5, 1 N at x,
+    150-250 rad/s): `study` lines go into [study], `solver` and `output` are those
+    tables' lines, `extra` further tables."""
+    return f"""
+[study]
+title = "{title}"
+{study}
+
+[scene]
+model = "lumped"
+effects = ["friction"]
+dofs = ["x"]
+
+[scene.matrices]
+M = [[1.0]]
+C = [[0.3]]
+K = [[3.55e4]]
+
+[[scene.contact]]
+name = "damper"
+tangential = ["x"]
+ku = 1.0e4
+mu = 0.5
+
+[[scene.excitation]]
+dof = "x"
+amplitude = 1.0
+
+[sweep]
+preload = {preload}
+frequency = {{ start = 150.0, stop = 250.0, unit = "rad/s" }}
+
+[solver]
+{solver}
+
+[output]
+{output}
+{extra}"""
+
+
 # --------------------------------------------------------------------------- numerics
 def fd(fun, x, h=1e-7):
     """Central-difference Jacobian d fun / d x, column j = (f(x + h e_j) - f(x - h e_j)) / 2h."""

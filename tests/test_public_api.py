@@ -12,47 +12,16 @@ import numpy as np
 import pytest
 
 import pipeline
+from helpers import example1_study
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "studies" / "python_example.py"
 
 # the scene, sweep and settings of studies/python_example.py as a study file
-EXAMPLE_TOML = """
-[study]
-title = "Example 1 in Python: single-DOF oscillator with a friction damper to ground"
-reference = "Sec. 6.1, Eq. 12-13, Fig. 2"
-
-[scene]
-model = "lumped"
-effects = ["friction"]
-dofs = ["x"]
-
-[scene.matrices]
-M = [[1.0]]
-C = [[0.3]]
-K = [[3.55e4]]
-
-[[scene.contact]]
-name = "damper"
-tangential = ["x"]
-ku = 1.0e4
-mu = 0.5
-
-[[scene.excitation]]
-dof = "x"
-amplitude = 1.0
-
-[sweep]
-preload = [0.0, 2.0, 1000.0]
-frequency = { start = 150.0, stop = 250.0, unit = "rad/s" }
-
-[solver]
-harmonics = 3
-
-[output]
-dofs = ["x"]
-yscale = "log"
-"""
+EXAMPLE_TOML = example1_study(
+    "Example 1 in Python: single-DOF oscillator with a friction damper to ground",
+    study='reference = "Sec. 6.1, Eq. 12-13, Fig. 2"', preload="[0.0, 2.0, 1000.0]",
+    output='dofs = ["x"]\nyscale = "log"')
 # attributes that say where a dataset came from, not what it holds
 PROVENANCE = ("study", "created")
 MEASURED = ("wall_time",)   # [s] each case's continuation took on this machine

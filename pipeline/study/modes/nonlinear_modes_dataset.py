@@ -219,12 +219,15 @@ META = {
                                         "peak at which the backbone point's amplitude is reached"),
     "synthesis_frequency_above": ("Hz", "synthesised response: excitation frequency above the "
                                         "peak at which the backbone point's amplitude is reached"),
-    "synthesis_peak_frequency": ("Hz", "synthesised response: frequency of the peak"),
-    "synthesis_peak_amplitude": ("m", "synthesised response: amplitude of the DOF at the peak"),
+    "synthesis_peak_frequency": ("Hz", "synthesised response: frequency of the peak (NaN: "
+                                       "the peak lies beyond the backbone's amplitude range)"),
+    "synthesis_peak_amplitude": ("m", "synthesised response: amplitude of the DOF at the peak "
+                                      "(NaN: beyond the backbone's range)"),
     "synthesis_time": ("s", "wall time of the synthesis (peak located exactly)"),
     "backbone_time": ("s", "wall time of the backbone"),
     "slip_onset_amplitude": ("kg0.5 m", "modal amplitude at which the first element of the "
-                                        "linear mode slips or lifts off"),
+                                        "linear mode slips or lifts off (inf: none does, the "
+                                        "mode is linear; drawn over the unit amplitude range)"),
     "linear_frequency": ("Hz", "frequency of the small-amplitude linear mode (preloaded "
                                "contacts stuck)"),
     "peak_damping_ratio": ("1", "largest modal damping ratio along the backbone (located "

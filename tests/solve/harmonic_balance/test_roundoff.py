@@ -15,6 +15,7 @@ from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.harmonic_balance import roundoff
 from pipeline.solve.response.response import frequency_response
 from pipeline.paper_systems import example1
+from helpers import example1_study
 
 K0, KC, ZETA = 1e4, 1e9, 1e-2   # N/m soft ground spring, N/m stiff coupling, damping ratio
 
@@ -103,46 +104,11 @@ def test_a_tolerance_above_the_floor_keeps_its_meaning():
     assert max(floors) < 0.1 * min(tols)   # the peak's amplification is 230 here
 
 
-SHORT = """
-[study]
-title = "a branch cut short by max_points"
-description = "the Example 1 oscillator"
-reference = "Sec. 6.1"
-
-[scene]
-model = "lumped"
-effects = ["friction"]
-dofs = ["x"]
-
-[scene.matrices]
-M = [[1.0]]
-C = [[0.3]]
-K = [[3.55e4]]
-
-[[scene.contact]]
-name = "damper"
-tangential = ["x"]
-ku = 1.0e4
-mu = 0.5
-
-[[scene.excitation]]
-dof = "x"
-amplitude = 1.0
-
-[sweep]
-preload = [0.0, 2.0]
-frequency = { start = 150.0, stop = 250.0, unit = "rad/s" }
-
-[solver]
-harmonics = 3
-tolerance = 1e-9
-stability = false
-max_points = MAXP
-
-[output]
-dofs = ["x"]
-figures = []
-"""
+SHORT = example1_study(
+    "a branch cut short by max_points",
+    study='description = "the Example 1 oscillator"\nreference = "Sec. 6.1"',
+    solver="harmonics = 3\ntolerance = 1e-9\nstability = false\nmax_points = MAXP",
+    output='dofs = ["x"]\nfigures = []')
 
 
 def test_a_branch_that_stops_short_is_flagged_and_named_once(tmp_path, capsys):

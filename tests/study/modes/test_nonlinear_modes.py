@@ -13,45 +13,16 @@ from pipeline.solve.nonlinear_modes.backbone import continue_mode
 from pipeline.study.datasets.conformance import problems
 from pipeline.study.files.documents import parse_study
 from pipeline.errors import UsageError
-from helpers import ROOT
+from helpers import ROOT, example1_study
 
-LUMPED = """
-[study]
-kind = "nonlinear_modes"
-title = "Jenkins oscillator: backbone and damping"
-
-[scene]
-model = "lumped"
-effects = ["friction"]
-dofs = ["x"]
-
-[scene.matrices]
-M = [[1.0]]
-K = [[1.0e4]]
-C = [[0.2]]
-
-[[scene.contact]]
-name = "damper"
-tangential = ["x"]
-ku = 3.0e4
-mu = 0.5
-n0 = 1.0
-
-[[scene.excitation]]
-dof = "x"
-amplitude = 0.3
-
+# the paper's Example 1 (k = 3.55e4, ku = 1e4 N/m, mu = 0.5, m = 1 kg) as a modes study
+LUMPED = example1_study(
+    "Jenkins oscillator: backbone and damping", study='kind = "nonlinear_modes"',
+    preload="[1.0, 2.0]", extra="""
 [modes]
-amplitude = [0.1, 100.0]
+amplitude = [0.1, 1000.0]
 force_scales = [0.5, 1.0]
-
-[sweep]
-preload = [1.0, 2.0]
-frequency = { start = 80.0, stop = 220.0, unit = "rad/s" }
-
-[solver]
-harmonics = 3
-"""
+""")
 
 
 def test_lumped_study_runs_and_its_dataset_is_the_solvers(tmp_path):
@@ -74,14 +45,15 @@ def test_lumped_study_runs_and_its_dataset_is_the_solvers(tmp_path):
     study = parse_study(LUMPED)
     for n0 in (1.0, 2.0):
         mp = epmc.mode_problem(study.response.system({"preload": n0}), 3)
-        onset = 0.5 * n0 / 3.0e4          # mu n0 / ku at a unit modal amplitude (m = 1)
-        bb = continue_mode(mp, np.log10(0.1 * onset), np.log10(100 * onset), tol_rel=1e-9)
+        onset = 0.5 * n0 / 1.0e4          # mu n0 / ku at a unit modal amplitude (m = 1)
+        bb = continue_mode(mp, np.log10(0.1 * onset), np.log10(1000 * onset), tol_rel=1e-9)
         one = ds.sel(preload=n0)
         ok = one["converged"].values == 1
         assert float(one["slip_onset_amplitude"]) == pytest.approx(onset, rel=1e-12)
         assert np.array_equal(one["frequency"].values[ok], bb.omega / (2 * np.pi))
-        assert one["frequency"].values[ok][0] == pytest.approx(200 / (2 * np.pi), rel=1e-5)
-        assert one["frequency"].values[ok][-1] == pytest.approx(100 / (2 * np.pi), rel=0.02)
+        stuck, free = np.sqrt(4.55e4), np.sqrt(3.55e4)     # rad/s: k + ku, k
+        assert one["frequency"].values[ok][0] == pytest.approx(stuck / (2 * np.pi), rel=1e-5)
+        assert one["frequency"].values[ok][-1] == pytest.approx(free / (2 * np.pi), rel=1e-3)
         e = one["dissipated_energy"].values[ok]
         a = one["modal_amplitude"].values[ok]
         assert np.all(e[a < 0.99 * onset] == 0) and np.all(e[a > 1.01 * onset] > 0)
@@ -90,7 +62,7 @@ def test_lumped_study_runs_and_its_dataset_is_the_solvers(tmp_path):
 
 @pytest.mark.parametrize("edit, field", [
     (('[modes]', '[modes]\nnodal_diameters = [1]'), "modes.nodal_diameters"),
-    (('amplitude = [0.1, 100.0]', 'amplitude = [100.0, 0.1]'), "modes.amplitude"),
+    (('amplitude = [0.1, 1000.0]', 'amplitude = [1000.0, 0.1]'), "modes.amplitude"),
     (('force_scales = [0.5, 1.0]', 'force_scales = [0.0]'), "modes.force_scales[0]"),
     (('[modes]', '[modes]\nharmonics = 3'), "modes"),
     (('[modes]', '[modes]\ncompare = "yes"'), "modes.compare"),
