@@ -38,6 +38,7 @@ from ...solve.nonlinear_modes.backbone import continue_mode, damping_peak
 from ...solve.nonlinear_modes.epmc import mode_problem, onset_amplitude
 from ...solve.nonlinear_modes.synthesis import refiner, synthesise
 from ..execution import response_study
+from ..execution.cases import default_solver
 from ..execution.kind_costs import RangeEstimate, estimate_lines
 from ..files.header import overlay
 from ..files.spec import StudyHeader, StudyKind, Study, StudyResult, always, never
@@ -186,7 +187,7 @@ def run_case(study: NonlinearModesStudy, case: dict) -> dict:
         kw = sv.kwargs()
         kw["stability"] = False
         kw["peak_dofs"] = [list(system.dof_names).index(d) for d in resp.output.dofs]
-        out["curve"] = response_study.default_solver(resp)(
+        out["curve"] = default_solver(resp)(
             system, sv.harmonics, fr.omega_start, fr.omega_stop, **kw)
         out["curve_time"] = time.perf_counter() - t1
     return out
