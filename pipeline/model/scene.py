@@ -73,12 +73,14 @@ class Blade:
     Damping: Rayleigh (alpha [1/s], beta [s]) or, when None, the params' modal ratios.
     disk: where the blade sits in a wheel (`fe_model.DiskPlacement`; a generated
     blade is then shaped for it, `solid.solid_mesh`, `beam.shroud_face_geometry`),
-    needed by `ShroudPair`s."""
+    needed by `ShroudPair`s.  matrices: K and M exported by another FE code for
+    `mesh` (`structure.exchange.imported.MatrixFiles`) instead of the package's own."""
 
     params: object           # fe_model.BladeParams
     mesh: str | None = None
     rayleigh: tuple | None = None
     disk: object = None      # fe_model.DiskPlacement | None
+    matrices: object = None  # imported.MatrixFiles | None
 
 
 @dataclass(frozen=True)
@@ -224,7 +226,10 @@ def timed_blade_model(structure: Blade) -> tuple:
     from ..structure.blades import build_blade, load_blade
 
     t0 = time.perf_counter()
-    if structure.mesh:
+    if structure.matrices is not None:
+        from ..structure.exchange.imported import import_blade
+        blade = import_blade(structure.mesh, structure.matrices, structure.params)
+    elif structure.mesh:
         blade = load_blade(structure.mesh, structure.params, required=("root",))
     else:
         blade = build_blade(structure.params, structure.disk)

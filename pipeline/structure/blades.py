@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from .beam import beam_blade
 from .fe_model import CONTACT_SETS, REQUIRED_SETS, BladeModel, BladeParams, DiskPlacement
-from .mesh_io import read_mesh
-from .solid import solid_blade, solid_from_mesh
+from .mesh_io import read_volume
+from .solid import MESH_ELEMENTS, solid_blade, solid_from_mesh
 
 
 def build_blade(p: BladeParams, disk: DiskPlacement | None = None) -> BladeModel:
@@ -18,6 +18,6 @@ def load_blade(path, p: BladeParams = BladeParams(),
                required=("root",) + CONTACT_SETS) -> BladeModel:
     """Solid blade from a mesh file (.msh/.vtu/.xdmf) with named node sets; material
     and damping from `p`.  A missing set raises ValueError naming file and set."""
-    mesh, sets = read_mesh(path, required)
-    keep = {k: v for k, v in sets.items() if k in REQUIRED_SETS}
-    return solid_from_mesh(mesh, keep, p, str(path))
+    v = read_volume(path, required)
+    keep = {k: s for k, s in v.node_sets.items() if k in REQUIRED_SETS}
+    return solid_from_mesh(v.mesh, keep, p, str(path), MESH_ELEMENTS[v.cell_type]())

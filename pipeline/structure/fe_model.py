@@ -247,6 +247,7 @@ class BladeModel:
     (Np, 3) gives the free DOF of each displacement component (-1: clamped), in the
     frame `point_rotation` (global = point_rotation @ local; identity for solids).
     dof_sets: name -> (k, 3) free DOF indices; set_points: name -> (k, 3) coordinates.
+    rotation: the terms of a blade turning about its disk axis (`rotation`), or None.
     """
 
     params: BladeParams
@@ -260,6 +261,7 @@ class BladeModel:
     set_points: dict = field(default_factory=dict)
     frames: dict = field(default_factory=dict)
     node_sets: dict = field(default_factory=dict)
+    rotation: object = None   # rotation.RotationTerms (per Omega^2) of a turning blade
 
     @property
     def n_dof(self) -> int:

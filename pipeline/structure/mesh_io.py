@@ -5,6 +5,7 @@ sets, cell sets or gmsh physical groups.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import meshio
@@ -15,6 +16,7 @@ from skfem.io.meshio import HEX_MAPPING
 from .fe_model import REQUIRED_SETS, BladeModel, point_displacements
 
 _INV_HEX = [HEX_MAPPING.index(i) for i in range(8)]
+CORNERS = {"hexahedron": 8, "hexahedron20": 8, "hexahedron27": 8, "tetra": 4, "tetra10": 4}
 
 
 def write_mesh(model: BladeModel, path, point_data: dict | None = None) -> Path:
@@ -40,6 +42,22 @@ def write_mesh(model: BladeModel, path, point_data: dict | None = None) -> Path:
     return path
 
 
+@dataclass(frozen=True, eq=False)
+class VolumeMesh:
+    """A volume mesh file read: `mesh` (scikit-fem, corner vertices), `node_sets`
+    (name -> vertex indices), `cell_type` (meshio's name of the volume cells, e.g.
+    "hexahedron20"), `cells` (E, nodes) their full connectivity in file point indices
+    (meshio's node order), `vertex` (file point -> vertex index, -1 for a midside or
+    unused point) and `point_sets` (name -> file point indices, midside nodes too)."""
+
+    mesh: object
+    node_sets: dict
+    cell_type: str
+    cells: np.ndarray
+    vertex: np.ndarray
+    point_sets: dict
+
+
 def read_mesh(path, required=REQUIRED_SETS):
     """Read a volume mesh and its named node sets: (skfem mesh, {name: vertex indices}).
 
@@ -47,19 +65,50 @@ def read_mesh(path, required=REQUIRED_SETS):
     set (its cells' nodes, e.g. gmsh physical surfaces).  Quadratic cells are read
     by their corner nodes; unused points are dropped.
     """
+    v = read_volume(path, required)
+    return v.mesh, v.node_sets
+
+
+def read_volume(path, required=REQUIRED_SETS, scale: float = 1.0) -> VolumeMesh:
+    """`read_mesh` with the file's cell type and point numbering (`VolumeMesh`);
+    coordinates multiplied by `scale` (1e-3 for a mesh in millimetres)."""
     path = Path(path)
     if not path.exists():
         raise ValueError(f"mesh file {path} does not exist")
     m = meshio.read(path)
-    kinds = {"hexahedron": 8, "hexahedron27": 8, "hexahedron20": 8,
-             "tetra": 4, "tetra10": 4}
-    blocks = [(i, c) for i, c in enumerate(m.cells) if c.type in kinds]
+    blocks = [c for c in m.cells if c.type in CORNERS]
     if not blocks:
         raise ValueError(f"{path}: no hexahedral or tetrahedral cells "
                          f"(found {[c.type for c in m.cells]})")
-    hexa = blocks[0][1].type.startswith("hexa")
-    conn = np.concatenate([c.data[:, :kinds[c.type]] for _, c in blocks
-                           if c.type.startswith("hexa") == hexa])
+    kinds = {c.type for c in blocks}
+    if len(kinds) > 1:
+        raise ValueError(f"{path}: one kind of volume cell per mesh, found {sorted(kinds)}")
+    cell_type = blocks[0].type
+    full = np.concatenate([c.data for c in blocks])
+    conn = full[:, :CORNERS[cell_type]]
+    sets = _named_sets(m)
+    for name in required:
+        if name not in sets or len(sets[name]) == 0:
+            raise ValueError(f"mesh file {path} has no node set {name!r} "
+                             f"(found: {sorted(sets) or 'none'})")
+    used = np.unique(conn)
+    renum = -np.ones(len(m.points), dtype=np.int64)
+    renum[used] = np.arange(used.size)
+    X = np.ascontiguousarray(scale * m.points[used, :3].T, dtype=float)
+    t = renum[conn].T
+    hexa = cell_type.startswith("hexa")
+    mesh = MeshHex(X, np.ascontiguousarray(t[_INV_HEX])) if hexa else MeshTet(X, t)
+    node_sets = {}
+    for k, v in sets.items():
+        r = renum[np.asarray(v, dtype=np.int64)]
+        node_sets[k] = r[r >= 0]
+    return VolumeMesh(mesh, node_sets, cell_type, full, renum,
+                      {k: np.asarray(v, dtype=np.int64) for k, v in sets.items()})
+
+
+def _named_sets(m) -> dict:
+    """name -> file point indices of the named sets of a meshio Mesh (masks, point
+    sets, cell sets, gmsh physical groups; the first found wins)."""
     sets = {}
     for name, arr in m.point_data.items():
         a = np.asarray(arr).ravel()
@@ -79,21 +128,7 @@ def read_mesh(path, required=REQUIRED_SETS):
             nodes = np.concatenate(nodes) if nodes else np.array([], int)
             if nodes.size:
                 sets.setdefault(name, np.unique(nodes))
-    for name in required:
-        if name not in sets or len(sets[name]) == 0:
-            raise ValueError(f"mesh file {path} has no node set {name!r} "
-                             f"(found: {sorted(sets) or 'none'})")
-    used = np.unique(conn)
-    renum = -np.ones(len(m.points), dtype=np.int64)
-    renum[used] = np.arange(used.size)
-    X = np.ascontiguousarray(m.points[used, :3].T, dtype=float)
-    t = renum[conn].T
-    mesh = MeshHex(X, np.ascontiguousarray(t[_INV_HEX])) if hexa else MeshTet(X, t)
-    node_sets = {}
-    for k, v in sets.items():
-        r = renum[np.asarray(v, dtype=np.int64)]
-        node_sets[k] = r[r >= 0]
-    return mesh, node_sets
+    return sets
 
 
 def write_fields(model: BladeModel, path, fields: dict) -> Path:

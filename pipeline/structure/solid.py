@@ -16,15 +16,23 @@ from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
-from skfem import Basis, ElementHex2, ElementTetP2, FacetBasis, LinearForm, MeshHex, MeshTet
+from skfem import (Basis, BilinearForm, ElementHex2, ElementHexS2, ElementTetP2, FacetBasis,
+                   LinearForm, MeshHex, MeshTet)
 from skfem.io.meshio import HEX_MAPPING
 from skfem.models.elasticity import lame_parameters
 
 from .disk import wheel_params
+from .rotation import rotation_terms
 from .fe_model import (CONTACT_SETS, POINT_SETS, BladeModel, BladeParams, ContactFrame,
                        DiskPlacement, rotation_z)
 
 log = logging.getLogger(__name__)
+
+# the element solved on a mesh file's volume cells (meshio cell type): quadratic
+# everywhere (linear elements lock in bending); 20-node hexahedra keep their
+# serendipity space (CalculiX C3D20, ANSYS SOLID186, Abaqus C3D20)
+MESH_ELEMENTS = {"hexahedron": ElementHex2, "hexahedron27": ElementHex2,
+                 "hexahedron20": ElementHexS2, "tetra": ElementTetP2, "tetra10": ElementTetP2}
 
 
 # ---------------------------------------------------------------------------
@@ -169,14 +177,22 @@ def _set_dofs(mesh, basis, nodes):
 
 
 def _face_weights(mesh, sbasis, nodes, scalar_dofs):
-    """int_face N_s dA [m^2] of the scalar DOFs `scalar_dofs` over the boundary facets
-    spanned by `nodes` (None if they span none): the area each face point carries."""
+    """The area [m^2] each face point carries over the boundary facets spanned by
+    `nodes` (None if they span none): the consistent a_i = int_face N_i dA where all
+    are positive (9-node faces of Hex2, 4-node faces), else the HRZ lumping
+    a_i = A int N_i^2 dA / sum_j int N_j^2 dA (Hinton, Rock & Zienkiewicz 1976) --
+    the consistent corner areas of an 8-node serendipity face are negative and those
+    of a 6-node triangle zero, which no contact stiffness may take."""
     bf = mesh.boundary_facets()
     facets = bf[np.isin(mesh.facets[:, bf], nodes).all(axis=0)]
     if not facets.size:
         return None
     fb = FacetBasis(mesh, sbasis.elem, facets=facets, intorder=4)
-    return LinearForm(lambda v, w: v).assemble(fb)[scalar_dofs]
+    a = LinearForm(lambda v, w: v).assemble(fb)[scalar_dofs]
+    if np.all(a > 0):
+        return a
+    d = BilinearForm(lambda u, v, w: u * v).assemble(fb).diagonal()[scalar_dofs]
+    return a.sum() * d / d.sum()
 
 
 def _frame(mesh, name, nodes, points, dofs, n_right, weights=None):
@@ -265,31 +281,37 @@ class _VectorDofs:
         return 3 * s[:, None] + np.arange(3)
 
 
-def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<generated>"
-                    ) -> BladeModel:
+def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<generated>",
+                    element=None, matrices=None, rotation_centre=None) -> BladeModel:
     """Assemble a clamped solid blade on a MeshHex/MeshTet with named vertex sets.
 
-    Hexahedra use ElementHex2 with intorder 4 (3 Gauss points per direction; the
-    same frequencies as the default rule and much faster); tetrahedra ElementTetP2.
-    Linear elements lock in bending and are not offered.  Sets required: root;
-    optional: shroud_left/right, excitation, response.
+    `element` (a scalar scikit-fem element): by default ElementHex2 on hexahedra and
+    ElementTetP2 on tetrahedra, with intorder 4 (3 Gauss points per direction on
+    hexahedra; the same frequencies as the default rule and much faster); a mesh file
+    of 20-node hexahedra gives ElementHexS2 (`MESH_ELEMENTS`).  Linear elements lock in
+    bending and are used only for matrices imported with them.  `matrices(basis,
+    free)`: (K, M) over the 3 N vector DOFs (3 s + c) instead of assembling them -- an
+    imported structure (`structure.imported`).  `rotation_centre`: a point [m] of the
+    disk axis (along X) for a blade that turns (`rotation.rotation_terms`).  Sets
+    required: root; optional: shroud_left/right, excitation, response.
     """
     if "root" not in node_sets:
         raise ValueError(f"{source}: mesh has no node set 'root' (the clamped nodes)")
-    if isinstance(mesh, MeshHex):
-        sbasis = Basis(mesh, ElementHex2(), intorder=4)
-        cell_type = "hexahedron"
-    elif isinstance(mesh, MeshTet):
-        sbasis = Basis(mesh, ElementTetP2(), intorder=4)
-        cell_type = "tetra"
-    else:
+    if not isinstance(mesh, (MeshHex, MeshTet)):
         raise ValueError(f"{source}: mesh must be hexahedral or tetrahedral, got "
                          f"{type(mesh).__name__}")
-    K, M = assemble_elasticity(sbasis, p.E, p.nu, p.rho)
+    cell_type = "hexahedron" if isinstance(mesh, MeshHex) else "tetra"
+    if element is None:
+        element = ElementHex2() if cell_type == "hexahedron" else ElementTetP2()
+    sbasis = Basis(mesh, element, intorder=4)
     basis = _VectorDofs(sbasis)
     fixed, _ = _set_dofs(mesh, basis, node_sets["root"])
     fixed = np.unique(fixed)
     free = np.setdiff1d(np.arange(basis.N), fixed)
+    if matrices is None:
+        K, M = assemble_elasticity(sbasis, p.E, p.nu, p.rho)
+    else:
+        K, M = matrices(sbasis, free)
     K, M = K[free][:, free].tocsr(), M[free][:, free].tocsr()
     renum = -np.ones(basis.N, dtype=np.int64)
     renum[free] = np.arange(free.size)
@@ -312,11 +334,13 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
                        weights[name])
             n_right = f.normal if name == "shroud_right" else n_right
             frames[name] = f
+    turning = None if rotation_centre is None else rotation_terms(
+        sbasis, free, K, p.E, p.nu, p.rho, rotation_centre)
     t = mesh.t if cell_type == "tetra" else mesh.t[HEX_MAPPING[:8]]
     log.info("solid blade (%s): %d cells, %d free DOFs", source, mesh.t.shape[1], free.size)
     return BladeModel(p, K, M, mesh.p.T.copy(), ((cell_type, t.T.copy()),),
                       renum[basis.nodal_dofs.T], np.eye(3), dof_sets, set_points, frames,
-                      {k: np.asarray(v) for k, v in node_sets.items()})
+                      {k: np.asarray(v) for k, v in node_sets.items()}, turning)
 
 
 def solid_blade(p: BladeParams, disk: DiskPlacement | None = None) -> BladeModel:

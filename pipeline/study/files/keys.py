@@ -162,7 +162,8 @@ _FIXED = [
     ("scene", "effects", "", "[]", "subset of " + ", ".join(f'`"{e}"`' for e in EFFECTS)
      + ", checked against the scene; `[]`: a linear scene, solved directly"),
     ("scene", "dofs", "", _REQ, "lumped and disk scenes: DOF names (`x1`, `u`, ...)"),
-    ("scene", "matrices", "", "", "lumped and disk scenes: M, C, K (or `modal`)"),
+    ("scene", "matrices", "", "", "lumped and disk scenes: M, C, K (or `modal`); solid blades: "
+                                  "K and M exported by another FE code for `mesh`"),
     ("scene", "modal", "", "", "lumped and disk scenes: modal data instead of `matrices`"),
     ("scene", "contact", "", "[]", "Yang–Menq contacts (array of tables)"),
     ("scene", "excitation", "", _REQ, "harmonic loads (array of tables; not in a modes study)"),
@@ -177,6 +178,14 @@ _FIXED = [
     ("scene.matrices", "M", "kg", _REQ, "list of rows; symmetric positive definite"),
     ("scene.matrices", "K", "N/m", _REQ, "list of rows; symmetric positive definite"),
     ("scene.matrices", "C", "N s/m", "zeros", "list of rows; symmetric positive semi-definite"),
+    ("scene.matrices", "format", "", _REQ, "exported by: `calculix`, `abaqus`, `ansys`, "
+                                           "`matrix_market` (solid blades; meshes/README.md)"),
+    ("scene.matrices", "units", "", _REQ, "`SI` (N/m, kg, m) or `mm` (N/mm, tonne, mm)"),
+    ("scene.matrices", "job", "", _REQ, "calculix: the job, `<job>.sti/.mas/.dof`"),
+    ("scene.matrices", "stiffness", "", _REQ, "abaqus, ansys, matrix_market: the K file"),
+    ("scene.matrices", "mass", "", _REQ, "abaqus, ansys, matrix_market: the M file"),
+    ("scene.matrices", "mapping", "", _REQ, "ansys: the `.mapping` file of the HBMAT export"),
+    ("scene.matrices", "dofs", "", _REQ, "matrix_market: the \"node direction\" table"),
     ("scene.modal", "masses", "kg", _REQ, "modal masses m"),
     ("scene.modal", "frequencies", "rad/s", _REQ, "natural frequencies ω"),
     ("scene.modal", "damping_ratios", "1", _REQ, "modal damping ratios ζ"),

@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...errors import UsageError
 from ...model.contacts import FaceContact
 from ...model.loads import PointLoad, point_forcing
 from ...model.scene import Blade, CraigBampton, Scene, Single, blade_model
@@ -49,6 +50,7 @@ from ...structure.reduction import DEFAULT_MODES
 from . import blade_wheel_scene as blade_disk
 from . import lumped_disk_scene as disk_scene
 from .blade_size import check_blade_size
+from .matrix_scene import scene_matrices
 from ..files.validation import Checker
 from ..files.rules import check_optimum_axes, check_scene_rules
 from ..files.header import overlay, parse_header, quick_tables
@@ -242,7 +244,8 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
     tables only).  `fld`: as `field` of `parse_blade_params`.  `contacts`: the scene
     has contacts and excitation (a response or a disk's modes; a blade's modes have
     none); `loaded`: an excitation is required (a response)."""
-    allowed = ("model", "effects", "blade", "mesh", "craig_bampton_modes", "rayleigh", "disk")
+    allowed = ("model", "effects", "blade", "mesh", "matrices", "craig_bampton_modes",
+               "rayleigh", "disk")
     if contacts:
         allowed += ("contact", "excitation")
     ck.keys(tab, "scene", allowed, required=("model",))
@@ -257,6 +260,7 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
         if model != "solid_blade":
             ck.fail(fld("mesh"), f"a mesh file needs model = \"solid_blade\", got {model!r}")
         mesh = _mesh(ck, tab["mesh"], fld("mesh"), base_dir, tab, contacts)
+    matrices = scene_matrices(ck, tab, mesh, base_dir)
     n_modes = ck.integer(tab.get("craig_bampton_modes", DEFAULT_MODES),
                          fld("craig_bampton_modes"), 0, 10_000)
     rayleigh = None
@@ -275,16 +279,18 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
                          lambda k: fld(f"blade.{k}"))
     contacts, loads = (_contacts_and_loads(ck, tab, loaded, params) if contacts else ((), ()))
     blade_disk.check_disk_contacts(ck, contacts, placement)
-    scene = Scene(structure=Blade(params=params, mesh=mesh, rayleigh=rayleigh, disk=placement),
+    scene = Scene(structure=Blade(params=params, mesh=mesh, rayleigh=rayleigh, disk=placement,
+                                  matrices=matrices),
                   contacts=contacts, loads=loads, reduction=CraigBampton(n_modes),
                   effects=effects, model=model, assembly=assembly)
     if not build:
         return scene
     try:
         blade = blade_model(scene.structure)
-    except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # e.g. a degenerate mesh
-        field, msg = blade_disk.placement_field(str(exc))
-        ck.fail(field or (fld("mesh") if mesh else "scene.blade"), msg)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError, UsageError) as exc:  # e.g. a
+        field, msg = blade_disk.placement_field(str(exc))   # degenerate mesh, a bad export
+        ck.fail(field or ("scene.matrices" if matrices else fld("mesh") if mesh
+                          else "scene.blade"), msg)
     nb = boundary_dofs(blade)[0].size
     if n_modes > blade.n_dof - nb:
         ck.fail(fld("craig_bampton_modes"), f"must be <= {blade.n_dof - nb} (free DOFs "

@@ -51,6 +51,21 @@ preload = [1.0]
 frequency = { start = 0.5, stop = 1.5, unit = "rad/s" }
 """,
 }
+# a solid blade on exported matrices, one document per format (each takes its own keys)
+for _fmt, _files in (("calculix", 'job = "b"'), ("abaqus", 'stiffness = "k", mass = "m"'),
+                     ("ansys", 'stiffness = "k", mass = "m", mapping = "k.mapping"'),
+                     ("matrix_market", 'stiffness = "k", mass = "m", dofs = "d"')):
+    EXTRA[f"exported {_fmt}"] = f"""
+[study]
+title = "t"
+kind = "modes"
+[scene]
+model = "solid_blade"
+mesh = "{ROOT / 'meshes' / 'blade_coarse.vtu'}"
+matrices = {{ format = "{_fmt}", units = "SI", {_files} }}
+[modes]
+mode_counts = [0, 5]
+"""
 
 
 def _tables(doc, path=()):

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import UsageError
+from ...errors import UsageError
 
 ANSYS_LABELS = {"UX": 1, "UY": 2, "UZ": 3, "ROTX": 4, "ROTY": 5, "ROTZ": 6}
 SYMMETRY_RTOL = 1e-10     # mirror entries given twice must agree to this (of the largest)

@@ -14,7 +14,7 @@ import pytest
 import scipy.sparse as sp
 
 from pipeline.errors import UsageError
-from pipeline.structure.matrix_files import (read_abaqus, read_ansys, read_calculix,
+from pipeline.structure.exchange.matrix_files import (read_abaqus, read_ansys, read_calculix,
                                              read_matrix_market)
 from helpers import frequencies
 

@@ -1,0 +1,1 @@
+"""Structures exchanged with other FE codes: their exported matrices, CalculiX decks."""

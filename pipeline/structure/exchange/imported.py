@@ -1,0 +1,153 @@
+"""A blade whose stiffness and mass come from another FE code.
+
+The user gives the matrices their code exported (`matrix_files`: CalculiX, Abaqus,
+ANSYS, Matrix Market) and the mesh they belong to (a CalculiX / Abaqus deck `.inp`,
+or any mesh meshio reads, with the named node sets root, shroud_left, shroud_right,
+excitation, response).  The mesh gives what the matrices do not: coordinates, the
+contact faces' frames and areas, the node sets; the matrices replace the package's
+own K and M, DOF for DOF:
+
+    K_blade[3 s(node) + d - 1, 3 s(node') + d' - 1] = K_file[(node, d), (node', d')]
+
+s(node) the scalar DOF of the mesh's quadratic basis at that node (corner nodes by
+vertex, midside nodes by their cell's edge -- so curved edges map too), d = 1, 2, 3
+the translations.  The free DOFs of the file must be exactly the mesh's DOFs less the
+clamped root's (codes drop the constrained ones; their equations must not stay), the
+element of the mesh is the one the code used (C3D20 / SOLID186 -> ElementHexS2,
+C3D10 / SOLID187 -> ElementTetP2, 8-node -> ElementHex1, 4-node -> ElementTetP1:
+their nodes, not a new discretisation), and K must be positive definite on the free
+DOFs (a root set that does not clamp the blade leaves rigid-body modes).
+
+Units: "SI" (N/m, kg, m) or "mm" (N/mm, tonne, mm -- the usual consistent set of
+Abaqus and ANSYS models): K x 1e3, M x 1e3, coordinates x 1e-3.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+from skfem import ElementHex1, ElementHex2, ElementHexS2, ElementTetP1, ElementTetP2
+
+from ..fe_model import REQUIRED_SETS, BladeModel
+from ..mesh_io import read_volume
+from ..solid import solid_from_mesh
+from .calculix_deck import EDGES, edge_index, node_numbers
+from .matrix_files import (ExportedMatrices, read_abaqus, read_ansys, read_calculix,
+                           read_matrix_market)
+
+FORMATS = ("calculix", "abaqus", "ansys", "matrix_market")
+UNITS = {"SI": (1.0, 1.0, 1.0), "mm": (1e3, 1e3, 1e-3)}   # K, M, length factors to SI
+ELEMENTS = {"hexahedron": ElementHex1, "hexahedron20": ElementHexS2,
+            "hexahedron27": ElementHex2, "tetra": ElementTetP1, "tetra10": ElementTetP2}
+
+
+@dataclass(frozen=True)
+class MatrixFiles:
+    """Where an exported structure lies.  calculix: `stiffness` is the job
+    (`<job>.sti/.mas/.dof`); abaqus: the stiffness and mass `.mtx`; ansys: the two
+    Harwell-Boeing files and the `.mapping` as `dofs`; matrix_market: the two `.mtx`
+    and the "node direction" table as `dofs`.  `units`: a key of `UNITS`."""
+
+    format: str
+    stiffness: str
+    mass: str | None = None
+    dofs: str | None = None
+    units: str = "SI"
+
+
+def read_exported(files: MatrixFiles) -> ExportedMatrices:
+    """The matrices of `files` with their (node, direction) map, in SI units."""
+    if files.format == "calculix":
+        ex = read_calculix(files.stiffness)
+    elif files.format == "abaqus":
+        ex = read_abaqus(files.stiffness, files.mass)
+    elif files.format == "ansys":
+        ex = read_ansys(files.stiffness, files.mass, files.dofs)
+    elif files.format == "matrix_market":
+        ex = read_matrix_market(files.stiffness, files.mass, files.dofs)
+    else:
+        raise ValueError(f"unknown matrix format {files.format!r} (known: {', '.join(FORMATS)})")
+    fk, fm, _ = UNITS[files.units]
+    return ExportedMatrices((fk * ex.K).tocsr(), (fm * ex.M).tocsr(), ex.dofs, ex.source)
+
+
+def point_dofs(vol, basis) -> np.ndarray:
+    """Scalar basis DOF of each point of the mesh file (-1: in no volume cell)."""
+    s = -np.ones(vol.vertex.size, dtype=np.int64)
+    corner = vol.vertex >= 0
+    s[corner] = basis.nodal_dofs[0][vol.vertex[corner]]
+    if vol.cell_type in EDGES:
+        n_c = 8 if vol.cell_type.startswith("hexa") else 4
+        edges = edge_index(vol.mesh)
+        for j, (a, b) in enumerate(EDGES[vol.cell_type]):
+            va, vb = vol.vertex[vol.cells[:, a]], vol.vertex[vol.cells[:, b]]
+            k = [edges[(min(x, y), max(x, y))] for x, y in zip(va, vb)]
+            s[vol.cells[:, n_c + j]] = basis.edge_dofs[0][k]
+    elif vol.cell_type == "hexahedron27":
+        raise ValueError("27-node hexahedra: no exported matrices are read on them "
+                         "(export 20-node hexahedra or 10-node tetrahedra)")
+    return s
+
+
+def exported_rows(ex: ExportedMatrices, numbers, s_of_point, free, source) -> np.ndarray:
+    """Vector DOF (3 s + d - 1) of each row of the export; the rows must be `free`."""
+    point = {int(n): k for k, n in enumerate(numbers)}
+    rows = np.empty(ex.n_dof, dtype=np.int64)
+    for r, (node, d) in enumerate(ex.dofs):
+        k = point.get(node)
+        if k is None or s_of_point[k] < 0:
+            raise ValueError(f"{ex.source}: row {r + 1} is node {node}, which the mesh "
+                             f"{source} has not in a volume cell")
+        if d > 3:
+            raise ValueError(f"{ex.source}: row {r + 1} is a rotation (node {node}, "
+                             f"direction {d}): solid elements have translations only")
+        rows[r] = 3 * s_of_point[k] + d - 1
+    extra = np.setdiff1d(rows, free)
+    missing = np.setdiff1d(free, rows)
+    if extra.size or missing.size:
+        raise ValueError(f"{ex.source}: the DOF map ({ex.n_dof} rows) does not match the free "
+                         f"DOFs of {source} ({free.size}: all but the root set's): "
+                         f"{extra.size} rows of clamped DOFs, {missing.size} free DOFs "
+                         f"missing")
+    return rows
+
+
+def check_definite(K, M, source) -> None:
+    """ValueError unless K is positive definite (its eigenvalue nearest zero, relative
+    to M, is positive): a singular K has rigid-body modes the root does not clamp."""
+    shift = 1e-8 * float(np.median(K.diagonal() / np.maximum(M.diagonal(), 1e-300)))
+    try:
+        lam = sla.eigsh(K.tocsc(), k=1, M=M.tocsc(), sigma=-shift, which="LM",
+                        return_eigenvectors=False)[0]
+    except (RuntimeError, sla.ArpackError) as exc:
+        raise ValueError(f"{source}: K is singular on the free DOFs ({exc})") from None
+    if not lam > 0.0:
+        raise ValueError(f"{source}: K is not positive definite on the free DOFs (an "
+                         f"eigenvalue {lam:.3g} rad^2/s^2 <= 0): does the root set clamp "
+                         f"the blade?")
+
+
+def import_blade(mesh_path, files: MatrixFiles, p, required=("root",)) -> BladeModel:
+    """The clamped blade of an exported structure on its mesh (see the module): sets,
+    frames and face areas from the mesh, K and M from the files; `p` (BladeParams)
+    supplies the damping ratios only."""
+    _, _, length = UNITS[files.units]
+    vol = read_volume(mesh_path, required, scale=length)
+    ex = read_exported(files)
+    numbers = node_numbers(mesh_path, vol.vertex.size)
+    source = str(mesh_path)
+
+    def matrices(basis, free):
+        rows = exported_rows(ex, numbers, point_dofs(vol, basis), free, source)
+        n = 3 * basis.N
+        P = sp.csr_matrix((np.ones(rows.size), (rows, np.arange(rows.size))),
+                          shape=(n, rows.size))
+        K, M = (P @ ex.K @ P.T).tocsr(), (P @ ex.M @ P.T).tocsr()
+        check_definite(K[free][:, free], M[free][:, free], ex.source)
+        return K, M
+
+    sets = {k: v for k, v in vol.node_sets.items() if k in REQUIRED_SETS}
+    return solid_from_mesh(vol.mesh, sets, p, source, ELEMENTS[vol.cell_type](), matrices)
+
