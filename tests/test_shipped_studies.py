@@ -28,7 +28,8 @@ STUDY_FILES = sorted(STUDIES.glob("*.toml"))
 SLOW = {"shrouded_disk_mistuned", "blade3_stability"}
 # studies whose figures some test reads (here, test_accuracy_cost.py, test_blade_studies.py):
 # their shared run draws them, the others' runs do not
-FIGURES = {"accuracy_cost", "blade_modes", "disk_laxalde", "shrouded_disk_modes"}
+FIGURES = {"accuracy_cost", "blade_modes", "disk_laxalde", "shrouded_disk_modes",
+           "shrouded_disk_campbell"}
 
 
 def assert_stated(got, text, rel=0.0):
@@ -292,6 +293,21 @@ def shrouded_disk_modes(out, nc, ds, st):
     assert (out / "shrouded_disk_modes" / "nodal_diameter_diagram.png").is_file()
 
 
+def shrouded_disk_campbell(out, nc, ds, st):
+    """'the first flap family stiffens with speed'; EO 3 and EO 6 cross it open and
+    stuck (the stated rpm are the default mesh's: test_study_claims.py)."""
+    assert problems(nc) == [] and ds["frequency_stuck"].dims == ("speed", "nodal_diameter",
+                                                                 "mode")
+    first = ds["frequency_stuck"].values[:, :, 0]
+    assert np.all(np.diff(first, axis=0) > 0)
+    found = {(int(e), str(c)) for e, c, m in zip(ds.crossing_engine_order.values,
+                                                 ds.crossing_contacts.values,
+                                                 ds.crossing_mode.values) if m == 1}
+    assert {(3, "open"), (3, "stuck"), (6, "open"), (6, "stuck")} <= found
+    assert 1 not in set(ds.crossing_engine_order.values)
+    assert (out / "shrouded_disk_campbell" / "campbell_diagram.png").is_file()
+
+
 def disk_nonlinear_modes(out, nc, ds, st):
     """'ND 3: 458.3 Hz (shroud stuck) -> 377.6 Hz (the free blade), damping ratio up to
     0.090; ND 12: 508.6 Hz -> 377.6 Hz, up to 0.164'; 'ND 3 peaks 2 % lower (8.75e-6 vs
@@ -351,7 +367,8 @@ def shrouded_disk_mistuned(out, nc, ds, st):
 CHECKS = {f.__name__: f for f in (
     paper_example1, paper_example2, paper_example3, blade3_stability, blade_modes,
     blade_shroud_contact, accuracy_cost, disk_cyclic, disk_laxalde, disk_mistuned,
-    shrouded_disk, shrouded_disk_modes, shrouded_disk_mistuned, disk_nonlinear_modes,
+    shrouded_disk, shrouded_disk_modes, shrouded_disk_campbell, shrouded_disk_mistuned,
+    disk_nonlinear_modes,
     shrouded_disk_nonlinear_modes)}
 
 

@@ -48,6 +48,7 @@ def measure(path, quick: bool = False, out_dir=None) -> Measured:
     est = kind.estimate(study, workers=1)
     model_scene.timed_blade_model.cache_clear()   # the run builds its model, as `run` does
     model_scene.reduced_model.cache_clear()
+    model_scene.blade_at_speed.cache_clear()
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
         run_study(study, out_dir or tmp, workers=1, progress=False, checkpoints=False)

@@ -44,8 +44,9 @@ from .contacts import DofContact, FaceContact, ShroudPair, contact_elements, fe_
 from .loads import Forcing, point_forcing
 from .system import System
 
-CASE_KEYS = ("preload", "mu", "ku", "kv", "excitation_scale", "eo", "mistuning_seed")
-CYCLIC_CASE_KEYS = ("eo", "mistuning_seed")
+CASE_KEYS = ("preload", "mu", "ku", "kv", "excitation_scale", "eo", "mistuning_seed", "speed")
+CYCLIC_CASE_KEYS = ("eo", "mistuning_seed", "speed")
+RPM = 2.0 * np.pi / 60.0   # rad/s per rpm
 NEXT = "next."          # a DOF of the next sector in a cyclic contact row
 AT = "@"                # "<dof>@<sector>": a DOF of one sector of a mistuned assembly
 POINT_SETS = ("excitation", "response")   # FE node sets named by direction in DOF names
@@ -74,13 +75,18 @@ class Blade:
     disk: where the blade sits in a wheel (`fe_model.DiskPlacement`; a generated
     blade is then shaped for it, `solid.solid_mesh`, `beam.shroud_face_geometry`),
     needed by `ShroudPair`s.  matrices: K and M exported by another FE code for
-    `mesh` (`structure.exchange.imported.MatrixFiles`) instead of the package's own."""
+    `mesh` (`structure.exchange.imported.MatrixFiles`) instead of the package's own.
+    rotating: the blade turns about the disk axis at `speed` [rpm] (or a case's): its
+    stiffness is K + Omega^2 (K_sigma1 - M_P) (`structure.rotation`; a solid blade in a
+    disk, the package's own assembly)."""
 
     params: object           # fe_model.BladeParams
     mesh: str | None = None
     rayleigh: tuple | None = None
     disk: object = None      # fe_model.DiskPlacement | None
     matrices: object = None  # imported.MatrixFiles | None
+    rotating: bool = False   # turns about the disk axis (`structure.rotation`)
+    speed: float = 0.0       # [rpm] unless a case sets `speed`
 
 
 @dataclass(frozen=True)
@@ -226,24 +232,48 @@ def timed_blade_model(structure: Blade) -> tuple:
     from ..structure.blades import build_blade, load_blade
 
     t0 = time.perf_counter()
+    centre = structure.disk.centre if structure.rotating else None
     if structure.matrices is not None:
+        if structure.rotating:
+            raise ValueError("a blade of exported matrices does not turn: its stress "
+                             "stiffness needs the package's own assembly")
         from ..structure.exchange.imported import import_blade
         blade = import_blade(structure.mesh, structure.matrices, structure.params)
     elif structure.mesh:
-        blade = load_blade(structure.mesh, structure.params, required=("root",))
+        blade = load_blade(structure.mesh, structure.params, required=("root",),
+                           rotation_centre=centre)
     else:
-        blade = build_blade(structure.params, structure.disk)
+        blade = build_blade(structure.params, structure.disk, rotation_centre=centre)
     return blade, time.perf_counter() - t0
 
 
 @lru_cache(maxsize=16)
-def reduced_model(structure: Blade, reduction: CraigBampton) -> tuple:
+def blade_at_speed(structure: Blade, speed: float):
+    """The blade turning at `speed` [rpm]: K + Omega^2 (K_sigma1 - M_P), Omega = speed
+    x 2 pi / 60 (`structure.rotation`); at speed 0 the blade itself."""
+    blade = blade_model(structure)
+    if speed == 0.0:
+        return blade
+    if blade.rotation is None:
+        raise ValueError(f"speed {speed} rpm on a blade that does not turn: declare "
+                         "\"centrifugal_stiffening\" (a solid blade in a disk)")
+    return replace(blade, K=(blade.K + (speed * RPM) ** 2 * blade.rotation.stiffness).tocsr())
+
+
+def case_speed(structure, case: dict | None) -> float:
+    """The rotation speed [rpm] of a case: its `speed`, else the structure's."""
+    return float((case or {}).get("speed", getattr(structure, "speed", 0.0)))
+
+
+@lru_cache(maxsize=16)
+def reduced_model(structure: Blade, reduction: CraigBampton, speed: float = 0.0) -> tuple:
     """(Craig-Bampton `ReducedModel` keeping contact faces, excitation and response
-    DOFs, its wall time [s]) of a blade (built once per spec pair)."""
+    DOFs, its wall time [s]) of a blade turning at `speed` [rpm] (built once per spec
+    pair and speed)."""
     from ..structure.reduction import reduce_blade
 
     kw = {"rayleigh": structure.rayleigh} if structure.rayleigh is not None else {}
-    blade = blade_model(structure)
+    blade = blade_at_speed(structure, speed)
     t0 = time.perf_counter()
     red = reduce_blade(blade, reduction.modes, **kw)
     return red, time.perf_counter() - t0
@@ -360,7 +390,7 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
         raise ValueError("a scene mixes face contacts and DOF contacts; give one kind")
     if any(isinstance(c, ShroudPair) for c in faces) and not scene.cyclic:
         raise ValueError("a shroud pair couples neighbouring blades: give a Cyclic assembly")
-    blade = blade_model(st)
+    blade = blade_at_speed(st, case_speed(st, case))
     Bt, Bn, Bt_next, Bn_next, owner, weights = fe_contact_maps(blade, faces, st.disk)
     elem = contact_elements(faces, case, owner, weights)
     F = blade_forcing(scene, case)
@@ -376,7 +406,7 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
                      Bn_next=Bn_next, contact=elem, forcing=F, dofs=())
     from ..structure.reduction import reduce_map  # deferred like blade_model's imports
 
-    red = reduced_model(st, scene.reduction)[0]
+    red = reduced_model(st, scene.reduction, case_speed(st, case))[0]
     Fr = np.zeros((red.M.shape[0], F.shape[1]), dtype=complex)
     Fr[:red.n_boundary] = F[red.boundary]
     if np.abs(F).sum() != np.abs(Fr).sum():

@@ -8,16 +8,24 @@ from .mesh_io import read_volume
 from .solid import MESH_ELEMENTS, solid_blade, solid_from_mesh
 
 
-def build_blade(p: BladeParams, disk: DiskPlacement | None = None) -> BladeModel:
+def build_blade(p: BladeParams, disk: DiskPlacement | None = None,
+                rotation_centre=None) -> BladeModel:
     """Beam or solid blade according to `p.kind`, shaped for a wheel when `disk` is
-    given (`solid.solid_mesh`, `beam.shroud_face_geometry`)."""
-    return beam_blade(p, disk) if p.kind == "beam" else solid_blade(p, disk)
+    given (`solid.solid_mesh`, `beam.shroud_face_geometry`); a solid blade turning
+    about the axis through `rotation_centre` carries its `rotation` terms."""
+    if p.kind == "beam":
+        if rotation_centre is not None:
+            raise ValueError("a beam blade does not turn: centrifugal stiffening needs a "
+                             "solid blade")
+        return beam_blade(p, disk)
+    return solid_blade(p, disk, rotation_centre)
 
 
 def load_blade(path, p: BladeParams = BladeParams(),
-               required=("root",) + CONTACT_SETS) -> BladeModel:
+               required=("root",) + CONTACT_SETS, rotation_centre=None) -> BladeModel:
     """Solid blade from a mesh file (.msh/.vtu/.xdmf) with named node sets; material
     and damping from `p`.  A missing set raises ValueError naming file and set."""
     v = read_volume(path, required)
     keep = {k: s for k, s in v.node_sets.items() if k in REQUIRED_SETS}
-    return solid_from_mesh(v.mesh, keep, p, str(path), MESH_ELEMENTS[v.cell_type]())
+    return solid_from_mesh(v.mesh, keep, p, str(path), MESH_ELEMENTS[v.cell_type](),
+                           rotation_centre=rotation_centre)

@@ -343,8 +343,11 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
                       {k: np.asarray(v) for k, v in node_sets.items()}, turning)
 
 
-def solid_blade(p: BladeParams, disk: DiskPlacement | None = None) -> BladeModel:
+def solid_blade(p: BladeParams, disk: DiskPlacement | None = None,
+                rotation_centre=None) -> BladeModel:
     """Generated solid blade (see `solid_mesh`); in a disk, its params carry the
-    derived shroud width."""
+    derived shroud width; turning about the axis through `rotation_centre`, its
+    `rotation` terms."""
     mesh, sets = solid_mesh(p, disk)
-    return solid_from_mesh(mesh, sets, p if disk is None else wheel_params(p, disk))
+    return solid_from_mesh(mesh, sets, p if disk is None else wheel_params(p, disk),
+                           rotation_centre=rotation_centre)

@@ -218,6 +218,8 @@ _FIXED = [
     ("scene.disk", "engine_order", "1", "the sweep's `eo`", "EO, 0 ≤ EO ≤ N/2: sector j loaded "
                                                             "with the phase j·2π·EO/N"),
     ("scene.disk", "mistuning", "", "tuned", "`{stiffness_std, seed}` or `{factors}`"),
+    ("scene.disk", "speed", "rpm", "0", "FE blades: rotation speed (with the effect "
+                                       "`centrifugal_stiffening`; `sweep.speed` sweeps it)"),
     ("scene.disk", "spring", "", "[]", "lumped disks: linear springs to the next sector"),
     ("scene.disk", "hub_radius", "m", "", "FE blades: R, the blade root's radius (required "
                                           "there)"),
@@ -250,6 +252,13 @@ _FIXED = [
     ("modes", "mode_shapes", "1", "min(n_frequencies, 6)", "blade: mode shapes written as VTU"),
     ("modes", "nodal_diameters", "1", "0 ... N/2", "disk modes study: the nodal diameters "
                                                    "(nonlinear modes of a disk: required)"),
+    ("modes", "speeds", "rpm", "", "disk modes study: a Campbell diagram at these speeds "
+                                   "(a list, or `{start, stop, count}`)"),
+    ("modes.speeds", "start", "rpm", _REQ, "Campbell speeds: the first"),
+    ("modes.speeds", "stop", "rpm", _REQ, "Campbell speeds: the last (> start)"),
+    ("modes.speeds", "count", "1", _REQ, "Campbell speeds: how many, evenly spaced (2 ... 400)"),
+    ("modes", "engine_orders", "1", "[]", "Campbell diagram: engine-order lines and their "
+                                          "crossings (root found)"),
     ("modes", "mode", "1", "0", "nonlinear modes: the family, 0 the lowest small-amplitude "
                                 "linear mode (per nodal diameter)"),
     ("modes", "amplitude", "1", "[0.01, 1000]", "nonlinear modes: `[lo, hi]` modal amplitude "
@@ -317,7 +326,7 @@ def rows() -> list:
     order = ["study", "scene", "scene.matrices", "scene.modal", "scene.contact", *laws,
              "scene.excitation", "scene.disk", "scene.disk.mistuning", "scene.disk.spring",
              "scene.blade", "sweep", "sweep.frequency", "solver", "output",
-             "output.optimum_preload", "modes", "quick", "quick.scene", "recommendation",
+             "output.optimum_preload", "modes", "modes.speeds", "quick", "quick.scene", "recommendation",
              CASE, f"{CASE}.reference", f"{CASE}.knobs"]
     every = (_FIXED + _law_rows() + _blade_rows() + _sweep_rows() + _solver_rows()
              + _settings_rows())

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 
 def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spath, wpath,
-                      disk=False):
+                      disk=False, can_turn=False, speed=0.0):
     """Cross-field rules shared by every scene: harmonics cover the excitation, swept
     contact parameters have contacts to act on, a preload is given, and the
     declared effects match the scene (friction <=> contacts; normal-load variation
@@ -18,7 +18,11 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     n0 <= 0 (it reaches zero as soon as the contact moves).  A varying normal load
     with every preload > 0 and no "separation" declares a contact that stays
     closed; the run checks every solution against that (`pipeline.study.files.declared`).
-    `has_normal` is one flag for every contact or one per contact."""
+    `has_normal` is one flag for every contact or one per contact.  A rotation speed
+    (`speed` [rpm] of the scene or the sweep axis) needs "centrifugal_stiffening" and a
+    scene that can turn (`can_turn`: solid blades in a disk), and the effect a speed.
+    """
+    check_speed_rules(ck, effects, axes, wpath, can_turn, speed)
     if not disk:
         for axis, what in (("eo", "has an engine order"), ("mistuning_seed", "can be mistuned")):
             if axis in axes:
@@ -77,6 +81,30 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     if "separation" in effects and not (gap or varies):
         ck.fail("scene.effects", "\"separation\" is declared but cannot occur (constant normal "
                                  "load and no negative preload)")
+
+
+def check_speed_rules(ck, effects, axes, wpath, can_turn, speed, axis_field=None):
+    """"centrifugal_stiffening" exactly when a speed turns a scene that can turn;
+    `axis_field`: the field of the swept speeds (default `<wpath>.speed`)."""
+    field = axis_field or f"{wpath}.speed"
+    speeds = tuple(v for v in axes.get("speed", ()) if v) + ((speed,) if speed else ())
+    if "speed" in axes and min(axes["speed"]) < 0:
+        ck.fail(field, f"a speed is >= 0 rpm (the disk turns one way), got "
+                       f"{min(axes['speed']):g}")
+    declared = "centrifugal_stiffening" in effects
+    if speeds and not can_turn:
+        ck.fail(field if "speed" in axes else "scene.disk.speed",
+                "a rotation speed needs a turning structure: solid blades in a disk "
+                "([scene.disk] gives the axis; the package's own assembly)")
+    if declared and not can_turn:
+        ck.fail("scene.effects", "\"centrifugal_stiffening\" needs a turning structure: solid "
+                                 "blades in a disk ([scene.disk], the package's own assembly)")
+    if speeds and not declared:
+        ck.fail(field if "speed" in axes else "scene.disk.speed",
+                "a rotation speed stiffens the blades: declare \"centrifugal_stiffening\"")
+    if declared and not speeds:
+        ck.fail("scene.effects", "\"centrifugal_stiffening\" is declared but nothing turns: "
+                                 f"give scene.disk.speed or {field} [rpm] > 0")
 
 
 def check_optimum_axes(ck, output, axes, wpath):

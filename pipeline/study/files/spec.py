@@ -26,7 +26,7 @@ MODELS = ("lumped", "beam_blade", "solid_blade", "disk")
 IMPLEMENTED_MODELS = ("lumped", "disk")
 # the effects of the contact laws besides Yang-Menq come with their registry entry
 EFFECTS = ("friction", "normal_load_variation", "separation", "cyclic_coupling", "mistuning",
-           "disk_coupling") + law_effects()
+           "disk_coupling", "centrifugal_stiffening") + law_effects()
 # grid axes of [sweep]: name -> (units, long_name)
 SWEEP_AXES = {
     "preload": ("N", "normal preload n0 of every contact"),
@@ -38,6 +38,8 @@ SWEEP_AXES = {
     "excitation_scale": ("1", "factor on every excitation amplitude"),
     "eo": ("1", "engine order EO of the excitation (disk scenes)"),
     "mistuning_seed": ("1", "seed of the random sector stiffness mistuning (disk scenes)"),
+    "speed": ("rpm", "rotation speed of the disk: stress stiffening and spin softening of "
+                     "its solid blades"),
 }
 INTEGER_SWEEP_AXES = ("eo", "mistuning_seed")
 FREQUENCY_UNITS = ("rad/s", "Hz")

@@ -18,7 +18,10 @@ order EO excites only the family ND = EO (mod N, folded into 0..N/2).
                                               nodal_diameters = [0, 1, ...]  (default 0..N/2)
 
 The dataset has `frequency_open` and `frequency_stuck` [Hz] on (nodal_diameter,
-mode); the figure `<name>/nodal_diameter_diagram.png` draws both.
+mode); the figure `<name>/nodal_diameter_diagram.png` draws both.  With `[modes]
+speeds` (and `engine_orders`) the disk turns: the Campbell diagram (`campbell`),
+frequencies on (speed, nodal_diameter, mode) and the engine-order crossings, drawn
+in `<name>/campbell_diagram.png`.
 """
 from __future__ import annotations
 
@@ -32,7 +35,9 @@ import numpy as np
 from ...model.cyclic import sector_system
 from ...model.scene import Scene, sector
 from ...model.system import natural_frequencies
-from ..scenes.blade_scene import BLADE_MODELS, base_dir_of, blade_scenes
+from ..files.rules import check_speed_rules
+from ..scenes.blade_scene import BLADE_MODELS, base_dir_of, blade_scenes, can_turn
+from .campbell import campbell, parse_speeds
 from ..files.validation import Checker
 from ..files.header import overlay, parse_header, quick_tables
 from ..scenes.lumped_scene import parse_scene
@@ -53,6 +58,8 @@ class DiskModesStudy(StudyHeader):
     n_frequencies: int
     quick: bool = False
     kind: str = "disk_modes"
+    speeds: tuple = ()          # [rpm]: a Campbell diagram (`campbell`)
+    engine_orders: tuple = ()
 
 
 def is_disk_document(data) -> bool:
@@ -80,7 +87,8 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
     modes, where = overlay(ck, ck.table(data.get("modes"), "modes", required=False),
                            qt.get("modes", {}), "modes")
     for k in modes:
-        ck.keys({k: None}, where(k).rpartition(".")[0], ("n_frequencies", "nodal_diameters"))
+        ck.keys({k: None}, where(k).rpartition(".")[0], ("n_frequencies", "nodal_diameters",
+                                                         "speeds", "engine_orders"))
     N, n = scene.assembly.sectors, len(scene.sector_dofs)
     nf = ck.integer(modes.get("n_frequencies", min(n, DEFAULT_FREQUENCIES)),
                     where("n_frequencies"), 1, n)
@@ -89,8 +97,12 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
                                    where("nodal_diameters"))))
     if len(set(nds)) != len(nds):
         ck.fail(where("nodal_diameters"), "a nodal diameter is listed twice")
+    speeds, eos = parse_speeds(ck, modes, where)
+    check_speed_rules(ck, scene.effects, {"speed": speeds} if speeds else {}, "modes",
+                      can_turn(scene), 0.0, axis_field=where("speeds"))
     return DiskModesStudy(file=file, name=name, **header, text=text, scene=scene,
-                          nodal_diameters=nds, n_frequencies=nf, quick=bool(quick))
+                          nodal_diameters=nds, n_frequencies=nf, quick=bool(quick),
+                          speeds=speeds, engine_orders=eos)
 
 
 def check_modes_scene(ck, scene: Scene):
@@ -127,21 +139,30 @@ def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: b
     """`out_dir/<name>.nc` and `out_dir/<name>/nodal_diameter_diagram.png`."""
     # deferred: xarray and matplotlib cost a second to import; validation needs neither
     from ..datasets.dataset import write_netcdf
-    from .modes_dataset import disk_modes_to_dataset
+    from .modes_dataset import campbell_to_dataset, disk_modes_to_dataset
+    from ..figures.campbell_figure import campbell_figure
     from ..figures.nd_figure import nodal_diameter_figure
 
     t0 = time.perf_counter()
     sc = study.scene
     log.info("%s: %d sectors, nodal diameters %s, %d frequencies", study.name,
              sc.assembly.sectors, list(study.nodal_diameters), study.n_frequencies)
-    res = nodal_diameter_frequencies(sc, study.nodal_diameters, study.n_frequencies)
-    ds = disk_modes_to_dataset(study, res)
+    if study.speeds:
+        t1 = time.perf_counter()
+        res = campbell(sc, study.speeds, study.nodal_diameters, study.n_frequencies,
+                       study.engine_orders)
+        res["time_s"] = time.perf_counter() - t1
+        ds = campbell_to_dataset(study, res)
+    else:
+        res = nodal_diameter_frequencies(sc, study.nodal_diameters, study.n_frequencies)
+        ds = disk_modes_to_dataset(study, res)
     path = write_netcdf(ds, Path(out_dir) / f"{study.name}.nc")
     log.info("wrote %s", path)
     written = []
     if figures:
-        written.append(nodal_diameter_figure(Path(out_dir) / study.name /
-                                             "nodal_diameter_diagram.png", ds))
+        written.append(campbell_figure(Path(out_dir) / study.name / "campbell_diagram.png", ds)
+                       if study.speeds else nodal_diameter_figure(
+                           Path(out_dir) / study.name / "nodal_diameter_diagram.png", ds))
         log.info("wrote %s", written[-1])
     return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=0,
                        wall_time=time.perf_counter() - t0)

@@ -89,3 +89,51 @@ def disk_modes_to_dataset(study, res: dict) -> xr.Dataset:
                "description": study.description, "reference": study.reference,
                "kind": "modes", "quick": int(study.quick), **scene_attrs(sc),
                **provenance("pipeline (cyclic eigenproblem of one sector per nodal diameter)")})
+
+
+def campbell_to_dataset(study, res: dict) -> xr.Dataset:
+    """Dataset of a Campbell diagram (`campbell.campbell` result): natural frequencies
+    on (speed, nodal_diameter, mode), contacts open and stuck, and the engine-order
+    crossings located by root finding (dimension `crossing`)."""
+    def var(data, long_name):
+        return (("speed", "nodal_diameter", "mode"), np.asarray(data, float),
+                {"units": "Hz", "long_name": long_name})
+
+    cr = res["crossings"]
+    col = list(zip(*cr)) if cr else [()] * 6
+
+    def cvar(k, dtype, units, long_name):
+        return (("crossing",), np.asarray(col[k], dtype=dtype),
+                {"units": units, "long_name": long_name} if units else {"long_name": long_name})
+
+    nd, nf = np.asarray(study.nodal_diameters, np.int32), res["open"].shape[2]
+    sc = study.scene
+    return xr.Dataset(
+        {"frequency_open": var(res["open"], "natural frequency, contacts open"),
+         "frequency_stuck": var(res["stuck"], "natural frequency, every contact closed and "
+                                              "stuck (ku, kv)"),
+         "crossing_engine_order": cvar(0, np.int32, "1", "engine order EO of the crossing"),
+         "crossing_nodal_diameter": cvar(1, np.int32, "1", "nodal diameter EO excites"),
+         "crossing_mode": cvar(2, np.int32, "1", "mode number within the family"),
+         "crossing_contacts": cvar(3, str, "", "contacts open or stuck"),
+         "crossing_speed": cvar(4, float, "rpm", "speed where the frequency equals EO x "
+                                                 "speed / 60 (root found, not the grid)"),
+         "crossing_frequency": cvar(5, float, "Hz", "frequency at the crossing, EO x "
+                                                    "speed / 60"),
+         "solve_time": ((), float(res["time_s"]), {"units": "s", "long_name": "wall time of "
+                                                   "the eigen-solves and the root finding"})},
+        coords={"speed": ("speed", np.asarray(study.speeds, float),
+                          {"units": "rpm", "long_name": "rotation speed of the disk"}),
+                "nodal_diameter": ("nodal_diameter", nd, {"units": "1", "long_name":
+                                                          "nodal diameter ND (EO = ND excites it)"}),
+                "mode": ("mode", np.arange(1, nf + 1, dtype=np.int32),
+                         {"units": "1", "long_name": "mode number within the family"}),
+                "engine_order": ("engine_order", np.asarray(study.engine_orders, np.int32),
+                                 {"units": "1", "long_name": "engine orders drawn"}),
+                "crossing": ("crossing", np.arange(len(cr), dtype=np.int32),
+                             {"units": "1", "long_name": "crossing index, by engine order"})},
+        attrs={"title": study.title, "study": study.text, "study_name": study.name,
+               "description": study.description, "reference": study.reference,
+               "kind": "modes", "quick": int(study.quick), **scene_attrs(sc),
+               **provenance("pipeline (cyclic eigenproblem of one sector per nodal diameter "
+                            "and speed, stress stiffening and spin softening)")})

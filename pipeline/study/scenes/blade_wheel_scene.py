@@ -41,7 +41,7 @@ STIFFNESS = ("per_node", "per_face")
 def parse_placement(ck, tab) -> tuple:
     """(DiskPlacement, Cyclic) of the `[scene.disk]` table of a blade scene."""
     t = ck.table(tab["disk"], "scene.disk")
-    ck.keys(t, "scene.disk", ("sectors", "hub_radius", "engine_order", "mistuning"),
+    ck.keys(t, "scene.disk", ("sectors", "hub_radius", "engine_order", "mistuning", "speed"),
             required=("sectors", "hub_radius"))
     N = ck.integer(t["sectors"], "scene.disk.sectors", 3, disk_scene.MAX_SECTORS)
     R = ck.number(t["hub_radius"], "scene.disk.hub_radius", gt=0.0)

@@ -187,7 +187,7 @@ def parse_sweep(ck, tab, path, partial=False):
             if isinstance(value, dict):
                 ck.fail(field, f"continuation in {key} is not supported yet; give a list of values")
             bounds = {"preload": {}, "normal_load": {"gt": 0.0}, "mu": {"ge": 0.0}, "ku": {"gt": 0.0}, "kv": {"ge": 0.0},
-                      "excitation_scale": {"gt": 0.0}}[key]
+                      "excitation_scale": {"gt": 0.0}, "speed": {"ge": 0.0}}[key]
             vals = ck.numbers(value, field, **bounds)
             for i, v in enumerate(vals):
                 if v in vals[:i]:

@@ -130,6 +130,25 @@ def test_shrouded_disk_modes_matches_the_response_study_and_its_comment(shrouded
 
 
 # --------------------------------------------------------------------------- completeness
+def test_shrouded_disk_campbell_comment():
+    """'stuck ND 3 from 322.4 Hz at rest to 466.7 Hz at 15,000 rpm; EO 3 crosses it
+    (stuck) at 7,238 rpm'; 'EO 6 at 2,188 rpm' (open); EO 1 crosses nothing."""
+    from pipeline.study.modes.campbell import campbell
+
+    st = load_study(STUDIES / "shrouded_disk_campbell.toml")
+    f0, f1 = stated("shrouded_disk_campbell.toml", r"from ([\d.]+) Hz at rest to\n#\s+([\d.]+) Hz")
+    s3, s6 = (float(v.replace(",", "")) for v in re.search(
+        r"\(stuck\) at ([\d,]+) rpm;.*?EO 6 at ([\d,]+) rpm", text(
+            "shrouded_disk_campbell.toml"), re.S).groups())
+    res = campbell(st.scene, st.speeds, (1, 3, 6), 1, (1, 3, 6))
+    assert res["stuck"][0, 1, 0] == pytest.approx(f0, abs=0.05)
+    assert res["stuck"][-1, 1, 0] == pytest.approx(f1, abs=0.05)
+    at = {(eo, state): s for eo, _, k, state, s, _ in res["crossings"] if k == 1}
+    assert at[(3, "stuck")] == pytest.approx(s3, abs=0.5)
+    assert at[(6, "open")] == pytest.approx(s6, abs=0.5)
+    assert not any(eo == 1 for eo, *_ in res["crossings"])
+
+
 CHECKED = {   # study -> the stated results above (numbers followed by Hz or rad/s)
     "paper_example1.toml": {188.4, 213.3},
     "paper_example2.toml": {19.67, 51.50, 23.53, 56.97, 81.7, 421.0},
@@ -138,6 +157,7 @@ CHECKED = {   # study -> the stated results above (numbers followed by Hz or rad
     "blade_shroud_contact.toml": {356.0, 497.6, 403.6},
     "shrouded_disk.toml": {212.9, 300.9, 322.4},
     "shrouded_disk_modes.toml": {212.9, 213.9, 322.4, 877.1},
+    "shrouded_disk_campbell.toml": {322.4, 466.7},
     "shrouded_disk_mistuned.toml": {271.3},
     "blade3_stability.toml": {112.0, 121.0, 115.9, 117.5},   # test_stability_check.py
     # 377.6, 383.4, 458.3, 508.6: test_shipped_studies.py; 498.0 (ND 6) below

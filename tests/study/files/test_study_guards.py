@@ -189,12 +189,13 @@ def test_quick_builds_only_the_quick_model(name, monkeypatch):
 
     model_scene.timed_blade_model.cache_clear()
     model_scene.reduced_model.cache_clear()
+    model_scene.blade_at_speed.cache_clear()
     built, reduced = [], []
     build, reduce_ = blades.build_blade, reduction.reduce_blade
 
-    def counting_build(p, disk=None):
+    def counting_build(p, disk=None, **kw):
         built.append((p.n_chord, p.n_thick, p.n_span))
-        return build(p, disk)
+        return build(p, disk, **kw)
 
     def counting_reduce(blade, *a, **k):
         reduced.append((blade.params.n_chord, blade.params.n_thick, blade.params.n_span))

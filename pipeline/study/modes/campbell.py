@@ -1,0 +1,112 @@
+"""The Campbell diagram of a tuned disk of turning blades: a disk modes study with speeds.
+
+    [modes]
+    speeds = { start = 0.0, stop = 15000.0, count = 16 }   # rpm (or a list)
+    engine_orders = [1, 2, 3, 4, 5, 6]
+
+At each speed Omega the blades carry their stress stiffening and spin softening
+(`structure.rotation`: K + Omega^2 (K_sigma1 - M_P), Craig-Bampton reduced at that
+speed) and the disk's natural frequencies per nodal diameter are those of
+`disk_modes` (contacts open and stuck).  An engine order EO excites the family
+ND = EO mod N folded into 0..N/2 at the frequency EO x speed / 60 [Hz]; a crossing is
+a speed where a natural frequency of that family equals it,
+
+    g(s) = f_k(ND, s) - EO s / 60 = 0,
+
+bracketed by the speed grid (a change of sign of g between two grid speeds) and
+located by Brent's method on the eigenproblem at each trial speed (`brentq`, speed
+to 1e-9 of the largest speed), not read off the grid.  f_k is the k-th frequency in
+increasing order, continuous in the speed; a crossing that the grid brackets twice
+over (two roots between two speeds) is not seen -- refine the grid to find it.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import brentq
+
+from ...model.cyclic import sector_system
+from ...model.scene import Scene, sector
+from ...model.system import natural_frequencies
+from ..figures.nd_figure import excited_nodal_diameter
+
+STATES = {"open": "open", "stuck": "tied"}   # dataset name -> natural_frequencies' limit
+MAX_SPEEDS = 400
+XTOL = 1e-9            # of the largest speed
+
+
+def parse_speeds(ck, modes: dict, where) -> tuple:
+    """(speeds [rpm] ascending, engine orders) of a [modes] table; () when absent."""
+    if "speeds" not in modes:
+        if "engine_orders" in modes:
+            ck.fail(where("engine_orders"), "engine-order lines need speeds: give "
+                                            "modes.speeds [rpm]")
+        return (), ()
+    raw = modes["speeds"]
+    if isinstance(raw, dict):
+        ck.keys(raw, where("speeds"), ("start", "stop", "count"),
+                required=("start", "stop", "count"))
+        lo = ck.number(raw["start"], where("speeds") + ".start", ge=0.0)
+        hi = ck.number(raw["stop"], where("speeds") + ".stop", gt=lo)
+        n = ck.integer(raw["count"], where("speeds") + ".count", 2, MAX_SPEEDS)
+        speeds = tuple(float(v) for v in np.linspace(lo, hi, n))
+    else:
+        speeds = tuple(float(v) for v in ck.numbers(raw, where("speeds"), ge=0.0))
+        if any(b <= a for a, b in zip(speeds, speeds[1:])):
+            ck.fail(where("speeds"), "speeds must increase")
+        if len(speeds) > MAX_SPEEDS:
+            ck.fail(where("speeds"), f"at most {MAX_SPEEDS} speeds, got {len(speeds)}")
+    eos = tuple(ck.integer(v, where(f"engine_orders[{i}]"), 1, 10_000) for i, v in
+                enumerate(ck.array(modes.get("engine_orders", []), where("engine_orders"),
+                                   min_length=0)))
+    if len(set(eos)) != len(eos):
+        ck.fail(where("engine_orders"), "an engine order is listed twice")
+    return speeds, eos
+
+
+def frequencies_at(scene: Scene, speed: float, nodal_diameters, n_frequencies: int,
+                   state: str) -> np.ndarray:
+    """(len(nodal_diameters), n_frequencies) natural frequencies [Hz] at `speed` [rpm]
+    with the contacts `state` ("open" or "stuck")."""
+    case = {} if all(getattr(c, "n0", None) is not None for c in scene.contacts) else {
+        "preload": 0.0}                                   # n0 plays no part here
+    if speed:
+        case["speed"] = float(speed)
+    sec = sector(scene, case)
+    return np.array([natural_frequencies(sector_system(sec, nd), STATES[state])[:n_frequencies]
+                     for nd in nodal_diameters]) / (2 * np.pi)
+
+
+def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders) -> list:
+    """Every (engine order, nodal diameter, mode, state, speed [rpm], frequency [Hz])
+    where f_k(ND, s) = EO s / 60, located by `brentq` inside each bracket of the grid."""
+    N = scene.assembly.sectors
+    s = np.asarray(speeds)
+    found = []
+    for eo in engine_orders:
+        nd = excited_nodal_diameter(eo, N)
+        if nd not in nodal_diameters:
+            continue
+        j = list(nodal_diameters).index(nd)
+        for state, f in freqs.items():
+            for k in range(f.shape[2]):
+                g = f[:, j, k] - eo * s / 60.0
+                for i in np.nonzero(np.sign(g[:-1]) * np.sign(g[1:]) <= 0)[0]:
+                    if g[i] == 0.0 and i > 0:
+                        continue                 # a root on a grid speed: counted once
+
+                    def gap(x, k=k, state=state, eo=eo, nd=nd):
+                        return frequencies_at(scene, x, [nd], k + 1, state)[0, k] - eo * x / 60
+
+                    root = s[i] if g[i] == 0.0 else s[i + 1] if g[i + 1] == 0.0 else brentq(
+                        gap, s[i], s[i + 1], xtol=XTOL * s[-1], rtol=4 * np.finfo(float).eps)
+                    found.append((eo, nd, k + 1, state, float(root), eo * float(root) / 60.0))
+    return found
+
+
+def campbell(scene: Scene, speeds, nodal_diameters, n_frequencies: int, engine_orders) -> dict:
+    """{"open", "stuck"}: (speed, nodal diameter, mode) natural frequencies [Hz];
+    "crossings": the list of `crossings`."""
+    freqs = {state: np.array([frequencies_at(scene, v, nodal_diameters, n_frequencies, state)
+                              for v in speeds]) for state in STATES}
+    freqs["crossings"] = crossings(scene, speeds, nodal_diameters, freqs, engine_orders)
+    return freqs

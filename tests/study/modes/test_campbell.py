@@ -1,0 +1,120 @@
+"""The Campbell diagram (`study.modes.campbell`): a disk modes study with speeds.
+
+At speed 0 it is the frequency - nodal-diameter diagram itself (equal to 1e-10: the
+same eigenproblems, no speed term added); every crossing is a root of
+f_k(ND, s) - EO s / 60 located to 1e-6 of its speed (the function changes sign across
+s (1 -+ 1e-6)), not a grid point; the speed-dependent stiffness reaches the sector
+(a frequency at speed equals the blade's K + Omega^2 K_rot reduced and assembled);
+bad speed tables are one line naming the field."""
+import re
+
+import numpy as np
+import pytest
+
+from pipeline.__main__ import main as cli
+from pipeline.errors import UsageError
+from pipeline.study.datasets.dataset import read_dataset
+from pipeline.study.files.documents import load_study, parse_study
+from pipeline.study.modes.campbell import campbell, frequencies_at
+from pipeline.study.modes.disk_modes import nodal_diameter_frequencies
+from helpers import STUDIES
+
+NDS = (0, 3, 6, 18)
+
+
+@pytest.fixture(scope="module")
+def quick():
+    return load_study(STUDIES / "shrouded_disk_campbell.toml", quick=True)
+
+
+@pytest.fixture(scope="module")
+def diagram(quick):
+    speeds = (0.0, 5000.0, 10000.0, 15000.0)
+    return campbell(quick.scene, speeds, NDS, 2, (3, 6)), speeds
+
+
+def test_at_rest_the_campbell_diagram_is_the_nodal_diameter_diagram(quick, diagram):
+    res, _ = diagram
+    plain = nodal_diameter_frequencies(quick.scene, NDS, 2)
+    for state in ("open", "stuck"):
+        np.testing.assert_allclose(res[state][0], plain[state], rtol=1e-10, atol=0.0)
+    # and the modes study without speeds is the shipped modes study's diagram
+    modes = load_study(STUDIES / "shrouded_disk_modes.toml", quick=True)
+    other = nodal_diameter_frequencies(modes.scene, NDS, 2)
+    np.testing.assert_allclose(plain["stuck"], other["stuck"], rtol=1e-10, atol=0.0)
+
+
+def test_speed_stiffens_the_first_family(diagram):
+    res, _ = diagram
+    assert np.all(np.diff(res["stuck"][:, :, 0], axis=0) > 0)
+    assert np.all(np.diff(res["open"][:, :, 0], axis=0) > 0)
+
+
+def test_crossings_are_roots_located_to_1e_6_of_speed(quick, diagram):
+    res, speeds = diagram
+    found = res["crossings"]
+    assert {(eo, state) for eo, _, k, state, *_ in found if k == 1} == {
+        (3, "open"), (3, "stuck"), (6, "open"), (6, "stuck")}
+    for eo, nd, k, state, s, f in found:
+        assert s not in speeds and f == pytest.approx(eo * s / 60.0, rel=1e-14)
+        lo, hi = (frequencies_at(quick.scene, x, [nd], k, state)[0, k - 1] - eo * x / 60.0
+                  for x in (s * (1 - 1e-6), s * (1 + 1e-6)))
+        assert lo * hi < 0, (eo, state, lo, hi)
+
+
+def test_campbell_study_dataset_and_figure(tmp_path):
+    f = STUDIES / "shrouded_disk_campbell.toml"
+    assert cli(["run", str(f), "--quick", "--out", str(tmp_path)]) == 0
+    ds = read_dataset(tmp_path / "shrouded_disk_campbell.nc")
+    assert ds["frequency_stuck"].dims == ("speed", "nodal_diameter", "mode")
+    assert ds["speed"].attrs["units"] == "rpm" and ds.sizes["speed"] == 16
+    assert ds.sizes["crossing"] >= 6 and set(ds["crossing_contacts"].values) == {"open", "stuck"}
+    assert (tmp_path / "shrouded_disk_campbell" / "campbell_diagram.png").is_file()
+
+
+BAD = {   # (old, new, field, pattern) on the shipped Campbell study
+    "speeds_without_effect": (',\n           "centrifugal_stiffening"', "", "modes.speeds",
+                              'declare "centrifugal_stiffening"'),
+    "effect_without_speeds": ("speeds = { start = 0.0, stop = 15000.0, count = 16 }   # rpm\n"
+                              "engine_orders = [1, 2, 3, 4, 5, 6]", "", "scene.effects",
+                              "nothing turns"),
+    "orders_without_speeds": ("speeds = { start = 0.0, stop = 15000.0, count = 16 }   # rpm", "",
+                              "modes.engine_orders", "need speeds"),
+    "speeds_decrease": ("speeds = { start = 0.0, stop = 15000.0, count = 16 }",
+                        "speeds = [0.0, 9000.0, 3000.0]", "modes.speeds", "must increase"),
+    "speeds_negative": ("speeds = { start = 0.0, stop = 15000.0, count = 16 }",
+                        "speeds = [-10.0, 3000.0]", "modes.speeds", ">= 0"),
+    "order_twice": ("engine_orders = [1, 2, 3, 4, 5, 6]", "engine_orders = [3, 3]",
+                    "modes.engine_orders", "twice"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_campbell_table_is_one_line(case):
+    old, new, field, pattern = BAD[case]
+    text = (STUDIES / "shrouded_disk_campbell.toml").read_text()
+    assert old in text
+    with pytest.raises(UsageError, match=f"^bad.toml: {re.escape(field)}[^:]*: .*{pattern}"):
+        parse_study(text.replace(old, new), file="bad.toml", quick=True)
+
+
+def test_a_forced_response_at_speed_has_the_campbells_frequencies(tmp_path, quick):
+    """The shrouded-disk response study swept over speed: its stuck natural frequencies
+    (EO 3, ND 3) at 15,000 rpm are the Campbell diagram's, and the peak follows them."""
+    text = (STUDIES / "shrouded_disk.toml").read_text().split("[quick.sweep]")[0]
+    text = text.replace('"cyclic_coupling"]', '"cyclic_coupling",\n           '
+                                              '"centrifugal_stiffening"]')
+    text = re.sub(r"\noptimum_preload = .*", "", text).replace(
+        "preload = [0.3, 1.0, 3.0, 10.0, 30.0]", "preload = [30.0]\nspeed = [0.0, 15000.0]")
+    text = text.replace("stop = 400.0", "stop = 550.0")
+    (tmp_path / "speed.toml").write_text(text)
+    assert cli(["run", str(tmp_path / "speed.toml"), "--quick", "--out", str(tmp_path),
+                "--no-figures"]) == 0
+    ds = read_dataset(tmp_path / "speed.nc")
+    assert ds["speed"].attrs["units"] == "rpm"
+    for speed in (0.0, 15000.0):
+        got = ds["natural_frequency_stuck"].sel(speed=speed, preload=30.0).values
+        ref = frequencies_at(quick.scene, speed, [3], got.size, "stuck")[0]
+        np.testing.assert_allclose(got, ref, rtol=1e-10)
+        peak = float(ds["peak_frequency"].sel(speed=speed, preload=30.0).max())
+        assert peak == pytest.approx(ref[0], rel=0.02)     # 30 N: nearly stuck
