@@ -308,6 +308,17 @@ def shrouded_disk_campbell(out, nc, ds, st):
     assert (out / "shrouded_disk_campbell" / "campbell_diagram.png").is_file()
 
 
+def shrouded_disk_speed(out, nc, ds, st):
+    """'below, the blades vibrate free; above, the contact area and the normal loads
+    grow with the speed' (quick: 6,000, 7,250 and 8,000 rpm)."""
+    assert problems(nc) == [] and list(ds.speed.values) == [6000.0, 7250.0, 8000.0]
+    count = ds["static_pairs_in_contact"].values
+    load = ds["static_contact_load_pair"].sum("pair").values
+    assert count[0] == 0 and load[0] == 0.0
+    assert np.all(np.diff(count) > 0) and np.all(np.diff(load) > 0)
+    assert np.all(np.diff(ds["peak_frequency"].values.ravel()) > 0)
+
+
 def disk_nonlinear_modes(out, nc, ds, st):
     """'ND 3: 458.3 Hz (shroud stuck) -> 377.6 Hz (the free blade), damping ratio up to
     0.090; ND 12: 508.6 Hz -> 377.6 Hz, up to 0.164'; 'ND 3 peaks 2 % lower (8.75e-6 vs
@@ -367,7 +378,8 @@ def shrouded_disk_mistuned(out, nc, ds, st):
 CHECKS = {f.__name__: f for f in (
     paper_example1, paper_example2, paper_example3, blade3_stability, blade_modes,
     blade_shroud_contact, accuracy_cost, disk_cyclic, disk_laxalde, disk_mistuned,
-    shrouded_disk, shrouded_disk_modes, shrouded_disk_campbell, shrouded_disk_mistuned,
+    shrouded_disk, shrouded_disk_modes, shrouded_disk_campbell, shrouded_disk_speed,
+    shrouded_disk_mistuned,
     disk_nonlinear_modes,
     shrouded_disk_nonlinear_modes)}
 

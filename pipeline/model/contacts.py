@@ -17,7 +17,7 @@ Bn_next = -n^T R(alpha) S_L (S: the selection of a node's 3 DOFs, or the point
 motion P of a face whose points move with several DOFs)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -62,7 +62,13 @@ class ShroudPair:
     and the left face of the next one (a blade in a disk, paired by the pitch
     rotation).  tangent: the slip direction (3-vector, global axes of this blade,
     projected into the face); None: the disk's circumferential direction at the face
-    centre projected into the face (the axial direction X if that is degenerate)."""
+    centre projected into the face (the axial direction X if that is degenerate).
+    interference: the overlap [m] of the faces in the assembled position (> 0: they
+    press, < 0: a gap); it replaces n0: each element's preload is
+    n0_k = kv_k (interference + v_c,k), v_c the relative normal displacement of the
+    pair under the centrifugal load of the blades alone (`structure.rotation`, zero at
+    rest) -- the harmonic balance then deflects the structure under it, as under any
+    preload (`static_load`)."""
 
     name: str
     ku: float               # [N/m] per node pair (face total when stiffness = "per_face")
@@ -71,6 +77,7 @@ class ShroudPair:
     n0: float | None        # [N] total over the face; None: the case's preload
     tangent: tuple | None = None   # [-] direction, global axes
     stiffness: str = "per_node"    # "per_face": ku, kv are face totals shared by area
+    interference: float | None = None   # [m] overlap (> 0) or gap (< 0); sets n0
 
 
 def in_face(e, n) -> np.ndarray | None:
@@ -181,17 +188,22 @@ def case_parameter(contacts, owner, case, name, attr):
     return np.array(vals, dtype=float)[owner]
 
 
-def contact_elements(contacts, case: dict, owner=None, weights=None) -> ContactElements:
+def contact_elements(contacts, case: dict, owner=None, weights=None,
+                     closure=None) -> ContactElements:
     """The elements (Yang-Menq parameters, `registry.friction_elements`) of `contacts`
     with a case applied, one element per row of
     `owner` (the contact of each element; default one per contact).  A `FaceContact`'s
     (or `ShroudPair`'s) preload is the total of its face: shared equally ("per_node")
     or, with ku and kv, by node area ("per_face"; `weights[i]` the areas of contact
-    i's nodes)."""
+    i's nodes).  A shroud pair with an `interference` takes n0_k = kv_k (interference
+    + closure_k) instead, `closure` (E,) [m] the centrifugal v_c (default zero)."""
     case = dict(case or {})
     owner = np.arange(len(contacts)) if owner is None else np.asarray(owner)
-    ku, kv, mu, n0 = (case_parameter(contacts, owner, case, *p) for p in
-                      (("ku", "ku"), ("kv", "kv"), ("mu", "mu"), ("preload", "n0")))
+    pressed = [i for i, c in enumerate(contacts) if getattr(c, "interference", None) is not None]
+    ku, kv, mu = (case_parameter(contacts, owner, case, *p) for p in
+                  (("ku", "ku"), ("kv", "kv"), ("mu", "mu")))
+    n0 = case_parameter([replace(c, n0=0.0) if i in pressed else c   # set below
+                         for i, c in enumerate(contacts)], owner, case, "preload", "n0")
     for i, c in enumerate(contacts):
         if not isinstance(c, (FaceContact, ShroudPair)):
             continue
@@ -205,4 +217,7 @@ def contact_elements(contacts, case: dict, owner=None, weights=None) -> ContactE
             ku[on], kv[on], n0[on] = ku[on] * share, kv[on] * share, n0[on] * share
         else:
             n0[on] = n0[on] / max(int(on.sum()), 1)
+        if i in pressed:
+            gap = np.zeros(int(on.sum())) if closure is None else np.asarray(closure)[on]
+            n0[on] = kv[on] * (c.interference + gap)
     return friction_elements(ku=ku, kv=kv, mu=mu, n0=n0)

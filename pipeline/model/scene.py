@@ -390,9 +390,13 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
         raise ValueError("a scene mixes face contacts and DOF contacts; give one kind")
     if any(isinstance(c, ShroudPair) for c in faces) and not scene.cyclic:
         raise ValueError("a shroud pair couples neighbouring blades: give a Cyclic assembly")
-    blade = blade_at_speed(st, case_speed(st, case))
+    speed = case_speed(st, case)
+    blade = blade_at_speed(st, speed)
     Bt, Bn, Bt_next, Bn_next, owner, weights = fe_contact_maps(blade, faces, st.disk)
-    elem = contact_elements(faces, case, owner, weights)
+    closure = None   # the centrifugal v_c of each pair at ND 0 (`ShroudPair.interference`)
+    if speed and blade.rotation is not None:
+        closure = (speed * RPM) ** 2 * ((Bn + Bn_next) @ blade.rotation.static)
+    elem = contact_elements(faces, case, owner, weights, closure)
     F = blade_forcing(scene, case)
     if not reduced or scene.reduction is None:
         if rows:

@@ -93,6 +93,36 @@ def static_normal_load(system: System) -> np.ndarray:
     return el.n0 + el.kv * (Bn @ q0)
 
 
+def static_contact(system: System, max_sweeps: int | None = None) -> tuple:
+    """(s (E,) [N], closed (E,) bool): the static contact solution at zero excitation with
+    unilateral normal contact -- an element is closed with s = n0 + kv v0 > 0 or open
+    with s = 0 and n0 + kv v0 <= 0 (a gap; its spring carries nothing) -- found by
+    active sets: solve with the closed elements' springs, open those pulling (s <= 0),
+    close the open ones that penetrate, until nothing changes.  Tangentially as
+    `static_normal_load` (a stuck slider at the middle of its band carries no force).
+    With every element closed it is `static_normal_load`."""
+    el = system.contact
+    E = el.size
+    if E == 0:
+        return np.zeros(0), np.zeros(0, bool)
+    A, Bn, F0 = _static_operators(system)
+    kv = np.asarray(el.kv, float)
+    closed = np.ones(E, bool)
+    for _ in range(max_sweeps or 2 * E + 2):
+        k = np.where(closed, kv, 0.0)
+        Ac = A - Bn.T @ (sp.diags(kv - k) @ Bn) if sp.issparse(A) else \
+            A - Bn.T @ ((kv - k)[:, None] * Bn)
+        Ac = Ac.tocsc() if sp.issparse(Ac) else Ac
+        q0 = _solve(Ac, (F0 - Bn.T @ np.where(closed, el.n0, 0.0))[:, None])[:, 0]
+        trial = el.n0 + kv * (Bn @ q0)
+        now = trial > 0.0
+        if np.array_equal(now, closed):
+            return np.where(closed, trial, 0.0), closed
+        closed = now
+    raise ValueError(f"the static contact solution did not settle in {max_sweeps or 2 * E + 2} "
+                     "active-set sweeps")
+
+
 def face_totals(values, owner, n_contacts: int) -> np.ndarray:
     """Sum of per-element `values` (..., E) over each contact's elements -> (..., C)."""
     values = np.asarray(values, float)

@@ -98,3 +98,28 @@ def test_static_stretch_equals_the_bar_under_centrifugal_load():
         blade = bending_modes(R, replace(PLATE, nu=nu))[2]
         tip = blade.dof_sets["response"][0, 2]
         assert blade.rotation.static[tip] == pytest.approx(bar, rel=rel, abs=0.0)
+
+
+def test_coriolis_coupling_moves_the_frequencies_little():
+    """The neglected Coriolis matrix G = 2 Omega int rho u . (e_X x v) dV on the default
+    wheel blade (clamped, shrouds free) at 15,000 rpm: the quadratic eigenproblem on its
+    12 lowest modes at that speed moves them by at most 0.2 % (measured 0.20 %, 0.13 %,
+    0.08 %, ...)."""
+    import scipy.sparse as sp
+
+    from pipeline.structure.disk import wheel_params
+    from pipeline.structure.fe_model import DiskPlacement
+
+    disk = DiskPlacement(0.12, 36)
+    p = BladeParams(n_chord=4, n_thick=1, n_span=8)
+    mesh, sets = solid_mesh(p, disk)
+    blade = solid_from_mesh(mesh, sets, wheel_params(p, disk), rotation_centre=disk.centre)
+    Om = 15000 * 2 * np.pi / 60
+    w, Phi = sla.eigsh((blade.K + Om**2 * blade.rotation.stiffness).tocsc(), k=12,
+                       M=blade.M.tocsc(), sigma=0)
+    turn = sp.csr_matrix([[0, 0, 0], [0, 0, -1], [0, 1, 0.0]])       # v -> e_X x v
+    G = 2 * Om * (blade.M @ sp.kron(sp.identity(blade.n_dof // 3), turn))
+    A = np.block([[np.zeros((12, 12)), np.eye(12)], [-np.diag(w), -Phi.T @ (G @ Phi)]])
+    f = np.sort(np.abs(la.eigvals(A).imag))[::2]
+    shift = np.abs(f / np.sqrt(w) - 1)
+    assert 1e-4 < shift.max() < 3e-3

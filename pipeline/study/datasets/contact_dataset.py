@@ -30,7 +30,8 @@ from ...contact import YangMenq
 from ...contact.cycle import cycle_results
 from ...fourier.harmonics import shift
 from .harmonics_dataset import add_harmonic_coefficients
-from ...model.static_load import NORMAL_LOAD, contact_owner, face_totals, static_normal_load
+from ...model.static_load import (NORMAL_LOAD, contact_owner, face_totals, static_contact,
+                                  static_normal_load)
 
 
 def wheel_sectors(study) -> int | None:
@@ -94,6 +95,34 @@ def static_variables(study, cases, systems) -> dict:
         "static_normal_load": (sw + ("contact",), face_totals(s, owner, C), {
             "units": "N", "long_name": f"static normal load n0 + kv v0 summed over the contact's "
                                        f"elements (face total) {closed}"}),
+        **(contact_state_variables(study, cases, systems) if pressed(scene) else {}),
+    }
+
+
+def pressed(scene) -> bool:
+    """Whether a contact of the scene is set by an interference (its static state is
+    then worth reporting as the unilateral contact solution)."""
+    return any(getattr(c, "interference", None) is not None for c in scene.contacts)
+
+
+def contact_state_variables(study, cases, systems) -> dict:
+    """The unilateral static contact solution per case (`static_load.static_contact`):
+    the normal load of each pair (zero where open) and the pairs in contact."""
+    shape, E = study.sweep.shape, element_owner(study).size
+    s = np.full(shape + (E,), np.nan)
+    count = np.zeros(shape, dtype=np.int32)
+    for (idx, _), system in zip(cases, systems):
+        s[idx], closed = static_contact(system)
+        count[idx] = int(closed.sum())
+    sw = tuple(study.sweep.axes)
+    return {
+        "static_contact_load_pair": (sw + ("pair",), s, {
+            "units": "N", "long_name": "normal load of the element in the static contact "
+                                       "solution (unilateral: 0 where the pair opens; no "
+                                       "excitation, interference and speed applied)"}),
+        "static_pairs_in_contact": (sw, count, {
+            "units": "1", "long_name": "pairs in contact in the static contact solution "
+                                       "(the contact area, counted in node pairs)"}),
     }
 
 

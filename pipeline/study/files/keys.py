@@ -208,6 +208,9 @@ _FIXED = [
                                                      'or `"per_face"` (face totals by node area)'),
     ("scene.contact", "tangent", "1", "circumferential", "shroud pairs: slip direction [x, y, z], "
                                                          "projected into the face"),
+    ("scene.contact", "interference", "m", "", "shroud pairs: overlap (> 0) or gap (< 0) in "
+                                               "the assembled position; sets the preload with "
+                                               "the speed (instead of n0)"),
     ("scene.excitation", "dof", "", "", "lumped and disk: the loaded DOF (required there)"),
     ("scene.excitation", "set", "", "", 'FE blades: `"excitation"` or `"response"` node set'),
     ("scene.excitation", "direction", "1", "", "FE blades: [x, y, z] (required there)"),

@@ -36,7 +36,8 @@ from ...model.cyclic import sector_system
 from ...model.scene import Scene, sector
 from ...model.system import natural_frequencies
 from ..files.rules import check_speed_rules
-from ..scenes.blade_scene import BLADE_MODELS, base_dir_of, blade_scenes, can_turn
+from ..scenes.blade_scene import BLADE_MODELS, base_dir_of, blade_scenes
+from ..scenes.blade_wheel_scene import can_turn
 from .campbell import campbell, parse_speeds
 from ..files.validation import Checker
 from ..files.header import overlay, parse_header, quick_tables

@@ -281,7 +281,7 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
     blade_disk.check_disk_contacts(ck, contacts, placement)
     structure = Blade(params=params, mesh=mesh, rayleigh=rayleigh, disk=placement,
                       matrices=matrices)
-    scene = Scene(structure=turning(ck, tab, structure, model, effects),
+    scene = Scene(structure=blade_disk.turning(ck, tab, structure, model, effects),
                   contacts=contacts, loads=loads, reduction=CraigBampton(n_modes),
                   effects=effects, model=model, assembly=assembly)
     if not build:
@@ -371,6 +371,9 @@ def _mesh(ck, value, field_, base_dir, tab, contacts):
 
 def _face_contact(ck, c, f, i) -> FaceContact:
     c = ck.table(c, f)
+    if "interference" in c:
+        ck.fail(f"{f}.interference", "an interference is of a shroud pair (pair = \"shroud\" "
+                                     "between neighbouring blades), not of a face against a wall")
     ck.keys(c, f, ("name", "face", "ku", "kv", "mu", "n0", "stiffness"),
             required=("face", "ku", "mu"))
     face = ck.string(c["face"], f"{f}.face", FACES)
@@ -464,29 +467,14 @@ def _modes(ck, t, where, scene, built: bool = True):
     return tuple(vals), nf, ns
 
 
-def turning(ck, tab, structure: Blade, model: str, effects) -> Blade:
-    """The blade spec with its speed (`scene.disk.speed` [rpm]) and whether it turns
-    (the effect "centrifugal_stiffening" on a solid blade in a disk, its own assembly)."""
-    if structure.disk is None:
-        return structure
-    speed = ck.number(tab["disk"].get("speed", 0.0), "scene.disk.speed", ge=0.0)
-    rotating = ("centrifugal_stiffening" in effects and model == "solid_blade"
-                and structure.matrices is None)
-    return replace(structure, speed=float(speed), rotating=rotating)
-
-
-def can_turn(scene) -> bool:
-    """Whether the scene's blades can turn: solid, in a disk, the package's assembly."""
-    st = scene.structure
-    return scene.model == "solid_blade" and st.disk is not None and st.matrices is None
-
-
 def _consistency(ck, scene, solver, axes, spath, wpath, data):
     """Cross-field rules (scene.check_scene_rules); every face contact has a normal."""
-    check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
+    blade_disk.check_interference(ck, scene.contacts, axes, wpath)
+    check_scene_rules(ck, scene.effects, [c.n0 if getattr(c, "interference", None) is None
+                                          else c.kv * c.interference for c in scene.contacts],
                       [c.kv for c in scene.contacts], bool(scene.contacts),
                       max([ld.harmonic for ld in scene.loads] + [0]), solver.harmonics,
-                      axes, spath, wpath, disk=scene.cyclic, can_turn=can_turn(scene),
+                      axes, spath, wpath, disk=scene.cyclic, can_turn=blade_disk.can_turn(scene),
                       speed=scene.structure.speed)
     if scene.cyclic:  # engine order, "cyclic_coupling", mistuning: as a lumped disk's
         disk_scene.check_disk_rules(ck, scene, axes, wpath, data)

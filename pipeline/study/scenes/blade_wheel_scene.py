@@ -27,10 +27,12 @@ sector's frame (`model.contacts.ShroudPair`).  A shroud pair is the effect
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ...model.contacts import ShroudPair, fe_contact_maps
-from ...model.scene import Cyclic
+from ...model.scene import Blade, Cyclic
 from ...structure.fe_model import DiskPlacement
 from . import lumped_disk_scene as disk_scene
 
@@ -54,8 +56,8 @@ def parse_placement(ck, tab) -> tuple:
 
 def parse_pair(ck, c, f, i) -> ShroudPair:
     """A `[[scene.contact]]` with `pair = "shroud"`."""
-    ck.keys(c, f, ("name", "pair", "ku", "kv", "mu", "n0", "stiffness", "tangent"),
-            required=("pair", "ku", "mu"))
+    ck.keys(c, f, ("name", "pair", "ku", "kv", "mu", "n0", "stiffness", "tangent",
+                   "interference"), required=("pair", "ku", "mu"))
     ck.string(c["pair"], f"{f}.pair", PAIRS)
     name = ck.string(c.get("name", "shroud"), f"{f}.name")
     tangent = None
@@ -69,7 +71,27 @@ def parse_pair(ck, c, f, i) -> ShroudPair:
                       n0=ck.number(c["n0"], f"{f}.n0") if "n0" in c else None,
                       tangent=tangent,
                       stiffness=ck.string(c.get("stiffness", "per_node"), f"{f}.stiffness",
-                                          STIFFNESS))
+                                          STIFFNESS),
+                      interference=(ck.number(c["interference"], f"{f}.interference")
+                                    if "interference" in c else None))
+
+
+def check_interference(ck, contacts, axes, wpath):
+    """An interference [m] sets the pair's preload: no n0, no swept preload or static
+    normal load beside it, and a normal stiffness to turn it into a load."""
+    for i, c in enumerate(contacts):
+        if getattr(c, "interference", None) is None:
+            continue
+        f = f"scene.contact[{i}]"
+        if c.n0 is not None:
+            ck.fail(f"{f}.n0", "the interference sets the preload (n0 = kv x interference "
+                               "before the blades deflect): give one of the two")
+        for a in ("preload", "normal_load"):
+            if a in axes:
+                ck.fail(f"{wpath}.{a}", f"contact {i} has an interference, which sets its "
+                                        "preload: sweep speed (or the interference) instead")
+        if not c.kv > 0:
+            ck.fail(f"{f}.kv", "an interference needs a normal stiffness kv > 0 [N/m] to press")
 
 
 def check_disk_contacts(ck, contacts, placement):
@@ -101,3 +123,20 @@ def placement_field(message: str) -> tuple:
         if message.startswith(f"disk.{key}: "):
             return f"scene.disk.{key}", message[len(f"disk.{key}: "):]
     return None, message
+
+
+def turning(ck, tab, structure: Blade, model: str, effects) -> Blade:
+    """The blade spec with its speed (`scene.disk.speed` [rpm]) and whether it turns
+    (the effect "centrifugal_stiffening" on a solid blade in a disk, its own assembly)."""
+    if structure.disk is None:
+        return structure
+    speed = ck.number(tab["disk"].get("speed", 0.0), "scene.disk.speed", ge=0.0)
+    rotating = ("centrifugal_stiffening" in effects and model == "solid_blade"
+                and structure.matrices is None)
+    return replace(structure, speed=float(speed), rotating=rotating)
+
+
+def can_turn(scene) -> bool:
+    """Whether the scene's blades can turn: solid, in a disk, the package's assembly."""
+    st = scene.structure
+    return scene.model == "solid_blade" and st.disk is not None and st.matrices is None

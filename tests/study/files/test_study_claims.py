@@ -149,6 +149,21 @@ def test_shrouded_disk_campbell_comment():
     assert not any(eo == 1 for eo, *_ in res["crossings"])
 
 
+def test_shrouded_disk_speed_closing_speed():
+    """'The first pair closes at 6,863 rpm (0.1 mm over v_c per Omega^2)'."""
+    from pipeline.model.contacts import fe_contact_maps
+    from pipeline.model.scene import RPM, blade_model
+
+    st = load_study(STUDIES / "shrouded_disk_speed.toml")
+    stated_rpm = float(re.search(r"first pair closes at ([\d,]+) rpm",
+                                 text("shrouded_disk_speed.toml")).group(1).replace(",", ""))
+    blade = blade_model(st.scene.structure)
+    _, Bn, _, Bn_next, _, _ = fe_contact_maps(blade, st.scene.contacts, st.scene.structure.disk)
+    v1 = (Bn + Bn_next) @ blade.rotation.static
+    gap = -st.scene.contacts[0].interference
+    assert np.sqrt(gap / v1.max()) / RPM == pytest.approx(stated_rpm, abs=0.5)
+
+
 CHECKED = {   # study -> the stated results above (numbers followed by Hz or rad/s)
     "paper_example1.toml": {188.4, 213.3},
     "paper_example2.toml": {19.67, 51.50, 23.53, 56.97, 81.7, 421.0},
