@@ -2,7 +2,8 @@
 
 Natural frequency [Hz] against speed [rpm] for the nodal-diameter families the
 engine orders excite (ND = EO mod N folded), contacts stuck (solid) and open
-(dashed), one colour per engine order; the engine-order lines EO x speed / 60 in
+(dashed) and, with an interference, in the static contact state of each speed
+(dotted), one colour per engine order; the engine-order lines EO x speed / 60 in
 grey; the crossings the study located (root finding) as black dots.  Every family
 of the dataset's first mode upward is drawn for the excited NDs only -- the diagram
 designers read first: where a resonance meets its excitation in the running range.
@@ -34,12 +35,16 @@ def campbell_figure(path, ds):
         j = nds.index(nd)
         ax.plot(s, ds.frequency_stuck.values[:, j, :], "-", color=colour, lw=1.2)
         ax.plot(s, ds.frequency_open.values[:, j, :], "--", color=colour, lw=0.9)
+        if "frequency_static" in ds:
+            ax.plot(s, ds.frequency_static.values[:, j, :], ":", color=colour, lw=1.4)
         ax.plot([], [], "-", color=colour, label=f"ND {nd} (EO {eo})")
     if ds.sizes.get("crossing", 0):
         ax.plot(ds.crossing_speed.values, ds.crossing_frequency.values, "ko", ms=4,
                 label="crossing (root found)")
     ax.plot([], [], "k-", label="contacts stuck")
     ax.plot([], [], "k--", label="contacts open")
+    if "frequency_static" in ds:
+        ax.plot([], [], "k:", lw=1.4, label="static contact state")
     ax.set_ylim(0.0, fmax)
     ax.set_xlim(s[0], s[-1])
     ax.set_xlabel("speed [rpm]")

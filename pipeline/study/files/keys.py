@@ -186,6 +186,8 @@ _FIXED = [
     ("scene.matrices", "mass", "", _REQ, "abaqus, ansys, matrix_market: the M file"),
     ("scene.matrices", "mapping", "", _REQ, "ansys: the `.mapping` file of the HBMAT export"),
     ("scene.matrices", "dofs", "", _REQ, "matrix_market: the \"node direction\" table"),
+    ("scene.matrices", "damping", "", "zeros", "lumped scenes from files: the C file (the "
+                                               "stiffness's format; DOFs `n<node>.<x|y|z|rx|ry|rz>`)"),
     ("scene.modal", "masses", "kg", _REQ, "modal masses m"),
     ("scene.modal", "frequencies", "rad/s", _REQ, "natural frequencies ω"),
     ("scene.modal", "damping_ratios", "1", _REQ, "modal damping ratios ζ"),

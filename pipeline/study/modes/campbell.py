@@ -24,12 +24,16 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
+from dataclasses import replace
+
 from ...model.cyclic import sector_system
+from ...model.static_load import static_contact
 from ...model.scene import Scene, sector
 from ...model.system import natural_frequencies
 from ..figures.nd_figure import excited_nodal_diameter
 
 STATES = {"open": "open", "stuck": "tied"}   # dataset name -> natural_frequencies' limit
+STATIC = "static"     # with an interference: the pairs the static contact solution closes
 MAX_SPEEDS = 400
 XTOL = 1e-9            # of the largest speed
 
@@ -63,16 +67,29 @@ def parse_speeds(ck, modes: dict, where) -> tuple:
     return speeds, eos
 
 
+def states(scene: Scene) -> tuple:
+    """The contact states a Campbell diagram draws: open and stuck, and with an
+    interference the static state (only the pairs in static contact stuck)."""
+    pressed = any(getattr(c, "interference", None) is not None for c in scene.contacts)
+    return tuple(STATES) + ((STATIC,) if pressed else ())
+
+
 def frequencies_at(scene: Scene, speed: float, nodal_diameters, n_frequencies: int,
                    state: str) -> np.ndarray:
     """(len(nodal_diameters), n_frequencies) natural frequencies [Hz] at `speed` [rpm]
-    with the contacts `state` ("open" or "stuck")."""
-    case = {} if all(getattr(c, "n0", None) is not None for c in scene.contacts) else {
-        "preload": 0.0}                                   # n0 plays no part here
+    with the contacts `state`: "open", "stuck" (every pair), or "static" (the pairs the
+    unilateral static contact solution at ND 0 closes, `static_load.static_contact`,
+    stuck; the others open)."""
+    case = {} if all(getattr(c, "n0", None) is not None or getattr(c, "interference", None)
+                     is not None for c in scene.contacts) else {"preload": 0.0}  # n0 unused
     if speed:
         case["speed"] = float(speed)
     sec = sector(scene, case)
-    return np.array([natural_frequencies(sector_system(sec, nd), STATES[state])[:n_frequencies]
+    limit = STATES.get(state, "small")
+    if state == STATIC:
+        closed = static_contact(sector_system(sec, 0))[1]
+        sec = replace(sec, contact=replace(sec.contact, n0=np.where(closed, 1.0, -1.0)))
+    return np.array([natural_frequencies(sector_system(sec, nd), limit)[:n_frequencies]
                      for nd in nodal_diameters]) / (2 * np.pi)
 
 
@@ -104,9 +121,9 @@ def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders)
 
 
 def campbell(scene: Scene, speeds, nodal_diameters, n_frequencies: int, engine_orders) -> dict:
-    """{"open", "stuck"}: (speed, nodal diameter, mode) natural frequencies [Hz];
-    "crossings": the list of `crossings`."""
+    """{"open", "stuck"[, "static"]}: (speed, nodal diameter, mode) natural frequencies
+    [Hz] (`states`); "crossings": the list of `crossings`."""
     freqs = {state: np.array([frequencies_at(scene, v, nodal_diameters, n_frequencies, state)
-                              for v in speeds]) for state in STATES}
+                              for v in speeds]) for state in states(scene)}
     freqs["crossings"] = crossings(scene, speeds, nodal_diameters, freqs, engine_orders)
     return freqs

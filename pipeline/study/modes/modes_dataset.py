@@ -112,10 +112,14 @@ def campbell_to_dataset(study, res: dict) -> xr.Dataset:
         {"frequency_open": var(res["open"], "natural frequency, contacts open"),
          "frequency_stuck": var(res["stuck"], "natural frequency, every contact closed and "
                                               "stuck (ku, kv)"),
+         **({"frequency_static": var(res["static"], "natural frequency, the pairs of the "
+                                                     "static contact solution (interference and "
+                                                     "speed) stuck, the others open")}
+            if "static" in res else {}),
          "crossing_engine_order": cvar(0, np.int32, "1", "engine order EO of the crossing"),
          "crossing_nodal_diameter": cvar(1, np.int32, "1", "nodal diameter EO excites"),
          "crossing_mode": cvar(2, np.int32, "1", "mode number within the family"),
-         "crossing_contacts": cvar(3, str, "", "contacts open or stuck"),
+         "crossing_contacts": cvar(3, str, "", "contacts open, stuck or static"),
          "crossing_speed": cvar(4, float, "rpm", "speed where the frequency equals EO x "
                                                  "speed / 60 (root found, not the grid)"),
          "crossing_frequency": cvar(5, float, "Hz", "frequency at the crossing, EO x "

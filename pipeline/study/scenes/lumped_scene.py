@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import re
+from pathlib import Path
 from dataclasses import replace
 
 import numpy as np
@@ -35,6 +36,7 @@ from ..files.validation import Checker, join_field, kind_of
 from ..files.header import parse_header, quick_tables
 from .law_scene import check_law_solvers, law_tables, supported
 from ..files.rules import check_optimum_axes, check_scene_rules
+from .matrix_scene import exported_lumped, ordered, typed_matrices
 from ..files.spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
                    MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, STABILITY_WHEN_TRUE, SWEEP_AXES,
                    FrequencyRange, OutputSettings, SolverSettings, STABILITY_MODES, Study, Sweep,
@@ -220,18 +222,21 @@ def parse_scene(ck, tab, loaded: bool = True) -> Scene:
     for i, e in enumerate(effects):
         if e not in EFFECTS:
             ck.fail(f"scene.effects[{i}]", f"unknown effect {e!r} (known: {', '.join(EFFECTS)})")
-    if "dofs" not in tab:
+    if ("matrices" in tab) == ("modal" in tab):
+        ck.fail("scene", "give exactly one of [scene.matrices] and [scene.modal]")
+    exported = exported_lumped(ck, tab, Path(ck.file).parent)   # M, C, K, DOFs from files
+    if "dofs" not in tab and exported is None:
         ck.fail("scene.dofs", "missing (required): the names of the DOFs, e.g. [\"x1\", \"x2\"]")
-    dofs = ck.names(tab["dofs"], "scene.dofs")
+    dofs = ck.names(tab["dofs"], "scene.dofs") if "dofs" in tab else exported[3]
     if disk:
         disk_scene.check_dof_names(ck, dofs)
     n = len(dofs)
     if n > MAX_DOFS:
         ck.fail("scene.dofs", f"a lumped scene has at most {MAX_DOFS} DOFs, got {n}")
-    if ("matrices" in tab) == ("modal" in tab):
-        ck.fail("scene", "give exactly one of [scene.matrices] and [scene.modal]")
-    if "matrices" in tab:
-        M, C, K = _matrices(ck, ck.table(tab["matrices"], "scene.matrices"), n)
+    if exported is not None:
+        M, C, K = ordered(ck, exported, dofs)
+    elif "matrices" in tab:
+        M, C, K = typed_matrices(ck, ck.table(tab["matrices"], "scene.matrices"), n)
     else:
         M, C, K = _modal(ck, ck.table(tab["modal"], "scene.modal"), n)
     contacts_raw = tab.get("contact", [])
@@ -263,23 +268,6 @@ def parse_scene(ck, tab, loaded: bool = True) -> Scene:
                  loads=(Forcing(forcing),), assembly=assembly, effects=effects, model=model,
                  laws=laws)
 
-
-
-def _matrices(ck, t, n):
-    ck.keys(t, "scene.matrices", ("M", "C", "K"), required=("M", "K"))
-    M = ck.matrix(t["M"], "scene.matrices.M", n)
-    K = ck.matrix(t["K"], "scene.matrices.K", n)
-    C = ck.matrix(t["C"], "scene.matrices.C", n) if "C" in t else np.zeros((n, n))
-    for A, nm, need in ((M, "M", "positive definite (mass)"),
-                        (K, "K", "positive definite (stiffness; no rigid-body modes)"),
-                        (C, "C", "positive semi-definite (damping)")):
-        scale = np.abs(A).max()
-        if np.abs(A - A.T).max() > 1e-9 * scale:
-            ck.fail(f"scene.matrices.{nm}", "must be symmetric")
-        lam = np.linalg.eigvalsh(0.5 * (A + A.T))
-        if (nm == "C" and lam.min() < -1e-9 * max(scale, 1e-300)) or (nm != "C" and lam.min() <= 1e-12 * scale):
-            ck.fail(f"scene.matrices.{nm}", f"must be {need}; smallest eigenvalue {lam.min():.4g}")
-    return M, C, K
 
 
 def _modal(ck, t, n):

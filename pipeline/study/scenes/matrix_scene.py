@@ -16,9 +16,13 @@ the rest (faces, frames, sets) from the mesh.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
-from ...structure.exchange.imported import FORMATS, UNITS, MatrixFiles
+import numpy as np
+
+from ...errors import UsageError
+from ...structure.exchange.imported import FORMATS, UNITS, MatrixFiles, read_exported
 
 FILES = {"calculix": ("job",), "abaqus": ("stiffness", "mass"),
          "ansys": ("stiffness", "mass", "mapping"),
@@ -36,13 +40,15 @@ def scene_matrices(ck, tab: dict, mesh, base_dir: Path) -> MatrixFiles | None:
     return parse_matrices(ck, tab["matrices"], "scene.matrices", base_dir)
 
 
-def parse_matrices(ck, value, field: str, base_dir: Path) -> MatrixFiles:
-    """The `MatrixFiles` of a [scene.matrices] table (files checked to exist)."""
+def parse_matrices(ck, value, field: str, base_dir: Path, extra=()) -> MatrixFiles:
+    """The `MatrixFiles` of a [scene.matrices] table (files checked to exist); `extra`:
+    keys the caller reads itself."""
     t = ck.table(value, field)
     if "format" not in t:
         ck.fail(f"{field}.format", f"missing (required): one of {', '.join(FORMATS)}")
     fmt = ck.string(t["format"], f"{field}.format", FORMATS)
-    ck.keys(t, field, ("format", "units") + FILES[fmt], required=("units",) + FILES[fmt])
+    ck.keys(t, field, ("format", "units") + FILES[fmt] + tuple(extra),
+            required=("units",) + FILES[fmt])
     units = ck.string(t["units"], f"{field}.units", tuple(UNITS))
     paths = []
     for key in FILES[fmt]:
@@ -56,3 +62,66 @@ def parse_matrices(ck, value, field: str, base_dir: Path) -> MatrixFiles:
         paths.append(str(path))
     stiffness, mass, dofs = (paths + [None, None])[:3]
     return MatrixFiles(fmt, stiffness, mass, dofs, units)
+
+
+def typed_matrices(ck, t, n):
+    """M, C, K of a lumped scene typed into [scene.matrices] (lists of rows)."""
+    ck.keys(t, "scene.matrices", ("M", "C", "K"), required=("M", "K"))
+    M = ck.matrix(t["M"], "scene.matrices.M", n)
+    K = ck.matrix(t["K"], "scene.matrices.K", n)
+    C = ck.matrix(t["C"], "scene.matrices.C", n) if "C" in t else np.zeros((n, n))
+    for A, nm, need in ((M, "M", "positive definite (mass)"),
+                        (K, "K", "positive definite (stiffness; no rigid-body modes)"),
+                        (C, "C", "positive semi-definite (damping)")):
+        scale = np.abs(A).max()
+        if np.abs(A - A.T).max() > 1e-9 * scale:
+            ck.fail(f"scene.matrices.{nm}", "must be symmetric")
+        lam = np.linalg.eigvalsh(0.5 * (A + A.T))
+        if (nm == "C" and lam.min() < -1e-9 * max(scale, 1e-300)) or (nm != "C" and lam.min() <= 1e-12 * scale):
+            ck.fail(f"scene.matrices.{nm}", f"must be {need}; smallest eigenvalue {lam.min():.4g}")
+    return M, C, K
+
+
+DIRECTIONS = {1: "x", 2: "y", 3: "z", 4: "rx", 5: "ry", 6: "rz"}
+
+
+def exported_lumped(ck, tab: dict, base_dir: Path):
+    """(M, C, K, DOF names) of a lumped scene whose [scene.matrices] names exported files
+    (`format`, as a blade's, plus an optional `damping` file of the stiffness's format),
+    or None when the matrices are typed.  The DOFs are named `n<node>.<x|y|z|rx|ry|rz>`."""
+    t = tab.get("matrices")
+    if not isinstance(t, dict) or "format" not in t:
+        return None
+    damping = t.get("damping")
+    files = parse_matrices(ck, t, "scene.matrices", base_dir, extra=("damping",))
+    try:
+        ex = read_exported(files)
+        C = (read_exported(replace(files, stiffness=str(_path(ck, damping, base_dir)))).K
+             if damping is not None else None)
+    except (ValueError, UsageError) as exc:
+        ck.fail("scene.matrices", str(exc))
+    names = tuple(f"n{node}.{DIRECTIONS[d]}" for node, d in ex.dofs)
+    n = len(names)
+    C = np.zeros((n, n)) if C is None else C.toarray()
+    return ex.M.toarray(), C, ex.K.toarray(), names
+
+
+def _path(ck, value, base_dir):
+    if ck.string(value, "scene.matrices.damping") and not (base_dir / value).is_file():
+        ck.fail("scene.matrices.damping", f"file {str(base_dir / value)!r} not found")
+    return base_dir / value
+
+
+def ordered(ck, exported, dofs) -> tuple:
+    """M, C, K of `exported_lumped` in the order of the scene's `dofs` (which must name
+    exactly the exported DOFs), checked as typed matrices are."""
+    M, C, K, names = exported
+    if sorted(dofs) != sorted(names):
+        extra = sorted(set(dofs) - set(names))[:3]
+        ck.fail("scene.dofs", f"must name exactly the exported DOFs ({len(names)}: "
+                              f"{', '.join(names[:4])}{' ...' if len(names) > 4 else ''}); "
+                              f"unknown: {', '.join(extra) or 'none'}")
+    p = [names.index(d) for d in dofs]
+    M, C, K = (A[np.ix_(p, p)] for A in (M, C, K))
+    typed_matrices(ck, {"M": M.tolist(), "C": C.tolist(), "K": K.tolist()}, len(dofs))
+    return M, C, K

@@ -67,6 +67,20 @@ matrices = {{ format = "{_fmt}", units = "SI", {_files} }}
 mode_counts = [0, 5]
 """
 
+EXTRA["lumped exported"] = """
+[study]
+title = "t"
+[scene]
+model = "lumped"
+effects = []
+matrices = { format = "matrix_market", stiffness = "k", mass = "m", dofs = "d", damping = "c", units = "SI" }
+[[scene.excitation]]
+dof = "n1.x"
+amplitude = 1.0
+[sweep]
+frequency = { start = 0.5, stop = 1.5, unit = "rad/s" }
+"""
+
 
 def _tables(doc, path=()):
     """Every table of a parsed TOML document (the first of an array of tables), with

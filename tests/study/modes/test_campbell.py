@@ -118,3 +118,19 @@ def test_a_forced_response_at_speed_has_the_campbells_frequencies(tmp_path, quic
         np.testing.assert_allclose(got, ref, rtol=1e-10)
         peak = float(ds["peak_frequency"].sel(speed=speed, preload=30.0).max())
         assert peak == pytest.approx(ref[0], rel=0.02)     # 30 N: nearly stuck
+
+
+def test_the_static_contact_state_stiffens_only_where_the_pairs_close(quick):
+    """With a 0.1 mm shroud gap: the static state is the open one while every pair is
+    open (to the dense eigen-solver's round-off), and lies between open and stuck once
+    the speed closes pairs (the quick disk's first pair closes at 6,953 rpm)."""
+    from dataclasses import replace as replace_
+    pair = replace_(quick.scene.contacts[0], interference=-1e-4, n0=None)
+    scene = replace_(quick.scene, contacts=(pair,))
+    for speed, closed in ((3000.0, False), (9000.0, True)):
+        f = {s: frequencies_at(scene, speed, [3], 2, s) for s in ("open", "stuck", "static")}
+        if not closed:
+            np.testing.assert_allclose(f["static"], f["open"], rtol=1e-8)
+        else:
+            assert np.all(f["static"][0, 0] > f["open"][0, 0] * 1.01)
+            assert np.all(f["static"][0, 0] < f["stuck"][0, 0])

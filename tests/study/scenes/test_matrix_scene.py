@@ -118,3 +118,61 @@ def test_bad_imported_blade_is_one_line_exit_2(tmp_path, case, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"error: {f}: {field}: "), err
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+# --------------------------------------------------------------------------- lumped scenes
+EXAMPLE2 = (STUDIES / "paper_example2.toml").read_text()
+
+
+def write_chain(folder, order=(0, 1)):
+    """Example 2's M, C, K as Matrix Market files with a "node direction" table (DOF k
+    of the study is node 10 + k, direction 2, i.e. `n1<k>.y`), rows in `order`."""
+    import scipy.io
+    import scipy.sparse as sp
+    import tomllib
+
+    m = tomllib.loads(EXAMPLE2)["scene"]["matrices"]
+    for name, key in (("M", "M"), ("K", "K"), ("C", "C")):
+        A = np.asarray(m[key], float)[np.ix_(order, order)]
+        scipy.io.mmwrite(folder / f"{name}.mtx", sp.coo_matrix(A), symmetry="symmetric")
+    (folder / "dofs.txt").write_text("".join(f"{10 + k} 2\n" for k in order))
+
+
+def _example2_from_files(dofs_line):
+    import tomllib
+    doc = tomllib.loads(EXAMPLE2)
+    old = doc["scene"]["dofs"]
+    text = re.sub(r"(?m)^\[scene\.matrices\]\n(?:#.*\n)?(?:[A-Z] = .*\n)+", "", EXAMPLE2)
+    assert "[scene.matrices]" not in text
+    text = text.replace("[scene]\n", '[scene]\nmatrices = { format = "matrix_market", '
+                        'stiffness = "K.mtx", mass = "M.mtx", dofs = "dofs.txt", '
+                        'damping = "C.mtx", units = "SI" }\n', 1)
+    text = re.sub(r'(?m)^dofs = \[.*\]\n', dofs_line, text)
+    for k, name in enumerate(old):          # the study's DOF names become the file's
+        text = re.sub(rf'"{name}"', f'"n1{k}.y"', text)
+    return text
+
+
+def test_a_lumped_scene_reads_its_matrices_from_files(tmp_path):
+    """Example 2 typed and Example 2 from Matrix Market files (rows stored in the other
+    order, the scene's `dofs` reorder them): the same system, bit for bit."""
+    write_chain(tmp_path, order=(1, 0))
+    typed = load_study(STUDIES / "paper_example2.toml")
+    (tmp_path / "files.toml").write_text(_example2_from_files('dofs = ["n10.y", "n11.y"]\n'))
+    files = load_study(tmp_path / "files.toml")
+    a, b = typed.system({"preload": 100.0}), files.system({"preload": 100.0})
+    for name in ("M", "C", "K"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert files.scene.structure.dofs == ("n10.y", "n11.y")
+    # without `dofs`, the file's order and names
+    (tmp_path / "auto.toml").write_text(_example2_from_files(""))
+    auto = load_study(tmp_path / "auto.toml")
+    assert auto.scene.structure.dofs == ("n11.y", "n10.y")
+
+
+def test_a_lumped_scene_whose_dofs_miss_the_files_is_one_line(tmp_path):
+    write_chain(tmp_path)
+    (tmp_path / "bad.toml").write_text(_example2_from_files('dofs = ["n10.y", "n12.y"]\n'))
+    with pytest.raises(UsageError, match=r"bad\.toml: scene\.dofs: must name exactly the "
+                                         r"exported DOFs \(2: n10\.y, n11\.y\); unknown: n12\.y"):
+        load_study(tmp_path / "bad.toml")
