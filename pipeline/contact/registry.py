@@ -11,11 +11,13 @@ from __future__ import annotations
 
 from .cubic_spring import CubicSpring
 from .element import YangMenq
+from .friction2d import Friction2D
 from .laws import YangMenqLaw
 
 LAWS = {
     YangMenqLaw.name: YangMenqLaw,
     CubicSpring.name: CubicSpring,
+    Friction2D.name: Friction2D,
 }
 
 

@@ -67,3 +67,14 @@ def check_law_solvers(ck, laws, stability, field) -> None:
         require_mode(laws, stability)
     except ValueError as exc:
         ck.fail(field, f"{exc}; give stability = \"hill\" or false")
+
+
+def check_law_methods(ck, laws, method: str, field) -> None:
+    """Fail at `field` when a law of the scene does not offer the force evaluation
+    `method` (the 2D friction law has no closed form: AFT only)."""
+    for le in laws:
+        offered = getattr(le.law, "methods", None)
+        if offered is not None and method not in offered:
+            ck.fail(field, f"the contact law {le.law.name!r} is evaluated by "
+                           f"{' or '.join(offered)} only: give force_evaluation = "
+                           f"\"{offered[0]}\" (and samples)")

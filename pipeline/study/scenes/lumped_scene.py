@@ -34,7 +34,7 @@ from ...model.scene import Cyclic, Lumped, Scene, Single, Spring
 from . import lumped_disk_scene as disk_scene
 from ..files.validation import Checker, join_field, kind_of
 from ..files.header import parse_header, quick_tables
-from .law_scene import check_law_solvers, law_tables, supported
+from .law_scene import check_law_methods, check_law_solvers, law_tables, supported
 from ..files.rules import check_optimum_axes, check_scene_rules
 from .matrix_scene import exported_lumped, ordered, typed_matrices
 from ..files.spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
@@ -465,6 +465,7 @@ def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
     """Cross-field rules of a lumped or disk scene (`check_scene_rules`,
     `disk_scene.check_disk_rules`, `check_law_solvers`)."""
     check_law_solvers(ck, scene.laws, solver.stability, f"{spath}.stability")
+    check_law_methods(ck, scene.laws, solver.force_evaluation, f"{spath}.force_evaluation")
     disk = scene.model == "disk"
     if disk:
         disk_scene.check_disk_rules(ck, scene, axes, wpath, data)

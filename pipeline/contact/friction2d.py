@@ -1,0 +1,194 @@
+"""Friction in the contact plane: a 2D Coulomb slider with variable normal load.
+
+Element e has three local directions: two orthonormal tangents t1, t2 of the contact
+plane and the normal n.  Its relative motion is u = (u1, u2) in the plane and v along
+the normal; the normal load and the tangential force are (Yang & Menq's element with
+the slip free to turn in the plane; Petrov & Ewins' 2D friction; tmdsimpy's
+ElasticDryFriction2D)
+
+    n = n0 + kv v,                               f_n = max(n, 0),
+    f = ku (u - w),   |f| <= mu n,                w the slider (2-vector),
+
+an elastic - perfectly plastic slider on the Coulomb disc: it sticks while the trial
+force ku (u - w) lies inside the disc of radius mu n, otherwise the slider moves so
+that the force stays on the circle in the direction of the trial force (return
+mapping, w = u - (mu n / ku) e, e the unit trial direction); separated (n <= 0) the
+forces vanish and the slider follows, w = u (as the 1D element's touchdown rule).
+
+Periodic steady state on N equispaced samples of one period (alternating
+frequency-time, AFT: the law has no closed form once the slip direction turns):
+- a separated sample erases memory: one pass from there is the periodic state;
+- else, if the slider at the middle w* of the stick band (per tangent,
+  w*_d = (max_i (u_d,i - r_i) + min_i (u_d,i + r_i)) / 2, r_i = mu n_i / ku: the 1D
+  element's `slider_rest`) sticks at every sample, the cycle is fully stuck there;
+- else the march is repeated from w* period after period until the slider returns to
+  its start (to `PERIOD_RTOL` of the motion), at most `MAX_PERIODS` periods (the
+  count is reported); a macroslip phase contracts the memory geometrically.
+For motion along one tangent each rule is the 1D AFT element's, so the law reduces to
+the Yang-Menq element (`contact.aft`) sample for sample.
+
+Jacobian: forward derivatives along the march (stick keeps dw, slip differentiates
+the return mapping, separation sets dw = du), and at a periodic fixed point reached by
+iteration the start's sensitivity dw0 = (I - A)^-1 B from one more period (A = dw_N/dw0,
+B = dw_N/dX); F = W f, dF/dX = W df/dX.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..fourier.harmonics import harmonics_of, time_grid
+from .friction2d_kernel import periodic_cycles, tangential_jacobian
+from .laws import LawForces
+
+PERIOD_RTOL = 1e-13      # the slider's return to its start, of the largest motion
+MAX_PERIODS = 500
+
+
+@dataclass(frozen=True)
+class Friction2D:
+    """E 2D friction elements: ku [N/m] (isotropic tangential), kv [N/m], mu [-],
+    n0 [N] (arrays of length E)."""
+
+    ku: np.ndarray
+    kv: np.ndarray
+    mu: np.ndarray
+    n0: np.ndarray
+
+    name = "friction_2d"
+    directions = ("tangent_1", "tangent_2", "normal")
+    pairs = ((0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2), (2, 2))
+    supports = frozenset({"hbm", "hill"})
+    methods = ("aft",)          # force evaluations it offers (no closed form)
+    # lumped study file: [[scene.friction_2d]] tangent_1 = ["x"], tangent_2 = ["y"],
+    # normal = ["z"] (signed DOF lists), ku, kv, mu, n0
+    effect = "friction_2d"
+    study_table = "friction_2d"
+    study_rows = ("tangent_1", "tangent_2", "normal")
+    study_keys = {"ku": ("N/m", None), "kv": ("N/m", 0.0), "mu": ("1", None),
+                  "n0": ("N", None)}
+    study_help = {"ku": "tangential stiffness (isotropic in the plane)",
+                  "kv": "normal stiffness: n = n0 + kv v", "mu": "friction coefficient",
+                  "n0": "preload (negative: a gap)"}
+
+    def __post_init__(self):
+        arrays = [np.atleast_1d(np.asarray(getattr(self, k), float))
+                  for k in ("ku", "kv", "mu", "n0")]
+        E = max(a.size for a in arrays)
+        for k, a in zip(("ku", "kv", "mu", "n0"), arrays):
+            if a.ndim != 1 or a.size not in (1, E) or not np.all(np.isfinite(a)):
+                raise ValueError(f"{k} must be finite, of length 1 or {E}, got {a!r}")
+            object.__setattr__(self, k, np.broadcast_to(a, (E,)).copy())
+        if np.any(self.ku <= 0) or np.any(self.kv < 0) or np.any(self.mu <= 0):
+            raise ValueError(f"ku must be > 0 [N/m], kv >= 0 [N/m] and mu > 0, got ku = "
+                             f"{self.ku.min():g}, kv = {self.kv.min():g}, mu = {self.mu.min():g}")
+
+    @classmethod
+    def from_study(cls, values: dict) -> "Friction2D":
+        """One element from the study-file values {"ku", "kv", "mu", "n0"}."""
+        return cls(**{k: [values[k]] for k in ("ku", "kv", "mu", "n0")})
+
+    @property
+    def size(self) -> int:
+        return self.ku.size
+
+    def evaluate(self, X, method: str = "aft", n_samples: int = 256,
+                 jacobian: bool = True) -> LawForces:
+        """Fourier coefficients F (E, 3, 2H+1) of (f1, f2, f_n) for the motion X
+        (E, 3, 2H+1) and J (E, 7, 2H+1, 2H+1) in the order of `pairs` (AFT with
+        `n_samples` samples; "exact" is not available for this law)."""
+        if method != "aft":
+            raise ValueError("the 2D friction law is evaluated by AFT (force_evaluation "
+                             f"= \"aft\"), got {method!r}")
+        X = np.asarray(X, float)
+        if X.ndim != 3 or X.shape[:2] != (self.size, 3) or X.shape[2] % 2 == 0:
+            raise ValueError(f"X must have shape (E={self.size}, 3, 2H+1), got {X.shape}")
+        cycle = march(self, X, int(n_samples), jacobian)
+        return LawForces(cycle.F, cycle.J, cycle.regimes, cycle)
+
+
+@dataclass(frozen=True)
+class Cycle2D:
+    """One evaluated period: samples u (E, 2, N), v (E, N), slider w (E, 2, N),
+    forces f (E, 3, N), state (E, N) (0 separated, 1 stick, 2 slip), periods marched
+    (E,), F (E, 3, 2H+1), J (E, 7, 2H+1, 2H+1) or None, regimes."""
+
+    u: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    f: np.ndarray
+    state: np.ndarray
+    periods: np.ndarray
+    F: np.ndarray
+    J: np.ndarray | None
+    regimes: dict
+
+
+def band_middle(u, r):
+    """w* (E, 2) and the samples (E, 2) of max (u - r) and min (u + r) per tangent."""
+    lo, hi = u - r[:, None, :], u + r[:, None, :]
+    a, b = lo.argmax(axis=2), hi.argmin(axis=2)
+    w = 0.5 * (np.take_along_axis(lo, a[..., None], 2)[..., 0]
+               + np.take_along_axis(hi, b[..., None], 2)[..., 0])
+    return w, a, b
+
+
+def march(law: Friction2D, X, N: int, jacobian: bool = True) -> Cycle2D:
+    """The periodic cycle of the elements for the motion X (module docstring)."""
+    E, _, nh = X.shape
+    H = harmonics_of(nh)
+    _, S, W = time_grid(H, N)
+    ku, kv, mu, n0 = law.ku, law.kv, law.mu, law.n0
+    u = X[:, :2] @ S.T                                     # (E, 2, N)
+    v = X[:, 2] @ S.T                                      # (E, N)
+    n = n0[:, None] + kv[:, None] * v
+    touch = n > 0.0
+    r = mu[:, None] * np.maximum(n, 0.0) / ku[:, None]
+    start = np.where(~touch.all(axis=1), (~touch).argmax(axis=1), 0)
+    w_mid, a_lo, b_hi = band_middle(u, r)
+    stuck = touch.all(axis=1) & np.all(
+        ((u - w_mid[..., None]) ** 2).sum(axis=1) <= r * r * (1 + 1e-14) + 1e-300, axis=1)
+    scale = np.abs(u).max(axis=(1, 2)) + np.abs(r).max(axis=1) + 1e-300
+    w0 = np.where((~touch.all(axis=1))[:, None], u[np.arange(E), :, start], w_mid)
+    iterate = touch.all(axis=1) & ~stuck
+    w, f_t, state = np.empty((E, 2, N)), np.empty((E, 2, N)), np.empty((E, N), np.int64)
+    periods = np.zeros(E, np.int64)
+    w0 = np.ascontiguousarray(w0)
+    periodic_cycles(np.ascontiguousarray(u), np.ascontiguousarray(n), ku, mu, w0,
+                    start.astype(np.int64), iterate, MAX_PERIODS, PERIOD_RTOL * scale,
+                    w, f_t, state, periods)
+    if iterate.any() and np.any(periods[iterate] >= MAX_PERIODS):
+        raise RuntimeError(f"2D friction: the slider did not return to its start in "
+                           f"{MAX_PERIODS} periods")
+    f = np.concatenate([f_t, np.maximum(n, 0.0)[:, None]], axis=1)
+    F = f @ W.T
+    J = None
+    if jacobian:
+        nh = S.shape[1]
+        J = np.zeros((E, 7, nh, nh))
+        dw0 = _start_sensitivity(stuck, a_lo, b_hi, S, ku, kv, mu)
+        tangential_jacobian(np.ascontiguousarray(u), np.ascontiguousarray(n), ku, kv, mu, w0,
+                            start.astype(np.int64), touch.all(axis=1) & ~stuck,
+                            dw0, np.ascontiguousarray(S), np.ascontiguousarray(W), J)
+        J[:, 6] = (W[None] * (touch * kv[:, None])[:, None, :]) @ S
+    regimes = {"separating": int((~touch).any(axis=1).sum()), "stuck": int(stuck.sum()),
+               "slipping": int((touch.all(axis=1) & ~stuck).sum()),
+               "periods_max": int(periods.max(initial=0))}
+    return Cycle2D(u, v, w, f, state, periods, F, J, regimes)
+
+
+def _start_sensitivity(stuck, a_lo, b_hi, S, ku, kv, mu):
+    """dw0/dX (E, 2, 3 nh) of a fully stuck cycle's slider at the band middle,
+    w*_d = (u_d,a - r_a + u_d,b + r_b) / 2 with dr = (mu kv / ku) S; zero elsewhere (a
+    separation erases the start; an iterated fixed point is solved by the kernel)."""
+    E, nh = stuck.size, S.shape[1]
+    out = np.zeros((E, 2, 3 * nh))
+    c = (mu * kv / ku)[:, None]
+    for d in range(2):
+        a, b = a_lo[:, d], b_hi[:, d]
+        g = np.zeros((E, 3, nh))
+        g[:, d] = 0.5 * (S[a] + S[b])
+        g[:, 2] = 0.5 * c * (S[b] - S[a])
+        out[:, d] = np.where(stuck[:, None], g.reshape(E, -1), 0.0)
+    return out

@@ -1,0 +1,186 @@
+"""Compiled march of the 2D friction law (`contact.friction2d`): one element, one
+period of samples at a time, the return mapping of the Coulomb disc per sample.
+
+State per sample: 0 separated (n <= 0: no force, the slider follows, w = u), 1 stick
+(|ku (u - w)| <= mu n), 2 slip (w = u - (mu n / ku) e, e the unit trial force)."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, error_model="numpy")
+def sample(u1, u2, n, ku, mu, w):
+    """The law at one sample from the slider w (2,), updated in place; returns
+    (f1, f2, state)."""
+    if n <= 0.0:
+        w[0], w[1] = u1, u2
+        return 0.0, 0.0, 0
+    t1, t2 = ku * (u1 - w[0]), ku * (u2 - w[1])
+    size = np.sqrt(t1 * t1 + t2 * t2)
+    cap = mu * n
+    if size > cap and size > 0.0:
+        f1, f2 = cap * t1 / size, cap * t2 / size
+        w[0], w[1] = u1 - f1 / ku, u2 - f2 / ku
+        return f1, f2, 2
+    return t1, t2, 1
+
+
+@njit(cache=True, error_model="numpy")
+def period_map(u1, u2, n, ku, mu, start, ws, A):
+    """One period of samples from the slider ws (updated in place to w_N) and
+    A = dw_N/dw_0 (2, 2): stick keeps it, slip maps it through (mu n / (ku rho)) P
+    (P = I - e e^T, rho = |u - w|), separation zeroes it."""
+    N = u1.size
+    A[0, 0], A[0, 1], A[1, 0], A[1, 1] = 1.0, 0.0, 0.0, 1.0
+    for k in range(N):
+        i = (start + k) % N
+        if n[i] <= 0.0:
+            ws[0], ws[1] = u1[i], u2[i]
+            A[0, 0] = A[0, 1] = A[1, 0] = A[1, 1] = 0.0
+            continue
+        t1, t2 = ku * (u1[i] - ws[0]), ku * (u2[i] - ws[1])
+        size = np.sqrt(t1 * t1 + t2 * t2)
+        cap = mu * n[i]
+        if size > cap and size > 0.0:
+            e1, e2 = t1 / size, t2 / size
+            g = cap / size            # (mu n / ku) / rho
+            p11, p12, p22 = 1.0 - e1 * e1, -e1 * e2, 1.0 - e2 * e2
+            a00 = g * (p11 * A[0, 0] + p12 * A[1, 0])
+            a01 = g * (p11 * A[0, 1] + p12 * A[1, 1])
+            a10 = g * (p12 * A[0, 0] + p22 * A[1, 0])
+            a11 = g * (p12 * A[0, 1] + p22 * A[1, 1])
+            A[0, 0], A[0, 1], A[1, 0], A[1, 1] = a00, a01, a10, a11
+            ws[0], ws[1] = u1[i] - cap * e1 / ku, u2[i] - cap * e2 / ku
+
+
+@njit(cache=True, error_model="numpy")
+def periodic_cycles(u, n, ku, mu, w0, start, iterate, max_periods, tol, w, f, state, periods):
+    """For each element e: from the slider w0[e] at sample start[e], find the periodic
+    start when iterate[e] -- period maps w_0 -> w_N, each followed by a Newton step
+    w_0 += (I - A)^-1 (w_N - w_0) where I - A is well conditioned (else the plain step
+    w_0 = w_N), until the slider returns to its start (to tol[e]), at most max_periods;
+    then one more period stored in w (E, 2, N), f (E, 2, N), state (E, N).  w0 is
+    updated to the periodic start; periods (E,) counts the periods marched."""
+    E, _, N = u.shape
+    ws = np.empty(2)
+    A = np.empty((2, 2))
+    for e in range(E):
+        b = np.array([w0[e, 0], w0[e, 1]])
+        p = 0
+        if iterate[e]:
+            while p < max_periods:
+                ws[0], ws[1] = b[0], b[1]
+                period_map(u[e, 0], u[e, 1], n[e], ku[e], mu[e], start[e], ws, A)
+                p += 1
+                r0, r1 = ws[0] - b[0], ws[1] - b[1]
+                if max(abs(r0), abs(r1)) <= tol[e]:
+                    break
+                m00, m01, m10, m11 = 1.0 - A[0, 0], -A[0, 1], -A[1, 0], 1.0 - A[1, 1]
+                det = m00 * m11 - m01 * m10
+                if abs(det) > 1e-3:
+                    b[0] += (m11 * r0 - m01 * r1) / det
+                    b[1] += (-m10 * r0 + m00 * r1) / det
+                else:
+                    b[0], b[1] = ws[0], ws[1]
+        periods[e] = p
+        ws[0], ws[1] = b[0], b[1]
+        w0[e, 0], w0[e, 1] = ws[0], ws[1]
+        for k in range(N):
+            i = (start[e] + k) % N
+            f1, f2, s = sample(u[e, 0, i], u[e, 1, i], n[e, i], ku[e], mu[e], ws)
+            w[e, 0, i], w[e, 1, i] = ws[0], ws[1]
+            f[e, 0, i], f[e, 1, i], state[e, i] = f1, f2, s
+
+
+@njit(cache=True, error_model="numpy")
+def sample_derivative(u1, u2, n, ku, kv, mu, Si, w, dX, d0):
+    """`sample` with forward derivatives of the slider: dX (2, 3 nh) w.r.t. the motion's
+    coefficients (tangent 1, tangent 2, normal blocks) and d0 (2, 2) w.r.t. the start;
+    all updated in place.  Returns the state."""
+    nh = Si.size
+    m = dX.shape[1]
+    if n <= 0.0:
+        w[0], w[1] = u1, u2
+        for j in range(m):
+            dX[0, j] = 0.0
+            dX[1, j] = 0.0
+        for j in range(nh):
+            dX[0, j] = Si[j]
+            dX[1, nh + j] = Si[j]
+        d0[0, 0] = d0[0, 1] = d0[1, 0] = d0[1, 1] = 0.0
+        return 0
+    t1, t2 = ku * (u1 - w[0]), ku * (u2 - w[1])
+    size = np.sqrt(t1 * t1 + t2 * t2)
+    cap = mu * n
+    if not (size > cap and size > 0.0):
+        return 1
+    e1, e2 = t1 / size, t2 / size
+    rho = size / ku
+    p11, p12, p22 = 1.0 - e1 * e1, -e1 * e2, 1.0 - e2 * e2
+    c = mu / ku
+    # dw = du - c (e dn + n P (du - dw_prev) / rho)
+    for j in range(m):
+        du1 = Si[j] if j < nh else 0.0
+        du2 = Si[j - nh] if nh <= j < 2 * nh else 0.0
+        dn = kv * Si[j - 2 * nh] if j >= 2 * nh else 0.0
+        r1, r2 = du1 - dX[0, j], du2 - dX[1, j]
+        dX[0, j] = du1 - c * (e1 * dn + n * (p11 * r1 + p12 * r2) / rho)
+        dX[1, j] = du2 - c * (e2 * dn + n * (p12 * r1 + p22 * r2) / rho)
+    for j in range(2):
+        r1, r2 = -d0[0, j], -d0[1, j]
+        d0[0, j] = -c * n * (p11 * r1 + p12 * r2) / rho
+        d0[1, j] = -c * n * (p12 * r1 + p22 * r2) / rho
+    w[0], w[1] = u1 - cap * e1 / ku, u2 - cap * e2 / ku
+    return 2
+
+
+@njit(cache=True, error_model="numpy")
+def tangential_jacobian(u, n, ku, kv, mu, w0, start, fixed, dw0, S, W, J):
+    """J[e, p] (p = 0..5: (t1, t1), (t1, t2), (t1, n), (t2, t1), (t2, t2), (t2, n)) of
+    the tangential forces over the periodic cycle from w0 at `start`: the start's
+    sensitivity is dw0[e] (2, 3 nh), or, where `fixed`, the fixed point
+    (I - A)^-1 B of one period (A = dw_N/dw0, B = dw_N/dX), written into dw0."""
+    E, _, N = u.shape
+    nh = S.shape[1]
+    m = 3 * nh
+    w = np.empty(2)
+    dX = np.empty((2, m))
+    d0 = np.empty((2, 2))
+    buf = np.empty((N, 2 * m))      # df of each sample: rows of the product with W
+    for e in range(E):
+        for rep in range(2 if fixed[e] else 1):
+            w[0], w[1] = w0[e, 0], w0[e, 1]
+            dX[:] = 0.0
+            d0[:] = 0.0
+            d0[0, 0] = d0[1, 1] = 1.0
+            last = rep == (1 if fixed[e] else 0)
+            if last:
+                buf[:] = 0.0
+            for k in range(N):
+                i = (start[e] + k) % N
+                s = sample_derivative(u[e, 0, i], u[e, 1, i], n[e, i], ku[e], kv[e], mu[e],
+                                      S[i], w, dX, d0)
+                if not last or s == 0:
+                    continue
+                for a in range(2):
+                    for j in range(m):
+                        buf[i, a * m + j] = -ku[e] * (dX[a, j] + d0[a, 0] * dw0[e, 0, j]
+                                                      + d0[a, 1] * dw0[e, 1, j])
+                    for j in range(nh):
+                        buf[i, a * m + a * nh + j] += ku[e] * S[i, j]
+            if not last:      # the fixed point of the period map
+                M = np.eye(2) - d0
+                if abs(M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]) > 1e-10:
+                    Minv = np.linalg.inv(M)
+                else:   # a neutral direction (slip one way only): the slider stays put there
+                    Minv = np.linalg.pinv(M)
+                for j in range(m):
+                    dw0[e, 0, j] = Minv[0, 0] * dX[0, j] + Minv[0, 1] * dX[1, j]
+                    dw0[e, 1, j] = Minv[1, 0] * dX[0, j] + Minv[1, 1] * dX[1, j]
+        out = np.dot(W, buf)         # (nh, 2 m): W df
+        for a in range(2):
+            for b in range(3):
+                for r in range(nh):
+                    for jj in range(nh):
+                        J[e, 3 * a + b, r, jj] = out[r, a * m + b * nh + jj]
