@@ -86,6 +86,8 @@ def contact(quick=False):
     print("exact: the compiled kernel (contact.exact); numpy: the same mathematics in numpy "
           "(contact.exact_reference), diff = its largest difference in Fu and the Jacobian; "
           "ratio = time / exact time")
+    from .friction2d import friction2d_rows, print_friction2d
+    print_friction2d(friction2d_rows(shroud_like_motions, _median_time, quick))
     return 0
 
 
