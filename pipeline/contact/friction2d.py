@@ -93,6 +93,11 @@ class Friction2D:
     def size(self) -> int:
         return self.ku.size
 
+    def tile(self, reps: int) -> "Friction2D":
+        """`reps` copies of the E elements one after the other (every sector's)."""
+        return Friction2D(*(np.tile(getattr(self, k), int(reps))
+                            for k in ("ku", "kv", "mu", "n0")))
+
     def evaluate(self, X, method: str = "aft", n_samples: int = 256,
                  jacobian: bool = True) -> LawForces:
         """Fourier coefficients F (E, 3, 2H+1) of (f1, f2, f_n) for the motion X

@@ -121,19 +121,24 @@ def yang_menq_forces(U, V, elem: YangMenq, method: str = "exact", n_samples: int
 class LawElements:
     """E elements of one law and their map from the structure's n DOFs: `maps` holds
     one (E, n) matrix per direction (ndarrays or scipy.sparse), row e of map d giving
-    X[e, d] = maps[d][e] . q."""
+    X[e, d] = maps[d][e] . q.  On a cyclic sector, `maps_next` (one per direction, or
+    empty) adds the next sector's DOFs: X[e, d] = maps[d][e] . q_j +
+    maps_next[d][e] . q_{j+1}, the next sector's motion being this one's shifted by the
+    engine order's phase (`model.system.CyclicCoupling`)."""
 
     law: object
     maps: tuple
+    maps_next: tuple = ()
 
     def __post_init__(self):
         D = len(self.law.directions)
-        if len(self.maps) != D:
-            raise ValueError(f"law {self.law.name!r} has {D} directions, got {len(self.maps)} maps")
-        for d, B in enumerate(self.maps):
+        if len(self.maps) != D or len(self.maps_next) not in (0, D):
+            raise ValueError(f"law {self.law.name!r} has {D} directions, got {len(self.maps)} "
+                             f"maps and {len(self.maps_next)} next-sector maps")
+        for d, B in enumerate(self.maps + self.maps_next):
             if B.ndim != 2 or B.shape[0] != self.law.size:
-                raise ValueError(f"law {self.law.name!r}: map {d} must be (E={self.law.size}, n),"
-                                 f" got {B.shape}")
+                raise ValueError(f"law {self.law.name!r}: map {d % D} must be (E={self.law.size},"
+                                 f" n), got {B.shape}")
 
     @property
     def B(self) -> np.ndarray:

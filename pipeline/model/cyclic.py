@@ -42,7 +42,7 @@ from math import gcd
 import numpy as np
 import scipy.sparse as sp
 
-from ..contact.laws import ContactElements
+from ..contact.laws import ContactElements, LawElements
 from ..fourier.harmonics import shift
 from .system import CyclicCoupling, System
 
@@ -70,6 +70,7 @@ class Sector:
     dof_names: tuple = field(default=())
     K_spring: np.ndarray | None = None   # (n, n) inter-sector springs on own DOFs [N/m]
     K_next: np.ndarray | None = None     # (n, n) inter-sector springs to the next [N/m]
+    laws: tuple = ()         # further `contact.laws.LawElements` (own and next-sector maps)
 
     def __post_init__(self):
         n = np.shape(self.M)[0]
@@ -133,7 +134,7 @@ def sector_system(sector: Sector, engine_order: int) -> System:
     return System(M=sector.M, C=sector.C, K=sector.K_own, Bt=np.asarray(sector.Bt, float),
                   Bn=np.asarray(sector.Bn, float), contact=sector.contact,
                   forcing=np.asarray(sector.forcing, complex), dof_names=tuple(sector.dof_names),
-                  cyclic=cy)
+                  cyclic=cy, laws=tuple(sector.laws))
 
 
 def isolated_system(sector: Sector) -> System:
@@ -214,7 +215,12 @@ def full_assembly(sector: Sector, engine_order: int, stiffness_factors=None,
     contact = sector.contact.tile(N)
     F = np.concatenate([sector_forcing(sector, eo, j) for j in range(N)])
     names = tuple(f"s{j}.{d}" for j in range(N) for d in sector.dof_names)
-    return System(**mats, contact=contact, forcing=F, dof_names=names)
+    dense = isinstance(mats["M"], np.ndarray)
+    laws = tuple(LawElements(le.law.tile(N), tuple(
+        (A.toarray() if dense else A) for A in (
+            blk(one, B) + (blk(ring, Bx) if le.maps_next else 0)
+            for B, Bx in zip(le.maps, le.maps_next or le.maps)))) for le in sector.laws)
+    return System(**mats, contact=contact, forcing=F, dof_names=names, laws=laws)
 
 
 def expand(Q0, sectors: int, engine_order: int):

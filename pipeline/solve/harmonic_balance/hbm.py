@@ -115,9 +115,8 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
     if cy is not None:  # slots on the next sector's DOFs, shifted by phi
         maps.append((element_rows(cy.Bt_next, cy.Bn_next), cy.phase, True))
     cols = [r for rows, *_ in maps for r, *_ in rows] + [law_columns(le) for le in system.laws]
-    if system.laws and cy is not None:
-        raise ValueError("contact laws other than Yang-Menq act on one structure, "
-                         "not on a cyclic sector")
+    if cy is None and any(le.maps_next for le in system.laws):
+        raise ValueError("a contact law with next-sector maps needs a cyclic sector")
     c = np.unique(np.concatenate(cols)).astype(int) if cols else np.zeros(0, int)
     o = np.setdiff1d(np.arange(n), c)
     m = max([sum(rows[e][0].size for rows, *_ in maps) for e in range(E)] + [1])
@@ -146,7 +145,12 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
             pattern = jacobian_pattern(parts, slots, c.size, 2 * H + 1)
         prob = HBMProblem(*common, pattern=pattern)
         return replace(prob, laws=laws, slots=slots) if laws else prob
-    return HBMProblem(*common, shift, np.stack(shift_tables(shift, H)), nxt, pattern)
+    prob = HBMProblem(*common, shift, np.stack(shift_tables(shift, H)), nxt, pattern)
+    if not system.laws:
+        return prob
+    laws = tuple(law_slots(le, c, cy.phase, H) for le in system.laws)
+    own = LawSlots(None, idx, (bt, bn), np.zeros(0))
+    return replace(prob, laws=laws, slots=slot_index((own,) + laws))
 
 
 # --------------------------------------------------------------------------
@@ -185,7 +189,7 @@ def contact_slots(prob: HBMProblem, contact: ContactElements | None = None) -> t
     law = law_of(contact if contact is not None else prob.system.contact)
     W = prob.weights if prob.weights is not None else slot_weights(prob.bt, prob.bn, law.pairs)
     own = LawSlots(law, prob.idx, (prob.bt, prob.bn), W)
-    return ((own, prob.rot),) + tuple((s, None) for s in prob.laws)
+    return ((own, prob.rot),) + tuple((s, s.rot) for s in prob.laws)
 
 
 def contact_terms(prob: HBMProblem, Qc, contact: ContactElements | None = None, jacobian=True,

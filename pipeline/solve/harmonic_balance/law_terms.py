@@ -18,16 +18,21 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ...fourier.harmonics import shift_tables
+
 
 @dataclass(frozen=True)
 class LawSlots:
     """One law's elements on the condensed unknowns: idx (E, m) positions in c,
-    b (D arrays (E, m)) direction weights, weights (E, m m, P) slot-pair weights."""
+    b (D arrays (E, m)) direction weights, weights (E, m m, P) slot-pair weights;
+    rot: (cos, sin) tables (2, E, m, 2H+1) of each slot's time shift on a cyclic sector
+    (the next sector's slots shifted by its phase), or None."""
 
     law: object
     idx: np.ndarray
     b: tuple
     weights: np.ndarray
+    rot: object = None
 
 
 def pair_weights(b, pairs) -> np.ndarray:
@@ -51,23 +56,34 @@ def direction_rows(maps) -> list:
 
 
 def law_columns(elements) -> np.ndarray:
-    """DOFs touched by the elements of one `LawElements`."""
-    rows = direction_rows(elements.maps)
-    return np.concatenate([r for r, _ in rows]) if rows else np.zeros(0, int)
+    """DOFs touched by the elements of one `LawElements` (own and next sector's)."""
+    rows = [r for maps in (elements.maps, elements.maps_next) if maps
+            for r, _ in direction_rows(maps)]
+    return np.concatenate(rows) if rows else np.zeros(0, int)
 
 
-def law_slots(elements, c) -> LawSlots:
-    """`LawSlots` of one `LawElements` on the contact DOFs c (ascending)."""
-    rows = direction_rows(elements.maps)
-    D, E = len(elements.maps), len(rows)
-    m = max([r.size for r, _ in rows] + [1])
+def law_slots(elements, c, phase: float | None = None, H: int | None = None) -> LawSlots:
+    """`LawSlots` of one `LawElements` on the contact DOFs c (ascending); on a cyclic
+    sector (`phase` [rad], H) its next-sector maps add slots shifted by the phase."""
+    parts = [(direction_rows(elements.maps), 0.0)]
+    if elements.maps_next:
+        parts.append((direction_rows(elements.maps_next), float(phase)))
+    D, E = len(elements.maps), len(parts[0][0])
+    m = max([sum(rows[e][0].size for rows, _ in parts) for e in range(E)] + [1])
     idx = np.zeros((E, m), int)
     b = np.zeros((D, E, m))
-    for e, (r, v) in enumerate(rows):
-        idx[e, :r.size] = np.searchsorted(c, r)
-        b[:, e, :r.size] = v
+    shift = np.zeros((E, m))
+    for e in range(E):
+        k = 0
+        for rows, th in parts:
+            r, v = rows[e]
+            idx[e, k:k + r.size] = np.searchsorted(c, r)
+            b[:, e, k:k + r.size] = v
+            shift[e, k:k + r.size] = th
+            k += r.size
     b = tuple(np.ascontiguousarray(x) for x in b)
-    return LawSlots(elements.law, idx, b, pair_weights(b, elements.law.pairs))
+    rot = np.stack(shift_tables(shift, H)) if elements.maps_next else None
+    return LawSlots(elements.law, idx, b, pair_weights(b, elements.law.pairs), rot)
 
 
 def slot_index(slots) -> np.ndarray:

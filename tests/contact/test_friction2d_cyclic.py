@@ -1,0 +1,50 @@
+"""The 2D friction law between neighbouring sectors of a tuned ring: the harmonic
+balance of one cyclic sector (the law's next-sector maps shifted by the engine
+order's phase) equals that of the full N-sector assembly (no symmetry used), sector 0's
+harmonics to 1e-9 of their size, at several engine orders and frequencies."""
+import numpy as np
+import pytest
+
+from pipeline.contact.element import YangMenq
+from pipeline.contact.friction2d import Friction2D
+from pipeline.contact.laws import LawElements
+from pipeline.model.cyclic import Sector, full_assembly, sector_system
+from pipeline.solve.continuation.newton import newton
+from pipeline.solve.harmonic_balance import hbm
+
+N, H, SAMPLES = 4, 3, 128     # SAMPLES a multiple of N: the shifted grid is the same grid
+
+
+def ring_sector():
+    """Sector: a mass in a plane (x, y), a 2D friction element to the next sector's
+    mass (u = q_j - q_{j+1} in both directions, constant normal load)."""
+    none = np.zeros((0, 2))
+    law = Friction2D(ku=1.0e4, kv=0.0, mu=0.5, n0=3.0)
+    maps = (np.array([[1.0, 0.0]]), np.array([[0.0, 1.0]]), np.zeros((1, 2)))
+    nxt = (np.array([[-1.0, 0.0]]), np.array([[0.0, -1.0]]), np.zeros((1, 2)))
+    F = np.zeros((2, 2), complex)
+    F[:, 1] = [10.0, 7.0j]
+    return Sector(M=np.eye(2), C=5.0 * np.eye(2), K=np.diag([3.55e4, 4.0e4]), Bt=none,
+                  Bn=none, Bt_next=none, Bn_next=none,
+                  contact=YangMenq(ku=np.zeros(0), kv=np.zeros(0), mu=np.zeros(0),
+                                   n0=np.zeros(0)),
+                  forcing=F, sectors=N, dof_names=("x", "y"),
+                  laws=(LawElements(law, maps, nxt),))
+
+
+def solve(system, Om):
+    prob = hbm.setup(system, H, "aft", SAMPLES)
+    tol = 1e-11 * hbm.force_scale(prob)
+    nr = newton(lambda y: hbm.residual(prob, y, Om)[:2], np.zeros(prob.size), tol, max_iter=100)
+    assert nr.success
+    return hbm.recover(prob, nr.x.reshape(prob.c.size, -1), Om)
+
+
+@pytest.mark.parametrize("eo", [1, 2])
+@pytest.mark.parametrize("Om", [180.0, 230.0])
+def test_sector_equals_full_ring(eo, Om):
+    sec = ring_sector()
+    Q0 = solve(sector_system(sec, eo), Om)
+    Qf = solve(full_assembly(sec, eo, sparse=False), Om)
+    assert np.abs(Q0).max() > 1e-5
+    np.testing.assert_allclose(Qf[:2], Q0, atol=1e-9 * np.abs(Q0).max(), rtol=0)
