@@ -93,6 +93,15 @@ class Friction2D:
     def size(self) -> int:
         return self.ku.size
 
+    def linear_limit(self, contacts: str) -> np.ndarray:
+        """(E, 3) springs [N/m] of a linear limit (`model.system.linear_stiffness`): as
+        the Yang-Menq element's -- "stuck": ku along both tangents of every element,
+        kv where n0 > 0; "tied": every element closed; "small": the preloaded elements
+        stuck, the others open."""
+        closed = np.ones(self.size, bool) if contacts == "tied" else self.n0 > 0
+        ku = self.ku * closed if contacts == "small" else self.ku
+        return np.stack([ku, ku, self.kv * closed], axis=1)
+
     def tile(self, reps: int) -> "Friction2D":
         """`reps` copies of the E elements one after the other (every sector's)."""
         return Friction2D(*(np.tile(getattr(self, k), int(reps))

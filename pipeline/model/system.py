@@ -161,6 +161,15 @@ def linear_stiffness(system: System, contacts: str = "open") -> np.ndarray:
             Bn = dense(Bn) + z * dense(cy.Bn_next)
         ku = el.ku * closed if contacts == "small" else el.ku
         K = K + (stiffness_along(Bt, ku) + stiffness_along(Bn, el.kv * closed))
+        for le in system.laws:        # further laws with linear limits (2D friction)
+            limit = getattr(le.law, "linear_limit", None)
+            if limit is None:
+                continue
+            k = limit(contacts)       # (E, D) springs along the law's directions [N/m]
+            for d, B in enumerate(le.maps):
+                if cy is not None and le.maps_next:
+                    B = dense(B) + np.exp(1j * cy.phase) * dense(le.maps_next[d])
+                K = K + stiffness_along(B, k[:, d])
     elif contacts != "open":
         raise ValueError("contacts must be 'open', 'stuck', 'tied' or 'small', "
                          f"got {contacts!r}")

@@ -48,3 +48,16 @@ def test_sector_equals_full_ring(eo, Om):
     Qf = solve(full_assembly(sec, eo, sparse=False), Om)
     assert np.abs(Q0).max() > 1e-5
     np.testing.assert_allclose(Qf[:2], Q0, atol=1e-9 * np.abs(Q0).max(), rtol=0)
+
+
+@pytest.mark.parametrize("eo", [0, 1, 2])
+def test_stuck_frequencies_of_the_sector_are_the_rings(eo):
+    """The stuck limit with the law's springs on the travelling wave (phase of the
+    next-sector maps): each of the sector's frequencies is one of the full ring's."""
+    from pipeline.model.system import natural_frequencies
+    sec = ring_sector()
+    own = natural_frequencies(sector_system(sec, eo), "stuck")
+    ring = natural_frequencies(full_assembly(sec, eo, sparse=False), "stuck")
+    assert own.max() > np.sqrt(3.55e4) * 1.001 or eo == 0
+    for w in own:
+        assert np.abs(ring - w).min() < 1e-9 * w

@@ -70,3 +70,16 @@ def test_peaks_against_brute_force_time_integration(tmp_path):
         om = w_peak * np.linspace(0.99, 1.01, 11)
         ref = parabola_peak(om, amplitudes(om, 4000, 150)[:, d])
         assert abs(hb / ref - 1) < 5e-3, (dof, hb, ref)
+
+
+def test_linear_limits_carry_the_2d_contact():
+    """Stuck, the contact adds ku along both tangents: sqrt((k + ku) / m) in x and y;
+    open, the bare springs (the dataset's natural_frequency_stuck / _free)."""
+    from pipeline.model.system import natural_frequencies
+    from pipeline.study.files.documents import load_study
+
+    s = load_study(STUDY).system({})
+    stuck = np.sort(natural_frequencies(s, "stuck"))[:2]
+    np.testing.assert_allclose(stuck, np.sqrt([KX + KU, KY + KU]), rtol=1e-12)
+    np.testing.assert_allclose(np.sort(natural_frequencies(s, "open"))[:2],
+                               np.sqrt([KX, KY]), rtol=1e-12)
