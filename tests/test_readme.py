@@ -36,6 +36,7 @@ RUN_HERE = [
     "python -m pipeline check results/paper_example3.nc",
     "python -m pipeline run studies/disk_laxalde.toml",
     "python -m pipeline run studies/disk_nonlinear_modes.toml",
+    "python -m pipeline run studies/shrouded_disk_campbell.toml",
     "python -m pipeline check studies/disk_cyclic.toml",
     "python -m pipeline hysteresis",
     "python -m pipeline optimise studies/paper_example1.toml",

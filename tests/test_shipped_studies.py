@@ -304,6 +304,13 @@ def shrouded_disk_campbell(out, nc, ds, st):
                                                  ds.crossing_contacts.values,
                                                  ds.crossing_mode.values) if m == 1}
     assert {(3, "open"), (3, "stuck"), (6, "open"), (6, "stuck")} <= found
+    # 'EO 1 stays below every family': its line (1 x rpm / 60) under the lowest ND 1
+    # frequency, open and stuck, at every speed -- and so no EO 1 crossing is listed
+    assert 1 in set(ds.engine_order.values)
+    eo1 = ds.speed.values / 60.0
+    for name in ("frequency_open", "frequency_stuck"):
+        lowest = ds[name].sel(nodal_diameter=1).values[:, 0]
+        assert np.all(lowest - eo1 > 0.1 * lowest), name
     assert 1 not in set(ds.crossing_engine_order.values)
     assert (out / "shrouded_disk_campbell" / "campbell_diagram.png").is_file()
 

@@ -66,39 +66,51 @@ def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset
     }
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
 
+def family_frequencies(res: dict, dims: tuple) -> dict:
+    """The natural-frequency variables [Hz] of a disk modes result on `dims`: contacts
+    open, stuck, and (with an interference) the static contact state."""
+    long = {"open": "natural frequency, contacts open",
+            "stuck": "natural frequency, every contact closed and stuck (ku, kv)",
+            "static": "natural frequency, the pairs of the static contact solution "
+                      "(interference and speed) stuck, the others open"}
+    return {f"frequency_{k}": (dims, np.asarray(res[k], float),
+                               {"units": "Hz", "long_name": text})
+            for k, text in long.items() if k in res}
+
+
+def family_coords(study, nf: int) -> dict:
+    """The nodal-diameter and mode coordinates of a disk modes dataset."""
+    return {"nodal_diameter": ("nodal_diameter", np.asarray(study.nodal_diameters, np.int32),
+                               {"units": "1", "long_name": "nodal diameter ND (EO = ND "
+                                                           "excites it)"}),
+            "mode": ("mode", np.arange(1, nf + 1, dtype=np.int32),
+                     {"units": "1", "long_name": "mode number within the family"})}
+
+
+def family_attrs(study, solver: str) -> dict:
+    """The attributes of a disk modes dataset (provenance of `solver`)."""
+    return {"title": study.title, "study": study.text, "study_name": study.name,
+            "description": study.description, "reference": study.reference,
+            "kind": "modes", "quick": int(study.quick), **scene_attrs(study.scene),
+            **provenance(solver)}
+
+
 def disk_modes_to_dataset(study, res: dict) -> xr.Dataset:
     """Dataset of a disk modes study (`disk_modes.nodal_diameter_frequencies` result):
     natural frequencies per nodal diameter with the contacts open and stuck."""
-    def var(data, long_name):
-        return (("nodal_diameter", "mode"), np.asarray(data, float),
-                {"units": "Hz", "long_name": long_name})
-
-    nd, nf = np.asarray(study.nodal_diameters, np.int32), res["open"].shape[1]
-    sc = study.scene
     return xr.Dataset(
-        {"frequency_open": var(res["open"], "natural frequency, contacts open"),
-         "frequency_stuck": var(res["stuck"], "natural frequency, every contact closed and "
-                                              "stuck (ku, kv)"),
+        {**family_frequencies(res, ("nodal_diameter", "mode")),
          "solve_time": ((), float(res["time_s"]), {"units": "s", "long_name": "wall time of "
                                                    "the eigen-solves"})},
-        coords={"nodal_diameter": ("nodal_diameter", nd, {"units": "1", "long_name":
-                                                          "nodal diameter ND (EO = ND excites it)"}),
-                "mode": ("mode", np.arange(1, nf + 1, dtype=np.int32),
-                         {"units": "1", "long_name": "mode number within the family"})},
-        attrs={"title": study.title, "study": study.text, "study_name": study.name,
-               "description": study.description, "reference": study.reference,
-               "kind": "modes", "quick": int(study.quick), **scene_attrs(sc),
-               **provenance("pipeline (cyclic eigenproblem of one sector per nodal diameter)")})
+        coords=family_coords(study, res["open"].shape[1]),
+        attrs=family_attrs(study, "pipeline (cyclic eigenproblem of one sector per nodal "
+                                  "diameter)"))
 
 
 def campbell_to_dataset(study, res: dict) -> xr.Dataset:
     """Dataset of a Campbell diagram (`campbell.campbell` result): natural frequencies
     on (speed, nodal_diameter, mode), contacts open and stuck, and the engine-order
     crossings located by root finding (dimension `crossing`)."""
-    def var(data, long_name):
-        return (("speed", "nodal_diameter", "mode"), np.asarray(data, float),
-                {"units": "Hz", "long_name": long_name})
-
     cr = res["crossings"]
     col = list(zip(*cr)) if cr else [()] * 6
 
@@ -106,16 +118,8 @@ def campbell_to_dataset(study, res: dict) -> xr.Dataset:
         return (("crossing",), np.asarray(col[k], dtype=dtype),
                 {"units": units, "long_name": long_name} if units else {"long_name": long_name})
 
-    nd, nf = np.asarray(study.nodal_diameters, np.int32), res["open"].shape[2]
-    sc = study.scene
     return xr.Dataset(
-        {"frequency_open": var(res["open"], "natural frequency, contacts open"),
-         "frequency_stuck": var(res["stuck"], "natural frequency, every contact closed and "
-                                              "stuck (ku, kv)"),
-         **({"frequency_static": var(res["static"], "natural frequency, the pairs of the "
-                                                     "static contact solution (interference and "
-                                                     "speed) stuck, the others open")}
-            if "static" in res else {}),
+        {**family_frequencies(res, ("speed", "nodal_diameter", "mode")),
          "crossing_engine_order": cvar(0, np.int32, "1", "engine order EO of the crossing"),
          "crossing_nodal_diameter": cvar(1, np.int32, "1", "nodal diameter EO excites"),
          "crossing_mode": cvar(2, np.int32, "1", "mode number within the family"),
@@ -128,16 +132,10 @@ def campbell_to_dataset(study, res: dict) -> xr.Dataset:
                                                    "the eigen-solves and the root finding"})},
         coords={"speed": ("speed", np.asarray(study.speeds, float),
                           {"units": "rpm", "long_name": "rotation speed of the disk"}),
-                "nodal_diameter": ("nodal_diameter", nd, {"units": "1", "long_name":
-                                                          "nodal diameter ND (EO = ND excites it)"}),
-                "mode": ("mode", np.arange(1, nf + 1, dtype=np.int32),
-                         {"units": "1", "long_name": "mode number within the family"}),
+                **family_coords(study, res["open"].shape[2]),
                 "engine_order": ("engine_order", np.asarray(study.engine_orders, np.int32),
                                  {"units": "1", "long_name": "engine orders drawn"}),
                 "crossing": ("crossing", np.arange(len(cr), dtype=np.int32),
                              {"units": "1", "long_name": "crossing index, by engine order"})},
-        attrs={"title": study.title, "study": study.text, "study_name": study.name,
-               "description": study.description, "reference": study.reference,
-               "kind": "modes", "quick": int(study.quick), **scene_attrs(sc),
-               **provenance("pipeline (cyclic eigenproblem of one sector per nodal diameter "
-                            "and speed, stress stiffening and spin softening)")})
+        attrs=family_attrs(study, "pipeline (cyclic eigenproblem of one sector per nodal "
+                                  "diameter and speed, stress stiffening and spin softening)"))
