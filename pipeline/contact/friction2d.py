@@ -18,9 +18,10 @@ forces vanish and the slider follows, w = u (as the 1D element's touchdown rule)
 Periodic steady state on N equispaced samples of one period (alternating
 frequency-time, AFT: the law has no closed form once the slip direction turns):
 - a separated sample erases memory: one pass from there is the periodic state;
-- else, if the slider at the middle w* of the stick band (per tangent,
-  w*_d = (max_i (u_d,i - r_i) + min_i (u_d,i + r_i)) / 2, r_i = mu n_i / ku: the 1D
-  element's `slider_rest`) sticks at every sample, the cycle is fully stuck there;
+- else, if the slider at the centre w* of the stick discs |u_i - w| <= r_i
+  (r_i = mu n_i / ku; w* minimises max_i (|u_i - w| - r_i), `friction2d_kernel.
+  stick_centres`: the 1D element's band middle `slider_rest` for motion along one
+  tangent) sticks at every sample, the cycle is fully stuck there;
 - else the march is repeated from w* period after period until the slider returns to
   its start (to `PERIOD_RTOL` of the motion), at most `MAX_PERIODS` periods (the
   count is reported); a macroslip phase contracts the memory geometrically.
@@ -39,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..fourier.harmonics import harmonics_of, time_grid
-from .friction2d_kernel import periodic_cycles, tangential_jacobian
+from .friction2d_kernel import periodic_cycles, stick_centres, tangential_jacobian
 from .laws import LawForces
 
 PERIOD_RTOL = 1e-13      # the slider's return to its start, of the largest motion
@@ -139,15 +140,6 @@ class Cycle2D:
     regimes: dict
 
 
-def band_middle(u, r):
-    """w* (E, 2) and the samples (E, 2) of max (u - r) and min (u + r) per tangent."""
-    lo, hi = u - r[:, None, :], u + r[:, None, :]
-    a, b = lo.argmax(axis=2), hi.argmin(axis=2)
-    w = 0.5 * (np.take_along_axis(lo, a[..., None], 2)[..., 0]
-               + np.take_along_axis(hi, b[..., None], 2)[..., 0])
-    return w, a, b
-
-
 def march(law: Friction2D, X, N: int, jacobian: bool = True) -> Cycle2D:
     """The periodic cycle of the elements for the motion X (module docstring)."""
     E, _, nh = X.shape
@@ -160,10 +152,11 @@ def march(law: Friction2D, X, N: int, jacobian: bool = True) -> Cycle2D:
     touch = n > 0.0
     r = mu[:, None] * np.maximum(n, 0.0) / ku[:, None]
     start = np.where(~touch.all(axis=1), (~touch).argmax(axis=1), 0)
-    w_mid, a_lo, b_hi = band_middle(u, r)
-    stuck = touch.all(axis=1) & np.all(
-        ((u - w_mid[..., None]) ** 2).sum(axis=1) <= r * r * (1 + 1e-14) + 1e-300, axis=1)
     scale = np.abs(u).max(axis=(1, 2)) + np.abs(r).max(axis=1) + 1e-300
+    w_mid, depth, support = np.empty((E, 2)), np.empty(E), np.empty((E, 3), np.int64)
+    stick_centres(np.ascontiguousarray(u), np.ascontiguousarray(r), 1e-14 * scale, w_mid,
+                  depth, support)
+    stuck = touch.all(axis=1) & (depth < 0.0)
     w0 = np.where((~touch.all(axis=1))[:, None], u[np.arange(E), :, start], w_mid)
     iterate = touch.all(axis=1) & ~stuck
     w, f_t, state = np.empty((E, 2, N)), np.empty((E, 2, N)), np.empty((E, N), np.int64)
@@ -181,7 +174,7 @@ def march(law: Friction2D, X, N: int, jacobian: bool = True) -> Cycle2D:
     if jacobian:
         nh = S.shape[1]
         J = np.zeros((E, 7, nh, nh))
-        dw0 = _start_sensitivity(stuck, a_lo, b_hi, S, ku, kv, mu)
+        dw0 = centre_sensitivity(stuck, u, w_mid, support, S, mu * kv / ku)
         tangential_jacobian(np.ascontiguousarray(u), np.ascontiguousarray(n), ku, kv, mu, w0,
                             start.astype(np.int64), touch.all(axis=1) & ~stuck,
                             dw0, np.ascontiguousarray(S), np.ascontiguousarray(W), J)
@@ -192,17 +185,38 @@ def march(law: Friction2D, X, N: int, jacobian: bool = True) -> Cycle2D:
     return Cycle2D(u, v, w, f, state, periods, F, J, regimes)
 
 
-def _start_sensitivity(stuck, a_lo, b_hi, S, ku, kv, mu):
-    """dw0/dX (E, 2, 3 nh) of a fully stuck cycle's slider at the band middle,
-    w*_d = (u_d,a - r_a + u_d,b + r_b) / 2 with dr = (mu kv / ku) S; zero elsewhere (a
-    separation erases the start; an iterated fixed point is solved by the kernel)."""
+def centre_sensitivity(stuck, u, w, support, S, c):
+    """dw0/dX (E, 2, 3 nh) of a fully stuck cycle's slider at the centre of the stick
+    discs (`friction2d_kernel.stick_centres`), zero elsewhere (a separation erases the
+    start; an iterated fixed point is solved by the kernel).  With du_i = S_i dX_t and
+    dr_i = c S_i dX_n (c = mu kv / ku), dw = sum_i A_i du_i + b_i dr_i over the
+    support: one sample, w = u_a; two, w = u_a + alpha e on their segment,
+    alpha = (d + r_a - r_b) / 2; three, the implicit derivative of
+    |u_i - w| - r_i = t (i = a, b, c)."""
     E, nh = stuck.size, S.shape[1]
     out = np.zeros((E, 2, 3 * nh))
-    c = (mu * kv / ku)[:, None]
-    for d in range(2):
-        a, b = a_lo[:, d], b_hi[:, d]
-        g = np.zeros((E, 3, nh))
-        g[:, d] = 0.5 * (S[a] + S[b])
-        g[:, 2] = 0.5 * c * (S[b] - S[a])
-        out[:, d] = np.where(stuck[:, None], g.reshape(E, -1), 0.0)
+    for e in np.flatnonzero(stuck):
+        sup = [int(i) for i in support[e] if i >= 0]
+        for i, A, b in support_weights(u[e], w[e], sup):
+            out[e, :, :nh] += A[:, :1] * S[i]
+            out[e, :, nh:2 * nh] += A[:, 1:] * S[i]
+            out[e, :, 2 * nh:] += (b * c[e])[:, None] * S[i]
     return out
+
+
+def support_weights(u, w, sup) -> list:
+    """[(sample i, A_i (2, 2), b_i (2,))]: dw = sum_i A_i du_i + b_i dr_i at the centre
+    w of the stick discs supported by the samples `sup` (`centre_sensitivity`)."""
+    if len(sup) == 1:
+        return [(sup[0], np.eye(2), np.zeros(2))]
+    if len(sup) == 2:
+        a, b = sup
+        delta = u[:, b] - u[:, a]
+        d = np.linalg.norm(delta)
+        e = delta / d
+        alpha = float(e @ (w - u[:, a]))
+        Ab = 0.5 * np.outer(e, e) + (alpha / d) * (np.eye(2) - np.outer(e, e))
+        return [(a, np.eye(2) - Ab, 0.5 * e), (b, Ab, -0.5 * e)]
+    nrm = [(u[:, i] - w) / np.linalg.norm(u[:, i] - w) for i in sup]
+    Ginv = np.linalg.inv(np.column_stack([np.array(nrm), np.ones(3)]))[:2]
+    return [(i, np.outer(Ginv[:, k], nrm[k]), -Ginv[:, k]) for k, i in enumerate(sup)]

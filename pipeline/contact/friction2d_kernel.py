@@ -184,3 +184,143 @@ def tangential_jacobian(u, n, ku, kv, mu, w0, start, fixed, dw0, S, W, J):
                 for r in range(nh):
                     for jj in range(nh):
                         J[e, 3 * a + b, r, jj] = out[r, a * m + b * nh + jj]
+
+
+# -- the fully stuck slider: the centre of the stick discs ---------------------------
+#
+# A slider sticks at every sample iff it lies in every disc |u_i - w| <= r_i.  The
+# stuck start is the point that is deepest inside them all, the minimiser of the
+# convex f(w) = max_i (|u_i - w| - r_i): the 1D band middle when u moves along one
+# tangent (`slider_rest`), a smooth function of the motion, and stuck iff f(w) <= 0.
+# It is found by active sets: the minimiser over a few samples S (supported by one,
+# two or three of them: a sample, the point between two on their segment, the
+# Apollonius point of three) until no sample lies further out; each pass raises t.
+
+
+@njit(cache=True, error_model="numpy")
+def pair_point(u, r, a, b, out):
+    """Minimiser of max(|u_a - w| - r_a, |u_b - w| - r_b) on the segment between the
+    samples, written to out (w1, w2, t); False if it is not strictly inside."""
+    d1, d2 = u[0, b] - u[0, a], u[1, b] - u[1, a]
+    d = np.sqrt(d1 * d1 + d2 * d2)
+    if d <= 0.0:
+        return False
+    al = 0.5 * (d + r[a] - r[b])
+    if not 0.0 < al < d:
+        return False
+    out[0], out[1], out[2] = u[0, a] + al * d1 / d, u[1, a] + al * d2 / d, al - r[a]
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def triple_point(u, r, a, b, c, out, k):
+    """Root k (0, 1) of the point w at distance r_i + t from the samples a, b, c
+    (Apollonius), written to out (w1, w2, t); False if there is none with every
+    r_i + t > 0."""
+    x = np.array([u[0, b] - u[0, a], u[0, c] - u[0, a]])   # origin at u_a
+    y = np.array([u[1, b] - u[1, a], u[1, c] - u[1, a]])
+    rr = np.array([r[b], r[c]])
+    det = x[0] * y[1] - x[1] * y[0]
+    if abs(det) <= 1e-14 * (x[0] * x[0] + y[0] * y[0] + x[1] * x[1] + y[1] * y[1]):
+        return False
+    # 2 u_i . w + 2 (r_i - r_a) t = |u_i|^2 - r_i^2 + r_a^2:  w = p + q t
+    cc = 0.5 * (x * x + y * y - rr * rr + r[a] * r[a])
+    mm = -(rr - r[a])
+    p1, p2 = (y[1] * cc[0] - y[0] * cc[1]) / det, (-x[1] * cc[0] + x[0] * cc[1]) / det
+    q1, q2 = (y[1] * mm[0] - y[0] * mm[1]) / det, (-x[1] * mm[0] + x[0] * mm[1]) / det
+    # |w|^2 = (r_a + t)^2
+    A = q1 * q1 + q2 * q2 - 1.0
+    B = 2.0 * (p1 * q1 + p2 * q2) - 2.0 * r[a]
+    C = p1 * p1 + p2 * p2 - r[a] * r[a]
+    if abs(A) < 1e-14:
+        if k == 1 or B == 0.0:
+            return False
+        t = -C / B
+    else:
+        disc = B * B - 4.0 * A * C
+        if disc < 0.0:
+            return False
+        s = np.sqrt(disc)
+        t = (-B - s) / (2.0 * A) if k == 0 else (-B + s) / (2.0 * A)
+    if min(r[a], r[b], r[c]) + t <= 0.0:
+        return False
+    out[0], out[1], out[2] = u[0, a] + p1 + q1 * t, u[1, a] + p2 + q2 * t, t
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def depth(u, r, i, w1, w2):
+    """|u_i - w| - r_i: how far the sample's disc leaves w outside [m]."""
+    return np.sqrt((u[0, i] - w1) ** 2 + (u[1, i] - w2) ** 2) - r[i]
+
+
+@njit(cache=True, error_model="numpy")
+def small_minimax(u, r, S, m, tol, best, support):
+    """The minimiser of max over the m samples S[:m]: every candidate support (one, two
+    or three samples) that keeps the others inside, the least t; best (w1, w2, t),
+    support (3,) (-1 unused)."""
+    best[2] = np.inf
+    cand = np.empty(3)
+    for i in range(m):
+        for j in range(i, m):
+            for k in range(j, m):
+                for root in range(2 if k > j > i else 1):
+                    a, b, c = S[i], S[j], S[k]
+                    if i == j == k:
+                        cand[0], cand[1], cand[2] = u[0, a], u[1, a], -r[a]
+                    elif j == k:
+                        if i == j or not pair_point(u, r, a, b, cand):
+                            continue
+                    elif i == j or not triple_point(u, r, a, b, c, cand, root):
+                        continue
+                    if cand[2] >= best[2]:
+                        continue
+                    ok = True
+                    for o in range(m):
+                        if depth(u, r, S[o], cand[0], cand[1]) > cand[2] + tol:
+                            ok = False
+                            break
+                    if ok:
+                        best[:] = cand
+                        support[0] = a
+                        support[1] = b if j > i else -1
+                        support[2] = c if k > j else -1
+
+
+@njit(cache=True, error_model="numpy")
+def stick_centres(u, r, tol, w, t, support):
+    """Per element: the centre of the stick discs w (E, 2), its value t (E,) [m] (<= 0:
+    the slider sticks there at every sample) and its support samples (E, 3)."""
+    E, _, N = u.shape
+    S = np.empty(4, np.int64)
+    best = np.empty(3)
+    sup = np.empty(3, np.int64)
+    for e in range(E):
+        ue, re = u[e], r[e]
+        c1, c2 = 0.0, 0.0
+        for i in range(N):
+            c1 += ue[0, i] / N
+            c2 += ue[1, i] / N
+        S[0] = 0
+        for i in range(N):
+            if depth(ue, re, i, c1, c2) > depth(ue, re, S[0], c1, c2):
+                S[0] = i
+        m = 1
+        for _ in range(4 * N):
+            small_minimax(ue, re, S, m, tol[e], best, sup)
+            far, worst = -1, best[2] + tol[e]
+            for i in range(N):
+                d = depth(ue, re, i, best[0], best[1])
+                if d > worst:
+                    far, worst = i, d
+            if far < 0:
+                break
+            m = 0
+            for s in sup:
+                if s >= 0:
+                    S[m] = s
+                    m += 1
+            S[m] = far
+            m += 1
+        w[e, 0], w[e, 1], t[e] = best[0], best[1], best[2]
+        support[e] = sup

@@ -1,0 +1,135 @@
+"""The fully stuck cycle of the 2D friction law: the slider at the centre of the stick
+discs |u_i - w| <= r_i (the minimiser of max_i (|u_i - w| - r_i)).
+
+Checked against an independent minimiser (scipy's Nelder-Mead on the same convex
+function, written here), central differences of the stuck cycle's Jacobian where
+the centre rests on two and on three samples, and the 1D band middle along one
+tangent.  The motions are those the per-tangent band middle got wrong: every disc
+shares a point, but not the middle of the bounding box, so the slider there slips and
+a plain period march creeps to the stuck set's edge (a shroud pair of the FE disk
+took 17,541 periods)."""
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+from pipeline.contact.friction2d import Friction2D
+from pipeline.contact.friction2d_kernel import stick_centres
+from pipeline.fourier.harmonics import time_grid
+
+KU, KV, MU = 1.0e4, 1.0e4, 0.5
+H, N = 2, 64
+NH = 2 * H + 1
+
+
+def motion(seed):
+    """A lopsided in-plane orbit (harmonics 1 and 2) with a varying normal load."""
+    rng = np.random.default_rng(seed)
+    X = np.zeros((1, 3, NH))
+    X[0, :2, 1:] = rng.normal(size=(2, NH - 1)) * 1e-4
+    X[0, 2, 1:3] = rng.normal(size=2) * 2e-5
+    return X
+
+
+def discs(X, n0):
+    _, S, _ = time_grid(H, N)
+    u = X[0, :2] @ S.T
+    r = MU * (n0 + KV * (X[0, 2] @ S.T)) / KU
+    return u, r
+
+
+def deepest(u, r, start):
+    """The centre by Nelder-Mead from `start`, in coordinates scaled to the orbit
+    (independent of the kernel): (w, its value)."""
+    L = np.ptp(u, axis=1).max()
+
+    def f(x):
+        w = start + L * x
+        return np.max(np.hypot(u[0] - w[0], u[1] - w[1]) - r) / L
+    res = minimize(f, np.zeros(2), method="Nelder-Mead",
+                   options={"initial_simplex": [[0, 0], [0.1, 0], [0, 0.1]], "xatol": 1e-13,
+                            "fatol": 1e-15, "maxiter": 40000})
+    return start + L * res.x, res.fun * L
+
+
+def just_stuck(seed, margin=0.02):
+    """(X, n0) with every disc sharing a point by `margin` of the largest radius, the
+    box middle outside one disc."""
+    X = motion(seed)
+    u, r = discs(X, 0.0)                 # r: the normal part, n0 = 0
+    t0 = deepest(u, r + 1.0, u.mean(axis=1))[1] + 1.0   # value without the preload
+    n0 = (t0 * (1 + margin)) * KU / MU   # raises every radius by (1 + margin) t0
+    return X, n0
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_centre_equals_an_independent_minimiser(seed):
+    X, n0 = just_stuck(seed)
+    u, r = discs(X, n0)
+    w, t, sup = np.empty((1, 2)), np.empty(1), np.empty((1, 3), np.int64)
+    scale = np.abs(u).max() + r.max()
+    stick_centres(u[None].copy(), r[None].copy(), np.array([1e-14 * scale]), w, t, sup)
+    ref, val = deepest(u, r, u.mean(axis=1))
+    assert t[0] < 0
+    assert abs(t[0] - val) <= 1e-9 * scale
+    assert np.abs(w[0] - ref).max() <= 1e-7 * scale
+
+
+def test_the_box_middle_would_slip_where_the_centre_sticks():
+    """At least one of the motions has its bounding-box middle outside a disc (what the
+    stuck start was before), and each is evaluated fully stuck with no period marched."""
+    outside = 0
+    for seed in range(6):
+        X, n0 = just_stuck(seed)
+        u, r = discs(X, n0)
+        lo, hi = (u - r).max(axis=1), (u + r).min(axis=1)
+        mid = 0.5 * (lo + hi)
+        outside += np.any(np.hypot(u[0] - mid[0], u[1] - mid[1]) > r)
+        cyc = Friction2D(ku=KU, kv=KV, mu=MU, n0=n0).evaluate(X, n_samples=N).detail
+        assert cyc.regimes["stuck"] == 1 and cyc.periods[0] == 0
+        assert np.all(cyc.state == 1)
+    assert outside >= 1
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_stuck_jacobian_against_central_differences(seed):
+    X, n0 = just_stuck(seed, margin=0.05)
+    law = Friction2D(ku=KU, kv=KV, mu=MU, n0=n0)
+    got = law.evaluate(X, n_samples=N)
+    assert got.regimes["stuck"] == 1
+    h = 1e-11
+    for p, (d, k) in enumerate(law.pairs):
+        fd = np.empty((NH, NH))
+        for j in range(NH):
+            Xp, Xm = X.copy(), X.copy()
+            Xp[0, k, j] += h
+            Xm[0, k, j] -= h
+            fd[:, j] = (law.evaluate(Xp, n_samples=N, jacobian=False).F[0, d]
+                        - law.evaluate(Xm, n_samples=N, jacobian=False).F[0, d]) / (2 * h)
+        assert np.abs(got.J[0, p] - fd).max() <= 1e-6 * KU, (seed, (d, k))
+
+
+def test_supports_of_two_and_three_samples_occur():
+    """The Jacobian test covers both kinds of centre (a segment's point, an Apollonius
+    point)."""
+    kinds = set()
+    for seed in range(6):
+        X, n0 = just_stuck(seed, margin=0.05)
+        u, r = discs(X, n0)
+        w, t, sup = np.empty((1, 2)), np.empty(1), np.empty((1, 3), np.int64)
+        stick_centres(u[None].copy(), r[None].copy(), np.array([1e-18]), w, t, sup)
+        kinds.add(int((sup[0] >= 0).sum()))
+    assert {2, 3} <= kinds
+
+
+def test_along_one_tangent_the_centre_is_the_band_middle():
+    X = motion(3)
+    X[0, 1] = 0.0
+    X[0, 1, 0] = 3e-5
+    u, r = discs(X, 0.0)
+    n0 = 1.1 * 0.5 * np.ptp(u[0]) * KU / MU + 1.0
+    u, r = discs(X, n0)
+    w, t, sup = np.empty((1, 2)), np.empty(1), np.empty((1, 3), np.int64)
+    stick_centres(u[None].copy(), r[None].copy(), np.array([1e-18]), w, t, sup)
+    middle = 0.5 * ((u[0] - r).max() + (u[0] + r).min())
+    assert abs(w[0, 0] - middle) <= 1e-15 * np.abs(u).max()
+    assert w[0, 1] == pytest.approx(3e-5, rel=1e-14, abs=0)
