@@ -45,6 +45,8 @@ from .laws import LawForces
 
 PERIOD_RTOL = 1e-13      # the slider's return to its start, of the largest motion
 MAX_PERIODS = 500
+CENTRE_RTOL = 1e-11      # a sample inside the stick discs' centre, of the motion + radius:
+                         # the Apollonius point of near samples carries ~1e-14 of round-off
 
 
 @dataclass(frozen=True)
@@ -154,7 +156,7 @@ def march(law: Friction2D, X, N: int, jacobian: bool = True) -> Cycle2D:
     start = np.where(~touch.all(axis=1), (~touch).argmax(axis=1), 0)
     scale = np.abs(u).max(axis=(1, 2)) + np.abs(r).max(axis=1) + 1e-300
     w_mid, depth, support = np.empty((E, 2)), np.empty(E), np.empty((E, 3), np.int64)
-    stick_centres(np.ascontiguousarray(u), np.ascontiguousarray(r), 1e-14 * scale, w_mid,
+    stick_centres(np.ascontiguousarray(u), np.ascontiguousarray(r), CENTRE_RTOL * scale, w_mid,
                   depth, support)
     stuck = touch.all(axis=1) & (depth < 0.0)
     w0 = np.where((~touch.all(axis=1))[:, None], u[np.arange(E), :, start], w_mid)
@@ -220,3 +222,23 @@ def support_weights(u, w, sup) -> list:
     nrm = [(u[:, i] - w) / np.linalg.norm(u[:, i] - w) for i in sup]
     Ginv = np.linalg.inv(np.column_stack([np.array(nrm), np.ones(3)]))[:2]
     return [(i, np.outer(Ginv[:, k], nrm[k]), -Ginv[:, k]) for k, i in enumerate(sup)]
+
+
+def cycle_results(X, law: Friction2D, n_samples: int = 256) -> dict:
+    """Per element (E,), as the 1D element's `cycle.cycle_results` but from the N
+    samples of the AFT cycle: `stick`, `slip`, `separation` (fractions of the samples
+    [-]), `energy` dissipated per cycle [J] (the work of the tangential force over the
+    relative motion, pi sum_h h (F_ch U_sh - F_sh U_ch) over both tangents: the elastic
+    part and the normal force return what they take), `normal_mean` and
+    `normal_amplitude` (of f_n = max(n, 0) [N]).  X (E, 3, 2H+1) [m]."""
+    c = law.evaluate(np.asarray(X, float), n_samples=n_samples, jacobian=False).detail
+    H = harmonics_of(c.F.shape[-1])
+    h = np.arange(1, H + 1)
+    energy = np.pi * sum(np.sum(h * (c.F[:, d, 1::2] * X[:, d, 2::2]
+                                     - c.F[:, d, 2::2] * X[:, d, 1::2]), axis=1)
+                         for d in range(2))
+    fn = c.f[:, 2]
+    return {"stick": np.mean(c.state == 1, axis=1), "slip": np.mean(c.state == 2, axis=1),
+            "separation": np.mean(c.state == 0, axis=1), "energy": energy,
+            "normal_mean": fn.mean(axis=1),
+            "normal_amplitude": 0.5 * (fn.max(axis=1) - fn.min(axis=1))}

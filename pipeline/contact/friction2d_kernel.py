@@ -276,7 +276,9 @@ def small_minimax(u, r, S, m, tol, best, support):
                     if cand[2] >= best[2]:
                         continue
                     ok = True
-                    for o in range(m):
+                    for o in range(m):    # the support lies on it by construction
+                        if o == i or (o == j and j > i) or (o == k and k > j):
+                            continue
                         if depth(u, r, S[o], cand[0], cand[1]) > cand[2] + tol:
                             ok = False
                             break
@@ -310,6 +312,8 @@ def stick_centres(u, r, tol, w, t, support):
             small_minimax(ue, re, S, m, tol[e], best, sup)
             far, worst = -1, best[2] + tol[e]
             for i in range(N):
+                if i == sup[0] or i == sup[1] or i == sup[2]:
+                    continue      # on it by construction (to round-off)
                 d = depth(ue, re, i, best[0], best[1])
                 if d > worst:
                     far, worst = i, d

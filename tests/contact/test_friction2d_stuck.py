@@ -133,3 +133,50 @@ def test_along_one_tangent_the_centre_is_the_band_middle():
     middle = 0.5 * ((u[0] - r).max() + (u[0] + r).min())
     assert abs(w[0, 0] - middle) <= 1e-15 * np.abs(u).max()
     assert w[0, 1] == pytest.approx(3e-5, rel=1e-14, abs=0)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_small_orbit_deep_inside_large_discs_is_smooth(seed):
+    """A shroud pair under a large preload: the orbit (~2e-7 m) far inside discs of
+    radius ~4.5e-5 m whose radii vary by as much as the orbit, away from the origin.
+    The centre then rests on nearby samples (an ill-conditioned Apollonius point), and
+    a feasibility test at round-off picked either root at random: the forces jumped
+    by 0.05 N between motions 1e-15 m apart and Newton stalled.  Now: the Jacobian
+    equals central differences, and the forces are continuous."""
+    rng = np.random.default_rng(seed)
+    X = np.zeros((1, 3, NH))
+    X[0, :2, 0] = [-8.5e-5, 4.3e-6]
+    X[0, :2, 1:3] = rng.normal(size=(2, 2)) * 1e-7
+    X[0, 2, 1:3] = rng.normal(size=2) * 3e-8
+    law = Friction2D(ku=KU, kv=KV, mu=MU, n0=1.0)
+    got = law.evaluate(X, n_samples=N)
+    assert got.regimes["stuck"] == 1
+    dX = rng.normal(size=X.shape) * 1e-15
+    for eps in (1.0, 2.0, 3.0):
+        step = law.evaluate(X + eps * dX, n_samples=N, jacobian=False).F
+        assert np.abs(step - got.F).max() <= 1e-15 * eps * KU * 50
+    h = 1e-12
+    for p, (d, k) in enumerate(law.pairs):
+        fd = np.empty((NH, NH))
+        for j in range(NH):
+            Xp, Xm = X.copy(), X.copy()
+            Xp[0, k, j] += h
+            Xm[0, k, j] -= h
+            fd[:, j] = (law.evaluate(Xp, n_samples=N, jacobian=False).F[0, d]
+                        - law.evaluate(Xm, n_samples=N, jacobian=False).F[0, d]) / (2 * h)
+        assert np.abs(got.J[0, p] - fd).max() <= 1e-6 * KU, (seed, (d, k))
+
+
+def test_the_shroud_pair_that_stalled_newton():
+    """The element of the quick FE disk (2D pairs, 100 N per face, H = 1, 64 samples)
+    whose centre flipped between the two Apollonius roots of adjacent samples: its
+    slider now moves continuously along a line of motions 1e-15 m apart."""
+    X = np.array([[[-8.5621627893308174e-05, 5.0774081302776954e-08, -9.0640729650539006e-08],
+                   [3.9544821337429939e-06, -4.6798438789473869e-08, -5.1892225886707879e-09],
+                   [-5.0496359313372417e-05, 7.3411746360254734e-08, 1.8570782649821214e-07]]])
+    k = 111111.11111111121
+    law = Friction2D(ku=k, kv=k, mu=0.3, n0=22.222222222222243)
+    dX = np.random.default_rng(0).normal(size=X.shape) * 5e-15
+    w = np.array([law.evaluate(X + e * dX, n_samples=64, jacobian=False).detail.w[0, :, 0]
+                  for e in np.linspace(-2.0, 3.0, 11)])
+    assert np.abs(np.diff(w, axis=0)).max() <= 1e-12      # the roots were 4e-7 m apart
