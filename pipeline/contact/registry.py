@@ -29,9 +29,10 @@ ELEMENT_LAWS = {YangMenq: YangMenqLaw}
 def friction_elements(law: str = "yang_menq", **parameters):
     """The element set (`laws.ContactElements`) of a structure's shroud contacts under
     the law named `law`, from per-element parameters (Yang-Menq: ku, kv [N/m], mu [-],
-    n0 [N]): where a scene's declared contacts become elements, so a second law of the
+    n0 [N]; the 2D friction law "friction_2d": the same, ku isotropic in the plane):
+    where a scene's declared contacts become elements, so a further law of the
     tangential/normal kind plugs in here."""
-    kinds = {YangMenqLaw.name: YangMenq}
+    kinds = {YangMenqLaw.name: YangMenq, Friction2D.name: Friction2D}
     if law not in kinds:
         raise ValueError(f"no element set for the contact law {law!r} (known: "
                          f"{', '.join(kinds)})")

@@ -14,7 +14,12 @@ displacement of the pair (x_R of blade j, x_L of blade j+1) is
 n the outward normal of the right face (v > 0 closes the gap), t a tangent in the
 face: Bt = -t^T S_R, Bt_next = t^T R(alpha) S_L, Bn = n^T S_R,
 Bn_next = -n^T R(alpha) S_L (S: the selection of a node's 3 DOFs, or the point
-motion P of a face whose points move with several DOFs)."""
+motion P of a face whose points move with several DOFs).
+
+A contact with friction = "2d" slides in its whole plane (`contact.friction2d`): its
+elements have two tangents, t1 = t (above) and t2 = n x t1, and the normal, mapped
+alike (`fe_plane_maps`); they are a law's elements (`contact.laws.LawElements`),
+not the Yang-Menq set of the system."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -22,7 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.sparse as sp
 
-from ..contact.laws import ContactElements
+from ..contact.laws import ContactElements, LawElements
 from ..contact.registry import friction_elements
 from ..structure.disk import pair_faces
 from ..structure.fe_model import project_rows
@@ -54,6 +59,10 @@ class FaceContact:
     mu: float               # [-]
     n0: float | None        # [N] total over the face; None: the case's preload
     stiffness: str = "per_node"  # "per_face": ku, kv are face totals shared by area
+    friction: str = "1d"    # "2d": slip in the face plane (tangents t, t2 of the face)
+
+
+FRICTION = ("1d", "2d")     # along one tangent (Yang-Menq) or in the contact plane
 
 
 @dataclass(frozen=True)
@@ -78,6 +87,7 @@ class ShroudPair:
     tangent: tuple | None = None   # [-] direction, global axes
     stiffness: str = "per_node"    # "per_face": ku, kv are face totals shared by area
     interference: float | None = None   # [m] overlap (> 0) or gap (< 0); sets n0
+    friction: str = "1d"           # "2d": slip in the face plane (t1 = tangent, t2 = n x t1)
 
 
 def in_face(e, n) -> np.ndarray | None:
@@ -103,12 +113,13 @@ def pair_frame(blade, pair: ShroudPair, disk) -> tuple:
     return (t if t is not None else in_face([1.0, 0.0, 0.0], n)), n
 
 
-def shroud_pair_maps(blade, pair: ShroudPair, disk) -> tuple:
+def shroud_pair_maps(blade, pair: ShroudPair, disk, plane: bool = False) -> tuple:
     """(Bt, Bn, Bt_next, Bn_next) sparse (k, n_full) of one `ShroudPair` on the
     unreduced blade: one row per right-face point and its left-face partner
     (`structure.disk.pair_faces`), the maps of the module doc with the selection S of
     a node's 3 DOFs generalised to the faces' point motion P (d_k = P_k q,
-    `fe_model.ContactFrame.point_motion`; a rigid shroud's points move with its body)."""
+    `fe_model.ContactFrame.point_motion`; a rigid shroud's points move with its body).
+    plane=True: ((B1, B2, Bn), (B1_next, B2_next, Bn_next)) along t1, t2 = n x t1 and n."""
     for face in ("shroud_right", "shroud_left"):
         if face not in blade.frames:
             raise ValueError(f"contact {pair.name!r}: the blade has no face {face!r}")
@@ -122,14 +133,50 @@ def shroud_pair_maps(blade, pair: ShroudPair, disk) -> tuple:
         raise ValueError(f"contact {pair.name!r}: {exc}") from None
     Pl = Pl[(3 * left[:, None] + np.arange(3)).ravel()]
     Ra = disk.rotation(disk.pitch_angle)
-
-    def rows_of(P, vec):
-        vec = np.where(np.abs(vec) < 1e-12, 0.0, vec)   # round-off cosines from the face's SVD
-        B = project_rows(P, vec)
-        B.eliminate_zeros()
-        return B
-
+    if plane:
+        dirs = (t, np.cross(n, t), -n)     # u1, u2, and v = -n . d
+        return (tuple(rows_of(Pr, -e) for e in dirs), tuple(rows_of(Pl, Ra.T @ e) for e in dirs))
     return (rows_of(Pr, -t), rows_of(Pr, n), rows_of(Pl, Ra.T @ t), rows_of(Pl, -(Ra.T @ n)))
+
+
+def rows_of(P, vec) -> sp.csr_matrix:
+    """`project_rows` without the round-off direction cosines of a face's SVD (a zero
+    column keeps its DOF out of the condensed harmonic-balance unknowns)."""
+    vec = np.where(np.abs(vec) < 1e-12, 0.0, vec)
+    B = project_rows(P, vec)
+    B.eliminate_zeros()
+    return B
+
+
+def fe_plane_maps(blade, contacts, disk=None) -> tuple:
+    """(maps, maps_next, owner, weights) of the friction = "2d" `FaceContact`s and
+    `ShroudPair`s of an FE blade, in the given order: maps and maps_next three sparse
+    (E, n_full) each, along t1, t2 = n x t1 and the normal (zero next-sector maps for a
+    face against a wall), the contact of each element and each contact's node areas."""
+    own, nxt, owner, weights = [], [], [], []
+    for i, c in enumerate(contacts):
+        if isinstance(c, ShroudPair):
+            if disk is None:
+                raise ValueError(f"contact {c.name!r}: a shroud pair needs the blade's disk "
+                                 "placement (Blade(..., disk=DiskPlacement(R, N)))")
+            a, b = shroud_pair_maps(blade, c, disk, plane=True)
+            weights.append(blade.frames["shroud_right"].weights)
+        else:
+            fr = blade.frames[c.face]
+            P = fr.point_motion(blade.n_dof)
+            t = np.asarray(fr.tangent, float)
+            a = tuple(rows_of(P, e) for e in (t, np.cross(fr.normal, t), fr.normal))
+            b = tuple(sp.csr_matrix(B.shape) for B in a)
+            weights.append(fr.weights)
+        own.append(a)
+        nxt.append(b)
+        owner += [i] * a[0].shape[0]
+    if not own:
+        z = sp.csr_matrix((0, blade.n_dof))
+        return (z,) * 3, (z,) * 3, np.zeros(0, int), []
+    stack = [tuple(sp.vstack([m[d] for m in maps]).tocsr() for d in range(3))
+             for maps in (own, nxt)]
+    return stack[0], stack[1], np.asarray(owner), weights
 
 
 def fe_contact_maps(blade, contacts, disk=None) -> tuple:
@@ -156,6 +203,31 @@ def fe_contact_maps(blade, contacts, disk=None) -> tuple:
         return z, z, z, z, np.zeros(0, int), []
     out = tuple(sp.vstack([m[j] for m in maps]).tocsr() for j in range(4))
     return out + (np.asarray(owner), weights)
+
+
+def blade_contact_sets(blade, faces, disk, case: dict, shift=None) -> tuple:
+    """((Bt, Bn, Bt_next, Bn_next), elements, plane) of an FE blade's face contacts and
+    shroud pairs with a case applied, on the unreduced blade: the Yang-Menq maps and
+    elements, and `plane`, the `LawElements` of the 2D friction law (or None) -- a
+    scene's contacts slide one way (all friction = "1d" or all "2d"; with "2d" the
+    Yang-Menq set is empty).  shift (n_full,) [m]: the blade's centrifugal
+    displacement, for the pairs' closure under an `interference` (None: at rest)."""
+    kinds = {getattr(c, "friction", "1d") for c in faces}
+    if len(kinds) > 1:
+        raise ValueError("the contacts of a scene slide along one tangent (friction = \"1d\") "
+                         "or in the contact plane (\"2d\"), not some each way")
+    if kinds != {"2d"}:
+        Bt, Bn, Bt_next, Bn_next, owner, weights = fe_contact_maps(blade, faces, disk)
+        closure = None if shift is None else (Bn + Bn_next) @ shift
+        return ((Bt, Bn, Bt_next, Bn_next),
+                contact_elements(faces, case, owner, weights, closure), None)
+    maps, maps_next, owner, weights = fe_plane_maps(blade, faces, disk)
+    closure = None if shift is None else (maps[2] + maps_next[2]) @ shift
+    law = contact_elements(faces, case, owner, weights, closure, "friction_2d")
+    z = sp.csr_matrix((0, blade.n_dof))
+    empty = friction_elements(ku=np.zeros(0), kv=np.zeros(0), mu=np.zeros(0), n0=np.zeros(0))
+    nxt = maps_next if any(isinstance(c, ShroudPair) for c in faces) else ()
+    return (z, z, z, z), empty, LawElements(law, maps, nxt)
 
 
 def face_maps(blade, contacts) -> tuple:
@@ -189,9 +261,10 @@ def case_parameter(contacts, owner, case, name, attr):
 
 
 def contact_elements(contacts, case: dict, owner=None, weights=None,
-                     closure=None) -> ContactElements:
-    """The elements (Yang-Menq parameters, `registry.friction_elements`) of `contacts`
-    with a case applied, one element per row of
+                     closure=None, law: str = "yang_menq") -> ContactElements:
+    """The elements (`registry.friction_elements` of the law named `law`: Yang-Menq,
+    or "friction_2d" for friction = "2d") of `contacts` with a case applied, one
+    element per row of
     `owner` (the contact of each element; default one per contact).  A `FaceContact`'s
     (or `ShroudPair`'s) preload is the total of its face: shared equally ("per_node")
     or, with ku and kv, by node area ("per_face"; `weights[i]` the areas of contact
@@ -220,4 +293,4 @@ def contact_elements(contacts, case: dict, owner=None, weights=None,
         if i in pressed:
             gap = np.zeros(int(on.sum())) if closure is None else np.asarray(closure)[on]
             n0[on] = kv[on] * (c.interference + gap)
-    return friction_elements(ku=ku, kv=kv, mu=mu, n0=n0)
+    return friction_elements(law, ku=ku, kv=kv, mu=mu, n0=n0)

@@ -12,7 +12,8 @@ that every solver takes:
                 the next sector's, `next.<dof>`) | `FaceContact` (every node of an FE
                 face against a rigid wall, in the face's frame) | `ShroudPair` (every
                 node pair of the right shroud face and the next blade's left face, for
-                a `Blade` placed in a disk)
+                a `Blade` placed in a disk); friction = "2d" faces and pairs slide in
+                their plane (`contacts.blade_contact_sets`: `System.laws`)
     loads       `Forcing` (complex amplitudes F_h over the structure's DOFs) |
                 `PointLoad` (at an FE node set)
     assembly    `Single` | `Cyclic` (N sectors, engine-order travelling wave solved
@@ -26,9 +27,8 @@ A case is a dict of overrides (`CASE_KEYS`): `preload` sets n0 of every contact,
 `mu`, `ku`, `kv` those of every contact, `excitation_scale` scales every load,
 `eo` the engine order and `mistuning_seed` the mistuning draw of a cyclic assembly.
 
-Built FE models and reductions are cached on the frozen specs (`blade_model`,
-`reduced_model`, `functools.lru_cache`): scenes that share a structure share its
-model, and a scene value never changes.
+FE models and reductions are cached on the frozen specs (`blade_model`,
+`reduced_model`, `functools.lru_cache`): scenes sharing a structure share its model.
 """
 from __future__ import annotations
 
@@ -40,7 +40,9 @@ import numpy as np
 
 from ..contact.laws import ContactElements
 from . import cyclic
-from .contacts import DofContact, FaceContact, ShroudPair, contact_elements, fe_contact_maps
+from ..contact.laws import LawElements
+from .contacts import (DofContact, FaceContact, ShroudPair, blade_contact_sets, contact_elements,
+                       fe_contact_maps)
 from .loads import Forcing, point_forcing
 from .system import System
 
@@ -341,6 +343,7 @@ class Parts:
     contact: ContactElements
     forcing: np.ndarray
     dofs: tuple
+    laws: tuple = ()        # `LawElements` of the blade's 2D friction contacts
 
 
 def check_case(scene: Scene, case: dict | None) -> dict:
@@ -392,11 +395,8 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
         raise ValueError("a shroud pair couples neighbouring blades: give a Cyclic assembly")
     speed = case_speed(st, case)
     blade = blade_at_speed(st, speed)
-    Bt, Bn, Bt_next, Bn_next, owner, weights = fe_contact_maps(blade, faces, st.disk)
-    closure = None   # the centrifugal v_c of each pair at ND 0 (`ShroudPair.interference`)
-    if speed and blade.rotation is not None:
-        closure = (speed * RPM) ** 2 * ((Bn + Bn_next) @ blade.rotation.static)
-    elem = contact_elements(faces, case, owner, weights, closure)
+    shift = (speed * RPM) ** 2 * blade.rotation.static if speed and blade.rotation else None
+    (Bt, Bn, Bt_next, Bn_next), elem, plane = blade_contact_sets(blade, faces, st.disk, case, shift)
     F = blade_forcing(scene, case)
     if not reduced or scene.reduction is None:
         if rows:
@@ -407,7 +407,8 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
         a, b = st.rayleigh
         C = (a * blade.M + b * blade.K).tocsr()
         return Parts(M=blade.M, C=C, K=blade.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next,
-                     Bn_next=Bn_next, contact=elem, forcing=F, dofs=())
+                     Bn_next=Bn_next, contact=elem, forcing=F, dofs=(),
+                     laws=(plane,) if plane else ())
     from ..structure.reduction import reduce_map  # deferred like blade_model's imports
 
     red = reduced_model(st, scene.reduction, case_speed(st, case))[0]
@@ -421,8 +422,11 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
         elem = contact_elements(rows, case)
     else:
         Bt, Bn, Bt_next, Bn_next = (reduce_map(red, B) for B in (Bt, Bn, Bt_next, Bn_next))
+    if plane:
+        plane = LawElements(plane.law, tuple(reduce_map(red, B) for B in plane.maps),
+                            tuple(reduce_map(red, B) for B in plane.maps_next))
     return Parts(M=red.M, C=red.C, K=red.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next, Bn_next=Bn_next,
-                 contact=elem, forcing=Fr, dofs=dofs)
+                 contact=elem, forcing=Fr, dofs=dofs, laws=(plane,) if plane else ())
 
 
 def scene_parts(scene: Scene, case: dict | None = None, reduced: bool = True) -> Parts:
@@ -471,7 +475,7 @@ def sector(scene: Scene, case: dict | None = None) -> cyclic.Sector:
     return cyclic.Sector(M=p.M, C=p.C, K=p.K, Bt=p.Bt, Bn=p.Bn, Bt_next=p.Bt_next,
                          Bn_next=p.Bn_next, contact=p.contact, forcing=p.forcing,
                          sectors=scene.assembly.sectors, dof_names=p.dofs, K_spring=Ks,
-                         K_next=Kn)
+                         K_next=Kn, laws=p.laws)
 
 
 def build_system(scene: Scene, case: dict | None = None, reduced: bool = True) -> System:
@@ -482,7 +486,7 @@ def build_system(scene: Scene, case: dict | None = None, reduced: bool = True) -
     if not scene.cyclic:
         p = scene_parts(scene, case, reduced)
         return System(M=p.M, C=p.C, K=p.K, Bt=p.Bt, Bn=p.Bn, contact=p.contact,
-                      forcing=p.forcing, dof_names=p.dofs, laws=scene.laws)
+                      forcing=p.forcing, dof_names=p.dofs, laws=p.laws + scene.laws)
     if scene.mistuning is None:
         return cyclic.sector_system(sector(scene, case), engine_order(scene, case))
     return replace(full_system(scene, case), dof_names=scene.dofs)

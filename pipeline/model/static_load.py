@@ -25,7 +25,6 @@ one solve of A = K0 + Bn0^T kv Bn0 with C + 1 right-hand sides.
 """
 from __future__ import annotations
 
-from dataclasses import replace
 
 import numpy as np
 import scipy.linalg as sla
@@ -34,7 +33,7 @@ import scipy.sparse.linalg as spla
 
 from .contacts import FaceContact, ShroudPair
 from .scene import Scene, blade_contact_maps, build_system
-from .system import System, coupled_stiffness
+from .system import System, contact_set, coupled_stiffness, with_preload
 
 NORMAL_LOAD = "normal_load"   # the case key of a requested static normal load [N]
 
@@ -50,14 +49,15 @@ def contact_owner(scene: Scene) -> np.ndarray:
 
 def _static_operators(system: System):
     """(A = K0 + Bn0^T kv Bn0, Bn0, F0) of the closed static problem (module doc)."""
-    cy = system.cyclic
+    cs = contact_set(system)
     K0 = coupled_stiffness(system, 0.0)
-    Bn = system.Bn
-    if cy is not None:
-        Bn = (sp.csr_matrix(Bn, dtype=float) + sp.csr_matrix(cy.Bn_next, dtype=float)
-              if sp.issparse(Bn) or sp.issparse(cy.Bn_next)
-              else np.asarray(Bn, float) + np.asarray(cy.Bn_next, float))
-    kv = system.contact.kv
+    Bn = cs.maps[-1]
+    if cs.maps_next:
+        Bx = cs.maps_next[-1]
+        Bn = (sp.csr_matrix(Bn, dtype=float) + sp.csr_matrix(Bx, dtype=float)
+              if sp.issparse(Bn) or sp.issparse(Bx)
+              else np.asarray(Bn, float) + np.asarray(Bx, float))
+    kv = cs.elements.kv
     F0 = np.asarray(system.forcing)[:, 0].real.astype(float)
     if sp.issparse(K0) or sp.issparse(Bn):
         Bs = sp.csr_matrix(Bn, dtype=float)
@@ -85,7 +85,7 @@ def _solve(A, rhs):
 def static_normal_load(system: System) -> np.ndarray:
     """s = n0 + kv v0 [N] per element (E,): the normal load of each element in the
     static state with every contact closed and stuck at zero excitation (module doc)."""
-    el = system.contact
+    el = contact_set(system).elements
     if el.size == 0:
         return np.zeros(0)
     A, Bn, F0 = _static_operators(system)
@@ -101,7 +101,7 @@ def static_contact(system: System, max_sweeps: int | None = None) -> tuple:
     close the open ones that penetrate, until nothing changes.  Tangentially as
     `static_normal_load` (a stuck slider at the middle of its band carries no force).
     With every element closed it is `static_normal_load`."""
-    el = system.contact
+    el = contact_set(system).elements
     E = el.size
     if E == 0:
         return np.zeros(0), np.zeros(0, bool)
@@ -135,7 +135,7 @@ def preload_for_static_load(system: System, owner, distribution, target) -> np.n
     """n0 (E,) [N] whose static normal loads sum to `target` (C,) [N] over each
     contact's elements, n0 = distribution * p[owner] (`distribution` (E,): each
     element's share of a unit face total).  Linear: one solve (module doc)."""
-    el = system.contact
+    el = contact_set(system).elements
     owner = np.asarray(owner, int)
     target = np.asarray(target, float)
     C = target.size
@@ -159,6 +159,6 @@ def case_system(scene: Scene, case: dict | None = None) -> System:
     target = float(case.pop(NORMAL_LOAD))
     unit = build_system(scene, {**case, "preload": 1.0})
     owner = contact_owner(scene)
-    n0 = preload_for_static_load(unit, owner, unit.contact.n0,
+    n0 = preload_for_static_load(unit, owner, contact_set(unit).elements.n0,
                                  np.full(len(scene.contacts), target))
-    return replace(unit, contact=replace(unit.contact, n0=n0))
+    return with_preload(unit, n0)

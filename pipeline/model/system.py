@@ -19,7 +19,7 @@ sector (Petrov 2004).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -108,6 +108,46 @@ class System:
         return F
 
 
+@dataclass(frozen=True)
+class ContactSet:
+    """The elements of a system's declared contacts and their maps: the Yang-Menq
+    set (`System.contact`, maps (Bt, Bn), next (Bt_next, Bn_next) on a cyclic
+    sector) or, when that is empty, the first further law with a normal direction and
+    a preload (an FE blade's 2D friction contacts: maps (t1, t2, n)).  The normal map
+    is the last; `elements` has ku, kv, mu, n0 (E,); `law` the 2D law's `LawElements`
+    index in `System.laws` (None for Yang-Menq)."""
+
+    elements: object
+    maps: tuple
+    maps_next: tuple
+    law: int | None = None
+
+    @property
+    def size(self) -> int:
+        return self.elements.size
+
+
+def contact_set(system: System) -> ContactSet:
+    """The `ContactSet` of a system (see there)."""
+    cy = system.cyclic
+    if system.contact.size == 0:
+        for k, le in enumerate(system.laws):
+            if "normal" in le.law.directions and hasattr(le.law, "n0"):
+                return ContactSet(le.law, tuple(le.maps), tuple(le.maps_next), k)
+    nxt = (cy.Bt_next, cy.Bn_next) if cy is not None else ()
+    return ContactSet(system.contact, (system.Bt, system.Bn), nxt)
+
+
+def with_preload(system: System, n0) -> System:
+    """The system with the preload n0 (E,) [N] of its `contact_set`'s elements."""
+    cs = contact_set(system)
+    if cs.law is None:
+        return replace(system, contact=replace(system.contact, n0=np.asarray(n0, float)))
+    laws = list(system.laws)
+    laws[cs.law] = replace(laws[cs.law], law=replace(cs.elements, n0=np.asarray(n0, float)))
+    return replace(system, laws=tuple(laws))
+
+
 def coupled_stiffness(system: System, angle: float):
     """K + exp(i angle) K_next + exp(-i angle) K_next^T [N/m]: the stiffness a wave with
     the inter-sector phase `angle` [rad] sees (harmonic h of the engine-order wave:
@@ -189,6 +229,8 @@ def element_rows(T, N_) -> list:
     either is nonzero, ascending; T's values there [-]; N_'s values there [-]),
     read from the sparse structure without densifying."""
     P = sp.csr_matrix(abs(sp.csr_matrix(T, dtype=float)) + abs(sp.csr_matrix(N_, dtype=float)))
+    if P.shape[0] == 0:      # no elements (an FE wheel whose contacts are another law's)
+        return []
     P.eliminate_zeros()
     P.sort_indices()
     rows = np.repeat(np.arange(P.shape[0]), np.diff(P.indptr))
@@ -220,6 +262,12 @@ def lowest_frequencies(system: System, contacts: str, k: int) -> np.ndarray:
         closed = np.ones(el.size, bool) if contacts == "tied" else el.n0 > 0
         Bt, Bn = sp.csr_matrix(system.Bt), sp.csr_matrix(system.Bn)
         K = K + Bt.T @ sp.diags(el.ku) @ Bt + Bn.T @ sp.diags(el.kv * closed) @ Bn
+        for le in system.laws:        # further laws' linear limits (2D friction)
+            if getattr(le.law, "linear_limit", None) is not None:
+                k = le.law.linear_limit(contacts)
+                for d, B in enumerate(le.maps):
+                    B = sp.csr_matrix(B)
+                    K = K + B.T @ sp.diags(k[:, d]) @ B
     elif contacts != "open":
         raise ValueError(f"contacts must be 'open', 'stuck' or 'tied', got {contacts!r}")
     w2 = spla.eigsh(K.tocsc(), k=k, M=sp.csc_matrix(system.M), sigma=0.0,

@@ -283,21 +283,33 @@ def full_residual(prob: HBMProblem, Q, Om, contact: ContactElements | None = Non
 
 
 def force_scale(prob: HBMProblem, contact: ContactElements | None = None) -> float:
-    """Reference force [N] for tolerances: |P| + sum |n0_e| |Bn_e| (never 0).
+    """Reference force [N] for tolerances: |P| + sum |n0_e| |Bn_e| (never 0), the
+    elements of further laws with a normal direction included.
 
     A preload counts only where it loads the structure (through Bn); the Jenkins
     normal load of a kv = 0 element with Bn = 0 merely limits friction.
     """
     elem = contact if contact is not None else prob.system.contact
     bn = np.linalg.norm(prob.bn, axis=1) if prob.bn.size else np.zeros(0)
-    s = float(np.linalg.norm(prob.P)) + float(np.sum(np.abs(elem.n0) * bn))
+    s = float(np.linalg.norm(prob.P)) + float(np.sum(np.abs(elem.n0) * bn)) + law_preloads(prob)
     return s if s > 0 else 1.0
+
+
+def law_preloads(prob: HBMProblem) -> float:
+    """sum |n0_e| |B_normal,e| [N] of the further laws with a normal direction and a
+    preload (the 2D friction law's): their share of the static force scale."""
+    s = 0.0
+    for slots in prob.laws:
+        if "normal" in slots.law.directions and hasattr(slots.law, "n0"):
+            b = slots.b[slots.law.directions.index("normal")]
+            s += float(np.sum(np.abs(slots.law.n0) * np.linalg.norm(b, axis=1)))
+    return s
 
 
 def tolerances(prob: HBMProblem, tol_rel: float, contact: ContactElements | None = None):
     """Residual tolerances [N] of the static (h = 0) and the harmonic (h >= 1) equations.
 
-    static:  tol_rel * (|P_0| + sum |n0_e| |Bn_e| + |P_h>=1|)
+    static:  tol_rel * (|P_0| + sum |n0_e| |Bn_e| + |P_h>=1|)   (all laws' elements)
     dynamic: tol_rel * |P_h>=1|
     The harmonic equations are held to the excitation's scale, so a large static
     preload cannot swamp them; the static equations also carry the rectified
@@ -308,7 +320,8 @@ def tolerances(prob: HBMProblem, tol_rel: float, contact: ContactElements | None
     elem = contact if contact is not None else prob.system.contact
     bn = np.linalg.norm(prob.bn, axis=1) if prob.bn.size else np.zeros(0)
     d = float(np.linalg.norm(prob.P[:, 1:]))
-    s = float(np.linalg.norm(prob.P[:, 0])) + float(np.sum(np.abs(elem.n0) * bn)) + d
+    s = (float(np.linalg.norm(prob.P[:, 0])) + float(np.sum(np.abs(elem.n0) * bn)) + d
+         + law_preloads(prob))
     s = s or 1.0
     return tol_rel * s, tol_rel * (d or s)
 

@@ -28,10 +28,12 @@ import numpy as np
 
 from ...contact import YangMenq
 from ...contact.cycle import cycle_results
+from ...contact.friction2d import cycle_results as plane_cycle_results
 from ...fourier.harmonics import shift
 from .harmonics_dataset import add_harmonic_coefficients
 from ...model.static_load import (NORMAL_LOAD, contact_owner, face_totals, static_contact,
                                   static_normal_load)
+from ...model.system import contact_set
 
 
 def wheel_sectors(study) -> int | None:
@@ -78,7 +80,7 @@ def static_variables(study, cases, systems) -> dict:
     n0 = np.full(shape + (E,), np.nan)
     s = np.full(shape + (E,), np.nan)
     for (idx, _), system in zip(cases, systems):
-        n0[idx] = system.contact.n0
+        n0[idx] = contact_set(system).elements.n0
         s[idx] = static_normal_load(system)
     sw = tuple(study.sweep.axes)
     closed = ("with every contact closed and stuck and no excitation (the structure deflected "
@@ -129,19 +131,41 @@ def contact_state_variables(study, cases, systems) -> dict:
 def contact_motions(system, Q):
     """U, V (P, E, 2H+1) [m] of the elements for the DOF coefficients Q (P, n, 2H+1):
     u = Bt q + Bt_next q(tau + phi) on a cyclic sector (the travelling wave), else
-    u = Bt q; likewise v."""
+    u = Bt q; likewise v (for 2D friction elements u along their first tangent)."""
+    X = set_motions(system, Q)
+    return X[:, :, 0], X[:, :, -1]
+
+
+def set_motions(system, Q):
+    """X (P, E, D, 2H+1) [m] along the directions of the system's `contact_set` (D = 2:
+    u, v; D = 3 for the 2D friction law: u1, u2, v), as `contact_motions`."""
     P, n, nh = Q.shape
     flat = np.moveaxis(Q, 0, 1).reshape(n, P * nh)
+    cs = contact_set(system)
 
     def along(B, X):
         return np.moveaxis(np.asarray(B @ X).reshape(-1, P, nh), 0, 1)
 
-    U, V = along(system.Bt, flat), along(system.Bn, flat)
+    X = np.stack([along(B, flat) for B in cs.maps], axis=2)
     cy = system.cyclic
-    if cy is not None:
+    if cy is not None and cs.maps_next:
         nxt = np.moveaxis(shift(Q, cy.phase), 0, 1).reshape(n, P * nh)
-        U, V = U + along(cy.Bt_next, nxt), V + along(cy.Bn_next, nxt)
-    return U, V
+        X = X + np.stack([along(B, nxt) for B in cs.maps_next], axis=2)
+    return X
+
+
+def element_cycles(system, X, samples: int) -> dict:
+    """`cycle.cycle_results` of the system's contact elements for the motions X
+    (P, E, D, 2H+1), flattened to (P E,): exact for Yang-Menq, from the AFT cycle of
+    `samples` samples for the 2D friction law."""
+    P, E, D, nh = X.shape
+    el = contact_set(system).elements
+    if D == 3:
+        return plane_cycle_results(X.reshape(P * E, D, nh), el.tile(P), samples)
+    rest = None if el.slider_rest is None else np.tile(el.slider_rest, P)
+    tiled = YangMenq(*(np.tile(getattr(el, k), P) for k in ("ku", "kv", "mu", "n0")),
+                     slider_rest=rest)
+    return cycle_results(X[:, :, 0].reshape(-1, nh), X[:, :, 1].reshape(-1, nh), tiled)
 
 
 CYCLE_META = {
@@ -180,13 +204,7 @@ def cycle_variables(study, cases, curves, systems, converged) -> dict:
         ok = np.flatnonzero(converged[idx][:c.n_points] & np.all(np.isfinite(Q), axis=(1, 2)))
         if not ok.size:
             continue
-        U, V = contact_motions(system, Q[ok])
-        el = system.contact
-        rest = None if el.slider_rest is None else np.tile(el.slider_rest, ok.size)
-        tiled = YangMenq(*(np.tile(getattr(el, k), ok.size) for k in ("ku", "kv", "mu", "n0")),
-                         slider_rest=rest)
-        nh = U.shape[-1]
-        r = cycle_results(U.reshape(-1, nh), V.reshape(-1, nh), tiled)
+        r = element_cycles(system, set_motions(system, Q[ok]), study.solver.samples)
         for name, key in PAIR_KEYS.items():
             out[name][idx][ok] = r[key].reshape(ok.size, E)
         out["dissipated_energy"][idx][ok] = face_totals(out["dissipated_energy_pair"][idx][ok],
@@ -195,7 +213,8 @@ def cycle_variables(study, cases, curves, systems, converged) -> dict:
                                                        owner, C)
     sw = tuple(study.sweep.axes)
     where = ("computed at every converged point from the exact transition times of its "
-             "periodic contact motion; NaN at points that did not converge and at padding")
+             "periodic contact motion (2D friction: from its AFT cycle, fractions of the "
+             "samples); NaN at points that did not converge and at padding")
     return {k: (sw + ("point", dim), out[k], {"units": u, "long_name": ln, "comment": where})
             for k, (dim, u, ln) in CYCLE_META.items()}
 
@@ -206,28 +225,34 @@ def peak_motion_variables(study, cases, curves, systems, data_vars) -> dict:
     redraw the loop of a whole contact face (`response_figures.hysteresis_figures`)."""
     owner = contact_owner(study.scene)
     shape, E, nh = study.sweep.shape, owner.size, 2 * study.solver.harmonics + 1
-    U, V = np.full(shape + (E, nh), np.nan), np.full(shape + (E, nh), np.nan)
+    plane = any(getattr(c, "friction", "1d") == "2d" for c in study.scene.contacts)
+    X = np.full(shape + (E, 3 if plane else 2, nh), np.nan)
     point = np.full(shape, -1, dtype=np.int32)
     k = {n: np.full(shape + (E,), np.nan) for n in ("ku", "kv", "mu")}
     amp, conv = data_vars["amplitude"][1][..., 0], data_vars["converged"][1]
     for (idx, _), c, system in zip(cases, curves, systems):
         for n in k:
-            k[n][idx] = getattr(system.contact, n)
+            k[n][idx] = getattr(contact_set(system).elements, n)
         if c is None or not conv[idx].any() or c.Q.shape[-1] != nh:
             continue
         i = int(np.argmax(np.where(conv[idx], amp[idx], -np.inf)))
-        Ue, Ve = contact_motions(system, np.asarray(c.Q, float)[i:i + 1])
-        U[idx], V[idx], point[idx] = Ue[0], Ve[0], i
+        X[idx], point[idx] = set_motions(system, np.asarray(c.Q, float)[i:i + 1])[0], i
     sw = tuple(study.sweep.axes)
+    first = " along the first tangent" if plane else ""
     out = {"peak_contact_point": (sw, point, {"units": "1", "long_name": "point of the largest "
                                               "converged amplitude of the first output DOF "
                                               "(-1: none)"}),
-           "peak_contact_u": (sw + ("pair", "coefficient"), U, {
-               "units": "m", "long_name": "tangential relative displacement of the element at "
-                                          "the peak point, Fourier coefficients"}),
-           "peak_contact_v": (sw + ("pair", "coefficient"), V, {
+           "peak_contact_u": (sw + ("pair", "coefficient"), X[..., 0, :], {
+               "units": "m", "long_name": f"tangential relative displacement{first} of the "
+                                          "element at the peak point, Fourier coefficients"}),
+           "peak_contact_v": (sw + ("pair", "coefficient"), X[..., -1, :], {
                "units": "m", "long_name": "normal relative displacement of the element at "
                                           "the peak point, Fourier coefficients"})}
+    if plane:
+        out["peak_contact_u2"] = (sw + ("pair", "coefficient"), X[..., 1, :], {
+            "units": "m", "long_name": "tangential relative displacement along the second "
+                                       "tangent (n x t1) of the element at the peak point, "
+                                       "Fourier coefficients"})
     for n, (u, what) in {"ku": ("N/m", "tangential stiffness"), "kv": ("N/m", "normal "
                          "stiffness"), "mu": ("1", "friction coefficient")}.items():
         out[f"{n}_pair"] = (sw + ("pair",), k[n], {"units": u, "long_name": f"{what} of the "

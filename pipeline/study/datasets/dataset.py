@@ -35,15 +35,14 @@ import numpy as np
 import xarray as xr
 
 from ...model.scene import AT, stiffness_factors
-from ...model.system import lowest_frequencies
-from ...solve.harmonic_balance import hbm
+from ...model.system import contact_set, lowest_frequencies
 from .describe import provenance, scene_attrs, solution_method
 from .incomplete import CASE_FLAGS, PEAK_NAME, case_flags
 from .meanings import annotate_natural_frequencies, sweep_long_name
 from .optimum_dataset import add_optimum
 from ..files.spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
-from .contact_dataset import add_contact_variables
+from .contact_dataset import add_contact_variables, set_motions
 
 MAX_MODES = 50    # natural frequencies per case in a dataset (the lowest)
 
@@ -429,7 +428,9 @@ def _add_hysteresis(data_vars, study, cases, curves, systems, lay: Layout):
     force-displacement loop exactly (`contact.exact.history`)."""
     H, axes = study.solver.harmonics, tuple(study.sweep.axes)
     shape = lay.shape
+    plane = any(getattr(c, "friction", "1d") == "2d" for c in study.scene.contacts)
     U, V = np.full(shape + (2 * H + 1,), np.nan), np.full(shape + (2 * H + 1,), np.nan)
+    U2 = np.full(shape + (2 * H + 1,), np.nan)
     par = {k: np.full(shape, np.nan) for k in ("ku", "kv", "mu", "n0", "frequency")}
     element = np.full(shape, -1, dtype=np.int32)
     for (idx, _), c, system in zip(cases, curves, systems):
@@ -438,11 +439,10 @@ def _add_hysteresis(data_vars, study, cases, curves, systems, lay: Layout):
             continue
         a = np.where(ok, np.asarray(c.amplitude, float)[:, lay.rows[0, 0]], -np.inf)
         i = int(np.argmax(a))
-        prob = hbm.setup(system, H)
-        Ue, Ve = hbm.contact_motion(prob, np.asarray(c.Q[i])[prob.c])
-        e = int(np.argmax(np.linalg.norm(Ue[:, 1:], axis=1)))
-        U[idx], V[idx], element[idx] = Ue[e], Ve[e], e
-        el = prob.system.contact
+        X = set_motions(system, np.asarray(c.Q, float)[i:i + 1])[0]    # (E, D, 2H+1)
+        e = int(np.argmax(np.linalg.norm(X[:, :-1, 1:], axis=(1, 2))))
+        U[idx], V[idx], U2[idx], element[idx] = X[e, 0], X[e, -1], X[e, 1], e
+        el = contact_set(system).elements
         for k in ("ku", "kv", "mu", "n0"):
             par[k][idx] = float(np.asarray(getattr(el, k))[e])
         par["frequency"][idx] = float(c.omega[i]) / lay.to_unit
@@ -451,6 +451,10 @@ def _add_hysteresis(data_vars, study, cases, curves, systems, lay: Layout):
                                            "displacement at the peak, Fourier coefficients"})
     data_vars["hysteresis_v"] = (coeff, V, {"units": "m", "long_name": "normal relative "
                                            "displacement at the peak, Fourier coefficients"})
+    if plane:   # 2D friction: u along the first tangent, u2 along n x t1
+        data_vars["hysteresis_u2"] = (coeff, U2, {"units": "m", "long_name": "relative "
+                                      "displacement along the second tangent at the peak, "
+                                      "Fourier coefficients"})
     data_vars["hysteresis_element"] = (axes, element, {"units": "1", "long_name":
                                        "contact element sliding most at the peak"})
     for k, (u, name) in {"ku": ("N/m", "tangential stiffness"), "kv": ("N/m", "normal "

@@ -4,7 +4,9 @@ dissipates most there, against the mean tangential relative displacement of its
 elements, drawn exactly from the dataset's per-element coefficients
 (`contact_dataset.peak_motion_variables`, `contact.exact.history`).  The legend
 gives the energy the contact dissipates per cycle [J] (`dissipated_energy`, the sum
-of its elements' slider work)."""
+of its elements' slider work).  With 2D friction the loop becomes an orbit in the
+face plane: the mean relative motion and slider, and the total tangential force
+(`draw_plane_orbits`)."""
 from __future__ import annotations
 
 import itertools
@@ -13,6 +15,7 @@ import numpy as np
 
 from ...contact import YangMenq
 from ...contact.exact import history
+from ...contact.friction2d import Friction2D
 from .plots import wrapped_title
 
 
@@ -54,3 +57,53 @@ def draw_face_loops(study, ds, ax) -> None:
     ax.set_ylabel("contact's total friction force [N]")
     wrapped_title(ax, f"{study.title}\nat the peak: the contact dissipating most, face total "
                       "(W: energy dissipated per cycle)", fontsize=9)
+
+
+def plane_orbit(ds, sel: dict, samples: int) -> dict | None:
+    """The 2D friction counterpart of `face_loop`: over the elements of the contact
+    dissipating most at the peak of the case `sel`, the mean in-plane relative motion
+    (u1, u2) [m] and slider (w1, w2) [m] and the total tangential force (f1, f2) [N]
+    over one period, from the AFT cycle of `samples` samples (`contact.friction2d`)."""
+    sub = ds.isel(sel)
+    p = int(sub["peak_contact_point"])
+    if p < 0:
+        return None
+    energy = sub["dissipated_energy"].isel(point=p).values
+    c = int(np.nanargmax(energy)) if np.isfinite(energy).any() else 0
+    pairs = np.flatnonzero(ds["pair_contact"].values == c)
+    law = Friction2D(*(sub[f"{k}_pair"].values[pairs] for k in ("ku", "kv", "mu")),
+                     n0=sub["preload_pair"].values[pairs])
+    X = np.stack([sub[f"peak_contact_{d}"].values[pairs] for d in ("u", "u2", "v")], axis=1)
+    cyc = law.evaluate(X, n_samples=samples, jacobian=False).detail
+    close = np.r_[np.arange(cyc.u.shape[-1]), 0]        # a closed orbit
+    return dict(u=cyc.u.mean(axis=0)[:, close], w=cyc.w.mean(axis=0)[:, close],
+                f=cyc.f[:, :2].sum(axis=0)[:, close], name=str(ds["contact"].values[c]),
+                elements=pairs.size, energy=float(energy[c]),
+                frequency=float(sub["frequency"].isel(point=p)))
+
+
+def draw_plane_orbits(study, ds, axes_pair) -> None:
+    """Per case, on two axes: the face's mean in-plane relative motion (solid) and
+    slider (dashed); its total tangential force (`plane_orbit`), labelled."""
+    ax_u, ax_f = axes_pair
+    unit = ds["frequency"].attrs["units"]
+    names = list(study.sweep.axes)
+    for idx in itertools.product(*(range(len(study.sweep.axes[a])) for a in names)):
+        sel = dict(zip(names, idx))
+        orbit = plane_orbit(ds, sel, study.solver.samples)
+        if orbit is None:
+            continue
+        case = ", ".join(f"{a} = {study.sweep.axes[a][i]:g} {ds[a].attrs.get('units', '')}"
+                         for a, i in sel.items())
+        line, = ax_u.plot(*orbit["u"], lw=1.6, label=f"{case} at {orbit['frequency']:.4g} {unit}")
+        ax_u.plot(*orbit["w"], lw=1.0, ls="--", color=line.get_color())
+        ax_f.plot(*orbit["f"], lw=1.6, color=line.get_color(),
+                  label=f"{orbit['name']} ({orbit['elements']} elements), "
+                        f"W = {orbit['energy']:.3g} J/cycle")
+    ax_u.set(xlabel="relative displacement along t1 [m]", ylabel="along t2 = n x t1 [m]",
+             title="mean relative motion (solid) and slider (dashed)")
+    ax_f.set(xlabel="total friction force along t1 [N]", ylabel="along t2 [N]",
+             title="total tangential force")
+    for ax in axes_pair:
+        ax.title.set_fontsize(9)
+        ax.set_aspect("equal", adjustable="datalim")

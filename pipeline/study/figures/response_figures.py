@@ -10,7 +10,7 @@ import numpy as np
 
 from ...contact import YangMenq
 from ...contact.exact import history
-from .contact_figures import draw_face_loops
+from .contact_figures import draw_face_loops, draw_plane_orbits
 from .disk_figures import is_sector_resolved, write_sector_figures
 from .plots import (atomic_savefig, pyplot, response_curves_figure, stability_for_plot,
                     wrapped_title)
@@ -95,6 +95,17 @@ def hysteresis_figures(study: Study, ds, fig_dir) -> list:
     if "hysteresis" not in study.output.figures or "hysteresis_u" not in ds:
         return []
     plt = pyplot()
+    if "peak_contact_u2" in ds:     # 2D friction: in-plane orbits
+        fig, pair = plt.subplots(1, 2, figsize=(11.0, 5.0))
+        draw_plane_orbits(study, ds, pair)
+        for ax in pair:
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=6)
+        fig.suptitle(f"{study.title}\nat the peak: the contact dissipating most, in its plane",
+                     fontsize=9)
+        out = atomic_savefig(fig, Path(fig_dir) / "hysteresis.png")
+        plt.close(fig)
+        return [out]
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     if "peak_contact_u" in ds:
         draw_face_loops(study, ds, ax)

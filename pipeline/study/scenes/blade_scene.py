@@ -127,7 +127,9 @@ def response_from_mapping(data: dict, *, file: str, name: str, text: str = "",
         # (61 %), on the full blade with 102 sliding node pairs over 12 min a case
         # against about 45 s for the study; Hill over every wave number of a blade
         # disk 870-910 s a quick case against 20-30 s
-        solver = replace(solver, stability="folds")
+        # 2D friction has no event-driven flow for the fold rule's ends: none unless asked
+        solver = replace(solver, stability=False if blade_disk.plane_friction(scene.contacts)
+                         else "folds")
     axes, freq = parse_sweep(ck, sweep_tab, "sweep")
     output = _output(ck, ck.table(data.get("output"), "output", required=False), scene)
     variants = [(False, solver, axes, freq, "solver", "sweep", full_scene)]
@@ -374,7 +376,7 @@ def _face_contact(ck, c, f, i) -> FaceContact:
     if "interference" in c:
         ck.fail(f"{f}.interference", "an interference is of a shroud pair (pair = \"shroud\" "
                                      "between neighbouring blades), not of a face against a wall")
-    ck.keys(c, f, ("name", "face", "ku", "kv", "mu", "n0", "stiffness"),
+    ck.keys(c, f, ("name", "face", "ku", "kv", "mu", "n0", "stiffness", "friction"),
             required=("face", "ku", "mu"))
     face = ck.string(c["face"], f"{f}.face", FACES)
     name = ck.string(c.get("name", face), f"{f}.name")
@@ -383,7 +385,8 @@ def _face_contact(ck, c, f, i) -> FaceContact:
     mu = ck.number(c["mu"], f"{f}.mu", ge=0.0)
     n0 = ck.number(c["n0"], f"{f}.n0") if "n0" in c else None
     stiffness = ck.string(c.get("stiffness", "per_node"), f"{f}.stiffness", STIFFNESS)
-    return FaceContact(name=name, face=face, ku=ku, kv=kv, mu=mu, n0=n0, stiffness=stiffness)
+    return FaceContact(name=name, face=face, ku=ku, kv=kv, mu=mu, n0=n0, stiffness=stiffness,
+                       friction=blade_disk.parse_friction(ck, c, f))
 
 
 def _loads(ck, raw) -> tuple:
@@ -470,6 +473,7 @@ def _modes(ck, t, where, scene, built: bool = True):
 def _consistency(ck, scene, solver, axes, spath, wpath, data):
     """Cross-field rules (scene.check_scene_rules); every face contact has a normal."""
     blade_disk.check_interference(ck, scene.contacts, axes, wpath)
+    blade_disk.check_friction(ck, scene.contacts, scene.effects, solver, spath)
     check_scene_rules(ck, scene.effects, [c.n0 if getattr(c, "interference", None) is None
                                           else c.kv * c.interference for c in scene.contacts],
                       [c.kv for c in scene.contacts], bool(scene.contacts),

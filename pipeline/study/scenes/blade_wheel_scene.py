@@ -14,6 +14,13 @@ shroud carrying 2 x 2 contact points per face).
     mu = 0.3
     stiffness = "per_face"  # ku, kv, preload as face totals shared by node area
     tangent = [1, 0, 0]     # optional slip direction, projected into the face
+    friction = "2d"         # optional: slip anywhere in the face plane ("1d": along
+                            # the tangent, the default)
+
+With friction = "2d" (a face contact too) the pair's elements are the 2D friction
+law's (`contact.friction2d`: tangents t1 = the tangent, t2 = n x t1), declared by
+the effect "friction_2d" beside "friction", evaluated by AFT (force_evaluation =
+"aft"); a given tangent must then lie in the face plane (within 1e-3 rad).
 
 The generated wheel derives the shroud width from R and N so that neighbouring
 faces coincide (`structure.disk.wheel_params`); a user mesh (`mesh = "file"`, in the
@@ -28,10 +35,13 @@ sector's frame (`model.contacts.ShroudPair`).  A shroud pair is the effect
 from __future__ import annotations
 
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 
-from ...model.contacts import ShroudPair, fe_contact_maps
+from ...contact.registry import law_class
+from ...model.contacts import FRICTION, ShroudPair, fe_contact_maps
+from ...solve.stability.methods import require_mode
 from ...model.scene import Blade, Cyclic
 from ...structure.fe_model import DiskPlacement
 from . import lumped_disk_scene as disk_scene
@@ -57,7 +67,7 @@ def parse_placement(ck, tab) -> tuple:
 def parse_pair(ck, c, f, i) -> ShroudPair:
     """A `[[scene.contact]]` with `pair = "shroud"`."""
     ck.keys(c, f, ("name", "pair", "ku", "kv", "mu", "n0", "stiffness", "tangent",
-                   "interference"), required=("pair", "ku", "mu"))
+                   "interference", "friction"), required=("pair", "ku", "mu"))
     ck.string(c["pair"], f"{f}.pair", PAIRS)
     name = ck.string(c.get("name", "shroud"), f"{f}.name")
     tangent = None
@@ -73,7 +83,58 @@ def parse_pair(ck, c, f, i) -> ShroudPair:
                       stiffness=ck.string(c.get("stiffness", "per_node"), f"{f}.stiffness",
                                           STIFFNESS),
                       interference=(ck.number(c["interference"], f"{f}.interference")
-                                    if "interference" in c else None))
+                                    if "interference" in c else None),
+                      friction=parse_friction(ck, c, f))
+
+
+def parse_friction(ck, c, f) -> str:
+    """A contact's `friction` ("1d" | "2d"); the 2D law needs mu > 0."""
+    friction = ck.string(c.get("friction", "1d"), f"{f}.friction", FRICTION)
+    if friction == "2d":
+        ck.number(c["mu"], f"{f}.mu", gt=0.0)
+    return friction
+
+
+def check_friction(ck, contacts, effects, solver, spath):
+    """The contacts of a blade scene slide one way; "friction_2d" is declared exactly
+    when they slide in the plane, which AFT evaluates."""
+    kinds = [getattr(c, "friction", "1d") for c in contacts]
+    for i, k in enumerate(kinds):
+        if k != kinds[0]:
+            ck.fail(f"scene.contact[{i}].friction", f"{k!r}, but scene.contact[0] has "
+                    f"{kinds[0]!r}: the contacts of a scene slide one way")
+    plane = bool(kinds) and kinds[0] == "2d"
+    if plane != ("friction_2d" in effects):
+        ck.fail("scene.effects", "declare \"friction_2d\" exactly when the contacts have "
+                                 "friction = \"2d\"")
+    if plane and solver.force_evaluation != "aft":
+        ck.fail(f"{spath}.force_evaluation", "friction = \"2d\" is evaluated by AFT only: "
+                                             "give force_evaluation = \"aft\" (and samples)")
+    if plane:
+        try:
+            require_mode((SimpleNamespace(law=law_class("friction_2d")),), solver.stability)
+        except ValueError as exc:
+            ck.fail(f"{spath}.stability", f"{exc}: give stability = \"hill\" or false")
+
+
+def plane_friction(contacts) -> bool:
+    """Whether the contacts slide in their plane (friction = "2d")."""
+    return any(getattr(c, "friction", "1d") == "2d" for c in contacts)
+
+
+def check_tangents(ck, blade, contacts):
+    """A 2D pair's given first tangent lies in the right shroud face's plane (to
+    1e-3 rad): the second is n x t1, so a tilted one would not span the plane."""
+    for i, c in enumerate(contacts):
+        if not (isinstance(c, ShroudPair) and c.friction == "2d" and c.tangent is not None):
+            continue
+        n = np.asarray(blade.frames["shroud_right"].normal, float)
+        t = np.asarray(c.tangent, float)
+        tilt = abs(float(t @ n)) / np.linalg.norm(t)
+        if tilt > 1e-3:
+            ck.fail(f"scene.contact[{i}].tangent", f"not in the shroud face plane: "
+                    f"{np.degrees(np.arcsin(min(tilt, 1.0))):.3g} deg out of it (face normal "
+                    f"{np.round(n, 4).tolist()}); give a direction in the face")
 
 
 def check_interference(ck, contacts, axes, wpath):
@@ -114,6 +175,7 @@ def check_pairs(ck, blade, contacts, placement, mesh_field):
             fe_contact_maps(blade, contacts, placement)
         except ValueError as exc:
             ck.fail(mesh_field, str(exc))
+        check_tangents(ck, blade, contacts)
 
 
 def placement_field(message: str) -> tuple:
