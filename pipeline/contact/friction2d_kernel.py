@@ -58,9 +58,9 @@ def period_map(u1, u2, n, ku, mu, start, ws, A):
 def periodic_cycles(u, n, ku, mu, w0, start, iterate, max_periods, tol, w, f, state, periods):
     """For each element e: from the slider w0[e] at sample start[e], find the periodic
     start when iterate[e] -- period maps w_0 -> w_N, each followed by a Newton step
-    w_0 += (I - A)^-1 (w_N - w_0) where I - A is well conditioned (else the plain step
-    w_0 = w_N), until the slider returns to its start (to tol[e]), at most max_periods;
-    then one more period stored in w (E, 2, N), f (E, 2, N), state (E, N).  w0 is
+    w_0 += (I - A)^-1 (w_N - w_0) while I - A is regular and the steps gain (else the
+    plain step w_0 = w_N), until the slider returns to its start (to tol[e]), at most
+    max_periods; then one more period stored in w (E, 2, N), f (E, 2, N), state (E, N).  w0 is
     updated to the periodic start; periods (E,) counts the periods marched."""
     E, _, N = u.shape
     ws = np.empty(2)
@@ -69,20 +69,25 @@ def periodic_cycles(u, n, ku, mu, w0, start, iterate, max_periods, tol, w, f, st
         b = np.array([w0[e, 0], w0[e, 1]])
         p = 0
         if iterate[e]:
+            last = np.inf
             while p < max_periods:
                 ws[0], ws[1] = b[0], b[1]
                 period_map(u[e, 0], u[e, 1], n[e], ku[e], mu[e], start[e], ws, A)
                 p += 1
                 r0, r1 = ws[0] - b[0], ws[1] - b[1]
-                if max(abs(r0), abs(r1)) <= tol[e]:
+                res = max(abs(r0), abs(r1))
+                if res <= tol[e]:
                     break
                 m00, m01, m10, m11 = 1.0 - A[0, 0], -A[0, 1], -A[1, 0], 1.0 - A[1, 1]
                 det = m00 * m11 - m01 * m10
-                if abs(det) > 1e-3:
+                # Newton while it gains (a slip that barely contracts, det ~ 1e-3, takes
+                # thousands of plain periods); a step that did not: the plain one
+                if abs(det) > 1e-12 and res < last:
                     b[0] += (m11 * r0 - m01 * r1) / det
                     b[1] += (-m10 * r0 + m00 * r1) / det
                 else:
                     b[0], b[1] = ws[0], ws[1]
+                last = res
         periods[e] = p
         ws[0], ws[1] = b[0], b[1]
         w0[e, 0], w0[e, 1] = ws[0], ws[1]

@@ -180,3 +180,31 @@ def test_the_shroud_pair_that_stalled_newton():
     w = np.array([law.evaluate(X + e * dX, n_samples=64, jacobian=False).detail.w[0, :, 0]
                   for e in np.linspace(-2.0, 3.0, 11)])
     assert np.abs(np.diff(w, axis=0)).max() <= 1e-12      # the roots were 4e-7 m apart
+
+
+def test_a_barely_slipping_pair_settles_in_a_few_periods():
+    """A shroud pair of the full FE disk (3 N per face, H = 3, 512 samples) that slips at
+    5 of 512 samples: the period map contracts by 0.999 a period (det(I - A) = 1e-3),
+    so plain periods took 14,740 and the march gave up at 500.  Newton steps on the
+    fixed point settle it in a few; the cycle equals 30,000 plain periods'."""
+    from pipeline.contact.friction2d_kernel import period_map
+    X = np.array([[[-2.1185698175829577e-06, 7.8101244222981639e-10, -1.1155111836957359e-06,
+                    3.6590120215214412e-09, -1.5651731996922020e-09, -9.8718678934394398e-10,
+                    -3.1365001867655696e-10],
+                   [2.8292692578922223e-07, -1.1696238763332251e-06, 3.4231855425728039e-09,
+                    -7.2548220880462407e-09, 6.4064456995188582e-09, 1.3829407512597481e-09,
+                    7.9517334032404205e-10],
+                   [-1.2430278354891205e-06, 1.2518527219624316e-07, 2.6859296951038740e-06,
+                    -2.2610022653899917e-09, -9.8673456832917334e-09, -8.0342609607703058e-10,
+                    7.9981832821833779e-10]]])
+    k, Ns = 13888.888888888952, 512
+    law = Friction2D(ku=k, kv=k, mu=0.3, n0=0.08333333333333372)
+    got = law.evaluate(X, n_samples=Ns, jacobian=False)
+    assert got.regimes["slipping"] == 1 and got.detail.periods[0] <= 10
+    _, S, W = time_grid(3, Ns)
+    u = np.ascontiguousarray(X[0, :2] @ S.T)
+    n = 0.08333333333333372 + k * (X[0, 2] @ S.T)
+    w, A = got.detail.w[0, :, -1].copy() + 1e-9, np.empty((2, 2))   # start off the cycle
+    for _ in range(30000):
+        period_map(u[0], u[1], n, k, 0.3, 0, w, A)
+    assert np.abs(w - got.detail.w[0, :, -1]).max() <= 1e-8 * np.abs(u).max()
