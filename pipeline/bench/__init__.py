@@ -136,7 +136,29 @@ def hbm(quick=False):
     print("peak err: relative difference of the largest amplitude over those points; a stepped\n"
           "  up-sweep follows the lower branch past a softening peak (jump at the fold), so for\n"
           "  Example 3 it differs by design (tests compare at the peak, started from the HBM state)")
+    aft_table(quick)
     return 0
+
+
+def aft_table(quick=False):
+    """Example 1 at 2 N, H = 7 with stability: the exact forces against AFT (the
+    compiled march, `contact.aft`) at 128 and 1024 samples, in one run."""
+    system = example1(2.0)
+    print("\nExample 1, n = 2 N, H = 7, with stability: exact forces against AFT; median of "
+          f"{1 if quick else 3}; load average {', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    print(f"{'forces':<10} {'time s':>7} {'ratio':>6} {'points':>6} {'R evals':>7} {'peak m':>11} "
+          f"{'peak err':>8}")
+    ref = None
+    for name, kw in (("exact", {}), ("AFT-128", {"method": "aft", "n_samples": 128}),
+                     ("AFT-1024", {"method": "aft", "n_samples": 1024})):
+        frequency_response(system, 7, 150.0, 250.0, **kw)   # warm-up
+        t = _median_time(lambda: frequency_response(system, 7, 150.0, 250.0, **kw),
+                         1 if quick else 3)
+        c = frequency_response(system, 7, 150.0, 250.0, **kw)
+        a = c.peak(0)[0]
+        ref = ref or (t, a)
+        print(f"{name:<10} {t:7.3f} {t / ref[0]:6.2f} {c.n_points:>6} {c.nfev:>7} {a:11.5e} "
+              f"{abs(a - ref[1]) / ref[1]:8.1e}")
 
 
 def blade(quick=False):

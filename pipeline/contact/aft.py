@@ -13,6 +13,13 @@ So one pass over N samples gives the periodic history, not a march to convergenc
 Jacobian: f_u,i = ku (u_i - w_i) with w_i set at sample j(i) as lo_j, hi_j or u_j
 (or the cycle mean), so df_u,i/dQ is a combination of the basis at samples i and
 j(i); the stick history is carried by the index j(i).
+
+`aft_forces` evaluates the elements with friction (mu, ku > 0) and the default stuck
+rest by the compiled march of the 2D law with the second tangent at rest
+(`friction2d_kernel.march`: the same rules sample for sample, its band middle the
+centre of the stick discs), and the others (frictionless, or a given `slider_rest`)
+by this module's play operator (`play_forces`), which also cross-checks the
+compiled march (tests/contact/test_friction2d.py).
 """
 from __future__ import annotations
 
@@ -21,6 +28,7 @@ import numpy as np
 from .element import (SRC_HI, SRC_LO, SRC_TD, ContactForces, YangMenq, stuck_forces,
                       stuck_slider)
 from ..fourier.harmonics import harmonics_of, time_grid
+from .friction2d_kernel import march
 
 
 def play_march(lo, hi, u, contact, i0, w0, k0):
@@ -53,7 +61,27 @@ def play_march(lo, hi, u, contact, i0, w0, k0):
 
 
 def aft_forces(U, V, elem: YangMenq, N: int, jacobian: bool = True) -> ContactForces:
-    """AFT Fourier coefficients of f_u, f_v with N samples, and their Jacobian."""
+    """AFT Fourier coefficients of f_u, f_v with N samples, and their Jacobian: the
+    compiled march where it applies (module doc), else `play_forces`."""
+    E, nc = U.shape
+    fast = (elem.mu > 0) & (elem.ku > 0)
+    if elem.slider_rest is not None or not fast.all():
+        return play_forces(U, V, elem, N, jacobian)
+    X = np.zeros((E, 3, nc))
+    X[:, 0], X[:, 2] = U, V
+    c = march(elem, X, int(N), jacobian)
+    contact = c.state != 0
+    stuck = (c.state == 1).all(axis=1)
+    regimes = {"separated": int((~contact.any(1)).sum()), "stuck": int(stuck.sum()),
+               "transitions": int((contact.any(1) & ~stuck).sum()), "frictionless": 0}
+    if not jacobian:
+        return ContactForces(c.F[:, 0], c.F[:, 2], None, None, None, regimes)
+    return ContactForces(c.F[:, 0], c.F[:, 2], c.J[:, 0], c.J[:, 2], c.J[:, 6], regimes)
+
+
+def play_forces(U, V, elem: YangMenq, N: int, jacobian: bool = True) -> ContactForces:
+    """AFT Fourier coefficients of f_u, f_v with N samples, and their Jacobian, by the
+    play operator (module doc): every element, frictionless and given rests too."""
     E, nc = U.shape
     H = harmonics_of(nc)
     tau, S, W = time_grid(H, N)

@@ -5,8 +5,17 @@ State per sample: 0 separated (n <= 0: no force, the slider follows, w = u), 1 s
 (|ku (u - w)| <= mu n), 2 slip (w = u - (mu n / ku) e, e the unit trial force)."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numba import njit
+
+from ..fourier.harmonics import harmonics_of, time_grid
+
+PERIOD_RTOL = 1e-13      # the slider's return to its start, of the largest motion
+MAX_PERIODS = 500
+CENTRE_RTOL = 1e-11      # a sample inside the stick discs' centre, of the motion + radius:
+                         # the Apollonius point of near samples carries ~1e-14 of round-off
 
 
 @njit(cache=True, error_model="numpy")
@@ -333,3 +342,106 @@ def stick_centres(u, r, tol, w, t, support):
             m += 1
         w[e, 0], w[e, 1], t[e] = best[0], best[1], best[2]
         support[e] = sup
+
+
+# -- the march of one period: periodic start, forces, Jacobian ----------------------
+
+@dataclass(frozen=True)
+class Cycle2D:
+    """One evaluated period: samples u (E, 2, N), v (E, N), slider w (E, 2, N),
+    forces f (E, 3, N), state (E, N) (0 separated, 1 stick, 2 slip), periods marched
+    (E,), F (E, 3, 2H+1), J (E, 7, 2H+1, 2H+1) or None, regimes."""
+
+    u: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    f: np.ndarray
+    state: np.ndarray
+    periods: np.ndarray
+    F: np.ndarray
+    J: np.ndarray | None
+    regimes: dict
+
+
+def march(law, X, N: int, jacobian: bool = True) -> "Cycle2D":
+    """The periodic cycle of the elements of `law` (ku, kv, mu, n0 (E,)) for the motion
+    X (E, 3, 2H+1) on N samples (`contact.friction2d`'s module docstring): also the 1D
+    element's AFT (`contact.aft`), with X[:, 1] = 0."""
+    E, _, nh = X.shape
+    H = harmonics_of(nh)
+    _, S, W = time_grid(H, N)
+    ku, kv, mu, n0 = law.ku, law.kv, law.mu, law.n0
+    u = X[:, :2] @ S.T                                     # (E, 2, N)
+    v = X[:, 2] @ S.T                                      # (E, N)
+    n = n0[:, None] + kv[:, None] * v
+    touch = n > 0.0
+    r = mu[:, None] * np.maximum(n, 0.0) / ku[:, None]
+    start = np.where(~touch.all(axis=1), (~touch).argmax(axis=1), 0)
+    scale = np.abs(u).max(axis=(1, 2)) + np.abs(r).max(axis=1) + 1e-300
+    w_mid, depth, support = np.empty((E, 2)), np.empty(E), np.empty((E, 3), np.int64)
+    stick_centres(np.ascontiguousarray(u), np.ascontiguousarray(r), CENTRE_RTOL * scale, w_mid,
+                  depth, support)
+    stuck = touch.all(axis=1) & (depth < 0.0)
+    w0 = np.where((~touch.all(axis=1))[:, None], u[np.arange(E), :, start], w_mid)
+    iterate = touch.all(axis=1) & ~stuck
+    w, f_t, state = np.empty((E, 2, N)), np.empty((E, 2, N)), np.empty((E, N), np.int64)
+    periods = np.zeros(E, np.int64)
+    w0 = np.ascontiguousarray(w0)
+    periodic_cycles(np.ascontiguousarray(u), np.ascontiguousarray(n), ku, mu, w0,
+                    start.astype(np.int64), iterate, MAX_PERIODS, PERIOD_RTOL * scale,
+                    w, f_t, state, periods)
+    if iterate.any() and np.any(periods[iterate] >= MAX_PERIODS):
+        raise RuntimeError(f"2D friction: the slider did not return to its start in "
+                           f"{MAX_PERIODS} periods")
+    f = np.concatenate([f_t, np.maximum(n, 0.0)[:, None]], axis=1)
+    F = f @ W.T
+    J = None
+    if jacobian:
+        nh = S.shape[1]
+        J = np.zeros((E, 7, nh, nh))
+        dw0 = centre_sensitivity(stuck, u, w_mid, support, S, mu * kv / ku)
+        tangential_jacobian(np.ascontiguousarray(u), np.ascontiguousarray(n), ku, kv, mu, w0,
+                            start.astype(np.int64), touch.all(axis=1) & ~stuck,
+                            dw0, np.ascontiguousarray(S), np.ascontiguousarray(W), J)
+        J[:, 6] = (W[None] * (touch * kv[:, None])[:, None, :]) @ S
+    regimes = {"separating": int((~touch).any(axis=1).sum()), "stuck": int(stuck.sum()),
+               "slipping": int((touch.all(axis=1) & ~stuck).sum()),
+               "periods_max": int(periods.max(initial=0))}
+    return Cycle2D(u, v, w, f, state, periods, F, J, regimes)
+
+
+def centre_sensitivity(stuck, u, w, support, S, c):
+    """dw0/dX (E, 2, 3 nh) of a fully stuck cycle's slider at the centre of the stick
+    discs (`friction2d_kernel.stick_centres`), zero elsewhere (a separation erases the
+    start; an iterated fixed point is solved by the kernel).  With du_i = S_i dX_t and
+    dr_i = c S_i dX_n (c = mu kv / ku), dw = sum_i A_i du_i + b_i dr_i over the
+    support: one sample, w = u_a; two, w = u_a + alpha e on their segment,
+    alpha = (d + r_a - r_b) / 2; three, the implicit derivative of
+    |u_i - w| - r_i = t (i = a, b, c)."""
+    E, nh = stuck.size, S.shape[1]
+    out = np.zeros((E, 2, 3 * nh))
+    for e in np.flatnonzero(stuck):
+        sup = [int(i) for i in support[e] if i >= 0]
+        for i, A, b in support_weights(u[e], w[e], sup):
+            out[e, :, :nh] += A[:, :1] * S[i]
+            out[e, :, nh:2 * nh] += A[:, 1:] * S[i]
+            out[e, :, 2 * nh:] += (b * c[e])[:, None] * S[i]
+    return out
+
+
+def support_weights(u, w, sup) -> list:
+    """[(sample i, A_i (2, 2), b_i (2,))]: dw = sum_i A_i du_i + b_i dr_i at the centre
+    w of the stick discs supported by the samples `sup` (`centre_sensitivity`)."""
+    if len(sup) == 1:
+        return [(sup[0], np.eye(2), np.zeros(2))]
+    if len(sup) == 2:
+        a, b = sup
+        delta = u[:, b] - u[:, a]
+        d = np.linalg.norm(delta)
+        e = delta / d
+        alpha = float(e @ (w - u[:, a]))
+        Ab = 0.5 * np.outer(e, e) + (alpha / d) * (np.eye(2) - np.outer(e, e))
+        return [(a, np.eye(2) - Ab, 0.5 * e), (b, Ab, -0.5 * e)]
+    nrm = [(u[:, i] - w) / np.linalg.norm(u[:, i] - w) for i in sup]
+    Ginv = np.linalg.inv(np.column_stack([np.array(nrm), np.ones(3)]))[:2]
+    return [(i, np.outer(Ginv[:, k], nrm[k]), -Ginv[:, k]) for k, i in enumerate(sup)]

@@ -10,7 +10,7 @@ the sampled time history."""
 import numpy as np
 import pytest
 
-from pipeline.contact.aft import aft_forces
+from pipeline.contact.aft import aft_forces, play_forces
 from pipeline.contact.element import YangMenq
 from pipeline.contact.exact import exact_forces
 from pipeline.contact.friction2d import Friction2D
@@ -32,9 +32,12 @@ def collinear():
 
 
 def test_along_one_tangent_it_is_the_1d_element_sample_for_sample():
+    """Against the 1D element's play operator (`aft.play_forces`, a separate march:
+    clamps to the band, its own stuck rest); the 1D `aft_forces` is the compiled
+    march itself for such elements, so it must equal the play operator too."""
     X, n0 = collinear()
     law = Friction2D(ku=KU, kv=KV, mu=MU, n0=n0)
-    one = aft_forces(X[:, 0], X[:, 2], YangMenq(ku=KU, kv=KV, mu=MU, n0=n0), 256, True)
+    one = play_forces(X[:, 0], X[:, 2], YangMenq(ku=KU, kv=KV, mu=MU, n0=n0), 256, True)
     got = law.evaluate(X, n_samples=256)
     assert got.regimes["separating"] == 1
     scale = MU * n0.max()
@@ -43,6 +46,11 @@ def test_along_one_tangent_it_is_the_1d_element_sample_for_sample():
     assert np.abs(got.F[:, 1]).max() == 0.0
     for p, ref in ((0, one.dFu_dU), (2, one.dFu_dV), (6, one.dFv_dV)):
         assert np.abs(got.J[:, p] - ref).max() < 1e-12 * KU
+    fast = aft_forces(X[:, 0], X[:, 2], YangMenq(ku=KU, kv=KV, mu=MU, n0=n0), 256, True)
+    for a, b in ((fast.Fu, one.Fu), (fast.Fv, one.Fv)):
+        assert np.abs(a - b).max() < 1e-13 * scale
+    for a, b in ((fast.dFu_dU, one.dFu_dU), (fast.dFu_dV, one.dFu_dV), (fast.dFv_dV, one.dFv_dV)):
+        assert np.abs(a - b).max() < 1e-12 * KU
 
 
 def test_along_one_tangent_it_converges_to_the_exact_element():
