@@ -29,7 +29,7 @@ SLOW = {"shrouded_disk_mistuned", "blade3_stability"}
 # studies whose figures some test reads (here, test_accuracy_cost.py, test_blade_studies.py):
 # their shared run draws them, the others' runs do not
 FIGURES = {"accuracy_cost", "blade_modes", "disk_laxalde", "shrouded_disk_modes",
-           "shrouded_disk_campbell"}
+           "shrouded_disk_campbell", "shrouded_disk_2d"}
 
 
 def assert_stated(got, text, rel=0.0):
@@ -280,6 +280,41 @@ def shrouded_disk(out, nc, ds, st):
     assert problems(nc) == []
 
 
+def shrouded_disk_2d(out, nc, ds, st):
+    """Large preload: stuck, the peak at the 2D stuck ND 3 frequency; small preload
+    below it; the optimum lower than every grid peak; at every peak the pairs move
+    more along t2 than along t1 (the comment's explanation); the hysteresis output
+    is the in-plane orbit (u2 beside u)."""
+    f = ds["peak_frequency"].sel(dof="response.y")
+    a = ds["peak_amplitude"].sel(dof="response.y")
+    f_stuck = at(ds, "natural_frequency_stuck", preload=30.0, mode=1)
+    assert float(f.sel(preload=0.3)) < 0.9 * f_stuck
+    assert float(f.sel(preload=30.0)) == pytest.approx(f_stuck, rel=1e-3)
+    assert float(ds["optimum_peak_amplitude"]) < float(a.min())
+
+    def rms(var):
+        return np.sqrt((ds[var].isel(coefficient=slice(1, None)) ** 2).sum(
+            ("coefficient", "pair")))
+    assert bool((rms("peak_contact_u2") > rms("peak_contact_u")).all())
+    assert "2D friction contacts" in ds.attrs["solution_method"]
+    assert (out / "shrouded_disk_2d" / "hysteresis.png").is_file()
+    assert problems(nc) == []
+
+
+def test_2d_shroud_friction_against_the_1d_study(quick_run):
+    """The two quick runs side by side (the 2D study's comment): the stuck family
+    higher, the peaks at small and medium preload lower (0.3 N: under half), the
+    optimum at a lower preload with a lower peak."""
+    one, two = (quick_run(n)[2] for n in ("shrouded_disk", "shrouded_disk_2d"))
+    a1, a2 = (d["peak_amplitude"].sel(dof="response.y") for d in (one, two))
+    assert at(two, "natural_frequency_stuck", preload=30.0, mode=1) > 1.05 * at(
+        one, "natural_frequency_stuck", preload=30.0, mode=1)
+    assert float(a2.sel(preload=0.3)) < 0.5 * float(a1.sel(preload=0.3))
+    assert float(a2.sel(preload=3.0)) < float(a1.sel(preload=3.0))
+    assert float(two["optimum_preload"]) < float(one["optimum_preload"])
+    assert float(two["optimum_peak_amplitude"]) < 0.5 * float(one["optimum_peak_amplitude"])
+
+
 def shrouded_disk_modes(out, nc, ds, st):
     """'open, the first family is the clamped blade's ... at every ND; stuck, it rises'
     with the nodal diameter (quick mesh: the stated Hz are the default mesh's)."""
@@ -385,7 +420,7 @@ def shrouded_disk_mistuned(out, nc, ds, st):
 CHECKS = {f.__name__: f for f in (
     paper_example1, paper_example2, paper_example3, blade3_stability, blade_modes,
     blade_shroud_contact, accuracy_cost, disk_cyclic, disk_laxalde, disk_mistuned,
-    shrouded_disk, shrouded_disk_modes, shrouded_disk_campbell, shrouded_disk_speed,
+    shrouded_disk, shrouded_disk_2d, shrouded_disk_modes, shrouded_disk_campbell, shrouded_disk_speed,
     shrouded_disk_mistuned,
     disk_nonlinear_modes,
     shrouded_disk_nonlinear_modes)}

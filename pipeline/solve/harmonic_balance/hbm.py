@@ -50,7 +50,7 @@ from ...contact.registry import law_of
 from ...fourier.harmonics import (complex_harmonics, derivative_matrix, real_blocks, real_vector,
                                  shift_tables, turn)
 from ...fourier.harmonics import shift as time_shift
-from ...model.system import System, element_rows
+from ...model.system import System, contact_set, element_rows
 from . import dynamic_stiffness as dyn
 from .law_terms import (LawSlots, assemble, combine, element_jacobian, law_columns, law_slots,
                         motion, pair_weights, projected, slot_index)
@@ -180,6 +180,16 @@ def contact_motion(prob: HBMProblem, Qc):
     if prob.rot is not None:
         Qe = turn(Qe, prob.rot[0], prob.rot[1])
     return np.einsum("em,emk->ek", prob.bt, Qe), np.einsum("em,emk->ek", prob.bn, Qe)
+
+
+def set_motion(prob: HBMProblem, Qc):
+    """X (E, D, 2H+1) along the directions of the system's `contact_set`: (U, V) of
+    `contact_motion` for Yang-Menq, (U1, U2, V) for an FE blade's 2D friction law."""
+    k = contact_set(prob.system).law
+    if k is None:
+        return np.stack(contact_motion(prob, Qc), axis=1)
+    slots = prob.laws[k]
+    return motion(slots, Qc, slots.rot, turn)
 
 
 def contact_slots(prob: HBMProblem, contact: ContactElements | None = None) -> tuple:

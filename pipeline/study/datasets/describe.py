@@ -85,6 +85,10 @@ def solution_method(study) -> str:
         return "harmonic balance with pseudo-arclength continuation" + further
     normal = ("variable normal load, " + ("searched for separation" if "separation" in eff else "kept closed (a case that separates fails)") if "normal_load_variation" in eff
               else "constant normal load (Jenkins path: no separation search)")
+    if "friction_2d" in eff and not laws:   # an FE blade's contacts on the 2D law
+        return (f"harmonic balance with pseudo-arclength continuation; 2D friction contacts "
+                f"(slip in the contact plane), AFT with {study.solver.samples} samples a "
+                f"period: {normal}")
     return (f"harmonic balance with pseudo-arclength continuation; Yang-Menq contacts: {normal}; "
             "fully stuck or open elements evaluated as linear springs" + further)
 

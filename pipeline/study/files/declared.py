@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...fourier.harmonics import basis
-from ...solve.harmonic_balance.hbm import contact_motion, setup
+from ...solve.harmonic_balance.hbm import set_motion, setup
+from ...model.system import contact_set
 from ...fourier.trigroots import sign_changes
 
 
@@ -37,9 +38,10 @@ def needs_guard(scene) -> bool:
 
 def separating(prob, Qc, elem) -> np.ndarray:
     """(E,) bool: elements whose varying normal load reaches zero over the period,
-    for the contact-DOF coefficients Qc (nc, 2H+1) of `prob` (`hbm.setup`)."""
+    for the contact-DOF coefficients Qc (nc, 2H+1) of `prob` (`hbm.setup`); `elem`
+    the system's `contact_set` elements (Yang-Menq or the 2D law's)."""
 
-    _, V = contact_motion(prob, np.asarray(Qc, dtype=float))
+    V = set_motion(prob, np.asarray(Qc, dtype=float))[:, -1]
     N = elem.kv[:, None] * V
     N[:, 0] += elem.n0
     out = np.zeros(N.shape[0], bool)
@@ -66,9 +68,10 @@ class SeparationGuard:
 
     def _message(self, system, e, omega) -> str:
         to_unit = 2.0 * np.pi if self.unit == "Hz" else 1.0
-        name = (f"contact {self.names[e]!r}" if len(self.names) == system.n_elements
+        el = contact_set(system).elements
+        name = (f"contact {self.names[e]!r}" if len(self.names) == el.size
                 else f"contact element {e}")
-        n0 = float(system.contact.n0[e])
+        n0 = float(el.n0[e])
         return (f"{name} separates at {omega / to_unit:.6g} {self.unit} (its normal load "
                 f"n = n0 + kv v, n0 = {n0:g} N, reaches 0 N) but scene.effects does not "
                 "declare \"separation\": add it to solve with separation")
@@ -78,7 +81,7 @@ class SeparationGuard:
         coefficients of `hbm.setup(system, H)`; raises at the first point that
         separates."""
         prob = setup(system, H)
-        elem = system.contact
+        elem = contact_set(system).elements
 
         def check(x, lam):
             sep = separating(prob, np.reshape(x, (prob.c.size, prob.nh)), elem)
@@ -91,7 +94,7 @@ class SeparationGuard:
         """Every converged point of a `ResponseCurve` (inserted peaks included)."""
         prob = setup(system, curve.H)
         for i in np.flatnonzero(np.asarray(curve.converged)):
-            sep = separating(prob, curve.Q[i][prob.c], system.contact)
+            sep = separating(prob, curve.Q[i][prob.c], contact_set(system).elements)
             if sep.any():
                 raise UndeclaredSeparation(self._message(system, int(np.argmax(sep)),
                                                          float(curve.omega[i])))

@@ -209,10 +209,13 @@ _FIXED = [
     ("scene.contact", "stiffness", "", '"per_node"', 'FE faces: `"per_node"` (ku, kv per node) '
                                                      'or `"per_face"` (face totals by node area)'),
     ("scene.contact", "tangent", "1", "circumferential", "shroud pairs: slip direction [x, y, z], "
-                                                         "projected into the face"),
+                                                         "projected into the face (2D: in it)"),
     ("scene.contact", "interference", "m", "", "shroud pairs: overlap (> 0) or gap (< 0) in "
                                                "the assembled position; sets the preload with "
                                                "the speed (instead of n0)"),
+    ("scene.contact", "friction", "", '"1d"', 'FE faces and shroud pairs: `"1d"` (slip along the '
+                                              'tangent, Yang-Menq) or `"2d"` (slip in the face '
+                                              'plane, t2 = n x t1; effect `friction_2d`, AFT)'),
     ("scene.excitation", "dof", "", "", "lumped and disk: the loaded DOF (required there)"),
     ("scene.excitation", "set", "", "", 'FE blades: `"excitation"` or `"response"` node set'),
     ("scene.excitation", "direction", "1", "", "FE blades: [x, y, z] (required there)"),

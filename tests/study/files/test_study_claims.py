@@ -164,6 +164,24 @@ def test_shrouded_disk_speed_closing_speed():
     assert np.sqrt(gap / v1.max()) / RPM == pytest.approx(stated_rpm, abs=0.5)
 
 
+def test_shrouded_disk_2d_stuck_family_and_face_frame(shrouded_disk_nd3):
+    """'the stuck ND 3 frequency rises to 345.4 Hz (322.4 Hz with the 1D pairs)', and
+    the face frame the comment gives (normal, t1, t2 to 1e-3)."""
+    from pipeline.model.contacts import pair_frame
+    from pipeline.model.scene import blade_model
+    f2, f1 = stated("shrouded_disk_2d.toml", r"rises to ([\d.]+) Hz \(([\d.]+) Hz with")
+    st = load_study(STUDIES / "shrouded_disk_2d.toml")
+    plane = sector_system(sector(st.scene, {"preload": 1.0}), st.scene.assembly.engine_order)
+    assert hz(natural_frequencies(plane, "tied")[0]) == pytest.approx(f2, abs=0.05)
+    assert hz(natural_frequencies(shrouded_disk_nd3, "tied")[0]) == pytest.approx(f1, abs=0.05)
+    n_, t1, t2 = (np.array(stated("shrouded_disk_2d.toml", rf"{w} \(([-\d.]+), ([-\d.]+), "
+                                  r"([-\d.]+)\)")) for w in ("normal", "only, t1 =", "n x t1 ="))
+    t, n = pair_frame(blade_model(st.scene.structure), st.scene.contacts[0],
+                      st.scene.structure.disk)
+    for got, want in ((n, n_), (t, t1), (np.cross(n, t), t2)):
+        np.testing.assert_allclose(got, want, atol=1e-3)
+
+
 CHECKED = {   # study -> the stated results above (numbers followed by Hz or rad/s)
     "paper_example1.toml": {188.4, 213.3},
     "paper_example2.toml": {19.67, 51.50, 23.53, 56.97, 81.7, 421.0},
@@ -171,6 +189,7 @@ CHECKED = {   # study -> the stated results above (numbers followed by Hz or rad
     "accuracy_cost.toml": {494.4},
     "blade_shroud_contact.toml": {356.0, 497.6, 403.6},
     "shrouded_disk.toml": {212.9, 300.9, 322.4},
+    "shrouded_disk_2d.toml": {345.4, 322.4},
     "shrouded_disk_modes.toml": {212.9, 213.9, 322.4, 877.1},
     "shrouded_disk_campbell.toml": {322.4, 466.7},
     "shrouded_disk_mistuned.toml": {271.3},
