@@ -208,6 +208,17 @@ def accuracy_cost(out, nc, ds, st):
     assert ds.attrs["blade_recommended_meets_target"] == 1
 
 
+def accuracy_cost_friction2d(out, nc, ds, st):
+    """2D friction at both shroud faces, every run by AFT: the peak error against the
+    reference samples falls with the samples (first order, the slip direction turns),
+    and the study recommends a sample count that meets its target."""
+    err = {v: float(ds["peak_amplitude_error"].sel(run=f"blade/samples={v}").squeeze())
+           for v in (32, 128)}
+    assert 0 < err[128] < err[32]
+    assert set(np.asarray(ds["force_evaluation"].values).ravel().tolist()) == {"aft"}
+    assert ds.attrs["blade_recommended_meets_target"] == 1
+
+
 # --------------------------------------------------------------------------- lumped disks
 def disk_cyclic(out, nc, ds, st):
     """'EO = 0: all sectors in phase, the shrouds never slide: the linear uncoupled
@@ -419,7 +430,7 @@ def shrouded_disk_mistuned(out, nc, ds, st):
 
 CHECKS = {f.__name__: f for f in (
     paper_example1, paper_example2, paper_example3, blade3_stability, blade_modes,
-    blade_shroud_contact, accuracy_cost, disk_cyclic, disk_laxalde, disk_mistuned,
+    blade_shroud_contact, accuracy_cost, accuracy_cost_friction2d, disk_cyclic, disk_laxalde, disk_mistuned,
     shrouded_disk, shrouded_disk_2d, shrouded_disk_modes, shrouded_disk_campbell, shrouded_disk_speed,
     shrouded_disk_mistuned,
     disk_nonlinear_modes,
