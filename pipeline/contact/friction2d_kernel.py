@@ -412,36 +412,67 @@ def march(law, X, N: int, jacobian: bool = True) -> "Cycle2D":
 
 def centre_sensitivity(stuck, u, w, support, S, c):
     """dw0/dX (E, 2, 3 nh) of a fully stuck cycle's slider at the centre of the stick
-    discs (`friction2d_kernel.stick_centres`), zero elsewhere (a separation erases the
-    start; an iterated fixed point is solved by the kernel).  With du_i = S_i dX_t and
-    dr_i = c S_i dX_n (c = mu kv / ku), dw = sum_i A_i du_i + b_i dr_i over the
-    support: one sample, w = u_a; two, w = u_a + alpha e on their segment,
-    alpha = (d + r_a - r_b) / 2; three, the implicit derivative of
-    |u_i - w| - r_i = t (i = a, b, c)."""
-    E, nh = stuck.size, S.shape[1]
-    out = np.zeros((E, 2, 3 * nh))
-    for e in np.flatnonzero(stuck):
-        sup = [int(i) for i in support[e] if i >= 0]
-        for i, A, b in support_weights(u[e], w[e], sup):
-            out[e, :, :nh] += A[:, :1] * S[i]
-            out[e, :, nh:2 * nh] += A[:, 1:] * S[i]
-            out[e, :, 2 * nh:] += (b * c[e])[:, None] * S[i]
+    discs (`stick_centres`), zero elsewhere (a separation erases the start; an
+    iterated fixed point is solved by `tangential_jacobian`): `centre_derivative`."""
+    out = np.zeros((stuck.size, 2, 3 * S.shape[1]))
+    centre_derivative(np.ascontiguousarray(u), np.ascontiguousarray(w), support,
+                      np.ascontiguousarray(S), np.asarray(c, float), stuck, out)
     return out
 
 
-def support_weights(u, w, sup) -> list:
-    """[(sample i, A_i (2, 2), b_i (2,))]: dw = sum_i A_i du_i + b_i dr_i at the centre
-    w of the stick discs supported by the samples `sup` (`centre_sensitivity`)."""
-    if len(sup) == 1:
-        return [(sup[0], np.eye(2), np.zeros(2))]
-    if len(sup) == 2:
-        a, b = sup
-        delta = u[:, b] - u[:, a]
-        d = np.linalg.norm(delta)
-        e = delta / d
-        alpha = float(e @ (w - u[:, a]))
-        Ab = 0.5 * np.outer(e, e) + (alpha / d) * (np.eye(2) - np.outer(e, e))
-        return [(a, np.eye(2) - Ab, 0.5 * e), (b, Ab, -0.5 * e)]
-    nrm = [(u[:, i] - w) / np.linalg.norm(u[:, i] - w) for i in sup]
-    Ginv = np.linalg.inv(np.column_stack([np.array(nrm), np.ones(3)]))[:2]
-    return [(i, np.outer(Ginv[:, k], nrm[k]), -Ginv[:, k]) for k, i in enumerate(sup)]
+@njit(cache=True, error_model="numpy")
+def centre_derivative(u, w, support, S, c, stuck, out):
+    """With du_i = S_i dX_t and dr_i = c S_i dX_n (c = mu kv / ku), the centre moves by
+    dw = sum_i A_i du_i + b_i dr_i over its support: one sample, w = u_a (A = I); two,
+    w = u_a + alpha e on their segment, alpha = (d + r_a - r_b) / 2; three, the
+    implicit derivative of |u_i - w| - r_i = t (i = a, b, c).  Adds dw/dX into out."""
+    E, nh = u.shape[0], S.shape[1]
+    A = np.zeros((3, 2, 2))
+    b = np.zeros((3, 2))
+    idx = np.empty(3, np.int64)
+    G = np.empty((3, 3))
+    nrm = np.empty((3, 2))
+    for e in range(E):
+        if not stuck[e]:
+            continue
+        m = 0
+        for k in range(3):
+            if support[e, k] >= 0:
+                idx[m] = support[e, k]
+                m += 1
+        A[:] = 0.0
+        b[:] = 0.0
+        if m == 1:
+            A[0, 0, 0] = A[0, 1, 1] = 1.0
+        elif m == 2:
+            p, q = idx[0], idx[1]
+            d1, d2 = u[e, 0, q] - u[e, 0, p], u[e, 1, q] - u[e, 1, p]
+            d = np.sqrt(d1 * d1 + d2 * d2)
+            e1, e2 = d1 / d, d2 / d
+            g = (e1 * (w[e, 0] - u[e, 0, p]) + e2 * (w[e, 1] - u[e, 1, p])) / d   # alpha / d
+            ee = ((e1 * e1, e1 * e2), (e1 * e2, e2 * e2))
+            for r in range(2):
+                for s in range(2):
+                    Ab = 0.5 * ee[r][s] + g * ((1.0 if r == s else 0.0) - ee[r][s])
+                    A[1, r, s] = Ab
+                    A[0, r, s] = (1.0 if r == s else 0.0) - Ab
+            b[0, 0], b[0, 1], b[1, 0], b[1, 1] = 0.5 * e1, 0.5 * e2, -0.5 * e1, -0.5 * e2
+        else:
+            for k in range(3):
+                x1, x2 = u[e, 0, idx[k]] - w[e, 0], u[e, 1, idx[k]] - w[e, 1]
+                L = np.sqrt(x1 * x1 + x2 * x2)
+                nrm[k, 0], nrm[k, 1] = x1 / L, x2 / L
+                G[k, 0], G[k, 1], G[k, 2] = nrm[k, 0], nrm[k, 1], 1.0
+            Gi = np.linalg.inv(G)
+            for k in range(3):
+                for r in range(2):
+                    A[k, r, 0], A[k, r, 1] = Gi[r, k] * nrm[k, 0], Gi[r, k] * nrm[k, 1]
+                    b[k, r] = -Gi[r, k]
+        for k in range(m):
+            i = idx[k]
+            for j in range(nh):
+                sij = S[i, j]
+                for r in range(2):
+                    out[e, r, j] += A[k, r, 0] * sij
+                    out[e, r, nh + j] += A[k, r, 1] * sij
+                    out[e, r, 2 * nh + j] += b[k, r] * c[e] * sij
