@@ -217,3 +217,21 @@ def stuck_stiffness(s):
     el = s.contact
     return (dense(s.K) + Bt.conj().T @ (el.ku[:, None] * Bt)
             + Bn.conj().T @ ((el.kv * (el.n0 > 0))[:, None] * Bn))
+
+
+def law_jacobian_errors(law, X, n_samples, h):
+    """{(d, d'): max |J - central differences|} [N/m] of element 0 of a contact law at
+    the motion X (E, D, 2H+1), step h [m] on each coefficient of X[0, d']."""
+    got = law.evaluate(X, n_samples=n_samples).J
+    nh = X.shape[-1]
+    out = {}
+    for p, (d, k) in enumerate(law.pairs):
+        fd = np.empty((nh, nh))
+        for j in range(nh):
+            Xp, Xm = X.copy(), X.copy()
+            Xp[0, k, j] += h
+            Xm[0, k, j] -= h
+            fd[:, j] = (law.evaluate(Xp, n_samples=n_samples, jacobian=False).F[0, d]
+                        - law.evaluate(Xm, n_samples=n_samples, jacobian=False).F[0, d]) / (2 * h)
+        out[(d, k)] = float(np.abs(got[0, p] - fd).max())
+    return out

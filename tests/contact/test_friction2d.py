@@ -16,6 +16,8 @@ from pipeline.contact.exact import exact_forces
 from pipeline.contact.friction2d import Friction2D
 from pipeline.fourier.harmonics import time_grid
 
+from helpers import law_jacobian_errors
+
 KU, KV, MU = 1.0e4, 1.0e4, 0.5
 H = 3
 NH = 2 * H + 1
@@ -179,16 +181,8 @@ def test_jacobian_against_central_differences(case):
         assert got.regimes["separating"] == 1
     if case in ("slip", "mixed"):
         assert got.regimes["slipping"] == 1
-    h = 1e-10
-    for p, (d, k) in enumerate(law.pairs):
-        fd = np.empty((NH, NH))
-        for j in range(NH):
-            Xp, Xm = X.copy(), X.copy()
-            Xp[0, k, j] += h
-            Xm[0, k, j] -= h
-            fd[:, j] = (law.evaluate(Xp, n_samples=N, jacobian=False).F[0, d]
-                        - law.evaluate(Xm, n_samples=N, jacobian=False).F[0, d]) / (2 * h)
-        assert np.abs(got.J[0, p] - fd).max() <= 1e-6 * max(KU, KV), (case, (d, k))
+    for pair, err in law_jacobian_errors(law, X, N, 1e-10).items():
+        assert err <= 1e-6 * max(KU, KV), (case, pair)
 
 
 def test_dissipated_energy_from_harmonics_equals_the_loop_integral():

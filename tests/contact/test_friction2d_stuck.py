@@ -16,6 +16,8 @@ from pipeline.contact.friction2d import Friction2D
 from pipeline.contact.friction2d_kernel import stick_centres
 from pipeline.fourier.harmonics import time_grid
 
+from helpers import law_jacobian_errors
+
 KU, KV, MU = 1.0e4, 1.0e4, 0.5
 H, N = 2, 64
 NH = 2 * H + 1
@@ -96,16 +98,8 @@ def test_stuck_jacobian_against_central_differences(seed):
     law = Friction2D(ku=KU, kv=KV, mu=MU, n0=n0)
     got = law.evaluate(X, n_samples=N)
     assert got.regimes["stuck"] == 1
-    h = 1e-11
-    for p, (d, k) in enumerate(law.pairs):
-        fd = np.empty((NH, NH))
-        for j in range(NH):
-            Xp, Xm = X.copy(), X.copy()
-            Xp[0, k, j] += h
-            Xm[0, k, j] -= h
-            fd[:, j] = (law.evaluate(Xp, n_samples=N, jacobian=False).F[0, d]
-                        - law.evaluate(Xm, n_samples=N, jacobian=False).F[0, d]) / (2 * h)
-        assert np.abs(got.J[0, p] - fd).max() <= 1e-6 * KU, (seed, (d, k))
+    for pair, err in law_jacobian_errors(law, X, N, 1e-11).items():
+        assert err <= 1e-6 * KU, (seed, pair)
 
 
 def test_supports_of_two_and_three_samples_occur():
@@ -155,16 +149,8 @@ def test_a_small_orbit_deep_inside_large_discs_is_smooth(seed):
     for eps in (1.0, 2.0, 3.0):
         step = law.evaluate(X + eps * dX, n_samples=N, jacobian=False).F
         assert np.abs(step - got.F).max() <= 1e-15 * eps * KU * 50
-    h = 1e-12
-    for p, (d, k) in enumerate(law.pairs):
-        fd = np.empty((NH, NH))
-        for j in range(NH):
-            Xp, Xm = X.copy(), X.copy()
-            Xp[0, k, j] += h
-            Xm[0, k, j] -= h
-            fd[:, j] = (law.evaluate(Xp, n_samples=N, jacobian=False).F[0, d]
-                        - law.evaluate(Xm, n_samples=N, jacobian=False).F[0, d]) / (2 * h)
-        assert np.abs(got.J[0, p] - fd).max() <= 1e-6 * KU, (seed, (d, k))
+    for pair, err in law_jacobian_errors(law, X, N, 1e-12).items():
+        assert err <= 1e-6 * KU, (seed, pair)
 
 
 def test_the_shroud_pair_that_stalled_newton():

@@ -23,6 +23,19 @@ def face_loop(ds, sel: dict, tau) -> dict | None:
     """(u [m], f [N], contact name, element count, energy [J]) of the contact that
     dissipates most at the peak of the case `sel` (isel of the sweep axes); None
     when the case has no converged peak."""
+    peak = peak_contact(ds, sel)
+    if peak is None:
+        return None
+    sub, pairs, head = peak
+    el = YangMenq(*(sub[f"{k}_pair"].values[pairs] for k in ("ku", "kv", "mu")),
+                  n0=sub["preload_pair"].values[pairs])
+    h = history(sub["peak_contact_u"].values[pairs], sub["peak_contact_v"].values[pairs], el, tau)
+    return dict(u=h["u"].mean(axis=0), f=h["fu"].sum(axis=0), **head)
+
+
+def peak_contact(ds, sel: dict):
+    """(the case `sel`'s dataset, the elements of the contact dissipating most at its
+    peak, {name, elements, energy [J], frequency}); None without a converged peak."""
     sub = ds.isel(sel)
     p = int(sub["peak_contact_point"])
     if p < 0:
@@ -30,12 +43,9 @@ def face_loop(ds, sel: dict, tau) -> dict | None:
     energy = sub["dissipated_energy"].isel(point=p).values
     c = int(np.nanargmax(energy)) if np.isfinite(energy).any() else 0
     pairs = np.flatnonzero(ds["pair_contact"].values == c)
-    el = YangMenq(*(sub[f"{k}_pair"].values[pairs] for k in ("ku", "kv", "mu")),
-                  n0=sub["preload_pair"].values[pairs])
-    h = history(sub["peak_contact_u"].values[pairs], sub["peak_contact_v"].values[pairs], el, tau)
-    return dict(u=h["u"].mean(axis=0), f=h["fu"].sum(axis=0), name=str(ds["contact"].values[c]),
-                elements=pairs.size, energy=float(energy[c]),
-                frequency=float(sub["frequency"].isel(point=p)))
+    return sub, pairs, dict(name=str(ds["contact"].values[c]), elements=pairs.size,
+                            energy=float(energy[c]),
+                            frequency=float(sub["frequency"].isel(point=p)))
 
 
 def draw_face_loops(study, ds, ax) -> None:
@@ -64,22 +74,17 @@ def plane_orbit(ds, sel: dict, samples: int) -> dict | None:
     dissipating most at the peak of the case `sel`, the mean in-plane relative motion
     (u1, u2) [m] and slider (w1, w2) [m] and the total tangential force (f1, f2) [N]
     over one period, from the AFT cycle of `samples` samples (`contact.friction2d`)."""
-    sub = ds.isel(sel)
-    p = int(sub["peak_contact_point"])
-    if p < 0:
+    peak = peak_contact(ds, sel)
+    if peak is None:
         return None
-    energy = sub["dissipated_energy"].isel(point=p).values
-    c = int(np.nanargmax(energy)) if np.isfinite(energy).any() else 0
-    pairs = np.flatnonzero(ds["pair_contact"].values == c)
+    sub, pairs, head = peak
     law = Friction2D(*(sub[f"{k}_pair"].values[pairs] for k in ("ku", "kv", "mu")),
                      n0=sub["preload_pair"].values[pairs])
     X = np.stack([sub[f"peak_contact_{d}"].values[pairs] for d in ("u", "u2", "v")], axis=1)
     cyc = law.evaluate(X, n_samples=samples, jacobian=False).detail
     close = np.r_[np.arange(cyc.u.shape[-1]), 0]        # a closed orbit
     return dict(u=cyc.u.mean(axis=0)[:, close], w=cyc.w.mean(axis=0)[:, close],
-                f=cyc.f[:, :2].sum(axis=0)[:, close], name=str(ds["contact"].values[c]),
-                elements=pairs.size, energy=float(energy[c]),
-                frequency=float(sub["frequency"].isel(point=p)))
+                f=cyc.f[:, :2].sum(axis=0)[:, close], **head)
 
 
 def draw_plane_orbits(study, ds, axes_pair) -> None:
