@@ -428,7 +428,7 @@ def _add_hysteresis(data_vars, study, cases, curves, systems, lay: Layout):
     force-displacement loop exactly (`contact.exact.history`)."""
     H, axes = study.solver.harmonics, tuple(study.sweep.axes)
     shape = lay.shape
-    plane = any(getattr(c, "friction", "1d") == "2d" for c in study.scene.contacts)
+    plane = False        # the system's contact set is the 2D law's (3 directions)
     U, V = np.full(shape + (2 * H + 1,), np.nan), np.full(shape + (2 * H + 1,), np.nan)
     U2 = np.full(shape + (2 * H + 1,), np.nan)
     par = {k: np.full(shape, np.nan) for k in ("ku", "kv", "mu", "n0", "frequency")}
@@ -440,6 +440,7 @@ def _add_hysteresis(data_vars, study, cases, curves, systems, lay: Layout):
         a = np.where(ok, np.asarray(c.amplitude, float)[:, lay.rows[0, 0]], -np.inf)
         i = int(np.argmax(a))
         X = set_motions(system, np.asarray(c.Q, float)[i:i + 1])[0]    # (E, D, 2H+1)
+        plane = plane or X.shape[1] == 3
         e = int(np.argmax(np.linalg.norm(X[:, :-1, 1:], axis=(1, 2))))
         U[idx], V[idx], U2[idx], element[idx] = X[e, 0], X[e, -1], X[e, 1], e
         el = contact_set(system).elements

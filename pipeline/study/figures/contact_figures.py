@@ -15,7 +15,7 @@ import numpy as np
 
 from ...contact import YangMenq
 from ...contact.exact import history
-from ...contact.friction2d import Friction2D
+from ...contact.friction2d import Friction2D, cycle_results
 from .plots import wrapped_title
 
 
@@ -81,6 +81,28 @@ def plane_orbit(ds, sel: dict, samples: int) -> dict | None:
     law = Friction2D(*(sub[f"{k}_pair"].values[pairs] for k in ("ku", "kv", "mu")),
                      n0=sub["preload_pair"].values[pairs])
     X = np.stack([sub[f"peak_contact_{d}"].values[pairs] for d in ("u", "u2", "v")], axis=1)
+    return orbit_of(law, X, samples, head)
+
+
+def element_orbit(ds, sel: dict, samples: int) -> dict | None:
+    """`plane_orbit` of the one element sliding most at the peak (`hysteresis_*`), where
+    the dataset has no per-element peak motions (a scene placing the law's elements
+    itself)."""
+    sub = ds.isel(sel)
+    e = int(sub["hysteresis_element"])
+    if e < 0:
+        return None
+    law = Friction2D(*(np.atleast_1d(float(sub[f"hysteresis_{k}"])) for k in
+                       ("ku", "kv", "mu", "n0")))
+    X = np.stack([sub[f"hysteresis_{d}"].values for d in ("u", "u2", "v")])[None]
+    energy = float(cycle_results(X, law, samples)["energy"][0])
+    return orbit_of(law, X, samples, dict(name=f"element {e}", elements=1, energy=energy,
+                                          frequency=float(sub["hysteresis_frequency"])))
+
+
+def orbit_of(law, X, samples: int, head: dict) -> dict:
+    """The mean relative motion and slider, the total tangential force of the elements
+    of `law` at the motion X over one closed period, with the labels `head`."""
     cyc = law.evaluate(X, n_samples=samples, jacobian=False).detail
     close = np.r_[np.arange(cyc.u.shape[-1]), 0]        # a closed orbit
     return dict(u=cyc.u.mean(axis=0)[:, close], w=cyc.w.mean(axis=0)[:, close],
@@ -95,7 +117,8 @@ def draw_plane_orbits(study, ds, axes_pair) -> None:
     names = list(study.sweep.axes)
     for idx in itertools.product(*(range(len(study.sweep.axes[a])) for a in names)):
         sel = dict(zip(names, idx))
-        orbit = plane_orbit(ds, sel, study.solver.samples)
+        orbit = (plane_orbit if "peak_contact_u2" in ds else element_orbit)(
+            ds, sel, study.solver.samples)
         if orbit is None:
             continue
         case = ", ".join(f"{a} = {study.sweep.axes[a][i]:g} {ds[a].attrs.get('units', '')}"

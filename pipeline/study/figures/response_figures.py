@@ -95,7 +95,7 @@ def hysteresis_figures(study: Study, ds, fig_dir) -> list:
     if "hysteresis" not in study.output.figures or "hysteresis_u" not in ds:
         return []
     plt = pyplot()
-    if "peak_contact_u2" in ds:     # 2D friction: in-plane orbits
+    if "peak_contact_u2" in ds or "hysteresis_u2" in ds:     # 2D friction: in-plane orbits
         fig, pair = plt.subplots(1, 2, figsize=(11.0, 5.0))
         draw_plane_orbits(study, ds, pair)
         for ax in pair:
