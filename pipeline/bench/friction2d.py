@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..contact import forces
-from ..contact.friction2d import Friction2D
+from ..contact.friction2d.law import Friction2D
 
 
 def friction2d_rows(motions, median_time, quick=False) -> list:

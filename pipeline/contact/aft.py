@@ -16,7 +16,7 @@ j(i); the stick history is carried by the index j(i).
 
 `aft_forces` evaluates the elements with friction (mu, ku > 0) and the default stuck
 rest by the compiled march of the 2D law with the second tangent at rest
-(`friction2d_kernel.march`: the same rules sample for sample, its band middle the
+(`friction2d.kernel.march`: the same rules sample for sample, its band middle the
 centre of the stick discs), and the others (frictionless, or a given `slider_rest`)
 by this module's play operator (`play_forces`), which also cross-checks the
 compiled march (tests/contact/test_friction2d.py).
@@ -28,7 +28,7 @@ import numpy as np
 from .element import (SRC_HI, SRC_LO, SRC_TD, ContactForces, YangMenq, stuck_forces,
                       stuck_slider)
 from ..fourier.harmonics import harmonics_of, time_grid
-from .friction2d_kernel import march
+from .friction2d.kernel import march
 
 
 def play_march(lo, hi, u, contact, i0, w0, k0):

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from .cubic_spring import CubicSpring
 from .element import YangMenq
-from .friction2d import Friction2D
+from .friction2d.law import Friction2D
 from .laws import YangMenqLaw
 
 LAWS = {

@@ -13,7 +13,7 @@ import pytest
 from pipeline.contact.aft import aft_forces, play_forces
 from pipeline.contact.element import YangMenq
 from pipeline.contact.exact import exact_forces
-from pipeline.contact.friction2d import Friction2D
+from pipeline.contact.friction2d.law import Friction2D
 from pipeline.fourier.harmonics import time_grid
 
 from helpers import law_jacobian_errors

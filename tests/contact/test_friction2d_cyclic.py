@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pipeline.contact.element import YangMenq
-from pipeline.contact.friction2d import Friction2D
+from pipeline.contact.friction2d.law import Friction2D
 from pipeline.contact.laws import LawElements
 from pipeline.model.cyclic import Sector, full_assembly, sector_system
 from pipeline.solve.continuation.newton import newton

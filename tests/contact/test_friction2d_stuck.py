@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from pipeline.contact.friction2d import Friction2D
-from pipeline.contact.friction2d_kernel import stick_centres
+from pipeline.contact.friction2d.law import Friction2D
+from pipeline.contact.friction2d.centre import stick_centres
 from pipeline.fourier.harmonics import time_grid
 
 from helpers import law_jacobian_errors
@@ -173,7 +173,7 @@ def test_a_barely_slipping_pair_settles_in_a_few_periods():
     5 of 512 samples: the period map contracts by 0.999 a period (det(I - A) = 1e-3),
     so plain periods took 14,740 and the march gave up at 500.  Newton steps on the
     fixed point settle it in a few; the cycle equals 30,000 plain periods'."""
-    from pipeline.contact.friction2d_kernel import period_map
+    from pipeline.contact.friction2d.kernel import period_map
     X = np.array([[[-2.1185698175829577e-06, 7.8101244222981639e-10, -1.1155111836957359e-06,
                     3.6590120215214412e-09, -1.5651731996922020e-09, -9.8718678934394398e-10,
                     -3.1365001867655696e-10],

@@ -28,7 +28,7 @@ import numpy as np
 
 from ...contact import YangMenq
 from ...contact.cycle import cycle_results
-from ...contact.friction2d import cycle_results as plane_cycle_results
+from ...contact.friction2d.law import cycle_results as plane_cycle_results
 from ...fourier.harmonics import shift
 from .harmonics_dataset import add_harmonic_coefficients
 from ...model.static_load import (NORMAL_LOAD, contact_owner, face_totals, static_contact,

@@ -15,7 +15,7 @@ import numpy as np
 
 from ...contact import YangMenq
 from ...contact.exact import history
-from ...contact.friction2d import Friction2D, cycle_results
+from ...contact.friction2d.law import Friction2D, cycle_results
 from .plots import wrapped_title
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.contact.friction2d import Friction2D
+from pipeline.contact.friction2d.law import Friction2D
 from pipeline.study.datasets.dataset import read_dataset
 from pipeline.study.execution.run import run_study
 from pipeline.study.figures.contact_figures import element_orbit

@@ -19,7 +19,7 @@ Periodic steady state on N equispaced samples of one period (alternating
 frequency-time, AFT: the law has no closed form once the slip direction turns):
 - a separated sample erases memory: one pass from there is the periodic state;
 - else, if the slider at the centre w* of the stick discs |u_i - w| <= r_i
-  (r_i = mu n_i / ku; w* minimises max_i (|u_i - w| - r_i), `friction2d_kernel.
+  (r_i = mu n_i / ku; w* minimises max_i (|u_i - w| - r_i), `friction2d.centre.
   stick_centres`: the 1D element's band middle `slider_rest` for motion along one
   tangent) sticks at every sample, the cycle is fully stuck there;
 - else the march is repeated from w* period after period until the slider returns to
@@ -39,9 +39,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..fourier.harmonics import harmonics_of
-from .friction2d_kernel import march
-from .laws import LawForces
+from ...fourier.harmonics import harmonics_of
+from .kernel import march
+from ..laws import LawForces
 
 @dataclass(frozen=True)
 class Friction2D:
