@@ -4,7 +4,8 @@ Each entry names a law class; a class that a lumped study file can place declare
 `effect` (the scene effect that switches it on, `[scene] effects`), `study_table`
 (its array of tables, `[[scene.<study_table>]]`), `study_rows` (one key per
 direction: a signed DOF list, its row of the map) and `study_keys` (key -> (unit,
-default or None when required)), and builds one element from those values with
+default: a number, None when required, or another key's name whose value it takes),
+and builds one element from those values with
 `from_study`.  The Yang-Menq element has its own `[[scene.contact]]`.
 """
 from __future__ import annotations
@@ -29,7 +30,7 @@ ELEMENT_LAWS = {YangMenq: YangMenqLaw}
 def friction_elements(law: str = "yang_menq", **parameters):
     """The element set (`laws.ContactElements`) of a structure's shroud contacts under
     the law named `law`, from per-element parameters (Yang-Menq: ku, kv [N/m], mu [-],
-    n0 [N]; the 2D friction law "friction_2d": the same, ku isotropic in the plane):
+    n0 [N]; the 2D friction law "friction_2d": the same and ku2 along tangent 2):
     where a scene's declared contacts become elements, so a further law of the
     tangential/normal kind plugs in here."""
     kinds = {YangMenqLaw.name: YangMenq, Friction2D.name: Friction2D}

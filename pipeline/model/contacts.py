@@ -60,6 +60,7 @@ class FaceContact:
     n0: float | None        # [N] total over the face; None: the case's preload
     stiffness: str = "per_node"  # "per_face": ku, kv are face totals shared by area
     friction: str = "1d"    # "2d": slip in the face plane (tangents t, t2 of the face)
+    ku2: float | None = None     # [N/m] along t2 (friction = "2d"); None: ku
 
 
 FRICTION = ("1d", "2d")     # along one tangent (Yang-Menq) or in the contact plane
@@ -88,6 +89,7 @@ class ShroudPair:
     stiffness: str = "per_node"    # "per_face": ku, kv are face totals shared by area
     interference: float | None = None   # [m] overlap (> 0) or gap (< 0); sets n0
     friction: str = "1d"           # "2d": slip in the face plane (t1 = tangent, t2 = n x t1)
+    ku2: float | None = None       # [N/m] along t2 (friction = "2d"); None: ku
 
 
 def in_face(e, n) -> np.ndarray | None:
@@ -269,7 +271,8 @@ def contact_elements(contacts, case: dict, owner=None, weights=None,
     (or `ShroudPair`'s) preload is the total of its face: shared equally ("per_node")
     or, with ku and kv, by node area ("per_face"; `weights[i]` the areas of contact
     i's nodes).  A shroud pair with an `interference` takes n0_k = kv_k (interference
-    + closure_k) instead, `closure` (E,) [m] the centrifugal v_c (default zero)."""
+    + closure_k) instead, `closure` (E,) [m] the centrifugal v_c (default zero).  The
+    2D law's ku2 (along the second tangent) is a contact's own, else its ku."""
     case = dict(case or {})
     owner = np.arange(len(contacts)) if owner is None else np.asarray(owner)
     pressed = [i for i, c in enumerate(contacts) if getattr(c, "interference", None) is not None]
@@ -277,6 +280,10 @@ def contact_elements(contacts, case: dict, owner=None, weights=None,
                   (("ku", "ku"), ("kv", "kv"), ("mu", "mu")))
     n0 = case_parameter([replace(c, n0=0.0) if i in pressed else c   # set below
                          for i, c in enumerate(contacts)], owner, case, "preload", "n0")
+    ku2 = ku.copy()
+    for i, c in enumerate(contacts):
+        if getattr(c, "ku2", None) is not None:
+            ku2[owner == i] = c.ku2
     for i, c in enumerate(contacts):
         if not isinstance(c, (FaceContact, ShroudPair)):
             continue
@@ -288,9 +295,11 @@ def contact_elements(contacts, case: dict, owner=None, weights=None,
                                  "area per face node")
             share = a / a.sum()
             ku[on], kv[on], n0[on] = ku[on] * share, kv[on] * share, n0[on] * share
+            ku2[on] = ku2[on] * share
         else:
             n0[on] = n0[on] / max(int(on.sum()), 1)
         if i in pressed:
             gap = np.zeros(int(on.sum())) if closure is None else np.asarray(closure)[on]
             n0[on] = kv[on] * (c.interference + gap)
-    return friction_elements(law, ku=ku, kv=kv, mu=mu, n0=n0)
+    extra = {"ku2": ku2} if law == "friction_2d" else {}
+    return friction_elements(law, ku=ku, kv=kv, mu=mu, n0=n0, **extra)

@@ -68,10 +68,21 @@ def test_exact_matches_aft_hypothesis(A, B, ph, a2, n0, kv, mu, ku):
     U[0, 1], U[0, 4] = A, a2 * A
     V[0, 1], V[0, 2], V[0, 3] = B * np.cos(ph), B * np.sin(ph), 0.2 * B
     el = YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)
+    N = 2**14
     ex = forces(U, V, el, jacobian=False)
-    af = forces(U, V, el, "aft", n_samples=2**14, jacobian=False)
+    af = forces(U, V, el, "aft", n_samples=N, jacobian=False)
     su, sv = mu_nmax(U, V, el)
-    assert np.max(np.abs(af.Fu - ex.Fu)) <= 1e-4 * su[0] + 1e-12
+    # AFT is second order while the stick arcs span samples; a stick arc after a
+    # reversal lasts about 2 sqrt(2 mu n / (ku A)) rad, and when that is under four
+    # samples (a tiny preload under a large motion: n0 = 1e-6 N, A = 3 m) the force's
+    # jumps of 2 mu n fall between samples, an error up to 2 x (2 mu n / pi) dtau per
+    # coefficient, first order (measured 1.2e-4 of mu n at N = 2^14 there)
+    tau = np.linspace(0, TWO_PI, 4001)
+    from pipeline.fourier.harmonics import basis
+    n = el.n0[0] + el.kv[0] * (V[0] @ basis(tau, H).T)
+    arc = 2 * np.sqrt(2 * mu * n.min() / (ku * A)) if n.min() > 0 else np.inf
+    rel = 1e-4 if arc > 4 * TWO_PI / N else 1e-4 + 8 / N    # (touchdowns: no jump)
+    assert np.max(np.abs(af.Fu - ex.Fu)) <= rel * su[0] + 1e-12
     assert np.max(np.abs(af.Fv - ex.Fv)) <= 1e-4 * sv[0] + 1e-12
 
 

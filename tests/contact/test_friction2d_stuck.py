@@ -192,5 +192,5 @@ def test_a_barely_slipping_pair_settles_in_a_few_periods():
     n = 0.08333333333333372 + k * (X[0, 2] @ S.T)
     w, A = got.detail.w[0, :, -1].copy() + 1e-9, np.empty((2, 2))   # start off the cycle
     for _ in range(30000):
-        period_map(u[0], u[1], n, k, 0.3, 0, w, A)
+        period_map(u[0], u[1], n, k, k, 0.3, 0, w, A)
     assert np.abs(w - got.detail.w[0, :, -1]).max() <= 1e-8 * np.abs(u).max()

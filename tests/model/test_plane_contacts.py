@@ -28,12 +28,19 @@ HZ = 2 * np.pi
 
 
 def two_lines(scene):
-    """The same shroud as two 1D pairs: along t1 (ku, kv) and along t2 (ku, kv = 0)."""
+    """The same shroud as two 1D pairs: along t1 (ku, kv) and along t2 (ku2, kv = 0)."""
     c = scene.contacts[0]
     t, n = pair_frame(blade_model(scene.structure), c, scene.structure.disk)
-    first = replace(c, friction="1d", tangent=tuple(t))
-    second = replace(c, name="shroud_t2", friction="1d", kv=0.0, tangent=tuple(np.cross(n, t)))
+    first = replace(c, friction="1d", tangent=tuple(t), ku2=None)
+    second = replace(c, name="shroud_t2", friction="1d", kv=0.0, tangent=tuple(np.cross(n, t)),
+                     ku=c.ku if c.ku2 is None else c.ku2, ku2=None)
     return replace(scene, contacts=(first, second))
+
+
+def with_ku2(scene, factor):
+    """The scene's 2D pair with ku2 = factor ku (None: isotropic)."""
+    c = scene.contacts[0]
+    return replace(scene, contacts=(replace(c, ku2=None if factor is None else factor * c.ku),))
 
 
 def test_first_tangent_and_normal_rows_are_the_1d_pairs():
@@ -49,10 +56,13 @@ def test_first_tangent_and_normal_rows_are_the_1d_pairs():
     assert abs(t @ n) < 1e-14 and abs(np.linalg.norm(np.cross(n, t)) - 1) < 1e-14
 
 
-def test_stuck_frequencies_equal_two_1d_pairs():
+@pytest.mark.parametrize("factor", [None, 3.0])
+def test_stuck_frequencies_equal_two_1d_pairs(factor):
+    """Isotropic, and with the face three times stiffer along t2 (ku2 = 3 ku)."""
     case = {"preload": 30.0}
-    plane = build_system(PLANE, case)
-    lines = build_system(two_lines(PLANE), case)
+    scene = with_ku2(PLANE, factor)
+    plane = build_system(scene, case)
+    lines = build_system(two_lines(scene), case)
     assert plane.contact.size == 0 and plane.laws[0].law.name == "friction_2d"
     f2, f1 = (natural_frequencies(s, "stuck")[:4] for s in (plane, lines))
     # rtol: the lowest eigenvalue of the stiff reduced sector (|K| / lambda_1 ~ 1e6)
@@ -61,6 +71,9 @@ def test_stuck_frequencies_equal_two_1d_pairs():
     one = natural_frequencies(build_system(replace(PLANE, contacts=(
         replace(PLANE.contacts[0], friction="1d"),)), case), "stuck")[0]
     assert f2[0] > 1.05 * one      # t2 stuck too: stiffer than the 1D stuck pairs
+    if factor:
+        iso = natural_frequencies(build_system(PLANE, case), "stuck")[0]
+        assert f2[0] > iso * (1 + 1e-3)    # and stiffer still along t2
 
 
 def test_stuck_forced_response_equals_two_1d_pairs():

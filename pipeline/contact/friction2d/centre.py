@@ -150,22 +150,27 @@ def stick_centres(u, r, tol, w, t, support):
         support[e] = sup
 
 
-def centre_sensitivity(stuck, u, w, support, S, c):
+def centre_sensitivity(stuck, p, y, support, S, k, c):
     """dw0/dX (E, 2, 3 nh) of a fully stuck cycle's slider at the centre of the stick
-    discs (`stick_centres`), zero elsewhere (a separation erases the start; an
-    iterated fixed point is solved by `tangential_jacobian`): `centre_derivative`."""
+    discs (`stick_centres` in force units: points p = K u (E, 2, N), centre y = K w
+    (E, 2); k (E, 2) the tangential stiffnesses, c = mu kv (E,)), zero elsewhere (a
+    separation erases the start; an iterated fixed point is solved by
+    `kernel.tangential_jacobian`): `centre_derivative`."""
     out = np.zeros((stuck.size, 2, 3 * S.shape[1]))
-    centre_derivative(np.ascontiguousarray(u), np.ascontiguousarray(w), support,
-                      np.ascontiguousarray(S), np.asarray(c, float), stuck, out)
+    centre_derivative(np.ascontiguousarray(p), np.ascontiguousarray(y), support,
+                      np.ascontiguousarray(S), np.ascontiguousarray(k, float),
+                      np.asarray(c, float), stuck, out)
     return out
 
 
 @njit(cache=True, error_model="numpy")
-def centre_derivative(u, w, support, S, c, stuck, out):
-    """With du_i = S_i dX_t and dr_i = c S_i dX_n (c = mu kv / ku), the centre moves by
+def centre_derivative(u, w, support, S, k, c, stuck, out):
+    """In force units (u the points K u_i, w the centre K w, radii mu n_i): with
+    du_i = K S_i dX_t and dr_i = c S_i dX_n (c = mu kv), the centre moves by
     dw = sum_i A_i du_i + b_i dr_i over its support: one sample, w = u_a (A = I); two,
     w = u_a + alpha e on their segment, alpha = (d + r_a - r_b) / 2; three, the
-    implicit derivative of |u_i - w| - r_i = t (i = a, b, c).  Adds dw/dX into out."""
+    implicit derivative of |u_i - w| - r_i = t (i = a, b, c).  Adds K^-1 dw/dX (the
+    slider's, in metres) into out."""
     E, nh = u.shape[0], S.shape[1]
     A = np.zeros((3, 2, 2))
     b = np.zeros((3, 2))
@@ -176,20 +181,20 @@ def centre_derivative(u, w, support, S, c, stuck, out):
         if not stuck[e]:
             continue
         m = 0
-        for k in range(3):
-            if support[e, k] >= 0:
-                idx[m] = support[e, k]
+        for q in range(3):
+            if support[e, q] >= 0:
+                idx[m] = support[e, q]
                 m += 1
         A[:] = 0.0
         b[:] = 0.0
         if m == 1:
             A[0, 0, 0] = A[0, 1, 1] = 1.0
         elif m == 2:
-            p, q = idx[0], idx[1]
-            d1, d2 = u[e, 0, q] - u[e, 0, p], u[e, 1, q] - u[e, 1, p]
+            ia, ib = idx[0], idx[1]
+            d1, d2 = u[e, 0, ib] - u[e, 0, ia], u[e, 1, ib] - u[e, 1, ia]
             d = np.sqrt(d1 * d1 + d2 * d2)
             e1, e2 = d1 / d, d2 / d
-            g = (e1 * (w[e, 0] - u[e, 0, p]) + e2 * (w[e, 1] - u[e, 1, p])) / d   # alpha / d
+            g = (e1 * (w[e, 0] - u[e, 0, ia]) + e2 * (w[e, 1] - u[e, 1, ia])) / d   # alpha / d
             ee = ((e1 * e1, e1 * e2), (e1 * e2, e2 * e2))
             for r in range(2):
                 for s in range(2):
@@ -198,21 +203,21 @@ def centre_derivative(u, w, support, S, c, stuck, out):
                     A[0, r, s] = (1.0 if r == s else 0.0) - Ab
             b[0, 0], b[0, 1], b[1, 0], b[1, 1] = 0.5 * e1, 0.5 * e2, -0.5 * e1, -0.5 * e2
         else:
-            for k in range(3):
-                x1, x2 = u[e, 0, idx[k]] - w[e, 0], u[e, 1, idx[k]] - w[e, 1]
+            for q in range(3):
+                x1, x2 = u[e, 0, idx[q]] - w[e, 0], u[e, 1, idx[q]] - w[e, 1]
                 L = np.sqrt(x1 * x1 + x2 * x2)
-                nrm[k, 0], nrm[k, 1] = x1 / L, x2 / L
-                G[k, 0], G[k, 1], G[k, 2] = nrm[k, 0], nrm[k, 1], 1.0
+                nrm[q, 0], nrm[q, 1] = x1 / L, x2 / L
+                G[q, 0], G[q, 1], G[q, 2] = nrm[q, 0], nrm[q, 1], 1.0
             Gi = np.linalg.inv(G)
-            for k in range(3):
+            for q in range(3):
                 for r in range(2):
-                    A[k, r, 0], A[k, r, 1] = Gi[r, k] * nrm[k, 0], Gi[r, k] * nrm[k, 1]
-                    b[k, r] = -Gi[r, k]
-        for k in range(m):
-            i = idx[k]
+                    A[q, r, 0], A[q, r, 1] = Gi[r, q] * nrm[q, 0], Gi[r, q] * nrm[q, 1]
+                    b[q, r] = -Gi[r, q]
+        for q in range(m):
+            i = idx[q]
             for j in range(nh):
                 sij = S[i, j]
                 for r in range(2):
-                    out[e, r, j] += A[k, r, 0] * sij
-                    out[e, r, nh + j] += A[k, r, 1] * sij
-                    out[e, r, 2 * nh + j] += b[k, r] * c[e] * sij
+                    out[e, r, j] += A[q, r, 0] * k[e, 0] * sij / k[e, r]
+                    out[e, r, nh + j] += A[q, r, 1] * k[e, 1] * sij / k[e, r]
+                    out[e, r, 2 * nh + j] += b[q, r] * c[e] * sij / k[e, r]

@@ -2,7 +2,9 @@
 period of samples at a time, the return mapping of the Coulomb disc per sample.
 
 State per sample: 0 separated (n <= 0: no force, the slider follows, w = u), 1 stick
-(|ku (u - w)| <= mu n), 2 slip (w = u - (mu n / ku) e, e the unit trial force)."""
+(|K (u - w)| <= mu n, K = diag(ku, ku2)), 2 slip (the force returned onto the circle
+|f| = mu n, the slider moved along it: `return_gamma`; one stiffness:
+w = u - (mu n / ku) e, e the unit trial force)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -20,28 +22,83 @@ CENTRE_RTOL = 1e-11      # a sample inside the stick discs' centre, of the motio
 
 
 @njit(cache=True, error_model="numpy")
-def sample(u1, u2, n, ku, mu, w):
+def return_gamma(t1, t2, k1, k2, cap):
+    """The return mapping onto the disc |f| <= cap from the trial force t outside it:
+    f_i = t_i / (1 + g k_i), g >= 0 the root of |f(g)| = cap (the slider moves along
+    the force, dw = g f: the closest point to t in the energy norm f K^-1 f).  One
+    stiffness: g = (|t| / cap - 1) / k; else Newton on 1 / |f(g)| - 1 / cap (linear in
+    g when t lies along one tangent), kept inside the bracket (|t| / cap - 1) / k_i."""
+    x = np.sqrt(t1 * t1 + t2 * t2) / cap - 1.0
+    lo, hi = x / max(k1, k2), x / min(k1, k2)
+    g = lo
+    if k1 == k2:
+        return g
+    for _ in range(100):
+        d1, d2 = 1.0 / (1.0 + g * k1), 1.0 / (1.0 + g * k2)
+        f1, f2 = t1 * d1, t2 * d2
+        size = np.sqrt(f1 * f1 + f2 * f2)
+        psi = 1.0 / size - 1.0 / cap
+        if psi < 0.0:
+            lo = g
+        else:
+            hi = g
+        step = psi * size ** 3 / (k1 * d1 * f1 * f1 + k2 * d2 * f2 * f2)
+        new = g - step
+        if not lo <= new <= hi:
+            new = 0.5 * (lo + hi)
+        if abs(new - g) <= 4e-16 * new or hi - lo <= 4e-16 * hi:
+            return new
+        g = new
+    return g
+
+
+@njit(cache=True, error_model="numpy")
+def sample(u1, u2, n, k1, k2, mu, w):
     """The law at one sample from the slider w (2,), updated in place; returns
     (f1, f2, state)."""
     if n <= 0.0:
         w[0], w[1] = u1, u2
         return 0.0, 0.0, 0
-    t1, t2 = ku * (u1 - w[0]), ku * (u2 - w[1])
-    size = np.sqrt(t1 * t1 + t2 * t2)
+    t1, t2 = k1 * (u1 - w[0]), k2 * (u2 - w[1])
     cap = mu * n
-    if size > cap and size > 0.0:
-        f1, f2 = cap * t1 / size, cap * t2 / size
-        w[0], w[1] = u1 - f1 / ku, u2 - f2 / ku
+    if t1 * t1 + t2 * t2 > cap * cap:
+        g = return_gamma(t1, t2, k1, k2, cap)
+        f1, f2 = t1 / (1.0 + g * k1), t2 / (1.0 + g * k2)
+        w[0], w[1] = u1 - f1 / k1, u2 - f2 / k2
         return f1, f2, 2
     return t1, t2, 1
 
 
 @njit(cache=True, error_model="numpy")
-def period_map(u1, u2, n, ku, mu, start, ws, A):
+def slip_derivative(t1, t2, k1, k2, cap, G, h):
+    """Linearised return mapping at a slipping sample (trial force t outside the disc):
+    dw = du - K^-1 df, df = M dt + h dcap with dt = K (du - dw_prev), M = D - (K D f)
+    (D f)^T / q, h = (K D f) cap / q, q = f . K D f, D = diag(1 / (1 + g k_i)).  Writes
+    G = K^-1 M K (2, 2) (dw / dw_prev) and h / k_i into h (2,); returns the force and
+    the new slider offset from u: (f1, f2)."""
+    g = return_gamma(t1, t2, k1, k2, cap)
+    d1, d2 = 1.0 / (1.0 + g * k1), 1.0 / (1.0 + g * k2)
+    f1, f2 = t1 * d1, t2 * d2
+    a1, a2 = d1 * f1, d2 * f2                  # D f
+    b1, b2 = k1 * a1, k2 * a2                  # K D f
+    q = f1 * b1 + f2 * b2
+    G[0, 0] = d1 - b1 * a1 / q
+    G[0, 1] = (-b1 * a2 / q) * k2 / k1
+    G[1, 0] = (-b2 * a1 / q) * k1 / k2
+    G[1, 1] = d2 - b2 * a2 / q
+    h[0], h[1] = a1 * cap / q, a2 * cap / q     # (K D f) cap / (q k_i)
+    return f1, f2
+
+
+@njit(cache=True, error_model="numpy")
+def period_map(u1, u2, n, k1, k2, mu, start, ws, A):
     """One period of samples from the slider ws (updated in place to w_N) and
-    A = dw_N/dw_0 (2, 2): stick keeps it, slip maps it through (mu n / (ku rho)) P
-    (P = I - e e^T, rho = |u - w|), separation zeroes it."""
+    A = dw_N/dw_0 (2, 2): stick keeps it, slip maps it through G = K^-1 M K
+    (`slip_derivative`; one stiffness: (mu n / (ku rho)) P, P = I - e e^T, rho =
+    |u - w|), separation zeroes it."""
     N = u1.size
+    G = np.empty((2, 2))
+    h = np.empty(2)
     A[0, 0], A[0, 1], A[1, 0], A[1, 1] = 1.0, 0.0, 0.0, 1.0
     for k in range(N):
         i = (start + k) % N
@@ -49,24 +106,22 @@ def period_map(u1, u2, n, ku, mu, start, ws, A):
             ws[0], ws[1] = u1[i], u2[i]
             A[0, 0] = A[0, 1] = A[1, 0] = A[1, 1] = 0.0
             continue
-        t1, t2 = ku * (u1[i] - ws[0]), ku * (u2[i] - ws[1])
-        size = np.sqrt(t1 * t1 + t2 * t2)
+        t1, t2 = k1 * (u1[i] - ws[0]), k2 * (u2[i] - ws[1])
         cap = mu * n[i]
-        if size > cap and size > 0.0:
-            e1, e2 = t1 / size, t2 / size
-            g = cap / size            # (mu n / ku) / rho
-            p11, p12, p22 = 1.0 - e1 * e1, -e1 * e2, 1.0 - e2 * e2
-            a00 = g * (p11 * A[0, 0] + p12 * A[1, 0])
-            a01 = g * (p11 * A[0, 1] + p12 * A[1, 1])
-            a10 = g * (p12 * A[0, 0] + p22 * A[1, 0])
-            a11 = g * (p12 * A[0, 1] + p22 * A[1, 1])
+        if t1 * t1 + t2 * t2 > cap * cap:
+            f1, f2 = slip_derivative(t1, t2, k1, k2, cap, G, h)
+            a00 = G[0, 0] * A[0, 0] + G[0, 1] * A[1, 0]
+            a01 = G[0, 0] * A[0, 1] + G[0, 1] * A[1, 1]
+            a10 = G[1, 0] * A[0, 0] + G[1, 1] * A[1, 0]
+            a11 = G[1, 0] * A[0, 1] + G[1, 1] * A[1, 1]
             A[0, 0], A[0, 1], A[1, 0], A[1, 1] = a00, a01, a10, a11
-            ws[0], ws[1] = u1[i] - cap * e1 / ku, u2[i] - cap * e2 / ku
+            ws[0], ws[1] = u1[i] - f1 / k1, u2[i] - f2 / k2
 
 
 @njit(cache=True, error_model="numpy")
-def periodic_cycles(u, n, ku, mu, w0, start, iterate, max_periods, tol, w, f, state, periods):
-    """For each element e: from the slider w0[e] at sample start[e], find the periodic
+def periodic_cycles(u, n, k, mu, w0, start, iterate, max_periods, tol, w, f, state, periods):
+    """For each element e (tangential stiffnesses k[e] (2,)): from the slider w0[e] at
+    sample start[e], find the periodic
     start when iterate[e] -- period maps w_0 -> w_N, each followed by a Newton step
     w_0 += (I - A)^-1 (w_N - w_0) while I - A is regular and the steps gain (else the
     plain step w_0 = w_N), until the slider returns to its start (to tol[e]), at most
@@ -82,7 +137,7 @@ def periodic_cycles(u, n, ku, mu, w0, start, iterate, max_periods, tol, w, f, st
             last = np.inf
             while p < max_periods:
                 ws[0], ws[1] = b[0], b[1]
-                period_map(u[e, 0], u[e, 1], n[e], ku[e], mu[e], start[e], ws, A)
+                period_map(u[e, 0], u[e, 1], n[e], k[e, 0], k[e, 1], mu[e], start[e], ws, A)
                 p += 1
                 r0, r1 = ws[0] - b[0], ws[1] - b[1]
                 res = max(abs(r0), abs(r1))
@@ -101,15 +156,15 @@ def periodic_cycles(u, n, ku, mu, w0, start, iterate, max_periods, tol, w, f, st
         periods[e] = p
         ws[0], ws[1] = b[0], b[1]
         w0[e, 0], w0[e, 1] = ws[0], ws[1]
-        for k in range(N):
-            i = (start[e] + k) % N
-            f1, f2, s = sample(u[e, 0, i], u[e, 1, i], n[e, i], ku[e], mu[e], ws)
+        for j in range(N):
+            i = (start[e] + j) % N
+            f1, f2, s = sample(u[e, 0, i], u[e, 1, i], n[e, i], k[e, 0], k[e, 1], mu[e], ws)
             w[e, 0, i], w[e, 1, i] = ws[0], ws[1]
             f[e, 0, i], f[e, 1, i], state[e, i] = f1, f2, s
 
 
 @njit(cache=True, error_model="numpy")
-def sample_derivative(u1, u2, n, ku, kv, mu, Si, w, dX, d0):
+def sample_derivative(u1, u2, n, k1, k2, kv, mu, Si, w, dX, d0):
     """`sample` with forward derivatives of the slider: dX (2, 3 nh) w.r.t. the motion's
     coefficients (tangent 1, tangent 2, normal blocks) and d0 (2, 2) w.r.t. the start;
     all updated in place.  Returns the state."""
@@ -125,33 +180,31 @@ def sample_derivative(u1, u2, n, ku, kv, mu, Si, w, dX, d0):
             dX[1, nh + j] = Si[j]
         d0[0, 0] = d0[0, 1] = d0[1, 0] = d0[1, 1] = 0.0
         return 0
-    t1, t2 = ku * (u1 - w[0]), ku * (u2 - w[1])
-    size = np.sqrt(t1 * t1 + t2 * t2)
+    t1, t2 = k1 * (u1 - w[0]), k2 * (u2 - w[1])
     cap = mu * n
-    if not (size > cap and size > 0.0):
+    if not t1 * t1 + t2 * t2 > cap * cap:
         return 1
-    e1, e2 = t1 / size, t2 / size
-    rho = size / ku
-    p11, p12, p22 = 1.0 - e1 * e1, -e1 * e2, 1.0 - e2 * e2
-    c = mu / ku
-    # dw = du - c (e dn + n P (du - dw_prev) / rho)
+    G = np.empty((2, 2))
+    h = np.empty(2)
+    f1, f2 = slip_derivative(t1, t2, k1, k2, cap, G, h)
+    # dw = du - G (du - dw_prev) - (h / k) mu dn
     for j in range(m):
         du1 = Si[j] if j < nh else 0.0
         du2 = Si[j - nh] if nh <= j < 2 * nh else 0.0
-        dn = kv * Si[j - 2 * nh] if j >= 2 * nh else 0.0
+        dc = mu * kv * Si[j - 2 * nh] if j >= 2 * nh else 0.0
         r1, r2 = du1 - dX[0, j], du2 - dX[1, j]
-        dX[0, j] = du1 - c * (e1 * dn + n * (p11 * r1 + p12 * r2) / rho)
-        dX[1, j] = du2 - c * (e2 * dn + n * (p12 * r1 + p22 * r2) / rho)
+        dX[0, j] = du1 - (G[0, 0] * r1 + G[0, 1] * r2) - h[0] * dc
+        dX[1, j] = du2 - (G[1, 0] * r1 + G[1, 1] * r2) - h[1] * dc
     for j in range(2):
-        r1, r2 = -d0[0, j], -d0[1, j]
-        d0[0, j] = -c * n * (p11 * r1 + p12 * r2) / rho
-        d0[1, j] = -c * n * (p12 * r1 + p22 * r2) / rho
-    w[0], w[1] = u1 - cap * e1 / ku, u2 - cap * e2 / ku
+        r1, r2 = d0[0, j], d0[1, j]
+        d0[0, j] = G[0, 0] * r1 + G[0, 1] * r2
+        d0[1, j] = G[1, 0] * r1 + G[1, 1] * r2
+    w[0], w[1] = u1 - f1 / k1, u2 - f2 / k2
     return 2
 
 
 @njit(cache=True, error_model="numpy")
-def tangential_jacobian(u, n, ku, kv, mu, w0, start, fixed, dw0, S, W, J):
+def tangential_jacobian(u, n, k, kv, mu, w0, start, fixed, dw0, S, W, J):
     """J[e, p] (p = 0..5: (t1, t1), (t1, t2), (t1, n), (t2, t1), (t2, t2), (t2, n)) of
     the tangential forces over the periodic cycle from w0 at `start`: the start's
     sensitivity is dw0[e] (2, 3 nh), or, where `fixed`, the fixed point
@@ -172,18 +225,18 @@ def tangential_jacobian(u, n, ku, kv, mu, w0, start, fixed, dw0, S, W, J):
             last = rep == (1 if fixed[e] else 0)
             if last:
                 buf[:] = 0.0
-            for k in range(N):
-                i = (start[e] + k) % N
-                s = sample_derivative(u[e, 0, i], u[e, 1, i], n[e, i], ku[e], kv[e], mu[e],
-                                      S[i], w, dX, d0)
+            for step in range(N):
+                i = (start[e] + step) % N
+                s = sample_derivative(u[e, 0, i], u[e, 1, i], n[e, i], k[e, 0], k[e, 1], kv[e],
+                                      mu[e], S[i], w, dX, d0)
                 if not last or s == 0:
                     continue
                 for a in range(2):
                     for j in range(m):
-                        buf[i, a * m + j] = -ku[e] * (dX[a, j] + d0[a, 0] * dw0[e, 0, j]
+                        buf[i, a * m + j] = -k[e, a] * (dX[a, j] + d0[a, 0] * dw0[e, 0, j]
                                                       + d0[a, 1] * dw0[e, 1, j])
                     for j in range(nh):
-                        buf[i, a * m + a * nh + j] += ku[e] * S[i, j]
+                        buf[i, a * m + a * nh + j] += k[e, a] * S[i, j]
             if not last:      # the fixed point of the period map
                 M = np.eye(2) - d0
                 if abs(M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]) > 1e-10:
@@ -220,31 +273,35 @@ class Cycle2D:
     regimes: dict
 
 
-def march(law, X, N: int, jacobian: bool = True) -> "Cycle2D":
-    """The periodic cycle of the elements of `law` (ku, kv, mu, n0 (E,)) for the motion
-    X (E, 3, 2H+1) on N samples (`contact.friction2d`'s module docstring): also the 1D
-    element's AFT (`contact.aft`), with X[:, 1] = 0."""
+def march(k, kv, mu, n0, X, N: int, jacobian: bool = True) -> "Cycle2D":
+    """The periodic cycle of elements with the tangential stiffnesses k (E, 2) [N/m]
+    along the two tangents, kv, mu, n0 (E,) for the motion X (E, 3, 2H+1) on N samples
+    (`friction2d.law`'s module docstring): also the 1D element's AFT (`contact.aft`),
+    with X[:, 1] = 0."""
     E, _, nh = X.shape
     H = harmonics_of(nh)
     _, S, W = time_grid(H, N)
-    ku, kv, mu, n0 = law.ku, law.kv, law.mu, law.n0
+    k = np.ascontiguousarray(k, float)
     u = X[:, :2] @ S.T                                     # (E, 2, N)
     v = X[:, 2] @ S.T                                      # (E, N)
     n = n0[:, None] + kv[:, None] * v
     touch = n > 0.0
-    r = mu[:, None] * np.maximum(n, 0.0) / ku[:, None]
+    cap = mu[:, None] * np.maximum(n, 0.0)
     start = np.where(~touch.all(axis=1), (~touch).argmax(axis=1), 0)
-    scale = np.abs(u).max(axis=(1, 2)) + np.abs(r).max(axis=1) + 1e-300
-    w_mid, depth, support = np.empty((E, 2)), np.empty(E), np.empty((E, 3), np.int64)
-    stick_centres(np.ascontiguousarray(u), np.ascontiguousarray(r), CENTRE_RTOL * scale, w_mid,
-                  depth, support)
+    scale = np.abs(u).max(axis=(1, 2)) + (cap / k.min(axis=1)[:, None]).max(axis=1) + 1e-300
+    # the stick discs |K (u_i - w)| <= mu n_i: in force units, points K u_i, centre K w
+    p = np.ascontiguousarray(k[:, :, None] * u)
+    y, depth, support = np.empty((E, 2)), np.empty(E), np.empty((E, 3), np.int64)
+    stick_centres(p, np.ascontiguousarray(cap), CENTRE_RTOL * (np.abs(p).max(axis=(1, 2))
+                                                              + cap.max(axis=1) + 1e-300),
+                  y, depth, support)
     stuck = touch.all(axis=1) & (depth < 0.0)
-    w0 = np.where((~touch.all(axis=1))[:, None], u[np.arange(E), :, start], w_mid)
+    w0 = np.where((~touch.all(axis=1))[:, None], u[np.arange(E), :, start], y / k)
     iterate = touch.all(axis=1) & ~stuck
     w, f_t, state = np.empty((E, 2, N)), np.empty((E, 2, N)), np.empty((E, N), np.int64)
     periods = np.zeros(E, np.int64)
     w0 = np.ascontiguousarray(w0)
-    periodic_cycles(np.ascontiguousarray(u), np.ascontiguousarray(n), ku, mu, w0,
+    periodic_cycles(np.ascontiguousarray(u), np.ascontiguousarray(n), k, mu, w0,
                     start.astype(np.int64), iterate, MAX_PERIODS, PERIOD_RTOL * scale,
                     w, f_t, state, periods)
     if iterate.any() and np.any(periods[iterate] >= MAX_PERIODS):
@@ -256,8 +313,8 @@ def march(law, X, N: int, jacobian: bool = True) -> "Cycle2D":
     if jacobian:
         nh = S.shape[1]
         J = np.zeros((E, 7, nh, nh))
-        dw0 = centre_sensitivity(stuck, u, w_mid, support, S, mu * kv / ku)
-        tangential_jacobian(np.ascontiguousarray(u), np.ascontiguousarray(n), ku, kv, mu, w0,
+        dw0 = centre_sensitivity(stuck, p, y, support, S, k, mu * kv)
+        tangential_jacobian(np.ascontiguousarray(u), np.ascontiguousarray(n), k, kv, mu, w0,
                             start.astype(np.int64), touch.all(axis=1) & ~stuck,
                             dw0, np.ascontiguousarray(S), np.ascontiguousarray(W), J)
         J[:, 6] = (W[None] * (touch * kv[:, None])[:, None, :]) @ S

@@ -7,19 +7,24 @@ the slip free to turn in the plane; Petrov & Ewins' 2D friction; tmdsimpy's
 ElasticDryFriction2D)
 
     n = n0 + kv v,                               f_n = max(n, 0),
-    f = ku (u - w),   |f| <= mu n,                w the slider (2-vector),
+    f = K (u - w),   |f| <= mu n,                 w the slider (2-vector),
+
+K = diag(ku, ku2) (ku2 = ku: isotropic; two values where the face is stiffer one way),
 
 an elastic - perfectly plastic slider on the Coulomb disc: it sticks while the trial
 force ku (u - w) lies inside the disc of radius mu n, otherwise the slider moves so
-that the force stays on the circle in the direction of the trial force (return
-mapping, w = u - (mu n / ku) e, e the unit trial direction); separated (n <= 0) the
+that the force stays on the circle and the slider moves along the force (Coulomb:
+the friction force opposes the slip).  The return mapping is the closest point of
+the disc to the trial force t in the energy norm f K^-1 f: f_i = t_i / (1 + g k_i),
+g >= 0 the root of |f| = mu n (`kernel.return_gamma`); isotropic, f = mu n e and
+w = u - (mu n / ku) e, e the unit trial direction.  Separated (n <= 0) the
 forces vanish and the slider follows, w = u (as the 1D element's touchdown rule).
 
 Periodic steady state on N equispaced samples of one period (alternating
 frequency-time, AFT: the law has no closed form once the slip direction turns):
 - a separated sample erases memory: one pass from there is the periodic state;
-- else, if the slider at the centre w* of the stick discs |u_i - w| <= r_i
-  (r_i = mu n_i / ku; w* minimises max_i (|u_i - w| - r_i), `friction2d.centre.
+- else, if the slider at the centre w* of the stick discs |K (u_i - w)| <= mu n_i
+  (in force units K w* minimises max_i (|K (u_i - w)| - mu n_i), `friction2d.centre.
   stick_centres`: the 1D element's band middle `slider_rest` for motion along one
   tangent) sticks at every sample, the cycle is fully stuck there;
 - else the march is repeated from w* period after period until the slider returns to
@@ -45,13 +50,15 @@ from ..laws import LawForces
 
 @dataclass(frozen=True)
 class Friction2D:
-    """E 2D friction elements: ku [N/m] (isotropic tangential), kv [N/m], mu [-],
-    n0 [N] (arrays of length E)."""
+    """E 2D friction elements: ku [N/m] (tangential, along tangent 1 and, unless ku2
+    is given, tangent 2), kv [N/m], mu [-], n0 [N], ku2 [N/m] (along tangent 2; None:
+    ku) (arrays of length E)."""
 
     ku: np.ndarray
     kv: np.ndarray
     mu: np.ndarray
     n0: np.ndarray
+    ku2: np.ndarray | None = None
 
     name = "friction_2d"
     directions = ("tangent_1", "tangent_2", "normal")
@@ -64,27 +71,32 @@ class Friction2D:
     study_table = "friction_2d"
     study_rows = ("tangent_1", "tangent_2", "normal")
     study_keys = {"ku": ("N/m", None), "kv": ("N/m", 0.0), "mu": ("1", None),
-                  "n0": ("N", None)}
-    study_help = {"ku": "tangential stiffness (isotropic in the plane)",
+                  "n0": ("N", None), "ku2": ("N/m", "ku")}
+    study_help = {"ku": "tangential stiffness (along both tangents unless ku2 is given)",
+                  "ku2": "tangential stiffness along tangent_2",
                   "kv": "normal stiffness: n = n0 + kv v", "mu": "friction coefficient",
                   "n0": "preload (negative: a gap)"}
 
     def __post_init__(self):
-        arrays = [np.atleast_1d(np.asarray(getattr(self, k), float))
-                  for k in ("ku", "kv", "mu", "n0")]
+        if self.ku2 is None:
+            object.__setattr__(self, "ku2", self.ku)
+        names = ("ku", "kv", "mu", "n0", "ku2")
+        arrays = [np.atleast_1d(np.asarray(getattr(self, k), float)) for k in names]
         E = max(a.size for a in arrays)
-        for k, a in zip(("ku", "kv", "mu", "n0"), arrays):
+        for k, a in zip(names, arrays):
             if a.ndim != 1 or a.size not in (1, E) or not np.all(np.isfinite(a)):
                 raise ValueError(f"{k} must be finite, of length 1 or {E}, got {a!r}")
             object.__setattr__(self, k, np.broadcast_to(a, (E,)).copy())
-        if np.any(self.ku <= 0) or np.any(self.kv < 0) or np.any(self.mu <= 0):
-            raise ValueError(f"ku must be > 0 [N/m], kv >= 0 [N/m] and mu > 0, got ku = "
-                             f"{self.ku.min():g}, kv = {self.kv.min():g}, mu = {self.mu.min():g}")
+        if (np.any(self.ku <= 0) or np.any(self.ku2 <= 0) or np.any(self.kv < 0)
+                or np.any(self.mu <= 0)):
+            raise ValueError(f"ku, ku2 must be > 0 [N/m], kv >= 0 [N/m] and mu > 0, got ku = "
+                             f"{self.ku.min():g}, ku2 = {self.ku2.min():g}, kv = "
+                             f"{self.kv.min():g}, mu = {self.mu.min():g}")
 
     @classmethod
     def from_study(cls, values: dict) -> "Friction2D":
-        """One element from the study-file values {"ku", "kv", "mu", "n0"}."""
-        return cls(**{k: [values[k]] for k in ("ku", "kv", "mu", "n0")})
+        """One element from the study-file values {"ku", "kv", "mu", "n0", "ku2"}."""
+        return cls(**{k: [values[k]] for k in ("ku", "kv", "mu", "n0", "ku2")})
 
     @property
     def size(self) -> int:
@@ -92,17 +104,18 @@ class Friction2D:
 
     def linear_limit(self, contacts: str) -> np.ndarray:
         """(E, 3) springs [N/m] of a linear limit (`model.system.linear_stiffness`): as
-        the Yang-Menq element's -- "stuck": ku along both tangents of every element,
-        kv where n0 > 0; "tied": every element closed; "small": the preloaded elements
-        stuck, the others open."""
+        the Yang-Menq element's -- "stuck": ku, ku2 along the tangents of every
+        element, kv where n0 > 0; "tied": every element closed; "small": the preloaded
+        elements stuck, the others open."""
         closed = np.ones(self.size, bool) if contacts == "tied" else self.n0 > 0
-        ku = self.ku * closed if contacts == "small" else self.ku
-        return np.stack([ku, ku, self.kv * closed], axis=1)
+        k = np.stack([self.ku, self.ku2], axis=1)
+        k = k * closed[:, None] if contacts == "small" else k
+        return np.column_stack([k, self.kv * closed])
 
     def tile(self, reps: int) -> "Friction2D":
         """`reps` copies of the E elements one after the other (every sector's)."""
         return Friction2D(*(np.tile(getattr(self, k), int(reps))
-                            for k in ("ku", "kv", "mu", "n0")))
+                            for k in ("ku", "kv", "mu", "n0", "ku2")))
 
     def evaluate(self, X, method: str = "aft", n_samples: int = 256,
                  jacobian: bool = True) -> LawForces:
@@ -115,7 +128,8 @@ class Friction2D:
         X = np.asarray(X, float)
         if X.ndim != 3 or X.shape[:2] != (self.size, 3) or X.shape[2] % 2 == 0:
             raise ValueError(f"X must have shape (E={self.size}, 3, 2H+1), got {X.shape}")
-        cycle = march(self, X, int(n_samples), jacobian)
+        cycle = march(np.stack([self.ku, self.ku2], axis=1), self.kv, self.mu, self.n0, X,
+                      int(n_samples), jacobian)
         return LawForces(cycle.F, cycle.J, cycle.regimes, cycle)
 
 

@@ -228,7 +228,8 @@ def peak_motion_variables(study, cases, curves, systems, data_vars) -> dict:
     plane = any(getattr(c, "friction", "1d") == "2d" for c in study.scene.contacts)
     X = np.full(shape + (E, 3 if plane else 2, nh), np.nan)
     point = np.full(shape, -1, dtype=np.int32)
-    k = {n: np.full(shape + (E,), np.nan) for n in ("ku", "kv", "mu")}
+    names = ("ku", "kv", "mu", "ku2") if plane else ("ku", "kv", "mu")
+    k = {n: np.full(shape + (E,), np.nan) for n in names}
     amp, conv = data_vars["amplitude"][1][..., 0], data_vars["converged"][1]
     for (idx, _), c, system in zip(cases, curves, systems):
         for n in k:
@@ -254,7 +255,10 @@ def peak_motion_variables(study, cases, curves, systems, data_vars) -> dict:
                                        "tangent (n x t1) of the element at the peak point, "
                                        "Fourier coefficients"})
     for n, (u, what) in {"ku": ("N/m", "tangential stiffness"), "kv": ("N/m", "normal "
-                         "stiffness"), "mu": ("1", "friction coefficient")}.items():
+                         "stiffness"), "mu": ("1", "friction coefficient"), "ku2": ("N/m",
+                         "tangential stiffness along the second tangent")}.items():
+        if n not in k:
+            continue
         out[f"{n}_pair"] = (sw + ("pair",), k[n], {"units": u, "long_name": f"{what} of the "
                                                                            "element"})
     return out

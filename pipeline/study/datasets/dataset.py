@@ -431,7 +431,7 @@ def _add_hysteresis(data_vars, study, cases, curves, systems, lay: Layout):
     plane = False        # the system's contact set is the 2D law's (3 directions)
     U, V = np.full(shape + (2 * H + 1,), np.nan), np.full(shape + (2 * H + 1,), np.nan)
     U2 = np.full(shape + (2 * H + 1,), np.nan)
-    par = {k: np.full(shape, np.nan) for k in ("ku", "kv", "mu", "n0", "frequency")}
+    par = {k: np.full(shape, np.nan) for k in ("ku", "kv", "mu", "n0", "ku2", "frequency")}
     element = np.full(shape, -1, dtype=np.int32)
     for (idx, _), c, system in zip(cases, curves, systems):
         ok = None if c is None else np.asarray(c.converged, bool)
@@ -444,8 +444,8 @@ def _add_hysteresis(data_vars, study, cases, curves, systems, lay: Layout):
         e = int(np.argmax(np.linalg.norm(X[:, :-1, 1:], axis=(1, 2))))
         U[idx], V[idx], U2[idx], element[idx] = X[e, 0], X[e, -1], X[e, 1], e
         el = contact_set(system).elements
-        for k in ("ku", "kv", "mu", "n0"):
-            par[k][idx] = float(np.asarray(getattr(el, k))[e])
+        for k in ("ku", "kv", "mu", "n0", "ku2"):     # ku2: the 2D law's second tangent
+            par[k][idx] = float(np.asarray(getattr(el, k, el.ku))[e])
         par["frequency"][idx] = float(c.omega[i]) / lay.to_unit
     coeff = axes + ("coefficient",)
     data_vars["hysteresis_u"] = (coeff, U, {"units": "m", "long_name": "tangential relative "
@@ -460,7 +460,10 @@ def _add_hysteresis(data_vars, study, cases, curves, systems, lay: Layout):
                                        "contact element sliding most at the peak"})
     for k, (u, name) in {"ku": ("N/m", "tangential stiffness"), "kv": ("N/m", "normal "
                          "stiffness"), "mu": ("1", "friction coefficient"), "n0": ("N", "normal "
-                         "preload"), "frequency": (lay.unit, "frequency of the peak")}.items():
+                         "preload"), "ku2": ("N/m", "tangential stiffness along the second "
+                         "tangent"), "frequency": (lay.unit, "frequency of the peak")}.items():
+        if k == "ku2" and not plane:
+            continue
         data_vars[f"hysteresis_{k}"] = (axes, par[k], {"units": u, "long_name": f"{name} of "
                                                        "that element" if k != "frequency"
                                                        else name})

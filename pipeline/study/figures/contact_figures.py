@@ -79,7 +79,8 @@ def plane_orbit(ds, sel: dict, samples: int) -> dict | None:
         return None
     sub, pairs, head = peak
     law = Friction2D(*(sub[f"{k}_pair"].values[pairs] for k in ("ku", "kv", "mu")),
-                     n0=sub["preload_pair"].values[pairs])
+                     n0=sub["preload_pair"].values[pairs],
+                     ku2=sub["ku2_pair"].values[pairs] if "ku2_pair" in sub else None)
     X = np.stack([sub[f"peak_contact_{d}"].values[pairs] for d in ("u", "u2", "v")], axis=1)
     return orbit_of(law, X, samples, head)
 
@@ -93,7 +94,7 @@ def element_orbit(ds, sel: dict, samples: int) -> dict | None:
     if e < 0:
         return None
     law = Friction2D(*(np.atleast_1d(float(sub[f"hysteresis_{k}"])) for k in
-                       ("ku", "kv", "mu", "n0")))
+                       ("ku", "kv", "mu", "n0", "ku2") if f"hysteresis_{k}" in sub))
     X = np.stack([sub[f"hysteresis_{d}"].values for d in ("u", "u2", "v")])[None]
     energy = float(cycle_results(X, law, samples)["energy"][0])
     return orbit_of(law, X, samples, dict(name=f"element {e}", elements=1, energy=energy,

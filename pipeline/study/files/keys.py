@@ -203,6 +203,8 @@ _FIXED = [
     ("scene.contact", "pair", "", "", 'FE blades in a disk: `"shroud"`, right face of blade j '
                                       "against the left face of blade j+1"),
     ("scene.contact", "ku", "N/m", _REQ, "tangential stiffness (> 0)"),
+    ("scene.contact", "ku2", "N/m", "= ku", 'FE contacts with friction = "2d": tangential '
+                                            "stiffness along the second tangent n x t1"),
     ("scene.contact", "kv", "N/m", "0", "normal stiffness (kv > 0 needs normal DOFs)"),
     ("scene.contact", "mu", "1", _REQ, "friction coefficient"),
     ("scene.contact", "n0", "N", "the sweep's", "preload (< 0: a gap); a face's total"),
@@ -322,7 +324,8 @@ def _law_rows() -> list:
         out.append((f"scene.{table}", "name", "", f"{table}0, {table}1, …", "a name"))
         out += [(f"scene.{table}", k, "1", _REQ, f"{d}: DOFs with signs, as `tangential`")
                 for k, d in zip(law.study_rows, law.directions)]
-        out += [(f"scene.{table}", k, unit, _REQ if default is None else _fmt(default),
+        out += [(f"scene.{table}", k, unit, _REQ if default is None else
+                 f"= {default}" if isinstance(default, str) else _fmt(default),
                  getattr(law, "study_help", {}).get(k, f"{law.name} parameter"))
                 for k, (unit, default) in law.study_keys.items()]
     return out

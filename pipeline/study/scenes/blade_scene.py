@@ -376,7 +376,7 @@ def _face_contact(ck, c, f, i) -> FaceContact:
     if "interference" in c:
         ck.fail(f"{f}.interference", "an interference is of a shroud pair (pair = \"shroud\" "
                                      "between neighbouring blades), not of a face against a wall")
-    ck.keys(c, f, ("name", "face", "ku", "kv", "mu", "n0", "stiffness", "friction"),
+    ck.keys(c, f, ("name", "face", "ku", "kv", "mu", "n0", "stiffness", "friction", "ku2"),
             required=("face", "ku", "mu"))
     face = ck.string(c["face"], f"{f}.face", FACES)
     name = ck.string(c.get("name", face), f"{f}.name")
@@ -386,7 +386,7 @@ def _face_contact(ck, c, f, i) -> FaceContact:
     n0 = ck.number(c["n0"], f"{f}.n0") if "n0" in c else None
     stiffness = ck.string(c.get("stiffness", "per_node"), f"{f}.stiffness", STIFFNESS)
     return FaceContact(name=name, face=face, ku=ku, kv=kv, mu=mu, n0=n0, stiffness=stiffness,
-                       friction=blade_disk.parse_friction(ck, c, f))
+                       **blade_disk.parse_friction(ck, c, f))
 
 
 def _loads(ck, raw) -> tuple:

@@ -67,7 +67,7 @@ def parse_placement(ck, tab) -> tuple:
 def parse_pair(ck, c, f, i) -> ShroudPair:
     """A `[[scene.contact]]` with `pair = "shroud"`."""
     ck.keys(c, f, ("name", "pair", "ku", "kv", "mu", "n0", "stiffness", "tangent",
-                   "interference", "friction"), required=("pair", "ku", "mu"))
+                   "interference", "friction", "ku2"), required=("pair", "ku", "mu"))
     ck.string(c["pair"], f"{f}.pair", PAIRS)
     name = ck.string(c.get("name", "shroud"), f"{f}.name")
     tangent = None
@@ -84,15 +84,20 @@ def parse_pair(ck, c, f, i) -> ShroudPair:
                                           STIFFNESS),
                       interference=(ck.number(c["interference"], f"{f}.interference")
                                     if "interference" in c else None),
-                      friction=parse_friction(ck, c, f))
+                      **parse_friction(ck, c, f))
 
 
-def parse_friction(ck, c, f) -> str:
-    """A contact's `friction` ("1d" | "2d"); the 2D law needs mu > 0."""
+def parse_friction(ck, c, f) -> dict:
+    """A contact's `friction` ("1d" | "2d") and `ku2` (the 2D law's stiffness along the
+    second tangent; None: ku); the 2D law needs mu > 0."""
     friction = ck.string(c.get("friction", "1d"), f"{f}.friction", FRICTION)
     if friction == "2d":
         ck.number(c["mu"], f"{f}.mu", gt=0.0)
-    return friction
+    elif "ku2" in c:
+        ck.fail(f"{f}.ku2", "a stiffness along a second tangent is of friction = \"2d\" "
+                            "(slip in the face plane)")
+    ku2 = ck.number(c["ku2"], f"{f}.ku2", gt=0.0) if "ku2" in c else None
+    return {"friction": friction, "ku2": ku2}
 
 
 def check_friction(ck, contacts, effects, solver, spath):

@@ -43,7 +43,9 @@ def law_tables(ck, tab, dofs, effects, disk, signed_row) -> tuple:
             ck.string(c.get("name", f"{table}{i}"), f"{fi}.name", pattern=NAME_PATTERN)
             rows = tuple(signed_row(ck, c[r], f"{fi}.{r}", dofs, True)[None, :]
                          for r in cls.study_rows)
-            values = {k: ck.number(c.get(k, d), f"{fi}.{k}") for k, (_, d) in cls.study_keys.items()}
+            # a default naming another key takes that key's value (ku2 = ku)
+            values = {k: ck.number(c.get(k, c.get(d) if isinstance(d, str) else d), f"{fi}.{k}")
+                      for k, (_, d) in cls.study_keys.items()}
             try:
                 out.append(LawElements(cls.from_study(values), rows))
             except ValueError as exc:
