@@ -33,6 +33,7 @@ NLVIB_DS = 1.0                # NLvib step: its peaks within 0.1 % of ours (pipe
 # pyHarm's default step (1 rad/s here) misses the sharp peak at n = 1 N by a third; a
 # second row with the step that brings it within 0.2 % (ds0 = ds_max)
 PYHARM_FINE_DS = {1.0: 0.06}
+PYHARM_SAMPLES = 128          # pyHarm's AFT samples a period: ours with AFT at as many
 TIMEOUT = 900.0               # [s] per external curve
 
 
@@ -97,15 +98,18 @@ def available(nlvib_dir, pyharm_python):
     return why
 
 
-def ours(n, stability, repeat):
-    """Median wall time of `repeat` curves (the compiled kernels already loaded)."""
+def ours(n, stability, repeat, samples=None):
+    """Median wall time of `repeat` curves (the compiled kernels already loaded); exact
+    forces, or AFT with `samples` samples (pyHarm's way, at its 128)."""
     times = []
+    kw = {} if samples is None else {"method": "aft", "n_samples": samples}
     for _ in range(repeat):
         t = time.perf_counter()
-        c = frequency_response(example1(n), H, *OMEGA, stability=stability)
+        c = frequency_response(example1(n), H, *OMEGA, stability=stability, **kw)
         times.append(time.perf_counter() - t)
     a, om, _ = c.peak(0)
     tool = "ours" if stability else "ours, no Hill"
+    tool += "" if samples is None else f", AFT {samples}"
     status = "ok" if c.success else f"failed: {c.message[:60]}"
     return Row(n, tool, status, c.n_points, float(np.median(times)), peak=a, peak_omega=om)
 
@@ -114,10 +118,12 @@ def table(nlvib_dir=None, pyharm_python=None, loads=LOADS, repeat=3):
     """All rows, the tools interleaved load by load."""
     why = available(nlvib_dir, pyharm_python)
     frequency_response(example1(2.0), H, *OMEGA)  # warm-up: compiled kernels, caches
+    frequency_response(example1(2.0), H, *OMEGA, method="aft", n_samples=PYHARM_SAMPLES)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:  # the peers' working folder
         for n in loads:
-            rows += [ours(n, True, repeat), ours(n, False, repeat)]
+            rows += [ours(n, True, repeat), ours(n, False, repeat),
+                     ours(n, False, repeat, PYHARM_SAMPLES)]
             if why["NLvib"] is None:
                 rows.append(external(n, "NLvib", nlvib_command(nlvib_dir, n), tmp))
             if why["pyHarm"] is None:
@@ -156,8 +162,9 @@ def run(quick=False, nlvib=None, pyharm_python=None):
     load = lambda: ", ".join(f"{x:.2f}" for x in os.getloadavg())  # noqa: E731
     before = load()
     rows = table(nlvib, pyharm_python, repeat=1 if quick else 3)
-    print(f"Example 1, H = {H}, {OMEGA[0]:g}-{OMEGA[1]:g} rad/s: this pipeline (exact forces), "
-          f"NLvib and pyHarm (AFT, 128 samples); load average {before} (start), "
+    print(f"Example 1, H = {H}, {OMEGA[0]:g}-{OMEGA[1]:g} rad/s: this pipeline (exact forces; "
+          f"AFT at pyHarm's {PYHARM_SAMPLES} samples), NLvib and pyHarm (AFT, "
+          f"{PYHARM_SAMPLES} samples); load average {before} (start), "
           f"{load()} (end)")
     print("\n".join(format_rows(rows)))
     print(f"time: the curve, measured inside each tool (ours: median of {1 if quick else 3}); "

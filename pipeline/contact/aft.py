@@ -70,7 +70,7 @@ def aft_forces(U, V, elem: YangMenq, N: int, jacobian: bool = True) -> ContactFo
     X = np.zeros((E, 3, nc))
     X[:, 0], X[:, 2] = U, V
     c = march(np.stack([elem.ku, elem.ku], axis=1), elem.kv, elem.mu, elem.n0, X, int(N),
-              jacobian)
+              jacobian, planar=False)
     contact = c.state != 0
     stuck = (c.state == 1).all(axis=1)
     regimes = {"separated": int((~contact.any(1)).sum()), "stuck": int(stuck.sum()),

@@ -150,19 +150,6 @@ def stick_centres(u, r, tol, w, t, support):
         support[e] = sup
 
 
-def centre_sensitivity(stuck, p, y, support, S, k, c):
-    """dw0/dX (E, 2, 3 nh) of a fully stuck cycle's slider at the centre of the stick
-    discs (`stick_centres` in force units: points p = K u (E, 2, N), centre y = K w
-    (E, 2); k (E, 2) the tangential stiffnesses, c = mu kv (E,)), zero elsewhere (a
-    separation erases the start; an iterated fixed point is solved by
-    `kernel.tangential_jacobian`): `centre_derivative`."""
-    out = np.zeros((stuck.size, 2, 3 * S.shape[1]))
-    centre_derivative(np.ascontiguousarray(p), np.ascontiguousarray(y), support,
-                      np.ascontiguousarray(S), np.ascontiguousarray(k, float),
-                      np.asarray(c, float), stuck, out)
-    return out
-
-
 @njit(cache=True, error_model="numpy")
 def centre_derivative(u, w, support, S, k, c, stuck, out):
     """In force units (u the points K u_i, w the centre K w, radii mu n_i): with

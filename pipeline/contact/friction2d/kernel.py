@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from ...fourier.harmonics import harmonics_of, time_grid
-from .centre import centre_sensitivity, stick_centres
+from .centre import centre_derivative, stick_centres
 
 PERIOD_RTOL = 1e-13      # the slider's return to its start, of the largest motion
 MAX_PERIODS = 500
@@ -76,6 +76,13 @@ def slip_derivative(t1, t2, k1, k2, cap, G, h):
     (D f)^T / q, h = (K D f) cap / q, q = f . K D f, D = diag(1 / (1 + g k_i)).  Writes
     G = K^-1 M K (2, 2) (dw / dw_prev) and h / k_i into h (2,); returns the force and
     the new slider offset from u: (f1, f2)."""
+    if k1 == k2:            # the radial return: G = (cap / |t|) P, P = I - e e^T, h = e / k
+        size = np.sqrt(t1 * t1 + t2 * t2)
+        e1, e2, d = t1 / size, t2 / size, cap / size
+        G[0, 0], G[0, 1], G[1, 0], G[1, 1] = d * (1.0 - e1 * e1), -d * e1 * e2, -d * e1 * e2, \
+            d * (1.0 - e2 * e2)
+        h[0], h[1] = e1 / k1, e2 / k1
+        return cap * e1, cap * e2
     g = return_gamma(t1, t2, k1, k2, cap)
     d1, d2 = 1.0 / (1.0 + g * k1), 1.0 / (1.0 + g * k2)
     f1, f2 = t1 * d1, t2 * d2
@@ -125,7 +132,8 @@ def periodic_cycles(u, n, k, mu, w0, start, iterate, max_periods, tol, w, f, sta
     start when iterate[e] -- period maps w_0 -> w_N, each followed by a Newton step
     w_0 += (I - A)^-1 (w_N - w_0) while I - A is regular and the steps gain (else the
     plain step w_0 = w_N), until the slider returns to its start (to tol[e]), at most
-    max_periods; then one more period stored in w (E, 2, N), f (E, 2, N), state (E, N).  w0 is
+    max_periods; then one more period stored in w (E, 2, N), f[:, :2] (f: E, >= 2, N),
+    state (E, N).  w0 is
     updated to the periodic start; periods (E,) counts the periods marched."""
     E, _, N = u.shape
     ws = np.empty(2)
@@ -164,58 +172,67 @@ def periodic_cycles(u, n, k, mu, w0, start, iterate, max_periods, tol, w, f, sta
 
 
 @njit(cache=True, error_model="numpy")
-def sample_derivative(u1, u2, n, k1, k2, kv, mu, Si, w, dX, d0):
+def sample_derivative(u1, u2, n, k1, k2, kv, mu, Si, planar, w, dX, d0, G, h):
     """`sample` with forward derivatives of the slider: dX (2, 3 nh) w.r.t. the motion's
-    coefficients (tangent 1, tangent 2, normal blocks) and d0 (2, 2) w.r.t. the start;
-    all updated in place.  Returns the state."""
+    coefficients (tangent 1, tangent 2, normal blocks; not `planar`: the second block
+    is left alone) and d0 (2, 2) w.r.t. the start; all updated in place (G (2, 2),
+    h (2,): work space).  Returns the state."""
     nh = Si.size
-    m = dX.shape[1]
     if n <= 0.0:
         w[0], w[1] = u1, u2
-        for j in range(m):
-            dX[0, j] = 0.0
-            dX[1, j] = 0.0
         for j in range(nh):
-            dX[0, j] = Si[j]
-            dX[1, nh + j] = Si[j]
+            dX[0, j], dX[1, j] = Si[j], 0.0
+            dX[0, 2 * nh + j] = dX[1, 2 * nh + j] = 0.0
+            if planar:
+                dX[0, nh + j], dX[1, nh + j] = 0.0, Si[j]
         d0[0, 0] = d0[0, 1] = d0[1, 0] = d0[1, 1] = 0.0
         return 0
     t1, t2 = k1 * (u1 - w[0]), k2 * (u2 - w[1])
     cap = mu * n
     if not t1 * t1 + t2 * t2 > cap * cap:
         return 1
-    G = np.empty((2, 2))
-    h = np.empty(2)
     f1, f2 = slip_derivative(t1, t2, k1, k2, cap, G, h)
-    # dw = du - G (du - dw_prev) - (h / k) mu dn
-    for j in range(m):
-        du1 = Si[j] if j < nh else 0.0
-        du2 = Si[j - nh] if nh <= j < 2 * nh else 0.0
-        dc = mu * kv * Si[j - 2 * nh] if j >= 2 * nh else 0.0
-        r1, r2 = du1 - dX[0, j], du2 - dX[1, j]
-        dX[0, j] = du1 - (G[0, 0] * r1 + G[0, 1] * r2) - h[0] * dc
-        dX[1, j] = du2 - (G[1, 0] * r1 + G[1, 1] * r2) - h[1] * dc
+    # dw = du - G (du - dw_prev) - (h / k) mu dn, block by block of the columns
+    g00, g01, g10, g11 = G[0, 0], G[0, 1], G[1, 0], G[1, 1]
+    c0, c1 = h[0] * mu * kv, h[1] * mu * kv
+    for j in range(nh):
+        s = Si[j]
+        r1, r2 = s - dX[0, j], -dX[1, j]                      # tangent 1: du = (s, 0)
+        dX[0, j] = s - (g00 * r1 + g01 * r2)
+        dX[1, j] = -(g10 * r1 + g11 * r2)
+        q = 2 * nh + j                                         # normal: du = 0, dn = kv s
+        r1, r2 = -dX[0, q], -dX[1, q]
+        dX[0, q] = -(g00 * r1 + g01 * r2) - c0 * s
+        dX[1, q] = -(g10 * r1 + g11 * r2) - c1 * s
+        if planar:
+            q = nh + j                                         # tangent 2: du = (0, s)
+            r1, r2 = -dX[0, q], s - dX[1, q]
+            dX[0, q] = -(g00 * r1 + g01 * r2)
+            dX[1, q] = s - (g10 * r1 + g11 * r2)
     for j in range(2):
         r1, r2 = d0[0, j], d0[1, j]
-        d0[0, j] = G[0, 0] * r1 + G[0, 1] * r2
-        d0[1, j] = G[1, 0] * r1 + G[1, 1] * r2
+        d0[0, j] = g00 * r1 + g01 * r2
+        d0[1, j] = g10 * r1 + g11 * r2
     w[0], w[1] = u1 - f1 / k1, u2 - f2 / k2
     return 2
 
 
 @njit(cache=True, error_model="numpy")
-def tangential_jacobian(u, n, k, kv, mu, w0, start, fixed, dw0, S, W, J):
+def tangential_jacobian(u, n, k, kv, mu, w0, start, fixed, dw0, S, W, planar, J):
     """J[e, p] (p = 0..5: (t1, t1), (t1, t2), (t1, n), (t2, t1), (t2, t2), (t2, n)) of
     the tangential forces over the periodic cycle from w0 at `start`: the start's
-    sensitivity is dw0[e] (2, 3 nh), or, where `fixed`, the fixed point
-    (I - A)^-1 B of one period (A = dw_N/dw0, B = dw_N/dX), written into dw0."""
+    sensitivity is dw0[e] (2, 3 nh), or, where `fixed`, the fixed point (I - A)^-1 B
+    of one period (A = dw_N/dw0, B = dw_N/dX), written into dw0 (a first pass).  Not
+    `planar` (motion along tangent 1 only, the 1D element): only the blocks (t1, t1)
+    and (t1, n), the others being zero."""
     E, _, N = u.shape
     nh = S.shape[1]
     m = 3 * nh
-    w = np.empty(2)
-    dX = np.empty((2, m))
-    d0 = np.empty((2, 2))
-    buf = np.empty((N, 2 * m))      # df of each sample: rows of the product with W
+    cols = np.arange(m) if planar else np.concatenate((np.arange(nh), np.arange(2 * nh, m)))
+    rows, mc = (2 if planar else 1), cols.size
+    w, dX, d0 = np.empty(2), np.empty((2, m)), np.empty((2, 2))
+    G, h = np.empty((2, 2)), np.empty(2)
+    buf = np.empty((N, rows * mc))      # df of each sample: rows of the product with W
     for e in range(E):
         for rep in range(2 if fixed[e] else 1):
             w[0], w[1] = w0[e, 0], w0[e, 1]
@@ -223,35 +240,39 @@ def tangential_jacobian(u, n, k, kv, mu, w0, start, fixed, dw0, S, W, J):
             d0[:] = 0.0
             d0[0, 0] = d0[1, 1] = 1.0
             last = rep == (1 if fixed[e] else 0)
-            if last:
-                buf[:] = 0.0
             for step in range(N):
                 i = (start[e] + step) % N
-                s = sample_derivative(u[e, 0, i], u[e, 1, i], n[e, i], k[e, 0], k[e, 1], kv[e],
-                                      mu[e], S[i], w, dX, d0)
-                if not last or s == 0:
+                s = sample_derivative(u[e, 0, i], u[e, 1, i], n[e, i], k[e, 0], k[e, 1],
+                                      kv[e], mu[e], S[i], planar, w, dX, d0, G, h)
+                if not last:
                     continue
-                for a in range(2):
-                    for j in range(m):
-                        buf[i, a * m + j] = -k[e, a] * (dX[a, j] + d0[a, 0] * dw0[e, 0, j]
-                                                      + d0[a, 1] * dw0[e, 1, j])
-                    for j in range(nh):
-                        buf[i, a * m + a * nh + j] += k[e, a] * S[i, j]
+                for a in range(rows):
+                    ka = k[e, a]
+                    if s == 0:
+                        buf[i, a * mc:(a + 1) * mc] = 0.0
+                        continue
+                    da0, da1 = d0[a, 0], d0[a, 1]
+                    for c in range(mc):
+                        j = c if planar else cols[c]
+                        buf[i, a * mc + c] = -ka * (dX[a, j] + da0 * dw0[e, 0, j]
+                                                    + da1 * dw0[e, 1, j])
+                    for jj in range(nh):      # + ka du_a: column a nh + jj (at c = jj for a = 0)
+                        buf[i, a * mc + a * nh + jj] += ka * S[i, jj]
             if not last:      # the fixed point of the period map
                 M = np.eye(2) - d0
                 if abs(M[0, 0] * M[1, 1] - M[0, 1] * M[1, 0]) > 1e-10:
                     Minv = np.linalg.inv(M)
                 else:   # a neutral direction (slip one way only): the slider stays put there
                     Minv = np.linalg.pinv(M)
-                for j in range(m):
+                for j in cols:
                     dw0[e, 0, j] = Minv[0, 0] * dX[0, j] + Minv[0, 1] * dX[1, j]
                     dw0[e, 1, j] = Minv[1, 0] * dX[0, j] + Minv[1, 1] * dX[1, j]
-        out = np.dot(W, buf)         # (nh, 2 m): W df
-        for a in range(2):
-            for b in range(3):
+        out = np.dot(W, buf)         # (nh, rows mc): W df
+        for a in range(rows):
+            for c in range(mc):
+                b, jj = cols[c] // nh, cols[c] % nh
                 for r in range(nh):
-                    for jj in range(nh):
-                        J[e, 3 * a + b, r, jj] = out[r, a * m + b * nh + jj]
+                    J[e, 3 * a + b, r, jj] = out[r, a * mc + c]
 
 
 # -- the march of one period: periodic start, forces, Jacobian ----------------------
@@ -273,52 +294,72 @@ class Cycle2D:
     regimes: dict
 
 
-def march(k, kv, mu, n0, X, N: int, jacobian: bool = True) -> "Cycle2D":
+@njit(cache=True, error_model="numpy")
+def cycle_kernel(u, n, k, kv, mu, S, W, jacobian, planar, w, f, state, periods, J):
+    """The whole evaluation of `march` past the synthesis, compiled: per element the
+    start (a separated sample, else the centre of the stick discs in force units,
+    `centre.stick_centres`), the periodic cycle (`periodic_cycles`) into w, f (E, 3, N)
+    (the normal force max(n, 0) in row 2), state, periods, and with `jacobian` the
+    tangential blocks of J (`tangential_jacobian`, the stuck start's sensitivity from
+    `centre.centre_derivative`; not `planar`: the 1D element's blocks only).  Returns
+    (separating, stuck, slipping) counts."""
+    E, _, N = u.shape
+    m = 3 * S.shape[1]
+    touch = np.ones(E, np.bool_)
+    start = np.zeros(E, np.int64)
+    cap, p = np.empty((E, N)), np.empty((E, 2, N))
+    ptol, ftol = np.empty(E), np.empty(E)
+    for e in range(E):
+        umax = pmax = cmax = 0.0
+        for i in range(N):
+            c = mu[e] * max(n[e, i], 0.0)
+            cap[e, i] = c
+            f[e, 2, i] = max(n[e, i], 0.0)
+            if n[e, i] <= 0.0 and touch[e]:
+                touch[e], start[e] = False, i
+            for d in range(2):
+                p[e, d, i] = k[e, d] * u[e, d, i]
+                umax, pmax = max(umax, abs(u[e, d, i])), max(pmax, abs(p[e, d, i]))
+            cmax = max(cmax, c)
+        ptol[e] = PERIOD_RTOL * (umax + cmax / min(k[e, 0], k[e, 1]) + 1e-300)
+        ftol[e] = CENTRE_RTOL * (pmax + cmax + 1e-300)
+    y, depth, support = np.empty((E, 2)), np.empty(E), np.empty((E, 3), np.int64)
+    stick_centres(p, cap, ftol, y, depth, support)
+    stuck = touch & (depth < 0.0)
+    iterate = touch & ~stuck
+    w0 = np.empty((E, 2))
+    for e in range(E):
+        for d in range(2):
+            w0[e, d] = y[e, d] / k[e, d] if touch[e] else u[e, d, start[e]]
+    periodic_cycles(u, n, k, mu, w0, start, iterate, MAX_PERIODS, ptol, w, f, state, periods)
+    if jacobian:
+        dw0 = np.zeros((E, 2, m))
+        centre_derivative(p, y, support, S, k, mu * kv, stuck, dw0)
+        tangential_jacobian(u, n, k, kv, mu, w0, start, iterate, dw0, S, W, planar, J)
+    return E - touch.sum(), stuck.sum(), iterate.sum()
+
+
+def march(k, kv, mu, n0, X, N: int, jacobian: bool = True, planar: bool = True) -> "Cycle2D":
     """The periodic cycle of elements with the tangential stiffnesses k (E, 2) [N/m]
     along the two tangents, kv, mu, n0 (E,) for the motion X (E, 3, 2H+1) on N samples
     (`friction2d.law`'s module docstring): also the 1D element's AFT (`contact.aft`),
-    with X[:, 1] = 0."""
+    with X[:, 1] = 0 and not `planar` (the Jacobian's blocks of tangent 1 and the
+    normal only: the others vanish for such motion)."""
     E, _, nh = X.shape
-    H = harmonics_of(nh)
-    _, S, W = time_grid(H, N)
-    k = np.ascontiguousarray(k, float)
-    u = X[:, :2] @ S.T                                     # (E, 2, N)
+    _, S, W = time_grid(harmonics_of(nh), N)
+    u = np.ascontiguousarray(X[:, :2] @ S.T)               # (E, 2, N)
     v = X[:, 2] @ S.T                                      # (E, N)
     n = n0[:, None] + kv[:, None] * v
-    touch = n > 0.0
-    cap = mu[:, None] * np.maximum(n, 0.0)
-    start = np.where(~touch.all(axis=1), (~touch).argmax(axis=1), 0)
-    scale = np.abs(u).max(axis=(1, 2)) + (cap / k.min(axis=1)[:, None]).max(axis=1) + 1e-300
-    # the stick discs |K (u_i - w)| <= mu n_i: in force units, points K u_i, centre K w
-    p = np.ascontiguousarray(k[:, :, None] * u)
-    y, depth, support = np.empty((E, 2)), np.empty(E), np.empty((E, 3), np.int64)
-    stick_centres(p, np.ascontiguousarray(cap), CENTRE_RTOL * (np.abs(p).max(axis=(1, 2))
-                                                              + cap.max(axis=1) + 1e-300),
-                  y, depth, support)
-    stuck = touch.all(axis=1) & (depth < 0.0)
-    w0 = np.where((~touch.all(axis=1))[:, None], u[np.arange(E), :, start], y / k)
-    iterate = touch.all(axis=1) & ~stuck
-    w, f_t, state = np.empty((E, 2, N)), np.empty((E, 2, N)), np.empty((E, N), np.int64)
+    w, f, state = np.empty((E, 2, N)), np.empty((E, 3, N)), np.empty((E, N), np.int64)
     periods = np.zeros(E, np.int64)
-    w0 = np.ascontiguousarray(w0)
-    periodic_cycles(np.ascontiguousarray(u), np.ascontiguousarray(n), k, mu, w0,
-                    start.astype(np.int64), iterate, MAX_PERIODS, PERIOD_RTOL * scale,
-                    w, f_t, state, periods)
-    if iterate.any() and np.any(periods[iterate] >= MAX_PERIODS):
+    J = np.zeros((E, 7, nh, nh)) if jacobian else np.zeros((0, 7, nh, nh))
+    sep, stuck, slip = cycle_kernel(u, n, np.ascontiguousarray(k, float), kv, mu, S, W,
+                                    bool(jacobian), bool(planar), w, f, state, periods, J)
+    if slip and periods.max() >= MAX_PERIODS:
         raise RuntimeError(f"2D friction: the slider did not return to its start in "
                            f"{MAX_PERIODS} periods")
-    f = np.concatenate([f_t, np.maximum(n, 0.0)[:, None]], axis=1)
-    F = f @ W.T
-    J = None
     if jacobian:
-        nh = S.shape[1]
-        J = np.zeros((E, 7, nh, nh))
-        dw0 = centre_sensitivity(stuck, p, y, support, S, k, mu * kv)
-        tangential_jacobian(np.ascontiguousarray(u), np.ascontiguousarray(n), k, kv, mu, w0,
-                            start.astype(np.int64), touch.all(axis=1) & ~stuck,
-                            dw0, np.ascontiguousarray(S), np.ascontiguousarray(W), J)
-        J[:, 6] = (W[None] * (touch * kv[:, None])[:, None, :]) @ S
-    regimes = {"separating": int((~touch).any(axis=1).sum()), "stuck": int(stuck.sum()),
-               "slipping": int((touch.all(axis=1) & ~stuck).sum()),
+        J[:, 6] = (W[None] * ((n > 0.0) * kv[:, None])[:, None, :]) @ S
+    regimes = {"separating": int(sep), "stuck": int(stuck), "slipping": int(slip),
                "periods_max": int(periods.max(initial=0))}
-    return Cycle2D(u, v, w, f, state, periods, F, J, regimes)
+    return Cycle2D(u, v, w, f, state, periods, f @ W.T, J if jacobian else None, regimes)
