@@ -139,10 +139,10 @@ def table(nlvib_dir=None, pyharm_python=None, loads=LOADS, repeat=3):
 def format_rows(rows):
     """The table's lines; peak difference and time ratios against ours (Hill on)."""
     ref = {r.n: r for r in rows if r.tool == "ours"}
-    lines = [f"{'n N':>4} {'tool':<14} {'points':>6} {'time s':>7} {'total s':>7} "
+    lines = [f"{'n N':>4} {'tool':<24} {'points':>6} {'time s':>7} {'total s':>7} "
              f"{'peak m':>10} {'at rad/s':>9} {'d peak':>8} {'d rad/s':>7} {'time/ours':>9}"]
     for r in rows:
-        head = f"{r.n:4g} {r.tool:<14}"
+        head = f"{r.n:4g} {r.tool:<24}"
         if r.status != "ok":
             lines.append(f"{head} {r.status}")
             continue

@@ -22,9 +22,14 @@ def test_bench_peers_prints_our_rows_and_the_missing_peers(no_peers, capsys):
     for n in ("1", "2", "5"):
         ours = [line.split() for line in out.splitlines() if line.split()[:2] == [n, "ours"]]
         assert len(ours) == 1 and int(ours[0][2]) > 50        # points
-        assert float(ours[0][5]) > 0                          # peak amplitude
-    assert out.count("NLvib          not installed") == 3
-    assert out.count("pyHarm         not installed") == 3
+        assert float(ours[0][4]) > 0                          # peak amplitude [m]
+        aft = [line.split() for line in out.splitlines()
+               if line.split()[:6] == [n, "ours,", "no", "Hill,", "AFT", "128"]]
+        assert len(aft) == 1       # the same curve at pyHarm's samples: peak within 1e-3
+        assert float(aft[0][8]) == pytest.approx(float(ours[0][4]), rel=1e-3)
+    for peer in ("NLvib", "pyHarm"):
+        assert sum(line.split()[1:4] == [peer, "not", "installed"]
+                   for line in out.splitlines()) == 3
 
 
 def test_bench_peers_peak_matches_the_example1_bench():
