@@ -7,17 +7,20 @@
 %   friction limit force mu n with mu = 0.5 (NLvib type 'elasticDryFriction').
 %
 % NLvib's HB_residual (AFT, N = 128 samples per period, two periods marched for
-% the hysteresis) and its arc-length solve_and_continue with step ds (default 1,
-% bounds ds/5 and 5 ds; unknowns scaled: harmonics by qscale, default 1e-3 m, Om by
-% 150 rad/s).  Prints one line
+% the hysteresis) and its arc-length solve_and_continue set up as NLvib's own
+% examples do: the harmonics scaled by the magnitude of the linear response at the
+% start (qscl = |Q1|, examples 06 and 08) and the scaling adapted along the branch
+% ('dynamicDscale', example 03), Om by the start frequency; step ds (default 3,
+% bounds ds/5 and 5 ds), Newton (fsolve) to TolFun = TolX = tol (default 1e-9).
+% Prints one line
 %   RESULT n points seconds peak_amplitude peak_omega residual_evaluations final_omega
 % seconds: the initial solution and the continuation, measured here (Octave's
 % start-up and the path set-up excluded); amplitude: half peak-to-peak of x(t).
 %
 % Usage: octave --no-gui --quiet --eval "nlvib_example1('/path/to/NLvib', n)"
-function nlvib_example1(nlvib_dir, n, ds, qscale)
-  if nargin < 3, ds = 1; end
-  if nargin < 4, qscale = 1e-3; end
+function nlvib_example1(nlvib_dir, n, ds, tol)
+  if nargin < 3, ds = 3; end
+  if nargin < 4, tol = 1e-9; end
   addpath(fullfile(nlvib_dir, 'SRC'));
   addpath(fullfile(nlvib_dir, 'SRC', 'MechanicalSystems'));
   m = 1; c = 0.3; k = 3.55e4; ku = 1e4; mu = 0.5; F0 = 1;
@@ -32,9 +35,11 @@ function nlvib_example1(nlvib_dir, n, ds, qscale)
   x0 = zeros(2 * H + 1, 1);
   x0(2) = real(Q1); x0(3) = -imag(Q1);
 
-  Sopt = struct('Dscale', [qscale * ones(size(x0)); Om_s]);
-  % NLvib's default solver options, spelled for Octave (optimset(@fsolve) is MATLAB's)
-  Solopt = optimset('Display', 'off', 'Jacobian', 'on', 'MaxIter', 50);
+  qscale = abs(Q1);
+  Sopt = struct('Dscale', [qscale * ones(size(x0)); Om_s], 'dynamicDscale', 1);
+  % NLvib's default solver options (optimset(@fsolve) is MATLAB's) with the tolerance
+  Solopt = optimset('Display', 'off', 'Jacobian', 'on', 'MaxIter', 50, ...
+                    'TolFun', tol, 'TolX', tol);
   t0 = tic;
   [X, Solinfo] = solve_and_continue(x0, ...
       @(X) HB_residual(X, oscillator, H, N, 'frf'), Om_s, Om_e, ds, Sopt, [], Solopt);
