@@ -12,9 +12,9 @@ ElasticDryFriction2D)
 K = diag(ku, ku2) (ku2 = ku: isotropic; two values where the face is stiffer one way),
 
 an elastic - perfectly plastic slider on the Coulomb disc: it sticks while the trial
-force ku (u - w) lies inside the disc of radius mu n, otherwise the slider moves so
-that the force stays on the circle and the slider moves along the force (Coulomb:
-the friction force opposes the slip).  The return mapping is the closest point of
+force K (u - w) lies inside the disc of radius mu n, otherwise the slider moves so
+that the force stays on the circle, the slider moving along the force (Coulomb: the
+friction force opposes the slip).  The return mapping is the closest point of
 the disc to the trial force t in the energy norm f K^-1 f: f_i = t_i / (1 + g k_i),
 g >= 0 the root of |f| = mu n (`kernel.return_gamma`); isotropic, f = mu n e and
 w = u - (mu n / ku) e, e the unit trial direction.  Separated (n <= 0) the
@@ -34,9 +34,10 @@ For motion along one tangent each rule is the 1D AFT element's, so the law reduc
 the Yang-Menq element (`contact.aft`) sample for sample.
 
 Jacobian: forward derivatives along the march (stick keeps dw, slip differentiates
-the return mapping, separation sets dw = du), and at a periodic fixed point reached by
-iteration the start's sensitivity dw0 = (I - A)^-1 B from one more period (A = dw_N/dw0,
-B = dw_N/dX); F = W f, dF/dX = W df/dX.
+the return mapping -- g implicitly, `kernel.slip_derivative` --, separation sets
+dw = du), and at a periodic fixed point reached by iteration the start's sensitivity
+dw0 = (I - A)^-1 B from one more period (A = dw_N/dw0, B = dw_N/dX); F = W f,
+dF/dX = W df/dX.
 """
 from __future__ import annotations
 

@@ -9,7 +9,9 @@ whichever basin its first golden-section points fall in.  `global_minimum` there
    (log spacing: bounds span decades) or t = n0: `grid_nodes` gives
    N + 1 = max(MIN_NODES, ceil(PER_DECADE log10(hi / lo)) + 1) evenly spaced nodes,
    plus the `extra_nodes` inside the bounds (the study's own cases, whose peaks are
-   known: free nodes);
+   known: free nodes), each of which replaces a regular node closer than SNAP of the
+   spacing (a case at 3 N stands for the node at 3.16 N: one continuation fewer, the
+   largest gap (1 + SNAP) spacings);
 2. brackets every local minimum of the sampled curve: a node i with
    p_i < p_(i-1) and p_i <= p_(i+1) (an end node against its one neighbour), unless
    it is flat (both sides within FLAT_REL relative: a stuck or open plateau, not a
@@ -24,13 +26,13 @@ whichever basin its first golden-section points fall in.  `global_minimum` there
 Assumption (when a minimum can still be missed): the global minimum's basin must hold
 a grid node whose value is below the nodes on either side, i.e. the interval around
 the minimiser over which p is lower than both neighbouring nodes must be wider than
-the node spacing (1 / PER_DECADE decades with log spacing).  A dip narrower than the
+the largest node gap ((1 + SNAP) / PER_DECADE decades with log spacing).  A dip narrower than the
 spacing can fall between two nodes whose values both exceed those of another basin;
 the grid then never brackets it and the search returns the best minimum it did
 bracket.  Friction-damper peaks vary smoothly with log n0 over a fraction of a decade
 or more (the slip onset moves with n0 / mu ku), so PER_DECADE = 4 (factor 1.78
 between nodes) resolves the two basins of the shrouded disk (1.44 N and 6.14 N, a
-factor 4.3 apart): nodes 1.78 N and 5.62 N fall in them, 3 N and 3.16 N between.
+factor 4.3 apart): nodes 1.78 N and 5.62 N fall in them, the case at 3 N between.
 
 The function is evaluated through a memo keyed by the exact preload: `known` values
 (the study's case curves, a checkpoint of an interrupted search) are never
@@ -49,6 +51,7 @@ logger = logging.getLogger(__name__)
 PER_DECADE = 4          # grid nodes per decade of preload (log spacing)
 MIN_NODES = 7           # at least this many grid nodes however narrow the bounds
 REFINE = 10             # Brent's xatol = rtol / REFINE (module docstring)
+SNAP = 1.0 / 3.0        # an extra node replaces a regular one this close (of the spacing)
 FLAT_REL = 1e-7         # a local minimum shallower than this (relative) is a plateau
 GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))
 SQRT_EPS = math.sqrt(np.finfo(float).eps)
@@ -59,7 +62,8 @@ def grid_nodes(lo: float, hi: float, *, log: bool = True, per_decade: float = PE
                min_nodes: int = MIN_NODES, extra=()) -> np.ndarray:
     """Sorted preloads [N] of the search grid: N + 1 = max(min_nodes, ceil(per_decade
     log10(hi / lo)) + 1) nodes evenly spaced in ln n0 (`log`) or in n0 from lo to hi,
-    plus the `extra` preloads inside [lo, hi]; duplicates (relative 1e-12) once."""
+    plus the `extra` preloads inside [lo, hi], each replacing the regular nodes (not
+    the bounds) closer than SNAP of the spacing; duplicates (relative 1e-12) once."""
     lo, hi = float(lo), float(hi)
     if not lo < hi or (log and lo <= 0):
         raise ValueError(f"bounds must satisfy {'0 < ' if log else ''}low < high, got "
@@ -69,6 +73,13 @@ def grid_nodes(lo: float, hi: float, *, log: bool = True, per_decade: float = PE
     base = np.exp(np.linspace(math.log(lo), math.log(hi), n)) if log else np.linspace(lo, hi, n)
     base[0], base[-1] = lo, hi      # exactly the bounds (exp(ln x) may round)
     more = [float(x) for x in extra if lo <= float(x) <= hi]
+    if more and n > 2:
+        t = np.log(base) if log else base
+        tm = np.log(more) if log else np.asarray(more)
+        gap = SNAP * (t[-1] - t[0]) / (n - 1)
+        near = np.abs(t[:, None] - tm[None, :]).min(axis=1) < gap
+        near[[0, -1]] = False
+        base = base[~near]
     nodes = np.sort(np.concatenate([base, np.asarray(more, dtype=float)]))
     keep = np.concatenate([[True], np.diff(nodes) > 1e-12 * np.abs(nodes[1:])])
     # a node within 1e-12 of an extra one: keep the extra one (its value is known)

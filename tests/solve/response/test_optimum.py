@@ -94,12 +94,18 @@ def test_a_dip_narrower_than_the_grid_spacing_can_be_missed():
 
 def test_grid_nodes_log_spaced_with_the_cases_added():
     """[0.1, 100] N spans 3 decades: 13 nodes a factor 10^(1/4) apart, the bounds
-    exactly; cases inside the bounds join (1 N already is a node: once)."""
+    exactly; cases inside the bounds join (1 N already is a node: once), each in place
+    of a regular node within a third of the spacing (0.3 N for 0.316 N, 3 N for 3.16 N;
+    2.4 N, half a spacing from 1.78 N and 3.16 N, joins beside them); the bounds stay."""
     g = grid_nodes(0.1, 100.0)
     assert g.size == 13 and g[0] == 0.1 and g[-1] == 100.0
     np.testing.assert_allclose(np.diff(np.log10(g)), 0.25, rtol=1e-12)
     h = grid_nodes(0.1, 100.0, extra=[0.3, 1.0, 3.0, 1000.0])
-    assert h.size == 15 and 0.3 in h and 3.0 in h and 1000.0 not in h
+    assert h.size == 13 and 0.3 in h and 3.0 in h and 1000.0 not in h
+    assert not np.any(np.isclose(h, 10 ** -0.5)) and not np.any(np.isclose(h, 10 ** 0.5))
+    assert np.diff(np.log10(h)).max() <= 0.25 * (1 + 1 / 3)
+    k = grid_nodes(0.1, 100.0, extra=[2.4, 0.105])
+    assert k.size == 15 and 2.4 in k and np.any(np.isclose(k, 10 ** 0.25)) and k[0] == 0.1
     assert grid_nodes(2.0, 5.0).size == 7                 # at least MIN_NODES
     np.testing.assert_allclose(np.diff(grid_nodes(2.0, 5.0, log=False)), 0.5)
 
