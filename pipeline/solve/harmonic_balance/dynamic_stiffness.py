@@ -29,7 +29,8 @@ decided once per problem (`prepare`), by the storage of the matrices:
               S and dS formed here and passed to the algebra of `interior`
     "dense"   dense otherwise (every DOF a contact DOF, or a K_next coupling)
     "parts"   sparse, the interior falls into equal independent parts (`parts`)
-    "sparse"  sparse otherwise: one sparse LU per harmonic.
+    "sparse"  sparse otherwise: one sparse LU per harmonic, the blocks of K, M, C
+              cut once (`sparse_blocks`).
 
 The operators of all DOFs in the real layout (Hill's method, the full residual) are
 `full_operator` and `apply_full`: K (x) I + Om C (x) D + Om^2 M (x) D^2.
@@ -46,39 +47,10 @@ from ...fourier.harmonics import complex_harmonics, derivative_matrix
 from ...model.system import coupled_stiffness, dense
 from .interior import condense_blocks, interior_blocks
 from .parts import PartBlocks, part_blocks
+from .sparse_blocks import SparseBlocks, sparse_blocks
+from .terms import Term
 
 STRATEGIES = ("blocks", "dense", "parts", "sparse")
-
-
-@dataclass(frozen=True, eq=False)
-class Term:
-    """An added linear term a A of the dynamic stiffness, a = w^power Omega^omega_power
-    (times i if imag), w = h Omega: Omega^q A d^p q/dt^p is Term(A (-1)^(p//2), p, p odd,
-    q)."""
-
-    matrix: object        # (n, n), dense or scipy.sparse, as the system's matrices
-    power: int            # power of w = h Omega (>= 1)
-    imag: bool = False    # multiplied by i
-    omega_power: int = 0  # power of Omega itself (a matrix proportional to Omega^q)
-
-    def __post_init__(self):
-        if int(self.power) < 1:
-            raise ValueError(f"a term's power of h Omega must be >= 1, got {self.power}")
-
-    def factor(self, w, Om):
-        """a at w = h Omega."""
-        a = w ** self.power
-        if self.omega_power:
-            a = a * Om ** self.omega_power
-        return 1j * a if self.imag else a
-
-    def rate(self, h, w, Om):
-        """da/dOmega = h p w^(p-1) Omega^q + q w^p Omega^(q-1) (times i)."""
-        p, q = self.power, self.omega_power
-        a = h * p * w ** (p - 1)
-        if q:
-            a = a * Om ** q + q * w ** p * Om ** (q - 1)
-        return 1j * a if self.imag else a
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,7 +67,7 @@ class DynamicStiffness:
     K: object              # stiffness of each harmonic: (H+1, n, n) dense, or a tuple
     loads: np.ndarray      # (H+1, n) complex load of each harmonic [N]
     extra: tuple = ()      # added `Term`s
-    blocks: object = None  # interior.InteriorBlocks ("blocks") or parts.PartBlocks ("parts")
+    blocks: object = None  # interior.InteriorBlocks, parts.PartBlocks or sparse_blocks.SparseBlocks
 
     @property
     def parts(self) -> PartBlocks | None:
@@ -148,6 +120,7 @@ def prepare(sys, H: int, c, o, P, extra=(), strategy: str | None = None) -> Dyna
                       for t in extra)
     else:
         M, C, K = sys.M, sys.C, tuple(harmonic_stiffnesses(sys, H))
+        blocks = sparse_blocks(K, M, C, xs, c, o) if strategy == "sparse" else blocks
     return DynamicStiffness(strategy, int(H), c, o, M, C, K, complex_loads(P), extra, blocks)
 
 
@@ -308,11 +281,21 @@ def _condense_dense(ds: DynamicStiffness, Om: float, derivatives: bool):
     return St, dSt, Pt, dPt
 
 
-def _block(S, c, o):
-    if sp.issparse(S):
-        S = S.tocsr()
-        return (S[c][:, c].toarray(), S[c][:, o], S[o][:, c], S[o][:, o].tocsc())
-    return S[np.ix_(c, c)], S[np.ix_(c, o)], S[np.ix_(o, c)], S[np.ix_(o, o)]
+def _block(ds, h, Om, rate=False):
+    """(S_cc, S_co, S_oc, S_oo) of harmonic h (rate: of dS_h/dOmega) of the sparse
+    strategy: from the blocks cut once, else (a dense K_h; "parts") sliced from S_h."""
+    b, c, o = ds.blocks, ds.c, ds.o
+    if not isinstance(b, SparseBlocks):
+        S = sparse_derivative(ds, h, Om) if rate else sparse_stiffness(ds, h, Om)
+        if sp.issparse(S):
+            S = S.tocsr()
+            return (S[c][:, c].toarray(), S[c][:, o], S[o][:, c], S[o][:, o].tocsc())
+        return S[np.ix_(c, c)], S[np.ix_(c, o)], S[np.ix_(o, c)], S[np.ix_(o, o)]
+    pairs = [[(A[k], a) for A, (_, a) in zip(b.extra, _pairs(ds.extra, h, Om, rate))]
+             for k in range(4)]
+    if rate:
+        return tuple(harmonic_rate(b.M[k], b.C[k], h, Om, pairs[k]) for k in range(4))
+    return tuple(at_harmonic(b.K[h][k], b.M[k], b.C[k], h, Om, pairs[k]) for k in range(4))
 
 
 def _dense_c(A):
@@ -339,23 +322,22 @@ def _condense_sparse(ds: DynamicStiffness, Om: float, derivatives: bool):
     c, o = ds.c, ds.o
     St, dSt, Pt, dPt = [], [], [], []
     for h in range(ds.H + 1):
-        S = sparse_stiffness(ds, h, Om)
         Ph = ds.loads[h]
         if o.size == 0:
-            St.append(np.asarray(_dense_c(S))[np.ix_(c, c)])
+            St.append(np.asarray(_dense_c(sparse_stiffness(ds, h, Om)))[np.ix_(c, c)])
             Pt.append(Ph[c])
             if derivatives:
                 dSt.append(np.asarray(_dense_c(sparse_derivative(ds, h, Om)))[np.ix_(c, c)])
                 dPt.append(np.zeros(c.size, complex))
             continue
-        Scc, Sco, Soc, Soo = _block(S, c, o)
+        Scc, Sco, Soc, Soo = _block(ds, h, Om)
         lu = _Solver(Soo)
         sol = lu.solve(np.column_stack([_dense_c(Soc), Ph[o][:, None]]))
         X, z = sol[:, :-1], sol[:, -1]           # X = Soo^-1 Soc, z = Soo^-1 P_o
         St.append(Scc - Sco @ X)
         Pt.append(Ph[c] - Sco @ z)
         if derivatives:
-            dScc, dSco, dSoc, dSoo = _block(sparse_derivative(ds, h, Om), c, o)
+            dScc, dSco, dSoc, dSoo = _block(ds, h, Om, rate=True)
             # Y = Sco Soo^-1 via the transposed solve: Y^T = Soo^-T Sco^T
             Y = lu.solve_T(_dense_c(Sco).T).T
             dSt.append(dScc - dSco @ X - Y @ _dense_c(dSoc) + Y @ (dSoo @ X))
@@ -414,10 +396,18 @@ def recover(ds: DynamicStiffness, Qc, Om: float) -> np.ndarray:
         Q[o, 0] = Qo[0].real
         Q[o, 1::2], Q[o, 2::2] = Qo[1:].real.T, -Qo[1:].imag.T
         return Q
+    pb = ds.parts
     for h in range(H + 1):
-        _, _, Soc, Soo = _block(sparse_stiffness(ds, h, Om), c, o)
         Qh = Qc[:, 0].astype(complex) if h == 0 else Qc[:, 2 * h - 1] - 1j * Qc[:, 2 * h]
-        Qo = _Solver(Soo).solve(ds.loads[h][o] - Soc @ Qh)
+        if pb is not None:       # part by part, batched dense solves (as `condense_parts`)
+            Soo, Soc = (at_frequency(*b[:3], h * Om, _pairs(ds.extra, h, Om, matrices=b[3:]))
+                        for b in (pb.oo, pb.oc))
+            rhs = ds.loads[h][pb.o] - (Soc @ Qh[pb.ck][..., None])[..., 0]
+            Qo = np.empty(o.size, complex)
+            Qo[np.searchsorted(o, pb.o.ravel())] = np.linalg.solve(Soo, rhs[..., None]).ravel()
+        else:
+            _, _, Soc, Soo = _block(ds, h, Om)
+            Qo = _Solver(Soo).solve(ds.loads[h][o] - Soc @ Qh)
         if h == 0:
             Q[o, 0] = Qo.real
         else:
