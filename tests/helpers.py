@@ -219,6 +219,16 @@ def stuck_stiffness(s):
             + Bn.conj().T @ ((el.kv * (el.n0 > 0))[:, None] * Bn))
 
 
+def plane_motion(a1, a2, av, nh):
+    """One 2D friction element's motion (1, 3, nh): tangents with first and second
+    harmonics of amplitudes a1, a2 and no symmetry (no tied extrema), the normal av."""
+    X = np.zeros((1, 3, nh))
+    X[0, 0, 1], X[0, 0, 4], X[0, 1, 2], X[0, 1, 3] = a1, 0.2 * a1, a2, 0.3 * a2
+    X[0, 0, 2], X[0, 1, 1] = 0.13 * a1, 0.17 * a2
+    X[0, 2, 1], X[0, 2, 2] = av, 0.5 * av
+    return X
+
+
 def law_jacobian_errors(law, X, n_samples, h):
     """{(d, d'): max |J - central differences|} [N/m] of element 0 of a contact law at
     the motion X (E, D, 2H+1), step h [m] on each coefficient of X[0, d']."""

@@ -16,7 +16,7 @@ from pipeline.contact.exact import exact_forces
 from pipeline.contact.friction2d.law import Friction2D
 from pipeline.fourier.harmonics import time_grid
 
-from helpers import law_jacobian_errors
+from helpers import law_jacobian_errors, plane_motion
 
 KU, KV, MU = 1.0e4, 1.0e4, 0.5
 H = 3
@@ -168,10 +168,7 @@ CASES = {   # (tangential amplitudes, normal amplitude, n0): the cycle's charact
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_jacobian_against_central_differences(case):
     (a1, a2), av, n0 = CASES[case]
-    X = np.zeros((1, 3, NH))
-    X[0, 0, 1], X[0, 0, 4], X[0, 1, 2], X[0, 1, 3] = a1, 0.2 * a1, a2, 0.3 * a2
-    X[0, 0, 2], X[0, 1, 1] = 0.13 * a1, 0.17 * a2   # no symmetry: no tied extrema
-    X[0, 2, 1], X[0, 2, 2] = av, 0.5 * av
+    X = plane_motion(a1, a2, av, NH)
     law = Friction2D(ku=KU, kv=KV, mu=MU, n0=n0)
     N = 128
     got = law.evaluate(X, n_samples=N)

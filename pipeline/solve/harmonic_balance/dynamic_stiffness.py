@@ -291,8 +291,8 @@ def _block(ds, h, Om, rate=False):
             S = S.tocsr()
             return (S[c][:, c].toarray(), S[c][:, o], S[o][:, c], S[o][:, o].tocsc())
         return S[np.ix_(c, c)], S[np.ix_(c, o)], S[np.ix_(o, c)], S[np.ix_(o, o)]
-    pairs = [[(A[k], a) for A, (_, a) in zip(b.extra, _pairs(ds.extra, h, Om, rate))]
-             for k in range(4)]
+    coeff = [a for _, a in _pairs(ds.extra, h, Om, rate)]
+    pairs = [[(A[k], a) for A, a in zip(b.extra, coeff)] for k in range(4)]
     if rate:
         return tuple(harmonic_rate(b.M[k], b.C[k], h, Om, pairs[k]) for k in range(4))
     return tuple(at_harmonic(b.K[h][k], b.M[k], b.C[k], h, Om, pairs[k]) for k in range(4))
