@@ -16,7 +16,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .branch import frozen_array
-from .newton import KeptFactors, linear_solve, newton_core
+from .newton import KeptFactors, bordered_sparse, linear_solve, newton_core
 
 _SCALE_FLOOR = 1e-2  # components are weighted at most 100x above the largest one
 _FIRST_POINT_ITER = 5  # the first Newton solve gets this many times max_newton
@@ -259,8 +259,7 @@ class ScaledEquations:
         """[[Jx S_x, Jl s_lam], [row]] in the scaled unknowns."""
         n, s = self.n, self.s
         if self.sparse:
-            return sp.bmat([[Jx @ sp.diags(s[:n]), (Jl * s[n])[:, None]],
-                            [row[None, :n], row[None, n:]]], format="csc")
+            return bordered_sparse(Jx, Jl * s[n], row, s[:n])
         A = np.empty((n + 1, n + 1))
         np.multiply(Jx, s[:n], out=A[:n, :n])
         A[:n, n] = Jl * s[n]

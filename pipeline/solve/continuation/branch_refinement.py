@@ -29,7 +29,7 @@ def _dof_amplitude(prob, x, lam, dof, omega_of=lambda l: l):
     return float(amplitude_half_peak_to_peak(Q[dof]))
 
 
-def _amplitudes(prob, X, L, dofs, omega_of):
+def amplitudes_at(prob, X, L, dofs, omega_of=lambda l: l):
     """(P, D) amplitudes of the DOFs `dofs` at the points X, L (one recovery of all
     DOFs per point)."""
     if L.size == 0:
@@ -183,7 +183,7 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l, axes=PLOT_AXES):
         scale = np.array(pts["scale"], float)
     added = 0
     failed = set()
-    A = _amplitudes(prob, X, L, dofs, omega_of)  # kept up to date: new points only
+    A = amplitudes_at(prob, X, L, dofs, omega_of)  # kept up to date: new points only
     for _ in range(PLOT_PASSES):
         Pc = _plot_coordinates(np.array([omega_of(l) for l in L]), A, axes)
         chord = np.diff(Pc, axis=0)
@@ -224,7 +224,7 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l, axes=PLOT_AXES):
         nit = np.concatenate([nit, np.zeros(len(new), int)])[order]
         T = [(T + [t for _, _, t in new])[k] for k in order]
         Znew = np.array([z for _, z, _ in new])
-        A = np.concatenate([A, _amplitudes(prob, Znew[:, :-1], Znew[:, -1], dofs, omega_of)])
+        A = np.concatenate([A, amplitudes_at(prob, Znew[:, :-1], Znew[:, -1], dofs, omega_of)])
         A = A[order]
     pts.update(x=X, lam=L, nit=nit, converged=np.ones(L.size, bool), dense_points=added,
                amplitude=A, amplitude_dofs=dofs)
@@ -237,11 +237,15 @@ _AFT_PEAK_GRID = 9  # solves per bracket before Brent when forces are sampled (A
 _PEAK_XTOL = 1e-6   # the finest sigma the exact peak search resolves (`sigma_tolerance`)
 _PEAK_SOLVES = 12   # ... or after this many solves (then Brent's minimiser takes over)
 _NEAR_SIGMA = 0.1   # a trial this close to an earlier one starts from it
+LARGEST_MARGIN = 0.8  # `insert_peaks(largest=True)` skips local maxima below this share
 
 
-def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
+def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l, largest=False):
     """Locate each DOF's resonance peaks (local amplitude maxima) along the branch
-    exactly and insert them.
+    exactly and insert them; with `largest`, only those that can be the DOF's largest:
+    a local maximum whose three points stay below LARGEST_MARGIN times the largest
+    amplitude known of that DOF (its highest point, or a peak located) is left as it
+    is (the curve would have to be 1 / LARGEST_MARGIN - 1 = 25 % low there to matter).
 
     Around each local maximum i, the branch is parametrised by sigma in [-1, 1] through
     the quadratic interpolant p(sigma) of points i-1, i, i+1; each trial point is the
@@ -261,15 +265,19 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
     dofs = list(dofs)
     A = pts.get("amplitude")  # from `densify`, if it drew these DOFs at these points
     if A is None or pts.get("amplitude_dofs") != dofs or len(A) != L.size:
-        A = _amplitudes(prob, X, L, dofs, omega_of)
+        A = amplitudes_at(prob, X, L, dofs, omega_of)
+    best = {}  # dof -> the largest amplitude known of it (`largest`)
     for dof, amps in zip(dofs, A.T):
         todo += [(dof, i, amps[i], amps[i - 1:i + 2])
                  for i in _local_maxima(amps, pts["converged"])]
+        best[dof] = np.max(np.where(pts["converged"], amps, -np.inf))
     found = []  # (position along the branch, z): i + sigma, sigma in [-1, 1]
     tangents = list(pts.get("tangent", [None] * L.size))
     solved = {}  # i -> the trials solved around point i, shared by the DOFs peaking there
     Zall = np.column_stack([X, L]) / scale
     for dof, i, amp_i, amps3 in todo:
+        if largest and amps3.max() < LARGEST_MARGIN * best[dof]:
+            continue
         Z = np.column_stack([X[i - 1:i + 2], L[i - 1:i + 2]]) / scale
         trials = PeakTrials(prob, fun, tol, scale, Z, dof, omega_of, solved.setdefault(i, {}))
         for k in (-1, 0, 1):  # the three points, with their slopes where tangents are known
@@ -279,21 +287,25 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l):
             _brent_peak(trials, prob.method == "aft")
         # the highest converged trial (Brent's answer, the root or a grid point)
         tried = trials.cache
-        best = max(tried, key=lambda k: tried[k][2] if tried[k][1] else -np.inf)
-        z, ok, amp = tried[best][:3]
+        best_sig = max(tried, key=lambda k: tried[k][2] if tried[k][1] else -np.inf)
+        z, ok, amp = tried[best_sig][:3]
         pts["extra_nfev"] += trials.nfev
         if ok and amp > amp_i:
-            found.append((_branch_position(Zall, i, best, z / scale), z))
+            found.append((_branch_position(Zall, i, best_sig, z / scale), z))
+            best[dof] = max(best[dof], amp)
+    pts["amplitude"], pts["amplitude_dofs"] = A, dofs
     if not found:
         return pts
     # merge in branch order (several DOFs' peaks may fall between the same two points)
     pos = np.concatenate([np.arange(L.size, dtype=float), [f[0] for f in found]])
     order = np.argsort(pos, kind="stable")
+    Zf = np.array([f[1] for f in found])
+    pts["amplitude"] = np.concatenate([A, amplitudes_at(prob, Zf[:, :-1], Zf[:, -1], dofs,
+                                                        omega_of)])[order]
     pts["x"] = np.concatenate([X, [f[1][:-1] for f in found]])[order]
     pts["lam"] = np.concatenate([L, [f[1][-1] for f in found]])[order]
     pts["nit"] = np.concatenate([pts["nit"], np.zeros(len(found), int)])[order]
     pts["converged"] = np.concatenate([pts["converged"], np.ones(len(found), bool)])[order]
-    pts.pop("amplitude", None)  # of the points before the peaks
     if "tangent" in pts:
         pts["tangent"] = [(list(pts["tangent"]) + [None] * len(found))[k] for k in order]
     return pts

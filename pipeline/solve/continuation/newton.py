@@ -47,7 +47,9 @@ def scale_rows(w, J, in_place=False):
     """diag(w) J for a dense or scipy.sparse J (sparse stays sparse); in_place: a
     dense J is overwritten (for a fresh Jacobian only its caller holds)."""
     if sp.issparse(J):
-        return (sp.diags(w) @ J).tocsr()
+        J = J.tocsr(copy=not in_place)
+        J.data *= np.repeat(w, np.diff(J.indptr))
+        return J
     if in_place and J.flags.writeable:
         J *= w[:, None]
         return J
@@ -55,15 +57,37 @@ def scale_rows(w, J, in_place=False):
 
 
 def augment(J, col, row):
-    """[[J, col], [row]] ((n+1) x (n+1)) for a dense or scipy.sparse J."""
+    """[[J, col], [row]] ((n+1) x (n+1)) for a dense or scipy.sparse J (CSC then)."""
     if sp.issparse(J):
-        return sp.bmat([[J, np.asarray(col)[:, None]], [np.asarray(row)[None, :-1],
-                                                         np.asarray(row)[None, -1:]]],
-                       format="csc")
+        return bordered_sparse(J, col, row)
     n = J.shape[0]
     A = np.empty((n + 1, n + 1))
     A[:n, :n], A[:n, n], A[n] = J, col, row
     return A
+
+
+def bordered_sparse(J, col, row, col_scale=None):
+    """[[J diag(col_scale), col], [row]] as CSC, J scipy.sparse (n x n), col and row
+    dense (n,) and (n+1,): their nonzeros appended to J's rows as stored, no sparse
+    product or block assembly."""
+    J = J.tocsr()
+    n = J.shape[0]
+    col, row = np.asarray(col, float), np.asarray(row, float)
+    data = J.data if col_scale is None else J.data * col_scale[J.indices]
+    cnt, has = np.diff(J.indptr), col != 0
+    rj = np.flatnonzero(row)
+    indptr = np.zeros(n + 2, dtype=np.int64)
+    indptr[1:-1] = np.cumsum(cnt + has)
+    indptr[-1] = indptr[-2] + rj.size
+    shift = np.repeat(indptr[:n] - J.indptr[:n], cnt)   # where J's entries move
+    old = np.arange(J.indptr[-1]) + shift
+    at_col = indptr[1:n + 1][has] - 1                   # the last slot of a row with col
+    out_data = np.empty(indptr[-1])
+    out_ind = np.empty(indptr[-1], dtype=np.int64)
+    out_data[old], out_ind[old] = data, J.indices
+    out_data[at_col], out_ind[at_col] = col[has], n
+    out_data[indptr[n]:], out_ind[indptr[n]:] = row[rj], rj
+    return sp.csr_matrix((out_data, out_ind, indptr), shape=(n + 1, n + 1)).tocsc()
 
 
 def linear_solve(A, b):

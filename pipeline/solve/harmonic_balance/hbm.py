@@ -54,7 +54,7 @@ from ...model.system import System, contact_set, element_rows
 from . import dynamic_stiffness as dyn
 from .law_terms import (LawSlots, assemble, combine, element_jacobian, law_columns, law_slots,
                         motion, pair_weights, projected, slot_index)
-from .parts import jacobian_pattern, linear_values, pattern_matrix
+from .parts import jacobian_pattern, linear_values, pattern_matrix, with_contacts
 
 
 @dataclass(frozen=True)
@@ -269,7 +269,7 @@ def residual(prob: HBMProblem, x, Om, contact: ContactElements | None = None, ja
                   - real_vector(dPt, nh).ravel())
     blocks = Jnl if Jnl.ndim == 5 else None     # 2-D zeros without elements
     if pat is not None:
-        return R, pattern_matrix(pat, lin, blocks), dR_dOm
+        return R, (L.copy() if blocks is None else with_contacts(pat, L, blocks)), dR_dOm
     return R, (L if blocks is None else assemble(prob, blocks, out=L)), dR_dOm
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..harmonic_balance import hbm
 from ..harmonic_balance import roundoff
-from ..continuation.branch_refinement import PLOT_AXES, densify, insert_peaks
+from ..continuation.branch_refinement import PLOT_AXES, amplitudes_at, densify, insert_peaks
 from ..continuation.pseudo_arclength import continue_branch
 from ...fourier.harmonics import amplitude_half_peak_to_peak
 from .optimum import PER_DECADE, global_minimum
@@ -109,7 +109,7 @@ def initial_guess(prob, Om, contact):
 def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_samples=256,
                        stability=True, tol_rel=1e-10, ds=0.02, ds_max=0.1, max_points=1000,
                        contact=None, callback=None, peak_dofs=None,
-                       initial=None, dense_output=True) -> ResponseCurve:
+                       initial=None, dense_output=True, keep="curve") -> ResponseCurve:
     """Trace the periodic response over Omega in [omega_start, omega_end] [rad/s].
 
     Pseudo-arclength continuation (`continuation.continue_branch`) of the condensed
@@ -137,7 +137,17 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     of the `peak_dofs` on a linear and a log axis; "linear" or "log": that axis
     only) bend (`densify`), so that figures are smooth at their resolution.  The
     peaks of the `peak_dofs` are then located exactly (`insert_peaks`).
+
+    keep="peaks" (a Monte-Carlo sample reads each DOF's largest peak only): no dense
+    output, only the local maxima that can be a DOF's largest are located
+    (`insert_peaks(largest=True)`), and the curve keeps only the points where a DOF
+    of `peak_dofs` has its largest amplitude (full residual and stability checked
+    there); its info["branch_points"] still counts the branch traced.
     """
+    if keep not in KEEP:
+        raise ValueError(f"keep must be one of {KEEP}, got {keep!r}")
+    if keep == "peaks":
+        dense_output = False
     t_start = time.perf_counter()
     stability_mode(stability)  # misuse raises before the continuation
     axes = dense_axes(dense_output) if dense_output else None
@@ -167,10 +177,36 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     pts = _branch_points(br)
     if axes:
         pts = densify(prob, pts, fun, tol, dofs, axes=axes)
-    pts = insert_peaks(prob, pts, fun, tol, elem, dofs)
+    pts = insert_peaks(prob, pts, fun, tol, elem, dofs, largest=keep == "peaks")
+    if keep == "peaks":
+        pts = peak_points(prob, pts, dofs)
     pts["resonance_guard"] = guard is not None
     return _curve_from_points(prob, br, pts, lambda lam: elem, tols, stability, lambda lam: lam,
                               time.perf_counter() - t_start, spent)
+
+
+KEEP = ("curve", "peaks")  # what `frequency_response` keeps of the branch
+
+
+def peak_points(prob, pts, dofs) -> dict:
+    """The branch points `pts` reduced to those where a DOF of `dofs` has its
+    largest converged amplitude (each kept once, in branch order)."""
+    L = pts["lam"]
+    if L.size == 0:
+        return pts
+    dofs = list(dofs)
+    A = pts.get("amplitude")  # from `insert_peaks`, if it drew these DOFs at these points
+    if A is None or pts.get("amplitude_dofs") != dofs or len(A) != L.size:
+        A = amplitudes_at(prob, pts["x"], L, dofs)
+    A = np.where(pts["converged"][:, None], A, -np.inf)
+    keep = np.unique(np.argmax(A, axis=0))
+    out = dict(pts)
+    for k in ("x", "lam", "nit", "converged"):
+        out[k] = np.asarray(pts[k])[keep]
+    if "tangent" in pts:
+        out["tangent"] = [pts["tangent"][k] for k in keep]
+    out.pop("amplitude", None)
+    return out
 
 
 def dense_axes(dense_output) -> tuple:
@@ -442,7 +478,7 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     if log and not 0 < bounds[0] < bounds[1]:
         raise ValueError(f"bounds must satisfy 0 < low < high for a log search, got {bounds}")
     kwargs.setdefault("stability", False)
-    kwargs["dense_output"] = False  # only the peak is read, no curve is drawn
+    kwargs["keep"] = "peaks"  # only the peak is read, no curve is drawn
 
     def peak(n0):
         c = frequency_response(build(n0), H, omega_start, omega_end, peak_dofs=[dof], **kwargs)

@@ -36,7 +36,7 @@ import xarray as xr
 
 from ...model.scene import AT, stiffness_factors
 from ...model.system import contact_set, lowest_frequencies
-from .describe import provenance, scene_attrs, solution_method
+from .describe import points_attrs, provenance, scene_attrs, solution_method
 from .incomplete import CASE_FLAGS, PEAK_NAME, case_flags
 from .meanings import annotate_natural_frequencies, sweep_long_name
 from .optimum_dataset import add_optimum
@@ -332,7 +332,7 @@ def response_attrs(study: Study, lay: Layout) -> dict:
              "solution_method": solution_method(study), "harmonics": int(lay.H),
              "force_evaluation": sv.force_evaluation, "aft_samples": int(sv.samples),
              "tolerance": float(sv.tolerance), "frequency_unit": lay.unit,
-             "quick": int(study.quick),
+             "quick": int(study.quick), **points_attrs(study.output),
              **provenance("pipeline (harmonic balance with Yang-Menq contact, continuation, "
                           "Hill / Floquet stability)")}
     attrs.update(scene_attrs(scene))  # FE blade and disk scenes describe their model

@@ -43,6 +43,16 @@ def blade_attrs(scene) -> dict:
             "reduction_time_s": float(reduce_time)}
 
 
+def points_attrs(output) -> dict:
+    """What the `point` dimension holds: the traced curves, or (`[output] curves =
+    false`) only the points where a response DOF has its largest amplitude."""
+    if output.curves:
+        return {"points": "the traced response curves (continuation, dense output, peaks)"}
+    return {"points": "peaks only ([output] curves = false): each case keeps the points "
+                      "where a response DOF has its largest amplitude over the frequency "
+                      "range, located exactly; the curves between them are not kept"}
+
+
 def cyclic_attrs(scene) -> dict:
     """Attributes of a cyclic assembly: sectors, engine order, mistuning."""
     asm, mis = scene.assembly, scene.mistuning

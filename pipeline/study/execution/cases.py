@@ -131,7 +131,7 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None):
     Returns (results aligned with the cases, number reused from checkpoints)."""
     cases = study.sweep.cases()
     H, fr = study.solver.harmonics, study.sweep.frequency
-    kw = study.solver.kwargs(study.output.yscale)  # curves smooth on the figures' axis
+    kw = study.solver.kwargs(study.output.yscale, study.output.curves)  # curves smooth on the figures' axis
     if study.scene.model != "lumped":  # FE scenes: exact peaks of the reported DOFs only
         kw["peak_dofs"] = [study.scene.dof_index(d) for d in study.output.dofs]
     results = [None] * len(cases)

@@ -47,7 +47,7 @@ def tuned_reference(study, case: dict, dofs, solver=None) -> TunedCurve:
     holds the sweep values other than `mistuning_seed`."""
 
     scene = replace(study.scene, assembly=replace(study.scene.assembly, mistuning=None))
-    fr, kw = study.sweep.frequency, study.solver.kwargs(study.output.yscale)
+    fr, kw = study.sweep.frequency, study.solver.kwargs(study.output.yscale, study.output.curves)
     idx = [scene.sector_dofs.index(d) for d in dofs]
     kw["peak_dofs"] = idx
     case = {a: v for a, v in case.items() if a != SEED_AXIS}

@@ -15,7 +15,10 @@ Figures (`write_sector_figures`):
   one series per mistuning seed, against the tuned peak (horizontal line); the
   amplification factor max over sectors of the peak / tuned peak per seed in the
   legend, the largest in the title; a right-hand axis reads peak / tuned peak;
-- `amplitude_<dof>_<axis>=<value>....png`, one per case: every sector's response
+  beyond MAX_SEED_SERIES seeds, each sector's distribution over the seeds instead
+  (P5-P95 bar, median, the worst seed's peaks marked);
+- `amplitude_<dof>_<axis>=<value>....png`, one per case (not with `[output] curves =
+  false`: the cases kept their peaks only): every sector's response
   curve (the sectors with the largest and the smallest peak in colour, the others
   thin grey) and the tuned disk's curve (black).  They replace one figure per
   sector, which spreads what belongs together over N files;
@@ -132,11 +135,13 @@ def write_sector_figures(study, ds, fig_dir, tuned=None) -> list:
             series = [(_case_text({SEED_AXIS: c[SEED_AXIS]}) if SEED_AXIS in c else "",
                        peaks[d].isel(sel).values) for sel, c in cases]
             title = f"{study.title}" + (f", {group_text}" if group_text else "")
-            paths.append(plots.sector_peaks_figure(
+            draw = (plots.sector_peaks_figure if len(series) <= MAX_SEED_SERIES
+                    else plots.sector_peaks_distribution_figure)
+            paths.append(draw(
                 fig_dir / f"peak_per_sector_{d}{_suffix(group)}.png",
                 peaks[d]["sector"].values, series, ref.peak[d], dof=d, title=title,
                 tuned_note=ref.error))
-            for sel, case in cases:
+            for sel, case in (cases if getattr(study.output, "curves", True) else ()):
                 sub = ds.isel(sel)
                 a = amps[d].isel(sel)            # (point, sector)
                 pk = peaks[d].isel(sel).values
@@ -160,6 +165,7 @@ def write_sector_figures(study, ds, fig_dir, tuned=None) -> list:
 
 
 PERCENTILES = (5, 50, 95)
+MAX_SEED_SERIES = 8   # more seeds: each sector's peak distribution, not one series per seed
 
 
 def amplification_figure(path, ds, dof: str, title: str = ""):

@@ -278,6 +278,53 @@ def response_curves_figure(path, branches, **kwargs):
     return out
 
 
+def sector_peaks_distribution_figure(path, sectors, series, tuned_peak, *, dof="x",
+                                     title="", tuned_note=None):
+    """`sector_peaks_figure` for many mistuning seeds: each sector's peak over the
+    seeds as a P5-P95 bar with its median, the seed with the largest amplification
+    marked; axes, tuned line and right-hand ratio axis as there."""
+    plt = pyplot()
+    sectors = np.asarray(sectors)
+    P = np.array([np.asarray(pk, float) for _, pk in series])      # (seeds, N)
+    fig, ax = plt.subplots(figsize=(7.5, 4.6))
+    lo, mid, hi = np.nanpercentile(P, (5, 50, 95), axis=0)
+    ax.vlines(sectors, lo, hi, color="C0", lw=4, alpha=0.5,
+              label=f"P5-P95 over {len(series)} seeds")
+    ax.plot(sectors, mid, "_", color="C0", ms=12, mew=2, label="median")
+    tuned_ok = bool(np.isfinite(tuned_peak))
+    head = f"peak of {dof} per sector over {len(series)} mistuning seeds"
+    if np.isfinite(P).any():
+        w = int(np.nanargmax(np.nanmax(P, axis=1)))
+        label, k = series[w][0], int(np.nanargmax(P[w]))
+        ratio = (f": max / tuned = {P[w, k] / tuned_peak:.3f}" if tuned_ok
+                 else f": max {P[w, k]:.4g} m")
+        ax.plot(sectors, P[w], "o", color="C3", ms=4, label=f"{label} (the largest peak)"
+                + ratio + f" (sector {sectors[k]})", zorder=3)
+        if tuned_ok:
+            head += f"; largest amplification = {P[w, k] / tuned_peak:.3f}"
+    if tuned_ok:
+        ax.axhline(tuned_peak, color="k", lw=1.5, zorder=2,
+                   label=f"tuned disk: {tuned_peak:.4g} m (one sector by the cyclic reduction)")
+        sec = ax.secondary_yaxis("right", functions=(lambda y: y / tuned_peak,
+                                                     lambda r: r * tuned_peak))
+        sec.set_ylabel("peak / tuned peak [-]")
+    else:
+        ax.plot([], [], color="k", lw=1.5,
+                label="tuned disk: not available" + (f" ({tuned_note})" if tuned_note else ""))
+    ax.set(xlabel="sector", ylabel=f"peak amplitude of {dof} [m]")
+    wrapped_title(ax, (title + "\n" if title else "") + head, fontsize=9)
+    if sectors.size <= 24:
+        ax.set_xticks(sectors)
+    else:
+        ax.xaxis.set_major_locator(integer_locator(16))
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1,
+              frameon=False)
+    out = atomic_savefig(fig, path)
+    plt.close(fig)
+    return out
+
+
 def sector_peaks_figure(path, sectors, series, tuned_peak, *, dof="x", title="",
                         tuned_note=None):
     """Peak amplitude per sector of a mistuned disk against the tuned disk's peak.

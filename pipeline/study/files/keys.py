@@ -131,12 +131,14 @@ def _sweep_rows() -> list:
     for k, (unit, text) in SWEEP_AXES.items():
         extra = {"preload": "; not with a contact's `n0`",
                  "normal_load": "; instead of `preload`, > 0",
-                 "eo": "; integers 0 ... N/2", "mistuning_seed": "; integers"}.get(k, "")
+                 "eo": "; integers 0 ... N/2", "mistuning_seed": "; integers, or `{first, count}`"}.get(k, "")
         rows.append(("sweep", k, unit, "", f"list: {text}{extra}"))
     rows += [("sweep.frequency", "start", "`unit`", _REQ, "first frequency of the continuation"),
              ("sweep.frequency", "stop", "`unit`", _REQ, "last frequency (below `start`: a "
                                                          "downward sweep)"),
-             ("sweep.frequency", "unit", "", _REQ, '`"rad/s"` or `"Hz"` (also the dataset\'s)')]
+             ("sweep.frequency", "unit", "", _REQ, '`"rad/s"` or `"Hz"` (also the dataset\'s)'),
+             ("sweep.mistuning_seed", "first", "1", _REQ, "first seed of a range"),
+             ("sweep.mistuning_seed", "count", "1", _REQ, "seeds first ... first + count - 1")]
     return rows
 
 
@@ -251,6 +253,8 @@ _FIXED = [
     ("output", "peak_windows", "`unit`", "[]", "`[[lo, hi], ...]`: one resonance peak per "
                                                "window"),
     ("output", "optimum_preload", "", "", "the optimum-preload search (lumped and blade scenes)"),
+    ("output", "curves", "", "true", "false (mistuned disks): each case keeps every sector's "
+                                     "largest peak only, a Monte-Carlo sample"),
     ("output.optimum_preload", "dof", "", _REQ, "the DOF whose peak is minimised"),
     ("output.optimum_preload", "bounds", "N", _REQ, "`[lo, hi]` of the preload"),
     ("output.optimum_preload", "frequency", "", "the sweep's", "window `{start, stop, unit}`"),
@@ -336,7 +340,7 @@ def rows() -> list:
     laws = [f"scene.{t}" for t in study_laws()]
     order = ["study", "scene", "scene.matrices", "scene.modal", "scene.contact", *laws,
              "scene.excitation", "scene.disk", "scene.disk.mistuning", "scene.disk.spring",
-             "scene.blade", "sweep", "sweep.frequency", "solver", "output",
+             "scene.blade", "sweep", "sweep.frequency", "sweep.mistuning_seed", "solver", "output",
              "output.optimum_preload", "modes", "modes.speeds", "quick", "quick.scene", "recommendation",
              CASE, f"{CASE}.reference", f"{CASE}.knobs"]
     every = (_FIXED + _law_rows() + _blade_rows() + _sweep_rows() + _solver_rows()

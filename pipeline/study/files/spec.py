@@ -115,14 +115,15 @@ class SolverSettings:
     max_points: int = 1000
     dense_output: bool = True           # points where the drawn curve bends
 
-    def kwargs(self, yscale=None) -> dict:
+    def kwargs(self, yscale=None, curves=True) -> dict:
         """Keyword arguments of `pipeline.solve.response.response.frequency_response`; with the
         figures' `yscale` ("linear" or "log"), the dense output smooths the curves
-        on that amplitude axis only."""
+        on that amplitude axis only; without `curves` (`OutputSettings.curves`), each
+        case keeps its DOFs' largest peaks only (keep="peaks": no dense output)."""
         dense = yscale if self.dense_output and yscale is not None else self.dense_output
         kw = dict(method=self.force_evaluation, n_samples=self.samples,
                   stability=self.stability, tol_rel=self.tolerance, max_points=self.max_points,
-                  dense_output=dense)
+                  dense_output=dense if curves else False, keep="curve" if curves else "peaks")
         if self.initial_step is not None:
             kw["ds"] = self.initial_step
         if self.max_step is not None:
@@ -152,6 +153,7 @@ class OutputSettings:
     yscale: str = "linear"
     peak_windows: tuple = ()     # ((lo, hi), ...) in the sweep's frequency unit
     optimum: dict | None = None  # {dof, bounds (N), window (rad/s) | None, rtol}
+    curves: bool = True          # False: each case keeps its DOFs' largest peaks only
 
 
 @dataclass(frozen=True)

@@ -420,7 +420,8 @@ def _loads(ck, raw) -> tuple:
 
 
 def _output(ck, t, scene):
-    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload"))
+    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload",
+                          "curves"))
     dofs = (ck.names(t["dofs"], "output.dofs") if "dofs" in t
             else tuple(f"response.{c}" for c in COMPONENTS))
     if scene.mistuning is not None:   # every blade's: "response.y@3"
@@ -432,14 +433,16 @@ def _output(ck, t, scene):
                 ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>[@<sector>]'")
         figs, yscale, windows = output_common(ck, t)
         return OutputSettings(dofs=disk_scene.output_dofs(ck, {"dofs": list(dofs)}, scene),
-                              figures=figs, yscale=yscale, peak_windows=windows)
+                              figures=figs, yscale=yscale, peak_windows=windows,
+                              curves=disk_scene.parse_curves(ck, t, scene, windows))
     for i, d in enumerate(dofs):
         if not OUT_DOF_PATTERN.match(d):
             ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>' with set excitation "
                                          "or response and component x, y or z")
     figs, yscale, windows = output_common(ck, t)
     return OutputSettings(dofs=tuple(dofs), figures=figs, yscale=yscale, peak_windows=windows,
-                          optimum=parse_optimum(ck, t, scene))
+                          optimum=parse_optimum(ck, t, scene),
+                          curves=disk_scene.parse_curves(ck, t, scene, windows))
 
 
 def _modes(ck, t, where, scene, built: bool = True):

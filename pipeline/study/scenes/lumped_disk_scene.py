@@ -215,3 +215,28 @@ def output_dofs(ck, t, scene: Scene) -> tuple:
         if d in out[:i]:
             ck.fail("output.dofs", f"DOF {d!r} is reported twice")
     return tuple(out)
+
+
+def seed_range(ck, value, field) -> list:
+    """`mistuning_seed = { first = 1, count = 100 }`: the seeds first ... first + count - 1
+    (a Monte-Carlo sample)."""
+    ck.keys(value, field, ("first", "count"), required=("first", "count"))
+    first = ck.integer(value["first"], f"{field}.first", 0, 1 << 30)
+    count = ck.integer(value["count"], f"{field}.count", 1, 100_000)
+    return list(range(first, first + count))
+
+
+def parse_curves(ck, t, scene, windows) -> bool:
+    """`[output] curves` (default true); false (each case keeps its DOFs' largest
+    peaks: a Monte-Carlo sample of a mistuned disk) only for a mistuned disk and
+    without peak windows (which read the curves)."""
+    if "curves" not in t:
+        return True
+    curves = ck.boolean(t["curves"], "output.curves")
+    if not curves and getattr(scene, "mistuning", None) is None:
+        ck.fail("output.curves", "false keeps each sector's largest peak only: for a "
+                                 "mistuned disk (give [scene.disk] mistuning)")
+    if not curves and windows:
+        ck.fail("output.curves", "false keeps the largest peaks only; peak_windows read the "
+                                 "curves")
+    return curves

@@ -179,7 +179,8 @@ def parse_sweep(ck, tab, path, partial=False):
             freq = FrequencyRange(start, stop, unit)
         elif key in INTEGER_SWEEP_AXES:  # engine orders (range checked against the
             # sectors) and mistuning seeds: integers >= 0
-            vals = ck.array(value, field)
+            vals = (disk_scene.seed_range(ck, value, field) if key == "mistuning_seed"
+                    and isinstance(value, dict) else ck.array(value, field))
             for i, v in enumerate(vals):
                 ck.integer(v, f"{field}[{i}]", 0, 1 << 30)
                 if v in vals[:i]:
@@ -417,7 +418,8 @@ def output_common(ck, t):
 
 
 def _output(ck, t, scene) -> OutputSettings:
-    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload"))
+    ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload",
+                          "curves"))
     if scene.mistuning is not None:  # every sector's DOFs, "x1@3"
         dofs = disk_scene.output_dofs(ck, t, scene)
         if "optimum_preload" in t:
@@ -431,7 +433,8 @@ def _output(ck, t, scene) -> OutputSettings:
     figs, yscale, windows = output_common(ck, t)
     optimum = parse_optimum(ck, t, scene)
     return OutputSettings(dofs=tuple(dofs), figures=tuple(figs), yscale=yscale,
-                          peak_windows=tuple(windows), optimum=optimum)
+                          peak_windows=tuple(windows), optimum=optimum,
+                          curves=disk_scene.parse_curves(ck, t, scene, windows))
 
 
 def parse_optimum(ck, t, scene):
