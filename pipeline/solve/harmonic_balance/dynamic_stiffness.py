@@ -198,15 +198,6 @@ def dynamic_derivative(blocks: tuple, H: int, Om: float, V=None, extra=()):
     return out
 
 
-def _part_dS(blocks, h, Om, extra):
-    M, C = blocks[1:3]
-    w = h * Om
-    dS = -2 * h * w * M + 1j * h * C
-    for A, a in _pairs(extra, h, Om, True, blocks[3:]):
-        dS = dS + a * A
-    return dS
-
-
 def sparse_stiffness(ds: DynamicStiffness, h: int, Om: float):
     """S_h of the sparse strategies (CSC; dense if K_h is, with a K_next coupling)."""
     K = ds.K[h]
@@ -243,10 +234,8 @@ def condense(ds: DynamicStiffness, Om: float, derivatives: bool = True, motion=N
     if ds.strategy == "dense":
         out = _condense_dense(ds, Om, derivatives)
     elif ds.strategy == "parts":
-        out = [condense_parts(ds, h, Om, derivatives) for h in range(ds.H + 1)]
-        St, dSt, Pt, dPt = zip(*out)
-        out = (list(St), list(dSt) if derivatives else [], np.array(Pt),
-               np.array(dPt) if derivatives else None)
+        St, dSt, Pt, dPt = condense_parts(ds, Om, derivatives)
+        out = (list(St), list(dSt) if derivatives else [], Pt, dPt)
     else:
         out = _condense_sparse(ds, Om, derivatives)
     if not (derivatives and motion is not None):
@@ -345,31 +334,51 @@ def _condense_sparse(ds: DynamicStiffness, Om: float, derivatives: bool):
     return St, dSt, np.array(Pt), np.array(dPt) if derivatives else None
 
 
-def condense_parts(ds: DynamicStiffness, h: int, Om: float, derivatives: bool):
-    """(S~, dS~, P~, dP~) of harmonic h part by part (`parts.PartBlocks`), all parts in
-    batched dense solves: S~ = S_cc - sum_k S_{c,o_k} S_{o_k o_k}^-1 S_{o_k,c}."""
-    pb, c, w, xt = ds.blocks, ds.c, h * Om, ds.extra
-    P = ds.loads[h]
-    Soo, Soc, Sco = (at_frequency(*b[:3], w, _pairs(xt, h, Om, matrices=b[3:]))
+def condense_parts(ds: DynamicStiffness, Om: float, derivatives: bool):
+    """(S~, dS~, P~, dP~) of every harmonic, (H+1, nc, nc) and (H+1, nc), part by part
+    (`parts.PartBlocks`), all harmonics and parts in batched dense solves:
+    S~_h = S_cc - sum_k S_{c,o_k} S_{o_k o_k}^-1 S_{o_k,c}."""
+    pb, c, xt = ds.blocks, ds.c, ds.extra
+    h = np.arange(ds.H + 1)[:, None, None, None]              # harmonic, part, rows, cols
+    hc = h[:, 0]
+    Soo, Soc, Sco = (at_harmonic(*b[:3], h, Om, _pairs(xt, h, Om, matrices=b[3:]))
                      for b in (pb.oo, pb.oc, pb.co))
-    Po = P[pb.o]                                              # (parts, m)
-    sol = np.linalg.solve(Soo, np.concatenate([Soc, Po[..., None]], axis=2))
-    X, z = sol[..., :-1], sol[..., -1]
-    St = at_frequency(*pb.cc[:3], w, _pairs(xt, h, Om, matrices=pb.cc[3:])).astype(complex)
-    Pt = P[c].astype(complex)
-    rows = np.broadcast_to(pb.ck[:, :, None], X.shape[:1] + (pb.ck.shape[1],) * 2)
-    cols = np.broadcast_to(pb.ck[:, None, :], rows.shape)
-    np.add.at(St, (rows, cols), -(Sco @ X))
-    np.add.at(Pt, pb.ck, -(Sco @ z[..., None])[..., 0])
+    P = ds.loads
+    sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, pb.o][..., None]], axis=-1))
+    X, z = sol[..., :-1], sol[..., -1:]
+    St = _on_cc(pb, at_harmonic(*pb.ccv[:3], hc[:, 0], Om,
+                                _pairs(xt, hc[:, 0], Om, matrices=pb.ccv[3:])))
+    Pt = P[:, c].astype(complex)
+    k = pb.ck.shape[1]
+    rows = np.broadcast_to(pb.ck[:, :, None], pb.ck.shape[:1] + (k, k))
+    at, at_c = (slice(None), rows, rows.swapaxes(1, 2)), (slice(None), pb.ck)
+    add = _scatter_add if pb.disjoint else np.add.at
+    add(St, at, -(Sco @ X))
+    add(Pt, at_c, -(Sco @ z)[..., 0])
     if not derivatives:
         return St, None, Pt, None
-    dSoo, dSoc, dSco = (_part_dS(b, h, Om, xt) for b in (pb.oo, pb.oc, pb.co))
-    Y = np.linalg.solve(np.swapaxes(Soo, 1, 2), np.swapaxes(Sco, 1, 2)).swapaxes(1, 2)
-    dSt = _part_dS(pb.cc, h, Om, xt).astype(complex)
-    np.add.at(dSt, (rows, cols), -(dSco @ X + Y @ dSoc - Y @ (dSoo @ X)))
-    dPt = np.zeros(c.size, complex)
-    np.add.at(dPt, pb.ck, (-(dSco @ z[..., None]) + Y @ (dSoo @ z[..., None]))[..., 0])
+    dSoo, dSoc, dSco = (harmonic_rate(b[1], b[2], h, Om, _pairs(xt, h, Om, True, b[3:]))
+                        for b in (pb.oo, pb.oc, pb.co))
+    Y = np.linalg.solve(np.swapaxes(Soo, -1, -2), np.swapaxes(Sco, -1, -2)).swapaxes(-1, -2)
+    dSt = _on_cc(pb, harmonic_rate(pb.ccv[1], pb.ccv[2], hc[:, 0], Om,
+                                   _pairs(xt, hc[:, 0], Om, True, pb.ccv[3:])))
+    add(dSt, at, -(dSco @ X + Y @ dSoc - Y @ (dSoo @ X)))
+    dPt = np.zeros(Pt.shape, complex)
+    add(dPt, at_c, (-(dSco @ z) + Y @ (dSoo @ z))[..., 0])
     return St, dSt, Pt, dPt
+
+
+def _on_cc(pb, values):
+    """(H+1, nc, nc) complex: `values` (H+1, nnz) at the cc matrices' nonzeros."""
+    out = np.zeros((values.shape[0],) + pb.cc[0].shape, complex)
+    out[:, pb.cc_nz[0], pb.cc_nz[1]] = values
+    return out
+
+
+def _scatter_add(a, index, values):
+    """np.add.at(a, index, values) for an index without repeated entries (parts that
+    share no contact DOF): one gather and one scatter."""
+    a[index] += values
 
 
 # ---- recovery of the eliminated DOFs

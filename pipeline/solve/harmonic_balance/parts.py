@@ -37,6 +37,9 @@ class PartBlocks:
     oc: tuple
     co: tuple
     cc: tuple
+    disjoint: bool = False   # no contact DOF belongs to two parts (ck without repeats)
+    cc_nz: tuple = ()        # (rows, cols) where any cc matrix is nonzero
+    ccv: tuple = ()          # the cc matrices' entries there (K, M, C, *A_t)
 
 
 def part_blocks(system, c, o, extra=()) -> PartBlocks | None:
@@ -64,10 +67,13 @@ def part_blocks(system, c, o, extra=()) -> PartBlocks | None:
     def gather(B, rows, cols):
         return np.stack([B[r][:, q].toarray() for r, q in zip(rows, cols)])
 
+    cc = tuple(B[c][:, c].toarray() for B in mats)
+    nz = np.nonzero(sum(np.abs(B) for B in cc))
     return PartBlocks(o=oo, ck=ck, oo=tuple(gather(B, oo, oo) for B in mats),
                       oc=tuple(gather(B, oo, cg) for B in mats),
-                      co=tuple(gather(B, cg, oo) for B in mats),
-                      cc=tuple(B[c][:, c].toarray() for B in mats))
+                      co=tuple(gather(B, cg, oo) for B in mats), cc=cc,
+                      disjoint=bool(np.unique(ck).size == ck.size), cc_nz=nz,
+                      ccv=tuple(B[nz] for B in cc))
 
 
 SPARSE_JACOBIAN_MIN = 500    # condensed unknowns from which a sparse Jacobian pays (measured)
