@@ -97,6 +97,8 @@ class JacobianPattern:
     lin: np.ndarray       # (p (2 nh - 1),) data positions of the linear entries
     nl: np.ndarray        # (E m m nh nh,) data positions of the contact entries
     size: int             # nc nh
+    pairs: object = None  # (u, E m m) sparse: sums the elements' blocks per DOF pair
+    pair_pos: np.ndarray | None = None   # (u nh nh,) data positions of those sums
 
 
 def linear_keys(pi, pj, nh):
@@ -130,8 +132,15 @@ def jacobian_pattern(pb: PartBlocks, idx, nc: int, nh: int) -> JacobianPattern |
     keys = np.concatenate([lr * size + lc, (nr * size + nr_c).ravel()])
     uniq, inverse = np.unique(keys, return_inverse=True)
     indptr = np.searchsorted(uniq // size, np.arange(size + 1)).astype(np.int64)
+    # the elements' (a, b) DOF pairs, each summed once over the elements sharing it
+    pk = (idx[:, :, None] * nc + idx[:, None, :]).ravel()
+    up, inv = np.unique(pk, return_inverse=True)
+    pairs = sp.csr_matrix((np.ones(pk.size), (inv, np.arange(pk.size))), shape=(up.size, pk.size))
+    pr = (up // nc)[:, None, None] * nh + k[:, None]
+    pc = (up % nc)[:, None, None] * nh + k
+    pos = np.searchsorted(uniq, (pr * size + pc).ravel())
     return JacobianPattern(pi, pj, indptr, (uniq % size).astype(np.int64),
-                           inverse[:lr.size], inverse[lr.size:], size)
+                           inverse[:lr.size], inverse[lr.size:], size, pairs, pos)
 
 
 def linear_values(pat: JacobianPattern, St):
@@ -157,6 +166,7 @@ def pattern_matrix(pat: JacobianPattern, lin_values, Je=None):
 def with_contacts(pat: JacobianPattern, L, Je):
     """The `pattern_matrix` L of the linear entries plus the contact blocks Je
     (E, m, m, nh, nh): L's data summed once, not again."""
-    data = L.data + np.bincount(pat.nl, weights=np.ascontiguousarray(Je).ravel(),
-                                minlength=pat.indices.size)
+    data = L.data.copy()
+    nh = Je.shape[-1]
+    data[pat.pair_pos] += (pat.pairs @ Je.reshape(-1, nh * nh)).ravel()
     return sp.csr_matrix((data, pat.indices, pat.indptr), shape=(pat.size, pat.size))
