@@ -135,7 +135,8 @@ def _cmd_optimise(args) -> int:
     print(f"{study.name}: preload minimising the peak of {o['dof']}: {res['preload']:.6g} N "
           f"(peak {res['peak']:.6g} m at {res['peak_omega'] / fr.to_rad_s:.6g} {fr.unit}; "
           f"{len(res['evaluations'])} evaluations: grid of {len(res['grid'])}, "
-          f"{len(res['brackets'])} minimum(s) bracketed and refined, {res['reused']} reused; "
+          f"{len(res['brackets'])} minimum(s) bracketed, {len(res.get('skipped', ()))} of them "
+          f"not refined (their parabola above the best), {res['reused']} reused; "
           f"{res['wall_time']:.1f} s)")
     print(f"{'preload [N]':>14} {'peak [m]':>14} {'at [' + fr.unit + ']':>12}")
     for n0, a, om in res["evaluations"]:

@@ -89,9 +89,10 @@ def find_optimum(study: Study, cases=None, cdir=None) -> dict:
                           extra_nodes=list(free), on_evaluation=keep, **kw)
     res["wall_time"] = time.perf_counter() - t0
     log.info("%s: optimum preload %.4g N (peak %.4g m at %.4g %s), %d evaluations (%d "
-             "computed, %d reused), %d bracket(s), %.1f s", study.name, res["preload"],
-             res["peak"], res["peak_omega"] / fr.to_rad_s, fr.unit, len(res["evaluations"]),
-             res["computed"], res["reused"], len(res["brackets"]), res["wall_time"])
+             "computed, %d reused), %d bracket(s) (%d not refined), %.1f s", study.name,
+             res["preload"], res["peak"], res["peak_omega"] / fr.to_rad_s, fr.unit,
+             len(res["evaluations"]), res["computed"], res["reused"], len(res["brackets"]),
+             len(res["skipped"]), res["wall_time"])
     return res
 
 

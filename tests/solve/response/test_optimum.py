@@ -7,7 +7,8 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 import pipeline.solve.response.response as response
-from pipeline.solve.response.optimum import brent, global_minimum, grid_nodes, local_minima
+from pipeline.solve.response.optimum import (brent, global_minimum, grid_nodes, local_minima,
+                                             parabola_floor)
 from pipeline.study.execution.search_checkpoint import load_search, save_search, search_file
 
 BOUNDS = (0.1, 100.0)
@@ -60,7 +61,8 @@ def test_a_plain_bounded_brent_lands_in_the_local_basin():
 def test_optimum_preload_finds_the_global_minimum_of_a_bimodal_curve(fake_peaks):
     """The search returns the deeper basin's minimiser e^3 N to its tolerance (a plain
     bounded Brent, the search's earlier form, returned 1.35 N here); both basins are
-    bracketed and every preload evaluated is listed, sorted, once."""
+    bracketed, the shallow one (its parabola 50 % above the best) not refined, and
+    every preload evaluated is listed, sorted, once."""
     opt = response.optimum_preload(lambda n0: n0, 1, 1.0, 2.0, 0, BOUNDS, rtol=1e-3)
     assert opt["success"]
     assert opt["preload"] == pytest.approx(math.exp(T_GLOBAL), rel=2e-3)
@@ -73,8 +75,34 @@ def test_optimum_preload_finds_the_global_minimum_of_a_bimodal_curve(fake_peaks)
     assert len(nodes) == 2
     assert any(abs(math.log(x) - T_LOCAL) < 0.6 for x in nodes)
     assert any(abs(math.log(x) - T_GLOBAL) < 0.6 for x in nodes)
+    assert [abs(math.log(b[1]) - T_LOCAL) < 0.6 for b in opt["skipped"]] == [True]
     # cost: the 13 nodes of 3 decades, then Brent's parabolic steps (exact on a parabola)
-    assert len(opt["grid"]) == 13 and len(fake_peaks) <= 13 + 2 * 6
+    assert len(opt["grid"]) == 13 and len(fake_peaks) <= 13 + 6
+
+
+@pytest.mark.parametrize("local, refined", [(0.43, True), (0.6, False)])
+def test_a_basin_is_refined_unless_its_parabola_stays_above_the_best(local, refined):
+    """Two basins: the deeper one (0.4) is refined first; the other is refined too when
+    its nodes' parabola comes within SKIP_REL = 10 % of it (0.43), not when it stays
+    50 % above (0.6) -- then the evaluations stop after the first bracket."""
+    def curve(n0):
+        t = math.log(n0)
+        return (min(local + 0.2 * (t - T_LOCAL) ** 2, 0.4 + 1.5 * (t - T_GLOBAL) ** 2), 1.0)
+
+    opt = global_minimum(curve, BOUNDS, rtol=1e-3)
+    assert len(opt["brackets"]) == 2 and len(opt["skipped"]) == (0 if refined else 1)
+    assert opt["preload"] == pytest.approx(math.exp(T_GLOBAL), rel=2e-3)
+    near_local = [n0 for n0, _, _ in opt["evaluations"] if abs(math.log(n0) - T_LOCAL) < 0.05]
+    assert bool(near_local) == refined
+
+
+def test_parabola_floor_is_the_vertex_of_three_nodes():
+    """The parabola through three nodes of 3 + 2 (t - 1.3)^2: its vertex value 3 (1e-12);
+    concave nodes or an end node: the lowest node value."""
+    t = [0.0, 1.0, 2.0]
+    assert parabola_floor(t, [3 + 2 * (x - 1.3) ** 2 for x in t], 1) == pytest.approx(3.0, abs=1e-12)
+    assert parabola_floor(t, [1.0, 2.0, 1.5], 1) == 1.0
+    assert parabola_floor(t, [1.0, 2.0, 1.5], 0) == 1.0
 
 
 def test_a_dip_narrower_than_the_grid_spacing_can_be_missed():
