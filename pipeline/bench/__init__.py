@@ -255,9 +255,15 @@ def estimate_bench(quick=False, studies=()):
     return run_estimate(quick, studies)
 
 
+def montecarlo_bench(quick=False):
+    from .montecarlo import run as run_montecarlo
+    return run_montecarlo(quick)
+
+
 BENCHES = {"contact": contact, "hbm": hbm, "evaluations": evaluations_bench, "blade": blade,
            "disk": disk_bench, "parallel": parallel, "peers": peers_bench,
-           "stability": stability_bench, "estimate": estimate_bench, "modes": modes_bench}
+           "stability": stability_bench, "estimate": estimate_bench, "modes": modes_bench,
+           "montecarlo": montecarlo_bench}
 
 
 def run(what, quick=False, **options):
