@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import warnings
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -67,34 +68,58 @@ def augment(J, col, row):
 
 
 def bordered_sparse(J, col, row, col_scale=None):
-    """[[J diag(col_scale), col], [row]] as CSC, J scipy.sparse (n x n), col and row
-    dense (n,) and (n+1,): their nonzeros appended to J's rows as stored, no sparse
-    product or block assembly."""
-    J = J.tocsr()
+    """[[J diag(col_scale), col], [row]] as CSR, J scipy.sparse (n x n), col and row
+    dense (n,) and (n+1,), all their entries stored: the structure depends on J's
+    alone, so it is built once per structure (`_border_structure`) and each call
+    only places the values."""
+    J = J if J.format == "csr" else J.tocsr()
     n = J.shape[0]
-    col, row = np.asarray(col, float), np.asarray(row, float)
-    data = J.data if col_scale is None else J.data * col_scale[J.indices]
-    cnt, has = np.diff(J.indptr), col != 0
-    rj = np.flatnonzero(row)
-    indptr = np.zeros(n + 2, dtype=np.int64)
-    indptr[1:-1] = np.cumsum(cnt + has)
-    indptr[-1] = indptr[-2] + rj.size
-    shift = np.repeat(indptr[:n] - J.indptr[:n], cnt)   # where J's entries move
-    old = np.arange(J.indptr[-1]) + shift
-    at_col = indptr[1:n + 1][has] - 1                   # the last slot of a row with col
-    out_data = np.empty(indptr[-1])
-    out_ind = np.empty(indptr[-1], dtype=np.int64)
-    out_data[old], out_ind[old] = data, J.indices
-    out_data[at_col], out_ind[at_col] = col[has], n
-    out_data[indptr[n]:], out_ind[indptr[n]:] = row[rj], rj
-    return sp.csr_matrix((out_data, out_ind, indptr), shape=(n + 1, n + 1)).tocsc()
+    pos_j, pos_col, indices, indptr = _border_structure(J)
+    data = np.empty(indices.size)
+    data[pos_j] = J.data if col_scale is None else J.data * col_scale[J.indices]
+    data[pos_col] = col
+    data[indptr[n]:] = row
+    return sp.csr_matrix((data, indices, indptr), shape=(n + 1, n + 1))
+
+
+_BORDERS: dict = {}   # id(J.indptr) -> (weak reference to it, J.indices, structure)
+
+
+def _border_structure(J):
+    """(positions of J's entries, of the column's, indices, indptr) of the bordered
+    CSR matrix of `bordered_sparse`: row r holds J's row r then column n, row n every
+    column.  Kept while J's index arrays live (a Jacobian pattern fixed per problem)."""
+    key = id(J.indptr)
+    kept = _BORDERS.get(key)
+    if kept is not None and kept[0]() is J.indptr and kept[1] is J.indices:
+        return kept[2]
+    n, cnt = J.shape[0], np.diff(J.indptr)
+    itype = np.int32 if J.indptr[-1] + 2 * n + 1 < 2 ** 31 else np.int64   # as scipy keeps them
+    indptr = np.zeros(n + 2, dtype=itype)
+    indptr[1:-1] = np.cumsum(cnt + 1)
+    indptr[-1] = indptr[-2] + n + 1
+    pos_j = np.arange(J.indptr[-1]) + np.repeat(np.arange(n), cnt)
+    pos_col = indptr[1:n + 1] - 1
+    indices = np.empty(indptr[-1], dtype=itype)
+    indices[pos_j], indices[pos_col], indices[indptr[n]:] = J.indices, n, np.arange(n + 1)
+    out = (pos_j, pos_col, indices, indptr)
+    if len(_BORDERS) > 64:
+        _BORDERS.clear()
+    _BORDERS[key] = (weakref.ref(J.indptr), J.indices, out)
+    return out
+
+
+def _sparse_solver(A):
+    """The solve of a fresh sparse LU of A (SuperLU on its CSC form; factorising the
+    CSR arrays as A^T and solving transposed left residuals 1e4 times larger on the
+    mistuned wheel's bordered Jacobian)."""
+    return spla.splu(sp.csc_matrix(A)).solve
 
 
 def linear_solve(A, b):
     """Dense or sparse linear solve; raises LinAlgError / RuntimeError if singular."""
     if sp.issparse(A):
-        lu = spla.splu(sp.csc_matrix(A))
-        return lu.solve(b)
+        return _sparse_solver(A)(b)
     return np.linalg.solve(A, b)
 
 
@@ -102,7 +127,7 @@ def _factorised(A, single=False):
     """The solve of a fresh LU of A (dense or sparse; single: of A in float32, the
     solve still in and out of float64); LinAlgError if singular."""
     if sp.issparse(A):
-        return spla.splu(sp.csc_matrix(A)).solve
+        return _sparse_solver(A)
     dtype = np.float32 if single else float
     with warnings.catch_warnings():  # an exactly singular A: raised below instead
         warnings.simplefilter("ignore", sla.LinAlgWarning)
