@@ -299,9 +299,9 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l, largest=
     # merge in branch order (several DOFs' peaks may fall between the same two points)
     pos = np.concatenate([np.arange(L.size, dtype=float), [f[0] for f in found]])
     order = np.argsort(pos, kind="stable")
-    Zf = np.array([f[1] for f in found])
-    pts["amplitude"] = np.concatenate([A, amplitudes_at(prob, Zf[:, :-1], Zf[:, -1], dofs,
-                                                        omega_of)])[order]
+    Zf = np.array([f[1] for f in found])   # their amplitudes: what `largest` reads next
+    pts["amplitude"] = (np.concatenate([A, amplitudes_at(prob, Zf[:, :-1], Zf[:, -1], dofs,
+                                                         omega_of)])[order] if largest else None)
     pts["x"] = np.concatenate([X, [f[1][:-1] for f in found]])[order]
     pts["lam"] = np.concatenate([L, [f[1][-1] for f in found]])[order]
     pts["nit"] = np.concatenate([pts["nit"], np.zeros(len(found), int)])[order]

@@ -302,27 +302,8 @@ def sector_peaks_distribution_figure(path, sectors, series, tuned_peak, *, dof="
                 + ratio + f" (sector {sectors[k]})", zorder=3)
         if tuned_ok:
             head += f"; largest amplification = {P[w, k] / tuned_peak:.3f}"
-    if tuned_ok:
-        ax.axhline(tuned_peak, color="k", lw=1.5, zorder=2,
-                   label=f"tuned disk: {tuned_peak:.4g} m (one sector by the cyclic reduction)")
-        sec = ax.secondary_yaxis("right", functions=(lambda y: y / tuned_peak,
-                                                     lambda r: r * tuned_peak))
-        sec.set_ylabel("peak / tuned peak [-]")
-    else:
-        ax.plot([], [], color="k", lw=1.5,
-                label="tuned disk: not available" + (f" ({tuned_note})" if tuned_note else ""))
-    ax.set(xlabel="sector", ylabel=f"peak amplitude of {dof} [m]")
-    wrapped_title(ax, (title + "\n" if title else "") + head, fontsize=9)
-    if sectors.size <= 24:
-        ax.set_xticks(sectors)
-    else:
-        ax.xaxis.set_major_locator(integer_locator(16))
-    ax.grid(alpha=0.3, axis="y")
-    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1,
-              frameon=False)
-    out = atomic_savefig(fig, path)
-    plt.close(fig)
-    return out
+    return _finish_sector_figure(plt, fig, ax, path, sectors, tuned_peak, tuned_note, dof,
+                                 (title + "\n" if title else "") + head)
 
 
 def sector_peaks_figure(path, sectors, series, tuned_peak, *, dof="x", title="",
@@ -359,7 +340,19 @@ def sector_peaks_figure(path, sectors, series, tuned_peak, *, dof="x", title="",
             else:
                 text += f": max {pk[k]:.4g} m (sector {sectors[k]})"
         ax.plot(x, pk, markers[i % len(markers)], color=col, ms=6, label=text, zorder=3)
-    if tuned_ok:
+    head = f"peak of {dof} per sector"
+    if worst is not None:
+        head += f"; amplification max peak / tuned peak = {worst[0]:.3f}"
+        head += f" ({worst[1]})" if worst[1] and len(series) > 1 else ""
+    return _finish_sector_figure(plt, fig, ax, path, sectors, tuned_peak, tuned_note, dof,
+                                 (title + "\n" if title else "") + head)
+
+
+def _finish_sector_figure(plt, fig, ax, path, sectors, tuned_peak, tuned_note, dof, title):
+    """What both sector-peak figures share: the tuned disk's line and the right-hand
+    axis peak / tuned peak (or the note why there is none), axes, title, legend
+    below; saved atomically and closed."""
+    if np.isfinite(tuned_peak):
         ax.axhline(tuned_peak, color="k", lw=1.5, zorder=2,
                    label=f"tuned disk: {tuned_peak:.4g} m (no mistuning: one sector by the "
                          "cyclic reduction, same solver settings)")
@@ -369,12 +362,8 @@ def sector_peaks_figure(path, sectors, series, tuned_peak, *, dof="x", title="",
     else:
         ax.plot([], [], color="k", lw=1.5,
                 label="tuned disk: not available" + (f" ({tuned_note})" if tuned_note else ""))
-    head = f"peak of {dof} per sector"
-    if worst is not None:
-        head += f"; amplification max peak / tuned peak = {worst[0]:.3f}"
-        head += f" ({worst[1]})" if worst[1] and len(series) > 1 else ""
     ax.set(xlabel="sector", ylabel=f"peak amplitude of {dof} [m]")
-    wrapped_title(ax, (title + "\n" if title else "") + head, fontsize=9)
+    wrapped_title(ax, title, fontsize=9)
     if sectors.size <= 24:
         ax.set_xticks(sectors)
     else:

@@ -199,6 +199,32 @@ def test_peak_per_sector_figure_states_the_amplification(tmp_path, monkeypatch):
     assert any(t.startswith("tuned disk: 2e-06 m") for t in titles)
 
 
+def test_peak_distribution_figure_of_many_seeds_marks_the_worst(tmp_path, monkeypatch):
+    """Twenty seeds: one P5-P95 bar per sector, the seed with the largest peak marked
+    with its amplification (2.5e-6 / 2e-6 = 1.25, sector 2) in the key and title."""
+    import matplotlib.figure
+
+    from pipeline.study.figures.plots import sector_peaks_distribution_figure
+
+    texts = []
+    real_save = matplotlib.figure.Figure.savefig
+
+    def save(fig, *a, **kw):
+        texts.append(fig.axes[0].get_title())
+        texts.extend(t.get_text() for t in fig.axes[0].get_legend().get_texts())
+        return real_save(fig, *a, **kw)
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", save)
+    rng = np.random.default_rng(0)
+    series = [(f"seed {k}", 2e-6 * (1 + 0.05 * rng.uniform(-1, 1, 4))) for k in range(20)]
+    series[7] = ("seed 7", [2e-6, 2.1e-6, 2.5e-6, 1.9e-6])
+    out = sector_peaks_distribution_figure(tmp_path / "d.png", [0, 1, 2, 3], series, 2e-6,
+                                           dof="x1")
+    assert out.exists()
+    assert "largest amplification = 1.250" in texts[0]
+    assert "seed 7 (the largest peak): max / tuned = 1.250 (sector 2)" in texts
+    assert "P5-P95 over 20 seeds" in texts
+
+
 def test_zero_mistuning_puts_every_sector_on_the_tuned_peak(tmp_path, monkeypatch):
     """disk_mistuned.toml with stiffness_std = 0 (6 sectors, H = 1, around the peak),
     run with figures: the full assembly's sector peaks all equal the tuned reference
