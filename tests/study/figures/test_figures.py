@@ -178,33 +178,10 @@ def test_peak_per_sector_figure_from_either_layout(tmp_path, layout, monkeypatch
     np.testing.assert_array_equal(drawn["series"][1][1], peak[1])
 
 
-def test_peak_per_sector_figure_states_the_amplification(tmp_path, monkeypatch):
+@pytest.fixture
+def saved_texts(monkeypatch):
+    """The title, then the legend entries, of every figure saved (in order)."""
     import matplotlib.figure
-
-    from pipeline.study.figures.plots import sector_peaks_figure
-
-    titles = []
-    real_save = matplotlib.figure.Figure.savefig
-
-    def save(fig, *a, **kw):
-        titles.append(fig.axes[0].get_title())
-        titles.extend(t.get_text() for t in fig.axes[0].get_legend().get_texts())
-        return real_save(fig, *a, **kw)
-    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", save)
-    sector_peaks_figure(tmp_path / "p.png", [0, 1, 2],
-                        [("seed 1", [1e-6, 2.2e-6, 1.8e-6]), ("seed 2", [2.4e-6, 2e-6, 1e-6])],
-                        2e-6, dof="x1")
-    assert "amplification max peak / tuned peak = 1.200 (seed 2)" in titles[0]
-    assert "seed 1: max / tuned = 1.100 (sector 1)" in titles
-    assert any(t.startswith("tuned disk: 2e-06 m") for t in titles)
-
-
-def test_peak_distribution_figure_of_many_seeds_marks_the_worst(tmp_path, monkeypatch):
-    """Twenty seeds: one P5-P95 bar per sector, the seed with the largest peak marked
-    with its amplification (2.5e-6 / 2e-6 = 1.25, sector 2) in the key and title."""
-    import matplotlib.figure
-
-    from pipeline.study.figures.plots import sector_peaks_distribution_figure
 
     texts = []
     real_save = matplotlib.figure.Figure.savefig
@@ -214,6 +191,27 @@ def test_peak_distribution_figure_of_many_seeds_marks_the_worst(tmp_path, monkey
         texts.extend(t.get_text() for t in fig.axes[0].get_legend().get_texts())
         return real_save(fig, *a, **kw)
     monkeypatch.setattr(matplotlib.figure.Figure, "savefig", save)
+    return texts
+
+
+def test_peak_per_sector_figure_states_the_amplification(tmp_path, saved_texts):
+    from pipeline.study.figures.plots import sector_peaks_figure
+
+    titles = saved_texts
+    sector_peaks_figure(tmp_path / "p.png", [0, 1, 2],
+                        [("seed 1", [1e-6, 2.2e-6, 1.8e-6]), ("seed 2", [2.4e-6, 2e-6, 1e-6])],
+                        2e-6, dof="x1")
+    assert "amplification max peak / tuned peak = 1.200 (seed 2)" in titles[0]
+    assert "seed 1: max / tuned = 1.100 (sector 1)" in titles
+    assert any(t.startswith("tuned disk: 2e-06 m") for t in titles)
+
+
+def test_peak_distribution_figure_of_many_seeds_marks_the_worst(tmp_path, saved_texts):
+    """Twenty seeds: one P5-P95 bar per sector, the seed with the largest peak marked
+    with its amplification (2.5e-6 / 2e-6 = 1.25, sector 2) in the key and title."""
+    from pipeline.study.figures.plots import sector_peaks_distribution_figure
+
+    texts = saved_texts
     rng = np.random.default_rng(0)
     series = [(f"seed {k}", 2e-6 * (1 + 0.05 * rng.uniform(-1, 1, 4))) for k in range(20)]
     series[7] = ("seed 7", [2e-6, 2.1e-6, 2.5e-6, 1.9e-6])
