@@ -53,6 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
     o.add_argument("study", metavar="STUDY.toml", help="study file with [output.optimum_preload]")
     o.add_argument("--quick", action="store_true", help="use the study's [quick] solver settings")
     o.add_argument("--out", default="results", help="directory for <name>/optimum_preload.png")
+    o.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local worker processes for the search's grid (default: one per "
+                        "CPU core; 1 = run in this process)")
     o.set_defaults(func=_cmd_optimise)
 
     b = sub.add_parser("bench", help="benchmarks that print tables")
@@ -96,7 +99,7 @@ def _cmd_hysteresis(args) -> int:
 
 
 def _cmd_optimise(args) -> int:
-    """Optimum preload by a search on the exact peak (response.optimum_preload)."""
+    """Optimum preload by a search on the exact peak (peak_tracking.optimum_preload)."""
     from pathlib import Path
 
     from .study.files.declared import UndeclaredSeparation
@@ -109,6 +112,12 @@ def _cmd_optimise(args) -> int:
     from .study.execution.search_checkpoint import search_file
 
     study = load_study(args.study, quick=args.quick)
+    workers = args.workers
+    if workers is None:
+        workers = (len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity")
+                   else (os.cpu_count() or 1))
+    if workers < 1:
+        raise UsageError(f"{args.study}: --workers: must be >= 1, got {workers}")
     if study.output.optimum is None:
         raise UsageError(f"{args.study}: output.optimum_preload: missing: give dof and "
                          "bounds = [low, high] (N) for the search")
@@ -117,7 +126,7 @@ def _cmd_optimise(args) -> int:
     cdir = checkpoint_dir(study, args.out, default_solver(study))
     try:
         with sigint_interrupts():
-            res = find_optimum(study, None, cdir)
+            res = find_optimum(study, None, cdir, workers=workers)
     except UndeclaredSeparation as exc:
         print(f"error: {args.study}: scene.effects: {exc}", file=sys.stderr)
         return 1

@@ -61,7 +61,7 @@ _START_ITER = 4                 # Newton iterations from a curved start before t
 _SMOOTH_COS = math.cos(math.radians(20.0))  # neighbours turning more: not in one curve
 
 
-def _solve_on_plane(fun, p, d, scale, tol, start=None, factors=None):
+def solve_on_plane(fun, p, d, scale, tol, start=None, factors=None):
     """The branch point on the hyperplane through p normal to d (scaled unknowns
     z / scale, d unit): Newton on R = 0 plus that condition, from `start` (scaled),
     else from p.  Newton from `start` gets _START_ITER iterations, undamped: a start
@@ -207,7 +207,7 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l, axes=PLOT_AXES):
         for seg in split[:PLOT_MAX_POINTS - added]:
             za, zb = Z[seg], Z[seg + 1]
             d = (zb - za) / np.linalg.norm(zb - za)
-            z, ok, nfev, t = _solve_on_plane(fun, 0.5 * (za + zb), d, scale, tol,
+            z, ok, nfev, t = solve_on_plane(fun, 0.5 * (za + zb), d, scale, tol,
                                              _dense_start(Z, Ts, seg, d), factors)
             pts["dense_nfev"] = pts.get("dense_nfev", 0) + nfev
             if ok:
@@ -374,7 +374,7 @@ class PeakTrials:
         if near is not None and self.cache[near][1] and self.cache[near][4] is not None:
             z0, t0 = self.cache[near][0] / self.scale, self.cache[near][4] / self.scale
             start = z0 + (d @ (p - z0)) / (d @ t0) * t0
-        z, ok, nfev, t = _solve_on_plane(self.fun, p, d, self.scale, self.tol, start,
+        z, ok, nfev, t = solve_on_plane(self.fun, p, d, self.scale, self.tol, start,
                                          self.factors)
         self.nfev += nfev
         self.solved[sig] = (z, ok, t)

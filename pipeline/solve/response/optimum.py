@@ -173,7 +173,8 @@ def brent(f, a: float, b: float, xatol: float, x: float | None = None, fx: float
 
 def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
                    per_decade: float = PER_DECADE, known=None, extra_nodes=(),
-                   on_evaluation=None) -> dict:
+                   on_evaluation=None, local=None, verify_rel: float = 1e-6,
+                   evaluate_many=None) -> dict:
     """The preload in `bounds` [N] with the smallest value of evaluate(n0) -> (peak,
     omega), peak = inf for a failed evaluation (see the module docstring: grid,
     brackets of every local minimum, Brent in each to |d ln n0| <= rtol / REFINE
@@ -182,22 +183,28 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
     known: {n0: (peak, omega)} evaluated before (reused, never recomputed: the cases,
     an interrupted search's checkpoint); extra_nodes: preloads added to the grid
     (those inside the bounds; the cases, whose values are known);
-    on_evaluation(n0, peak, omega) is called after each new evaluation (a checkpoint).  Returns a dict: preload, peak,
-    peak_omega, evaluations [(n0, peak, omega)] sorted by n0 (every preload looked at,
-    reused ones included; peak and omega NaN where the evaluation failed), grid (the
-    nodes), brackets [(low, node, high)] [N], skipped (the brackets not refined:
-    SKIP_REL), computed (new evaluations), reused, success (some evaluation finite)."""
+    on_evaluation(n0, peak, omega) is called after each new evaluation (a checkpoint).
+    evaluate_many(list of n0, record): the grid nodes not known yet evaluated together
+    (e.g. in parallel), record(n0, peak, omega) called as each ends; default evaluate
+    on each in turn.
+
+    local(n0, near) -> (peak, omega): a cheaper lower bound of evaluate(n0) from the
+    evaluated preload `near` (the peak continued in preload) for Brent's trials, its
+    result checked by evaluate to verify_rel (`refine_bracket`).
+
+    Returns a dict: preload, peak, peak_omega, evaluations [(n0, peak, omega)] sorted
+    by n0 (every preload looked at, reused ones included; peak and omega NaN where the
+    evaluation failed), local (the preloads among them valued by `local` alone),
+    verified [(n0, local, full)] (each bracket's check), grid (the nodes), brackets
+    [(low, node, high)] [N], skipped (the brackets not refined: SKIP_REL), computed
+    (new evaluations), reused, success (some evaluation finite)."""
     lo, hi = float(bounds[0]), float(bounds[1])
     memo = {float(k): (float(p), float(o)) for k, (p, o) in dict(known or {}).items()}
-    reused = set()
+    lmemo = {}        # n0 -> (peak, omega) by `local` (lower bounds)
+    reused, verified = set(), []
     computed = [0]
 
-    def peak_at(n0):
-        n0 = float(n0)
-        if n0 in memo:
-            reused.add(n0)
-            return memo[n0][0]
-        p, om = evaluate(n0)
+    def record(n0, p, om):
         p, om = float(p), float(om)
         if not np.isfinite(p):
             p, om = np.inf, np.nan
@@ -207,10 +214,21 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
             on_evaluation(n0, p, om)
         return p
 
+    def peak_at(n0):
+        n0 = float(n0)
+        if n0 in memo:
+            reused.add(n0)
+            return memo[n0][0]
+        return record(n0, *evaluate(n0))
+
     to_n0 = (lambda t: float(np.exp(t))) if log else float
     to_t = (lambda n0: math.log(n0)) if log else float
     nodes = grid_nodes(lo, hi, log=log, per_decade=per_decade, extra=extra_nodes)
+    todo = [float(n0) for n0 in nodes if float(n0) not in memo]
+    if evaluate_many is not None and len(todo) > 1:
+        evaluate_many(todo, record)
     values = [peak_at(n0) for n0 in nodes]
+    reused.difference_update(todo)      # evaluated here, not known before
     t = [to_t(n0) for n0 in nodes]
     xatol = (rtol if log else rtol * hi) / REFINE
     brackets, skipped = [], []
@@ -222,16 +240,70 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
             skipped.append(brackets[-1])
             continue
         inner = (t[i], values[i]) if 0 < i < len(t) - 1 else (None, None)
-        brent(lambda s: peak_at(to_n0(s)), a, b, xatol, *inner)
+        if local is None:
+            brent(lambda s: peak_at(to_n0(s)), a, b, xatol, *inner)
+        else:
+            verified.append(refine_bracket(peak_at, local, memo, lmemo, to_n0, to_t,
+                                           (a, b), xatol, inner, verify_rel, (lo, hi)))
         logger.debug("optimum search: bracket [%.6g, %.6g] N refined", to_n0(a), to_n0(b))
+    return _result(memo, lmemo, (lo, hi), grid=[float(x) for x in nodes], verified=verified,
+                   brackets=brackets, skipped=skipped, computed=computed[0],
+                   reused=len(reused))
+
+
+def _result(memo, lmemo, bounds, **more) -> dict:
+    """`global_minimum`'s dict: the evaluations within `bounds` (full and local values
+    merged, full ones first), the best full value, and `more`."""
+    lo, hi = bounds
+    merged = {**{k: v for k, v in lmemo.items() if k not in memo}, **memo}
     evaluations = sorted((n0, (p if np.isfinite(p) else np.nan), om)
-                         for n0, (p, om) in memo.items() if lo <= n0 <= hi)
-    finite = [e for e in evaluations if np.isfinite(e[1])]
+                         for n0, (p, om) in merged.items() if lo <= n0 <= hi)
+    # candidates: full values only (a local value is a lower bound, checked where it won)
+    finite = [e for e in evaluations if np.isfinite(e[1]) and e[0] in memo]
     best = min(finite, key=lambda e: e[1]) if finite else (np.nan, np.nan, np.nan)
     return {"preload": best[0], "peak": best[1], "peak_omega": best[2],
-            "evaluations": evaluations, "grid": [float(x) for x in nodes],
-            "brackets": brackets, "skipped": skipped, "computed": computed[0],
-            "reused": len(reused), "success": bool(finite)}
+            "evaluations": evaluations,
+            "local": sorted(k for k in lmemo if k not in memo and lo <= k <= hi),
+            "success": bool(finite), **more}
+
+
+def refine_bracket(full, local, memo, lmemo, to_n0, to_t, ab, xatol, inner, verify_rel,
+                   bounds):
+    """Brent in the bracket `ab` (in t) on local values, the result evaluated in `full`
+    (the memoised evaluation) and compared: returns (n0, local peak, full peak) of
+    that check; where the full peak exceeds the local one by more than verify_rel,
+    Brent runs again on full values (logged).
+
+    local(n0, near) -> (peak, omega) is asked from the evaluated preload `near`
+    nearest to n0 within `bounds`; it never exceeds full(n0) and equals it while the
+    same maximum stays the largest (the peak continued in preload); inf where it finds
+    none (then full(n0) is taken).  Since every local value is a lower bound, a
+    verified result is the best of the preloads tried by their full values too."""
+    def local_at(s):
+        n0 = to_n0(s)
+        if n0 in memo:
+            return memo[n0][0]
+        if n0 not in lmemo:
+            done = {k: v for k, v in {**lmemo, **memo}.items()
+                    if np.isfinite(v[0]) and bounds[0] <= k <= bounds[1]}
+            near = min(done, key=lambda k: (abs(to_t(k) - s), k)) if done else None
+            p, om = local(n0, near) if near is not None else (np.inf, np.nan)
+            if not np.isfinite(p):
+                return full(n0)
+            lmemo[n0] = (float(p), float(om))
+        return lmemo[n0][0]
+
+    x, _ = brent(local_at, *ab, xatol, *inner)
+    n0 = to_n0(x)
+    guess = lmemo.get(n0, memo.get(n0, (np.inf,)))[0]
+    p = full(n0)
+    if p <= guess * (1 + verify_rel):
+        return (n0, guess, p)
+    logger.warning("optimum search: the peak at %.6g N is %.6g m over the band, %.6g m "
+                   "continued from a nearby preload: the bracket [%.6g, %.6g] N is refined "
+                   "again on the whole band", n0, p, guess, to_n0(ab[0]), to_n0(ab[1]))
+    brent(lambda s: full(to_n0(s)), *ab, xatol, *inner)
+    return (n0, guess, p)
 
 
 def parabola_floor(t, values, i) -> float:

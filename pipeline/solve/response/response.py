@@ -19,7 +19,6 @@ from ..harmonic_balance import roundoff
 from ..continuation.branch_refinement import PLOT_AXES, amplitudes_at, densify, insert_peaks
 from ..continuation.pseudo_arclength import continue_branch
 from ...fourier.harmonics import amplitude_half_peak_to_peak
-from .optimum import PER_DECADE, global_minimum
 from ..continuation.newton import newton, scale_rows
 from .resonance import MAX_DENSE_DOF, step_guard
 from ..continuation.restarts import cover_range
@@ -152,40 +151,75 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     stability_mode(stability)  # misuse raises before the continuation
     axes = dense_axes(dense_output) if dense_output else None
     ds = min(ds, ds_max)  # a small max_step also bounds the first step
-    prob = hbm.setup(system, H, method, n_samples)
-    elem = contact if contact is not None else system.contact
-    tols = hbm.tolerances(prob, tol_rel, elem)
-    floored = roundoff.FlooredWeights(prob, tols, roundoff.load_scales(prob, elem))
-    fun = _weighted(lambda x, lam: hbm.residual(prob, x, lam, elem), floored)
-    tol = 1.0  # on the weighted residual: every block within its own tolerance [N]
-    groups = np.repeat(np.arange(prob.c.size), prob.nh)
-    guard = step_guard(prob, lambda lam: elem)
+    fp = frequency_problem(system, H, method, n_samples, tol_rel, contact)
+    prob, elem, tols, fun, tol, groups, guard = (fp.prob, fp.elem, fp.tols, fp.fun, 1.0,
+                                                 fp.groups, fp.guard)
     kw = dict(ds=ds, ds_max=ds_max, max_points=max_points, callback=callback,
               segment_check=guard)
-
-    if initial is not None:
-        initial = np.asarray(initial, dtype=float)
-        if initial.shape != (system.n_dof, prob.nh) or not np.all(np.isfinite(initial)):
-            raise ValueError(f"initial must be finite Fourier coefficients of shape "
-                             f"({system.n_dof}, {prob.nh}), got {initial.shape}")
-
-    def first_point(Om, guess=None):
-        return _first_point(prob, elem, Om, floored, lambda x: fun(x, Om)[:2], guess)
-
-    br, spent = cover_range(fun, first_point, omega_start, omega_end, tol, groups, initial, **kw)
+    initial = fp.checked_state(initial)
+    br, spent = cover_range(fun, fp.start_at, omega_start, omega_end, tol, groups, initial,
+                            **kw)
     dofs = peak_dofs if peak_dofs is not None else range(system.n_dof)
-    pts = _branch_points(br)
+    pts = branch_points(br)
     if axes:
         pts = densify(prob, pts, fun, tol, dofs, axes=axes)
     pts = insert_peaks(prob, pts, fun, tol, elem, dofs, largest=keep == "peaks")
     if keep == "peaks":
         pts = peak_points(prob, pts, dofs)
     pts["resonance_guard"] = guard is not None
-    return _curve_from_points(prob, br, pts, lambda lam: elem, tols, stability, lambda lam: lam,
+    return curve_from_points(prob, br, pts, lambda lam: elem, tols, stability, lambda lam: lam,
                               time.perf_counter() - t_start, spent)
 
 
 KEEP = ("curve", "peaks")  # what `frequency_response` keeps of the branch
+
+
+@dataclass(frozen=True)
+class FrequencyProblem:
+    """The condensed harmonic balance of a system over Omega, as continuation sees it:
+    `fun(x, Omega) -> (R, J, dR/dOmega)` with every equation divided by its tolerance
+    (`weighted`; converged at |R| <= 1), `tols` (static, harmonic) [N], the DOF
+    groups of the automatic scale, the resonance guard (None where not applicable)."""
+
+    prob: object
+    elem: object
+    tols: tuple
+    floored: object
+    fun: object
+    groups: np.ndarray
+    guard: object
+
+    def start_at(self, Om, guess=None):
+        """The first point at Om [rad/s] (`first_point`): from `guess` (all DOFs'
+        coefficients) if given, else the linear guesses and the homotopies."""
+        return first_point(self.prob, self.elem, Om, self.floored,
+                           lambda x: self.fun(x, Om)[:2], guess)
+
+    def checked_state(self, Q):
+        """Q as finite Fourier coefficients (n, 2H+1) of all DOFs (None passes)."""
+        if Q is None:
+            return None
+        Q = np.asarray(Q, dtype=float)
+        shape = (self.prob.system.n_dof, self.prob.nh)
+        if Q.shape != shape or not np.all(np.isfinite(Q)):
+            raise ValueError(f"initial must be finite Fourier coefficients of shape "
+                             f"{shape}, got {Q.shape}")
+        return Q
+
+
+def frequency_problem(system, H, method="exact", n_samples=256, tol_rel=1e-10,
+                      contact=None) -> FrequencyProblem:
+    """`FrequencyProblem` of `system` at H harmonics (`contact`: other elements than
+    the system's), its tolerances from `tol_rel` (`hbm.tolerances`), raised to the
+    round-off floor where that is larger (`roundoff.FlooredWeights`)."""
+    prob = hbm.setup(system, H, method, n_samples)
+    elem = contact if contact is not None else system.contact
+    tols = hbm.tolerances(prob, tol_rel, elem)
+    floored = roundoff.FlooredWeights(prob, tols, roundoff.load_scales(prob, elem))
+    fun = weighted(lambda x, lam: hbm.residual(prob, x, lam, elem), floored)
+    return FrequencyProblem(prob, elem, tols, floored, fun,
+                            np.repeat(np.arange(prob.c.size), prob.nh),
+                            step_guard(prob, lambda lam: elem))
 
 
 def peak_points(prob, pts, dofs) -> dict:
@@ -220,7 +254,7 @@ def dense_axes(dense_output) -> tuple:
                      f"{dense_output!r}")
 
 
-def _first_point(prob, elem, Om, w, fun_x, guess=None):
+def first_point(prob, elem, Om, w, fun_x, guess=None):
     """The first point at fixed parameter: Newton (weighted residual `fun_x`, tol 1)
     from `guess` (all DOFs' coefficients) if given, else from the better linear
     guess; then the load and the stiffness homotopies, their equations weighted by
@@ -305,7 +339,7 @@ def _stiffness_start(prob, elem, Om, w, failed, decades=(1, 2, 3, 4)):
     return failed, spent
 
 
-def _weighted(fun, weights):
+def weighted(fun, weights):
     """fun(x, lam) -> (R, J, dR) with every equation divided by its tolerance [N]
     (row scaling: Newton steps and tangents are unchanged, only the test is), raised
     to the residual's round-off floor at (x, lam) where that is larger
@@ -319,13 +353,13 @@ def _weighted(fun, weights):
     return f
 
 
-def _branch_points(br):
+def branch_points(br):
     return {"x": np.array(br.x), "lam": np.array(br.lam), "nit": np.array(br.nit),
             "converged": np.array(br.converged, bool), "extra_nfev": 0,
             "tangent": list(np.array(br.tangent)), "scale": np.array(br.scale)}
 
 
-def _curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapsed, extra_nfev):
+def curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapsed, extra_nfev):
     """ResponseCurve from branch points: all DOFs recovered, the full residual of each
     point recomputed and split into static and harmonic parts, each held to its
     tolerance [N]; Hill stability of the full system.  elem_at(lam) gives the
@@ -444,50 +478,17 @@ def preload_response(system, H, omega, preload_start, preload_end, *, method="ex
     loads = np.max([roundoff.load_scales(prob, _with_preload(base, p, shape))
                     for p in (preload_start, preload_end)], axis=0)
     floored = roundoff.FlooredWeights(prob, tols, loads)
-    fun = _weighted(lambda x, lam: raw(x, lam), floored)
+    fun = weighted(lambda x, lam: raw(x, lam), floored)
 
-    def first_point(lam, guess=None):
-        return _first_point(prob, _with_preload(base, lam, shape), omega, floored,
+    def start_at(lam, guess=None):
+        return first_point(prob, _with_preload(base, lam, shape), omega, floored,
                             lambda x: fun(x, lam)[:2], guess)
 
     guard = step_guard(prob, lambda lam: _with_preload(base, lam, shape), lambda lam: omega)
-    br, spent = cover_range(fun, first_point, preload_start, preload_end, 1.0,
+    br, spent = cover_range(fun, start_at, preload_start, preload_end, 1.0,
                              np.repeat(np.arange(prob.c.size), prob.nh), ds=ds, ds_max=ds_max,
                              max_points=max_points, segment_check=guard)
-    pts = _branch_points(br)
+    pts = branch_points(br)
     pts["resonance_guard"] = guard is not None
-    return _curve_from_points(prob, br, pts, lambda lam: _with_preload(base, lam, shape), tols,
+    return curve_from_points(prob, br, pts, lambda lam: _with_preload(base, lam, shape), tols,
                               stability, lambda lam: omega, time.perf_counter() - t_start, spent)
-
-
-def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
-                    log=True, known=None, extra_nodes=(), on_evaluation=None,
-                    per_decade=PER_DECADE, **kwargs):
-    """The preload [N] in `bounds` that minimises the resonant peak of `dof`, globally.
-
-    build(n0) -> System.  Each evaluation traces the frequency response over
-    [omega_start, omega_end] and takes its exact peak (`insert_peaks`); an incomplete
-    curve (it may miss its peak) is a failed evaluation, never a candidate.  The
-    peak-vs-preload curve is sampled on a grid (`per_decade` nodes per decade, on
-    log(n0) by default: preloads span decades), every local minimum of the grid is
-    bracketed and refined by Brent (the optimum within `rtol` in log(n0)), the best taken
-    (`optimum.global_minimum`, which states when a minimum can still be missed).
-    known {n0: (peak, omega)} are reused, extra_nodes join the grid (the study's cases);
-    on_evaluation(n0, peak, omega) follows each new evaluation.  Returns the dict of `optimum.global_minimum`.
-    """
-    if log and not 0 < bounds[0] < bounds[1]:
-        raise ValueError(f"bounds must satisfy 0 < low < high for a log search, got {bounds}")
-    kwargs.setdefault("stability", False)
-    kwargs["keep"] = "peaks"  # only the peak is read, no curve is drawn
-
-    def peak(n0):
-        c = frequency_response(build(n0), H, omega_start, omega_end, peak_dofs=[dof], **kwargs)
-        if not c.success:
-            logging.getLogger(__name__).warning("optimum search: curve at %.6g N incomplete "
-                                                "(%s); skipped", n0, c.message)
-            return np.inf, np.nan
-        a, om, _ = c.peak(dof)
-        return a, om
-
-    return global_minimum(peak, bounds, rtol=rtol, log=log, per_decade=per_decade,
-                          known=known, extra_nodes=extra_nodes, on_evaluation=on_evaluation)

@@ -1,5 +1,5 @@
 """The optimum-preload search in the study dataset: the optimum and the
-peak-versus-preload curve it was found on (`response.optimum_preload`)."""
+peak-versus-preload curve it was found on (`peak_tracking.optimum_preload`)."""
 from __future__ import annotations
 
 import numpy as np
@@ -32,5 +32,10 @@ def add_optimum(data_vars, coords, opt, study, to_unit, unit):
         np.int8), {"units": "1", "long_name": "1 at the optimum preload, else 0"})
     data_vars["optimum_search_on_grid"] = ((dim,), np.isin(ev[:, 0], grid).astype(np.int8), {
         "units": "1", "long_name": "1: a node of the search grid, 0: a Brent refinement"})
+    local = np.isin(ev[:, 0], np.asarray(opt.get("local", []), dtype=float))
+    data_vars["optimum_search_band"] = ((dim,), (~local).astype(np.int8), {
+        "units": "1", "long_name": "1: the peak over the whole band; 0: the local peak "
+                                   "continued from the nearest preload evaluated (a lower "
+                                   "bound of the band's, used by Brent's trials only)"})
     data_vars["optimum_search_wall_time"] = ((), float(opt.get("wall_time", np.nan)), {
         "units": "s", "long_name": "wall time of the optimum search"})

@@ -156,45 +156,56 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None):
         if bar is not None:
             bar.update(cases[k][1], *res)
 
+    def serial(k):
+        kwk = dict(kw)
+        if bar is not None and bar.live and getattr(solver, "__name__", "") == "frequency_response":
+            kwk["callback"] = lambda x, lam: bar.frequency(lam)
+        solver_k, system, H_k, a, b, _, g = job(k)
+        return run_case(solver_k, system, H_k, a, b, kwk, g)
+
     try:
-        if scheduler and todo:
-            from dask.distributed import Client, as_completed
-
-            try:
-                client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
-            except (OSError, TimeoutError) as exc:
-                raise SchedulerUnreachable(f"cannot reach the Dask scheduler at {scheduler} "
-                                           f"({type(exc).__name__}: {exc})") from None
-            with client:
-                futs = [client.submit(run_case, *job(k), pure=False) for k in todo]
-                index = {f.key: k for k, f in zip(todo, futs)}
-                for fut in as_completed(futs):
-                    done(index[fut.key], fut.result())
-        elif workers > 1 and len(todo) > 1:
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
-            pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
-            try:
-                futs = {pool.submit(run_case, *job(k)): k for k in todo}
-                for fut in as_completed(futs):
-                    done(futs[fut], fut.result())
-            except BaseException as exc:  # Ctrl-C or a lost worker: stop the running cases now
-                for proc in list((getattr(pool, "_processes", None) or {}).values()):
-                    proc.terminate()
-                pool.shutdown(wait=False, cancel_futures=True)
-                from concurrent.futures.process import BrokenProcessPool
-                if isinstance(exc, BrokenProcessPool):
-                    raise WorkerLost("a worker process died (killed, or out of memory)") from None
-                raise
-            pool.shutdown()
-        else:
-            for k in todo:
-                kwk = dict(kw)
-                if bar is not None and bar.live and getattr(solver, "__name__", "") == "frequency_response":
-                    kwk["callback"] = lambda x, lam: bar.frequency(lam)
-                solver_k, system, H_k, a, b, _, g = job(k)
-                done(k, run_case(solver_k, system, H_k, a, b, kwk, g))
+        map_jobs(run_case, todo, job, done, workers, scheduler, serial)
     finally:
         if bar is not None:
             bar.close()
     return results, len(reused)
+
+
+def map_jobs(fn, todo, job, done, workers=1, scheduler=None, serial=None):
+    """fn(*job(k)) for every k of `todo` on the Dask scheduler at `scheduler`, else in a
+    local pool of `workers` processes (when more than one job), else here in turn
+    (serial(k) instead, if given); done(k, result) as each ends, in this process.  A
+    Ctrl-C or a lost worker stops the running jobs at once (`WorkerLost`)."""
+    if scheduler and todo:
+        from dask.distributed import Client, as_completed
+
+        try:
+            client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
+        except (OSError, TimeoutError) as exc:
+            raise SchedulerUnreachable(f"cannot reach the Dask scheduler at {scheduler} "
+                                       f"({type(exc).__name__}: {exc})") from None
+        with client:
+            futs = [client.submit(fn, *job(k), pure=False) for k in todo]
+            index = {f.key: k for k, f in zip(todo, futs)}
+            for fut in as_completed(futs):
+                done(index[fut.key], fut.result())
+    elif workers > 1 and len(todo) > 1:
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
+        try:
+            futs = {pool.submit(fn, *job(k)): k for k in todo}
+            for fut in as_completed(futs):
+                done(futs[fut], fut.result())
+        except BaseException as exc:  # Ctrl-C or a lost worker: stop the running jobs now
+            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                proc.terminate()
+            pool.shutdown(wait=False, cancel_futures=True)
+            from concurrent.futures.process import BrokenProcessPool
+            if isinstance(exc, BrokenProcessPool):
+                raise WorkerLost("a worker process died (killed, or out of memory)") from None
+            raise
+        pool.shutdown()
+    else:
+        for k in todo:
+            done(k, serial(k) if serial is not None else fn(*job(k)))

@@ -1,7 +1,7 @@
 """The optimum-preload search of a study (`[output.optimum_preload]`): the study's
 systems at each trial preload, its cases' peaks reused as grid nodes, the evaluations
 kept on disk as they come so that an interrupted search resumes
-(`response.optimum_preload`, `search_checkpoint`)."""
+(`peak_tracking.optimum_preload`, `search_checkpoint`)."""
 from __future__ import annotations
 
 import logging
@@ -10,19 +10,19 @@ from pathlib import Path
 
 import numpy as np
 
-from ...solve.response.response import optimum_preload
-from .cases import separation_guard
+from ...solve.response.peak_tracking import band_peak, optimum_preload
+from .cases import map_jobs, separation_guard
 from .search_checkpoint import load_search, save_search
 from ..files.spec import Study
 
 log = logging.getLogger("pipeline.study.execution.run")
 
 
-def study_optimum(study: Study, solver, curves, cdir=None) -> tuple:
+def study_optimum(study: Study, solver, curves, cdir=None, workers=1, scheduler=None) -> tuple:
     """(optimum dict or None, error text or None) of a study run whose cases gave
-    `curves` with `solver`: `find_optimum`, the cases reused when they are HBM curves;
-    a search stopped by an undeclared separation is an error (the dataset is written
-    without it), logged."""
+    `curves` with `solver`: `find_optimum` (its grid on the run's `workers` or
+    `scheduler`), the cases reused when they are HBM curves; a search stopped by an
+    undeclared separation is an error (the dataset is written without it), logged."""
     from ..files.declared import UndeclaredSeparation
 
     if study.output.optimum is None:
@@ -30,7 +30,7 @@ def study_optimum(study: Study, solver, curves, cdir=None) -> tuple:
     hbm = getattr(solver, "__module__", "") == "pipeline.solve.response.response"
     try:
         return find_optimum(study, list(zip([c for _, c in study.sweep.cases()], curves))
-                            if hbm else None, cdir), None
+                            if hbm else None, cdir, workers, scheduler), None
     except UndeclaredSeparation as exc:
         log.error("%s: optimum preload search stopped: %s", study.name, exc)
         return None, str(exc)
@@ -44,8 +44,8 @@ def optimum_figure_of(study: Study, optimum: dict, fig_dir):
                           study.output.optimum["dof"], study.title)
 
 
-def find_optimum(study: Study, cases=None, cdir=None) -> dict:
-    """The preload that minimises the resonant peak (`response.optimum_preload`): a
+def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None) -> dict:
+    """The preload that minimises the resonant peak (`peak_tracking.optimum_preload`): a
     grid over the bounds, Brent in every bracketed minimum, the best taken; the other
     sweep axes keep the scene's own values.
 
@@ -53,7 +53,9 @@ def find_optimum(study: Study, cases=None, cdir=None) -> dict:
     reused as grid nodes where they are the search's own curve (a preload-only case,
     complete, over the search's window, its peak located exactly).  cdir: a checkpoint
     folder where the evaluations are kept as they come (`search_checkpoint`), so an
-    interrupted search resumes where it stopped."""
+    interrupted search resumes where it stopped.  The grid's band evaluations run
+    together on a local pool of `workers` processes or the Dask `scheduler`
+    (`cases.map_jobs`); Brent's trials, continued from them, run here."""
     o, sv = study.output.optimum, study.solver
     window = o["window"] or study.sweep.frequency
     dof = study.scene.dofs.index(o["dof"])
@@ -61,8 +63,9 @@ def find_optimum(study: Study, cases=None, cdir=None) -> dict:
     guard, current = separation_guard(study), {}
     identity = {"dof": o["dof"], "bounds": list(o["bounds"]), "rtol": o["rtol"],
                 "window": [window.omega_start, window.omega_stop], "harmonics": sv.harmonics}
-    kept = load_search(cdir, identity) if cdir is not None else {}
-    free = case_peaks(study, cases or [], window, dof)
+    kept, kept_states = load_search(cdir, identity, True) if cdir is not None else ({}, {})
+    free, states = case_peaks(study, cases or [], window, dof)
+    states.update({n0: (kept[n0][1], q) for n0, q in kept_states.items()})
     fr = study.sweep.frequency
 
     def build(n0):
@@ -71,12 +74,20 @@ def find_optimum(study: Study, cases=None, cdir=None) -> dict:
             current["check"] = guard.callback(system, sv.harmonics)
         return system
 
-    def keep(n0, peak, omega):
+    def keep(n0, peak, omega, Q=None):
         kept[n0] = (peak, omega)
+        kept_states[n0] = Q
         log.info("%s: optimum search: %.6g N: peak %.4g m at %.5g %s", study.name, n0, peak,
                  omega / fr.to_rad_s, fr.unit)
         if cdir is not None:
-            save_search(cdir, identity, kept)
+            save_search(cdir, identity, kept, kept_states)
+
+    plain = dict(kw)   # picklable: a worker makes its own guard callback
+
+    def grid_map(n0s, done):
+        map_jobs(search_peak, range(len(n0s)),
+                 lambda k: (study.system({"preload": n0s[k]}), sv.harmonics, window.omega_start,
+                            window.omega_stop, dof, plain, guard), done, workers, scheduler)
 
     if guard is not None:
         kw["callback"] = lambda x, lam: current["check"](x, lam)
@@ -86,7 +97,8 @@ def find_optimum(study: Study, cases=None, cdir=None) -> dict:
     t0 = time.perf_counter()
     res = optimum_preload(build, sv.harmonics, window.omega_start, window.omega_stop, dof,
                           o["bounds"], rtol=o["rtol"], known={**kept, **free},
-                          extra_nodes=list(free), on_evaluation=keep, **kw)
+                          extra_nodes=list(free), on_evaluation=keep, states=states,
+                          grid_map=grid_map if (workers > 1 or scheduler) else None, **kw)
     res["wall_time"] = time.perf_counter() - t0
     log.info("%s: optimum preload %.4g N (peak %.4g m at %.4g %s), %d evaluations (%d "
              "computed, %d reused), %d bracket(s) (%d not refined), %.1f s", study.name,
@@ -96,19 +108,31 @@ def find_optimum(study: Study, cases=None, cdir=None) -> dict:
     return res
 
 
-def case_peaks(study: Study, cases, window, dof) -> dict:
-    """{preload: (peak, omega)} of the cases that are the optimum search's own curve:
-    only the preload varies, the curve is complete, its window is the search's and its
-    peak of `dof` was located exactly (lumped scenes: every DOF; others: output DOFs)."""
+def search_peak(system, H, omega_start, omega_end, dof, kwargs, guard=None):
+    """`band_peak` of one preload's system (in a worker of `map_jobs`), its continuation
+    checked by the separation guard (`declared.SeparationGuard`) when there is one."""
+    kwargs = dict(kwargs)
+    if guard is not None:
+        kwargs["callback"] = guard.callback(system, H)
+    return band_peak(system, H, omega_start, omega_end, dof, **kwargs)
+
+
+def case_peaks(study: Study, cases, window, dof) -> tuple:
+    """({preload: (peak, omega)}, {preload: (omega, Q)}) of the cases that are the
+    optimum search's own curve: only the preload varies, the curve is complete, its
+    window is the search's and its peak of `dof` was located exactly (lumped scenes:
+    every DOF; others: output DOFs); Q: all DOFs' coefficients at that peak (where the
+    peak continued in preload may start)."""
     fr = study.sweep.frequency
     if (window.omega_start, window.omega_stop) != (fr.omega_start, fr.omega_stop):
-        return {}
+        return {}, {}
     if study.scene.model != "lumped" and study.scene.dofs[dof] not in study.output.dofs:
-        return {}
-    out = {}
+        return {}, {}
+    out, states = {}, {}
     for case, curve in cases:
         if set(case) == {"preload"} and curve is not None and curve.success:
-            a, om, _ = curve.peak(dof)
+            a, om, i = curve.peak(dof)
             if np.isfinite(a):
                 out[float(case["preload"])] = (a, om)
-    return out
+                states[float(case["preload"])] = (om, curve.Q[i])
+    return out, states

@@ -165,7 +165,7 @@ def run_response_study(study: Study, out_dir="results", *, workers: int = 1,
     curves = [c for c, _ in results]
     errors = [e for _, e in results]
     failures = sum(c is None for c in curves)
-    optimum, optimum_error = study_optimum(study, solver, curves, cdir)
+    optimum, optimum_error = study_optimum(study, solver, curves, cdir, workers, scheduler)
     tuned = None
     if getattr(study.scene, "mistuning", None) is not None and int(sum(
             c is not None for c in curves)):   # the tuned disk the mistuning is read against

@@ -2,13 +2,15 @@
 
 Beside the finished cases (`pipeline.study.execution.checkpoint`), the search keeps every
 evaluation preload -> (peak, its frequency) in `DIR/.<name>.<key>.cases/optimum-search.nc`,
-rewritten atomically after each one.  A resumed search (`response.optimum_preload`,
+rewritten atomically after each one.  A resumed search (`peak_tracking.optimum_preload`,
 known = these values) reuses them; its trial preloads depend only on the values, so it
 visits the same preloads as an uninterrupted search and ends at the same optimum.
 
 The file is data only (netCDF variables `preload` [N], `peak` [m], `peak_omega`
-[rad/s] on one dimension, and the search's identity as a JSON attribute: the DOF,
-bounds, window, tolerance and grid density).  A file that is not readable, of another
+[rad/s] on one dimension, `state` [m] the Fourier coefficients of all DOFs at each
+peak (where the peak continued in preload starts: a resumed search needs no band
+evaluation again for them; NaN where not kept), and the search's identity as a JSON
+attribute: the DOF, bounds, window, tolerance and grid density).  A file that is not readable, of another
 kind, or of a different search is ignored: the search then starts afresh.
 """
 from __future__ import annotations
@@ -24,7 +26,7 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 FORMAT = "shroud-pipeline optimum-search checkpoint"
-VERSION = 1
+VERSION = 2
 FILE = "optimum-search.nc"
 
 
@@ -33,17 +35,25 @@ def search_file(cdir) -> Path:
     return Path(cdir) / FILE
 
 
-def save_search(cdir, identity: dict, evaluations: dict) -> bool:
-    """Write {n0: (peak, omega)} atomically (temporary file, then os.replace); False
-    (logged) if it cannot be written: the search goes on, a rerun recomputes."""
+def save_search(cdir, identity: dict, evaluations: dict, states=None) -> bool:
+    """Write {n0: (peak, omega)} and the peak states {n0: Q (n_dof, 2H+1) or None}
+    atomically (temporary file, then os.replace); False (logged) if it cannot be
+    written: the search goes on, a rerun recomputes."""
     import xarray as xr
 
     keys = sorted(evaluations)
     arr = np.array([[k, *evaluations[k]] for k in keys], dtype=float).reshape(-1, 3)
+    given = [q for q in (states or {}).values() if q is not None]
+    shape = np.shape(given[0]) if given else (0, 0)
+    Q = np.full((len(keys), *shape), np.nan)
+    for i, k in enumerate(keys):
+        if (states or {}).get(k) is not None:
+            Q[i] = states[k]
     ds = xr.Dataset(
         {"preload": ("evaluation", arr[:, 0], {"units": "N"}),
          "peak": ("evaluation", arr[:, 1], {"units": "m"}),
-         "peak_omega": ("evaluation", arr[:, 2], {"units": "rad/s"})},
+         "peak_omega": ("evaluation", arr[:, 2], {"units": "rad/s"}),
+         "state": (("evaluation", "dof", "coefficient"), Q, {"units": "m"})},
         attrs={"format": FORMAT, "format_version": VERSION,
                "identity": json.dumps(identity, sort_keys=True)})
     path = search_file(cdir)
@@ -62,14 +72,16 @@ def save_search(cdir, identity: dict, evaluations: dict) -> bool:
         raise
 
 
-def load_search(cdir, identity: dict) -> dict:
+def load_search(cdir, identity: dict, with_states: bool = False):
     """{n0: (peak, omega)} kept by an interrupted search with the same `identity`;
-    {} when there is none or the file is not one (then it is ignored, and logged)."""
+    {} when there is none or the file is not one (then it is ignored, and logged).
+    with_states: (that dict, {n0: Q} of the peak states kept)."""
     import xarray as xr
 
+    empty = ({}, {}) if with_states else {}
     path = search_file(cdir)
     if not path.is_file():
-        return {}
+        return empty
     try:
         with xr.open_dataset(path, engine="netcdf4") as ds:
             ds = ds.load()
@@ -82,7 +94,13 @@ def load_search(cdir, identity: dict) -> dict:
             raise ValueError("arrays of different shapes")
         if not np.all(np.isfinite(arr[0])):
             raise ValueError("a preload is not finite")
+        Q = np.asarray(ds["state"].values, dtype=float)
+        if Q.ndim != 3 or Q.shape[0] != arr[0].size:
+            raise ValueError("states of another shape")
     except Exception as exc:  # corrupt, foreign, another search: start afresh
         log.warning("ignoring %s (%s); the optimum search starts afresh", path, exc)
-        return {}
-    return {float(n0): (float(p), float(om)) for n0, p, om in zip(*arr)}
+        return empty
+    kept = {float(n0): (float(p), float(om)) for n0, p, om in zip(*arr)}
+    if not with_states:
+        return kept
+    return kept, {float(n0): q for n0, q in zip(arr[0], Q) if q.size and np.isfinite(q).all()}

@@ -1,6 +1,7 @@
 """The optimum-preload figure: the resonant peak against the preload, every preload the
 search evaluated joined in preload order (grid nodes and Brent refinements marked
-apart), the optimum starred and labelled with its value and unit."""
+apart, the trials valued by the peak continued from a nearby preload too), the
+optimum starred and labelled with its value and unit."""
 from __future__ import annotations
 
 
@@ -12,7 +13,7 @@ SPAN_FOR_LOG = 10.0  # an axis spanning this factor or more is drawn on a log sc
 
 
 def optimum_plot(result, dof, title=""):
-    """A matplotlib Figure of `result` (`response.optimum_preload`): peak [m] against
+    """A matplotlib Figure of `result` (`peak_tracking.optimum_preload`): peak [m] against
     preload [N], log axes where the values span a decade or more."""
     ev = np.array(result["evaluations"], dtype=float).reshape(-1, 3)
     ev = ev[np.argsort(ev[:, 0])]
@@ -24,9 +25,13 @@ def optimum_plot(result, dof, title=""):
     ax.plot(x, y, "-", color="#1f77b4", lw=1.2, zorder=1)
     ax.plot(x[on_grid], y[on_grid], "o", ms=4, color="#1f77b4", zorder=2,
             label="grid node")
-    if (~on_grid).any():
-        ax.plot(x[~on_grid], y[~on_grid], "x", ms=5, color="#ff7f0e", zorder=2,
-                label="Brent refinement")
+    local = np.isin(x, np.asarray(result.get("local", []), dtype=float))
+    if (~on_grid & ~local).any():
+        ax.plot(x[~on_grid & ~local], y[~on_grid & ~local], "x", ms=5, color="#ff7f0e",
+                zorder=2, label="Brent refinement")
+    if local.any():
+        ax.plot(x[local], y[local], "+", ms=6, color="#2ca02c", zorder=2,
+                label="Brent trial, peak continued in preload")
     if (~ok).any():
         for n0 in ev[~ok, 0]:
             ax.axvline(n0, color="#9e9e9e", lw=0.8, ls=":", zorder=0)

@@ -439,7 +439,7 @@ def _output(ck, t, scene) -> OutputSettings:
 
 def parse_optimum(ck, t, scene):
     """`[output] optimum_preload = { dof, bounds = [lo, hi] (N), frequency?, rtol? }`
-    (None when absent): the preload search of `response.optimum_preload`."""
+    (None when absent): the preload search of `peak_tracking.optimum_preload`."""
     if "optimum_preload" not in t:
         return None
     o, f = t["optimum_preload"], "output.optimum_preload"

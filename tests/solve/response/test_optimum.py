@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-import pipeline.solve.response.response as response
+import pipeline.solve.response.peak_tracking as response
 from pipeline.solve.response.optimum import (brent, global_minimum, grid_nodes, local_minima,
                                              parabola_floor)
 from pipeline.study.execution.search_checkpoint import load_search, save_search, search_file
@@ -27,6 +27,7 @@ class FakeCurve:
     """Stands for a ResponseCurve whose exact peak is `bimodal(n0)` at 10 n0 rad/s."""
 
     success, message = True, ""
+    Q = np.zeros((1, 1, 3))
 
     def __init__(self, n0):
         self.n0 = n0
@@ -37,16 +38,30 @@ class FakeCurve:
 
 @pytest.fixture
 def fake_peaks(monkeypatch):
-    """The search's frequency responses replaced by `FakeCurve` (build(n0) = n0);
-    returns the list of preloads evaluated, in order."""
-    calls = []
+    """The search's frequency responses and local peaks replaced by `FakeCurve`
+    (build(n0) = n0); returns the list of preloads evaluated over the band, in order,
+    with the local ones in its attribute `local`."""
+    calls = Calls()
 
     def fake(system, H, a, b, **kw):
         calls.append(system)
         return FakeCurve(system)
 
+    def fake_local(system, H, omega, Q, dof, a, b, **kw):
+        calls.local.append(system)
+        return FakeCurve(system)
+
     monkeypatch.setattr(response, "frequency_response", fake)
+    monkeypatch.setattr(response, "local_peak", fake_local)
     return calls
+
+
+class Calls(list):
+    """Preloads evaluated over the band; `local`: those valued by a local peak."""
+
+    def __init__(self):
+        super().__init__()
+        self.local = []
 
 
 def test_a_plain_bounded_brent_lands_in_the_local_basin():
@@ -69,15 +84,22 @@ def test_optimum_preload_finds_the_global_minimum_of_a_bimodal_curve(fake_peaks)
     assert opt["peak"] == pytest.approx(0.4, rel=1e-5)
     assert opt["peak_omega"] == pytest.approx(10.0 * opt["preload"], rel=1e-12)
     n0 = [e[0] for e in opt["evaluations"]]
-    assert n0 == sorted(n0) and len(set(n0)) == len(n0) == len(fake_peaks)
-    assert sorted(fake_peaks) == n0                   # nothing evaluated twice
+    assert n0 == sorted(n0) and len(set(n0)) == len(n0)
+    assert len(set(fake_peaks)) == len(fake_peaks)     # nothing evaluated twice
+    assert len(set(fake_peaks.local)) == len(fake_peaks.local)
+    assert sorted(set(fake_peaks) | set(fake_peaks.local)) == n0
+    # Brent's trials by local peaks, the bracket's result once over the band
+    assert set(opt["local"]) == set(fake_peaks.local) - set(fake_peaks)
+    assert [v[0] for v in opt["verified"]] == [opt["preload"]]
+    assert fake_peaks[-1] == opt["preload"] and opt["preload"] in fake_peaks.local
     nodes = [b[1] for b in opt["brackets"]]
     assert len(nodes) == 2
     assert any(abs(math.log(x) - T_LOCAL) < 0.6 for x in nodes)
     assert any(abs(math.log(x) - T_GLOBAL) < 0.6 for x in nodes)
     assert [abs(math.log(b[1]) - T_LOCAL) < 0.6 for b in opt["skipped"]] == [True]
     # cost: the 13 nodes of 3 decades, then Brent's parabolic steps (exact on a parabola)
-    assert len(opt["grid"]) == 13 and len(fake_peaks) <= 13 + 6
+    assert len(opt["grid"]) == 13 and len(fake_peaks) == 13 + 1
+    assert len(fake_peaks.local) <= 6
 
 
 @pytest.mark.parametrize("local, refined", [(0.43, True), (0.6, False)])
@@ -296,3 +318,50 @@ def optimum_plot_of(ev):
     best = min(ev, key=lambda e: e[1])
     return optimum_plot({"evaluations": ev, "preload": best[0], "peak": best[1],
                          "peak_omega": best[2], "grid": [e[0] for e in ev]}, "x")
+
+
+def test_a_local_peak_below_the_band_peak_sends_the_bracket_back_to_band_evaluations(caplog):
+    """Local values that miss the band's peak (here 0.05 low everywhere, as when the
+    largest resonance of the band is another than the one continued) fail the check at
+    the bracket's result: the bracket is refined again on band values, and the optimum
+    is the plain search's to its tolerance (logged)."""
+    def curve(n0):
+        return bimodal(n0), 1.0
+
+    plain = global_minimum(curve, BOUNDS, rtol=1e-3)
+    low = global_minimum(curve, BOUNDS, rtol=1e-3,
+                         local=lambda n0, near: (bimodal(n0) - 0.05, 1.0))
+    assert low["preload"] == pytest.approx(plain["preload"], rel=1e-3)
+    assert low["preload"] == pytest.approx(math.exp(T_GLOBAL), rel=2e-3)
+    assert low["peak"] == pytest.approx(0.4, rel=1e-5)
+    (n0, local, full), = low["verified"]
+    assert full == pytest.approx(local + 0.05, rel=1e-12)
+    assert "refined again on the whole band" in caplog.text
+    assert low["computed"] > plain["computed"]
+
+
+def test_local_values_start_from_the_nearest_preload_evaluated():
+    """Each local value is asked from the evaluated preload nearest in ln n0; with
+    exact local values the search visits the band evaluations of the grid and one
+    check, and returns the plain search's optimum to its tolerance."""
+    asked = []
+
+    def local(n0, near):
+        asked.append((n0, near))
+        return bimodal(n0), 1.0
+
+    full_calls = []
+
+    def curve(n0):
+        full_calls.append(n0)
+        return bimodal(n0), 1.0
+
+    res = global_minimum(curve, BOUNDS, rtol=1e-3, local=local)
+    assert res["preload"] == pytest.approx(math.exp(T_GLOBAL), rel=2e-3)
+    assert len(full_calls) == len(res["grid"]) + 1
+    seen = set(res["grid"])
+    for n0, near in asked:
+        others = [k for k in seen if k != n0]
+        assert abs(math.log(near) - math.log(n0)) == pytest.approx(
+            min(abs(math.log(k) - math.log(n0)) for k in others), abs=1e-12)
+        seen.add(n0)

@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 from pipeline.solve.harmonic_balance.hbm_state import state_at_zero
-from pipeline.solve.response.response import frequency_response, optimum_preload
+from pipeline.solve.response.response import frequency_response
+from pipeline.solve.response.peak_tracking import optimum_preload
 from pipeline.model.system import natural_frequencies
 from pipeline.solve.time_integration import timesim
 from pipeline.paper_systems import example1, example2, example3
