@@ -126,9 +126,12 @@ class Progress:
 
 
 
-def execute_cases(study, solver, workers, scheduler, progress, cdir=None):
+def execute_cases(study, solver, workers, scheduler, progress, cdir=None, extra=None):
     """Run the cases not found in `cdir`; each finished case is kept there at once.
-    Returns (results aligned with the cases, number reused from checkpoints)."""
+    extra {key: (fn, *args)}: other jobs run beside the cases on the same workers
+    (after them in the queue; e.g. the optimum search's grid, `planned_grid`).
+    Returns (results aligned with the cases, number reused from checkpoints, {key:
+    fn(*args)} of the extra jobs)."""
     cases = study.sweep.cases()
     H, fr = study.solver.harmonics, study.sweep.frequency
     kw = study.solver.kwargs(study.output.yscale, study.output.curves)  # curves smooth on the figures' axis
@@ -146,10 +149,18 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None):
            if progress else None)
     guard = separation_guard(study) if getattr(solver, "__module__", "") == "pipeline.solve.response.response" else None
 
+    extra, more = dict(extra or {}), {}
+
     def job(k):
-        return (solver, study.system(cases[k][1]), H, fr.omega_start, fr.omega_stop, kw, guard)
+        if k in extra:
+            return extra[k]
+        return (run_case, solver, study.system(cases[k][1]), H, fr.omega_start, fr.omega_stop,
+                kw, guard)
 
     def done(k, res):
+        if k in extra:
+            more[k] = res
+            return
         results[k] = res
         if cdir is not None and res[0] is not None:
             save_case(cdir, k, cases[k][1], res[0])
@@ -160,15 +171,22 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None):
         kwk = dict(kw)
         if bar is not None and bar.live and getattr(solver, "__name__", "") == "frequency_response":
             kwk["callback"] = lambda x, lam: bar.frequency(lam)
-        solver_k, system, H_k, a, b, _, g = job(k)
+        if k in extra:
+            return call(*extra[k])
+        _, solver_k, system, H_k, a, b, _, g = job(k)
         return run_case(solver_k, system, H_k, a, b, kwk, g)
 
     try:
-        map_jobs(run_case, todo, job, done, workers, scheduler, serial)
+        map_jobs(call, todo + list(extra), job, done, workers, scheduler, serial)
     finally:
         if bar is not None:
             bar.close()
-    return results, len(reused)
+    return results, len(reused), more
+
+
+def call(fn, *args):
+    """fn(*args): one job of `map_jobs` given as (fn, *args)."""
+    return fn(*args)
 
 
 def map_jobs(fn, todo, job, done, workers=1, scheduler=None, serial=None):

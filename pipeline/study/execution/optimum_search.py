@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...solve.response.optimum import grid_nodes
 from ...solve.response.peak_tracking import band_peak, optimum_preload
 from .cases import map_jobs, separation_guard
 from .search_checkpoint import load_search, save_search
@@ -18,10 +19,11 @@ from ..files.spec import Study
 log = logging.getLogger("pipeline.study.execution.run")
 
 
-def study_optimum(study: Study, solver, curves, cdir=None, workers=1, scheduler=None) -> tuple:
+def study_optimum(study: Study, solver, curves, cdir=None, workers=1, scheduler=None,
+                  early=None) -> tuple:
     """(optimum dict or None, error text or None) of a study run whose cases gave
     `curves` with `solver`: `find_optimum` (its grid on the run's `workers` or
-    `scheduler`), the cases reused when they are HBM curves; a search stopped by an
+    `scheduler`, the `early` band evaluations run beside the cases reused), the cases reused when they are HBM curves; a search stopped by an
     undeclared separation is an error (the dataset is written without it), logged."""
     from ..files.declared import UndeclaredSeparation
 
@@ -30,7 +32,7 @@ def study_optimum(study: Study, solver, curves, cdir=None, workers=1, scheduler=
     hbm = getattr(solver, "__module__", "") == "pipeline.solve.response.response"
     try:
         return find_optimum(study, list(zip([c for _, c in study.sweep.cases()], curves))
-                            if hbm else None, cdir, workers, scheduler), None
+                            if hbm else None, cdir, workers, scheduler, early), None
     except UndeclaredSeparation as exc:
         log.error("%s: optimum preload search stopped: %s", study.name, exc)
         return None, str(exc)
@@ -44,7 +46,8 @@ def optimum_figure_of(study: Study, optimum: dict, fig_dir):
                           study.output.optimum["dof"], study.title)
 
 
-def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None) -> dict:
+def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None,
+                 early=None) -> dict:
     """The preload that minimises the resonant peak (`peak_tracking.optimum_preload`): a
     grid over the bounds, Brent in every bracketed minimum, the best taken; the other
     sweep axes keep the scene's own values.
@@ -55,17 +58,17 @@ def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None)
     folder where the evaluations are kept as they come (`search_checkpoint`), so an
     interrupted search resumes where it stopped.  The grid's band evaluations run
     together on a local pool of `workers` processes or the Dask `scheduler`
-    (`cases.map_jobs`); Brent's trials, continued from them, run here."""
+    (`cases.map_jobs`), those in `early` ({n0: `band_peak` result}, run beside the
+    cases: `planned_grid`) taken as they are; Brent's trials, continued from them,
+    run here."""
     o, sv = study.output.optimum, study.solver
-    window = o["window"] or study.sweep.frequency
-    dof = study.scene.dofs.index(o["dof"])
+    identity, window, dof = search_identity(study)
     kw = {k: v for k, v in sv.kwargs().items() if k not in ("stability",)}
     guard, current = separation_guard(study), {}
-    identity = {"dof": o["dof"], "bounds": list(o["bounds"]), "rtol": o["rtol"],
-                "window": [window.omega_start, window.omega_stop], "harmonics": sv.harmonics}
     kept, kept_states = load_search(cdir, identity, True) if cdir is not None else ({}, {})
     free, states = case_peaks(study, cases or [], window, dof)
     states.update({n0: (kept[n0][1], q) for n0, q in kept_states.items()})
+    early = {n0: r for n0, r in (early or {}).items() if r is not None}
     fr = study.sweep.frequency
 
     def build(n0):
@@ -85,9 +88,11 @@ def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None)
     plain = dict(kw)   # picklable: a worker makes its own guard callback
 
     def grid_map(n0s, done):
-        map_jobs(search_peak, range(len(n0s)),
-                 lambda k: (study.system({"preload": n0s[k]}), sv.harmonics, window.omega_start,
-                            window.omega_stop, dof, plain, guard), done, workers, scheduler)
+        for k, n0 in enumerate(n0s):   # evaluated beside the cases
+            if n0 in early:
+                done(k, early[n0])
+        map_jobs(search_peak, [k for k, n0 in enumerate(n0s) if n0 not in early],
+                 lambda k: grid_job(study, n0s[k], plain, guard)[1:], done, workers, scheduler)
 
     if guard is not None:
         kw["callback"] = lambda x, lam: current["check"](x, lam)
@@ -98,7 +103,8 @@ def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None)
     res = optimum_preload(build, sv.harmonics, window.omega_start, window.omega_stop, dof,
                           o["bounds"], rtol=o["rtol"], known={**kept, **free},
                           extra_nodes=list(free), on_evaluation=keep, states=states,
-                          grid_map=grid_map if (workers > 1 or scheduler) else None, **kw)
+                          grid_map=grid_map if (workers > 1 or scheduler or early) else None,
+                          **kw)
     res["wall_time"] = time.perf_counter() - t0
     log.info("%s: optimum preload %.4g N (peak %.4g m at %.4g %s), %d evaluations (%d "
              "computed, %d reused), %d bracket(s) (%d not refined), %.1f s", study.name,
@@ -106,6 +112,54 @@ def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None)
              len(res["evaluations"]), res["computed"], res["reused"], len(res["brackets"]),
              len(res["skipped"]), res["wall_time"])
     return res
+
+
+def search_identity(study: Study) -> tuple:
+    """(identity of the search for its checkpoint, its frequency window, the index of
+    its DOF)."""
+    o, sv = study.output.optimum, study.solver
+    window = o["window"] or study.sweep.frequency
+    identity = {"dof": o["dof"], "bounds": list(o["bounds"]), "rtol": o["rtol"],
+                "window": [window.omega_start, window.omega_stop], "harmonics": sv.harmonics}
+    return identity, window, study.scene.dofs.index(o["dof"])
+
+
+def planned_grid(study: Study, cdir=None) -> list:
+    """The preloads [N] whose band evaluations the search will need, as far as known
+    before the cases end: the grid over the bounds (`optimum.grid_nodes`, the cases
+    that can be the search's own curve standing for their nodes), without those cases
+    and the evaluations kept in `cdir`.  A case that then fails leaves its node to the
+    search itself."""
+    if study.output.optimum is None:
+        return []
+    identity, window, dof = search_identity(study)
+    own = own_cases(study, window, dof)
+    kept = load_search(cdir, identity) if cdir is not None else {}
+    lo, hi = study.output.optimum["bounds"]
+    return [float(n0) for n0 in grid_nodes(lo, hi, extra=own)
+            if float(n0) not in own and float(n0) not in kept]
+
+
+def grid_job(study: Study, n0, kwargs=None, guard=None, fn=None) -> tuple:
+    """(fn, its arguments) of the band evaluation at n0 [N] (`map_jobs`): fn
+    `search_peak`, or `early_peak` (the default without `kwargs`: run beside the
+    cases, the study's own solver settings and guard)."""
+    _, window, dof = search_identity(study)
+    if kwargs is None:
+        kwargs = {k: v for k, v in study.solver.kwargs().items() if k != "stability"}
+        guard, fn = separation_guard(study), fn or early_peak
+    return (fn or search_peak, study.system({"preload": n0}), study.solver.harmonics,
+            window.omega_start, window.omega_stop, dof, kwargs, guard)
+
+
+def early_peak(*args):
+    """`search_peak` run beside the cases: None instead of an exception (the search
+    then evaluates that preload itself, where a failure is reported as usual), so that
+    it never stops the cases."""
+    try:
+        return search_peak(*args)
+    except Exception:   # noqa: BLE001 -- reported by the search's own evaluation
+        return None
 
 
 def search_peak(system, H, omega_start, omega_end, dof, kwargs, guard=None):
@@ -117,20 +171,27 @@ def search_peak(system, H, omega_start, omega_end, dof, kwargs, guard=None):
     return band_peak(system, H, omega_start, omega_end, dof, **kwargs)
 
 
-def case_peaks(study: Study, cases, window, dof) -> tuple:
-    """({preload: (peak, omega)}, {preload: (omega, Q)}) of the cases that are the
-    optimum search's own curve: only the preload varies, the curve is complete, its
-    window is the search's and its peak of `dof` was located exactly (lumped scenes:
-    every DOF; others: output DOFs); Q: all DOFs' coefficients at that peak (where the
-    peak continued in preload may start)."""
+def own_cases(study: Study, window, dof) -> list:
+    """Preloads [N] of the cases that can be the optimum search's own curve: only the
+    preload varies and the curve is over the search's window with the peak of `dof`
+    located exactly (lumped scenes: every DOF; others: output DOFs)."""
     fr = study.sweep.frequency
     if (window.omega_start, window.omega_stop) != (fr.omega_start, fr.omega_stop):
-        return {}, {}
+        return []
     if study.scene.model != "lumped" and study.scene.dofs[dof] not in study.output.dofs:
-        return {}, {}
+        return []
+    return [float(case["preload"]) for _, case in study.sweep.cases() if set(case) == {"preload"}]
+
+
+def case_peaks(study: Study, cases, window, dof) -> tuple:
+    """({preload: (peak, omega)}, {preload: (omega, Q)}) of the cases that are the
+    optimum search's own curve (`own_cases`, complete); Q: all DOFs' coefficients at
+    that peak (where the peak continued in preload may start)."""
+    own = set(own_cases(study, window, dof))
     out, states = {}, {}
     for case, curve in cases:
-        if set(case) == {"preload"} and curve is not None and curve.success:
+        if set(case) == {"preload"} and float(case["preload"]) in own and curve is not None \
+                and curve.success:
             a, om, i = curve.peak(dof)
             if np.isfinite(a):
                 out[float(case["preload"])] = (a, om)

@@ -17,7 +17,7 @@ from ..scenes import lumped_scene as scene
 from .cases import default_solver, execute_cases
 from .checkpoint import checkpoint_dir, remove_stale
 from .mistuned import tuned_references
-from .optimum_search import optimum_figure_of, study_optimum
+from .optimum_search import grid_job, optimum_figure_of, planned_grid, study_optimum
 from ..figures.peak_shapes import write_peak_shapes
 from ..figures.response_figures import sector_output_dofs, write_figures
 from ..files.spec import SWEEP_AXES, Study, StudyKind, StudyResult, always, is_linear_scene
@@ -161,11 +161,17 @@ def run_response_study(study: Study, out_dir="results", *, workers: int = 1,
     cdir = checkpoint_dir(study, out_dir, solver) if checkpoints else None
     if cdir is not None:
         remove_stale(out_dir, study.name, cdir)
-    results, reused = execute_cases(study, solver, workers, scheduler, progress, cdir)
+    grid = {}   # the optimum search's grid, run beside the cases on the same workers
+    if (workers > 1 or scheduler) and getattr(solver, "__module__", "") == \
+            "pipeline.solve.response.response":
+        grid = {("grid", n0): grid_job(study, n0) for n0 in planned_grid(study, cdir)}
+    results, reused, early = execute_cases(study, solver, workers, scheduler, progress, cdir,
+                                           grid)
     curves = [c for c, _ in results]
     errors = [e for _, e in results]
     failures = sum(c is None for c in curves)
-    optimum, optimum_error = study_optimum(study, solver, curves, cdir, workers, scheduler)
+    optimum, optimum_error = study_optimum(study, solver, curves, cdir, workers, scheduler,
+                                           {k[1]: r for k, r in early.items()})
     tuned = None
     if getattr(study.scene, "mistuning", None) is not None and int(sum(
             c is not None for c in curves)):   # the tuned disk the mistuning is read against

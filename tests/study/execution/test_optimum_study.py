@@ -72,6 +72,24 @@ def test_the_cases_are_grid_nodes_not_recomputed(study, uninterrupted):
     assert float(ds["optimum_peak_amplitude"]) == float(ds["optimum_search_peak"].min())
 
 
+def test_the_grid_run_beside_the_cases_on_two_workers_gives_the_same_search(
+        study, uninterrupted, tmp_path):
+    """With two workers the search's grid is evaluated in the pool beside the cases
+    (`planned_grid`): the same preloads, peaks and optimum as the run in one process."""
+    from pipeline.study.execution.optimum_search import planned_grid
+
+    whole, _ = uninterrupted
+    planned = planned_grid(study)
+    assert planned and 2.0 not in planned
+    res = run_study(study, tmp_path, workers=2, solver=response.frequency_response,
+                    figures=False, progress=False)
+    a, b = read_dataset(res.path), read_dataset(whole.path)
+    assert set(planned) <= set(a["optimum_search_preload"].values)
+    for name in ("optimum_preload", "optimum_peak_amplitude", "optimum_search_preload",
+                 "optimum_search_peak", "optimum_search_band"):
+        np.testing.assert_allclose(a[name].values, b[name].values, rtol=1e-12)
+
+
 def test_a_run_interrupted_in_the_search_resumes_it(study, uninterrupted, tmp_path, monkeypatch):
     """Ctrl-C after k = 6 of the search's evaluations: the cases and those 6 are kept;
     the rerun recomputes no case and none of the 6, and its optimum and search curve
