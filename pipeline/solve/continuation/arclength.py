@@ -64,6 +64,7 @@ class ContinuationOptions:
     kink_ds: float
     lam_back: float | None
     segment_check: object
+    tangent: np.ndarray | None = None   # (n+1,) physical tangent at the first point, if known
 
     @property
     def thresh(self) -> float:
@@ -151,7 +152,7 @@ def continuation_options(n, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None,
                          target_newton=4, max_turn=math.pi / 4, scale=None, callback=None,
                          direction=+1, refine_folds=True, groups=None, max_deviation=0.3,
                          kink_ds=0.01, lam_back=None,
-                         segment_check=None) -> ContinuationOptions:
+                         segment_check=None, tangent=None) -> ContinuationOptions:
     """The options of `continue_branch` for n unknowns, checked: a ValueError names
     the first bad argument (in the order of the signature)."""
     lam0, lam_end = _check_interval(lam0, lam_end)
@@ -167,13 +168,18 @@ def continuation_options(n, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None,
         raise ValueError("callback must be callable or None")
     groups, scale = _check_metric(n, groups, scale)
     _check_lam_back(lam_back, lam0, lam_end)
+    if tangent is not None:
+        tangent = np.asarray(tangent, dtype=float)
+        if tangent.shape != (n + 1,) or not np.all(np.isfinite(tangent)) or not tangent.any():
+            raise ValueError(f"tangent must be a finite nonzero ({n + 1},) array, got shape "
+                             f"{tangent.shape}")
     return ContinuationOptions(
         n=n, lam0=lam0, lam_end=lam_end, tol=tol, tol_rel=tol_rel, r_ref=r_ref, ds=ds,
         ds_min=ds_min, ds_max=ds_max, max_points=max_points, max_newton=max_newton,
         target_newton=target_newton, max_turn=max_turn, scale=scale, callback=callback,
         direction=int(direction), refine_folds=refine_folds, groups=groups,
         max_deviation=max_deviation, kink_ds=kink_ds, lam_back=lam_back,
-        segment_check=segment_check)
+        segment_check=segment_check, tangent=tangent)
 
 
 # ---------------------------------------------------------------------- the metric

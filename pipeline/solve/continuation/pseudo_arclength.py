@@ -53,6 +53,10 @@ Options of `continue_branch` (defaults):
                `resonance.step_guard`); the step is shortened to fit.  A refused
                step that cannot shrink below ds_min is taken and counted in
                `n_unresolved`.
+    tangent    None   a tangent (n+1,) of the branch at (x0, lam0) in physical units,
+               if the caller knows it (e.g. from a corrector on a hyperplane there):
+               the first tangent is then not computed (a dense QR); it is oriented
+               like a computed one
 
 The run stops when lam leaves the interval between lam_back and lam_end (the last
 point is then re-solved exactly on the boundary), at max_points, on a callback
@@ -87,7 +91,7 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
                     target_newton=4, max_turn=math.pi / 4, scale=None, callback=None,
                     direction=+1, refine_folds=True, groups=None,
                     max_deviation=0.3, kink_ds=0.01, lam_back=None,
-                    segment_check=None) -> Branch:
+                    segment_check=None, tangent=None) -> Branch:
     """Trace the solution branch of R(x, lam) = 0 from (x0, lam0) towards lam_end.
 
     See the module docstring for the equations and the options.  Numerical failure
@@ -102,5 +106,5 @@ def continue_branch(fun, x0, lam0, lam_end, *, tol=None, tol_rel=0.0, r_ref=None
         target_newton=target_newton, max_turn=max_turn, scale=scale, callback=callback,
         direction=direction, refine_folds=refine_folds, groups=groups,
         max_deviation=max_deviation, kink_ds=kink_ds, lam_back=lam_back,
-        segment_check=segment_check)
+        segment_check=segment_check, tangent=tangent)
     return Tracer(fun, opts).run(x0)

@@ -85,7 +85,11 @@ class Tracer:
         """Unit scaled tangent at the first point, towards lam_end times `direction`
         (at a fold, where its lam-component vanishes: towards growing |x|)."""
         n, s, o = self.n, self.s, self.opts
-        t = self.eq.null_vector(Jx, Jl)
+        if o.tangent is not None:   # given by the caller: scaled and normalised
+            t = o.tangent / s
+            t /= np.linalg.norm(t)
+        else:
+            t = self.eq.null_vector(Jx, Jl)
         if t is None:
             return None
         sgn = np.sign(t[n] * (o.lam_end - o.lam0))

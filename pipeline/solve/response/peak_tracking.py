@@ -65,12 +65,13 @@ def local_peak(system, H, omega, initial, dof, omega_start, omega_end, *, method
     fp = frequency_problem(system, H, method, n_samples, tol_rel, contact)
     prob = fp.prob
     band = (min(omega_start, omega_end), max(omega_start, omega_end))
-    x0, omega, spent = _start(fp, fp.checked_state(initial), min(max(omega, band[0]), band[1]),
-                              band)
+    x0, omega, tangent, spent = _start(fp, fp.checked_state(initial),
+                                       min(max(omega, band[0]), band[1]), band)
     if x0 is None:
         return _failed(fp, "no solution near the start", t_start, spent)
     runs = [_side(fp, x0, omega, end, back, dof, min(ds, ds_max), ds_max, max_points,
-                  callback) for end, back in ((omega_start, omega_end), (omega_end, omega_start))]
+                  callback, tangent)
+            for end, back in ((omega_start, omega_end), (omega_end, omega_start))]
     br = join([piece(runs[0][0], reverse=True), piece(runs[1][0], drop_first=True)],
               "local peak", all(stopped for _, stopped in runs), 0)
     pts = branch_points(br)
@@ -90,10 +91,11 @@ def local_peak(system, H, omega, initial, dof, omega_start, omega_end, *, method
 
 
 def _start(fp, Q, omega, band):
-    """(x, Omega, nfev) of the first point: on the hyperplane through (Q, omega)
-    normal to the branch's tangent there (scaled unknowns: `automatic_scale`, Omega by
-    the band's span) if it falls inside the band, else at fixed omega (`first_point`);
-    x None if neither."""
+    """(x, Omega, tangent, nfev) of the first point: on the hyperplane through (Q,
+    omega) normal to the branch's tangent there (scaled unknowns: `automatic_scale`,
+    Omega by the band's span) if it falls inside the band, with the branch's tangent
+    there (physical units); else at fixed omega (`first_point`; tangent None); x None
+    if neither."""
     prob = fp.prob
     x0 = Q[prob.c].ravel()
     scale = np.append(automatic_scale(np.abs(x0), fp.groups), band[1] - band[0])
@@ -106,16 +108,16 @@ def _start(fp, Q, omega, band):
     except (np.linalg.LinAlgError, RuntimeError):
         t = None
     if t is not None and np.all(np.isfinite(t)):
-        z, ok, n, _ = solve_on_plane(fp.fun, np.append(x0, omega) / scale,
-                                     t / np.linalg.norm(t), scale, 1.0)
+        z, ok, n, tz = solve_on_plane(fp.fun, np.append(x0, omega) / scale,
+                                      t / np.linalg.norm(t), scale, 1.0)
         nfev += n
         if ok and band[0] < z[-1] < band[1]:
-            return z[:-1], float(z[-1]), nfev
+            return z[:-1], float(z[-1]), tz, nfev
     nr, n = fp.start_at(omega, Q)
-    return (nr.x if nr.success else None), omega, nfev + n
+    return (nr.x if nr.success else None), omega, None, nfev + n
 
 
-def _side(fp, x0, omega, end, back, dof, ds, ds_max, max_points, callback):
+def _side(fp, x0, omega, end, back, dof, ds, ds_max, max_points, callback, tangent=None):
     """(Branch from (x0, omega) towards `end`, stopped once the amplitude of `dof`
     fell below the largest on this side?)."""
     prob, seen = fp.prob, {"top": -np.inf, "fell": False}
@@ -130,7 +132,7 @@ def _side(fp, x0, omega, end, back, dof, ds, ds_max, max_points, callback):
 
     br = continue_branch(fp.fun, x0, omega, end, tol=1.0, groups=fp.groups, ds=ds,
                          ds_max=ds_max, max_points=max_points, callback=stop,
-                         segment_check=fp.guard, lam_back=back)
+                         segment_check=fp.guard, lam_back=back, tangent=tangent)
     return br, seen["fell"]
 
 

@@ -540,3 +540,21 @@ def test_segment_check_shortens_the_step_to_fit():
     assert tr.step() is None and tr.n_rejected == 1 and len(tr.points) == 1
     assert tr.ds == pytest.approx(0.1 * 0.9 * 0.02 / widths[0])
     assert tr.step() is None and len(tr.points) == 2 and tr.z[1] <= 0.02
+
+
+def test_a_given_first_tangent_gives_the_branch_the_computed_one_gives():
+    """The S-curve x^3 - 3x = lam from x = -2.5 over its two folds: with the first
+    tangent given (any length, either sign, in physical units) the branch is the one
+    traced with the tangent computed (points equal to 1e-12); a tangent of the wrong
+    shape is refused."""
+    x0 = np.array([-2.5])
+    lam0 = x0[0] ** 3 - 3 * x0[0]
+    ref = continue_branch(scurve, x0, lam0, 20.0, tol=1e-12, ds=0.05)
+    dxdl = 1.0 / (3 * x0[0] ** 2 - 3)                # along the branch: dx = dlam / R_x
+    for t in ([dxdl, 1.0], [-3 * dxdl, -3.0]):
+        br = continue_branch(scurve, x0, lam0, 20.0, tol=1e-12, ds=0.05, tangent=t)
+        assert br.success and len(br.lam) == len(ref.lam) and len(br.fold_lam) == 2
+        np.testing.assert_allclose(br.x, ref.x, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(br.lam, ref.lam, rtol=1e-12)
+    with pytest.raises(ValueError, match="tangent"):
+        continue_branch(scurve, x0, lam0, 20.0, tol=1e-12, tangent=[1.0])
