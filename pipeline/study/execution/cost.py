@@ -23,7 +23,8 @@ how many points the curve needs.  c, s0, s1, s_stab and the spread of P are rang
 calibrated on the shipped studies (`python -m pipeline bench estimate`,
 pipeline/bench/README.md "Cost estimates"); the estimate is the range they give, its middle the geometric mean.  The
 study costs n_cases t_case / workers, plus the model's build and reduction (timed) and
-an optimum-preload search of SEARCH_CASES cases' worth without stability.  It assumes
+an optimum-preload search: SEARCH_GRID cases' worth without stability on the
+workers and SEARCH_SERIAL in one process.  It assumes
 the compiled kernels are cached (a first run compiles them: up to 25 s more) and a
 machine as loaded as when it timed: the constant terms are scaled by the slowdown
 measured then (wall / CPU time of one thread, `slowdown`) against CALIBRATION_SLOWDOWN.
@@ -66,9 +67,12 @@ CALIBRATION_SLOWDOWN = 5.0
 POINTS = (0.6, 2.0)                   # x the middle 60 (1 + m)^0.6
 PEAKS_ONLY = 0.4   # x P for a case keeping its largest peaks only (`[output] curves = false`:
 #                    no dense output; the mistuned wheel at 1 N: 373 points against 958)
-SEARCH_CASES = (4.0, 17.0)  # an optimum-preload search (the global search: 19-32 shorter
-#                             continuations, stability off; the full shrouded disk's took 17
-#                             cases' worth): in cases' worth without stability
+SEARCH_GRID = (6.0, 13.0)   # an optimum-preload search's band evaluations (its grid nodes,
+#                             cases' worth without stability, spread on the workers: the
+#                             full shrouded disk's 8, Example 3's 12)
+SEARCH_SERIAL = (1.0, 3.0)  # ... and in one process: each refined bracket's band check and
+#                             its 10-20 trials by the peak continued in preload (0.06 of a
+#                             band evaluation each on the FE sector)
 
 
 @dataclass(frozen=True)
@@ -231,7 +235,8 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
     if study.output.optimum is not None:
         bare = tuple(c * timing.t_residual + k * timing.t_solve + f * (s0 + s1 * n)
                      for c, k, s0, s1 in zip(pairs, lus, *OVERHEAD))
-        search = tuple(k * p * b for k, p, b in zip(SEARCH_CASES, points, bare))
+        search = tuple((g / w + k) * p * b
+                       for g, k, p, b in zip(SEARCH_GRID, SEARCH_SERIAL, points, bare))
         lo, hi = lo + search[0], hi + search[1]
     return Estimate(lo=lo, hi=hi, case=case, n_cases=n_cases, workers=w, timing=timing,
                     per_point=point, points=points, search=search, modes=m, pairs=pairs)

@@ -28,7 +28,7 @@ def optimum_plot(result, dof, title=""):
     local = np.isin(x, np.asarray(result.get("local", []), dtype=float))
     if (~on_grid & ~local).any():
         ax.plot(x[~on_grid & ~local], y[~on_grid & ~local], "x", ms=5, color="#ff7f0e",
-                zorder=2, label="Brent refinement")
+                zorder=2, label="Brent refinement, band peak")
     if local.any():
         ax.plot(x[local], y[local], "+", ms=6, color="#2ca02c", zorder=2,
                 label="Brent trial, peak continued in preload")
