@@ -1,7 +1,7 @@
 """The optimum-preload figure: the resonant peak against the preload, every preload the
-search evaluated joined in preload order (grid nodes and Brent refinements marked
-apart, the trials valued by the peak continued from a nearby preload too), the
-optimum starred and labelled with its value and unit."""
+search evaluated over the band joined in preload order (grid nodes and Brent
+refinements marked apart), Brent's trials valued by the peak continued from a nearby
+preload as markers (lower bounds of the band's peak), the optimum starred and labelled with its value and unit."""
 from __future__ import annotations
 
 
@@ -20,12 +20,13 @@ def optimum_plot(result, dof, title=""):
     ok = np.isfinite(ev[:, 1])
     x, y = ev[ok, 0], ev[ok, 1]
     on_grid = np.isin(x, np.asarray(result.get("grid", []), dtype=float))
+    local = np.isin(x, np.asarray(result.get("local", []), dtype=float))
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
-    ax.plot(x, y, "-", color="#1f77b4", lw=1.2, zorder=1)
+    # the line joins the band peaks; a local one (a lower bound) is a marker only
+    ax.plot(x[~local], y[~local], "-", color="#1f77b4", lw=1.2, zorder=1)
     ax.plot(x[on_grid], y[on_grid], "o", ms=4, color="#1f77b4", zorder=2,
             label="grid node")
-    local = np.isin(x, np.asarray(result.get("local", []), dtype=float))
     if (~on_grid & ~local).any():
         ax.plot(x[~on_grid & ~local], y[~on_grid & ~local], "x", ms=5, color="#ff7f0e",
                 zorder=2, label="Brent refinement, band peak")

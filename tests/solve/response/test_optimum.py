@@ -262,7 +262,8 @@ def _tick_boxes(fig, axis):
 
 def test_the_figure_is_the_curve_in_preload_order_with_the_optimum_labelled(fake_peaks,
                                                                             tmp_path):
-    """Every evaluation joined in preload order (given here in reverse), log preload
+    """Every band evaluation joined in preload order (given here in reverse; Brent's
+    local trials drawn as markers), log preload
     axis (3 decades), the optimum starred with its value and unit; a long title wraps
     instead of widening the canvas; no two tick labels overlap."""
     import matplotlib.image as mpimg
@@ -272,8 +273,9 @@ def test_the_figure_is_the_curve_in_preload_order_with_the_optimum_labelled(fake
     shuffled = {**opt, "evaluations": list(reversed(opt["evaluations"]))}
     fig = optimum_plot(shuffled, "x", title="a long study title " * 12)
     ax = fig.axes[0]
-    x = ax.lines[0].get_xdata()
-    assert len(x) == len(opt["evaluations"]) and np.all(np.diff(x) > 0)
+    x = ax.lines[0].get_xdata()     # the band peaks joined; the local ones markers
+    assert len(x) == len(opt["evaluations"]) - len(opt["local"]) and np.all(np.diff(x) > 0)
+    assert set(ax.lines[-2].get_xdata()) == set(opt["local"]) and opt["local"]
     assert ax.get_xscale() == "log"
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert f"optimum {opt['preload']:.4g} N: peak {opt['peak']:.4g} m" in labels

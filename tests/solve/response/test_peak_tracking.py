@@ -57,3 +57,37 @@ def test_the_search_with_local_peaks_equals_the_band_search():
     for n0, local, full in new["verified"]:
         assert full == pytest.approx(local, rel=1e-6)
     assert new["local"] and new["computed"] < ref["computed"]
+
+
+def two_modes(n0):
+    """2 DOFs (1 kg each; k 3.55e4 and 6e4 N/m, coupled by 8e3 N/m; c 0.3 and
+    0.4 N s/m; 1 N on both), a Jenkins damper (ku = 1e4 N/m, mu = 0.5) on the first:
+    the band peak of DOF 0 is the first mode's (203-223 rad/s) below 1.6 N and above
+    about 6 N, the second's (265-266 rad/s) between: its minimum, 4.35e-4 m near 5.1 N."""
+    from pipeline.contact import YangMenq
+    from pipeline.model.system import System
+
+    kc = 8e3
+    return System(M=np.eye(2), C=np.diag([0.3, 0.4]),
+                  K=np.array([[3.55e4 + kc, -kc], [-kc, 6.0e4 + kc]]),
+                  Bt=np.array([[1.0, 0.0]]), Bn=np.zeros((1, 2)),
+                  contact=YangMenq(np.array([1e4]), np.zeros(1), np.array([0.5]),
+                                   np.array([n0])),
+                  forcing=np.array([[0, 1.0], [1, 1.0]]))
+
+
+def test_a_local_peak_on_the_other_mode_is_caught_and_the_bracket_refined_on_the_band(caplog):
+    """Brent's trials continued from the grid node above the optimum follow the first
+    mode into the basin where the second mode's peak is the larger: the check at
+    Brent's result finds the band peak above the local one (the second mode's, 0.54 %
+    higher), the bracket is refined again on band evaluations, and the optimum is the
+    one Brent on band peaks alone finds (measured equal to 1e-15; asserted 1e-9)."""
+    band, bounds = (150.0, 320.0), (3.0, 10.0)
+    ref = optimum_preload(two_modes, 3, *band, 0, bounds, rtol=1e-2, local=False)
+    new = optimum_preload(two_modes, 3, *band, 0, bounds, rtol=1e-2)
+    (n0, local, full), = new["verified"]
+    assert full > (1 + 1e-3) * local
+    assert "refined again on the whole band" in caplog.text
+    assert new["preload"] == pytest.approx(ref["preload"], rel=1e-9)
+    assert new["peak"] == pytest.approx(ref["peak"], rel=1e-9)
+    assert 250.0 < new["peak_omega"] < 280.0 and 4.5 < new["preload"] < 5.5
