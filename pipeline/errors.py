@@ -1,5 +1,6 @@
-"""The one exception the command line turns into `error: <file>: <field>: <what>`, and
-how it recognises an interrupt (exit 130) however it arrives."""
+"""The one exception the command line turns into `error: <file>: <field>: <what>`, how
+it recognises an interrupt (exit 130) however it arrives, and how an atomic write holds
+one back until it is done."""
 from __future__ import annotations
 
 
@@ -21,3 +22,36 @@ def interrupt_in_chain(exc) -> bool:
         seen.add(id(exc))
         exc = exc.__cause__ or exc.__context__
     return False
+
+
+class interrupt_deferred:
+    """Context manager: a SIGINT that arrives inside the block is handed to the previous
+    handler (KeyboardInterrupt) only when the block ends.  For the atomic writes of
+    checkpoints: an interrupt inside the netCDF library's write can leave its lock
+    held, and the cleanup then waits on that lock for ever.  No-op outside the main
+    thread (signal handlers can only be set there)."""
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self._old, self._held = None, False
+        if threading.current_thread() is threading.main_thread():
+            self._old = signal.signal(signal.SIGINT, self._hold)
+        return self
+
+    def _hold(self, signum, frame):
+        self._held = True
+
+    def __exit__(self, exc_type, exc, tb):
+        import signal
+
+        if self._old is None:
+            return False
+        signal.signal(signal.SIGINT, self._old)
+        if self._held and callable(self._old):
+            self._old(signal.SIGINT, None)     # default_int_handler: KeyboardInterrupt
+        elif self._held and self._old == signal.SIG_DFL:
+            raise KeyboardInterrupt
+        return False
+

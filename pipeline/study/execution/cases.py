@@ -184,6 +184,19 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None, extra=
     return results, len(reused), more
 
 
+def end_with_parent():
+    """A pool worker's initializer: on Linux the worker is sent SIGTERM when the run's
+    process ends (prctl PR_SET_PDEATHSIG), so that no worker outlives an interrupted
+    run holding its output pipes; elsewhere nothing."""
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)   # 1: PR_SET_PDEATHSIG
+    except (OSError, AttributeError, TypeError):
+        pass
+
+
 def call(fn, *args):
     """fn(*args): one job of `map_jobs` given as (fn, *args)."""
     return fn(*args)
@@ -210,13 +223,16 @@ def map_jobs(fn, todo, job, done, workers=1, scheduler=None, serial=None):
     elif workers > 1 and len(todo) > 1:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)))
+        pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)),
+                                   initializer=end_with_parent)
         try:
             futs = {pool.submit(fn, *job(k)): k for k in todo}
             for fut in as_completed(futs):
                 done(futs[fut], fut.result())
         except BaseException as exc:  # Ctrl-C or a lost worker: stop the running jobs now
-            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+            import multiprocessing   # the pool's workers, and one it was still starting
+            for proc in {*(getattr(pool, "_processes", None) or {}).values(),
+                         *multiprocessing.active_children()}:
                 proc.terminate()
             pool.shutdown(wait=False, cancel_futures=True)
             from concurrent.futures.process import BrokenProcessPool

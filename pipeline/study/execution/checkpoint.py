@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import __version__
+from ...errors import interrupt_deferred
 
 log = logging.getLogger(__name__)
 
@@ -139,8 +140,10 @@ def write(path, curve, case: dict) -> Path:
     path = Path(path)
     tmp = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:8]}.tmp")
     try:
-        to_dataset(curve, case).to_netcdf(tmp, mode="w", format="NETCDF4", engine="netcdf4")
-        os.replace(tmp, path)
+        ds = to_dataset(curve, case)
+        with interrupt_deferred():   # never interrupted inside the netCDF library
+            ds.to_netcdf(tmp, mode="w", format="NETCDF4", engine="netcdf4")
+            os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ...errors import interrupt_deferred
+
 log = logging.getLogger(__name__)
 
 FORMAT = "shroud-pipeline optimum-search checkpoint"
@@ -60,8 +62,9 @@ def save_search(cdir, identity: dict, evaluations: dict, states=None) -> bool:
     tmp = path.with_name(f".{path.stem}.{uuid.uuid4().hex[:8]}.tmp")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        ds.to_netcdf(tmp, mode="w", format="NETCDF4", engine="netcdf4")
-        os.replace(tmp, path)
+        with interrupt_deferred():   # never interrupted inside the netCDF library
+            ds.to_netcdf(tmp, mode="w", format="NETCDF4", engine="netcdf4")
+            os.replace(tmp, path)
         return True
     except OSError as exc:
         tmp.unlink(missing_ok=True)
