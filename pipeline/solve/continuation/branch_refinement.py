@@ -17,26 +17,9 @@ import math
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from ..harmonic_balance import hbm
+from .amplitudes import AmplitudeCache, amplitudes_at
 from .branch import hermite_point
-from ...fourier.harmonics import amplitude_half_peak_to_peak
 from .newton import KeptFactors, augment, linear_solve, newton
-
-
-
-def _dof_amplitude(prob, x, lam, dof, omega_of=lambda l: l):
-    Q = hbm.recover(prob, x.reshape(prob.c.size, prob.nh), omega_of(lam))
-    return float(amplitude_half_peak_to_peak(Q[dof]))
-
-
-def amplitudes_at(prob, X, L, dofs, omega_of=lambda l: l):
-    """(P, D) amplitudes of the DOFs `dofs` at the points X, L (one recovery of all
-    DOFs per point)."""
-    if L.size == 0:
-        return np.zeros((0, len(dofs)))
-    Q = [hbm.recover(prob, X[i].reshape(prob.c.size, prob.nh), omega_of(L[i]))[dofs]
-         for i in range(L.size)]
-    return amplitude_half_peak_to_peak(np.stack(Q))
 
 
 def _local_maxima(amps, converged, rel=0.05):
@@ -274,12 +257,14 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l, largest=
     found = []  # (position along the branch, z): i + sigma, sigma in [-1, 1]
     tangents = list(pts.get("tangent", [None] * L.size))
     solved = {}  # i -> the trials solved around point i, shared by the DOFs peaking there
+    amplitude = AmplitudeCache(prob, dofs, omega_of)   # each trial recovered once
     Zall = np.column_stack([X, L]) / scale
     for dof, i, amp_i, amps3 in todo:
         if largest and amps3.max() < LARGEST_MARGIN * best[dof]:
             continue
         Z = np.column_stack([X[i - 1:i + 2], L[i - 1:i + 2]]) / scale
-        trials = PeakTrials(prob, fun, tol, scale, Z, dof, omega_of, solved.setdefault(i, {}))
+        trials = PeakTrials(prob, fun, tol, scale, Z, dof, omega_of, solved.setdefault(i, {}),
+                            amplitude)
         for k in (-1, 0, 1):  # the three points, with their slopes where tangents are known
             trials.known(k, np.append(X[i + k], L[i + k]), tangents[i + k], amps3[k + 1])
         trials.adopt()
@@ -333,9 +318,10 @@ class PeakTrials:
     sigma to (z, ok, tangent) of every trial solved on this quadratic, for any DOF:
     the searches of several DOFs peaking between the same points share them."""
 
-    def __init__(self, prob, fun, tol, scale, Z, dof, omega_of, solved=None):
+    def __init__(self, prob, fun, tol, scale, Z, dof, omega_of, solved=None, amplitude=None):
         self.prob, self.fun, self.tol, self.scale, self.Z = prob, fun, tol, scale, Z
         self.dof, self.omega_of = dof, omega_of
+        self.amplitude_of = amplitude or AmplitudeCache(prob, [dof], omega_of)
         self.cache, self.nfev = {}, 0
         self.solved = {} if solved is None else solved
         self.factors = KeptFactors()  # the last trial's: the next one is near it
@@ -347,7 +333,7 @@ class PeakTrials:
         return p, dp
 
     def amplitude(self, z):
-        return _dof_amplitude(self.prob, z[:-1], z[-1], self.dof, self.omega_of)
+        return self.amplitude_of(z, self.dof)
 
     def slope(self, sig, z, t):
         """dA/dsigma at the branch point z (physical) with tangent t (physical, any

@@ -38,7 +38,8 @@ import time
 import numpy as np
 
 from ..continuation.arclength import automatic_scale
-from ..continuation.branch_refinement import amplitudes_at, insert_peaks, solve_on_plane
+from ..continuation.amplitudes import amplitudes_at
+from ..continuation.branch_refinement import insert_peaks, solve_on_plane
 from ..continuation.newton import augment, linear_solve
 from ..continuation.pseudo_arclength import continue_branch
 from ..continuation.restarts import join, piece
