@@ -23,8 +23,9 @@ def study_optimum(study: Study, solver, curves, cdir=None, workers=1, scheduler=
                   early=None) -> tuple:
     """(optimum dict or None, error text or None) of a study run whose cases gave
     `curves` with `solver`: `find_optimum` (its grid on the run's `workers` or
-    `scheduler`, the `early` band evaluations run beside the cases reused), the cases reused when they are HBM curves; a search stopped by an
-    undeclared separation is an error (the dataset is written without it), logged."""
+    `scheduler`, the `early` band evaluations run beside the cases reused), the cases
+    reused when they are HBM curves; a search stopped by an undeclared separation is
+    an error (the dataset is written without it), logged."""
     from ..files.declared import UndeclaredSeparation
 
     if study.output.optimum is None:

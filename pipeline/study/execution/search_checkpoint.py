@@ -10,8 +10,9 @@ The file is data only (netCDF variables `preload` [N], `peak` [m], `peak_omega`
 [rad/s] on one dimension, `state` [m] the Fourier coefficients of all DOFs at each
 peak (where the peak continued in preload starts: a resumed search needs no band
 evaluation again for them; NaN where not kept), and the search's identity as a JSON
-attribute: the DOF, bounds, window, tolerance and grid density).  A file that is not readable, of another
-kind, or of a different search is ignored: the search then starts afresh.
+attribute: the DOF, bounds, window, tolerance and grid density).  A file that is not
+readable, of another kind, or of a different search is ignored: the search then
+starts afresh.
 """
 from __future__ import annotations
 

@@ -1,7 +1,8 @@
 """The optimum-preload figure: the resonant peak against the preload, every preload the
 search evaluated over the band joined in preload order (grid nodes and Brent
 refinements marked apart), Brent's trials valued by the peak continued from a nearby
-preload as markers (lower bounds of the band's peak), the optimum starred and labelled with its value and unit."""
+preload as markers (lower bounds of the band's peak), the optimum starred and labelled
+with its value and unit."""
 from __future__ import annotations
 
 

@@ -21,8 +21,9 @@ TEXT = TEXT.replace(WINDOW, "").replace("stability = true", "stability = false")
 
 
 class Counted:
-    """The search's band evaluations (`peak_tracking.frequency_response`) counting the preloads it is called at (the search's
-    only: the cases run the real function), KeyboardInterrupt at call `stop_at`."""
+    """The search's band evaluations (`peak_tracking.frequency_response`) counting the
+    preloads it is called at (the search's only: the cases run the real function),
+    KeyboardInterrupt at call `stop_at`."""
 
     def __init__(self, real, stop_at=None):
         self.real, self.stop_at, self.preloads = real, stop_at, []
