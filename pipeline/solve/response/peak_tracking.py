@@ -47,7 +47,7 @@ from .optimum import PER_DECADE, global_minimum
 from .response import (ResponseCurve, branch_points, curve_from_points, frequency_problem,
                        frequency_response, peak_points)
 
-log = logging.getLogger(__name__)
+logger = logging.getLogger(__name__)
 
 VERIFY_REL = 1e-6    # a local peak and the band's agree to this (relative): the same peak
 
@@ -156,7 +156,7 @@ def band_peak(system, H, omega_start, omega_end, dof, **kwargs) -> tuple:
     kwargs["keep"] = "peaks"  # only the peak is read, no curve is drawn
     c = frequency_response(system, H, omega_start, omega_end, peak_dofs=[dof], **kwargs)
     if not c.success:
-        log.warning("optimum search: curve incomplete (%s); skipped", c.message)
+        logger.warning("optimum search: curve incomplete (%s); skipped", c.message)
         return np.inf, np.nan, None
     a, om, i = c.peak(dof)
     return a, om, c.Q[i]
@@ -210,7 +210,7 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
         om0, Q0 = states[near]
         c = local_peak(build(n0), H, om0, Q0, dof, omega_start, omega_end, **kwargs)
         if not c.success:
-            log.info("optimum search: no local peak at %.6g N from %.6g N (%s)", n0, near,
+            logger.info("optimum search: no local peak at %.6g N from %.6g N (%s)", n0, near,
                      c.message)
             return np.inf, np.nan
         a, om, i = c.peak(dof)

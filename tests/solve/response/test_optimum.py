@@ -367,3 +367,24 @@ def test_local_values_start_from_the_nearest_preload_evaluated():
         assert abs(math.log(near) - math.log(n0)) == pytest.approx(
             min(abs(math.log(k) - math.log(n0)) for k in others), abs=1e-12)
         seen.add(n0)
+
+
+def test_a_trial_without_a_local_peak_is_evaluated_over_the_band(fake_peaks, monkeypatch,
+                                                                 caplog):
+    """Where no local maximum is enclosed (the peak left the band, a side stopped
+    short), the trial preload is evaluated over the whole band instead (logged): the
+    search is then the band search, with its optimum."""
+    class NoPeak:
+        success, message = False, "no local maximum enclosed"
+
+    def no_local(system, H, omega, Q, dof, a, b, **kw):
+        fake_peaks.local.append(system)
+        return NoPeak()
+
+    monkeypatch.setattr(response, "local_peak", no_local)
+    caplog.set_level("INFO")
+    opt = response.optimum_preload(lambda n0: n0, 1, 1.0, 2.0, 0, BOUNDS, rtol=1e-3)
+    assert opt["preload"] == pytest.approx(math.exp(T_GLOBAL), rel=2e-3)
+    assert opt["local"] == [] and fake_peaks.local
+    assert set(fake_peaks.local) <= set(fake_peaks)      # each trial then over the band
+    assert "no local peak at" in caplog.text
