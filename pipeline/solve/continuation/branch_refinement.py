@@ -218,7 +218,9 @@ def densify(prob, pts, fun, tol, dofs, omega_of=lambda l: l, axes=PLOT_AXES):
 
 _AFT_PEAK_GRID = 9  # solves per bracket before Brent when forces are sampled (AFT)
 _PEAK_XTOL = 1e-6   # the finest sigma the exact peak search resolves (`sigma_tolerance`)
-_PEAK_SOLVES = 12   # ... or after this many solves (then Brent's minimiser takes over)
+_PEAK_SOLVES = 24   # ... or after this many solves (then Brent's minimiser takes over:
+#                     near the root the slope is noise of the trials' convergence, and
+#                     12 solves left 4 of a 24-blade wheel's peaks to the coarser Brent)
 _NEAR_SIGMA = 0.1   # a trial this close to an earlier one starts from it
 LARGEST_MARGIN = 0.8  # `insert_peaks(largest=True)` skips local maxima below this share
 
