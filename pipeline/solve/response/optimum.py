@@ -59,6 +59,7 @@ REFINE = 10             # Brent's xatol = rtol / REFINE (module docstring)
 SNAP = 1.0 / 3.0        # an extra node replaces a regular one this close (of the spacing)
 FLAT_REL = 1e-7         # a local minimum shallower than this (relative) is a plateau
 SKIP_REL = 0.1          # a bracket whose parabola stays this far above the best: not refined
+VERIFY_REL = 1e-6       # a bracket's local result and its band value agree to this (relative)
 GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))
 SQRT_EPS = math.sqrt(np.finfo(float).eps)
 MAX_BRENT_STEPS = 100
@@ -173,7 +174,7 @@ def brent(f, a: float, b: float, xatol: float, x: float | None = None, fx: float
 
 def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
                    per_decade: float = PER_DECADE, known=None, extra_nodes=(),
-                   on_evaluation=None, local=None, verify_rel: float = 1e-6,
+                   on_evaluation=None, local=None, verify_rel: float = VERIFY_REL,
                    evaluate_many=None) -> dict:
     """The preload in `bounds` [N] with the smallest value of evaluate(n0) -> (peak,
     omega), peak = inf for a failed evaluation (see the module docstring: grid,
@@ -271,8 +272,8 @@ def refine_bracket(full, local, memo, lmemo, to_n0, to_t, ab, xatol, inner, veri
                    bounds):
     """Brent in the bracket `ab` (in t) on local values, the result evaluated in `full`
     (the memoised evaluation) and compared: returns (n0, local peak, full peak) of
-    that check; where the full peak exceeds the local one by more than verify_rel,
-    Brent runs again on full values (logged).
+    that check; where the two differ by more than verify_rel (relative), Brent runs
+    again on full values (logged).
 
     local(n0, near) -> (peak, omega) is asked from the evaluated preload `near`
     nearest to n0 within `bounds`; it never exceeds full(n0) and equals it while the
@@ -297,8 +298,8 @@ def refine_bracket(full, local, memo, lmemo, to_n0, to_t, ab, xatol, inner, veri
     n0 = to_n0(x)
     guess = lmemo.get(n0, memo.get(n0, (np.inf,)))[0]
     p = full(n0)
-    if p <= guess * (1 + verify_rel):
-        return (n0, guess, p)
+    if abs(p - guess) <= verify_rel * abs(p):   # the same maximum (either way: a local
+        return (n0, guess, p)                   # value above the band's is no lower bound)
     logger.warning("optimum search: the peak at %.6g N is %.6g m over the band, %.6g m "
                    "continued from a nearby preload: the bracket [%.6g, %.6g] N is refined "
                    "again on the whole band", n0, p, guess, to_n0(ab[0]), to_n0(ab[1]))

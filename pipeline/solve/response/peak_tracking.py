@@ -43,25 +43,25 @@ from ..continuation.branch_refinement import insert_peaks, solve_on_plane
 from ..continuation.newton import augment, linear_solve
 from ..continuation.pseudo_arclength import continue_branch
 from ..continuation.restarts import join, piece
-from .optimum import PER_DECADE, global_minimum
+from .optimum import PER_DECADE, VERIFY_REL, global_minimum
 from .response import (ResponseCurve, branch_points, curve_from_points, frequency_problem,
                        frequency_response, peak_points)
 
 logger = logging.getLogger(__name__)
 
-VERIFY_REL = 1e-6    # a local peak and the band's agree to this (relative): the same peak
-
 
 def local_peak(system, H, omega, initial, dof, omega_start, omega_end, *, method="exact",
                n_samples=256, tol_rel=1e-10, ds=0.02, ds_max=0.1, max_points=1000,
-               callback=None, contact=None, **_ignored) -> ResponseCurve:
+               callback=None, contact=None, stability=None, dense_output=None,
+               keep=None) -> ResponseCurve:
     """The local maximum of `dof`'s amplitude on the branch through the solution near
     `initial` (Fourier coefficients (n, 2H+1) of all DOFs, e.g. the peak of a nearby
     preload) at `omega` [rad/s], within [omega_start, omega_end] (module docstring).
 
     Returns a ResponseCurve of that one point (stability not decided); success False,
     with the reason in its message, when no local maximum is enclosed inside the band.
-    Options as `frequency_response`'s (others, e.g. stability, keep, are ignored)."""
+    Options as `frequency_response`'s; stability, dense_output and keep are accepted
+    and ignored (one point, stability not decided)."""
     t_start = time.perf_counter()
     fp = frequency_problem(system, H, method, n_samples, tol_rel, contact)
     prob = fp.prob
@@ -77,7 +77,8 @@ def local_peak(system, H, omega, initial, dof, omega_start, omega_end, *, method
               "local peak", all(stopped for _, stopped in runs), 0)
     pts = branch_points(br)
     pts = insert_peaks(prob, pts, fp.fun, 1.0, fp.elem, [dof], largest=True)
-    amps = amplitudes_at(prob, pts["x"], pts["lam"], [dof])[:, 0]
+    amps = pts.get("amplitude")        # drawn by insert_peaks (fewer than 3 points: not)
+    amps = (amps if amps is not None else amplitudes_at(prob, pts["x"], pts["lam"], [dof]))[:, 0]
     k = int(np.argmax(np.where(pts["converged"], amps, -np.inf)))
     enclosed = br.success and 0 < k < amps.size - 1
     pts = peak_points(prob, pts, [dof])

@@ -25,7 +25,9 @@ def add_optimum(data_vars, coords, opt, study, to_unit, unit):
         "units": unit, "long_name": "frequency of that peak"})
     data_vars["optimum_search_peak"] = ((dim,), ev[:, 1], {
         "units": "m", "long_name": f"resonant peak of {dof} at that preload (NaN: "
-                                   "incomplete curve)"})
+                                   "incomplete curve; where optimum_search_band is 0, the "
+                                   "local peak continued from a nearby preload, a lower "
+                                   "bound)"})
     data_vars["optimum_search_peak_frequency"] = ((dim,), ev[:, 2] / to_unit, {
         "units": unit, "long_name": "frequency of that peak"})
     data_vars["optimum_search_is_optimum"] = ((dim,), (ev[:, 0] == opt["preload"]).astype(
