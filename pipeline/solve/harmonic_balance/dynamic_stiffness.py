@@ -46,7 +46,7 @@ import scipy.sparse as sp
 from ...fourier.harmonics import complex_harmonics, derivative_matrix
 from ...model.system import coupled_stiffness, dense
 from .interior import condense_blocks, interior_blocks
-from .parts import PartBlocks, part_blocks
+from .parts import PartBlocks, on_contact_dofs, part_blocks, scatter_add
 from .sparse_blocks import SparseBlocks, sparse_blocks
 from .terms import Term
 
@@ -341,44 +341,37 @@ def condense_parts(ds: DynamicStiffness, Om: float, derivatives: bool):
     pb, c, xt = ds.blocks, ds.c, ds.extra
     h = np.arange(ds.H + 1)[:, None, None, None]              # harmonic, part, rows, cols
     hc = h[:, 0]
-    Soo, Soc, Sco = (at_harmonic(*b[:3], h, Om, _pairs(xt, h, Om, matrices=b[3:]))
-                     for b in (pb.oo, pb.oc, pb.co))
+
+    def blocks(rate):   # S_oo, S_co, S_oc (or their rates); S_oc = S_co^T if symmetric
+        S = [harmonic_rate(b[1], b[2], h, Om, _pairs(xt, h, Om, True, b[3:])) if rate
+             else at_harmonic(*b[:3], h, Om, _pairs(xt, h, Om, matrices=b[3:]))
+             for b in ((pb.oo, pb.co) if pb.symmetric else (pb.oo, pb.co, pb.oc))]
+        return S if len(S) == 3 else S + [np.swapaxes(S[1], -1, -2)]
+
+    Soo, Sco, Soc = blocks(False)
     P = ds.loads
     sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, pb.o][..., None]], axis=-1))
     X, z = sol[..., :-1], sol[..., -1:]
-    St = _on_cc(pb, at_harmonic(*pb.ccv[:3], hc[:, 0], Om,
+    St = on_contact_dofs(pb, at_harmonic(*pb.ccv[:3], hc[:, 0], Om,
                                 _pairs(xt, hc[:, 0], Om, matrices=pb.ccv[3:])))
     Pt = P[:, c].astype(complex)
     k = pb.ck.shape[1]
     rows = np.broadcast_to(pb.ck[:, :, None], pb.ck.shape[:1] + (k, k))
     at, at_c = (slice(None), rows, rows.swapaxes(1, 2)), (slice(None), pb.ck)
-    add = _scatter_add if pb.disjoint else np.add.at
+    add = scatter_add if pb.disjoint else np.add.at
     add(St, at, -(Sco @ X))
     add(Pt, at_c, -(Sco @ z)[..., 0])
     if not derivatives:
         return St, None, Pt, None
-    dSoo, dSoc, dSco = (harmonic_rate(b[1], b[2], h, Om, _pairs(xt, h, Om, True, b[3:]))
-                        for b in (pb.oo, pb.oc, pb.co))
-    Y = np.linalg.solve(np.swapaxes(Soo, -1, -2), np.swapaxes(Sco, -1, -2)).swapaxes(-1, -2)
-    dSt = _on_cc(pb, harmonic_rate(pb.ccv[1], pb.ccv[2], hc[:, 0], Om,
+    dSoo, dSco, dSoc = blocks(True)
+    Y = (np.swapaxes(X, -1, -2) if pb.symmetric else   # Y = S_co S_oo^-1
+         np.linalg.solve(np.swapaxes(Soo, -1, -2), np.swapaxes(Sco, -1, -2)).swapaxes(-1, -2))
+    dSt = on_contact_dofs(pb, harmonic_rate(pb.ccv[1], pb.ccv[2], hc[:, 0], Om,
                                    _pairs(xt, hc[:, 0], Om, True, pb.ccv[3:])))
     add(dSt, at, -(dSco @ X + Y @ dSoc - Y @ (dSoo @ X)))
     dPt = np.zeros(Pt.shape, complex)
     add(dPt, at_c, (-(dSco @ z) + Y @ (dSoo @ z))[..., 0])
     return St, dSt, Pt, dPt
-
-
-def _on_cc(pb, values):
-    """(H+1, nc, nc) complex: `values` (H+1, nnz) at the cc matrices' nonzeros."""
-    out = np.zeros((values.shape[0],) + pb.cc[0].shape, complex)
-    out[:, pb.cc_nz[0], pb.cc_nz[1]] = values
-    return out
-
-
-def _scatter_add(a, index, values):
-    """np.add.at(a, index, values) for an index without repeated entries (parts that
-    share no contact DOF): one gather and one scatter."""
-    a[index] += values
 
 
 # ---- recovery of the eliminated DOFs

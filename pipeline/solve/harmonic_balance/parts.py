@@ -40,6 +40,7 @@ class PartBlocks:
     disjoint: bool = False   # no contact DOF belongs to two parts (ck without repeats)
     cc_nz: tuple = ()        # (rows, cols) where any cc matrix is nonzero
     ccv: tuple = ()          # the cc matrices' entries there (K, M, C, *A_t)
+    symmetric: bool = False  # every matrix symmetric: S_oc = S_co^T, S_co S_oo^-1 = X^T
 
 
 def part_blocks(system, c, o, extra=()) -> PartBlocks | None:
@@ -69,11 +70,12 @@ def part_blocks(system, c, o, extra=()) -> PartBlocks | None:
 
     cc = tuple(B[c][:, c].toarray() for B in mats)
     nz = np.nonzero(sum(np.abs(B) for B in cc))
-    return PartBlocks(o=oo, ck=ck, oo=tuple(gather(B, oo, oo) for B in mats),
-                      oc=tuple(gather(B, oo, cg) for B in mats),
-                      co=tuple(gather(B, cg, oo) for B in mats), cc=cc,
+    blocks = {k: tuple(gather(B, r, q) for B in mats)
+              for k, r, q in (("oo", oo, oo), ("oc", oo, cg), ("co", cg, oo))}
+    sym = all(abs(B - B.T).max() <= 1e-13 * abs(B).max() for B in mats)
+    return PartBlocks(o=oo, ck=ck, **blocks, cc=cc,
                       disjoint=bool(np.unique(ck).size == ck.size), cc_nz=nz,
-                      ccv=tuple(B[nz] for B in cc))
+                      ccv=tuple(B[nz] for B in cc), symmetric=sym)
 
 
 SPARSE_JACOBIAN_MIN = 500    # condensed unknowns from which a sparse Jacobian pays (measured)
@@ -131,7 +133,9 @@ def jacobian_pattern(pb: PartBlocks, idx, nc: int, nh: int) -> JacobianPattern |
     nr_c = np.broadcast_to(idx[:, None, :, None, None] * nh + k, nr.shape)
     keys = np.concatenate([lr * size + lc, (nr * size + nr_c).ravel()])
     uniq, inverse = np.unique(keys, return_inverse=True)
-    indptr = np.searchsorted(uniq // size, np.arange(size + 1)).astype(np.int64)
+    # scipy keeps int32 indices where they fit, and checks wider ones on every matrix
+    itype = np.int32 if uniq.size < 2 ** 31 else np.int64
+    indptr = np.searchsorted(uniq // size, np.arange(size + 1)).astype(itype)
     # the elements' (a, b) DOF pairs, each summed once over the elements sharing it
     pk = (idx[:, :, None] * nc + idx[:, None, :]).ravel()
     up, inv = np.unique(pk, return_inverse=True)
@@ -139,7 +143,7 @@ def jacobian_pattern(pb: PartBlocks, idx, nc: int, nh: int) -> JacobianPattern |
     pr = (up // nc)[:, None, None] * nh + k[:, None]
     pc = (up % nc)[:, None, None] * nh + k
     pos = np.searchsorted(uniq, (pr * size + pc).ravel())
-    return JacobianPattern(pi, pj, indptr, (uniq % size).astype(np.int64),
+    return JacobianPattern(pi, pj, indptr, (uniq % size).astype(itype),
                            inverse[:lr.size], inverse[lr.size:], size, pairs, pos)
 
 
@@ -170,3 +174,16 @@ def with_contacts(pat: JacobianPattern, L, Je):
     nh = Je.shape[-1]
     data[pat.pair_pos] += (pat.pairs @ Je.reshape(-1, nh * nh)).ravel()
     return sp.csr_matrix((data, pat.indices, pat.indptr), shape=(pat.size, pat.size))
+
+
+def on_contact_dofs(pb: PartBlocks, values):
+    """(H+1, nc, nc) complex: `values` (H+1, nnz) at the cc matrices' nonzeros."""
+    out = np.zeros((values.shape[0],) + pb.cc[0].shape, complex)
+    out[:, pb.cc_nz[0], pb.cc_nz[1]] = values
+    return out
+
+
+def scatter_add(a, index, values):
+    """np.add.at(a, index, values) for an index without repeated entries (parts that
+    share no contact DOF): one gather and one scatter."""
+    a[index] += values

@@ -50,7 +50,7 @@ import scipy.linalg as sla
 
 from ...model.system import coupled_stiffness, dense, stiffness_along
 from ..harmonic_balance import hbm
-from ..harmonic_balance.part_spectrum import PartSpectrum, part_spectra
+from ..harmonic_balance.part_spectrum import PartSpectrum, negative_eigenvalues, part_spectra
 
 MAX_DENSE_DOF = 3000   # above this the count (a dense eigen-solve per point) is skipped
 WIDTH_FLOOR = 1e-6     # smallest width resolved, relative to Omega (zeta = 0 structures)
@@ -92,16 +92,6 @@ class DenseSpectrum:
             lam = sla.eigh(self.K, self.M, eigvals_only=True, check_finite=False)
             self.w = np.sign(lam) * np.sqrt(np.abs(lam))
         return float(self.w[k]), float(self.zeta[k]) if k < self.zeta.size else 0.0
-
-
-def negative_eigenvalues(D) -> int:
-    """The number of negative eigenvalues of a Hermitian matrix D (Sylvester's law
-    of inertia: those of the block-diagonal factor of D = L B L^H, Bunch-Kaufman
-    pivoting; B's 1x1 and 2x2 blocks make it tridiagonal, |off-diagonal| keeps
-    its eigenvalues)."""
-    _, B, _ = sla.ldl(D, hermitian=True, check_finite=False)
-    return int(np.sum(sla.eigvalsh_tridiagonal(np.real(B.diagonal()).copy(),
-                                               np.abs(B.diagonal(-1))) < 0))
 
 
 def modal_damping(M, C, K) -> np.ndarray:

@@ -71,3 +71,28 @@ def test_part_spectrum_equals_the_dense_eigen_solve(wheel):
         wk, zk = spec.mode(k)
         assert wk == pytest.approx(w[k], rel=1e-9)
         assert zk == pytest.approx(zeta[k], rel=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["real", "complex"])
+def test_inertia_count_equals_the_eigenvalue_count(kind):
+    """The count of negative eigenvalues from the Bunch-Kaufman factor (1x1 and 2x2
+    pivot blocks) equals numpy's Hermitian eigenvalue count on 600 random matrices,
+    among them near-zero diagonals that force 2x2 pivots and shifted ones."""
+    import scipy.linalg as sla
+
+    from pipeline.solve.harmonic_balance.part_spectrum import negative_eigenvalues
+    rng = np.random.default_rng(5)
+    blocks = 0
+    for t in range(600):
+        n = int(rng.integers(1, 40))
+        A = rng.standard_normal((n, n))
+        if kind == "complex":
+            A = A + 1j * rng.standard_normal((n, n))
+        A = A + A.conj().T
+        if t % 2:
+            A[np.arange(n), np.arange(n)] = 1e-3 * rng.standard_normal(n)
+        A -= rng.uniform(-3, 3) * np.eye(n)
+        assert negative_eigenvalues(A) == int(np.sum(np.linalg.eigvalsh(A) < 0))
+        trf = sla.get_lapack_funcs("hetrf" if kind == "complex" else "sytrf", (A,))
+        blocks += int(np.sum(trf(A, lower=1)[1] < 0)) // 2
+    assert blocks > 1000     # 2x2 pivot blocks counted
