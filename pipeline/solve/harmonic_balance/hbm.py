@@ -253,20 +253,15 @@ def residual(prob: HBMProblem, x, Om, contact: ContactElements | None = None, ja
     nh = prob.nh
     Qc = x.reshape(prob.c.size, nh)
     pat = prob.pattern
-    applied = jacobian and pat is None
-    St, dSt, Pt, dPt = linear_part(prob, Om, derivatives=jacobian,
-                                   motion=complex_harmonics(Qc) if applied else None)
+    St, dSt, Pt, dPt = linear_part(prob, Om, derivatives=jacobian,   # dSt applied to Qc
+                                   motion=complex_harmonics(Qc) if jacobian else None)
     lin = linear_values(pat, St) if pat is not None else None
     L = pattern_matrix(pat, lin) if pat is not None else real_blocks(St, nh)
     G, Jnl, _ = contact_terms(prob, Qc, contact, jacobian, blocks=jacobian)
     R = L @ x + G.ravel() - real_vector(Pt, nh).ravel()
     if not jacobian:
         return R, None, None
-    if applied:   # dSt already applied to the motion (`linear_part`)
-        dR_dOm = real_vector(dSt - dPt, nh).ravel()
-    else:
-        dR_dOm = (pattern_matrix(pat, linear_values(pat, dSt)) @ x
-                  - real_vector(dPt, nh).ravel())
+    dR_dOm = real_vector(dSt - dPt, nh).ravel()
     blocks = Jnl if Jnl.ndim == 5 else None     # 2-D zeros without elements
     if pat is not None:
         return R, (L.copy() if blocks is None else with_contacts(pat, L, blocks)), dR_dOm
