@@ -46,7 +46,7 @@ import scipy.sparse as sp
 from ...fourier.harmonics import complex_harmonics, derivative_matrix
 from ...model.system import coupled_stiffness, dense
 from .interior import condense_blocks, interior_blocks
-from .parts import PartBlocks, on_contact_dofs, part_blocks, scatter_add
+from .parts import PartBlocks, applied, on_contact_dofs, on_parts, on_pattern, part_blocks
 from .sparse_blocks import SparseBlocks, sparse_blocks
 from .terms import Term
 
@@ -222,10 +222,13 @@ def term_stiffness(terms, H: int, Om: float, derivative: bool = False) -> np.nda
 
 # ---- condensation onto the contact DOFs
 
-def condense(ds: DynamicStiffness, Om: float, derivatives: bool = True, motion=None):
+def condense(ds: DynamicStiffness, Om: float, derivatives: bool = True, motion=None,
+             pattern=None):
     """(St, dSt, Pt, dPt): condensed S_h, dS_h/dOmega (H+1 complex (nc, nc)), load and
     its derivative (H+1, nc).  With `motion` (H+1, nc) complex (the contact DOFs'
-    harmonics), dSt is returned applied to it, dSt[h] @ motion[h] (H+1, nc)."""
+    harmonics), dSt is returned applied to it, dSt[h] @ motion[h] (H+1, nc).  With
+    `pattern` (`parts.JacobianPattern`, strategy "parts", with `motion`), St is
+    returned as its values on the pattern (H+1, p)."""
     if ds.strategy == "blocks":   # the algebra in `interior`, S formed here
         H, xt = ds.H, ds.extra
         return condense_blocks(ds.blocks, ds.loads, ds.c, ds.o, derivatives, motion,
@@ -234,6 +237,8 @@ def condense(ds: DynamicStiffness, Om: float, derivatives: bool = True, motion=N
     if ds.strategy == "dense":
         out = _condense_dense(ds, Om, derivatives)
     elif ds.strategy == "parts":
+        if pattern is not None:
+            return condense_parts(ds, Om, derivatives, pattern, motion)
         St, dSt, Pt, dPt = condense_parts(ds, Om, derivatives)
         out = (list(St), list(dSt) if derivatives else [], Pt, dPt)
     else:
@@ -334,10 +339,13 @@ def _condense_sparse(ds: DynamicStiffness, Om: float, derivatives: bool):
     return St, dSt, np.array(Pt), np.array(dPt) if derivatives else None
 
 
-def condense_parts(ds: DynamicStiffness, Om: float, derivatives: bool):
+def condense_parts(ds: DynamicStiffness, Om: float, derivatives: bool, pattern=None,
+                   motion=None):
     """(S~, dS~, P~, dP~) of every harmonic, (H+1, nc, nc) and (H+1, nc), part by part
     (`parts.PartBlocks`), all harmonics and parts in batched dense solves:
-    S~_h = S_cc - sum_k S_{c,o_k} S_{o_k o_k}^-1 S_{o_k,c}."""
+    S~_h = S_cc - sum_k S_{c,o_k} S_{o_k o_k}^-1 S_{o_k,c}.  With `pattern` and
+    `motion`: S~ on the pattern (H+1, p) and dS~ applied to the motion (H+1, nc)
+    (`parts.on_pattern`, `parts.applied`), without the dense (nc, nc) matrices."""
     pb, c, xt = ds.blocks, ds.c, ds.extra
     h = np.arange(ds.H + 1)[:, None, None, None]              # harmonic, part, rows, cols
     hc = h[:, 0]
@@ -352,25 +360,21 @@ def condense_parts(ds: DynamicStiffness, Om: float, derivatives: bool):
     P = ds.loads
     sol = np.linalg.solve(Soo, np.concatenate([Soc, P[:, pb.o][..., None]], axis=-1))
     X, z = sol[..., :-1], sol[..., -1:]
-    St = on_contact_dofs(pb, at_harmonic(*pb.ccv[:3], hc[:, 0], Om,
-                                _pairs(xt, hc[:, 0], Om, matrices=pb.ccv[3:])))
-    Pt = P[:, c].astype(complex)
-    k = pb.ck.shape[1]
-    rows = np.broadcast_to(pb.ck[:, :, None], pb.ck.shape[:1] + (k, k))
-    at, at_c = (slice(None), rows, rows.swapaxes(1, 2)), (slice(None), pb.ck)
-    add = scatter_add if pb.disjoint else np.add.at
-    add(St, at, -(Sco @ X))
-    add(Pt, at_c, -(Sco @ z)[..., 0])
+    cc = at_harmonic(*pb.ccv[:3], hc[:, 0], Om, _pairs(xt, hc[:, 0], Om, matrices=pb.ccv[3:]))
+    St = (on_contact_dofs(pb, cc, -(Sco @ X)) if pattern is None
+          else on_pattern(pb, pattern, cc, -(Sco @ X)))
+    Pt = on_parts(pb, P[:, c].astype(complex), -(Sco @ z)[..., 0])
     if not derivatives:
         return St, None, Pt, None
     dSoo, dSco, dSoc = blocks(True)
     Y = (np.swapaxes(X, -1, -2) if pb.symmetric else   # Y = S_co S_oo^-1
          np.linalg.solve(np.swapaxes(Soo, -1, -2), np.swapaxes(Sco, -1, -2)).swapaxes(-1, -2))
-    dSt = on_contact_dofs(pb, harmonic_rate(pb.ccv[1], pb.ccv[2], hc[:, 0], Om,
-                                   _pairs(xt, hc[:, 0], Om, True, pb.ccv[3:])))
-    add(dSt, at, -(dSco @ X + Y @ dSoc - Y @ (dSoo @ X)))
-    dPt = np.zeros(Pt.shape, complex)
-    add(dPt, at_c, (-(dSco @ z) + Y @ (dSoo @ z))[..., 0])
+    dcc = harmonic_rate(pb.ccv[1], pb.ccv[2], hc[:, 0], Om,
+                        _pairs(xt, hc[:, 0], Om, True, pb.ccv[3:]))
+    dparts = -(dSco @ X + Y @ dSoc - Y @ (dSoo @ X))
+    dSt = (on_contact_dofs(pb, dcc, dparts) if pattern is None
+           else applied(pb, dcc, dparts, motion))
+    dPt = on_parts(pb, np.zeros(Pt.shape, complex), (-(dSco @ z) + Y @ (dSoo @ z))[..., 0])
     return St, dSt, Pt, dPt
 
 

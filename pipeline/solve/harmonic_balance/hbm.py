@@ -157,16 +157,18 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
 # linear part, condensed
 # --------------------------------------------------------------------------
 
-def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True, motion=None):
+def linear_part(prob: HBMProblem, Om: float, derivatives: bool = True, motion=None,
+                pattern=None):
     """Condensed dynamic stiffness per harmonic and condensed forcing
     (`dynamic_stiffness.condense`, the strategy fixed by `setup`).
 
     Returns (St, dSt, Pt, dPt): St[h], dSt[h] complex (nc, nc) for h = 0..H
     (dSt = d/dOm), Pt, dPt complex (H+1, nc).  With `motion` (H+1, nc) complex (the
     contact DOFs' harmonics, `complex_harmonics`), dSt is returned applied to it,
-    dSt[h] @ motion[h] (H+1, nc): all the residual needs for dR/dOm.
+    dSt[h] @ motion[h] (H+1, nc): all the residual needs for dR/dOm.  With the
+    problem's `pattern` (and `motion`), St is its values there (H+1, p).
     """
-    return dyn.condense(prob.linear, Om, derivatives, motion)
+    return dyn.condense(prob.linear, Om, derivatives, motion, pattern)
 
 
 # --------------------------------------------------------------------------
@@ -254,9 +256,11 @@ def residual(prob: HBMProblem, x, Om, contact: ContactElements | None = None, ja
     Qc = x.reshape(prob.c.size, nh)
     pat = prob.pattern
     St, dSt, Pt, dPt = linear_part(prob, Om, derivatives=jacobian,   # dSt applied to Qc
-                                   motion=complex_harmonics(Qc) if jacobian else None)
-    lin = linear_values(pat, St) if pat is not None else None
-    L = pattern_matrix(pat, lin) if pat is not None else real_blocks(St, nh)
+                                   motion=complex_harmonics(Qc) if jacobian else None,
+                                   pattern=pat if jacobian else None)
+    if pat is not None and not jacobian:
+        St = np.array([S[pat.pi, pat.pj] for S in St])
+    L = pattern_matrix(pat, linear_values(St)) if pat is not None else real_blocks(St, nh)
     G, Jnl, _ = contact_terms(prob, Qc, contact, jacobian, blocks=jacobian)
     R = L @ x + G.ravel() - real_vector(Pt, nh).ravel()
     if not jacobian:

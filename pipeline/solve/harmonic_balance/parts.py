@@ -101,6 +101,8 @@ class JacobianPattern:
     size: int             # nc nh
     pairs: object = None  # (u, E m m) sparse: sums the elements' blocks per DOF pair
     pair_pos: np.ndarray | None = None   # (u nh nh,) data positions of those sums
+    cc_pos: np.ndarray | None = None     # (q,) positions in (pi, pj) of PartBlocks.cc_nz
+    part_pos: np.ndarray | None = None   # (P, k, k) positions of each part's ck x ck block
 
 
 def linear_keys(pi, pj, nh):
@@ -143,14 +145,17 @@ def jacobian_pattern(pb: PartBlocks, idx, nc: int, nh: int) -> JacobianPattern |
     pr = (up // nc)[:, None, None] * nh + k[:, None]
     pc = (up % nc)[:, None, None] * nh + k
     pos = np.searchsorted(uniq, (pr * size + pc).ravel())
+    at = pi * nc + pj    # (pi, pj) is in row-major order: sorted keys
+    cc_pos = np.searchsorted(at, pb.cc_nz[0] * nc + pb.cc_nz[1])
+    part_pos = np.searchsorted(at, pb.ck[:, :, None] * nc + pb.ck[:, None, :])
     return JacobianPattern(pi, pj, indptr, (uniq % size).astype(itype),
-                           inverse[:lr.size], inverse[lr.size:], size, pairs, pos)
+                           inverse[:lr.size], inverse[lr.size:], size, pairs, pos,
+                           cc_pos, part_pos)
 
 
-def linear_values(pat: JacobianPattern, St):
-    """The real entries of the per-harmonic blocks St[h] (nc, nc) on the pattern, in
-    `linear_keys` order."""
-    V = np.array([S[pat.pi, pat.pj] for S in St])
+def linear_values(V):
+    """The real entries of S~_h on the pattern, in `linear_keys` order, from its complex
+    values V (H+1, p) there (`dynamic_stiffness.condense` with the pattern)."""
     out = [V[0].real]
     for v in V[1:]:
         out += [v.real, v.imag, -v.imag, v.real]
@@ -176,10 +181,20 @@ def with_contacts(pat: JacobianPattern, L, Je):
     return sp.csr_matrix((data, pat.indices, pat.indptr), shape=(pat.size, pat.size))
 
 
-def on_contact_dofs(pb: PartBlocks, values):
-    """(H+1, nc, nc) complex: `values` (H+1, nnz) at the cc matrices' nonzeros."""
-    out = np.zeros((values.shape[0],) + pb.cc[0].shape, complex)
-    out[:, pb.cc_nz[0], pb.cc_nz[1]] = values
+def on_contact_dofs(pb: PartBlocks, cc_values, part_values):
+    """(H+1, nc, nc) complex: the cc matrices' values at their nonzeros (H+1, q) plus
+    each part's block (H+1, P, k, k) at its contact DOFs."""
+    out = np.zeros((cc_values.shape[0],) + pb.cc[0].shape, complex)
+    out[:, pb.cc_nz[0], pb.cc_nz[1]] = cc_values
+    rows = np.broadcast_to(pb.ck[:, :, None], pb.ck.shape + pb.ck.shape[1:])
+    (scatter_add if pb.disjoint else np.add.at)(out, (slice(None), rows, rows.swapaxes(1, 2)),
+                                                part_values)
+    return out
+
+
+def on_parts(pb: PartBlocks, out, part_values):
+    """out (H+1, nc) plus each part's vector (H+1, P, k) at its contact DOFs."""
+    (scatter_add if pb.disjoint else np.add.at)(out, (slice(None), pb.ck), part_values)
     return out
 
 
@@ -187,3 +202,23 @@ def scatter_add(a, index, values):
     """np.add.at(a, index, values) for an index without repeated entries (parts that
     share no contact DOF): one gather and one scatter."""
     a[index] += values
+
+
+def on_pattern(pb: PartBlocks, pat: JacobianPattern, cc_values, part_values):
+    """(H+1, p) complex: S~_h on the pattern (pi, pj) from the cc matrices' values at
+    their nonzeros (H+1, q) plus the parts' blocks (H+1, P, k, k), no dense S~_h."""
+    out = np.zeros(cc_values.shape[:1] + pat.pi.shape, complex)
+    out[:, pat.cc_pos] = cc_values
+    (scatter_add if pb.disjoint else np.add.at)(out, (slice(None), pat.part_pos), part_values)
+    return out
+
+
+def applied(pb: PartBlocks, cc_values, part_values, motion):
+    """(H+1, nc) complex: (dS~_h) motion[h] for dS~_h given as `on_pattern` takes it
+    (cc values at their nonzeros, the parts' blocks), no dense matrix."""
+    rows, cols = pb.cc_nz
+    terms = cc_values * motion[:, cols]
+    nc = motion.shape[1]
+    out = np.array([np.bincount(rows, t.real, nc) + 1j * np.bincount(rows, t.imag, nc)
+                    for t in terms])
+    return on_parts(pb, out, (part_values @ motion[:, pb.ck][..., None])[..., 0])
