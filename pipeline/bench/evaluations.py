@@ -94,10 +94,10 @@ def run(quick=False):
         print(format_row(r))
     total = sum(r.nfev for r in rows) / sum(r.points for r in rows)
     met = sum(r.per_point <= AIM for r in rows)
-    print(f"points: of the returned curve, of which cont. from the continuation and dense from "
-          f"the dense output (the rest:\n  the inserted peaks); evals: in total, then per point "
-          f"and split as continuation (first point,\n  steps, rejected ones, corners, folds) / "
-          f"dense output / peaks; rej.: rejected steps")
+    print("points: of the returned curve, of which cont. from the continuation and dense from "
+          "the dense output (the rest:\n  the inserted peaks); evals: in total, then per point "
+          "and split as continuation (first point,\n  steps, rejected ones, corners, folds) / "
+          "dense output / peaks; rej.: rejected steps")
     print(f"all curves: {total:.2f} evaluations per point; at most {AIM:g} on {met} of "
           f"{len(rows)} curves")
     return 0

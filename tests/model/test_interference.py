@@ -10,7 +10,6 @@ centrifugal relative displacement of the first pair, interference + Omega^2 v_c1
 import re
 
 import numpy as np
-import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 

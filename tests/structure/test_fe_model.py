@@ -5,7 +5,6 @@ from dataclasses import replace
 import meshio
 import numpy as np
 import pytest
-import scipy.sparse.linalg as sla
 from skfem import Basis, BilinearForm, ElementHex2, ElementVector, MeshHex, MeshTet, asm
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 

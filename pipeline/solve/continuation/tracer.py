@@ -428,7 +428,7 @@ class Tracer:
     def finish_at_bound(self, zn, t_new_phys, nit, r):
         """The step left [lo, hi]: the last point is re-solved on the boundary it
         crossed (from the linear interpolation) and the Branch returned."""
-        o, n, z = self.opts, self.n, self.z
+        o, n = self.opts, self.n
         lo, hi = o.bounds
         bound = hi if zn[n] > hi else lo
         xg = self.crossing_guess(zn, t_new_phys, bound)

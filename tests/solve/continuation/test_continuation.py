@@ -232,6 +232,51 @@ def test_kept_factors_refine_near_matrices_to_a_fresh_solves_accuracy(sparse):
         KeptFactors().solve(sp.csc_matrix((3, 3)) if sparse else np.zeros((3, 3)), np.ones(3))
 
 
+def test_sparse_factors_with_threshold_pivots_are_checked_and_replaced_where_they_fail(
+        monkeypatch):
+    """A fresh sparse LU keeps diagonal pivots down to _DIAG_PIVOT of their column
+    (minimum degree on A^T + A): on a block-cyclic, indefinite matrix like a wheel's
+    Newton system its solution meets a partial-pivoting LU's backward error.  Where
+    such factors are too poor for refinement to reach it, the matrix is factorised
+    again with partial pivoting, in `KeptFactors.solve` and in `linear_solve`."""
+    import scipy.sparse as sp
+    from pipeline.solve.continuation import newton as nt
+    rng = np.random.default_rng(8)
+    nb, b = 24, 10
+    A = np.zeros((nb * b, nb * b))
+    for k in range(nb):    # indefinite diagonal blocks, both neighbours coupled
+        j, i = slice(k * b, k * b + b), slice(((k + 1) % nb) * b, ((k + 1) % nb) * b + b)
+        A[j, j] = rng.standard_normal((b, b)) + np.diag(rng.choice([-1.0, 1.0], b))
+        A[j, i], A[i, j] = rng.standard_normal((b, b)), rng.standard_normal((b, b))
+    rhs = rng.standard_normal(nb * b)
+
+    def berr(M, x, y):
+        return np.linalg.norm(y - M @ x) / (np.linalg.norm(M) * np.linalg.norm(x)
+                                           + np.linalg.norm(y))
+
+    eps16 = 16 * np.finfo(float).eps
+    f = KeptFactors()
+    assert berr(A, f.solve(sp.csc_matrix(A), rhs), rhs) <= eps16
+    assert berr(A, nt.linear_solve(sp.csc_matrix(A), rhs), rhs) <= eps16
+    calls = []
+    exact = nt._partial_pivoting
+
+    def counted(M):
+        calls.append(1)
+        return exact(M)
+
+    def poor(M):   # factors of a matrix 30 % away: refinement cannot converge
+        return nt.spla.splu(sp.csc_matrix(M + 0.3 * np.abs(M).max() * sp.eye(M.shape[0]))).solve
+
+    monkeypatch.setattr(nt, "_sparse_solver", poor)
+    monkeypatch.setattr(nt, "_partial_pivoting", counted)
+    f = KeptFactors()
+    assert berr(A, f.solve(sp.csc_matrix(A), rhs), rhs) <= eps16
+    assert berr(A, nt.linear_solve(sp.csc_matrix(A), rhs), rhs) <= eps16
+    assert len(calls) == 2
+    assert berr(A, f.near(sp.csc_matrix(A), rhs), rhs) <= eps16 and f.refined == 1
+
+
 def test_kept_factors_give_up_at_once_when_refinement_cannot_arrive_in_time():
     """B = A (I + 0.3 Q), Q orthogonal: refinement on A's factors contracts by 0.3 a
     step and would need about 30 steps to a fresh LU's backward error: it stops after

@@ -12,7 +12,6 @@ import pytest
 from pipeline.contact import YangMenq
 from pipeline.solve.harmonic_balance.hbm_state import state_at_zero
 from pipeline.solve.response.response import frequency_response
-from pipeline.model.system import System
 from pipeline.paper_systems import example1, example3
 
 DS_MIN = 1e-6  # continuation default
