@@ -5,8 +5,8 @@ evaluates the condensed harmonic-balance residual with its Jacobian (`hbm.residu
 the condensation of the linear part onto the contact DOFs, the contact forces) and
 solves the bordered Newton system of the n_u = n_c (2H + 1) unknowns, a few times;
 bookkeeping, dense output and the recovery of every DOF add a part that grows with
-the system's n DOFs, and stability its own (c is larger for the sparse Jacobian of a
-full wheel: each tangent is factorised afresh):
+the system's n DOFs, and stability its own (a full wheel's sparse Jacobian has its own
+c and k, its factors kept as a dense one's):
 
     t_case  = P t_point,    t_point = c t_R + k t_S + s0 + s1 n + s_stab,
     P       = 60 (1 + m)^0.6 x POINTS,
@@ -44,8 +44,10 @@ FACTORISATIONS_PER_POINT = (1.0, 2.5)  # dense Newton systems of KEEP_ROWS rows 
 #                                        their factors: about one LU a point, not one a
 #                                        Newton step (`newton.KeptFactors`)
 KEEP_ROWS, SINGLE_ROWS = 300, 500      # as `newton`: kept factors; float32 factorisation
-SPARSE_PAIRS_PER_POINT = (6.0, 16.0)  # c of a sparse Jacobian (a mistuned wheel): 5.8-6.3
-#                                       evaluations a point, each tangent factorised afresh
+SPARSE_PAIRS_PER_POINT = (2.5, 6.0)   # c of a sparse Jacobian (a mistuned wheel): 2.6-5.1
+#                                       evaluations a point of the curve, 4.3 a branch point
+SPARSE_FACTORISATIONS_PER_POINT = (0.5, 2.0)   # its LUs (kept factors too): 0.6-1.1 a point
+#                                                of the curve, 1.9 a branch point
 OVERHEAD = ((0.002, 0.008), (1e-4, 1.5e-3))   # s0 [s], s1 [s per DOF]: bookkeeping, dense
 #                                             output, recovery of every DOF
 STABILITY = {"off": (0.0, 0.0), "monodromy": (0.001, 0.03),
@@ -244,9 +246,10 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
 
 def work_per_point(unknowns: int, sparse: bool) -> tuple:
     """((lo, hi) residual evaluations, (lo, hi) Newton solves) a point (module docstring)."""
-    pairs = SPARSE_PAIRS_PER_POINT if sparse else PAIRS_PER_POINT
-    return pairs, (FACTORISATIONS_PER_POINT if not sparse and unknowns + 1 >= KEEP_ROWS
-                   else pairs)
+    if sparse:
+        return SPARSE_PAIRS_PER_POINT, SPARSE_FACTORISATIONS_PER_POINT
+    return PAIRS_PER_POINT, (FACTORISATIONS_PER_POINT if unknowns + 1 >= KEEP_ROWS
+                             else PAIRS_PER_POINT)
 
 
 def points_per_case(m: int, max_points: int, scale: float = 1.0) -> tuple:
