@@ -54,8 +54,12 @@ def scale_rows(w, J, in_place=False):
         if in_place:
             J.data = data
             return J
-        # a new matrix on J's index arrays: a pattern's cached structures stay valid
-        return sp.csr_matrix((data, J.indices, J.indptr), shape=J.shape)
+        if not J.has_canonical_format:   # scipy may sort or sum it in place: a copy
+            return sp.csr_matrix((data, J.indices.copy(), J.indptr.copy()), shape=J.shape)
+        # a new matrix on J's (canonical) index arrays: a pattern's structures stay valid
+        out = sp.csr_matrix((data, J.indices, J.indptr), shape=J.shape)
+        out.has_canonical_format = True
+        return out
     if in_place and J.flags.writeable:
         J *= w[:, None]
         return J
@@ -77,8 +81,13 @@ def bordered_sparse(J, col, row, col_scale=None):
     before a factorisation), J scipy.sparse (n x n), col and row dense (n,) and
     (n+1,), all their entries stored: the structure depends on J's alone, so it is
     built once per structure (`_border_structure`) and each call only places the
-    values."""
+    values.  A J with unsorted or repeated entries is made canonical first: the
+    bordered matrix shares the kept structure, which SuperLU would otherwise sort or
+    sum in place."""
     J = J if J.format == "csr" else J.tocsr()
+    if not J.has_canonical_format:
+        J = J.copy()
+        J.sum_duplicates()
     n = J.shape[0]
     pos_j, pos_row, indices, indptr = _border_structure(J)
     data = np.empty(indices.size)
@@ -139,7 +148,10 @@ def _sparse_solver(A):
     are refined to a partial-pivoting LU's backward error (`refined`); where that
     fails, A is factorised again with partial pivoting (`_partial_pivoting`)."""
     A = sp.csc_matrix(A)
-    return spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=_DIAG_PIVOT).solve
+    try:
+        return spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=_DIAG_PIVOT).solve
+    except RuntimeError:   # an exactly zero pivot in this order: partial pivoting decides
+        return _partial_pivoting(A)
 
 
 def _partial_pivoting(A):

@@ -268,7 +268,7 @@ def residual(prob: HBMProblem, x, Om, contact: ContactElements | None = None, ja
     dR_dOm = real_vector(dSt - dPt, nh).ravel()
     blocks = Jnl if Jnl.ndim == 5 else None     # 2-D zeros without elements
     if pat is not None:
-        return R, (L.copy() if blocks is None else with_contacts(pat, L, blocks)), dR_dOm
+        return R, (L if blocks is None else with_contacts(pat, L, blocks)), dR_dOm
     return R, (L if blocks is None else assemble(prob, blocks, out=L)), dR_dOm
 
 

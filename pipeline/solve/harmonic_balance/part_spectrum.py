@@ -92,7 +92,9 @@ def negative_eigenvalues(D) -> int:
     one = np.ones(d.size, bool)
     one[two] = False
     a, c, e = d[k], d[k + 1], np.abs(lu[k + 1, k])
-    det, trace = a * c - e * e, a + c
+    s = np.maximum(np.maximum(np.abs(a), np.abs(c)), e)   # scaled: no overflow, no underflow
+    s = np.where(s > 0, s, 1.0)
+    det, trace = (a / s) * (c / s) - (e / s) ** 2, a + c
     return (int(np.sum(d[one] < 0)) + int(np.sum(det < 0))
             + 2 * int(np.sum((det > 0) & (trace < 0)))
             + int(np.sum((det == 0) & (trace < 0))))   # a singular block: its other one

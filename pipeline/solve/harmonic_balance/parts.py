@@ -169,7 +169,7 @@ def pattern_matrix(pat: JacobianPattern, lin_values, Je=None):
     data = np.bincount(pat.lin, weights=lin_values, minlength=nnz)
     if Je is not None:
         data += np.bincount(pat.nl, weights=np.ascontiguousarray(Je).ravel(), minlength=nnz)
-    return sp.csr_matrix((data, pat.indices, pat.indptr), shape=(pat.size, pat.size))
+    return _on_structure(pat, data)
 
 
 def with_contacts(pat: JacobianPattern, L, Je):
@@ -178,7 +178,15 @@ def with_contacts(pat: JacobianPattern, L, Je):
     data = L.data.copy()
     nh = Je.shape[-1]
     data[pat.pair_pos] += (pat.pairs @ Je.reshape(-1, nh * nh)).ravel()
-    return sp.csr_matrix((data, pat.indices, pat.indptr), shape=(pat.size, pat.size))
+    return _on_structure(pat, data)
+
+
+def _on_structure(pat: JacobianPattern, data):
+    """The CSR matrix of `data` on the pattern's structure, flagged canonical (sorted,
+    no repeats: built from np.unique), which scipy would otherwise scan for."""
+    M = sp.csr_matrix((data, pat.indices, pat.indptr), shape=(pat.size, pat.size))
+    M.has_canonical_format = True
+    return M
 
 
 def on_contact_dofs(pb: PartBlocks, cc_values, part_values):

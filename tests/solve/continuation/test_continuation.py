@@ -277,6 +277,32 @@ def test_sparse_factors_with_threshold_pivots_are_checked_and_replaced_where_the
     assert berr(A, f.near(sp.csc_matrix(A), rhs), rhs) <= eps16 and f.refined == 1
 
 
+def test_a_sparse_jacobian_with_repeated_entries_keeps_the_bordered_structure_intact():
+    """A Jacobian whose CSR holds a (row, column) twice is summed before it is bordered:
+    SuperLU would otherwise sum the shared, kept structure in place and corrupt every
+    later system of that pattern (each solve checked against a dense one)."""
+    import scipy.sparse as sp
+    from pipeline.solve.continuation.newton import bordered_sparse, linear_solve
+    rng = np.random.default_rng(9)
+    n = 6
+    rows = np.concatenate([np.arange(n), [0, 2]])
+    cols = np.concatenate([np.arange(n), [0, 3]])
+    order = np.argsort(rows, kind="stable")
+    # int32 index arrays, as a problem's pattern keeps them: every J shares them
+    indptr = np.searchsorted(rows[order], np.arange(n + 1)).astype(np.int32)
+    indices = cols[order].astype(np.int32)
+    for _ in range(3):
+        vals = rng.standard_normal(rows.size) + 4.0 * (rows == cols)
+        J = sp.csr_matrix((vals[order], indices, indptr), shape=(n, n))
+        assert J.indptr is indptr
+        assert not J.has_canonical_format
+        col, row = rng.standard_normal(n), rng.standard_normal(n + 1)
+        A = bordered_sparse(J, col, row)
+        dense = np.block([[J.toarray(), col[:, None]], [row[None, :]]])
+        b = rng.standard_normal(n + 1)
+        assert np.abs(linear_solve(A, b) - np.linalg.solve(dense, b)).max() <= 1e-12
+
+
 def test_kept_factors_give_up_at_once_when_refinement_cannot_arrive_in_time():
     """B = A (I + 0.3 Q), Q orthogonal: refinement on A's factors contracts by 0.3 a
     step and would need about 30 steps to a fresh LU's backward error: it stops after

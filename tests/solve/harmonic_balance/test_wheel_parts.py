@@ -96,3 +96,7 @@ def test_inertia_count_equals_the_eigenvalue_count(kind):
         trf = sla.get_lapack_funcs("hetrf" if kind == "complex" else "sytrf", (A,))
         blocks += int(np.sum(trf(A, lower=1)[1] < 0)) // 2
     assert blocks > 1000     # 2x2 pivot blocks counted
+    # 2x2 blocks at the ends of the floating-point range: scaled, no inf - inf, no 0 - 0
+    one = np.array([[-1e-3, 1.0], [1.0, -1e-3]]) * (1 if kind == "real" else 1 + 0j)
+    for scale in (1e160, 1e-170):
+        assert negative_eigenvalues(scale * one) == 1
