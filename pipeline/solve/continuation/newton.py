@@ -8,6 +8,7 @@ result (`NEWTON_MESSAGES`), never raised.
 """
 from __future__ import annotations
 
+import logging
 import math
 import warnings
 import weakref
@@ -17,6 +18,8 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+log = logging.getLogger(__name__)
 
 _REFINE_ITER = 6   # refinement steps on kept factors before factorising afresh
 _REFINE_EPS = 16 * np.finfo(float).eps  # ... until the normwise backward error is below this
@@ -151,6 +154,7 @@ def _sparse_solver(A):
     try:
         return spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=_DIAG_PIVOT).solve
     except RuntimeError:   # an exactly zero pivot in this order: partial pivoting decides
+        log.debug("sparse LU: a zero pivot in the minimum-degree order; partial pivoting")
         return _partial_pivoting(A)
 
 
@@ -163,7 +167,10 @@ def linear_solve(A, b):
     """Dense or sparse linear solve; raises LinAlgError / RuntimeError if singular."""
     if sp.issparse(A):
         x = refined(A, b, _sparse_solver(A))
-        return _partial_pivoting(A)(b) if x is None else x
+        if x is None:
+            log.debug("sparse LU: threshold pivots not refined to 16 eps; partial pivoting")
+            return _partial_pivoting(A)(b)
+        return x
     return np.linalg.solve(A, b)
 
 
@@ -226,6 +233,7 @@ class KeptFactors:
             return self.last(b)
         x = self._refined(A, b)
         if x is None:   # the threshold pivots grew too much: partial pivoting
+            log.debug("sparse LU: threshold pivots not refined to 16 eps; partial pivoting")
             self.last = _partial_pivoting(A)
             x = self.last(b)
         return x

@@ -238,6 +238,8 @@ def condense(ds: DynamicStiffness, Om: float, derivatives: bool = True, motion=N
         out = _condense_dense(ds, Om, derivatives)
     elif ds.strategy == "parts":
         if pattern is not None:
+            if derivatives and motion is None:
+                raise ValueError("condense: on a pattern, dS~ is applied to a motion: give it")
             return condense_parts(ds, Om, derivatives, pattern, motion)
         St, dSt, Pt, dPt = condense_parts(ds, Om, derivatives)
         out = (list(St), list(dSt) if derivatives else [], Pt, dPt)

@@ -43,6 +43,10 @@ def test_pattern_jacobian_equals_the_dense_one(wheel):
     np.testing.assert_allclose(dOm, dOmd, rtol=0, atol=1e-12 * np.abs(dOmd).max())
     _, _, f = hbm.contact_terms(prob, x.reshape(prob.c.size, prob.nh), jacobian=False)
     assert f.regimes["transitions"] == f.Fu.shape[0], f.regimes   # every element slips
+    R0, J0, _ = hbm.residual(prob, x, 1700.0, jacobian=False)   # the pattern, no Jacobian
+    assert J0 is None and np.array_equal(R0, R)
+    with pytest.raises(ValueError, match="motion"):   # on the pattern dS~ needs the motion
+        hbm.linear_part(prob, 1700.0, derivatives=True, pattern=prob.pattern)
 
 
 def test_part_spectrum_equals_the_dense_eigen_solve(wheel):
