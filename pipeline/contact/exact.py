@@ -71,25 +71,42 @@ def element_arrays(elem: YangMenq):
 def kernel_input(X):
     """X as a C-contiguous, writeable float array: the one array type the kernels are
     compiled for (a read-only or strided array would compile another variant)."""
+    if (type(X) is np.ndarray and X.dtype == np.float64 and X.flags.c_contiguous
+            and X.flags.writeable):
+        return X
     return np.require(X, dtype=float, requirements=("C", "W"))
+
+
+def stacked_forces(U, V, elem: YangMenq, jacobian: bool = True):
+    """(F, J, regimes): exact Fourier coefficients F (E, 2, 2H+1) of (f_u, f_v)
+    (Eq. 9-11) and their Jacobian J (E, 3, 2H+1, 2H+1) = (dFu/dU, dFu/dV, dFv/dV)
+    (None without `jacobian`), in the layout of `contact.laws.LawForces`; regimes
+    as `ContactForces.regimes`."""
+    U, V = kernel_input(U), kernel_input(V)
+    E, nc = U.shape
+    H = harmonics_of(nc)
+    F = np.zeros((E, 2, nc))
+    J = np.zeros((E if jacobian else 1, 3, nc, nc))
+    regime, varying = np.empty(E, np.int64), np.empty(E, np.bool_)
+    T, B16 = kernel_tables(H)
+    forces_all(U, V, *element_arrays(elem), T, B16, bool(jacobian), F, J, regime, varying)
+    k = np.bincount(regime, minlength=4)
+    regimes = {"separated": int(k[0]), "stuck": int(k[1]), "transitions": int(k[2]),
+               "frictionless": int(k[3]), "normal_load_searched": int(np.count_nonzero(varying))}
+    return F, (J if jacobian else None), regimes
+
+
+def unstacked(F, J, regimes) -> ContactForces:
+    """The `ContactForces` of `stacked_forces`' output, each force and derivative a
+    view of its stack."""
+    if J is None:
+        return ContactForces(F[:, 0], F[:, 1], None, None, None, regimes)
+    return ContactForces(F[:, 0], F[:, 1], J[:, 0], J[:, 1], J[:, 2], regimes)
 
 
 def exact_forces(U, V, elem: YangMenq, jacobian: bool = True) -> ContactForces:
     """Exact Fourier coefficients of f_u, f_v (Eq. 9-11) and their Jacobian."""
-    U, V = kernel_input(U), kernel_input(V)
-    E, nc = U.shape
-    H = harmonics_of(nc)
-    Fu, Fv = np.zeros((E, nc)), np.zeros((E, nc))
-    J = [np.zeros((E if jacobian else 1, nc, nc)) for _ in range(3)]
-    regime, varying = np.empty(E, np.int64), np.empty(E, np.bool_)
-    T, B16 = kernel_tables(H)
-    forces_all(U, V, *element_arrays(elem), T, B16, bool(jacobian), Fu, Fv, *J, regime, varying)
-    k = np.bincount(regime, minlength=4)
-    regimes = {"separated": int(k[0]), "stuck": int(k[1]), "transitions": int(k[2]),
-               "frictionless": int(k[3]), "normal_load_searched": int(np.count_nonzero(varying))}
-    if not jacobian:
-        return ContactForces(Fu, Fv, None, None, None, regimes)
-    return ContactForces(Fu, Fv, J[0], J[1], J[2], regimes)
+    return unstacked(*stacked_forces(U, V, elem, jacobian))
 
 
 def periodic_segments(U, V, elem: YangMenq) -> dict:

@@ -198,19 +198,19 @@ def element_forces(Ue, Ve, ku, kv, mu, n0, rest, has_rest, H, T, B16, ws, jac, F
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def forces_all(U, V, ku, kv, mu, n0, rest, has_rest, T, B16, jac, Fu, Fv, JU, JV, JVv,
-               regime, varying):
-    """`element_forces` for every element (rows of U, V); Jacobians written only with
-    `jac` (else JU, JV, JVv may be (1, 2H+1, 2H+1) placeholders).  Serial (a
-    `prange` loop was slower on a shared 2-core machine); the GIL is released, so
-    threads may evaluate separate batches at once."""
+def forces_all(U, V, ku, kv, mu, n0, rest, has_rest, T, B16, jac, F, J, regime, varying):
+    """`element_forces` for every element (rows of U, V) into F (E, 2, 2H+1) = (f_u,
+    f_v) and J (E, 3, 2H+1, 2H+1) = (dFu/dU, dFu/dV, dFv/dV); J written only with
+    `jac` (else it may be a (1, 3, 2H+1, 2H+1) placeholder).  Serial (a `prange`
+    loop was slower on a shared 2-core machine); the GIL is released, so threads may
+    evaluate separate batches at once."""
     H = (U.shape[1] - 1) // 2
     ws = workspace(H)
     for e in range(U.shape[0]):
         j = e if jac else 0
         regime[e], varying[e] = element_forces(
             U[e], V[e], ku[e], kv[e], mu[e], n0[e], rest[e], has_rest, H, T, B16, ws, jac,
-            Fu[e], Fv[e], JU[j], JV[j], JVv[j])
+            F[e, 0], F[e, 1], J[j, 0], J[j, 1], J[j, 2])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

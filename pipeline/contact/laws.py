@@ -35,7 +35,7 @@ import scipy.sparse as sp
 
 from .aft import aft_forces
 from .element import YangMenq, check_coefficients
-from .exact import exact_forces
+from .exact import exact_forces, stacked_forces, unstacked
 
 # solvers a law may support: harmonic balance, Hill's method (both need only the
 # Fourier coefficients of the forces and their Jacobian), the event-driven time
@@ -94,9 +94,9 @@ class YangMenqLaw:
         elem = self.element
         U, V = np.ascontiguousarray(X[:, 0]), np.ascontiguousarray(X[:, 1])
         if method == "exact" and elem.size == U.shape[0]:   # shapes known: no re-check
-            f = exact_forces(U, V, elem, jacobian)
-        else:
-            f = yang_menq_forces(U, V, elem, method, n_samples, jacobian)
+            F, J, regimes = stacked_forces(U, V, elem, jacobian)   # already in this layout
+            return LawForces(F, J, regimes, unstacked(F, J, regimes))
+        f = yang_menq_forces(U, V, elem, method, n_samples, jacobian)
         J = (np.stack([f.dFu_dU, f.dFu_dV, f.dFv_dV], axis=1) if jacobian else None)
         return LawForces(np.stack([f.Fu, f.Fv], axis=1), J, f.regimes, f)
 

@@ -86,13 +86,6 @@ def stiffness_stack(sys, H: int) -> np.ndarray:
     return np.stack([dense(K) for K in harmonic_stiffnesses(sys, H)])
 
 
-def complex_loads(P) -> np.ndarray:
-    """(H+1, n) complex load per harmonic of real coefficients P (n, 2H+1)."""
-    H = (P.shape[1] - 1) // 2
-    return np.stack([P[:, 0].astype(complex)] + [P[:, 2 * h - 1] - 1j * P[:, 2 * h]
-                                                 for h in range(1, H + 1)])
-
-
 def prepare(sys, H: int, c, o, P, extra=(), strategy: str | None = None) -> DynamicStiffness:
     """The `DynamicStiffness` of a system (its load P (n, 2H+1) [N]), the strategy
     chosen from the matrices' storage (module doc) unless given."""
@@ -121,7 +114,8 @@ def prepare(sys, H: int, c, o, P, extra=(), strategy: str | None = None) -> Dyna
     else:
         M, C, K = sys.M, sys.C, tuple(harmonic_stiffnesses(sys, H))
         blocks = sparse_blocks(K, M, C, xs, c, o) if strategy == "sparse" else blocks
-    return DynamicStiffness(strategy, int(H), c, o, M, C, K, complex_loads(P), extra, blocks)
+    return DynamicStiffness(strategy, int(H), c, o, M, C, K, complex_harmonics(P), extra,
+                            blocks)
 
 
 # ---- S and dS/dOmega, as each strategy forms them
@@ -166,8 +160,12 @@ def dense_stack(ds: DynamicStiffness, Om: float) -> np.ndarray:
     return at_harmonic(ds.K, ds.M, ds.C, h, Om, _pairs(ds.extra, h, Om))
 
 
-def dense_stack_derivative(ds: DynamicStiffness, Om: float) -> np.ndarray:
-    """(H+1, n, n) dS_h/dOmega of the dense strategies."""
+def dense_stack_derivative(ds: DynamicStiffness, Om: float, motion=None) -> np.ndarray:
+    """(H+1, n, n) dS_h/dOmega of the dense strategies; with `motion` (H+1, n) complex
+    its product with it, (H+1, n), from M and C applied to it (no dS formed)."""
+    if motion is not None:
+        blocks = (None, ds.M, ds.C) + tuple(t.matrix for t in ds.extra)
+        return dynamic_derivative(blocks, ds.H, Om, motion[..., None], ds.extra)[..., 0]
     h = np.arange(ds.H + 1)[:, None, None]
     return harmonic_rate(ds.M, ds.C, h, Om, _pairs(ds.extra, h, Om, True))
 
@@ -235,6 +233,9 @@ def condense(ds: DynamicStiffness, Om: float, derivatives: bool = True, motion=N
                                lambda b: dynamic(b, H, Om, xt),
                                lambda b, V=None: dynamic_derivative(b, H, Om, V, xt))
     if ds.strategy == "dense":
+        if ds.o.size == 0 and derivatives and motion is not None:   # nothing to condense
+            return (dense_stack(ds, Om), dense_stack_derivative(ds, Om, motion), ds.loads,
+                    np.zeros(motion.shape, complex))
         out = _condense_dense(ds, Om, derivatives)
     elif ds.strategy == "parts":
         if pattern is not None:

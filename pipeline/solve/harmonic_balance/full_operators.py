@@ -50,6 +50,8 @@ def full_jacobian(prob: HBMProblem, Q, Om, contact: ContactElements | None = Non
     J = J.reshape(n, nh, n, nh)
     _, Jnl, _ = contact_terms(prob, Q[prob.c], contact, jacobian=True)
     nc = prob.c.size
+    if nc == n:   # every DOF a contact DOF (c ascending: c = 0..n-1)
+        return J.reshape(n * nh, n * nh) + Jnl
     J[np.ix_(prob.c, np.arange(nh), prob.c, np.arange(nh))] += Jnl.reshape(nc, nh, nc, nh)
     return J.reshape(n * nh, n * nh)
 

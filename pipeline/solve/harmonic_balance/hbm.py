@@ -42,6 +42,7 @@ The operators of all DOFs (no condensation, for Hill's method) are in `full_oper
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -53,7 +54,8 @@ from ...fourier.harmonics import shift as time_shift
 from ...model.system import System, contact_set, element_rows
 from . import dynamic_stiffness as dyn
 from .law_terms import (LawSlots, assemble, combine, element_jacobian, law_columns, law_slots,
-                        motion, pair_weights, projected, slot_index)
+                        motion, pair_weights, projected, slot_index, slot_pairs,
+                        stacked_weights)
 from .parts import jacobian_pattern, linear_values, pattern_matrix, with_contacts
 
 
@@ -98,6 +100,16 @@ class HBMProblem:
         """(E, m) positions in c of the slots of the Jacobian blocks `contact_terms`
         returns: the Yang-Menq elements', then those of `System.laws` (padded)."""
         return self.idx if self.slots is None else self.slots
+
+    @cached_property
+    def slot_pairs(self) -> tuple:
+        """`law_terms.slot_pairs` of `slot_index`: where the Jacobian blocks go."""
+        return slot_pairs(self.slot_index)
+
+    @cached_property
+    def directions(self) -> np.ndarray:
+        """(E, 2, m) the weights bt, bn stacked (`law_terms.LawSlots.directions`)."""
+        return stacked_weights((self.bt, self.bn))
 
 
 def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
@@ -200,7 +212,7 @@ def contact_slots(prob: HBMProblem, contact: ContactElements | None = None) -> t
     `System.laws`."""
     law = law_of(contact if contact is not None else prob.system.contact)
     W = prob.weights if prob.weights is not None else slot_weights(prob.bt, prob.bn, law.pairs)
-    own = LawSlots(law, prob.idx, (prob.bt, prob.bn), W)
+    own = LawSlots(law, prob.idx, (prob.bt, prob.bn), W, stacked=prob.directions)
     return ((own, prob.rot),) + tuple((s, s.rot) for s in prob.laws)
 
 

@@ -13,7 +13,7 @@ the Jacobian exact.  The Yang-Menq contact of a `System` (Bt, Bn) is the first s
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -33,6 +33,17 @@ class LawSlots:
     b: tuple
     weights: np.ndarray
     rot: object = None
+    stacked: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def directions(self) -> np.ndarray:
+        """(E, D, m) weights b_d[e, a] (`stacked` if given): X[e] = directions[e] @ Q[idx[e]]."""
+        return self.stacked if self.stacked is not None else stacked_weights(self.b)
+
+
+def stacked_weights(b) -> np.ndarray:
+    """(E, D, m) the direction weights b (D arrays (E, m)) as one array."""
+    return np.ascontiguousarray(np.stack(b, axis=1), dtype=float)
 
 
 def pair_weights(b, pairs) -> np.ndarray:
@@ -83,7 +94,8 @@ def law_slots(elements, c, phase: float | None = None, H: int | None = None) -> 
             k += r.size
     b = tuple(np.ascontiguousarray(x) for x in b)
     rot = np.stack(shift_tables(shift, H)) if elements.maps_next else None
-    return LawSlots(elements.law, idx, b, pair_weights(b, elements.law.pairs), rot)
+    return LawSlots(elements.law, idx, b, pair_weights(b, elements.law.pairs), rot,
+                    stacked_weights(b))
 
 
 def slot_index(slots) -> np.ndarray:
@@ -99,15 +111,12 @@ def motion(slots: LawSlots, Qc, rot=None, turn=None) -> np.ndarray:
     Qe = Qc[slots.idx]
     if rot is not None:
         Qe = turn(Qe, rot[0], rot[1])
-    return np.stack([np.einsum("em,emk->ek", b, Qe) for b in slots.b], axis=1)
+    return slots.directions @ Qe
 
 
 def projected(slots: LawSlots, F) -> np.ndarray:
     """(E, m, 2H+1): sum_d b_d[e, a] F[e, d], each slot's share of the force."""
-    out = slots.b[0][..., None] * F[:, None, 0, :]
-    for d in range(1, len(slots.b)):
-        out = out + slots.b[d][..., None] * F[:, None, d, :]
-    return out
+    return np.swapaxes(slots.directions, 1, 2) @ F
 
 
 def element_jacobian(slots: LawSlots, J) -> np.ndarray:
@@ -133,9 +142,14 @@ def assemble(prob, Je, out=None, idx=None):
     nc, nh = prob.c.size, prob.nh
     J = (np.zeros((nc, nh, nc, nh), dtype=Je.dtype) if out is None
          else out.reshape(nc, nh, nc, nh))
-    idx = prob.slot_index if idx is None else idx
-    E, m = idx.shape
-    ia = np.broadcast_to(idx[:, :, None], (E, m, m))
-    ib = np.broadcast_to(idx[:, None, :], (E, m, m))
+    ia, ib = prob.slot_pairs if idx is None else slot_pairs(idx)
     np.add.at(J, (ia, slice(None), ib), Je)
     return J.reshape(nc * nh, nc * nh)
+
+
+def slot_pairs(idx) -> tuple:
+    """(ia, ib) (E, m, m): the positions idx[e, a], idx[e, b] of every slot pair (a, b)
+    of the slots idx (E, m), where `assemble` adds the blocks."""
+    E, m = idx.shape
+    return (np.broadcast_to(idx[:, :, None], (E, m, m)),
+            np.broadcast_to(idx[:, None, :], (E, m, m)))

@@ -23,6 +23,7 @@ and impact add to it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 import scipy.linalg as sla
@@ -66,6 +67,16 @@ def count_below(ps: PartSpectra, Zh, s: float) -> int:
     return int(np.searchsorted(ps.clamped, s)) + negative_eigenvalues(S)
 
 
+@lru_cache(maxsize=64)
+def factorisation(hermitian: bool, n: int) -> tuple:
+    """(LAPACK ?hetrf or ?sytrf, its optimal workspace for n rows): blocked, 3x faster
+    at 600 rows."""
+    name = "hetrf" if hermitian else "sytrf"
+    trf, query = sla.get_lapack_funcs((name, name + "_lwork"),
+                                      dtype=np.complex128 if hermitian else np.float64)
+    return trf, max(1, int(np.real(query(n, lower=1)[0])))
+
+
 def negative_eigenvalues(D) -> int:
     """The number of negative eigenvalues of a Hermitian (or real symmetric) matrix D
     by Sylvester's law of inertia: those of the block-diagonal B of D = L B L^H
@@ -77,10 +88,10 @@ def negative_eigenvalues(D) -> int:
     none."""
     D = np.asarray(D)
     D = D.real if not np.iscomplexobj(D) or not D.imag.any() else D
+    if D.shape == (1, 1):    # its own factor
+        return int(D[0, 0].real < 0)
     dtype = np.complex128 if np.iscomplexobj(D) else np.float64
-    name = "hetrf" if dtype == np.complex128 else "sytrf"
-    trf, query = sla.get_lapack_funcs((name, name + "_lwork"), dtype=dtype)
-    lwork = max(1, int(np.real(query(D.shape[0], lower=1)[0])))   # blocked: 3x at 600 rows
+    trf, lwork = factorisation(dtype == np.complex128, D.shape[0])
     lu, piv, info = trf(np.array(D, dtype=dtype, order="F"), lower=1, lwork=lwork)
     if info < 0:
         raise ValueError(f"?hetrf/?sytrf: illegal argument {-info}")

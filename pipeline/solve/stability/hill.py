@@ -108,13 +108,12 @@ def companion(J, M, C, Omega, H):
 def harmonic_centroid(P, n, H):
     """Centroid sum k|P_k|^2 / sum |P_k|^2 of the complex harmonics of columns of P (N, K)."""
     P = np.asarray(P).reshape(n, 2 * H + 1, -1)
-    w0 = np.sum(np.abs(P[:, 0]) ** 2, axis=0)
+    # |P_+j|^2 - |P_-j|^2 = -Im(Pc_j conj(Ps_j)),  |P_+j|^2 + |P_-j|^2 = (|Pc_j|^2 + |Ps_j|^2) / 2
+    a2 = np.abs(P) ** 2
     c, s = P[:, 1::2], P[:, 2::2]
-    wp = np.sum(np.abs(c - 1j * s) ** 2, axis=0) / 4  # (H, K): harmonics +j
-    wm = np.sum(np.abs(c + 1j * s) ** 2, axis=0) / 4  # harmonics -j
-    j = np.arange(1, H + 1)[:, None]
-    total = w0 + wp.sum(0) + wm.sum(0)
-    return np.sum(j * (wp - wm), axis=0) / np.where(total > 0, total, 1.0)
+    moment = -np.arange(1, H + 1) @ (c * s.conj()).imag.sum(axis=0)
+    total = a2[:, 0].sum(axis=0) + 0.5 * a2[:, 1:].sum(axis=(0, 1))
+    return moment / np.where(total > 0, total, 1.0)
 
 
 def _validate(J, M, C, Omega, H):
