@@ -98,18 +98,22 @@ def available(nlvib_dir, pyharm_python):
     return why
 
 
-def ours(n, stability, repeat, samples=None):
+def ours(n, stability, repeat, samples=None, dense=True):
     """Median wall time of `repeat` curves (the compiled kernels already loaded); exact
-    forces, or AFT with `samples` samples (pyHarm's way, at its 128)."""
+    forces, or AFT with `samples` samples (pyHarm's way, at its 128); dense=False: the
+    continuation's points and the peak only, without the points added where the drawn
+    curve bends (`dense_output`)."""
     times = []
     kw = {} if samples is None else {"method": "aft", "n_samples": samples}
     for _ in range(repeat):
         t = time.perf_counter()
-        c = frequency_response(example1(n), H, *OMEGA, stability=stability, **kw)
+        c = frequency_response(example1(n), H, *OMEGA, stability=stability,
+                               dense_output=dense, **kw)
         times.append(time.perf_counter() - t)
     a, om, _ = c.peak(0)
     tool = "ours" if stability else "ours, no Hill"
     tool += "" if samples is None else f", AFT {samples}"
+    tool += "" if dense else ", no dense output"
     status = "ok" if c.success else f"failed: {c.message[:60]}"
     return Row(n, tool, status, c.n_points, float(np.median(times)), peak=a, peak_omega=om)
 
@@ -122,8 +126,8 @@ def table(nlvib_dir=None, pyharm_python=None, loads=LOADS, repeat=3):
     rows = []
     with tempfile.TemporaryDirectory() as tmp:  # the peers' working folder
         for n in loads:
-            rows += [ours(n, True, repeat), ours(n, False, repeat),
-                     ours(n, False, repeat, PYHARM_SAMPLES)]
+            rows += [ours(n, True, repeat), ours(n, True, repeat, dense=False),
+                     ours(n, False, repeat), ours(n, False, repeat, PYHARM_SAMPLES)]
             if why["NLvib"] is None:
                 rows.append(external(n, "NLvib", nlvib_command(nlvib_dir, n), tmp))
             if why["pyHarm"] is None:

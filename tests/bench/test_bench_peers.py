@@ -27,6 +27,11 @@ def test_bench_peers_prints_our_rows_and_the_missing_peers(no_peers, capsys):
                if line.split()[:6] == [n, "ours,", "no", "Hill,", "AFT", "128"]]
         assert len(aft) == 1       # the same curve at pyHarm's samples: peak within 1e-3
         assert float(aft[0][8]) == pytest.approx(float(ours[0][4]), rel=1e-3)
+        path = [line.split() for line in out.splitlines()
+                if line.split()[:5] == [n, "ours,", "no", "dense", "output"]]
+        assert len(path) == 1      # the continuation's points only: fewer, the same exact peak
+        assert 20 < int(path[0][5]) < int(ours[0][2])
+        assert float(path[0][7]) == pytest.approx(float(ours[0][4]), rel=1e-6)
     for peer in ("NLvib", "pyHarm"):
         assert sum(line.split()[1:4] == [peer, "not", "installed"]
                    for line in out.splitlines()) == 3

@@ -26,6 +26,15 @@ classical rule) returns a shifted, truncated copy.  Both rules are ambiguous whe
 two families cross (lam1 - lam2 ~ i k Om, e.g. an undamped system at 2 omega = k Om);
 the real parts, hence the stability verdict, are unaffected there.
 
+Time-invariant Jacobians.  Where every contact is stuck or open over the whole
+period, the rows of the harmonics h >= 1 of J commute with the time shift, as those
+of K'' x I + Om C x D + Om^2 M x D^2 do; the static rows (K' on harmonic 0) may
+couple to the others.  The Hill matrix is then block triangular: the eigenvectors
+of its harmonic-0 block, the state matrix [[0, I], [-M^-1 K', -M^-1 C]], lie on
+harmonic 0 alone (centroid 0), those of each harmonic k >= 1 are centred off 0.
+The selected exponents are the 2n eigenvalues of that state matrix, which the dense
+solver computes (2n x 2n) instead of the Hill matrix's (2N x 2N) (`time_invariant`).
+
 Solvers:
     "dense"   M regular: standard eigenproblem with Delta2^-1 (numpy.linalg.eig),
               O((2N)^3), fine up to N ~ 1500 (2N = 3000: ~30 s).
@@ -105,6 +114,32 @@ def companion(J, M, C, Omega, H):
     return A
 
 
+def time_invariant(J, n, H, rtol=1e-13):
+    """K' (n, n), the static block of J (n (2H+1) square), if the rows of the harmonics
+    h >= 1 commute with the time shift (to rtol max|J|): no coupling to harmonic 0
+    nor between harmonics, and within harmonic h the form [[A, B], [-B, A]] of one
+    complex matrix (cos, sin rows and columns), as for K x I + Om C x D + Om^2 M x D^2;
+    else None.  The static rows may couple to every harmonic (a stuck slider's rest
+    position moves with the motion): the Hill matrix is block triangular, its
+    harmonic-0 block's eigenvectors lie on harmonic 0 alone (module doc)."""
+    nh = 2 * H + 1
+    J4 = J.reshape(n, nh, n, nh)
+    tol = rtol * np.max(np.abs(J), initial=0.0)
+    if H == 0:
+        return J4[:, 0, :, 0]
+    if np.max(np.abs(J4[:, 1, :, 3:]), initial=0.0) > tol:   # harmonic 1 coupled to others
+        return None
+    B = J4[:, 1:, :, 1:].reshape(n, H, 2, n, H, 2)     # (dof, h, cos/sin, dof, h', cos/sin)
+    h = np.arange(H)
+    d = B[:, h, :, :, h]                               # (h, dof, 2, dof, 2): same harmonic
+    off = B.copy()
+    off[:, h, :, :, h] = 0.0
+    dev = max(np.max(np.abs(J4[:, 1:, :, 0])), np.max(np.abs(off)),
+              np.max(np.abs(d[..., 0, :, 0] - d[..., 1, :, 1])),
+              np.max(np.abs(d[..., 0, :, 1] + d[..., 1, :, 0])))
+    return J4[:, 0, :, 0] if dev <= tol else None
+
+
 def harmonic_centroid(P, n, H):
     """Centroid sum k|P_k|^2 / sum |P_k|^2 of the complex harmonics of columns of P (N, K)."""
     P = np.asarray(P).reshape(n, 2 * H + 1, -1)
@@ -176,6 +211,11 @@ def hill_eigenvalues(J, M, C, Omega, H, *, select="centroid", solver="auto", k=N
             np.nonzero(np.abs(lam.imag) <= Omega / 2 * (1 + 1e-12))[0]
     else:
         Jd = J.toarray() if sp.issparse(J) else np.asarray(J, dtype=float)
+        K0 = (time_invariant(Jd, n, H) if solver == "dense" and select == "centroid"
+              and not (full_output or return_vectors) else None)
+        if K0 is not None:   # the 2n exponents of the state matrix (module doc; H = 0 there)
+            lam = np.linalg.eigvals(companion(K0, M, C, Omega, 0))
+            return lam[np.argsort(-lam.real, kind="stable")]
         if solver == "dense":
             lam, Z = np.linalg.eig(companion(Jd, M, C, Omega, H))
         else:

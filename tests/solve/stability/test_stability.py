@@ -5,7 +5,8 @@ from scipy.integrate import solve_ivp
 
 from pipeline.solve.continuation.pseudo_arclength import continue_branch
 from pipeline.fourier.harmonics import derivative_matrix, time_grid
-from pipeline.solve.stability.hill import harmonic_centroid, hill_eigenvalues, is_stable
+from pipeline.solve.stability.hill import (harmonic_centroid, hill_eigenvalues, is_stable,
+                                          time_invariant)
 
 from helpers import assert_same_multiset
 
@@ -29,6 +30,9 @@ def test_linear_oscillator_exponents(w, zeta, solver):
     assert_same_multiset(lam, exact, atol=1e-10)
     stable, max_real, _ = is_stable(linear_J(K, C, M, Om, H), M, C, Om, H, solver=solver)
     assert stable and max_real == pytest.approx(-zeta * w, abs=1e-10)
+    if solver in ("dense", "auto"):   # the whole Hill matrix (not its time-invariant shortcut)
+        full = hill_eigenvalues(linear_J(K, C, M, Om, H), M, C, Om, H, full_output=True)
+        assert_same_multiset(full.exponents, exact, atol=1e-10)
 
 
 @pytest.mark.parametrize("select", ["centroid", "imag"])
@@ -43,6 +47,52 @@ def test_two_dof_exponents_and_selection_rules(select):
     A = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
     exact = np.linalg.eigvals(A)
     assert_same_multiset(lam, exact, atol=1e-10)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_time_invariant_jacobian_is_solved_as_the_state_matrix(seed):
+    """Every contact stuck: the rows of the harmonics h >= 1 are those of a linear
+    system (K'' = K + k_stuck), the static rows K' on harmonic 0 plus couplings to every
+    harmonic (a slider's rest position moving with the motion).  The exponents from the
+    2n x 2n state matrix of K' are those the whole Hill matrix selects (its eigenvalues
+    and centroids, `full_output`), and a coupling between harmonics above the round-off
+    is not taken as time-invariant (a complex stiffness per harmonic is)."""
+    rng = np.random.default_rng(seed)
+    n, H, Om = 3, 4, 1.3 + rng.random()
+    A = rng.normal(size=(n, n))
+    M = A @ A.T + n * np.eye(n)
+    K0 = rng.normal(size=(n, n)) + 5 * n * np.eye(n)
+    K1 = K0 + np.diag(rng.random(n) * 4)
+    C = 0.05 * K1 + 0.02 * M
+    J = linear_J(K1, C, M, Om, H)
+    J4 = J.reshape(n, 2 * H + 1, n, 2 * H + 1)
+    J4[:, 0, :, 0] = K0
+    J4[:, 0, :, 1:] = rng.normal(size=(n, n, 2 * H))
+    assert np.array_equal(time_invariant(J, n, H), K0)
+    quick = hill_eigenvalues(J, M, C, Om, H)
+    full = hill_eigenvalues(J, M, C, Om, H, full_output=True)
+    assert_same_multiset(quick, full.exponents, atol=1e-9 * np.abs(full.exponents).max())
+    np.testing.assert_allclose(full.centroid[full.selected], 0.0, atol=1e-9)
+    state = np.block([[np.zeros((n, n)), np.eye(n)],
+                      [-np.linalg.solve(M, K0), -np.linalg.solve(M, C)]])
+    assert_same_multiset(quick, np.linalg.eigvals(state), atol=1e-12 * np.abs(quick).max())
+    J4[1, 3, 0, 5] += 1e-9 * np.abs(J).max()   # harmonics 2 and 3 coupled: not time-invariant
+    assert time_invariant(J, n, H) is None
+    J4[1, 3, 0, 5] -= 1e-9 * np.abs(J).max()
+    J4[2, 1, 1, 1] += 1e-9 * np.abs(J).max()   # cos and sin rows of harmonic 1 unlike
+    assert time_invariant(J, n, H) is None
+    J4[2, 1, 1, 1] -= 1e-9 * np.abs(J).max()
+    for h in range(1, H + 1):   # a complex stiffness per harmonic (hysteretic): time-invariant
+        A, B = rng.normal(size=(2, n, n))
+        c, s = 2 * h - 1, 2 * h
+        J4[:, c, :, c] += A
+        J4[:, s, :, s] += A
+        J4[:, c, :, s] += B
+        J4[:, s, :, c] -= B
+    assert np.array_equal(time_invariant(J, n, H), K0)
+    full = hill_eigenvalues(J, M, C, Om, H, full_output=True)
+    assert_same_multiset(hill_eigenvalues(J, M, C, Om, H), full.exponents,
+                         atol=1e-9 * np.abs(full.exponents).max())
 
 
 def test_imag_rule_returns_a_shifted_copy_above_half_Om():

@@ -34,16 +34,17 @@ def counted(monkeypatch):
     def counting(real):
         def counted_call(*a, **k):
             f = real(*a, **k)
+            regimes = f[-1] if isinstance(f, tuple) else f.regimes   # `stacked_forces`: a tuple
             seen["evaluations"] += 1
             for key in ("normal_load_searched", "stuck", "separated", "transitions"):
-                seen[key] += f.regimes.get(key, 0)
+                seen[key] += regimes.get(key, 0)
             return f
         return counted_call
 
-    # the HBM evaluates the Yang-Menq law (`contact.laws`): the exact forces directly,
-    # `yang_menq_forces` for AFT
+    # the HBM evaluates the Yang-Menq law (`contact.laws`): the exact forces directly
+    # (`stacked_forces`), `yang_menq_forces` for AFT
     monkeypatch.setattr(laws, "yang_menq_forces", counting(laws.yang_menq_forces))
-    monkeypatch.setattr(laws, "exact_forces", counting(laws.exact_forces))
+    monkeypatch.setattr(laws, "stacked_forces", counting(laws.stacked_forces))
     return seen
 
 
@@ -116,7 +117,7 @@ def test_linear_scene_is_solved_directly_without_newton(tmp_path, monkeypatch):
 
     for mod, name in ((nwt, "newton"), (cont, "continue_branch"), (hbm, "residual"),
                       (laws, "yang_menq_forces"), (laws, "exact_forces"),
-                      (resp, "frequency_response")):
+                      (laws, "stacked_forces"), (resp, "frequency_response")):
         monkeypatch.setattr(mod, name, forbidden)
     study = parse_study(LINEAR, file="linear.toml")
     assert default_solver(study).__module__ == "pipeline.solve.response.linear_response"
