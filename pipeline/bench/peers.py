@@ -47,17 +47,20 @@ class Row:
     points: int = 0
     seconds: float = float("nan")     # the curve, measured inside the tool
     total: float = float("nan")       # the whole subprocess (start-up included)
+    cpu: float = float("nan")         # the curve's CPU time, measured inside the tool
     peak: float = float("nan")        # half peak-to-peak amplitude [m]
     peak_omega: float = float("nan")  # [rad/s]
 
 
 def parse_result(n, tool, stdout, total):
-    """The Row of a peer's `RESULT n points seconds peak omega ...` line."""
+    """The Row of a peer's `RESULT n points seconds peak omega ... cpu=CPU` line."""
     for line in stdout.splitlines():
         if line.startswith("RESULT "):
             f = line.split()
+            cpu = [float(x[4:]) for x in f if x.startswith("cpu=")]
             return Row(n, tool, points=int(f[2]), seconds=float(f[3]), total=total,
-                       peak=float(f[4]), peak_omega=float(f[5]))
+                       peak=float(f[4]), peak_omega=float(f[5]),
+                       cpu=cpu[0] if cpu else float("nan"))
     return Row(n, tool, status="failed: no RESULT line")
 
 
@@ -103,19 +106,21 @@ def ours(n, stability, repeat, samples=None, dense=True):
     forces, or AFT with `samples` samples (pyHarm's way, at its 128); dense=False: the
     continuation's points and the peak only, without the points added where the drawn
     curve bends (`dense_output`)."""
-    times = []
+    times, cpus = [], []
     kw = {} if samples is None else {"method": "aft", "n_samples": samples}
     for _ in range(repeat):
-        t = time.perf_counter()
+        t, cpu = time.perf_counter(), time.process_time()
         c = frequency_response(example1(n), H, *OMEGA, stability=stability,
                                dense_output=dense, **kw)
         times.append(time.perf_counter() - t)
+        cpus.append(time.process_time() - cpu)
     a, om, _ = c.peak(0)
     tool = "ours" if stability else "ours, no Hill"
     tool += "" if samples is None else f", AFT {samples}"
     tool += "" if dense else ", no dense output"
     status = "ok" if c.success else f"failed: {c.message[:60]}"
-    return Row(n, tool, status, c.n_points, float(np.median(times)), peak=a, peak_omega=om)
+    return Row(n, tool, status, c.n_points, float(np.median(times)), peak=a, peak_omega=om,
+               cpu=float(np.median(cpus)))
 
 
 def table(nlvib_dir=None, pyharm_python=None, loads=LOADS, repeat=3):
@@ -144,7 +149,8 @@ def format_rows(rows):
     """The table's lines; peak difference and time ratios against ours (Hill on)."""
     ref = {r.n: r for r in rows if r.tool == "ours"}
     lines = [f"{'n N':>4} {'tool':<24} {'points':>6} {'time s':>7} {'total s':>7} "
-             f"{'peak m':>10} {'at rad/s':>9} {'d peak':>8} {'d rad/s':>7} {'time/ours':>9}"]
+             f"{'peak m':>10} {'at rad/s':>9} {'d peak':>8} {'d rad/s':>7} {'time/ours':>9} "
+             f"{'cpu s':>6} {'cpu/ours':>8}"]
     for r in rows:
         head = f"{r.n:4g} {r.tool:<24}"
         if r.status != "ok":
@@ -154,9 +160,11 @@ def format_rows(rows):
         dp = (r.peak - o.peak) / o.peak if o else float("nan")
         dw = r.peak_omega - o.peak_omega if o else float("nan")
         ratio = r.seconds / o.seconds if o else float("nan")
+        cpu_ratio = r.cpu / o.cpu if o else float("nan")
         total = "" if np.isnan(r.total) else f"{r.total:7.2f}"
         lines.append(f"{head} {r.points:>6} {r.seconds:7.2f} {total:>7} {r.peak:10.4e} "
-                     f"{r.peak_omega:9.3f} {dp:+8.1e} {dw:+7.3f} {ratio:9.2f}")
+                     f"{r.peak_omega:9.3f} {dp:+8.1e} {dw:+7.3f} {ratio:9.2f} "
+                     f"{r.cpu:6.2f} {cpu_ratio:8.2f}")
     return lines
 
 
@@ -174,7 +182,8 @@ def run(quick=False, nlvib=None, pyharm_python=None):
     print(f"time: the curve, measured inside each tool (ours: median of {1 if quick else 3}); "
           "total: the subprocess, start-up included\n"
           "d peak: relative difference of the peak amplitude from ours (Hill on), d rad/s: of "
-          "its frequency; time/ours: time over ours (Hill on)\n"
+          "its frequency; time/ours: time over ours (Hill on); cpu: the CPU time of the "
+          "curve (its process's), cpu/ours: over ours (Hill on)\n"
           f"NLvib: solve_and_continue, ds = {NLVIB_DS:g}, harmonics scaled by the linear "
           "response at the start and adapted (dynamicDscale), tolerance 1e-9; pyHarm: FRF "
           "analysis, default "

@@ -3,6 +3,7 @@ peers reported as not installed; a peer that fails is a row, not an exception.
 Correctness of the table's plumbing, never a timing."""
 import sys
 
+import numpy as np
 import pytest
 
 from pipeline.__main__ import main
@@ -51,11 +52,15 @@ def test_a_failing_peer_is_a_row():
 
 
 def test_parse_result_and_ratios():
-    row = peers.parse_result(1.0, "NLvib", "noise\nRESULT 1 577 3.5 0.0065 188.44 3671 250.2\n",
-                             4.0)
-    assert (row.points, row.seconds, row.total, row.peak, row.peak_omega) == (
-        577, 3.5, 4.0, 0.0065, 188.44)
-    ours = peers.Row(1.0, "ours", points=125, seconds=0.35, peak=0.0065, peak_omega=188.4)
+    row = peers.parse_result(
+        1.0, "NLvib", "noise\nRESULT 1 577 3.5 0.0065 188.44 3671 250.2 cpu=3.2\n", 4.0)
+    assert (row.points, row.seconds, row.total, row.peak, row.peak_omega, row.cpu) == (
+        577, 3.5, 4.0, 0.0065, 188.44, 3.2)
+    ours = peers.Row(1.0, "ours", points=125, seconds=0.35, peak=0.0065, peak_omega=188.4,
+                     cpu=0.32)
     line = peers.format_rows([ours, row])[2].split()
-    assert line[1] == "NLvib" and float(line[-1]) == pytest.approx(10.0)
+    assert line[1] == "NLvib" and float(line[-3]) == pytest.approx(10.0)   # time / ours
+    assert float(line[-1]) == pytest.approx(10.0)                          # CPU / ours
+    old = peers.parse_result(1.0, "NLvib", "RESULT 1 577 3.5 0.0065 188.44 3671 250.2\n", 4.0)
+    assert old.seconds == 3.5 and np.isnan(old.cpu)     # a line without the CPU time
     assert peers.parse_result(1.0, "NLvib", "error", 1.0).status.startswith("failed")

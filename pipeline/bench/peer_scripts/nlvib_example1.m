@@ -13,8 +13,8 @@
 % ('dynamicDscale', example 03), Om by the start frequency; step ds (default 3,
 % bounds ds/5 and 5 ds), Newton (fsolve) to TolFun = TolX = tol (default 1e-9).
 % Prints one line
-%   RESULT n points seconds peak_amplitude peak_omega residual_evaluations final_omega
-% seconds: the initial solution and the continuation, measured here (Octave's
+%   RESULT n points seconds peak_amplitude peak_omega residual_evaluations final_omega cpu=CPU
+% seconds (cputime: CPU): the initial solution and the continuation, measured here (Octave's
 % start-up and the path set-up excluded); amplitude: half peak-to-peak of x(t).
 %
 % Usage: octave --no-gui --quiet --eval "nlvib_example1('/path/to/NLvib', n)"
@@ -41,9 +41,11 @@ function nlvib_example1(nlvib_dir, n, ds, tol)
   Solopt = optimset('Display', 'off', 'Jacobian', 'on', 'MaxIter', 50, ...
                     'TolFun', tol, 'TolX', tol);
   t0 = tic;
+  c0 = cputime;
   [X, Solinfo] = solve_and_continue(x0, ...
       @(X) HB_residual(X, oscillator, H, N, 'frf'), Om_s, Om_e, ds, Sopt, [], Solopt);
   seconds = toc(t0);
+  cpu = cputime - c0;
 
   % half peak-to-peak amplitude of x(t) at every point, 512 samples per period
   tau = 2 * pi * (0:511)' / 512;
@@ -53,6 +55,6 @@ function nlvib_example1(nlvib_dir, n, ds, tol)
   x = E * X(1:end-1, :);
   a = (max(x, [], 1) - min(x, [], 1)) / 2;
   [apk, ipk] = max(a);
-  printf('RESULT %g %d %.6f %.10g %.10g %d %.4f\n', n, size(X, 2), seconds, apk, ...
-         X(end, ipk), Solinfo.FCtotal, X(end, end));
+  printf('RESULT %g %d %.6f %.10g %.10g %d %.4f cpu=%.6f\n', n, size(X, 2), seconds, apk, ...
+         X(end, ipk), Solinfo.FCtotal, X(end, end), cpu);
 end
