@@ -61,3 +61,26 @@ def test_stuck_frequencies_of_the_sector_are_the_rings(eo):
     assert own.max() > np.sqrt(3.55e4) * 1.001 or eo == 0
     for w in own:
         assert np.abs(ring - w).min() < 1e-9 * w
+
+
+@pytest.mark.parametrize("eo", [1, 2])
+def test_wave_families_of_the_sector_are_the_rings_hill_problem(eo):
+    """Stability of the travelling wave against every wave number: the sector's Hill
+    problems for r = 0..N/2 (`full_operators.wave_jacobians`, the law's slots split
+    into this sector's and the next's) have together the eigenvalues of the full
+    ring's Hill problem."""
+    from pipeline.model.cyclic import expand
+    from pipeline.solve.harmonic_balance.full_operators import full_jacobian, wave_jacobians
+    from pipeline.solve.stability.hill import hill_eigenvalues
+    sec, Om = ring_sector(), 230.0
+    prob = hbm.setup(sector_system(sec, eo), H, "aft", SAMPLES)
+    Q0 = solve(sector_system(sec, eo), Om)
+    fam = wave_jacobians(prob, Q0, Om)
+    assert [r for r, *_ in fam] == list(range(N // 2 + 1))
+    lam = np.concatenate([hill_eigenvalues(J, M, C, Om, H, full_output=True).eigenvalues
+                          for _, J, M, C in fam])
+    full = hbm.setup(full_assembly(sec, eo, sparse=False), H, "aft", SAMPLES)
+    ref = hill_eigenvalues(full_jacobian(full, expand(Q0, N, eo), Om), full.system.M,
+                           full.system.C, Om, H, full_output=True).eigenvalues
+    assert lam.size == ref.size == 2 * N * 2 * (2 * H + 1)
+    assert np.abs(ref[:, None] - lam[None, :]).min(1).max() < 1e-9 * np.abs(ref).max()

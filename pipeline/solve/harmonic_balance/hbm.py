@@ -77,7 +77,7 @@ class HBMProblem:
     weights: np.ndarray    # (E, m m, 3) slot-pair weights bt bt, bt bn, bn bn
     shift: np.ndarray | None = None   # (E, m) time shift theta of each slot [rad] (cyclic)
     rot: np.ndarray | None = None     # (2, E, m, 2H+1) cos, sin of h theta in the layout
-    nxt: np.ndarray | None = None     # (E, m) bool: the slot is a DOF of the next sector
+    nxt: np.ndarray | None = None     # (E, m) bool of `slot_index`: a DOF of the next sector
     pattern: object = None            # parts.JacobianPattern: the Jacobian is built sparse
     laws: tuple = ()                  # law_terms.LawSlots of `System.laws`
     slots: np.ndarray | None = None   # slot index of all laws (`law_terms.slot_index`)
@@ -161,8 +161,9 @@ def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
     if not system.laws:
         return prob
     laws = tuple(law_slots(le, c, cy.phase, H) for le in system.laws)
-    own = LawSlots(None, idx, (bt, bn), np.zeros(0))
-    return replace(prob, laws=laws, slots=slot_index((own,) + laws))
+    own = LawSlots(None, idx, (bt, bn), np.zeros(0), next_sector=nxt)
+    return replace(prob, laws=laws, slots=slot_index((own,) + laws),
+                   nxt=slot_index((own,) + laws, "next_sector"))
 
 
 # --------------------------------------------------------------------------

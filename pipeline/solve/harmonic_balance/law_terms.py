@@ -34,6 +34,7 @@ class LawSlots:
     weights: np.ndarray
     rot: object = None
     stacked: np.ndarray | None = field(default=None, repr=False, compare=False)
+    next_sector: np.ndarray | None = field(default=None, repr=False, compare=False)  # (E, m) bool
 
     @property
     def directions(self) -> np.ndarray:
@@ -42,8 +43,11 @@ class LawSlots:
 
 
 def stacked_weights(b) -> np.ndarray:
-    """(E, D, m) the direction weights b (D arrays (E, m)) as one array."""
-    return np.ascontiguousarray(np.stack(b, axis=1), dtype=float)
+    """(E, D, m) the direction weights b (D arrays (E, m)) as one array (read-only: it is
+    kept with the problem)."""
+    out = np.ascontiguousarray(np.stack(b, axis=1), dtype=float)
+    out.setflags(write=False)
+    return out
 
 
 def pair_weights(b, pairs) -> np.ndarray:
@@ -83,26 +87,28 @@ def law_slots(elements, c, phase: float | None = None, H: int | None = None) -> 
     m = max([sum(rows[e][0].size for rows, _ in parts) for e in range(E)] + [1])
     idx = np.zeros((E, m), int)
     b = np.zeros((D, E, m))
-    shift = np.zeros((E, m))
+    shift, nxt = np.zeros((E, m)), np.zeros((E, m), bool)
     for e in range(E):
         k = 0
-        for rows, th in parts:
+        for p, (rows, th) in enumerate(parts):
             r, v = rows[e]
             idx[e, k:k + r.size] = np.searchsorted(c, r)
             b[:, e, k:k + r.size] = v
-            shift[e, k:k + r.size] = th
+            shift[e, k:k + r.size], nxt[e, k:k + r.size] = th, p == 1
             k += r.size
     b = tuple(np.ascontiguousarray(x) for x in b)
     rot = np.stack(shift_tables(shift, H)) if elements.maps_next else None
     return LawSlots(elements.law, idx, b, pair_weights(b, elements.law.pairs), rot,
-                    stacked_weights(b))
+                    stacked_weights(b), nxt)
 
 
-def slot_index(slots) -> np.ndarray:
+def slot_index(slots, attr: str = "idx") -> np.ndarray:
     """(E_all, m_all) positions in c of the element slots of all laws, padded with
-    slot 0 (zero weight): the layout of the Jacobian blocks of `combine`."""
+    slot 0 (zero weight): the layout of the Jacobian blocks of `combine`; with
+    attr="next_sector", whether each slot is a DOF of the next sector (padded False)."""
     m = max(s.idx.shape[1] for s in slots)
-    return np.concatenate([np.pad(s.idx, ((0, 0), (0, m - s.idx.shape[1]))) for s in slots])
+    return np.concatenate([np.pad(getattr(s, attr), ((0, 0), (0, m - s.idx.shape[1])))
+                           for s in slots])
 
 
 def motion(slots: LawSlots, Qc, rot=None, turn=None) -> np.ndarray:

@@ -34,6 +34,9 @@ of its harmonic-0 block, the state matrix [[0, I], [-M^-1 K', -M^-1 C]], lie on
 harmonic 0 alone (centroid 0), those of each harmonic k >= 1 are centred off 0.
 The selected exponents are the 2n eigenvalues of that state matrix, which the dense
 solver computes (2n x 2n) instead of the Hill matrix's (2N x 2N) (`time_invariant`).
+Where a copy of another family crosses them (undamped: lam_k + i k Om = lam_0) the whole
+matrix mixes their eigenvectors, its centroids are ambiguous and its selection may
+drop an exponent of harmonic 0; the state matrix's are exact there too.
 
 Solvers:
     "dense"   M regular: standard eigenproblem with Delta2^-1 (numpy.linalg.eig),

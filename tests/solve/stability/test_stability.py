@@ -55,7 +55,7 @@ def test_time_invariant_jacobian_is_solved_as_the_state_matrix(seed):
     system (K'' = K + k_stuck), the static rows K' on harmonic 0 plus couplings to every
     harmonic (a slider's rest position moving with the motion).  The exponents from the
     2n x 2n state matrix of K' are those the whole Hill matrix selects (its eigenvalues
-    and centroids, `full_output`), and a coupling between harmonics above the round-off
+    and centroids, `full_output`; damped, so that no two families cross), and a coupling between harmonics above the round-off
     is not taken as time-invariant (a complex stiffness per harmonic is)."""
     rng = np.random.default_rng(seed)
     n, H, Om = 3, 4, 1.3 + rng.random()
