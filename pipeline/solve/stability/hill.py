@@ -24,7 +24,8 @@ The copy centred on harmonic 0 is the best resolved one; it is also right when a
 eigenfrequency exceeds Om/2, where `select="imag"` (smallest |Im lam|, the
 classical rule) returns a shifted, truncated copy.  Both rules are ambiguous when
 two families cross (lam1 - lam2 ~ i k Om, e.g. an undamped system at 2 omega = k Om);
-the real parts, hence the stability verdict, are unaffected there.
+where the crossing families share their real parts (copies of one linear system) the
+stability verdict is unaffected, otherwise it may be (below).
 
 Time-invariant Jacobians.  Where every contact is stuck or open over the whole
 period, the rows of the harmonics h >= 1 of J commute with the time shift, as those
