@@ -41,6 +41,7 @@ The operators of all DOFs (no condensation, for Hill's method) are in `full_oper
 """
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass, replace
 from functools import cached_property
 
@@ -110,6 +111,54 @@ class HBMProblem:
     def directions(self) -> np.ndarray:
         """(E, 2, m) the weights bt, bn stacked (`law_terms.LawSlots.directions`)."""
         return stacked_weights((self.bt, self.bn))
+
+    @cached_property
+    def evaluated(self) -> "ContactMemo":
+        """The contact terms already evaluated at given coefficients (`ContactMemo`)."""
+        return ContactMemo()
+
+
+MEMO_BYTES = 16 * 2**20   # [B] contact terms a problem keeps (`ContactMemo`)
+
+
+class ContactMemo:
+    """The contact terms of `contact_terms` by their exact input (the elements, the
+    bytes of Qc), the least recently used dropped beyond MEMO_BYTES.  A converged
+    point's full-residual check, Hill's Jacobian and the resonance guard's contact
+    stiffness are taken at the coefficients of the point's last Newton evaluation:
+    the same input, hence bit for bit the same terms, without a second evaluation.
+    The kept arrays are read-only."""
+
+    def __init__(self, max_bytes: int = MEMO_BYTES):
+        self.entries, self.bytes, self.max_bytes = OrderedDict(), 0, max_bytes
+
+    def __reduce__(self):   # a problem sent to another process takes no kept terms along
+        return ContactMemo, (self.max_bytes,)
+
+    def get(self, contact, Qc, jacobian):
+        """(G, Je blocks or None, detail) kept for these elements at Qc, or None (also
+        where the Jacobian is asked for and was not kept)."""
+        key = (id(contact), Qc.shape, Qc.tobytes())
+        e = self.entries.get(key)
+        if e is None or e[0] is not contact or (jacobian and e[1][1] is None):
+            return None
+        self.entries.move_to_end(key)
+        return e[1]
+
+    def put(self, contact, Qc, terms):
+        G, Je, _ = terms
+        for a in (G, Je):
+            if a is not None:
+                a.flags.writeable = False
+        size = G.nbytes + (0 if Je is None else Je.nbytes) + Qc.nbytes
+        if size > self.max_bytes:
+            return
+        key = (id(contact), Qc.shape, Qc.tobytes())
+        old = self.entries.pop(key, None)
+        self.bytes += size - (0 if old is None else old[2])
+        self.entries[key] = (contact, terms, size)   # the elements kept alive: ids stay unique
+        while self.bytes > self.max_bytes:
+            self.bytes -= self.entries.popitem(last=False)[1][2]
 
 
 def setup(system: System, H: int, method: str = "exact", n_samples: int = 256,
@@ -228,7 +277,22 @@ def contact_terms(prob: HBMProblem, Qc, contact: ContactElements | None = None, 
     nc, nh = prob.c.size, prob.nh
     if prob.idx.shape[0] == 0 and not prob.laws:
         return np.zeros((nc, nh)), (np.zeros((nc * nh, nc * nh)) if jacobian else None), None
-    G, Jes, f = np.zeros((nc, nh)), [], None
+    Qc = np.asarray(Qc, dtype=float)
+    contact = prob.system.contact if contact is None else contact
+    kept = prob.evaluated.get(contact, Qc, jacobian)
+    if kept is None:
+        kept = _contact_blocks(prob, Qc, contact, jacobian)
+        prob.evaluated.put(contact, Qc, kept)
+    G, Je, f = kept
+    if not jacobian:
+        return G, None, f
+    return G, (Je if blocks else assemble(prob, Je)), f
+
+
+def _contact_blocks(prob: HBMProblem, Qc, contact, jacobian):
+    """(G (nc, nh), Jacobian blocks (E, m, m, nh, nh) at `slot_index` or None, detail)
+    of `contact_terms`, evaluated."""
+    G, Jes, f = np.zeros((prob.c.size, prob.nh)), [], None
     for slots, rot in contact_slots(prob, contact):
         if slots.idx.shape[0] == 0:
             continue
@@ -248,8 +312,7 @@ def contact_terms(prob: HBMProblem, Qc, contact: ContactElements | None = None, 
             Jes.append(Je)
     if not jacobian:
         return G, None, f
-    Je = combine(Jes) if prob.laws else Jes[0]   # laws: padded as `slot_index`
-    return G, (Je if blocks else assemble(prob, Je)), f
+    return G, (combine(Jes) if prob.laws else Jes[0]), f   # laws: padded as `slot_index`
 
 
 def slot_weights(bt, bn, pairs) -> np.ndarray:

@@ -101,21 +101,45 @@ def companion(J, M, C, Omega, H):
     Delta2^-1 Delta1 = (M^-1 C) (x) I + 2 Om I_n (x) D."""
     n, nh = M.shape[0], 2 * H + 1
     N = n * nh
+    Minv, top, low0, low1 = _companion_parts(M, C, H)
+    A = np.empty((2 * N, 2 * N))
+    A[:N] = top
+    A[N:, :N] = -(Minv @ J.reshape(n, nh * N)).reshape(N, N)
+    np.multiply(Omega, low1, out=A[N:, N:])
+    A[N:, N:] += low0
+    return A
+
+
+_PARTS = {}   # `_companion_parts` by (M, C, H), the last few kept
+
+
+def _companion_parts(M, C, H):
+    """(M^-1, [0, I], -(M^-1 C) (x) I, -2 I_n (x) D) of `companion`: what does not
+    change along a branch (M, C and H fixed), computed once for each (M, C, H)."""
+    M, C = np.ascontiguousarray(M, dtype=float), np.ascontiguousarray(C, dtype=float)
+    key = (M.shape, M.tobytes(), C.tobytes(), H)
+    parts = _PARTS.get(key)
+    if parts is not None:
+        return parts
+    n, nh = M.shape[0], 2 * H + 1
+    N = n * nh
     try:
         Minv = np.linalg.inv(M)
     except np.linalg.LinAlgError:
         raise ValueError("M is singular: use solver='qz' or 'sparse'") from None
-    A = np.zeros((2 * N, 2 * N))
-    A[:N, N:] = np.eye(N)
-    A[N:, :N] = -(Minv @ J.reshape(n, nh * N)).reshape(N, N)
-    low = np.zeros((n, nh, n, nh))
-    k = np.arange(nh)
-    low[:, k, :, k] = -(Minv @ C)          # -(M^-1 C) (x) I: diagonal in the harmonic
-    D = derivative_matrix(H)
-    i = np.arange(n)
-    low[i, :, i, :] -= 2 * Omega * D       # -2 Om I_n (x) D
-    A[N:, N:] = low.reshape(N, N)
-    return A
+    top = np.zeros((N, 2 * N))
+    top[:, N:] = np.eye(N)
+    low0, low1 = np.zeros((n, nh, n, nh)), np.zeros((n, nh, n, nh))
+    k, i = np.arange(nh), np.arange(n)
+    low0[:, k, :, k] = -(Minv @ C)          # -(M^-1 C) (x) I: diagonal in the harmonic
+    low1[i, :, i, :] = -2.0 * derivative_matrix(H)   # -2 I_n (x) D, times Om
+    parts = (Minv, top, low0.reshape(N, N), low1.reshape(N, N))
+    for a in parts:
+        a.flags.writeable = False
+    if len(_PARTS) >= 8:
+        _PARTS.pop(next(iter(_PARTS)))
+    _PARTS[key] = parts
+    return parts
 
 
 def time_invariant(J, n, H, rtol=1e-13):
@@ -176,12 +200,21 @@ def _validate(J, M, C, Omega, H):
 
 
 def _condition(M) -> float:
-    """cond(M); a diagonal M's from its diagonal (no SVD)."""
-    d = np.diag(M)
-    if np.count_nonzero(M - np.diag(d)) == 0:
-        a = np.abs(d)
-        return float(a.max() / a.min()) if a.min() > 0 else np.inf
-    return float(np.linalg.cond(M))
+    """cond(M); a diagonal M's from its diagonal (no SVD); computed once for each M."""
+    key = (M.shape, M.tobytes())
+    if key not in _CONDITION:
+        if len(_CONDITION) >= 8:
+            _CONDITION.pop(next(iter(_CONDITION)))
+        d = np.diag(M)
+        if np.count_nonzero(M - np.diag(d)) == 0:
+            a = np.abs(d)
+            _CONDITION[key] = float(a.max() / a.min()) if a.min() > 0 else np.inf
+        else:
+            _CONDITION[key] = float(np.linalg.cond(M))
+    return _CONDITION[key]
+
+
+_CONDITION = {}   # `_condition` by M, the last few kept
 
 
 def _select(lam, cen, count, select):

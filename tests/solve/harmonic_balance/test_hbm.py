@@ -1,4 +1,7 @@
 """Harmonic balance residual: Jacobians, condensation, linear limits."""
+import pickle
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -83,3 +86,42 @@ def test_sparse_matrices_give_the_dense_residual_and_jacobian():
     Qd = hbm.recover(hbm.setup(s, 3), x.reshape(3, -1), 1.1)
     Qs = hbm.recover(hbm.setup(ssp, 3), x.reshape(3, -1), 1.1)
     np.testing.assert_allclose(Qs, Qd, rtol=1e-12, atol=1e-14)
+
+
+def test_contact_terms_are_kept_by_their_exact_input():
+    """A problem keeps the contact terms it evaluated: asked again at the same
+    coefficients and elements, it returns them (read-only), bit for bit what a fresh
+    problem evaluates; a Jacobian asked after a force-only call, other coefficients
+    (by one ulp) or other elements are evaluated."""
+    s = chain4()
+    prob = hbm.setup(s, 3)
+    Qc = np.random.default_rng(5).normal(size=(prob.c.size, prob.nh)) * 0.3
+    G0, J0, _ = hbm.contact_terms(prob, Qc, jacobian=False)
+    assert J0 is None
+    G1, J1, _ = hbm.contact_terms(prob, Qc)            # the Jacobian was not kept: evaluated
+    G2, J2, _ = hbm.contact_terms(hbm.setup(s, 3), Qc)
+    assert np.array_equal(G0, G2) and np.array_equal(G1, G2) and np.array_equal(J1, J2)
+    assert hbm.contact_terms(prob, Qc.copy())[0] is G1   # kept: the same array
+    with pytest.raises(ValueError):
+        G1[0, 0] = 1.0
+    Qd = Qc.copy()
+    Qd[0, 1] = np.nextafter(Qd[0, 1], np.inf)
+    Gd, Jd, _ = hbm.contact_terms(prob, Qd)
+    Ge, Je, _ = hbm.contact_terms(hbm.setup(s, 3), Qd)
+    assert np.array_equal(Gd, Ge) and np.array_equal(Jd, Je)
+    other = YangMenq(2.0, 1.5, 0.3, 0.05)
+    Go, _, _ = hbm.contact_terms(prob, Qc, other)
+    Gf, _, _ = hbm.contact_terms(hbm.setup(replace(s, contact=other), 3), Qc)
+    assert np.array_equal(Go, Gf) and not np.array_equal(Go, G1)
+
+
+def test_kept_contact_terms_stay_within_their_bytes():
+    memo = hbm.ContactMemo(max_bytes=3000)
+    G = np.zeros((2, 7))
+    for k in range(20):
+        memo.put(None, np.full((2, 7), float(k)), (G.copy(), None, None))
+    assert memo.bytes <= 3000 and 0 < len(memo.entries) < 20
+    assert memo.get(None, np.full((2, 7), 19.0), False) is not None    # the newest kept
+    assert memo.get(None, np.full((2, 7), 0.0), False) is None         # the oldest dropped
+    assert memo.get(None, np.full((2, 7), 19.0), True) is None         # no Jacobian kept
+    assert pickle.loads(pickle.dumps(memo)).entries == {}              # not sent along

@@ -5,8 +5,8 @@ from scipy.integrate import solve_ivp
 
 from pipeline.solve.continuation.pseudo_arclength import continue_branch
 from pipeline.fourier.harmonics import derivative_matrix, time_grid
-from pipeline.solve.stability.hill import (harmonic_centroid, hill_eigenvalues, is_stable,
-                                          time_invariant)
+from pipeline.solve.stability.hill import (companion, harmonic_centroid, hill_eigenvalues,
+                                          hill_matrices, is_stable, time_invariant)
 
 from helpers import assert_same_multiset
 
@@ -93,6 +93,25 @@ def test_time_invariant_jacobian_is_solved_as_the_state_matrix(seed):
     full = hill_eigenvalues(J, M, C, Om, H, full_output=True)
     assert_same_multiset(hill_eigenvalues(J, M, C, Om, H), full.exponents,
                          atol=1e-9 * np.abs(full.exponents).max())
+
+
+def test_companion_is_the_kronecker_linearisation():
+    """The companion matrix, built from parts kept per (M, C, H), equals
+    [[0, I], [-Delta2^-1 J, -Delta2^-1 Delta1]] of `hill_matrices` for one system after
+    another and back (the parts of one are never taken for another's)."""
+    rng = np.random.default_rng(2)
+    systems = []
+    for n, H in ((2, 3), (2, 3), (3, 2), (1, 4)):
+        A = rng.normal(size=(n, n))
+        systems.append((A @ A.T + n * np.eye(n), rng.normal(size=(n, n)), H))
+    for M, C, H in systems + systems[::-1]:
+        N = M.shape[0] * (2 * H + 1)
+        J, Om = rng.normal(size=(N, N)), 0.5 + rng.random()
+        D1, D2 = hill_matrices(M, C, Om, H)
+        ref = np.block([[np.zeros((N, N)), np.eye(N)],
+                        [-np.linalg.solve(D2, J), -np.linalg.solve(D2, D1)]])
+        np.testing.assert_allclose(companion(J, M, C, Om, H), ref, rtol=0,
+                                   atol=1e-13 * np.abs(ref).max())
 
 
 def test_imag_rule_returns_a_shifted_copy_above_half_Om():
