@@ -136,8 +136,8 @@ def _companion_parts(M, C, H):
     parts = (Minv, top, low0.reshape(N, N), low1.reshape(N, N))
     for a in parts:
         a.flags.writeable = False
-    if len(_PARTS) >= 8:
-        _PARTS.pop(next(iter(_PARTS)))
+    for old in list(_PARTS)[:-7]:   # the oldest dropped (a list: safe beside other threads)
+        _PARTS.pop(old, None)
     _PARTS[key] = parts
     return parts
 
@@ -202,16 +202,18 @@ def _validate(J, M, C, Omega, H):
 def _condition(M) -> float:
     """cond(M); a diagonal M's from its diagonal (no SVD); computed once for each M."""
     key = (M.shape, M.tobytes())
-    if key not in _CONDITION:
-        if len(_CONDITION) >= 8:
-            _CONDITION.pop(next(iter(_CONDITION)))
+    value = _CONDITION.get(key)
+    if value is None:
         d = np.diag(M)
         if np.count_nonzero(M - np.diag(d)) == 0:
             a = np.abs(d)
-            _CONDITION[key] = float(a.max() / a.min()) if a.min() > 0 else np.inf
+            value = float(a.max() / a.min()) if a.min() > 0 else np.inf
         else:
-            _CONDITION[key] = float(np.linalg.cond(M))
-    return _CONDITION[key]
+            value = float(np.linalg.cond(M))
+        for old in list(_CONDITION)[:-7]:   # the oldest dropped (a list: safe beside threads)
+            _CONDITION.pop(old, None)
+        _CONDITION[key] = value
+    return value
 
 
 _CONDITION = {}   # `_condition` by M, the last few kept
