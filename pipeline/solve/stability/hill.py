@@ -111,18 +111,21 @@ def companion(J, M, C, Omega, H):
 
 
 _PARTS = {}   # `_companion_parts` by (M, C, H), the last few kept
+KEEP_BYTES = 2**21   # [B] parts of one companion kept at most (N <= 256; larger: eig dominates)
 
 
 def _companion_parts(M, C, H):
     """(M^-1, [0, I], -(M^-1 C) (x) I, -2 I_n (x) D) of `companion`: what does not
-    change along a branch (M, C and H fixed), computed once for each (M, C, H)."""
+    change along a branch (M, C and H fixed), computed once for each (M, C, H) where
+    they take at most KEEP_BYTES (8 kept: at most 16 MB); larger ones each time."""
     M, C = np.ascontiguousarray(M, dtype=float), np.ascontiguousarray(C, dtype=float)
-    key = (M.shape, M.tobytes(), C.tobytes(), H)
-    parts = _PARTS.get(key)
-    if parts is not None:
-        return parts
     n, nh = M.shape[0], 2 * H + 1
     N = n * nh
+    keep = 32 * N * N <= KEEP_BYTES
+    key = (M.shape, M.tobytes(), C.tobytes(), H) if keep else None
+    parts = _PARTS.get(key) if keep else None
+    if parts is not None:
+        return parts
     try:
         Minv = np.linalg.inv(M)
     except np.linalg.LinAlgError:
@@ -136,9 +139,10 @@ def _companion_parts(M, C, H):
     parts = (Minv, top, low0.reshape(N, N), low1.reshape(N, N))
     for a in parts:
         a.flags.writeable = False
-    for old in list(_PARTS)[:-7]:   # the oldest dropped (a list: safe beside other threads)
-        _PARTS.pop(old, None)
-    _PARTS[key] = parts
+    if keep:
+        for old in list(_PARTS)[:-7]:   # the oldest dropped (a list: safe beside other threads)
+            _PARTS.pop(old, None)
+        _PARTS[key] = parts
     return parts
 
 
@@ -200,9 +204,10 @@ def _validate(J, M, C, Omega, H):
 
 
 def _condition(M) -> float:
-    """cond(M); a diagonal M's from its diagonal (no SVD); computed once for each M."""
-    key = (M.shape, M.tobytes())
-    value = _CONDITION.get(key)
+    """cond(M); a diagonal M's from its diagonal (no SVD); computed once for each M of
+    at most KEEP_BYTES (8 kept)."""
+    key = (M.shape, M.tobytes()) if M.nbytes <= KEEP_BYTES else None
+    value = _CONDITION.get(key) if key is not None else None
     if value is None:
         d = np.diag(M)
         if np.count_nonzero(M - np.diag(d)) == 0:
@@ -210,9 +215,10 @@ def _condition(M) -> float:
             value = float(a.max() / a.min()) if a.min() > 0 else np.inf
         else:
             value = float(np.linalg.cond(M))
-        for old in list(_CONDITION)[:-7]:   # the oldest dropped (a list: safe beside threads)
-            _CONDITION.pop(old, None)
-        _CONDITION[key] = value
+        if key is not None:
+            for old in list(_CONDITION)[:-7]:   # the oldest dropped (a list: safe beside threads)
+                _CONDITION.pop(old, None)
+            _CONDITION[key] = value
     return value
 
 

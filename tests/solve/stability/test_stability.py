@@ -5,6 +5,7 @@ from scipy.integrate import solve_ivp
 
 from pipeline.solve.continuation.pseudo_arclength import continue_branch
 from pipeline.fourier.harmonics import derivative_matrix, time_grid
+from pipeline.solve.stability import hill
 from pipeline.solve.stability.hill import (companion, harmonic_centroid, hill_eigenvalues,
                                           hill_matrices, is_stable, time_invariant)
 
@@ -112,6 +113,20 @@ def test_companion_is_the_kronecker_linearisation():
                         [-np.linalg.solve(D2, J), -np.linalg.solve(D2, D1)]])
         np.testing.assert_allclose(companion(J, M, C, Om, H), ref, rtol=0,
                                    atol=1e-13 * np.abs(ref).max())
+
+
+def test_companion_parts_kept_only_for_small_systems():
+    """Along a branch the parts are kept (the same arrays again); a system whose parts
+    exceed KEEP_BYTES (N = 303 here) gets them afresh, nothing kept, at most 8 kept."""
+    M, C = np.eye(1), np.zeros((1, 1))
+    assert hill._companion_parts(M, C, 7)[2] is hill._companion_parts(M, C, 7)[2]
+    Mb, Cb = np.eye(101), np.eye(101)
+    assert 32 * (101 * 3) ** 2 > hill.KEEP_BYTES
+    assert hill._companion_parts(Mb, Cb, 1)[2] is not hill._companion_parts(Mb, Cb, 1)[2]
+    for k in range(12):
+        hill._companion_parts(M * (1 + k), C, 2)
+    assert len(hill._PARTS) <= 8
+    assert all(key[0] != (101, 101) for key in hill._PARTS)
 
 
 def test_imag_rule_returns_a_shifted_copy_above_half_Om():
