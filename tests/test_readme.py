@@ -15,7 +15,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
@@ -30,10 +29,14 @@ EXERCISED = {
     '.venv/bin/pip install -e ".[test]"': ".ci/run",
     ".venv/bin/python -m pytest -q": ".ci/run",
 }
-# the commands this file runs, in order (the first writes the dataset the others read)
-RUN_HERE = [
+# the commands this file runs: two independent sequences, each in its own folder (the
+# first writes the dataset the second command and the xarray line read), so that the two
+# can run in parallel test processes
+FIRST = [
     "python -m pipeline run studies/paper_example3.toml",
     "python -m pipeline check results/paper_example3.nc",
+]
+OTHERS = [
     "python -m pipeline run studies/disk_laxalde.toml",
     "python -m pipeline run studies/disk_nonlinear_modes.toml",
     "python -m pipeline run studies/shrouded_disk_campbell.toml",
@@ -43,6 +46,7 @@ RUN_HERE = [
     "python -m pipeline keys",
     "python -m pipeline bench --help",
 ]
+RUN_HERE = FIRST + OTHERS
 
 
 def _blocks(text):
@@ -94,14 +98,6 @@ def test_ci_runs_the_install_and_the_suite():
     assert "[project.scripts]" in (ROOT / "pyproject.toml").read_text()
 
 
-@pytest.fixture(scope="module")
-def here(tmp_path_factory):
-    """A folder with the repository's studies, where the README's commands run."""
-    d = tmp_path_factory.mktemp("readme")
-    (d / "studies").symlink_to(ROOT / "studies")
-    return d
-
-
 def _run(cmd, cwd, timeout=600):
     env = {**os.environ, "MPLBACKEND": "Agg",
            "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
@@ -111,36 +107,42 @@ def _run(cmd, cwd, timeout=600):
                           text=True, timeout=timeout)
 
 
-@pytest.fixture(scope="module")
-def ran(here):
-    """Every command of RUN_HERE, as shown, in order: {command: CompletedProcess}."""
-    return {cmd: _run(cmd, here) for cmd in RUN_HERE}
+def _run_all(cmds, here):
+    """Run `cmds` in order in `here` (holding the repository's studies); every failure
+    reported."""
+    here.mkdir()
+    (here / "studies").symlink_to(ROOT / "studies")
+    failed = []
+    for cmd in cmds:
+        p = _run(cmd, here)
+        if p.returncode != 0:
+            failed.append(f"{cmd}: exit {p.returncode}\n{p.stderr[-2000:]}")
+    assert not failed, "\n".join(failed)
+    return here / "results"
 
 
-@pytest.mark.parametrize("cmd", RUN_HERE)
-def test_readme_command_succeeds(ran, cmd):
-    p = ran[cmd]
-    assert p.returncode == 0, f"{cmd}: exit {p.returncode}\n{p.stderr[-2000:]}"
-
-
-def test_first_command_writes_what_the_readme_says(ran, here):
-    out = here / "results"
-    for f in ("paper_example3.nc", "paper_example3/amplitude_u.png",
-              "paper_example3/amplitude_v.png", "paper_example3/optimum_preload.png",
-              "hysteresis.png", "disk_laxalde.nc", "paper_example1/optimum_preload.png"):
-        assert (out / f).is_file(), f
-
-
-def test_xarray_line_draws_the_branch(ran, here, monkeypatch):
+def test_first_commands_succeed_and_the_xarray_line_draws_the_branch(tmp_path, monkeypatch):
+    """The README's first study, its dataset check, the files it names and its xarray
+    line on the dataset."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    out = _run_all(FIRST, tmp_path / "readme")
+    for f in ("paper_example3.nc", "paper_example3/amplitude_u.png",
+              "paper_example3/amplitude_v.png", "paper_example3/optimum_preload.png"):
+        assert (out / f).is_file(), f
     (line,) = [body.strip() for tag, body, before in _blocks(README.read_text())
                if tag == "python" and "xr.open_dataset" in body
                and before.strip() != "<!-- python-example -->"]
-    monkeypatch.chdir(here)
+    monkeypatch.chdir(out.parent)
     exec(compile(line, "README.md", "exec"), {})
     ax = plt.gca()
     assert ax.lines and len(ax.lines[0].get_xdata()) > 10
     plt.close("all")
+
+
+def test_other_commands_succeed_and_write_what_the_readme_says(tmp_path):
+    out = _run_all(OTHERS, tmp_path / "readme")
+    for f in ("hysteresis.png", "disk_laxalde.nc", "paper_example1/optimum_preload.png"):
+        assert (out / f).is_file(), f

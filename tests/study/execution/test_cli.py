@@ -203,6 +203,10 @@ def test_default_log_level_hides_solver_noise(tmp_path):
     assert not logging.getLogger("pipeline.solve.continuation.pseudo_arclength").isEnabledFor(logging.INFO)
     text = (STUDIES / "paper_example1.toml").read_text()
     text = text[:text.index("[output.optimum_preload]")]
+    # one case, Hill's stability alone: the log lines, not the grid or the checks, are tested
+    text = text.replace("[quick.sweep]\npreload = [0.0, 2.0, 1000.0]", "[quick.sweep]\npreload = [2.0]")
+    text = text.replace("stability = true", 'stability = "hill"')
+    assert "preload = [2.0]" in text and 'stability = "hill"' in text
     f = tmp_path / "ex1.toml"
     f.write_text(text)
     quiet = run("run", f, "--quick", "--out", tmp_path / "a", "--workers", "1", "--no-figures")

@@ -25,18 +25,18 @@ from pipeline.study.execution.cases import default_solver
 
 ROOT = Path(__file__).resolve().parents[3]
 
-# Example 1 with six preloads, H = 7
+# Example 1 with four preloads, H = 7
 STUDY = (ROOT / "studies" / "paper_example1.toml").read_text()
 STUDY = STUDY[:STUDY.index("[output.optimum_preload]")]
 STUDY = STUDY.replace("preload = [0.0, 0.5, 1.0, 2.0, 5.0, 10.0, 1000.0]",
-                      "preload = [0.5, 1.0, 2.0, 3.0, 5.0, 10.0]")
-# STUDY: cases of about a second each (stability checked by Floquet where in doubt), so
-# that a run can be interrupted, or a worker killed, while its workers are busy
-# FAST: Hill's stability, about 0.15 s a case, for the runs nobody interrupts
+                      "preload = [2.0, 3.0, 5.0, 10.0]")
+# STUDY: cases of one to a few seconds each (stability checked by Floquet where in doubt),
+# so that a run can be interrupted, or a worker killed, while its workers are busy
+# FAST: Hill's stability, a fraction of a second a case, for the runs nobody interrupts
 FAST = STUDY.replace("stability = true", 'stability = "hill"')
 STUDY = STUDY.replace("stability = true", 'stability = "monodromy+check"')
 assert 'stability = "monodromy+check"' in STUDY and 'stability = "hill"' in FAST
-N_CASES = 6
+N_CASES = 4
 
 
 def comparable(ds: xr.Dataset) -> xr.Dataset:
@@ -48,23 +48,23 @@ def comparable(ds: xr.Dataset) -> xr.Dataset:
 
 @pytest.fixture(scope="module")
 def study_file(tmp_path_factory):
-    p = tmp_path_factory.mktemp("study") / "six_preloads.toml"
+    p = tmp_path_factory.mktemp("study") / "four_preloads.toml"
     p.write_text(STUDY)
     return p
 
 
 @pytest.fixture(scope="module")
 def fast_file(tmp_path_factory):
-    p = tmp_path_factory.mktemp("fast") / "six_preloads.toml"
+    p = tmp_path_factory.mktemp("fast") / "four_preloads.toml"
     p.write_text(FAST)
     return p
 
 
 def _serial(text, file, out):
-    study = parse_study(text, file=str(file), name="six_preloads")
+    study = parse_study(text, file=str(file), name="four_preloads")
     res = run_study(study, out, workers=1, figures=False, progress=False)
     assert res.ok and res.computed == N_CASES and res.reused == 0
-    assert not list(out.glob(".six_preloads.*.cases"))  # checkpoints removed once written
+    assert not list(out.glob(".four_preloads.*.cases"))  # checkpoints removed once written
     return read_dataset(res.path)
 
 
@@ -79,7 +79,7 @@ def fast_serial(fast_file, tmp_path_factory):
 
 
 def test_process_pool_equals_serial(fast_serial, fast_file, tmp_path):
-    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
+    study = parse_study(FAST, file=str(fast_file), name="four_preloads")
     res = run_study(study, tmp_path, workers=2, figures=False, progress=False)
     assert res.ok
     xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(fast_serial))
@@ -87,7 +87,7 @@ def test_process_pool_equals_serial(fast_serial, fast_file, tmp_path):
 
 def test_dask_local_cluster_equals_serial(fast_serial, fast_file, tmp_path):
     distributed = pytest.importorskip("dask.distributed")
-    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
+    study = parse_study(FAST, file=str(fast_file), name="four_preloads")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster:
         res = run_study(study, tmp_path, scheduler=cluster.scheduler_address,
@@ -99,12 +99,12 @@ def test_dask_local_cluster_equals_serial(fast_serial, fast_file, tmp_path):
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT], ids=["SIGKILL", "SIGINT"])
 def test_interrupted_study_resumes_without_recomputing(serial, study_file, tmp_path, sig):
     out = tmp_path / "out"
-    final = out / "six_preloads.nc"
+    final = out / "four_preloads.nc"
     cmd = [sys.executable, "-m", "pipeline", "run", str(study_file), "--out", str(out),
            "--workers", "1", "--no-figures"]
     env = dict(os.environ, MPLBACKEND="Agg")
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
-    cdirs = lambda: list(out.glob(".six_preloads.*.cases"))  # noqa: E731
+    cdirs = lambda: list(out.glob(".four_preloads.*.cases"))  # noqa: E731
     t_end = time.time() + 120
     while time.time() < t_end and proc.poll() is None:
         if cdirs() and list(cdirs()[0].glob("case-*.nc")):
@@ -134,7 +134,7 @@ def test_interrupted_study_resumes_without_recomputing(serial, study_file, tmp_p
         np.testing.assert_array_equal(curve.peak(0)[0],
                                       serial["peak_amplitude"].isel(preload=k, dof=0).values)
 
-    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    study = parse_study(STUDY, file=str(study_file), name="four_preloads")
     res = run_study(study, out, workers=1, figures=False, progress=False)
     assert res.ok and res.reused == kept and res.computed == N_CASES - kept >= 1
     xr.testing.assert_identical(comparable(read_dataset(final)), comparable(serial))
@@ -151,7 +151,7 @@ def test_killed_pool_worker_loses_nothing(serial, study_file, tmp_path):
                             env=dict(os.environ, MPLBACKEND="Agg"))
     t_end = time.time() + 120
     while time.time() < t_end and proc.poll() is None:
-        cd = list(out.glob(".six_preloads.*.cases"))
+        cd = list(out.glob(".four_preloads.*.cases"))
         if cd and list(cd[0].glob("case-*.nc")):
             break
         time.sleep(0.02)
@@ -162,21 +162,21 @@ def test_killed_pool_worker_loses_nothing(serial, study_file, tmp_path):
     err = err.decode()
     assert proc.returncode == 1 and "Traceback" not in err
     assert "a worker process died" in err and "rerun the same command to resume" in err
-    assert not (out / "six_preloads.nc").exists()
-    kept = len(list(next(out.glob(".six_preloads.*.cases")).glob("case-*.nc")))
-    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    assert not (out / "four_preloads.nc").exists()
+    kept = len(list(next(out.glob(".four_preloads.*.cases")).glob("case-*.nc")))
+    study = parse_study(STUDY, file=str(study_file), name="four_preloads")
     res = run_study(study, out, workers=2, figures=False, progress=False)
     assert res.ok and res.reused == kept and res.computed == N_CASES - kept
     xr.testing.assert_identical(comparable(read_dataset(res.path)), comparable(serial))
 
 
 def test_changed_study_does_not_reuse_old_cases(study_file, tmp_path):
-    a = parse_study(STUDY, file=str(study_file), name="six_preloads")
-    b = parse_study(STUDY.replace("mu = 0.5", "mu = 0.4"), file=str(study_file), name="six_preloads")
+    a = parse_study(STUDY, file=str(study_file), name="four_preloads")
+    b = parse_study(STUDY.replace("mu = 0.5", "mu = 0.4"), file=str(study_file), name="four_preloads")
     solver = default_solver(a)
     assert checkpoint_dir(a, tmp_path, solver) != checkpoint_dir(b, tmp_path, solver)
     assert checkpoint_dir(a, tmp_path, solver) == checkpoint_dir(
-        parse_study(STUDY, file=str(study_file), name="six_preloads"), tmp_path, solver)
+        parse_study(STUDY, file=str(study_file), name="four_preloads"), tmp_path, solver)
 
 
 # ---------------------------------------------------------------------------
@@ -206,8 +206,8 @@ def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(fast_serial, fas
                                                                 tmp_path, monkeypatch):
     import pipeline.study.datasets.dataset as dsmod
 
-    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
-    target = tmp_path / "six_preloads.nc"
+    study = parse_study(FAST, file=str(fast_file), name="four_preloads")
+    target = tmp_path / "four_preloads.nc"
     fast_serial.to_netcdf(target)             # a previous result of the same version
     before = target.read_bytes()
 
@@ -229,20 +229,20 @@ def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(fast_serial, fas
     monkeypatch.undo()
     res = run_study(study, tmp_path, workers=1, figures=False, progress=False)
     assert res.ok and res.reused == N_CASES and res.computed == 0
-    assert dsmod.read_dataset(target).attrs["study_name"] == "six_preloads"
+    assert dsmod.read_dataset(target).attrs["study_name"] == "four_preloads"
 
 
 def test_dataset_of_an_older_version_is_kept_not_overwritten(fast_serial, fast_file, tmp_path):
     old = fast_serial.copy()
     old.attrs["pipeline_version"] = "0.0.1"
-    target = tmp_path / "six_preloads.nc"
+    target = tmp_path / "four_preloads.nc"
     old.to_netcdf(target)
-    garbage = tmp_path / "six_preloads.v0.0.1.nc"   # a backup name already taken
+    garbage = tmp_path / "four_preloads.v0.0.1.nc"   # a backup name already taken
     garbage.write_bytes(b"keep me")
     r = run_cli(fast_file, "--out", tmp_path, "--workers", "1", "--no-figures")
     assert r.returncode == 0, r.stderr
-    assert "written by pipeline 0.0.1; kept it as six_preloads.v0.0.1.2.nc" in r.stderr
-    kept = read_dataset(tmp_path / "six_preloads.v0.0.1.2.nc")
+    assert "written by pipeline 0.0.1; kept it as four_preloads.v0.0.1.2.nc" in r.stderr
+    kept = read_dataset(tmp_path / "four_preloads.v0.0.1.2.nc")
     assert kept.attrs["pipeline_version"] == "0.0.1"
     assert garbage.read_bytes() == b"keep me"
     new = read_dataset(target)
@@ -284,7 +284,7 @@ def _curve_of(serial_study):
 def test_checkpoint_round_trip_keeps_every_field(study_file, tmp_path):
     import dataclasses
 
-    study = parse_study(STUDY, file=str(study_file), name="six_preloads")
+    study = parse_study(STUDY, file=str(study_file), name="four_preloads")
     curve = _curve_of(study)
     curve = dataclasses.replace(curve, info={**curve.info, "note": "é", "big": float("inf")})
     path = checkpoint.write(tmp_path / "case-00003.nc", curve, {"preload": 2.0})
@@ -312,7 +312,7 @@ class _Payload:
 
 def test_foreign_or_corrupt_checkpoints_are_recomputed_not_executed(fast_serial, fast_file,
                                                                     tmp_path):
-    study = parse_study(FAST, file=str(fast_file), name="six_preloads")
+    study = parse_study(FAST, file=str(fast_file), name="four_preloads")
     cdir = checkpoint_dir(study, tmp_path, default_solver(study))
     cdir.mkdir(parents=True)
     marker = tmp_path / "executed"
