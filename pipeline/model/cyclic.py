@@ -233,12 +233,13 @@ def expand(Q0, sectors: int, engine_order: int):
 def wheel_system(system: System) -> System:
     """The N-sector assembly (`full_assembly`, dense) of a tuned cyclic sector `System`
     (`sector_system`): what the sector's travelling wave is a solution of, with every
-    wave number free (its time integration, its Floquet multipliers)."""
+    wave number free (its time integration, its Floquet multipliers).  The further
+    laws' elements (`System.laws`, own and next-sector maps) are assembled with it."""
     cy = system.cyclic
     sec = Sector(M=system.M, C=system.C, K=system.K, Bt=system.Bt, Bn=system.Bn,
                  Bt_next=cy.Bt_next, Bn_next=cy.Bn_next, contact=system.contact,
                  forcing=system.forcing, sectors=cy.sectors,
-                 dof_names=tuple(system.dof_names), K_next=cy.K_next)
+                 dof_names=tuple(system.dof_names), K_next=cy.K_next, laws=system.laws)
     return full_assembly(sec, cy.engine_order, sparse=False)
 
 

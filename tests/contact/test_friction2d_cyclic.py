@@ -8,7 +8,7 @@ import pytest
 from pipeline.contact.element import YangMenq
 from pipeline.contact.friction2d.law import Friction2D
 from pipeline.contact.laws import LawElements
-from pipeline.model.cyclic import Sector, full_assembly, sector_system
+from pipeline.model.cyclic import Sector, full_assembly, sector_system, wheel_system
 from pipeline.solve.continuation.newton import newton
 from pipeline.solve.harmonic_balance import hbm
 
@@ -48,6 +48,11 @@ def test_sector_equals_full_ring(eo, Om):
     Qf = solve(full_assembly(sec, eo, sparse=False), Om)
     assert np.abs(Q0).max() > 1e-5
     np.testing.assert_allclose(Qf[:2], Q0, atol=1e-9 * np.abs(Q0).max(), rtol=0)
+    # the wheel rebuilt from the sector's System (what the flow-based stability
+    # checks integrate) carries the law too: the same solution
+    Qw = solve(wheel_system(sector_system(sec, eo)), Om)
+    assert len(wheel_system(sector_system(sec, eo)).laws) == 1
+    np.testing.assert_allclose(Qw, Qf, atol=1e-9 * np.abs(Q0).max(), rtol=0)
 
 
 @pytest.mark.parametrize("eo", [0, 1, 2])
