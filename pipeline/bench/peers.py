@@ -7,7 +7,8 @@ programs, never imported: NLvib through `octave` and `peer_scripts/nlvib_example
 (its folder from `--nlvib` or $NLVIB_PATH), pyHarm through an interpreter that has it
 (`--pyharm-python` or $PYHARM_PYTHON) running `peer_scripts/pyharm_example1.py`.  Each
 prints one line `RESULT n points seconds peak omega ...`, its time measured inside
-the tool (start-up excluded); the subprocess's whole wall time is reported too.
+the tool (start-up excluded), the median of as many curves as ours; the subprocess's
+whole wall time is reported too.
 The peak of a peer is its largest point (half peak-to-peak amplitude, as ours); ours
 is located exactly between points (`response.insert_peaks`).
 """
@@ -79,9 +80,10 @@ def external(n, tool, cmd, cwd):
     return row
 
 
-def nlvib_command(nlvib_dir, n):
+def nlvib_command(nlvib_dir, n, repeat=1):
     q = lambda s: str(s).replace("'", "''")  # noqa: E731  Octave string quoting
-    call = f"addpath('{q(SCRIPTS)}'); nlvib_example1('{q(nlvib_dir)}', {n!r}, {NLVIB_DS!r})"
+    call = (f"addpath('{q(SCRIPTS)}'); nlvib_example1('{q(nlvib_dir)}', {n!r}, {NLVIB_DS!r}, "
+            f"1e-9, {int(repeat)})")
     return ["octave", "--no-gui", "--no-window-system", "--quiet", "--eval", call]
 
 
@@ -134,13 +136,14 @@ def table(nlvib_dir=None, pyharm_python=None, loads=LOADS, repeat=3):
             rows += [ours(n, True, repeat), ours(n, True, repeat, dense=False),
                      ours(n, False, repeat), ours(n, False, repeat, PYHARM_SAMPLES)]
             if why["NLvib"] is None:
-                rows.append(external(n, "NLvib", nlvib_command(nlvib_dir, n), tmp))
+                rows.append(external(n, "NLvib", nlvib_command(nlvib_dir, n, repeat), tmp))
             if why["pyHarm"] is None:
-                cmd = [str(pyharm_python), str(SCRIPTS / "pyharm_example1.py"), repr(n)]
+                cmd = [str(pyharm_python), str(SCRIPTS / "pyharm_example1.py"), repr(n),
+                       "--repeat", str(repeat)]
                 rows.append(external(n, "pyHarm", cmd, tmp))
                 if n in PYHARM_FINE_DS:
                     ds = PYHARM_FINE_DS[n]
-                    rows.append(external(n, f"pyHarm ds {ds:g}", cmd + [repr(ds)], tmp))
+                    rows.append(external(n, f"pyHarm ds {ds:g}", cmd[:3] + [repr(ds)], tmp))
             rows += [Row(n, tool, status) for tool, status in why.items() if status]
     return rows
 
@@ -179,7 +182,8 @@ def run(quick=False, nlvib=None, pyharm_python=None):
           f"{PYHARM_SAMPLES} samples); load average {before} (start), "
           f"{load()} (end)")
     print("\n".join(format_rows(rows)))
-    print(f"time: the curve, measured inside each tool (ours: median of {1 if quick else 3}); "
+    print(f"time: the curve, measured inside each tool, the median of {1 if quick else 3} "
+          "(pyHarm with the smaller step: one); "
           "total: the subprocess, start-up included\n"
           "d peak: relative difference of the peak amplitude from ours (Hill on), d rad/s: of "
           "its frequency; time/ours: time over ours (Hill on); cpu: the CPU time of the "

@@ -15,12 +15,14 @@
 % Prints one line
 %   RESULT n points seconds peak_amplitude peak_omega residual_evaluations final_omega cpu=CPU
 % seconds (cputime: CPU): the initial solution and the continuation, measured here (Octave's
-% start-up and the path set-up excluded); amplitude: half peak-to-peak of x(t).
+% start-up and the path set-up excluded), the median of `repeat` runs (default 1);
+% amplitude: half peak-to-peak of x(t).
 %
 % Usage: octave --no-gui --quiet --eval "nlvib_example1('/path/to/NLvib', n)"
-function nlvib_example1(nlvib_dir, n, ds, tol)
+function nlvib_example1(nlvib_dir, n, ds, tol, repeat)
   if nargin < 3, ds = 3; end
   if nargin < 4, tol = 1e-9; end
+  if nargin < 5, repeat = 1; end
   addpath(fullfile(nlvib_dir, 'SRC'));
   addpath(fullfile(nlvib_dir, 'SRC', 'MechanicalSystems'));
   m = 1; c = 0.3; k = 3.55e4; ku = 1e4; mu = 0.5; F0 = 1;
@@ -40,12 +42,17 @@ function nlvib_example1(nlvib_dir, n, ds, tol)
   % NLvib's default solver options (optimset(@fsolve) is MATLAB's) with the tolerance
   Solopt = optimset('Display', 'off', 'Jacobian', 'on', 'MaxIter', 50, ...
                     'TolFun', tol, 'TolX', tol);
-  t0 = tic;
-  c0 = cputime;
-  [X, Solinfo] = solve_and_continue(x0, ...
-      @(X) HB_residual(X, oscillator, H, N, 'frf'), Om_s, Om_e, ds, Sopt, [], Solopt);
-  seconds = toc(t0);
-  cpu = cputime - c0;
+  times = zeros(repeat, 1); cpus = zeros(repeat, 1);
+  for r = 1:repeat
+    t0 = tic;
+    c0 = cputime;
+    [X, Solinfo] = solve_and_continue(x0, ...
+        @(X) HB_residual(X, oscillator, H, N, 'frf'), Om_s, Om_e, ds, Sopt, [], Solopt);
+    times(r) = toc(t0);
+    cpus(r) = cputime - c0;
+  end
+  seconds = median(times);
+  cpu = median(cpus);
 
   % half peak-to-peak amplitude of x(t) at every point, 512 samples per period
   tau = 2 * pi * (0:511)' / 512;

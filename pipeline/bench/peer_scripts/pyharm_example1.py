@@ -2,7 +2,7 @@
 150 -> 250 rad/s, for one normal load n [N].  Run with an interpreter that has
 pyHarm (`pip install pyharm-os`), never with the pipeline's own:
 
-    python pyharm_example1.py N [DS]
+    python pyharm_example1.py N [DS] [--repeat R]
 
     m x'' + c x' + k x + f_J(x) = F0 cos(Om t),
     m = 1 kg, c = 0.3 N s/m, k = 3.55e4 N/m, F0 = 1 N,
@@ -14,8 +14,9 @@ tangent predictor, step ds0 = ds_max = 1, scipy `root` (hybr).  Prints one line
     RESULT n points seconds peak_amplitude peak_omega final_omega cpu=CPU_SECONDS
 
 seconds: building the system and the analysis and solving it, after a warm-up solve
-over 150-151 rad/s in the same process (Numba's cached kernels loaded); the imports
-and interpreter start-up are excluded.  Amplitude: half peak-to-peak of x(t).
+over 150-151 rad/s in the same process (Numba's cached kernels loaded), the median of
+R runs (default 1); the imports and interpreter start-up are excluded.  Amplitude: half
+peak-to-peak of x(t).
 """
 import logging
 import sys
@@ -57,13 +58,21 @@ def solve(n, omega_end=250.0, ds=None):
 
 
 def main(argv):
+    repeat = 1
+    if "--repeat" in argv:
+        k = argv.index("--repeat")
+        repeat, argv = int(argv[k + 1]), argv[:k] + argv[k + 2:]
     n = float(argv[1])
     ds = float(argv[2]) if len(argv) > 2 else None
     logging.disable(logging.INFO)    # pyHarm logs every step at INFO
     solve(n, omega_end=151.0, ds=ds)
-    t, c = time.perf_counter(), time.process_time()
-    om, a = solve(n, ds=ds)
-    seconds, cpu = time.perf_counter() - t, time.process_time() - c
+    times, cpus = [], []
+    for _ in range(repeat):
+        t, c = time.perf_counter(), time.process_time()
+        om, a = solve(n, ds=ds)
+        times.append(time.perf_counter() - t)
+        cpus.append(time.process_time() - c)
+    seconds, cpu = float(np.median(times)), float(np.median(cpus))
     i = int(np.argmax(a))
     print(f"RESULT {n:g} {om.size} {seconds:.6f} {a[i]:.10g} {om[i]:.10g} {om[-1]:.4f} "
           f"cpu={cpu:.6f}")
