@@ -31,6 +31,7 @@ SCRIPTS = Path(__file__).resolve().parent / "peer_scripts"
 LOADS = (1.0, 2.0, 5.0)       # normal loads n [N]
 H, OMEGA = 7, (150.0, 250.0)
 NLVIB_DS = 3.0                # NLvib step with its examples' scaling (peer_scripts/nlvib_example1.m)
+NLVIB_TOL = 1e-9              # fsolve's TolFun = TolX, as NLvib's examples set them
 # pyHarm's default step (1 rad/s here) misses the sharp peak at n = 1 N by a third; a
 # second row with the step that brings it within 0.2 % (ds0 = ds_max)
 PYHARM_FINE_DS = {1.0: 0.06}
@@ -83,7 +84,7 @@ def external(n, tool, cmd, cwd):
 def nlvib_command(nlvib_dir, n, repeat=1):
     q = lambda s: str(s).replace("'", "''")  # noqa: E731  Octave string quoting
     call = (f"addpath('{q(SCRIPTS)}'); nlvib_example1('{q(nlvib_dir)}', {n!r}, {NLVIB_DS!r}, "
-            f"1e-9, {int(repeat)})")
+            f"{NLVIB_TOL!r}, {int(repeat)})")
     return ["octave", "--no-gui", "--no-window-system", "--quiet", "--eval", call]
 
 
@@ -189,7 +190,8 @@ def run(quick=False, nlvib=None, pyharm_python=None):
           "its frequency; time/ours: time over ours (Hill on); cpu: the CPU time of the "
           "curve (its process's), cpu/ours: over ours (Hill on)\n"
           f"NLvib: solve_and_continue, ds = {NLVIB_DS:g}, harmonics scaled by the linear "
-          "response at the start and adapted (dynamicDscale), tolerance 1e-9; pyHarm: FRF "
-          "analysis, default "
+          f"response at the start and adapted (dynamicDscale), tolerance {NLVIB_TOL:g}; "
+          "pyHarm: "
+          "FRF analysis, default "
           "arc-length step (ds: a smaller one); neither computes stability")
     return 0

@@ -64,3 +64,32 @@ def test_parse_result_and_ratios():
     old = peers.parse_result(1.0, "NLvib", "RESULT 1 577 3.5 0.0065 188.44 3671 250.2\n", 4.0)
     assert old.seconds == 3.5 and np.isnan(old.cpu)     # a line without the CPU time
     assert peers.parse_result(1.0, "NLvib", "error", 1.0).status.startswith("failed")
+
+
+def test_every_tool_is_timed_over_the_same_number_of_curves(monkeypatch):
+    """The repeat count reaches NLvib's call and pyHarm's command line (the fine-step
+    pyHarm row stays one curve, as the printed legend says)."""
+    calls = []
+    monkeypatch.setattr(peers, "available", lambda *a: {"NLvib": None, "pyHarm": None})
+    monkeypatch.setattr(peers, "frequency_response", lambda *a, **k: None)
+    monkeypatch.setattr(peers, "ours", lambda n, *a, **k: peers.Row(n, "ours"))
+    monkeypatch.setattr(peers, "external",
+                        lambda n, tool, cmd, cwd: calls.append((n, tool, cmd)) or
+                        peers.Row(n, tool))
+    peers.table("/nlvib", "/pyharm/python", loads=(1.0, 2.0), repeat=3)
+    nlvib = [cmd for _, tool, cmd in calls if tool == "NLvib"]
+    assert len(nlvib) == 2 and all(
+        cmd[-1].endswith(f"{peers.NLVIB_TOL!r}, 3)") for cmd in nlvib)
+    pyharm = [cmd for _, tool, cmd in calls if tool == "pyHarm"]
+    assert len(pyharm) == 2 and all(cmd[-2:] == ["--repeat", "3"] for cmd in pyharm)
+    fine = [cmd for _, tool, cmd in calls if tool.startswith("pyHarm ds")]
+    assert len(fine) == 1 and "--repeat" not in fine[0]
+
+
+@pytest.mark.parametrize("args", [["2.0", "--repeat"], ["2.0", "--repeat", "x"], []])
+def test_the_pyharm_script_refuses_bad_arguments_in_one_line(args):
+    import subprocess
+    p = subprocess.run([sys.executable, str(peers.SCRIPTS / "pyharm_example1.py"), *args],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1
+    assert "Traceback" not in p.stderr

@@ -61,7 +61,14 @@ def main(argv):
     repeat = 1
     if "--repeat" in argv:
         k = argv.index("--repeat")
+        if k + 1 >= len(argv) or not argv[k + 1].isdigit() or int(argv[k + 1]) < 1:
+            print("pyharm_example1.py: --repeat needs a whole number of runs >= 1",
+                  file=sys.stderr)
+            return 2
         repeat, argv = int(argv[k + 1]), argv[:k] + argv[k + 2:]
+    if len(argv) < 2:
+        print("usage: python pyharm_example1.py N [DS] [--repeat R]", file=sys.stderr)
+        return 2
     n = float(argv[1])
     ds = float(argv[2]) if len(argv) > 2 else None
     logging.disable(logging.INFO)    # pyHarm logs every step at INFO
