@@ -203,16 +203,16 @@ def test_one_compiled_variant_for_any_input_layout():
 
 def test_a_second_process_loads_the_compiled_kernels():
     # cache=True: the compiled code is stored on the first compilation (about 11 s
-    # here) and a new process only loads it (about 0.2 s)
+    # here) and a new process only loads it (about 0.2 s): Numba's own count of cache
+    # hits and misses says which, whatever the machine's speed
     import subprocess
     import sys
-    import time
     forces(*mixed_case(0, 2, 1))  # compiled, and cached, by now
     code = ("from pipeline.bench import shroud_like_motions\n"
             "from pipeline.contact import forces\n"
-            "import time; t = time.perf_counter(); forces(*shroud_like_motions(3, 2))\n"
-            "print(time.perf_counter() - t)")
-    t = time.perf_counter()
+            "from pipeline.contact.exact_integrals import forces_all\n"
+            "forces(*shroud_like_motions(3, 2))\n"
+            "s = forces_all.stats\n"
+            "print(sum(s.cache_hits.values()), sum(s.cache_misses.values()))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert float(out.stdout) < 3.0, out.stdout
-    assert time.perf_counter() - t < 10.0
+    assert out.stdout.split() == ["1", "0"], out.stdout    # loaded from the cache, not compiled
