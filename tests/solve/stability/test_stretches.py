@@ -135,13 +135,17 @@ def fe_stretch(fe_curve):
                                c.fold_parameter, c.amplitude)
 
 
-def test_fe_study_figure_draws_stable_solid_and_unstable_dashed(fe_curve, fe_stretch):
+def test_fe_study_figure_draws_stable_solid_and_unstable_dashed(fe_curve):
     """FE blade scenes asked for stability (`stability = true`: "stretch") draw solid
-    (stable) and dashed (unstable) stretches and no dotted one."""
+    (stable) and dashed (unstable) stretches and no dotted one.  The flags drawn are the
+    fold rule's, which equal the stretches' (`test_fe_blade_fold_rule_equals_stretch`)
+    at a tenth of the monodromies: the stretches' own are computed once, in that test."""
     from pipeline.study.figures.plots import pyplot, response_curves_plot
     _, system, c = fe_curve
     assert tiny_blade_study_with_stability().solver.stability == "stretch"
-    bs = fe_stretch
+    bs = sc.branch_stability(hbm.setup(system, 3), c.Q, c.omega, c.omega,
+                             lambda lam: system.contact, c.converged, "folds",
+                             c.fold_parameter, c.amplitude)
     stable = np.where(c.converged, bs.stable.astype(float), np.nan)
     fig = response_curves_plot([("preload = 3 N", c.omega / (2 * np.pi), c.amplitude[:, 0],
                                  stable, c.converged)])
