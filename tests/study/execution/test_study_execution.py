@@ -241,6 +241,8 @@ def test_dataset_of_an_older_version_is_kept_not_overwritten(fast_serial, fast_f
     r = run_cli(fast_file, "--out", tmp_path, "--workers", "1", "--no-figures")
     assert r.returncode == 0, r.stderr
     assert "written by pipeline 0.0.1; kept it as four_preloads.v0.0.1.2.nc" in r.stderr
+    # the progress line whose absence shows a refusal before any case (above)
+    assert r.stderr.count(" done, case ") == N_CASES, r.stderr
     kept = read_dataset(tmp_path / "four_preloads.v0.0.1.2.nc")
     assert kept.attrs["pipeline_version"] == "0.0.1"
     assert garbage.read_bytes() == b"keep me"
