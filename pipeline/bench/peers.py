@@ -9,6 +9,10 @@ programs, never imported: NLvib through `octave` and `peer_scripts/nlvib_example
 prints one line `RESULT n points seconds peak omega ...`, its time measured inside
 the tool (start-up excluded), the median of as many curves as ours; the subprocess's
 whole wall time is reported too.
+A third row, "minimal numpy loop" (`peer_scripts/minimal_example1.py`, run by this
+interpreter), is the floor of a Python design: the same exact forces and Hill at every
+point in a bare pseudo-arclength loop, without this pipeline's checks (resonance
+guard, recomputed residual, round-off floor, dense output, exact peak, folds).
 The peak of a peer is its largest point (half peak-to-peak amplitude, as ours); ours
 is located exactly between points (`response.insert_peaks`).
 """
@@ -17,6 +21,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -37,6 +42,7 @@ NLVIB_TOL = 1e-9              # fsolve's TolFun = TolX, as NLvib's examples set 
 PYHARM_FINE_DS = {1.0: 0.06}
 PYHARM_SAMPLES = 128          # pyHarm's AFT samples a period: ours with AFT at as many
 TIMEOUT = 900.0               # [s] per external curve
+MINIMAL = "minimal numpy loop"  # peer_scripts/minimal_example1.py: the floor of a Python loop
 
 
 @dataclass(frozen=True)
@@ -136,6 +142,8 @@ def table(nlvib_dir=None, pyharm_python=None, loads=LOADS, repeat=3):
         for n in loads:
             rows += [ours(n, True, repeat), ours(n, True, repeat, dense=False),
                      ours(n, False, repeat), ours(n, False, repeat, PYHARM_SAMPLES)]
+            rows.append(external(n, MINIMAL, [sys.executable, str(SCRIPTS / "minimal_example1.py"),
+                                              repr(n), "--repeat", str(repeat)], tmp))
             if why["NLvib"] is None:
                 rows.append(external(n, "NLvib", nlvib_command(nlvib_dir, n, repeat), tmp))
             if why["pyHarm"] is None:
@@ -193,5 +201,7 @@ def run(quick=False, nlvib=None, pyharm_python=None):
           f"response at the start and adapted (dynamicDscale), tolerance {NLVIB_TOL:g}; "
           "pyHarm: "
           "FRF analysis, default "
-          "arc-length step (ds: a smaller one); neither computes stability")
+          "arc-length step (ds: a smaller one); neither computes stability\n"
+          f"{MINIMAL}: this pipeline's exact forces and Hill at every point in a bare "
+          "pseudo-arclength loop, none of its checks (the floor of a Python design)")
     return 0

@@ -33,6 +33,11 @@ def test_bench_peers_prints_our_rows_and_the_missing_peers(no_peers, capsys):
         assert len(path) == 1      # the continuation's points only: fewer, the same exact peak
         assert 20 < int(path[0][5]) < int(ours[0][2])
         assert float(path[0][7]) == pytest.approx(float(ours[0][4]), rel=1e-6)
+        loop = [line.split() for line in out.splitlines()
+                if line.split()[:4] == [n, "minimal", "numpy", "loop"]]
+        assert len(loop) == 1      # the bare loop's largest point: the same peak to 1e-3
+        assert int(loop[0][4]) > 20 and float(loop[0][5]) > 0
+        assert float(loop[0][7]) == pytest.approx(float(ours[0][4]), rel=1e-3)
     for peer in ("NLvib", "pyHarm"):
         assert sum(line.split()[1:4] == [peer, "not", "installed"]
                    for line in out.splitlines()) == 3
