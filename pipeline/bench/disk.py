@@ -95,10 +95,12 @@ def limits(sector_system) -> tuple:
 # table 1: tuned sector
 # ---------------------------------------------------------------------------
 
-def sector_row(sectors: int, H: int, window=(0.8, 1.2), max_points: int = 1000) -> dict:
+def sector_row(sectors: int, H: int, window=(0.8, 1.2), max_points: int = 1000,
+               sweep_points: int | None = None) -> dict:
     """One traced curve of the tuned sector over [window[0] w_open, window[1] w_stuck],
     engine order N / 6: the same interblade phase (60 deg), so the same blade traces
-    the same curve for every N and only the cost of the reduction could differ."""
+    the same curve for every N and only the cost of the reduction could differ; and
+    the fixed-frequency sweep of `sweep_points` (default SWEEP_POINTS) Newton solves."""
     scene = disk_scene(SECTOR_BLADE, sectors, SECTOR_MODES, eo=sectors // SECTOR_PHASE_DIVISOR)
     s = build_system(scene, {"preload": PRELOAD})
     w_open, w_stuck = limits(s)
@@ -119,7 +121,8 @@ def sector_row(sectors: int, H: int, window=(0.8, 1.2), max_points: int = 1000) 
             "cpu_eval": 1e3 * cpu / max(c.nfev, 1),
             "cpu_newton": 1e3 * cpu / max(int(c.info["njev"]), 1),
             "converged": bool(np.all(c.converged)), "success": c.success, "curve": c,
-            "system": s, **sector_sweep(s, H, (window[0] * w_open, window[1] * w_stuck))}
+            "system": s, **sector_sweep(s, H, (window[0] * w_open, window[1] * w_stuck),
+                                        sweep_points or SWEEP_POINTS)}
 
 
 SWEEP_POINTS = 60     # the fixed-frequency sweep of table 1

@@ -21,10 +21,12 @@ def test_bench_disk_hub_radius_keeps_the_shroud_width():
 
 
 def test_bench_disk_sector_table_has_the_same_unknowns_for_every_n():
-    rows = disk.sector_table((6, 12), H=1, max_points=4)
-    keys = ("N", "R", "dofs", "contact_dofs", "points", "s_curve", "ms_point", "ratio")
+    rows = disk.sector_table((6, 12), H=1, max_points=4, sweep_points=3)
+    keys = ("N", "R", "dofs", "contact_dofs", "points", "s_curve", "ms_point", "ratio",
+            "sweep_cpu_point", "ratio_sweep")
     for r in rows:
         assert set(keys) <= set(r) and finite(r, keys) and r["points"] >= 2
+        assert r["sweep_converged"] == 3           # the stepped sine, shortened to 3 points
     assert rows[0]["contact_dofs"] == rows[1]["contact_dofs"] == 90   # 15 pairs x 2 faces x 3
     assert rows[0]["dofs"] == rows[1]["dofs"] and rows[0]["ratio"] == 1.0
 
