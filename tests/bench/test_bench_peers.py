@@ -89,12 +89,15 @@ def test_every_tool_is_timed_over_the_same_number_of_curves(monkeypatch):
     assert len(pyharm) == 2 and all(cmd[-2:] == ["--repeat", "3"] for cmd in pyharm)
     fine = [cmd for _, tool, cmd in calls if tool.startswith("pyHarm ds")]
     assert len(fine) == 1 and "--repeat" not in fine[0]
+    loop = [cmd for _, tool, cmd in calls if tool == peers.MINIMAL]
+    assert len(loop) == 2 and all(cmd[-2:] == ["--repeat", "3"] for cmd in loop)
 
 
+@pytest.mark.parametrize("script", ["pyharm_example1.py", "minimal_example1.py"])
 @pytest.mark.parametrize("args", [["2.0", "--repeat"], ["2.0", "--repeat", "x"], []])
-def test_the_pyharm_script_refuses_bad_arguments_in_one_line(args):
+def test_the_python_scripts_refuse_bad_arguments_in_one_line(script, args):
     import subprocess
-    p = subprocess.run([sys.executable, str(peers.SCRIPTS / "pyharm_example1.py"), *args],
+    p = subprocess.run([sys.executable, str(peers.SCRIPTS / script), *args],
                        capture_output=True, text=True, timeout=60)
     assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1
     assert "Traceback" not in p.stderr
