@@ -108,7 +108,7 @@ def _cmd_optimise(args) -> int:
     from .study.execution.optimum_search import find_optimum
     from .study.execution.cases import default_solver
     from .study.execution.checkpoint import checkpoint_dir
-    from .study.execution.run import sigint_interrupts
+    from .study.execution.run import check_writable, sigint_interrupts
     from .study.execution.search_checkpoint import search_file
 
     study = load_study(args.study, quick=args.quick)
@@ -121,6 +121,7 @@ def _cmd_optimise(args) -> int:
     if study.output.optimum is None:
         raise UsageError(f"{args.study}: output.optimum_preload: missing: give dof and "
                          "bounds = [low, high] (N) for the search")
+    check_writable(args.study, Path(args.out), study.name, dataset=False)   # its figure
     # the evaluations are kept as they come (with `run`'s cases of the same study):
     # a rerun after Ctrl-C resumes the search
     cdir = checkpoint_dir(study, args.out, default_solver(study))

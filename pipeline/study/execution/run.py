@@ -62,9 +62,12 @@ def configure_run_parser(r):
     r.set_defaults(func=cmd_run)
 
 
-def check_writable(file, out: Path):
-    """UsageError unless `out` is (or can be made) a directory we can write in,
-    checked before any computing."""
+def check_writable(file, out: Path, name: str | None = None, figures: bool = True,
+                   dataset: bool = True):
+    """UsageError unless `out` is (or can be made) a directory we can write in and,
+    for the study `name`, its dataset `out/<name>.nc` can be a file (`dataset`) and its
+    figures' folder `out/<name>/` a folder (`figures`): checked before any computing,
+    so that a blocked path never costs a run nor leaves a dataset without its figures."""
     import os
     import tempfile
 
@@ -78,6 +81,14 @@ def check_writable(file, out: Path):
     except OSError as exc:
         raise UsageError(f"{file}: --out: {out} is not writable "
                          f"({exc.strerror or type(exc).__name__})") from None
+    if name is None:
+        return
+    nc, folder = out / f"{name}.nc", out / name
+    if dataset and nc.exists() and not nc.is_file():
+        raise UsageError(f"{file}: --out: {nc} (the dataset) exists and is not a file")
+    if figures and folder.exists() and not folder.is_dir():
+        raise UsageError(f"{file}: --out: {folder} (the figures' folder) exists and is not "
+                         "a directory")
 
 
 class sigint_interrupts:
@@ -143,7 +154,7 @@ def cmd_run(args) -> int:
         if workers < 1:
             raise UsageError(f"{args.study}: --workers: must be >= 1, got {workers}")
         out = Path(getattr(args, "out", "results"))
-        check_writable(args.study, out)
+        check_writable(args.study, out, study.name, getattr(args, "figures", True))
         scheduler = getattr(args, "scheduler", None)
         if scheduler:
             try:

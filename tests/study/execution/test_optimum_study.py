@@ -117,6 +117,25 @@ def test_a_run_interrupted_in_the_search_resumes_it(study, uninterrupted, tmp_pa
     assert not checkpoint_dir(study, tmp_path, real).exists()
 
 
+@pytest.mark.parametrize("taken", [False, True], ids=["out-unwritable", "figures-folder-a-file"])
+def test_optimise_refuses_an_unwritable_out_before_searching(tmp_path, taken):
+    """`python -m pipeline optimise` checks where its figure goes before the search:
+    one line, exit 2, no evaluation."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "out" if taken else Path("/proc/pipeline-out")
+    if taken:
+        out.mkdir()
+        (out / "paper_example1").write_text("not a folder")
+    p = subprocess.run([sys.executable, "-m", "pipeline", "optimise",
+                        str(ROOT / "studies" / "paper_example1.toml"), "--quick", "--out",
+                        str(out)], capture_output=True, text=True, timeout=300)
+    lines = [ln for ln in p.stderr.splitlines() if ln.startswith("error:")]
+    assert p.returncode == 2 and len(lines) == 1 and "--out: " in lines[0], p.stderr
+    assert "optimum search" not in p.stderr + p.stdout and "Traceback" not in p.stderr
+
+
 def test_optimise_interrupted_resumes_on_rerun(tmp_path):
     """`python -m pipeline optimise`: SIGINT once the search has kept an evaluation
     exits 130 saying where they are kept; the rerun reuses them (its line says how

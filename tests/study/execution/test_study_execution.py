@@ -189,16 +189,30 @@ def run_cli(*args):
                           capture_output=True, text=True, env=env, timeout=300)
 
 
-@pytest.mark.parametrize("where", ["/proc/pipeline-out", "file"], ids=["read-only-fs", "a-file"])
+@pytest.mark.parametrize("where", ["/proc/pipeline-out", "file", "figures", "dataset"],
+                         ids=["read-only-fs", "a-file", "figures-folder-a-file",
+                              "dataset-a-folder"])
 def test_unwritable_output_directory_fails_before_computing(study_file, tmp_path, where):
+    """--out itself, or the study's figures' folder out/<name>/ or dataset
+    out/<name>.nc taken by the wrong kind of entry: refused in one line, nothing run
+    nor written."""
     out = Path(where) if where.startswith("/") else tmp_path / "taken"
     if where == "file":
         out.write_text("not a directory")
+    elif where == "figures":
+        out.mkdir()
+        (out / "four_preloads").write_text("not the figures' folder")
+    elif where == "dataset":
+        (out / "four_preloads.nc").mkdir(parents=True)
     r = run_cli(study_file, "--out", out, "--workers", "1")
     assert r.returncode == 2 and "Traceback" not in r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.startswith("error:")]
     assert len(lines) == 1 and f"{study_file}: --out: " in lines[0], r.stderr
     assert " done, case " not in r.stderr, r.stderr   # refused up front, before any case
+    if where in ("figures", "dataset"):   # what was there is left as it was, nothing added
+        assert sorted(p.name for p in out.iterdir()) == ["four_preloads" if where == "figures"
+                                                         else "four_preloads.nc"]
+        assert (out / "four_preloads.nc").is_dir() == (where == "dataset")
 
 
 def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(fast_serial, fast_file,
