@@ -201,11 +201,12 @@ def _bordered(J, dR):
 
 def modes_in_range(system, fr) -> int:
     """m: natural frequencies of `system`, contacts open and stuck (counted apart), in
-    the frequency range `fr` (the lowest 200 of each)."""
+    the frequency range `fr` (the lowest 200 of each), traced up or down."""
     from ...model.system import lowest_frequencies
 
     w = np.concatenate([lowest_frequencies(system, c, 200) for c in ("open", "stuck")])
-    return int(np.sum((w >= fr.omega_start) & (w <= fr.omega_stop)))
+    lo, hi = sorted((fr.omega_start, fr.omega_stop))
+    return int(np.sum((w >= lo) & (w <= hi)))
 
 
 def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Estimate:

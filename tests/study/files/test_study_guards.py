@@ -280,3 +280,18 @@ def test_check_reports_the_model_the_run_builds():
             "Craig-Bampton 96 boundary DOFs + 20 modes = 116 DOFs per sector") in text, text
     # 2 faces x 15 nodes x 3 components = 90 contact DOFs, x (2H + 1) = 3 at H = 1
     assert "of 270 unknowns, timed now on this model" in text, text
+
+
+def test_check_counts_the_resonances_of_a_range_traced_downwards():
+    """Example 1 traced 250 -> 150 rad/s has the same two natural frequencies in its
+    range (open 188.4, stuck 213.3 rad/s) as 150 -> 250, hence the same estimate."""
+    from dataclasses import replace
+
+    from pipeline.study.execution.cost import modes_in_range
+    from pipeline.study.files.documents import load_study
+
+    study = load_study(STUDIES / "paper_example1.toml")
+    fr = study.sweep.frequency
+    system = study.system(study.sweep.cases()[0][1])
+    down = replace(fr, start=fr.stop, stop=fr.start)
+    assert modes_in_range(system, fr) == modes_in_range(system, down) == 2
