@@ -19,8 +19,9 @@ from .spec import Study
 def load_study(path, quick: bool = False) -> Study:
     """Read, parse and validate a study file (UsageError on any problem).
 
-    Both the full study and its `[quick]` variant are validated; `quick` selects
-    which one is returned.
+    `quick` selects the variant: the full study (its `[quick]` table not read, so that
+    a full run never depends on it; `check` says so) or the `[quick]` variant, its
+    tables merged over the full study's and the result validated.
     """
     path = Path(path)
     file = str(path)
