@@ -95,9 +95,10 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
         f"ms each (residual + Jacobian {tm.t_residual * 1e3:.3g} ms and Newton solve "
         f"{tm.t_solve * 1e3:.3g} ms of {tm.unknowns} unknowns, timed now on this model, "
         f"{e.pairs[0]:g}-{e.pairs[1]:g} times a point, plus bookkeeping and stability {study.solver.stability or 'off'}) = "
-        f"{time_range(*e.case)} per case; model build and reduction {seconds(tm.setup)}; this "
-        f"machine {tm.slowdown:.2g}x slower than an idle core now; "
+        f"{time_range(*e.case)} per case; model build and reduction {seconds(tm.setup)}; one "
+        f"thread here {tm.slowdown:.2g}x as slow as on an idle core now; "
         "calibrated on the shipped studies (bench estimate), compiled kernels cached; a "
+        "fresh process adds 2-5 s of start-up (imports, the first figure); a "
         "curve with many more folds costs more")
     return lines
 
