@@ -190,6 +190,9 @@ def run(quick=False, nlvib=None, pyharm_python=None):
           f"AFT at pyHarm's {PYHARM_SAMPLES} samples), NLvib and pyHarm (AFT, "
           f"{PYHARM_SAMPLES} samples); load average {before} (start), "
           f"{load()} (end)")
+    if quick:
+        print("--quick: one curve per tool, so the ratios swing with the machine's load "
+              "(without --quick: the median of 3)")
     print("\n".join(format_rows(rows)))
     print(f"time: the curve, measured inside each tool, the median of {1 if quick else 3} "
           "(pyHarm with the smaller step: one); "
