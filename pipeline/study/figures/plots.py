@@ -88,7 +88,7 @@ def hysteresis_figure(path, mu=0.4, ku=1.0, kv=1.0, n0=1.0, U=None, V=None, n_po
     h = history(U, V, elem, tau)
     st, fu, fv, u = h["state"][0], h["fu"][0], h["fv"][0], h["u"][0]
     plt = pyplot()
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.6))
     for s, name in STATE_NAMES.items():
         m = np.where(st == s, 1.0, np.nan)
         a1.plot(tau, fu * m, color=STATE_COLOURS[s], lw=2.2, label=name)
@@ -102,12 +102,14 @@ def hysteresis_figure(path, mu=0.4, ku=1.0, kv=1.0, n0=1.0, U=None, V=None, n_po
            title="Friction force over one period (paper Fig. 5a)")
     a2.set(xlabel="tangential displacement $u$ [m]", ylabel="friction force $f_u$ [N]",
            title="Hysteresis loop (paper Fig. 5b)")
-    a1.legend(fontsize=8, loc="lower left")
-    a2.legend(fontsize=8)
     for a in (a1, a2):
         a.grid(alpha=0.3)
     wrapped_title(fig, f"Yang-Menq element: mu = {mu}, ku = {ku} N/m, kv = {kv} N/m, n0 = {n0} N",
                   fontsize=12)
+    # one legend for both panels, below them: inside it would hide curves of some motion
+    fig.legend(*a1.get_legend_handles_labels(), loc="lower center", ncol=6, fontsize=8,
+               frameon=False)
+    fig.subplots_adjust(bottom=0.2)
     out = atomic_savefig(fig, path)
     plt.close(fig)
     return out
