@@ -62,12 +62,12 @@ def configure_run_parser(r):
     r.set_defaults(func=cmd_run)
 
 
-def check_writable(file, out: Path, name: str | None = None, figures: bool = True,
-                   dataset: bool = True):
+def check_writable(file, out: Path, name: str | None = None, dataset: bool = True):
     """UsageError unless `out` is (or can be made) a directory we can write in and,
     for the study `name`, its dataset `out/<name>.nc` can be a file (`dataset`) and its
-    figures' folder `out/<name>/` a folder (`figures`): checked before any computing,
-    so that a blocked path never costs a run nor leaves a dataset without its figures."""
+    folder `out/<name>/` (figures, mode shapes, tables: some kinds write there even
+    without figures) a folder, not a file nor a broken link: checked before any
+    computing, so that a blocked path never costs a run nor leaves a dataset alone."""
     import os
     import tempfile
 
@@ -86,9 +86,10 @@ def check_writable(file, out: Path, name: str | None = None, figures: bool = Tru
     nc, folder = out / f"{name}.nc", out / name
     if dataset and nc.exists() and not nc.is_file():
         raise UsageError(f"{file}: --out: {nc} (the dataset) exists and is not a file")
-    if figures and folder.exists() and not folder.is_dir():
-        raise UsageError(f"{file}: --out: {folder} (the figures' folder) exists and is not "
-                         "a directory")
+    if os.path.lexists(folder) and not folder.is_dir():
+        raise UsageError(f"{file}: --out: {folder} (the study's folder of figures) exists and "
+                         "is not a directory" + (" (a broken link)" if folder.is_symlink()
+                                                 and not folder.exists() else ""))
 
 
 class sigint_interrupts:
@@ -154,7 +155,7 @@ def cmd_run(args) -> int:
         if workers < 1:
             raise UsageError(f"{args.study}: --workers: must be >= 1, got {workers}")
         out = Path(getattr(args, "out", "results"))
-        check_writable(args.study, out, study.name, getattr(args, "figures", True))
+        check_writable(args.study, out, study.name)
         scheduler = getattr(args, "scheduler", None)
         if scheduler:
             try:

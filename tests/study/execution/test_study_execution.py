@@ -189,19 +189,23 @@ def run_cli(*args):
                           capture_output=True, text=True, env=env, timeout=300)
 
 
-@pytest.mark.parametrize("where", ["/proc/pipeline-out", "file", "figures", "dataset"],
+@pytest.mark.parametrize("where", ["/proc/pipeline-out", "file", "figures", "link",
+                                   "dataset"],
                          ids=["read-only-fs", "a-file", "figures-folder-a-file",
-                              "dataset-a-folder"])
+                              "figures-folder-a-broken-link", "dataset-a-folder"])
 def test_unwritable_output_directory_fails_before_computing(study_file, tmp_path, where):
-    """--out itself, or the study's figures' folder out/<name>/ or dataset
-    out/<name>.nc taken by the wrong kind of entry: refused in one line, nothing run
-    nor written."""
+    """--out itself, or the study's folder out/<name>/ (a file, a broken link) or
+    dataset out/<name>.nc (a folder) taken by the wrong kind of entry: refused in one
+    line, nothing run nor written."""
     out = Path(where) if where.startswith("/") else tmp_path / "taken"
     if where == "file":
         out.write_text("not a directory")
-    elif where == "figures":
+    elif where in ("figures", "link"):
         out.mkdir()
-        (out / "four_preloads").write_text("not the figures' folder")
+        if where == "figures":
+            (out / "four_preloads").write_text("not the figures' folder")
+        else:
+            (out / "four_preloads").symlink_to(tmp_path / "nowhere" / "x")
     elif where == "dataset":
         (out / "four_preloads.nc").mkdir(parents=True)
     r = run_cli(study_file, "--out", out, "--workers", "1")
@@ -209,10 +213,22 @@ def test_unwritable_output_directory_fails_before_computing(study_file, tmp_path
     lines = [ln for ln in r.stderr.splitlines() if ln.startswith("error:")]
     assert len(lines) == 1 and f"{study_file}: --out: " in lines[0], r.stderr
     assert " done, case " not in r.stderr, r.stderr   # refused up front, before any case
-    if where in ("figures", "dataset"):   # what was there is left as it was, nothing added
-        assert sorted(p.name for p in out.iterdir()) == ["four_preloads" if where == "figures"
-                                                         else "four_preloads.nc"]
+    if where != "/proc/pipeline-out" and where != "file":   # left as it was, nothing added
+        assert sorted(p.name for p in out.iterdir()) == ["four_preloads.nc" if where == "dataset"
+                                                         else "four_preloads"]
         assert (out / "four_preloads.nc").is_dir() == (where == "dataset")
+
+
+def test_a_modes_study_without_figures_still_needs_its_folder(tmp_path):
+    """`--no-figures` does not free out/<name>/: a modes study writes its mode shapes
+    there anyway, so a file in its place is refused before computing."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "blade_modes").write_text("not a folder")
+    r = run_cli(ROOT / "studies" / "blade_modes.toml", "--quick", "--no-figures", "--out", out)
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith("error:")]
+    assert r.returncode == 2 and len(lines) == 1 and "--out: " in lines[0], r.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["blade_modes"]
 
 
 def test_disk_full_keeps_the_old_dataset_and_the_finished_cases(fast_serial, fast_file,
