@@ -94,7 +94,8 @@ def test_every_tool_is_timed_over_the_same_number_of_curves(monkeypatch):
 
 
 @pytest.mark.parametrize("script", ["pyharm_example1.py", "minimal_example1.py"])
-@pytest.mark.parametrize("args", [["2.0", "--repeat"], ["2.0", "--repeat", "x"], []])
+@pytest.mark.parametrize("args", [["2.0", "--repeat"], ["2.0", "--repeat", "x"], [],
+                                  ["two"]])
 def test_the_python_scripts_refuse_bad_arguments_in_one_line(script, args):
     import subprocess
     p = subprocess.run([sys.executable, str(peers.SCRIPTS / script), *args],

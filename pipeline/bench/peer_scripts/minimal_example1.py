@@ -19,7 +19,8 @@ output, the peak the largest point (no exact location), no fold handling.  Print
     RESULT n points seconds peak_amplitude peak_omega residual_evaluations final_omega cpu=CPU
 
 seconds (CPU: cpu=): the curve after a warm-up in the same process, the median of R
-runs (default 1); amplitude: half peak-to-peak of x(t) at 512 samples a period.
+runs (default 1); amplitude: half peak-to-peak of x(t) at 512 samples a period.  A
+curve that stops short of 250 rad/s prints no RESULT (exit 1).
 """
 import os
 import sys
@@ -76,6 +77,8 @@ def curve(n):
         if np.linalg.norm(R) <= TOL:
             break
         x[:NH] -= np.linalg.solve(dR[:, :NH], R)
+    else:
+        raise ArithmeticError("the first point did not converge")
     e = np.eye(NH + 1)[NH]
     scale = np.append(np.full(NH, np.abs(x[:NH]).max()), OMEGA[1] - OMEGA[0])
     t = np.linalg.solve(np.vstack([dR * scale, e]), e)
@@ -127,7 +130,12 @@ def main(argv):
     if len(argv) != 2:
         print("usage: python minimal_example1.py N [--repeat R]", file=sys.stderr)
         return 2
-    n = float(argv[1])
+    try:
+        n = float(argv[1])
+    except ValueError:
+        print(f"minimal_example1.py: N must be a normal load in newtons, got {argv[1]!r}",
+              file=sys.stderr)
+        return 2
     curve(n)                                          # warm-up: kernels loaded
     times, cpus = [], []
     for _ in range(repeat):
@@ -135,6 +143,10 @@ def main(argv):
         points, _, nfev = curve(n)
         times.append(time.perf_counter() - t)
         cpus.append(time.process_time() - c)
+    if points[-1, NH] < OMEGA[1]:   # a partial curve is no result to time
+        print(f"minimal_example1.py: the curve stopped at {points[-1, NH]:.4f} rad/s, short "
+              f"of {OMEGA[1]:g}", file=sys.stderr)
+        return 1
     a = amplitude(points)
     i = int(np.argmax(a))
     print(f"RESULT {n:g} {len(points)} {np.median(times):.6f} {a[i]:.10g} "

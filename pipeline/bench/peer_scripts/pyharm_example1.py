@@ -69,8 +69,13 @@ def main(argv):
     if len(argv) < 2:
         print("usage: python pyharm_example1.py N [DS] [--repeat R]", file=sys.stderr)
         return 2
-    n = float(argv[1])
-    ds = float(argv[2]) if len(argv) > 2 else None
+    try:
+        n = float(argv[1])
+        ds = float(argv[2]) if len(argv) > 2 else None
+    except ValueError:
+        print(f"pyharm_example1.py: N and DS must be numbers, got {' '.join(argv[1:3])!r}",
+              file=sys.stderr)
+        return 2
     logging.disable(logging.INFO)    # pyHarm logs every step at INFO
     solve(n, omega_end=151.0, ds=ds)
     times, cpus = [], []
