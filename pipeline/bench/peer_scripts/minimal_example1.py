@@ -119,23 +119,12 @@ def amplitude(points):
 
 
 def main(argv):
-    repeat = 1
-    if "--repeat" in argv:
-        k = argv.index("--repeat")
-        if k + 1 >= len(argv) or not argv[k + 1].isdigit() or int(argv[k + 1]) < 1:
-            print("minimal_example1.py: --repeat needs a whole number of runs >= 1",
-                  file=sys.stderr)
-            return 2
-        repeat, argv = int(argv[k + 1]), argv[:k] + argv[k + 2:]
-    if len(argv) != 2:
-        print("usage: python minimal_example1.py N [--repeat R]", file=sys.stderr)
+    from script_args import arguments   # beside this script
+
+    parsed = arguments(argv, "N [--repeat R]", 1)
+    if parsed is None:
         return 2
-    try:
-        n = float(argv[1])
-    except ValueError:
-        print(f"minimal_example1.py: N must be a normal load in newtons, got {argv[1]!r}",
-              file=sys.stderr)
-        return 2
+    repeat, (n,) = parsed
     curve(n)                                          # warm-up: kernels loaded
     times, cpus = [], []
     for _ in range(repeat):

@@ -58,24 +58,13 @@ def solve(n, omega_end=250.0, ds=None):
 
 
 def main(argv):
-    repeat = 1
-    if "--repeat" in argv:
-        k = argv.index("--repeat")
-        if k + 1 >= len(argv) or not argv[k + 1].isdigit() or int(argv[k + 1]) < 1:
-            print("pyharm_example1.py: --repeat needs a whole number of runs >= 1",
-                  file=sys.stderr)
-            return 2
-        repeat, argv = int(argv[k + 1]), argv[:k] + argv[k + 2:]
-    if len(argv) < 2:
-        print("usage: python pyharm_example1.py N [DS] [--repeat R]", file=sys.stderr)
+    from script_args import arguments   # beside this script (no pipeline in pyHarm's venv)
+
+    parsed = arguments(argv, "N [DS] [--repeat R]", 2)
+    if parsed is None:
         return 2
-    try:
-        n = float(argv[1])
-        ds = float(argv[2]) if len(argv) > 2 else None
-    except ValueError:
-        print(f"pyharm_example1.py: N and DS must be numbers, got {' '.join(argv[1:3])!r}",
-              file=sys.stderr)
-        return 2
+    repeat, (n, *rest) = parsed
+    ds = rest[0] if rest else None
     logging.disable(logging.INFO)    # pyHarm logs every step at INFO
     solve(n, omega_end=151.0, ds=ds)
     times, cpus = [], []
