@@ -74,17 +74,24 @@ def states(scene: Scene) -> tuple:
     return tuple(STATES) + ((STATIC,) if pressed else ())
 
 
-def frequencies_at(scene: Scene, speed: float, nodal_diameters, n_frequencies: int,
-                   state: str) -> np.ndarray:
-    """(len(nodal_diameters), n_frequencies) natural frequencies [Hz] at `speed` [rpm]
-    with the contacts `state`: "open", "stuck" (every pair), or "static" (the pairs the
-    unilateral static contact solution at ND 0 closes, `static_load.static_contact`,
-    stuck; the others open)."""
+def speed_sector(scene: Scene, speed: float):
+    """The cyclic sector of `scene` turning at `speed` [rpm] (Craig-Bampton reduced at
+    that speed), the contact states not yet chosen."""
     case = {} if all(getattr(c, "n0", None) is not None or getattr(c, "interference", None)
                      is not None for c in scene.contacts) else {"preload": 0.0}  # n0 unused
     if speed:
         case["speed"] = float(speed)
-    sec = sector(scene, case)
+    return sector(scene, case)
+
+
+def frequencies_at(scene: Scene, speed: float, nodal_diameters, n_frequencies: int,
+                   state: str, sec=None) -> np.ndarray:
+    """(len(nodal_diameters), n_frequencies) natural frequencies [Hz] at `speed` [rpm]
+    with the contacts `state`: "open", "stuck" (every pair), or "static" (the pairs the
+    unilateral static contact solution at ND 0 closes, `static_load.static_contact`,
+    stuck; the others open).  `sec`: the `speed_sector` at that speed when already
+    built (the states share it)."""
+    sec = speed_sector(scene, speed) if sec is None else sec
     limit = STATES.get(state, "small")
     if state == STATIC:
         closed = static_contact(sector_system(sec, 0))[1]
@@ -93,9 +100,12 @@ def frequencies_at(scene: Scene, speed: float, nodal_diameters, n_frequencies: i
                      for nd in nodal_diameters]) / (2 * np.pi)
 
 
-def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders) -> list:
+def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders,
+              sectors=None) -> list:
     """Every (engine order, nodal diameter, mode, state, speed [rpm], frequency [Hz])
-    where f_k(ND, s) = EO s / 60, located by `brentq` inside each bracket of the grid."""
+    where f_k(ND, s) = EO s / 60, located by `brentq` inside each bracket of the grid
+    (`sectors`: {grid speed: `speed_sector`}, reused where Brent evaluates a bracket's ends)."""
+    sectors = {} if sectors is None else sectors
     N = scene.assembly.sectors
     s = np.asarray(speeds)
     found = []
@@ -112,7 +122,8 @@ def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders)
                         continue                 # a root on a grid speed: counted once
 
                     def gap(x, k=k, state=state, eo=eo, nd=nd):
-                        return frequencies_at(scene, x, [nd], k + 1, state)[0, k] - eo * x / 60
+                        return frequencies_at(scene, x, [nd], k + 1, state,
+                                              sectors.get(x))[0, k] - eo * x / 60
 
                     root = s[i] if g[i] == 0.0 else s[i + 1] if g[i + 1] == 0.0 else brentq(
                         gap, s[i], s[i + 1], xtol=XTOL * s[-1], rtol=4 * np.finfo(float).eps)
@@ -123,7 +134,9 @@ def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders)
 def campbell(scene: Scene, speeds, nodal_diameters, n_frequencies: int, engine_orders) -> dict:
     """{"open", "stuck"[, "static"]}: (speed, nodal diameter, mode) natural frequencies
     [Hz] (`states`); "crossings": the list of `crossings`."""
-    freqs = {state: np.array([frequencies_at(scene, v, nodal_diameters, n_frequencies, state)
-                              for v in speeds]) for state in states(scene)}
-    freqs["crossings"] = crossings(scene, speeds, nodal_diameters, freqs, engine_orders)
+    sectors = {float(v): speed_sector(scene, v) for v in speeds}   # one reduction a speed
+    freqs = {state: np.array([frequencies_at(scene, v, nodal_diameters, n_frequencies, state,
+                                             sectors[float(v)]) for v in speeds])
+             for state in states(scene)}
+    freqs["crossings"] = crossings(scene, speeds, nodal_diameters, freqs, engine_orders, sectors)
     return freqs
