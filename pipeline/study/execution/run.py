@@ -62,12 +62,17 @@ def configure_run_parser(r):
     r.set_defaults(func=cmd_run)
 
 
+WRITTEN = (".png", ".vtu", ".md")   # the suffixes of what a run writes in out/<name>/
+
+
 def check_writable(file, out: Path, name: str | None = None, dataset: bool = True):
     """UsageError unless `out` is (or can be made) a directory we can write in and,
     for the study `name`, its dataset `out/<name>.nc` can be a file (`dataset`) and its
     folder `out/<name>/` (figures, mode shapes, tables: some kinds write there even
     without figures) a folder, not a file nor a broken link: checked before any
-    computing, so that a blocked path never costs a run nor leaves a dataset alone."""
+    computing, so that a blocked path never costs a run nor leaves a dataset alone.
+    Inside that folder an entry named like the files a run writes there (`WRITTEN`:
+    figures, mode shapes, tables) that is a folder or a broken link is refused too."""
     import os
     import tempfile
 
@@ -90,6 +95,10 @@ def check_writable(file, out: Path, name: str | None = None, dataset: bool = Tru
         raise UsageError(f"{file}: --out: {folder} (the study's folder of figures) exists and "
                          "is not a directory" + (" (a broken link)" if folder.is_symlink()
                                                  and not folder.exists() else ""))
+    taken = sorted(p.name for p in folder.iterdir() if p.suffix in WRITTEN and (
+        p.is_dir() or not p.exists())) if folder.is_dir() else []
+    if taken:   # a figure, mode shapes or table of ours would go there
+        raise UsageError(f"{file}: --out: {folder / taken[0]} exists and is not a file")
 
 
 class sigint_interrupts:

@@ -190,13 +190,14 @@ def run_cli(*args):
 
 
 @pytest.mark.parametrize("where", ["/proc/pipeline-out", "file", "figures", "link",
-                                   "dataset"],
+                                   "dataset", "figure"],
                          ids=["read-only-fs", "a-file", "figures-folder-a-file",
-                              "figures-folder-a-broken-link", "dataset-a-folder"])
+                              "figures-folder-a-broken-link", "dataset-a-folder",
+                              "a-figure-a-folder"])
 def test_unwritable_output_directory_fails_before_computing(study_file, tmp_path, where):
-    """--out itself, or the study's folder out/<name>/ (a file, a broken link) or
-    dataset out/<name>.nc (a folder) taken by the wrong kind of entry: refused in one
-    line, nothing run nor written."""
+    """--out itself, or the study's folder out/<name>/ (a file, a broken link),
+    dataset out/<name>.nc (a folder) or a figure's file in out/<name>/ (a folder)
+    taken by the wrong kind of entry: refused in one line, nothing run nor written."""
     out = Path(where) if where.startswith("/") else tmp_path / "taken"
     if where == "file":
         out.write_text("not a directory")
@@ -208,6 +209,8 @@ def test_unwritable_output_directory_fails_before_computing(study_file, tmp_path
             (out / "four_preloads").symlink_to(tmp_path / "nowhere" / "x")
     elif where == "dataset":
         (out / "four_preloads.nc").mkdir(parents=True)
+    elif where == "figure":
+        (out / "four_preloads" / "amplitude_x.png").mkdir(parents=True)
     r = run_cli(study_file, "--out", out, "--workers", "1")
     assert r.returncode == 2 and "Traceback" not in r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.startswith("error:")]
@@ -217,6 +220,9 @@ def test_unwritable_output_directory_fails_before_computing(study_file, tmp_path
         assert sorted(p.name for p in out.iterdir()) == ["four_preloads.nc" if where == "dataset"
                                                          else "four_preloads"]
         assert (out / "four_preloads.nc").is_dir() == (where == "dataset")
+    if where == "figure":
+        assert "four_preloads/amplitude_x.png exists and is not a file" in lines[0]
+        assert [p.name for p in (out / "four_preloads").iterdir()] == ["amplitude_x.png"]
 
 
 def test_a_modes_study_without_figures_still_needs_its_folder(tmp_path):
