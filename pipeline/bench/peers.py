@@ -42,6 +42,7 @@ NLVIB_TOL = 1e-9              # fsolve's TolFun = TolX, as NLvib's examples set 
 PYHARM_FINE_DS = {1.0: 0.06}
 PYHARM_SAMPLES = 128          # pyHarm's AFT samples a period: ours with AFT at as many
 TIMEOUT = 900.0               # [s] per external curve
+END_GAP = 1e-3               # a curve ending below OMEGA[1] (1 - END_GAP) stopped short
 MINIMAL = "minimal numpy loop"  # peer_scripts/minimal_example1.py: the floor of a Python loop
 
 
@@ -61,11 +62,17 @@ class Row:
 
 
 def parse_result(n, tool, stdout, total):
-    """The Row of a peer's `RESULT n points seconds peak omega ... cpu=CPU` line."""
+    """The Row of a peer's `RESULT n points seconds peak omega ... final cpu=CPU` line;
+    a curve whose last frequency (`final`, the last field before the CPU time) stops
+    short of the band's end is a failed row, never timed as a whole curve."""
     for line in stdout.splitlines():
         if line.startswith("RESULT "):
             f = line.split()
             cpu = [float(x[4:]) for x in f if x.startswith("cpu=")]
+            rest = [x for x in f if not x.startswith("cpu=")]
+            if len(rest) > 6 and float(rest[-1]) < OMEGA[1] * (1 - END_GAP):
+                return Row(n, tool, status=f"failed: stopped at {float(rest[-1]):.2f} rad/s, "
+                           f"short of {OMEGA[1]:g}")
             return Row(n, tool, points=int(f[2]), seconds=float(f[3]), total=total,
                        peak=float(f[4]), peak_omega=float(f[5]),
                        cpu=cpu[0] if cpu else float("nan"))

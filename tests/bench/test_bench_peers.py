@@ -69,6 +69,11 @@ def test_parse_result_and_ratios():
     old = peers.parse_result(1.0, "NLvib", "RESULT 1 577 3.5 0.0065 188.44 3671 250.2\n", 4.0)
     assert old.seconds == 3.5 and np.isnan(old.cpu)     # a line without the CPU time
     assert peers.parse_result(1.0, "NLvib", "error", 1.0).status.startswith("failed")
+    # a curve that stopped before the band's end (250 rad/s) is not timed as a curve
+    short = peers.parse_result(1.0, "pyHarm", "RESULT 1 60 0.4 0.0065 188.4 201.5 cpu=0.4\n", 3.0)
+    assert short.status == "failed: stopped at 201.50 rad/s, short of 250" and short.points == 0
+    end = peers.parse_result(1.0, "pyHarm", "RESULT 1 110 0.7 0.0063 188.4 249.9 cpu=0.7\n", 3.0)
+    assert end.status == "ok" and end.points == 110
 
 
 def test_every_tool_is_timed_over_the_same_number_of_curves(monkeypatch):
