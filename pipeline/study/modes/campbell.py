@@ -21,6 +21,10 @@ over (two roots between two speeds) is not seen -- refine the grid to find it.
 """
 from __future__ import annotations
 
+import logging
+import time
+from contextlib import contextmanager
+
 import numpy as np
 from scipy.optimize import brentq
 
@@ -36,6 +40,10 @@ STATES = {"open": "open", "stuck": "tied"}   # dataset name -> natural_frequenci
 STATIC = "static"     # with an interference: the pairs the static contact solution closes
 MAX_SPEEDS = 400
 XTOL = 1e-9            # of the largest speed
+REDUCTION_LOG = "pipeline.structure.reduction"   # one line a reduction: quiet here
+PROGRESS = 5.0         # [s] between progress lines
+
+log = logging.getLogger(__name__)
 
 
 def parse_speeds(ck, modes: dict, where) -> tuple:
@@ -133,10 +141,35 @@ def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders,
 
 def campbell(scene: Scene, speeds, nodal_diameters, n_frequencies: int, engine_orders) -> dict:
     """{"open", "stuck"[, "static"]}: (speed, nodal diameter, mode) natural frequencies
-    [Hz] (`states`); "crossings": the list of `crossings`."""
-    sectors = {float(v): speed_sector(scene, v) for v in speeds}   # one reduction a speed
-    freqs = {state: np.array([frequencies_at(scene, v, nodal_diameters, n_frequencies, state,
-                                             sectors[float(v)]) for v in speeds])
-             for state in states(scene)}
-    freqs["crossings"] = crossings(scene, speeds, nodal_diameters, freqs, engine_orders, sectors)
+    [Hz] (`states`); "crossings": the list of `crossings`.  Progress is logged every
+    `PROGRESS` seconds and at the end (the reductions' own lines only at debug level)."""
+    sectors, t0, shown = {}, time.perf_counter(), time.perf_counter()
+    freqs = {state: [] for state in states(scene)}
+    with quiet(REDUCTION_LOG):
+        for k, v in enumerate(speeds):   # one reduction a speed, shared by the states
+            sectors[float(v)] = sec = speed_sector(scene, v)
+            for state, f in freqs.items():
+                f.append(frequencies_at(scene, v, nodal_diameters, n_frequencies, state, sec))
+            if time.perf_counter() - shown >= PROGRESS or k + 1 == len(speeds):
+                shown = time.perf_counter()
+                log.info("Campbell: %d/%d speeds (%g rpm), %.1f s", k + 1, len(speeds), v,
+                         shown - t0)
+        freqs = {state: np.array(f) for state, f in freqs.items()}
+        freqs["crossings"] = crossings(scene, speeds, nodal_diameters, freqs, engine_orders,
+                                       sectors)
+    log.info("Campbell: %d engine-order crossing(s) located by Brent, %.1f s",
+             len(freqs["crossings"]), time.perf_counter() - t0)
     return freqs
+
+
+@contextmanager
+def quiet(name):
+    """The logger `name` at WARNING inside the block unless debug output is on."""
+    logger = logging.getLogger(name)
+    old = logger.level
+    if not logger.isEnabledFor(logging.DEBUG):
+        logger.setLevel(logging.WARNING)
+    try:
+        yield
+    finally:
+        logger.setLevel(old)

@@ -137,3 +137,24 @@ def test_the_static_contact_state_stiffens_only_where_the_pairs_close(quick):
         else:
             assert np.all(f["static"][0, 0] > f["open"][0, 0] * 1.01)
             assert np.all(f["static"][0, 0] < f["stuck"][0, 0])
+
+
+def test_progress_is_logged_without_a_line_per_reduction(quick, caplog, monkeypatch):
+    """A Campbell sweep re-reduces the blade at every speed: the reductions' own lines
+    stay at debug level, the sweep logs its progress (here every speed: PROGRESS = 0)
+    and the crossings found; the reduction logger's level is restored after."""
+    import logging
+    import pipeline.study.modes.campbell as cb
+
+    monkeypatch.setattr(cb, "PROGRESS", 0.0)
+    caplog.set_level(logging.INFO)
+    before = logging.getLogger(cb.REDUCTION_LOG).level
+    speeds = (0.0, 7000.0, 14000.0)
+    res = campbell(quick.scene, speeds, (3,), 1, (3,))
+    text = [r.getMessage() for r in caplog.records]
+    assert not any("Craig-Bampton" in t for t in text), text
+    assert [t.split(",")[0] for t in text if "speeds (" in t] == [
+        "Campbell: 1/3 speeds (0 rpm)", "Campbell: 2/3 speeds (7000 rpm)",
+        "Campbell: 3/3 speeds (14000 rpm)"]
+    assert any(f"{len(res['crossings'])} engine-order crossing(s)" in t for t in text)
+    assert logging.getLogger(cb.REDUCTION_LOG).level == before
