@@ -97,10 +97,14 @@ def _positive_real(roots):
 
 def frequencies(omega, zeta, m1, c1, r):
     """(below, above) [rad/s]: the smallest and largest root Omega > 0 of the modal
-    equation at amplitude-scaled force r, NaN where there is none (above the peak)."""
+    equation at amplitude-scaled force r, NaN where there is none (above the peak).
+    `below` is NaN too where the amplitude is under the quasi-static one (the left
+    side at Omega = 0 does not exceed r^2): the response never falls to it below the
+    resonance, and the one root left lies above it."""
     co = _quartic(omega, zeta, m1, c1)
     co[:, -1] -= np.atleast_1d(np.asarray(r, float)) ** 2
-    return _ends(_positive_real(_roots(co)))
+    below, above = _ends(_positive_real(_roots(co)))
+    return np.where(co[:, -1] > 0, below, np.nan), above
 
 
 def _ends(x):

@@ -116,12 +116,12 @@ def synthesis_figure(path, ds, dof: int):
                 ax.plot(x[keep], amp[keep], "--", color=f"C{j % 10}", lw=1.2, label=lab)
             ax.plot(one["synthesis_peak_frequency"].values[j],
                     one["synthesis_peak_amplitude"].values[j, dof], "o", color=f"C{j % 10}",
-                    ms=4, mfc="none")
+                    ms=4, mfc="none", label="synthesised peak" if j == 0 else None)
         if "hbm_frequency" in one:
             ax.plot(one["hbm_frequency"].values, one["hbm_amplitude"].values[:, dof], "k-",
                     lw=1.0, label="full harmonic balance, force x 1")
             ax.plot(one["hbm_peak_frequency"].values, one["hbm_peak_amplitude"].values[dof],
-                    "k+", ms=8)
+                    "k+", ms=8, label="harmonic-balance peak")
         if "frequency_range" in ds.attrs:   # the sweep's range: the single mode's vicinity
             ax.set_xlim(*np.asarray(ds.attrs["frequency_range"], float))
         ax.set_title(label, fontsize=8)

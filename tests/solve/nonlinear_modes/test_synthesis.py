@@ -49,6 +49,22 @@ def test_one_dof_one_harmonic_synthesis_is_the_harmonic_balance():
     assert checked >= 5
 
 
+def test_an_amplitude_under_the_quasi_static_one_has_no_frequency_below_the_peak():
+    """A viscous oscillator (omega = 1 rad/s, zeta = 0.01, unit mass and force): its
+    amplitude F / |1 - W^2 + 0.02 i W| starts at the static 1 m, so 1 / 1.1 m is reached
+    only above the resonance (below: NaN, not the root above twice), 1 / 0.9 m on both
+    flanks: the roots of (1 - W^2)^2 + (0.02 W)^2 = r^2 in closed form."""
+    lo, hi = frequencies(np.array([1.0, 1.0]), np.array([0.01, 0.01]), np.ones(2),
+                         np.array([0.02, 0.02]), np.array([1.1, 0.9]))
+    roots = []
+    for r in (1.1, 0.9):   # W^4 + (0.02^2 - 2) W^2 + 1 - r^2 = 0
+        w = np.roots([1.0, 0.0, 0.02**2 - 2.0, 0.0, 1.0 - r * r])
+        roots.append(np.sort(w.real[(np.abs(w.imag) < 1e-12) & (w.real > 0)]))
+    assert roots[0].size == 1 and np.isnan(lo[0])
+    assert roots[1].size == 2 and lo[1] == pytest.approx(roots[1][0], rel=1e-12) and lo[1] < 1.0
+    assert hi == pytest.approx([roots[0][0], roots[1][1]], rel=1e-12) and (hi > 1.0).all()
+
+
 def test_cyclic_sector_synthesis_against_the_harmonic_balance():
     """The lumped disk of studies/disk_cyclic.toml, engine order 3 (nodal diameter 3),
     H = 3: the synthesised peak within 3 % in amplitude and 0.2 % in frequency of the
