@@ -51,6 +51,11 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
         for i, n0 in enumerate(n0s):
             if n0 is None:
                 ck.fail(f"scene.contact[{i}].n0", "missing (required unless sweep.preload is given)")
+    elif "preload" in axes:
+        for i, n0 in enumerate(n0s):
+            if n0 is not None:
+                ck.fail(f"scene.contact[{i}].n0", f"the preload is swept ({wpath}.preload sets "
+                                                  "n0 of every contact): give not both")
     effects = set(effects)
     if has_contact != ("friction" in effects):
         ck.fail("scene.effects", "declare \"friction\" exactly when the scene has contacts"
