@@ -16,6 +16,12 @@ from ..kinds import kind_of_document
 from .spec import Study
 
 
+# files mistaken for a study: their first bytes, what they are
+BINARY = {b"CDF\x01": "a netCDF dataset", b"CDF\x02": "a netCDF dataset",
+          b"\x89HDF\r\n\x1a\n": "a netCDF-4 dataset", b"\x89PNG": "a PNG image",
+          b"%PDF": "a PDF document"}
+
+
 def load_study(path, quick: bool = False) -> Study:
     """Read, parse and validate a study file (UsageError on any problem).
 
@@ -37,6 +43,10 @@ def load_study(path, quick: bool = False) -> Study:
 def parse_study(text, file: str = "<study>", name: str | None = None, quick: bool = False) -> Study:
     """Parse study text (str or UTF-8 bytes) and validate it."""
     if isinstance(text, (bytes, bytearray)):
+        for magic, kind in BINARY.items():
+            if bytes(text[:len(magic)]) == magic:
+                hint = "; `check` reads a dataset" if "dataset" in kind else ""
+                raise UsageError(f"{file}: (file): {kind}, not a study file (TOML text){hint}")
         try:
             text = bytes(text).decode("utf-8")
         except UnicodeDecodeError as exc:

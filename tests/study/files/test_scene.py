@@ -261,6 +261,23 @@ def test_missing_file_is_a_usage_error(tmp_path):
         load_study(tmp_path / "nope.toml")
 
 
+def test_a_dataset_or_figure_given_as_a_study_is_named_for_what_it_is(tmp_path):
+    """A netCDF dataset (classic or netCDF-4) or a figure passed where a study file goes:
+    one line saying what the file is, pointing to `check` for a dataset."""
+    import xarray as xr
+
+    ds = xr.Dataset({"a": ("x", [1.0, 2.0])})
+    ds.to_netcdf(tmp_path / "r4.nc", engine="netcdf4")
+    ds.to_netcdf(tmp_path / "r3.nc", engine="netcdf4", format="NETCDF3_64BIT")
+    (tmp_path / "f.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(256)))
+    for name, kind in (("r4.nc", "a netCDF-4 dataset"), ("r3.nc", "a netCDF dataset"),
+                       ("f.png", "a PNG image")):
+        with pytest.raises(UsageError) as exc:
+            load_study(tmp_path / name)
+        assert str(exc.value).startswith(f"{tmp_path / name}: (file): {kind}, not a study file")
+        assert ("`check` reads a dataset" in str(exc.value)) == name.endswith(".nc")
+
+
 # ---------------------------------------------------------------------------
 # Fuzz: the loader raises UsageError and nothing else
 # ---------------------------------------------------------------------------
