@@ -70,11 +70,15 @@ def local_peak(system, H, omega, initial, dof, omega_start, omega_end, *, method
                                        min(max(omega, band[0]), band[1]), band)
     if x0 is None:
         return _failed(fp, "no solution near the start", t_start, spent)
+    # both sides of the start, each ordered from omega_start to omega_end; a start at an
+    # end of the band (the peak there at the preload it came from) has one side only
+    sides = [(end, back, k == 0) for k, (end, back) in
+             enumerate(((omega_start, omega_end), (omega_end, omega_start))) if end != omega]
     runs = [_side(fp, x0, omega, end, back, dof, min(ds, ds_max), ds_max, max_points,
-                  callback, tangent)
-            for end, back in ((omega_start, omega_end), (omega_end, omega_start))]
-    br = join([piece(runs[0][0], reverse=True), piece(runs[1][0], drop_first=True)],
-              "local peak", all(stopped for _, stopped in runs), 0)
+                  callback, tangent) for end, back, _ in sides]
+    parts = [piece(br, reverse=towards_start, drop_first=k > 0)
+             for k, ((br, _), (_, _, towards_start)) in enumerate(zip(runs, sides))]
+    br = join(parts, "local peak", all(stopped for _, stopped in runs), 0)
     pts = branch_points(br)
     pts = insert_peaks(prob, pts, fp.fun, 1.0, fp.elem, [dof], largest=True)
     amps = pts.get("amplitude")        # drawn by insert_peaks (fewer than 3 points: not)

@@ -1,6 +1,8 @@
 """Cases whose branch stopped short of the frequency interval: their largest
 amplitude is the largest traced, not the peak of the interval (`peak_complete` = 0
-in the dataset).  `incomplete_cases` words them for the end of `python -m pipeline run`;
+in the dataset).  `incomplete_cases` words them for the end of `python -m pipeline run`,
+`edge_peaks` the complete cases whose largest amplitude lies at an end of the interval
+(a resonance outside it, or none: not a peak);
 `CASE_FLAGS` describes that flag and the count of points accepted on the residual's
 round-off floor (`solve.harmonic_balance.roundoff`).
 """
@@ -51,4 +53,31 @@ def incomplete_cases(study, ds) -> list:
         why = str(ds["message"].values[idx]) if "message" in ds else ""
         out.append((case, f"the branch covers {covered} of {lo_end:g}-{hi_end:g} {unit} "
                           f"({why}){top}"))
+    return out
+
+
+def edge_peaks(study, ds) -> list:
+    """[({axis: value}, what)] of every complete case with an output DOF whose largest
+    amplitude lies at an end of the frequency interval (to 1e-9 of it): the amplitude
+    still grows there, so the resonance lies outside the interval, or the DOF has
+    none in it."""
+    if ds is None or "peak_frequency" not in ds or "peak_complete" not in ds:
+        return []
+    fr = study.sweep.frequency
+    unit = ds["frequency"].attrs.get("units", "")
+    lo, hi = sorted((fr.start, fr.stop))
+    tol = 1e-9 * max(abs(lo), abs(hi))
+    dofs = [str(d) for d in ds["dof"].values]
+    out = []
+    for idx, case in study.sweep.cases():
+        if not bool(ds["peak_complete"].values[idx]):
+            continue
+        f = np.asarray(ds["peak_frequency"].values[idx], float).reshape(-1, len(dofs))
+        at = (np.abs(f - lo) <= tol) | (np.abs(f - hi) <= tol)
+        names = [d for k, d in enumerate(dofs) if at[:, k].any()]
+        if names:
+            end = f[at][0]
+            out.append((case, f"the largest amplitude of {', '.join(names)} lies at the "
+                              f"range's end, {end:g} {unit}: no peak inside {lo:g}-{hi:g} "
+                              f"{unit} (widen [sweep] frequency if a resonance lies beyond)"))
     return out

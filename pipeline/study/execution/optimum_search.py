@@ -112,6 +112,15 @@ def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None,
              res["preload"], res["peak"], res["peak_omega"] / fr.to_rad_s, fr.unit,
              len(res["evaluations"]), res["computed"], res["reused"], len(res["brackets"]),
              len(res["skipped"]), res["wall_time"])
+    lo, hi = sorted((window.omega_start, window.omega_stop))
+    if np.isfinite(res["peak"]) and min(abs(res["peak_omega"] - lo),
+                                        abs(res["peak_omega"] - hi)) <= 1e-9 * hi:
+        u = window.to_rad_s
+        log.warning("%s: at the optimum preload the largest amplitude lies at an end of the "
+                    "search's window, %.6g %s: no resonant peak inside %.6g-%.6g %s, the "
+                    "optimum minimises an off-resonance amplitude (widen "
+                    "[output.optimum_preload] frequency, or [sweep] frequency)", study.name,
+                    res["peak_omega"] / u, window.unit, lo / u, hi / u, window.unit)
     return res
 
 

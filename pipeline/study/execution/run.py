@@ -28,7 +28,7 @@ from ...errors import UsageError, interrupt_in_chain
 from .cases import SchedulerUnreachable, WorkerLost, default_solver
 from .checkpoint import kept_cases
 from ..files.documents import load_study
-from ..datasets.incomplete import incomplete_cases
+from ..datasets.incomplete import edge_peaks, incomplete_cases
 from ..kinds import kind_of
 from ..files.spec import SWEEP_AXES, StudyResult
 
@@ -200,7 +200,7 @@ def cmd_run(args) -> int:
         return 1
     for case, reason in res.failed:  # one line each, whether or not a progress bar hid the log
         print(f"error: {args.study}: case {_case_words(case)}: {reason}", file=sys.stderr)
-    for case, what in incomplete_cases(study, res.dataset):  # a peak that may lie beyond
+    for case, what in incomplete_cases(study, res.dataset) + edge_peaks(study, res.dataset):
         print(f"warning: {args.study}: case {_case_words(case)}: {what}", file=sys.stderr)
     if res.reused:
         log.info("%s: %d case(s) reused from the interrupted run, %d computed",

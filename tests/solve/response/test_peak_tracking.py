@@ -44,6 +44,26 @@ def test_a_maximum_beyond_the_band_is_no_local_peak():
     assert om0 > 185.0
 
 
+@pytest.mark.parametrize("band", [(185.0, 250.0), (250.0, 185.0)])
+def test_a_start_at_an_end_of_the_band_continues_inwards(band):
+    """A start state at an end of the band (a nearby preload's largest amplitude lay
+    there): one side only, inwards.  From 185 rad/s (below the 2 N peak) the peak
+    inside is enclosed and equals the band peak; from the other end over 220-250 rad/s
+    the amplitude only falls inwards: no local maximum, said (not a ValueError)."""
+    lo = min(band)
+    c0 = frequency_response(example1(2.0), 7, lo, lo + 1.0, stability=False,
+                            dense_output=False)
+    a, om, _, _ = band_peak(example1(2.0), 7, band)
+    c = local_peak(example1(2.0), 7, lo, c0.Q[0], 0, *band)
+    assert c.success, c.message
+    a_l, om_l, _ = c.peak(0)
+    assert a_l == pytest.approx(a, rel=1e-7) and om_l == pytest.approx(om, rel=1e-6)
+    c1 = frequency_response(example1(2.0), 7, 220.0, 221.0, stability=False,
+                            dense_output=False)
+    d = local_peak(example1(2.0), 7, 220.0, c1.Q[0], 0, 220.0, 250.0)
+    assert not d.success and "no local maximum" in d.message
+
+
 def test_the_search_with_local_peaks_equals_the_band_search():
     """Example 1 over 0.5-100 N: the optimum found with Brent on local peaks (verified
     over the band) is the one Brent on band peaks finds, to 1e-6 in preload and peak;

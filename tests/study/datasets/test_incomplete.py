@@ -1,0 +1,39 @@
+"""Warnings at the end of a run about peaks that are not peaks of the interval: a
+branch cut short (`incomplete_cases`, tests/solve/harmonic_balance/test_roundoff.py)
+and a largest amplitude at an end of the interval (`edge_peaks`), for the cases and
+for the optimum-preload search."""
+from pipeline.__main__ import main as cli
+from helpers import example1_study
+
+# Example 1's resonances lie at 188.4 (open) to 213.3 rad/s (stuck)
+BELOW = example1_study("a range below the resonance", preload="[0.0, 1000.0]",
+                       solver="harmonics = 1\nstability = false",
+                       output='dofs = ["x"]\nfigures = []')
+
+
+def test_a_peak_at_the_ranges_end_is_named_as_no_peak(tmp_path, capsys):
+    """150-180 rad/s: the amplitude grows up to 180 rad/s in both cases (a peak
+    outside the range), a warning each; 150-250 rad/s: none."""
+    f = tmp_path / "below.toml"
+    f.write_text(BELOW.replace("stop = 250.0", "stop = 180.0"))
+    assert cli(["run", str(f), "--out", str(tmp_path / "a"), "--workers", "1"]) == 0
+    warns = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("warning:")]
+    assert len(warns) == 2, warns
+    for w, n in zip(warns, ("0", "1000")):
+        assert w.startswith(f"warning: {f}: case preload = {n} N: the largest amplitude of x "
+                            "lies at the range's end, 180 rad/s: no peak inside 150-180 rad/s")
+    f.write_text(BELOW)
+    assert cli(["run", str(f), "--out", str(tmp_path / "b"), "--workers", "1"]) == 0
+    assert "warning:" not in capsys.readouterr().err
+
+
+def test_an_optimum_whose_window_holds_no_peak_is_named(tmp_path, caplog):
+    """The optimum search over 220-250 rad/s, above every resonance: its 'peak' is the
+    amplitude at 220 rad/s, which the warning says."""
+    f = tmp_path / "window.toml"
+    f.write_text(BELOW + '\n[output.optimum_preload]\ndof = "x"\nbounds = [0.5, 10.0]\n'
+                 'frequency = { start = 220.0, stop = 250.0, unit = "rad/s" }\n')
+    assert cli(["run", str(f), "--out", str(tmp_path / "c"), "--workers", "1"]) == 0
+    warns = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any("largest amplitude lies at an end of the search's window, 220 rad/s: no "
+               "resonant peak inside 220-250 rad/s" in w for w in warns), warns
