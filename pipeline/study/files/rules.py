@@ -6,7 +6,7 @@ from __future__ import annotations
 
 
 def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spath, wpath,
-                      disk=False, can_turn=False, speed=0.0):
+                      disk=False, can_turn=False, speed=0.0, mus=()):
     """Cross-field rules shared by every scene: harmonics cover the excitation, swept
     contact parameters have contacts to act on, a preload is given, and the
     declared effects match the scene (friction <=> contacts; normal-load variation
@@ -21,6 +21,8 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     `has_normal` is one flag for every contact or one per contact.  A rotation speed
     (`speed` [rpm] of the scene or the sweep axis) needs "centrifugal_stiffening" and a
     scene that can turn (`can_turn`: solid blades in a disk), and the effect a speed.
+    A contact with mu = 0 (`mus`, one per contact; not swept) and a constant normal
+    load exerts no force at all: refused.
     """
     check_speed_rules(ck, effects, axes, wpath, can_turn, speed)
     if not disk:
@@ -68,6 +70,11 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
         ck.fail("scene.effects", "normal DOFs with kv > 0 make the normal load vary: declare "
                                  "\"normal_load_variation\"" if varies else
                 "\"normal_load_variation\" is declared but no contact has normal DOFs with kv > 0")
+    for i, mu in enumerate(mus):
+        if mu == 0 and "mu" not in axes and not (normal[i] and kvs[i] > 0):
+            ck.fail(f"scene.contact[{i}].mu", "mu = 0 under a constant normal load: the "
+                                              "contact exerts no force (no friction, no "
+                                              "normal spring); remove it or give mu > 0")
     n0_vals = axes.get("preload") or tuple(n0 for n0 in n0s if n0 is not None)
     gap = min(n0_vals, default=0.0) < 0
     if gap and "separation" not in effects:

@@ -482,7 +482,7 @@ def _consistency(ck, scene, solver, axes, spath, wpath, data):
                       [c.kv for c in scene.contacts], bool(scene.contacts),
                       max([ld.harmonic for ld in scene.loads] + [0]), solver.harmonics,
                       axes, spath, wpath, disk=scene.cyclic, can_turn=blade_disk.can_turn(scene),
-                      speed=scene.structure.speed)
+                      speed=scene.structure.speed, mus=[c.mu for c in scene.contacts])
     if scene.cyclic:  # engine order, "cyclic_coupling", mistuning: as a lumped disk's
         disk_scene.check_disk_rules(ck, scene, axes, wpath, data)
 

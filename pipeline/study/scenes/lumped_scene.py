@@ -475,7 +475,7 @@ def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
     check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
                       [c.kv for c in scene.contacts], [bool(np.any(c.bn)) for c in scene.contacts],
                       scene.loads[0].amplitudes.shape[1] - 1, solver.harmonics, axes, spath, wpath,
-                      disk=disk)
+                      disk=disk, mus=[c.mu for c in scene.contacts])
 
 
 def _check_build(ck, study: Study):

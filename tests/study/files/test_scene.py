@@ -386,3 +386,14 @@ def test_disk_errors_read_as_one_full_line(tmp_path, name, line):
     assert r.returncode == 2 and r.stdout == ""
     assert r.stderr.splitlines() == [f"error: {bad}: {line}"]
     assert not (tmp_path / "out").exists()
+
+
+def test_a_frictionless_contact_with_a_varying_normal_load_is_a_model():
+    """mu = 0 is refused only where the contact would exert no force (a constant normal
+    load: tests/bad_studies/contact_mu_zero_constant_load.toml); with normal DOFs and kv
+    > 0 it is a unilateral normal spring, accepted."""
+    text = (ROOT / "studies" / "paper_example3.toml").read_text()
+    text, n = re.subn(r"(?m)^mu = 0\.4", "mu = 0.0", text)
+    assert n == 1
+    study = parse_study(text, file="frictionless.toml")
+    assert study.scene.contacts[0].mu == 0.0 and study.scene.contacts[0].kv > 0
