@@ -99,3 +99,31 @@ def test_readme_shows_the_example_that_runs():
     block = block.split("```", 1)[0]
     code = EXAMPLE.read_text(encoding="utf-8").split('"""', 2)[2].lstrip("\n")
     assert block.strip() == code.strip()
+
+
+def test_a_study_changed_in_python_runs_without_the_text_of_another(tmp_path):
+    """A loaded study with a contact's mu replaced in Python: its text describes the
+    study as loaded, so the dataset carries no text (not the file's mu = 0.5), its
+    checkpoints are another study's folder, and its peak is the new mu's (the same as
+    the file edited to mu = 0.25)."""
+    from dataclasses import replace
+    from pipeline.study.execution.checkpoint import checkpoint_dir
+    from pipeline.study.files.documents import text_describes
+
+    text = example1_study("changed in Python", preload="[2.0]",
+                          solver="harmonics = 1\nstability = false",
+                          output='dofs = ["x"]\nfigures = []')
+    (tmp_path / "e1.toml").write_text(text)
+    (tmp_path / "e2.toml").write_text(text.replace("mu = 0.5", "mu = 0.25"))
+    loaded, edited = (pipeline.load_study(tmp_path / f) for f in ("e1.toml", "e2.toml"))
+    assert text_describes(loaded) and text_describes(edited)
+    c = loaded.scene.contacts[0]
+    changed = replace(loaded, scene=replace(loaded.scene, contacts=(replace(c, mu=0.25),)))
+    assert not text_describes(changed)
+    # run_study drops the stale text: the checkpoint key then hashes every field
+    assert checkpoint_dir(replace(changed, text=""), tmp_path, None) != checkpoint_dir(
+        loaded, tmp_path, None)
+    a = pipeline.run_study(changed, tmp_path / "a", figures=False).dataset
+    b = pipeline.run_study(edited, tmp_path / "b", figures=False).dataset
+    assert a.attrs["study"] == "" and b.attrs["study"] == (tmp_path / "e2.toml").read_text()
+    assert float(a["peak_amplitude"].max()) == float(b["peak_amplitude"].max())

@@ -30,6 +30,7 @@ import numpy as np
 
 from ... import __version__
 from ...errors import interrupt_deferred
+from ..files.spec import content_bytes
 
 log = logging.getLogger(__name__)
 
@@ -179,10 +180,10 @@ def same_case(a: dict, b: dict) -> bool:
 
 
 def checkpoint_dir(study, out_dir, solver) -> Path:
-    """`DIR/.<name>.<key>.cases`: the key hashes the study text (or its parsed
-    content), the quick flag, the solver function and the pipeline version, so a
+    """`DIR/.<name>.<key>.cases`: the key hashes the study text (or, a study built
+    in Python, all its fields: `documents.content_bytes`), the quick flag, the solver function and the pipeline version, so a
     changed study or software never reuses old cases."""
-    content = study.text or repr((study.scene, study.sweep, study.solver))
+    content = study.text or hashlib.sha256(content_bytes(study)).hexdigest()
     ident = "\n".join([content, str(study.quick), repr(study.sweep), repr(study.solver),
                        f"{getattr(solver, '__module__', '')}.{getattr(solver, '__qualname__', solver)}",
                        __version__])

@@ -22,12 +22,13 @@ from __future__ import annotations
 
 import logging
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from ...errors import UsageError, interrupt_in_chain
 from .cases import SchedulerUnreachable, WorkerLost, default_solver
 from .checkpoint import kept_cases
-from ..files.documents import load_study
+from ..files.documents import load_study, text_describes
 from ..datasets.incomplete import edge_peaks, incomplete_cases
 from ..kinds import kind_of
 from ..files.spec import SWEEP_AXES, StudyResult
@@ -42,7 +43,14 @@ def run_study(study, out_dir="results", *, workers: int = 1, scheduler: str | No
     figures; a response study's options (`response_study.run_response_study`):
     `workers` processes or a Dask `scheduler`, the `solver` of its cases, `progress`,
     and `checkpoints` (each finished case kept, a rerun computes only the missing
-    ones).  Other kinds take `figures` (and `progress`) only."""
+    ones).  Other kinds take `figures` (and `progress`) only.  A study changed in
+    Python after loading runs without its text (`files.documents.text_describes`): its
+    dataset does not carry a text that describes another study, nor are the
+    checkpoints of that other study reused."""
+    if study.text and not text_describes(study):
+        log.info("%s: changed after loading %s: its text is not written to the dataset",
+                 study.name, study.file)
+        study = replace(study, text="")
     return kind_of(study).run(study, out_dir, workers=workers, scheduler=scheduler,
                               solver=solver, figures=figures, progress=progress,
                               checkpoints=checkpoints)

@@ -13,7 +13,7 @@ import numpy as np
 from ...errors import UsageError
 from .validation import Checker
 from ..kinds import kind_of_document
-from .spec import Study
+from .spec import Study, content_bytes
 
 
 # files mistaken for a study: their first bytes, what they are
@@ -65,6 +65,19 @@ def parse_study(text, file: str = "<study>", name: str | None = None, quick: boo
     if name is None:
         name = Path(file).stem
     return study_from_document(data, file=file, name=name, text=text, quick=quick)
+
+
+def text_describes(study) -> bool:
+    """Whether `study.text`, parsed as it was loaded (file, name, variant), gives this
+    very study: False without a text, or once a field was replaced in Python after
+    loading (the text then describes another study)."""
+    if not study.text:
+        return False
+    try:
+        again = parse_study(study.text, file=study.file, name=study.name, quick=study.quick)
+    except UsageError:
+        return False
+    return content_bytes(again) == content_bytes(study)
 
 
 def study_from_document(data, *, file: str = "<study>", name: str = "study", text: str = "",

@@ -8,8 +8,10 @@ fields are keywords with defaults; `studies/python_example.py`).
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
+import pickle
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -246,3 +248,9 @@ class ModesStudy(StudyHeader):
     n_shapes: int
     quick: bool = False
     kind: str = "modes"
+
+
+def content_bytes(study) -> bytes:
+    """Every field of a study of any kind but its text, as bytes (equal for equal
+    studies; a checkpoint key and `documents.text_describes` compare them)."""
+    return pickle.dumps(dataclasses.replace(study, text=""))
