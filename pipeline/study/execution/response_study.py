@@ -91,15 +91,21 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
         f"on {e.workers} worker(s){search}")
     lines.append(
         f"  assumes {e.points[0]:.0f}-{e.points[1]:.0f} points per case ({e.modes} natural "
-        f"frequencies in the range) at {e.per_point[0] * 1e3:.3g}-{e.per_point[1] * 1e3:.3g} "
+        f"frequenc{'y' if e.modes == 1 else 'ies'} in the range) at {e.per_point[0] * 1e3:.3g}-{e.per_point[1] * 1e3:.3g} "
         f"ms each (residual + Jacobian {tm.t_residual * 1e3:.3g} ms and Newton solve "
         f"{tm.t_solve * 1e3:.3g} ms of {tm.unknowns} unknowns, timed now on this model, "
         f"{e.pairs[0]:g}-{e.pairs[1]:g} times a point, plus bookkeeping and stability {study.solver.stability or 'off'}) = "
         f"{time_range(*e.case)} per case; model build and reduction {seconds(tm.setup)}; one "
         f"thread here {tm.slowdown:.2g}x as slow as on an idle core now; "
-        "calibrated on the shipped studies (bench estimate), compiled kernels cached; a "
+        "calibrated on the shipped studies (bench estimate); assumes the compiled kernels "
+        "already cached (the first run after an install compiles them: up to 40 s more); a "
         "fresh process adds 2-5 s of start-up (imports, the first figure); a "
         "curve with many more folds costs more")
+    if e.modes == 0:
+        fr = study.sweep.frequency
+        lines.append(f"warning: no natural frequency (contacts open or stuck) lies in "
+                     f"{fr.start:g}-{fr.stop:g} {fr.unit}: the curves may hold no resonant "
+                     "peak (is the range's unit the one meant?)")
     return lines
 
 

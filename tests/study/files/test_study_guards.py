@@ -295,3 +295,20 @@ def test_check_counts_the_resonances_of_a_range_traced_downwards():
     system = study.system(study.sweep.cases()[0][1])
     down = replace(fr, start=fr.stop, stop=fr.start)
     assert modes_in_range(system, fr) == modes_in_range(system, down) == 2
+
+
+def test_check_warns_of_a_range_without_natural_frequency(tmp_path):
+    """Example 1's range typed in Hz (150-250 Hz, its resonances lie at 30-34 Hz): one
+    warning line that no natural frequency lies in it; the rad/s range has none."""
+    from pipeline.study.execution.response_study import describe
+    from pipeline.study.files.documents import load_study, parse_study
+
+    text = (STUDIES / "paper_example1.toml").read_text()
+    assert 'unit = "rad/s"' in text
+    hz = parse_study(text.replace('unit = "rad/s"', 'unit = "Hz"'), file="hz.toml", name="hz")
+    warns = [ln for ln in describe(hz) if ln.startswith("warning:")]
+    assert warns == ["warning: no natural frequency (contacts open or stuck) lies in 150-250 "
+                     "Hz: the curves may hold no resonant peak (is the range's unit the one "
+                     "meant?)"]
+    assert not [ln for ln in describe(load_study(STUDIES / "paper_example1.toml"))
+                if ln.startswith("warning:")]
