@@ -43,10 +43,19 @@ def build_parser() -> argparse.ArgumentParser:
     h = sub.add_parser("hysteresis", help="draw the Yang-Menq time history and hysteresis loop (PNG)")
     h.add_argument("--out", default="results/hysteresis.png",
                    help="PNG file to write (a folder: hysteresis.png in it)")
-    h.add_argument("--mu", type=float, default=0.4, help="friction coefficient [-]")
-    h.add_argument("--ku", type=float, default=1.0, help="tangential stiffness [N/m]")
-    h.add_argument("--kv", type=float, default=1.0, help="normal stiffness [N/m]")
-    h.add_argument("--n0", type=float, default=1.0, help="preload [N] (negative = gap)")
+    h.add_argument("--mu", type=float, default=0.4, help="friction coefficient [-] (default: "
+                   "%(default)s)")
+    h.add_argument("--ku", type=float, default=1.0, help="tangential stiffness [N/m] (default: "
+                   "%(default)s)")
+    h.add_argument("--kv", type=float, default=1.0, help="normal stiffness [N/m] (default: "
+                   "%(default)s)")
+    h.add_argument("--n0", type=float, default=1.0, help="preload [N], negative: a gap "
+                   "(default: %(default)s)")
+    h.add_argument("--u", type=float, default=3.0, metavar="U", help="the relative motion "
+                   "u = U cos(tau) [m] (default: %(default)s)")
+    h.add_argument("--v", type=float, nargs=2, default=(0.5, 2.0), metavar=("VC", "VS"),
+                   help="the normal motion v = VC cos(tau) + VS sin(tau) [m] (default: 0.5 2.0: "
+                   "with the other defaults it separates, slips both ways and sticks)")
     h.set_defaults(func=_cmd_hysteresis)
 
     o = sub.add_parser("optimise", help="the preload that minimises the resonant peak of a study")
@@ -93,7 +102,19 @@ def _cmd_hysteresis(args) -> int:
     if out.suffix.lower() != ".png":
         print(f"error: --out: {args.out}: must be a .png file or a folder", file=sys.stderr)
         return 2
-    path = hysteresis_figure(out, mu=args.mu, ku=args.ku, kv=args.kv, n0=args.n0)
+    import numpy as np
+
+    for name, value in (("u", args.u), ("v", args.v[0]), ("v", args.v[1])):
+        if not np.isfinite(value):
+            print(f"error: hysteresis: --{name}: must be finite, got {value}", file=sys.stderr)
+            return 2
+    U, V = np.zeros((1, 7)), np.zeros((1, 7))
+    U[0, 1], (V[0, 1], V[0, 2]) = args.u, args.v
+    try:
+        path = hysteresis_figure(out, mu=args.mu, ku=args.ku, kv=args.kv, n0=args.n0, U=U, V=V)
+    except ValueError as exc:   # the contact element's own check names its parameter
+        print(f"error: hysteresis: --{str(exc).split()[0]}: {exc}", file=sys.stderr)
+        return 2
     print(f"wrote {path}")
     return 0
 

@@ -231,3 +231,34 @@ def test_hysteresis_writes_into_a_folder_and_refuses_other_files(tmp_path, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: --out: "), err
     assert not (tmp_path / "loop.txt").exists()
+
+
+@pytest.mark.parametrize("args, field", [(["--ku", "-1"], "--ku"), (["--mu", "nan"], "--mu"),
+                                         (["--u", "inf"], "--u"), (["--v", "0", "nan"], "--v")])
+def test_hysteresis_bad_parameters_are_one_line_and_write_nothing(tmp_path, capsys, args, field):
+    assert cli(["hysteresis", "--out", str(tmp_path / "h.png"), *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"error: hysteresis: {field}: "), err
+    assert not (tmp_path / "h.png").exists()
+
+
+def test_hysteresis_draws_the_motion_given(tmp_path, monkeypatch):
+    """--u and --v set the motion the element sees (the default is the demonstration's:
+    u = 3 cos tau, v = 0.5 cos tau + 2 sin tau [m])."""
+    import pipeline.study.figures.plots as plots
+
+    seen = {}
+    real = plots.hysteresis_figure
+
+    def spy(path, **kw):
+        seen.update(kw)
+        return real(path, **kw)
+
+    monkeypatch.setattr(plots, "hysteresis_figure", spy)
+    assert cli(["hysteresis", "--out", str(tmp_path / "a.png"), "--kv", "1e4", "--n0", "5",
+                "--u", "1e-3", "--v", "0", "2e-4"]) == 0
+    assert seen["U"][0, 1] == 1e-3 and list(seen["V"][0, 1:3]) == [0.0, 2e-4]
+    assert (seen["kv"], seen["n0"]) == (1e4, 5.0)
+    assert cli(["hysteresis", "--out", str(tmp_path / "b.png")]) == 0
+    U, V = plots.demo_motion()
+    assert (seen["U"] == U).all() and (seen["V"] == V).all()
