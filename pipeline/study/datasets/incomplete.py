@@ -2,7 +2,8 @@
 amplitude is the largest traced, not the peak of the interval (`peak_complete` = 0
 in the dataset).  `incomplete_cases` words them for the end of `python -m pipeline run`,
 `edge_peaks` the complete cases whose largest amplitude lies at an end of the interval
-(a resonance outside it, or none: not a peak);
+(a resonance outside it, or none: not a peak), `absent_effects` declared contact
+effects that no case shows;
 `CASE_FLAGS` describes that flag and the count of points accepted on the residual's
 round-off floor (`solve.harmonic_balance.roundoff`).
 """
@@ -80,4 +81,32 @@ def edge_peaks(study, ds) -> list:
             out.append((case, f"the largest amplitude of {', '.join(names)} lies at the "
                               f"range's end, {end:g} {unit}: no peak inside {lo:g}-{hi:g} "
                               f"{unit} (widen [sweep] frequency if a resonance lies beyond)"))
+    return out
+
+
+def absent_effects(study, ds) -> list:
+    """[text] of the declared contact effects that no converged point of any case shows
+    (the contact-state fractions of the dataset): "separation" where no element ever
+    separates, "friction" where none ever slips or none ever closes.  A sweep may
+    well have such cases; a whole study without the effect likely misstates the scene.
+    Not for a quick variant: it runs some of the cases the declaration is made for."""
+    if ds is None or "slip_fraction" not in ds or "converged" not in ds or study.quick:
+        return []
+    conv = ds["converged"] == 1
+
+    def largest(var):   # NaN: no such variable, or no converged point has a number
+        return float(ds[var].where(conv).max()) if var in ds else np.nan
+
+    effects, out = set(study.scene.effects), []
+    sep, slip, stick = (largest(v) for v in ("separation_fraction", "slip_fraction",
+                                             "stick_fraction"))
+    if "separation" in effects and sep == 0.0:
+        out.append("\"separation\" is declared but no contact separates at any point of any "
+                   "case (separation_fraction 0 everywhere)")
+    if "friction" in effects and slip == 0.0 and stick == 0.0:
+        out.append("\"friction\" is declared but no contact ever closes (separation_fraction "
+                   "1 everywhere): no contact force acts")
+    elif "friction" in effects and slip == 0.0:
+        out.append("\"friction\" is declared but no contact slips at any point of any case "
+                   "(slip_fraction 0 everywhere): the friction limit is never reached")
     return out

@@ -29,7 +29,7 @@ from ...errors import UsageError, interrupt_in_chain
 from .cases import SchedulerUnreachable, WorkerLost, default_solver
 from .checkpoint import kept_cases
 from ..files.documents import load_study, text_describes
-from ..datasets.incomplete import edge_peaks, incomplete_cases
+from ..datasets.incomplete import absent_effects, edge_peaks, incomplete_cases
 from ..kinds import kind_of
 from ..files.spec import SWEEP_AXES, StudyResult
 
@@ -210,6 +210,8 @@ def cmd_run(args) -> int:
         print(f"error: {args.study}: case {_case_words(case)}: {reason}", file=sys.stderr)
     for case, what in incomplete_cases(study, res.dataset) + edge_peaks(study, res.dataset):
         print(f"warning: {args.study}: case {_case_words(case)}: {what}", file=sys.stderr)
+    for what in absent_effects(study, res.dataset):
+        print(f"warning: {args.study}: scene.effects: {what}", file=sys.stderr)
     if res.reused:
         log.info("%s: %d case(s) reused from the interrupted run, %d computed",
                  study.name, res.reused, res.computed)

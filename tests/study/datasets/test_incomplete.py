@@ -6,7 +6,7 @@ from pipeline.__main__ import main as cli
 from helpers import example1_study
 
 # Example 1's resonances lie at 188.4 (open) to 213.3 rad/s (stuck)
-BELOW = example1_study("a range below the resonance", preload="[0.0, 1000.0]",
+BELOW = example1_study("a range below the resonance", preload="[0.5, 1000.0]",
                        solver="harmonics = 1\nstability = false",
                        output='dofs = ["x"]\nfigures = []')
 
@@ -19,7 +19,7 @@ def test_a_peak_at_the_ranges_end_is_named_as_no_peak(tmp_path, capsys):
     assert cli(["run", str(f), "--out", str(tmp_path / "a"), "--workers", "1"]) == 0
     warns = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("warning:")]
     assert len(warns) == 2, warns
-    for w, n in zip(warns, ("0", "1000")):
+    for w, n in zip(warns, ("0.5", "1000")):
         assert w.startswith(f"warning: {f}: case preload = {n} N: the largest amplitude of x "
                             "lies at the range's end, 180 rad/s: no peak inside 150-180 rad/s")
     f.write_text(BELOW)
@@ -37,3 +37,28 @@ def test_an_optimum_whose_window_holds_no_peak_is_named(tmp_path, caplog):
     warns = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert any("largest amplitude lies at an end of the search's window, 220 rad/s: no "
                "resonant peak inside 220-250 rad/s" in w for w in warns), warns
+
+
+def test_a_declared_effect_no_case_shows_is_named(tmp_path, capsys):
+    """Example 1 at 1000 N only: the damper never slips (mu n0 = 500 N against ku u of
+    at most 160 N at the stuck peak), so "friction" acts as a linear spring: one
+    warning; with 0.5 N as well it slips there: none.  A quick variant is not judged (it
+    runs some of the cases the declaration is made for)."""
+    from dataclasses import replace
+
+    from pipeline.study.datasets.incomplete import absent_effects
+    from pipeline.study.files.documents import load_study
+
+    f = tmp_path / "stuck.toml"
+    f.write_text(BELOW.replace("[0.5, 1000.0]", "[1000.0]"))
+    assert cli(["run", str(f), "--out", str(tmp_path / "a"), "--workers", "1"]) == 0
+    warns = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("warning:")]
+    assert warns == [f"warning: {f}: scene.effects: \"friction\" is declared but no contact "
+                     "slips at any point of any case (slip_fraction 0 everywhere): the "
+                     "friction limit is never reached"]
+    import xarray as xr
+    with xr.open_dataset(tmp_path / "a" / "stuck.nc") as ds:
+        assert absent_effects(replace(load_study(f), quick=True), ds) == []
+    f.write_text(BELOW)
+    assert cli(["run", str(f), "--out", str(tmp_path / "b"), "--workers", "1"]) == 0
+    assert "warning:" not in capsys.readouterr().err
