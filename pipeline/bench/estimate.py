@@ -24,6 +24,7 @@ from __future__ import annotations
 import functools
 import logging
 import os
+import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -107,6 +108,10 @@ def run(quick: bool = False, studies=()) -> int:
         logging.getLogger(name).setLevel(logging.WARNING)
     paths = [Path(s) if Path(s).suffix == ".toml" else STUDIES / f"{s}.toml" for s in studies] \
         or shipped_studies()
+    for p in paths:   # a missing study is one line before the table, not in its middle
+        if not p.is_file():
+            print(f"error: {p}: (file): no such file", file=sys.stderr)
+            return 2
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
     print(f"check's estimate against the measured run (--workers 1{', --quick' if quick else ''}); "
           f"load average {load}")

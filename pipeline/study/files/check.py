@@ -72,7 +72,8 @@ def describe(study, workers: int = 1, has_quick: bool = False) -> list:
     of it (`kinds`), the cost estimate included."""
     from ..kinds import kind_of
 
-    variant = "quick variant" if study.quick else (
+    variant = ("quick variant" if has_quick else "quick variant: no [quick] table, the "
+               "full study") if study.quick else (
         "full variant; [quick] not checked (check --quick does)" if has_quick else "full variant")
     lines = [f"{study.file}: valid {study.kind} study ({variant})", f"title: {study.title}"]
     return lines + kind_of(study).describe(study, workers)

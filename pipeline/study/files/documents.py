@@ -34,7 +34,10 @@ def load_study(path, quick: bool = False) -> Study:
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
-        raise UsageError(f"{file}: (file): no such file") from None
+        shipped = Path(__file__).resolve().parents[3] / "studies" / f"{path.name}.toml"
+        hint = (f" (a shipped study: studies/{shipped.name})" if not path.suffix
+                and shipped.is_file() else "")
+        raise UsageError(f"{file}: (file): no such file{hint}") from None
     except OSError as exc:
         raise UsageError(f"{file}: (file): cannot read: {exc.strerror or exc}") from None
     return parse_study(raw, file=file, name=path.stem, quick=quick)

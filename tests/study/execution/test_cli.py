@@ -15,6 +15,7 @@ import pytest
 import xarray as xr
 
 from pipeline.__main__ import main as cli
+from helpers import example1_study
 
 ROOT = Path(__file__).resolve().parents[3]
 STUDIES = ROOT / "studies"
@@ -108,6 +109,24 @@ def test_check_missing_file(tmp_path):
         r = run("check", tmp_path / name)
         assert r.returncode == 2 and r.stderr.splitlines() == [
             f"error: {tmp_path / name}: (file): no such file"]
+
+
+def test_a_shipped_studys_bare_name_is_pointed_to_its_file(tmp_path, capsys):
+    """`run paper_example1` (no folder, no suffix): still no such file, but the line
+    names the shipped study's path; any other name gets no hint."""
+    assert cli(["run", "paper_example1", "--out", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.strip() == ("error: paper_example1: (file): no such file "
+                                               "(a shipped study: studies/paper_example1.toml)")
+    assert cli(["check", "no_such_study"]) == 2
+    assert capsys.readouterr().err.strip() == "error: no_such_study: (file): no such file"
+
+
+def test_check_quick_of_a_study_without_a_quick_table_says_so(tmp_path, capsys):
+    f = tmp_path / "plain.toml"
+    f.write_text(example1_study("no quick table"))
+    assert cli(["check", str(f), "--quick"]) == 0
+    assert capsys.readouterr().out.splitlines()[0] == (
+        f"{f}: valid response study (quick variant: no [quick] table, the full study)")
 
 
 def test_check_linear_and_modes_studies_need_no_solver(capsys):
