@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import itertools
 import os
-import re
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,7 +36,7 @@ import xarray as xr
 from ...model.scene import AT, stiffness_factors
 from ...model.system import contact_set, lowest_frequencies
 from .describe import points_attrs, provenance, scene_attrs, solution_method
-from .incomplete import CASE_FLAGS, PEAK_NAME, case_flags
+from .incomplete import CASE_FLAGS, PEAK_NAME, case_flags, readable_message
 from .meanings import annotate_natural_frequencies, sweep_long_name
 from .optimum_dataset import add_optimum
 from ..files.spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
@@ -89,19 +88,6 @@ def _case_arrays(curve, rows, to_unit):
                 stable=np.where(conv, np.asarray(curve.stable, dtype=float), np.nan),
                 residual=np.asarray(curve.residual, dtype=float),
                 newton_iterations=np.asarray(curve.newton_iterations).astype(np.int32))
-
-
-_LAM = re.compile(r"\b(lam_end|lam0|lam) = ([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)")
-
-
-def readable_message(message: str, to_unit: float, unit: str) -> str:
-    """A continuation message in the study's words and unit: the continuation
-    parameter lam [rad/s] is the excitation frequency ("reached lam_end = 439.82..."
-    -> "reached the end of the range = 70 Hz")."""
-    names = {"lam_end": "the end of the range", "lam0": "the start of the range",
-             "lam": "the frequency"}
-    return _LAM.sub(lambda m: f"{names[m.group(1)]} = {float(m.group(2)) / to_unit:.6g} {unit}",
-                    message)
 
 
 def _peak(freq, amp, mask):

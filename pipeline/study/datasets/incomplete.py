@@ -9,6 +9,8 @@ round-off floor (`solve.harmonic_balance.roundoff`).
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 PEAK_NAME = ("largest amplitude over converged points (the peak of the frequency interval "
@@ -21,6 +23,23 @@ CASE_FLAGS = {
     "roundoff_points": ((), "1", "points accepted on the round-off floor of their residual, "
                         "above residual_tolerance (-1: case failed)"),
 }
+
+
+_LAM = re.compile(r"\b(lam_end|lam0|lam) = ([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)")
+_WORDS = (("max_points reached before lam_end", "solver.max_points reached before the end of "
+           "the range"), ("step size below ds_min", "arc-length step below its smallest, ds_min"))
+
+
+def readable_message(message: str, to_unit: float, unit: str) -> str:
+    """A continuation message in the study's words and unit: the continuation
+    parameter lam [rad/s] is the excitation frequency ("reached lam_end = 439.82..."
+    -> "reached the end of the range = 70 Hz")."""
+    names = {"lam_end": "the end of the range", "lam0": "the start of the range",
+             "lam": "the frequency"}
+    for old, new in _WORDS:
+        message = message.replace(old, new)
+    return _LAM.sub(lambda m: f"{names[m.group(1)]} = {float(m.group(2)) / to_unit:.6g} {unit}",
+                    message)
 
 
 def case_flags(curve) -> tuple:

@@ -62,3 +62,14 @@ def test_a_declared_effect_no_case_shows_is_named(tmp_path, capsys):
     f.write_text(BELOW)
     assert cli(["run", str(f), "--out", str(tmp_path / "b"), "--workers", "1"]) == 0
     assert "warning:" not in capsys.readouterr().err
+
+
+def test_continuation_messages_are_in_the_studys_words():
+    from pipeline.study.datasets.incomplete import readable_message
+
+    two_pi = 2 * 3.141592653589793
+    assert readable_message("max_points reached before lam_end", two_pi, "Hz") == (
+        "solver.max_points reached before the end of the range")
+    assert readable_message("step size below ds_min = 1e-06 at lam = 628.3185307179587",
+                            two_pi, "Hz") == ("arc-length step below its smallest, ds_min = "
+                                              "1e-06 at the frequency = 100 Hz")
