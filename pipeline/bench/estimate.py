@@ -104,14 +104,14 @@ def shipped_studies() -> list:
 def run(quick: bool = False, studies=()) -> int:
     from ..study.execution.cost import seconds
 
-    for name in ("pipeline", "distributed"):
-        logging.getLogger(name).setLevel(logging.WARNING)
     paths = [Path(s) if Path(s).suffix == ".toml" else STUDIES / f"{s}.toml" for s in studies] \
         or shipped_studies()
     for p in paths:   # a missing study is one line before the table, not in its middle
         if not p.is_file():
             print(f"error: {p}: (file): no such file", file=sys.stderr)
             return 2
+    for name in ("pipeline", "distributed"):
+        logging.getLogger(name).setLevel(logging.WARNING)
     load = ", ".join(f"{x:.2f}" for x in os.getloadavg())
     print(f"check's estimate against the measured run (--workers 1{', --quick' if quick else ''}); "
           f"load average {load}")

@@ -108,8 +108,10 @@ def absent_effects(study, ds) -> list:
     (the contact-state fractions of the dataset): "separation" where no element ever
     separates, "friction" where none ever slips or none ever closes.  A sweep may
     well have such cases; a whole study without the effect likely misstates the scene.
-    Not for a quick variant: it runs some of the cases the declaration is made for."""
-    if ds is None or "slip_fraction" not in ds or "converged" not in ds or study.quick:
+    Not for a quick variant (it runs some of the cases the declaration is made for), nor
+    where a case failed or stopped short (its missing points may show the effect)."""
+    if ds is None or "slip_fraction" not in ds or "converged" not in ds or study.quick \
+            or not bool(ds["peak_complete"].all()):
         return []
     conv = ds["converged"] == 1
 

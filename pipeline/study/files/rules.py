@@ -40,24 +40,7 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     for a in ("preload", "mu", "ku", "kv"):
         if a in axes and not has_contact:
             ck.fail(f"{wpath}.{a}", "the scene has no [[scene.contact]] to apply it to")
-    if "normal_load" in axes:
-        if "preload" in axes:
-            ck.fail(f"{wpath}.normal_load", "give either the preload n0 (sweep.preload) or the "
-                                            "static normal load (sweep.normal_load), not both")
-        for i, n0 in enumerate(n0s):
-            if n0 is not None:
-                ck.fail(f"scene.contact[{i}].n0", "the static normal load is given "
-                                                  "(sweep.normal_load): n0 is solved for it, "
-                                                  "give not both")
-    elif has_contact and "preload" not in axes:
-        for i, n0 in enumerate(n0s):
-            if n0 is None:
-                ck.fail(f"scene.contact[{i}].n0", "missing (required unless sweep.preload is given)")
-    elif "preload" in axes:
-        for i, n0 in enumerate(n0s):
-            if n0 is not None:
-                ck.fail(f"scene.contact[{i}].n0", f"the preload is swept ({wpath}.preload sets "
-                                                  "n0 of every contact): give not both")
+    check_preload_given(ck, n0s, axes, wpath, has_contact)
     effects = set(effects)
     if has_contact != ("friction" in effects):
         ck.fail("scene.effects", "declare \"friction\" exactly when the scene has contacts"
@@ -70,11 +53,7 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
         ck.fail("scene.effects", "normal DOFs with kv > 0 make the normal load vary: declare "
                                  "\"normal_load_variation\"" if varies else
                 "\"normal_load_variation\" is declared but no contact has normal DOFs with kv > 0")
-    for i, mu in enumerate(mus):
-        if mu == 0 and "mu" not in axes and not (normal[i] and kvs[i] > 0):
-            ck.fail(f"scene.contact[{i}].mu", "mu = 0 under a constant normal load: the "
-                                              "contact exerts no force (no friction, no "
-                                              "normal spring); remove it or give mu > 0")
+    check_forceless(ck, mus, normal, kvs, axes)
     n0_vals = axes.get("preload") or tuple(n0 for n0 in n0s if n0 is not None)
     gap = min(n0_vals, default=0.0) < 0
     if gap and "separation" not in effects:
@@ -93,6 +72,38 @@ def check_scene_rules(ck, effects, n0s, kvs, has_normal, h_excited, H, axes, spa
     if "separation" in effects and not (gap or varies):
         ck.fail("scene.effects", "\"separation\" is declared but cannot occur (constant normal "
                                  "load and no negative preload)")
+
+
+def check_preload_given(ck, n0s, axes, wpath, has_contact):
+    """Each contact's preload given once: by its n0, the swept preload or the static
+    normal load the sweep asks for (n0 solved for it), never by two of them."""
+    if "normal_load" in axes:
+        if "preload" in axes:
+            ck.fail(f"{wpath}.normal_load", "give either the preload n0 (sweep.preload) or the "
+                                            "static normal load (sweep.normal_load), not both")
+        for i, n0 in enumerate(n0s):
+            if n0 is not None:
+                ck.fail(f"scene.contact[{i}].n0", "the static normal load is given "
+                                                  "(sweep.normal_load): n0 is solved for it, "
+                                                  "give not both")
+    elif has_contact and "preload" not in axes:
+        for i, n0 in enumerate(n0s):
+            if n0 is None:
+                ck.fail(f"scene.contact[{i}].n0", "missing (required unless sweep.preload is given)")
+    elif "preload" in axes:
+        for i, n0 in enumerate(n0s):
+            if n0 is not None:
+                ck.fail(f"scene.contact[{i}].n0", f"the preload is swept ({wpath}.preload sets "
+                                                  "n0 of every contact): give not both")
+
+
+def check_forceless(ck, mus, normal, kvs, axes):
+    """A contact with mu = 0 (not swept) and a constant normal load exerts no force."""
+    for i, mu in enumerate(mus):
+        if mu == 0 and "mu" not in axes and not (normal[i] and kvs[i] > 0):
+            ck.fail(f"scene.contact[{i}].mu", "mu = 0 under a constant normal load: the "
+                                              "contact exerts no force (no friction, no "
+                                              "normal spring); remove it or give mu > 0")
 
 
 def check_speed_rules(ck, effects, axes, wpath, can_turn, speed, axis_field=None):
