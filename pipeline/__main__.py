@@ -94,7 +94,7 @@ def _cmd_keys(args) -> int:
 
 
 def _cmd_hysteresis(args) -> int:
-    from .study.figures.plots import hysteresis_figure
+    from .study.figures.plots import check_element, hysteresis_figure
 
     out = Path(args.out)
     if out.is_dir():
@@ -111,10 +111,11 @@ def _cmd_hysteresis(args) -> int:
     U, V = np.zeros((1, 7)), np.zeros((1, 7))
     U[0, 1], (V[0, 1], V[0, 2]) = args.u, args.v
     try:
-        path = hysteresis_figure(out, mu=args.mu, ku=args.ku, kv=args.kv, n0=args.n0, U=U, V=V)
+        check_element(args.mu, args.ku, args.kv, args.n0)
     except ValueError as exc:   # the contact element's own check names its parameter
         print(f"error: hysteresis: --{str(exc).split()[0]}: {exc}", file=sys.stderr)
         return 2
+    path = hysteresis_figure(out, mu=args.mu, ku=args.ku, kv=args.kv, n0=args.n0, U=U, V=V)
     print(f"wrote {path}")
     return 0
 

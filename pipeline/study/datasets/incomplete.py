@@ -78,9 +78,9 @@ def incomplete_cases(study, ds) -> list:
 
 def edge_peaks(study, ds) -> list:
     """[({axis: value}, what)] of every complete case with an output DOF whose largest
-    amplitude lies at an end of the frequency interval (to 1e-9 of it): the amplitude
-    still grows there, so the resonance lies outside the interval, or the DOF has
-    none in it."""
+    amplitude lies at an end of the frequency interval (to 1e-9 of it): its value
+    there, not a resonant peak (the amplitude still grows towards that end; a peak
+    inside, if any, is lower)."""
     if ds is None or "peak_frequency" not in ds or "peak_complete" not in ds:
         return []
     fr = study.sweep.frequency
@@ -93,13 +93,16 @@ def edge_peaks(study, ds) -> list:
         if not bool(ds["peak_complete"].values[idx]):
             continue
         f = np.asarray(ds["peak_frequency"].values[idx], float).reshape(-1, len(dofs))
-        at = (np.abs(f - lo) <= tol) | (np.abs(f - hi) <= tol)
-        names = [d for k, d in enumerate(dofs) if at[:, k].any()]
-        if names:
-            end = f[at][0]
-            out.append((case, f"the largest amplitude of {', '.join(names)} lies at the "
-                              f"range's end, {end:g} {unit}: no peak inside {lo:g}-{hi:g} "
-                              f"{unit} (widen [sweep] frequency if a resonance lies beyond)"))
+        ends = []
+        for end in (lo, hi):
+            names = [d for k, d in enumerate(dofs) if (np.abs(f[:, k] - end) <= tol).any()]
+            if names:
+                ends.append(f"of {', '.join(names)} is its value at the range's end, "
+                            f"{end:g} {unit}")
+        if ends:
+            out.append((case, f"the largest amplitude {'; '.join(ends)}: not a resonant peak "
+                              f"(a peak inside {lo:g}-{hi:g} {unit}, if any, is lower; widen "
+                              "[sweep] frequency if a resonance lies beyond)"))
     return out
 
 
@@ -110,8 +113,8 @@ def absent_effects(study, ds) -> list:
     well have such cases; a whole study without the effect likely misstates the scene.
     Not for a quick variant (it runs some of the cases the declaration is made for), nor
     where a case failed or stopped short (its missing points may show the effect)."""
-    if ds is None or "slip_fraction" not in ds or "converged" not in ds or study.quick \
-            or not bool(ds["peak_complete"].all()):
+    if ds is None or any(v not in ds for v in ("slip_fraction", "converged", "peak_complete")) \
+            or study.quick or not bool(ds["peak_complete"].all()):   # a response dataset only
         return []
     conv = ds["converged"] == 1
 

@@ -181,9 +181,12 @@ def same_case(a: dict, b: dict) -> bool:
 
 def checkpoint_dir(study, out_dir, solver) -> Path:
     """`DIR/.<name>.<key>.cases`: the key hashes the study text (or, a study built
-    in Python, all its fields: `documents.content_bytes`), the quick flag, the solver function and the pipeline version, so a
-    changed study or software never reuses old cases."""
-    content = study.text or hashlib.sha256(content_bytes(study)).hexdigest()
+    in Python, all its fields: `spec.content_bytes`), the quick flag, the solver
+    function and the pipeline version, so a changed study or software never reuses
+    old cases."""
+    fields = None if study.text else content_bytes(study)
+    content = study.text or (hashlib.sha256(fields).hexdigest() if fields is not None
+                             else f"not picklable: never reused {uuid.uuid4()}")
     ident = "\n".join([content, str(study.quick), repr(study.sweep), repr(study.solver),
                        f"{getattr(solver, '__module__', '')}.{getattr(solver, '__qualname__', solver)}",
                        __version__])

@@ -116,11 +116,12 @@ def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None,
     if np.isfinite(res["peak"]) and min(abs(res["peak_omega"] - lo),
                                         abs(res["peak_omega"] - hi)) <= 1e-9 * hi:
         u = window.to_rad_s
-        log.warning("%s: at the optimum preload the largest amplitude lies at an end of the "
-                    "search's window, %.6g %s: no resonant peak inside %.6g-%.6g %s, the "
-                    "optimum minimises an off-resonance amplitude (widen "
-                    "[output.optimum_preload] frequency, or [sweep] frequency)", study.name,
-                    res["peak_omega"] / u, window.unit, lo / u, hi / u, window.unit)
+        log.warning("%s: at the optimum preload the largest amplitude is its value at an "
+                    "end of the search's window, %.6g %s: not a resonant peak (a peak inside "
+                    "%.6g-%.6g %s, if any, is lower), so the optimum minimises an "
+                    "off-resonance amplitude (widen [output.optimum_preload] frequency, or "
+                    "[sweep] frequency)", study.name, res["peak_omega"] / u, window.unit,
+                    lo / u, hi / u, window.unit)
     return res
 
 

@@ -79,8 +79,8 @@ def check_writable(file, out: Path, name: str | None = None, dataset: bool = Tru
     folder `out/<name>/` (figures, mode shapes, tables: some kinds write there even
     without figures) a folder, not a file nor a broken link: checked before any
     computing, so that a blocked path never costs a run nor leaves a dataset alone.
-    Inside that folder an entry named like the files a run writes there (`WRITTEN`:
-    figures, mode shapes, tables) that is a folder or a broken link is refused too."""
+    Inside that folder a folder named like the files a run writes there (`WRITTEN`:
+    figures, mode shapes, tables; they replace files and links) is refused too."""
     import os
     import tempfile
 
@@ -103,10 +103,14 @@ def check_writable(file, out: Path, name: str | None = None, dataset: bool = Tru
         raise UsageError(f"{file}: --out: {folder} (the study's folder of figures) exists and "
                          "is not a directory" + (" (a broken link)" if folder.is_symlink()
                                                  and not folder.exists() else ""))
-    taken = sorted(p.name for p in folder.iterdir() if p.suffix in WRITTEN and (
-        p.is_dir() or not p.exists())) if folder.is_dir() else []
-    if taken:   # a figure, mode shapes or table of ours would go there
-        raise UsageError(f"{file}: --out: {folder / taken[0]} exists and is not a file")
+    try:   # a figure, mode shapes or table of ours would be replaced there: not a folder
+        taken = sorted(p.name for p in folder.iterdir() if p.suffix in WRITTEN
+                       and p.is_dir()) if folder.is_dir() else []
+    except OSError as exc:
+        raise UsageError(f"{file}: --out: {folder} is not readable "
+                         f"({exc.strerror or type(exc).__name__})") from None
+    if taken:
+        raise UsageError(f"{file}: --out: {folder / taken[0]} exists and is a folder")
 
 
 class sigint_interrupts:

@@ -79,6 +79,11 @@ def demo_motion(H: int = 3):
     return U, V
 
 
+def check_element(mu, ku, kv, n0):
+    """ValueError naming the parameter unless (mu, ku, kv, n0) make a contact element."""
+    YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)
+
+
 def hysteresis_figure(path, mu=0.4, ku=1.0, kv=1.0, n0=1.0, U=None, V=None, n_points=2000):
     """Time history of f_u, f_v and the loop f_u(u) (paper Fig. 5), coloured by state."""
     if U is None:

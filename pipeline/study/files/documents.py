@@ -18,6 +18,7 @@ from .spec import Study, content_bytes
 
 # files mistaken for a study: their first bytes, what they are
 BINARY = {b"CDF\x01": "a netCDF dataset", b"CDF\x02": "a netCDF dataset",
+          b"CDF\x05": "a netCDF dataset",
           b"\x89HDF\r\n\x1a\n": "a netCDF-4 dataset", b"\x89PNG": "a PNG image",
           b"%PDF": "a PDF document"}
 
@@ -35,8 +36,7 @@ def load_study(path, quick: bool = False) -> Study:
         raw = path.read_bytes()
     except FileNotFoundError:
         shipped = Path(__file__).resolve().parents[3] / "studies" / f"{path.name}.toml"
-        hint = (f" (a shipped study: studies/{shipped.name})" if not path.suffix
-                and shipped.is_file() else "")
+        hint = f" (a shipped study: {shipped})" if not path.suffix and shipped.is_file() else ""
         raise UsageError(f"{file}: (file): no such file{hint}") from None
     except OSError as exc:
         raise UsageError(f"{file}: (file): cannot read: {exc.strerror or exc}") from None
@@ -80,7 +80,8 @@ def text_describes(study) -> bool:
         again = parse_study(study.text, file=study.file, name=study.name, quick=study.quick)
     except UsageError:
         return False
-    return content_bytes(again) == content_bytes(study)
+    mine = content_bytes(study)
+    return mine is not None and content_bytes(again) == mine
 
 
 def study_from_document(data, *, file: str = "<study>", name: str = "study", text: str = "",

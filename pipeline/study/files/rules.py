@@ -93,14 +93,16 @@ def check_preload_given(ck, n0s, axes, wpath, has_contact):
     elif "preload" in axes:
         for i, n0 in enumerate(n0s):
             if n0 is not None:
-                ck.fail(f"scene.contact[{i}].n0", f"the preload is swept ({wpath}.preload sets "
-                                                  "n0 of every contact): give not both")
+                ck.fail(f"scene.contact[{i}].n0", f"the preload is swept "
+                                                  f"({f'{wpath}.preload'.lstrip('.')} sets n0 "
+                                                  "of every contact): give not both")
 
 
 def check_forceless(ck, mus, normal, kvs, axes):
     """A contact with mu = 0 (not swept) and a constant normal load exerts no force."""
     for i, mu in enumerate(mus):
-        if mu == 0 and "mu" not in axes and not (normal[i] and kvs[i] > 0):
+        kv = max(axes["kv"]) if "kv" in axes else kvs[i]
+        if mu == 0 and "mu" not in axes and not (normal[i] and kv > 0):
             ck.fail(f"scene.contact[{i}].mu", "mu = 0 under a constant normal load: the "
                                               "contact exerts no force (no friction, no "
                                               "normal spring); remove it or give mu > 0")

@@ -250,7 +250,11 @@ class ModesStudy(StudyHeader):
     kind: str = "modes"
 
 
-def content_bytes(study) -> bytes:
+def content_bytes(study) -> bytes | None:
     """Every field of a study of any kind but its text, as bytes (equal for equal
-    studies; a checkpoint key and `documents.text_describes` compare them)."""
-    return pickle.dumps(dataclasses.replace(study, text=""))
+    studies; a checkpoint key and `documents.text_describes` compare them); None for a
+    study built in Python with a part that cannot be pickled (a lambda)."""
+    try:
+        return pickle.dumps(dataclasses.replace(study, text=""))
+    except (pickle.PicklingError, AttributeError, TypeError):
+        return None

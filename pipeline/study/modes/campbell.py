@@ -108,12 +108,10 @@ def frequencies_at(scene: Scene, speed: float, nodal_diameters, n_frequencies: i
                      for nd in nodal_diameters]) / (2 * np.pi)
 
 
-def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders,
-              sectors=None) -> list:
+def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders) -> list:
     """Every (engine order, nodal diameter, mode, state, speed [rpm], frequency [Hz])
     where f_k(ND, s) = EO s / 60, located by `brentq` inside each bracket of the grid
-    (`sectors`: {grid speed: `speed_sector`}, reused where Brent evaluates a bracket's ends)."""
-    sectors = {} if sectors is None else sectors
+    (at a bracket's ends Brent reads the grid's own values)."""
     N = scene.assembly.sectors
     s = np.asarray(speeds)
     found = []
@@ -129,9 +127,10 @@ def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders,
                     if g[i] == 0.0 and i > 0:
                         continue                 # a root on a grid speed: counted once
 
-                    def gap(x, k=k, state=state, eo=eo, nd=nd):
-                        return frequencies_at(scene, x, [nd], k + 1, state,
-                                              sectors.get(x))[0, k] - eo * x / 60
+                    def gap(x, k=k, state=state, eo=eo, nd=nd, i=i, g=g):
+                        if x in (s[i], s[i + 1]):   # a grid speed: its value is known
+                            return g[i] if x == s[i] else g[i + 1]
+                        return frequencies_at(scene, x, [nd], k + 1, state)[0, k] - eo * x / 60
 
                     root = s[i] if g[i] == 0.0 else s[i + 1] if g[i + 1] == 0.0 else brentq(
                         gap, s[i], s[i + 1], xtol=XTOL * s[-1], rtol=4 * np.finfo(float).eps)
@@ -143,11 +142,11 @@ def campbell(scene: Scene, speeds, nodal_diameters, n_frequencies: int, engine_o
     """{"open", "stuck"[, "static"]}: (speed, nodal diameter, mode) natural frequencies
     [Hz] (`states`); "crossings": the list of `crossings`.  Progress is logged every
     `PROGRESS` seconds and at the end (the reductions' own lines only at debug level)."""
-    sectors, t0, shown = {}, time.perf_counter(), time.perf_counter()
+    t0 = shown = time.perf_counter()
     freqs = {state: [] for state in states(scene)}
     with quiet(REDUCTION_LOG):
         for k, v in enumerate(speeds):   # one reduction a speed, shared by the states
-            sectors[float(v)] = sec = speed_sector(scene, v)
+            sec = speed_sector(scene, v)
             for state, f in freqs.items():
                 f.append(frequencies_at(scene, v, nodal_diameters, n_frequencies, state, sec))
             if time.perf_counter() - shown >= PROGRESS or k + 1 == len(speeds):
@@ -155,8 +154,7 @@ def campbell(scene: Scene, speeds, nodal_diameters, n_frequencies: int, engine_o
                 log.info("Campbell: %d/%d speeds (%g rpm), %.1f s", k + 1, len(speeds), v,
                          shown - t0)
         freqs = {state: np.array(f) for state, f in freqs.items()}
-        freqs["crossings"] = crossings(scene, speeds, nodal_diameters, freqs, engine_orders,
-                                       sectors)
+        freqs["crossings"] = crossings(scene, speeds, nodal_diameters, freqs, engine_orders)
     log.info("Campbell: %d engine-order crossing(s) located by Brent, %.1f s",
              len(freqs["crossings"]), time.perf_counter() - t0)
     return freqs

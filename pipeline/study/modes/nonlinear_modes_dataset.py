@@ -216,7 +216,9 @@ META = {
     "slip_fraction": ("1", "fraction of the period the element slips (either way)"),
     "separation_fraction": ("1", "fraction of the period the element is separated"),
     "synthesis_frequency_below": ("Hz", "synthesised response: excitation frequency below the "
-                                        "peak at which the backbone point's amplitude is reached"),
+                                        "peak at which the backbone point's amplitude is reached "
+                                        "(NaN above the peak and under the quasi-static "
+                                        "amplitude, which the response never falls to there)"),
     "synthesis_frequency_above": ("Hz", "synthesised response: excitation frequency above the "
                                         "peak at which the backbone point's amplitude is reached"),
     "synthesis_peak_frequency": ("Hz", "synthesised response: frequency of the peak (NaN: "

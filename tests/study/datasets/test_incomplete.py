@@ -20,8 +20,10 @@ def test_a_peak_at_the_ranges_end_is_named_as_no_peak(tmp_path, capsys):
     warns = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("warning:")]
     assert len(warns) == 2, warns
     for w, n in zip(warns, ("0.5", "1000")):
-        assert w.startswith(f"warning: {f}: case preload = {n} N: the largest amplitude of x "
-                            "lies at the range's end, 180 rad/s: no peak inside 150-180 rad/s")
+        assert w == (f"warning: {f}: case preload = {n} N: the largest amplitude of x is its "
+                     "value at the range's end, 180 rad/s: not a resonant peak (a peak inside "
+                     "150-180 rad/s, if any, is lower; widen [sweep] frequency if a resonance "
+                     "lies beyond)")
     f.write_text(BELOW)
     assert cli(["run", str(f), "--out", str(tmp_path / "b"), "--workers", "1"]) == 0
     assert "warning:" not in capsys.readouterr().err
@@ -35,8 +37,9 @@ def test_an_optimum_whose_window_holds_no_peak_is_named(tmp_path, caplog):
                  'frequency = { start = 220.0, stop = 250.0, unit = "rad/s" }\n')
     assert cli(["run", str(f), "--out", str(tmp_path / "c"), "--workers", "1"]) == 0
     warns = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
-    assert any("largest amplitude lies at an end of the search's window, 220 rad/s: no "
-               "resonant peak inside 220-250 rad/s" in w for w in warns), warns
+    assert any("largest amplitude is its value at an end of the search's window, 220 rad/s: "
+               "not a resonant peak (a peak inside 220-250 rad/s, if any, is lower)" in w
+               for w in warns), warns
 
 
 def test_a_declared_effect_no_case_shows_is_named(tmp_path, capsys):
@@ -73,3 +76,23 @@ def test_continuation_messages_are_in_the_studys_words():
     assert readable_message("step size below ds_min = 1e-06 at lam = 628.3185307179587",
                             two_pi, "Hz") == ("arc-length step below its smallest, ds_min = "
                                               "1e-06 at the frequency = 100 Hz")
+
+
+def test_absent_effects_judge_response_datasets_only():
+    """A nonlinear-modes dataset has contact-state fractions but no peak_complete: no
+    verdict (the full run of such a study raised a KeyError here)."""
+    import numpy as np
+    import xarray as xr
+    from dataclasses import replace
+
+    from pipeline.study.datasets.incomplete import absent_effects
+    from pipeline.study.files.documents import parse_study
+
+    study = replace(parse_study(BELOW, file="below.toml"), quick=False)
+    ds = xr.Dataset({"slip_fraction": (("point", "pair"), np.zeros((3, 1))),
+                     "converged": ("point", np.ones(3, np.int8))})
+    assert absent_effects(study, ds) == []
+    ds["peak_complete"] = ((), np.int8(1))
+    assert absent_effects(study, ds) == ["\"friction\" is declared but no contact slips at "
+                                         "any point of any case (slip_fraction 0 everywhere): "
+                                         "the friction limit is never reached"]

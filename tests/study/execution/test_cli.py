@@ -116,7 +116,7 @@ def test_a_shipped_studys_bare_name_is_pointed_to_its_file(tmp_path, capsys):
     names the shipped study's path; any other name gets no hint."""
     assert cli(["run", "paper_example1", "--out", str(tmp_path)]) == 2
     assert capsys.readouterr().err.strip() == ("error: paper_example1: (file): no such file "
-                                               "(a shipped study: studies/paper_example1.toml)")
+                                               f"(a shipped study: {STUDIES / 'paper_example1.toml'})")
     assert cli(["check", "no_such_study"]) == 2
     assert capsys.readouterr().err.strip() == "error: no_such_study: (file): no such file"
 

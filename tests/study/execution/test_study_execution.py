@@ -221,7 +221,7 @@ def test_unwritable_output_directory_fails_before_computing(study_file, tmp_path
                                                          else "four_preloads"]
         assert (out / "four_preloads.nc").is_dir() == (where == "dataset")
     if where == "figure":
-        assert "four_preloads/amplitude_x.png exists and is not a file" in lines[0]
+        assert "four_preloads/amplitude_x.png exists and is a folder" in lines[0]
         assert [p.name for p in (out / "four_preloads").iterdir()] == ["amplitude_x.png"]
 
 

@@ -397,3 +397,8 @@ def test_a_frictionless_contact_with_a_varying_normal_load_is_a_model():
     assert n == 1
     study = parse_study(text, file="frictionless.toml")
     assert study.scene.contacts[0].mu == 0.0 and study.scene.contacts[0].kv > 0
+    # the normal load varies through a kv sweep (the contact's own kv 0): a model too
+    swept = re.sub(r"(?m)^kv = 1\.0 .*$", "kv = 0.0", text).replace(
+        "[sweep]\n", "[sweep]\nkv = [0.5, 1.0]\n", 1)
+    assert "kv = [0.5, 1.0]" in swept and "kv = 0.0" in swept
+    assert parse_study(swept, file="swept.toml").sweep.axes["kv"] == (0.5, 1.0)
