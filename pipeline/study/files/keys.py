@@ -225,7 +225,7 @@ _FIXED = [
     ("scene.excitation", "direction", "1", "", "FE blades: [x, y, z] (required there)"),
     ("scene.excitation", "amplitude", "N", _REQ, "F(t) = amplitude · cos(hΩt + phase)"),
     ("scene.excitation", "harmonic", "1", "1", "h; 0 is a static load"),
-    ("scene.excitation", "phase", "rad", "0", "phase of the load"),
+    ("scene.excitation", "phase", "rad", "0", "phase of the load, within ±2π"),
     ("scene.disk", "sectors", "1", _REQ, "N, sectors (blades) of the disk"),
     ("scene.disk", "engine_order", "1", "the sweep's `eo`", "EO, 0 ≤ EO ≤ N/2: sector j loaded "
                                                             "with the phase j·2π·EO/N"),

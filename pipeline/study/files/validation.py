@@ -65,6 +65,16 @@ class Checker:
             self.fail(field, f"must be <= {le:g}, got {x:g}")
         return x
 
+    def phase(self, value, field):
+        """A phase angle [rad]: |phase| <= 2 pi; a larger one is refused as degrees
+        typed for radians (90 would otherwise load the structure at 90 rad = 2.04 rad
+        modulo 2 pi, without a word)."""
+        x = self.number(value, field)
+        if abs(x) > 2 * math.pi:
+            self.fail(field, f"a phase in radians lies within +-2 pi (6.283), got {x:g}; "
+                             f"{x:g} degrees is {math.radians(x):.6g} rad")
+        return x
+
     def integer(self, value, field, lo, hi):
         if isinstance(value, bool) or not isinstance(value, int):
             self.fail(field, f"must be an integer, got {kind_of(value)}")

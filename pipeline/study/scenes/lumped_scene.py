@@ -376,7 +376,7 @@ def _excitation(ck, raw, dofs) -> np.ndarray:
             ck.fail(f"{f}.dof", f"unknown DOF {dof!r} (DOFs: {', '.join(dofs)})")
         amp = ck.number(e["amplitude"], f"{f}.amplitude")
         h = ck.integer(e.get("harmonic", 1), f"{f}.harmonic", 0, MAX_HARMONICS)
-        phase = ck.number(e.get("phase", 0.0), f"{f}.phase")
+        phase = ck.phase(e.get("phase", 0.0), f"{f}.phase")
         if h == 0 and phase != 0.0:
             ck.fail(f"{f}.phase", "a static load (harmonic = 0) has no phase")
         if (dof, h) in seen:
