@@ -9,7 +9,7 @@ Static (sweeps..., pair | contact): the nominal preload n0 and the static normal
 load s = n0 + kv v0 (`model.static_load`: the structure deflects under n0 with
 every contact closed and stuck, no excitation).  The attribute `preload_given`
 says which of the two the study gave (`sweep.normal_load` gives s; n0 is then
-solved for it).
+solved for it).  The elements' ku, kv, mu as solved (`element_parameters`).
 
 Per point (sweeps..., point, pair | contact), from the exact transition times of
 each converged point's periodic contact motion (`contact.cycle`): the fractions
@@ -97,8 +97,31 @@ def static_variables(study, cases, systems) -> dict:
         "static_normal_load": (sw + ("contact",), face_totals(s, owner, C), {
             "units": "N", "long_name": f"static normal load n0 + kv v0 summed over the contact's "
                                        f"elements (face total) {closed}"}),
+        **element_parameters(study, cases, systems),
         **(contact_state_variables(study, cases, systems) if pressed(scene) else {}),
     }
+
+
+PARAMETERS = {"ku": ("N/m", "tangential stiffness"), "kv": ("N/m", "normal stiffness"),
+              "mu": ("1", "friction coefficient"),
+              "ku2": ("N/m", "tangential stiffness along the second tangent")}
+
+
+def element_parameters(study, cases, systems) -> dict:
+    """`ku_pair`, `kv_pair`, `mu_pair` (and `ku2_pair` with 2D friction) of every
+    element per case: the contact law's parameters as the solver used them (on an FE
+    face, its share of the face total by node area; a Python-built study's own numbers)."""
+    E = element_owner(study).size
+    plane = any(getattr(c, "friction", "1d") == "2d" for c in study.scene.contacts)
+    k = {n: np.full(study.sweep.shape + (E,), np.nan)
+         for n in (("ku", "kv", "mu", "ku2") if plane else ("ku", "kv", "mu"))}
+    for (idx, _), system in zip(cases, systems):
+        for n in k:
+            k[n][idx] = getattr(contact_set(system).elements, n)
+    sw = tuple(study.sweep.axes)
+    return {f"{n}_pair": (sw + ("pair",), v, {"units": PARAMETERS[n][0], "long_name":
+                                              f"{PARAMETERS[n][1]} of the element"})
+            for n, v in k.items()}
 
 
 def pressed(scene) -> bool:
@@ -228,12 +251,8 @@ def peak_motion_variables(study, cases, curves, systems, data_vars) -> dict:
     plane = any(getattr(c, "friction", "1d") == "2d" for c in study.scene.contacts)
     X = np.full(shape + (E, 3 if plane else 2, nh), np.nan)
     point = np.full(shape, -1, dtype=np.int32)
-    names = ("ku", "kv", "mu", "ku2") if plane else ("ku", "kv", "mu")
-    k = {n: np.full(shape + (E,), np.nan) for n in names}
     amp, conv = data_vars["amplitude"][1][..., 0], data_vars["converged"][1]
     for (idx, _), c, system in zip(cases, curves, systems):
-        for n in k:
-            k[n][idx] = getattr(contact_set(system).elements, n)
         if c is None or not conv[idx].any() or c.Q.shape[-1] != nh:
             continue
         i = int(np.argmax(np.where(conv[idx], amp[idx], -np.inf)))
@@ -254,13 +273,6 @@ def peak_motion_variables(study, cases, curves, systems, data_vars) -> dict:
             "units": "m", "long_name": "tangential relative displacement along the second "
                                        "tangent (n x t1) of the element at the peak point, "
                                        "Fourier coefficients"})
-    for n, (u, what) in {"ku": ("N/m", "tangential stiffness"), "kv": ("N/m", "normal "
-                         "stiffness"), "mu": ("1", "friction coefficient"), "ku2": ("N/m",
-                         "tangential stiffness along the second tangent")}.items():
-        if n not in k:
-            continue
-        out[f"{n}_pair"] = (sw + ("pair",), k[n], {"units": u, "long_name": f"{what} of the "
-                                                                           "element"})
     return out
 
 

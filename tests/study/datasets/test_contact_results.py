@@ -88,6 +88,24 @@ def test_dataset_stores_the_static_normal_load_per_pair_and_per_contact():
     assert ds.attrs["preload_given"] == "n0"
 
 
+def test_dataset_records_each_elements_contact_parameters_as_solved():
+    """ku, kv, mu per element and case, in SI units, from the systems solved (a swept
+    mu varies along its axis; a study changed in Python records its own numbers)."""
+    from dataclasses import replace
+    study = two_masses("preload = [10.0]\nmu = [0.1, 0.4]")
+    ds = to_dataset(study, [None, None], errors=["not run", "not run"])
+    assert ds.mu_pair.dims == ("preload", "mu", "pair")
+    np.testing.assert_array_equal(ds.mu_pair.values[0, :, 0], [0.1, 0.4])
+    np.testing.assert_array_equal(ds.ku_pair.values[0, :, 0], [KU, KU])
+    np.testing.assert_array_equal(ds.kv_pair.values[0, :, 0], [KV, KV])
+    assert [ds[f"{k}_pair"].attrs["units"] for k in ("ku", "kv", "mu")] == ["N/m", "N/m", "1"]
+    s2 = two_masses("preload = [10.0]")
+    c = s2.scene.contacts[0]
+    s2 = replace(s2, scene=replace(s2.scene, contacts=(replace(c, ku=2 * KU),)))
+    ds2 = to_dataset(s2, [None], errors=["not run"])
+    assert ds2.ku_pair.values[0, 0] == 2 * KU
+
+
 # ---------------------------------------------------------------------------
 # A requested static normal load (sweep.normal_load)
 # ---------------------------------------------------------------------------
