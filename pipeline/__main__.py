@@ -127,7 +127,7 @@ def _cmd_optimise(args) -> int:
     from .study.files.declared import UndeclaredSeparation
     from .study.figures.optimum_figure import optimum_figure
     from .study.files.documents import load_study
-    from .study.execution.optimum_search import find_optimum
+    from .study.execution.optimum_search import find_optimum, window_end
     from .study.execution.cases import default_solver
     from .study.execution.checkpoint import checkpoint_dir
     from .study.execution.run import check_writable, sigint_interrupts
@@ -177,6 +177,9 @@ def _cmd_optimise(args) -> int:
     path = optimum_figure(Path(args.out) / study.name / "optimum_preload.png", res, o["dof"],
                           study.title)
     print(f"wrote {path}")
+    what = window_end(study, res["peak_omega"])
+    if what:
+        print(f"warning: {args.study}: output.optimum_preload: {what}", file=sys.stderr)
     return 0
 
 

@@ -112,17 +112,24 @@ def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None,
              res["preload"], res["peak"], res["peak_omega"] / fr.to_rad_s, fr.unit,
              len(res["evaluations"]), res["computed"], res["reused"], len(res["brackets"]),
              len(res["skipped"]), res["wall_time"])
-    lo, hi = sorted((window.omega_start, window.omega_stop))
-    if np.isfinite(res["peak"]) and min(abs(res["peak_omega"] - lo),
-                                        abs(res["peak_omega"] - hi)) <= 1e-9 * hi:
-        u = window.to_rad_s
-        log.warning("%s: at the optimum preload the largest amplitude is its value at an "
-                    "end of the search's window, %.6g %s: not a resonant peak (a peak inside "
-                    "%.6g-%.6g %s, if any, is lower), so the optimum minimises an "
-                    "off-resonance amplitude (widen [output.optimum_preload] frequency, or "
-                    "[sweep] frequency)", study.name, res["peak_omega"] / u, window.unit,
-                    lo / u, hi / u, window.unit)
     return res
+
+
+def window_end(study: Study, peak_omega: float) -> str | None:
+    """The warning for an optimum whose largest amplitude lies at an end of the
+    search's frequency window (peak_omega [rad/s], to 1e-9 of it), else None: that
+    value is no resonant peak, so the optimum would minimise an off-resonance
+    amplitude."""
+    window = study.output.optimum["window"] or study.sweep.frequency
+    lo, hi = sorted((window.omega_start, window.omega_stop))
+    if not np.isfinite(peak_omega) or min(abs(peak_omega - lo), abs(peak_omega - hi)) > 1e-9 * hi:
+        return None
+    u = window.to_rad_s
+    return (f"at the optimum preload the largest amplitude is its value at an end of the "
+            f"search's window, {peak_omega / u:.6g} {window.unit}: not a resonant peak (a "
+            f"peak inside {lo / u:.6g}-{hi / u:.6g} {window.unit}, if any, is lower), so the "
+            "optimum minimises an off-resonance amplitude (widen [output.optimum_preload] "
+            "frequency, or [sweep] frequency)")
 
 
 def search_identity(study: Study) -> tuple:

@@ -28,6 +28,7 @@ from pathlib import Path
 from ...errors import UsageError, interrupt_in_chain
 from .cases import SchedulerUnreachable, WorkerLost, default_solver
 from .checkpoint import kept_cases
+from .optimum_search import window_end
 from ..files.documents import load_study, text_describes
 from ..datasets.incomplete import absent_effects, edge_peaks, incomplete_cases
 from ..kinds import kind_of
@@ -165,6 +166,20 @@ def _case_words(case: dict) -> str:
                      for k, v in case.items())
 
 
+def warnings(file, study, ds) -> list:
+    """The `warning: <file>: <where>: <what>` lines of a finished run: incomplete cases,
+    largest amplitudes at the range's end, declared effects no case shows, an optimum
+    at its window's end (printed, so that no progress bar hides them)."""
+    out = [f"warning: {file}: case {_case_words(case)}: {what}"
+           for case, what in incomplete_cases(study, ds) + edge_peaks(study, ds)]
+    out += [f"warning: {file}: scene.effects: {what}" for what in absent_effects(study, ds)]
+    if ds is not None and "optimum_peak_frequency" in ds:
+        what = window_end(study, float(ds["optimum_peak_frequency"])
+                          * study.sweep.frequency.to_rad_s)
+        out += [f"warning: {file}: output.optimum_preload: {what}"] if what else []
+    return out
+
+
 def cmd_run(args) -> int:
     """`python -m pipeline run`: 0 ok, 1 a case failed or nothing converged, 2 bad input."""
     try:
@@ -212,10 +227,8 @@ def cmd_run(args) -> int:
         return 1
     for case, reason in res.failed:  # one line each, whether or not a progress bar hid the log
         print(f"error: {args.study}: case {_case_words(case)}: {reason}", file=sys.stderr)
-    for case, what in incomplete_cases(study, res.dataset) + edge_peaks(study, res.dataset):
-        print(f"warning: {args.study}: case {_case_words(case)}: {what}", file=sys.stderr)
-    for what in absent_effects(study, res.dataset):
-        print(f"warning: {args.study}: scene.effects: {what}", file=sys.stderr)
+    for line in warnings(args.study, study, res.dataset):
+        print(line, file=sys.stderr)
     if res.reused:
         log.info("%s: %d case(s) reused from the interrupted run, %d computed",
                  study.name, res.reused, res.computed)
