@@ -62,11 +62,12 @@ class YangMenq:
         E = sizes.pop() if sizes else 1
         for k, a in arrays.items():
             object.__setattr__(self, k, np.broadcast_to(a, (E,)).copy())
-        for k in ("ku", "kv"):
-            if np.any(getattr(self, k) < 0):
-                raise ValueError(f"{k} must be >= 0 (stiffness), got {getattr(self, k)}")
-        if np.any(self.mu < 0):
-            raise ValueError(f"mu must be >= 0, got {self.mu}")
+        for k, what in (("ku", " (stiffness)"), ("kv", " (stiffness)"), ("mu", "")):
+            a = getattr(self, k)
+            if np.any(a < 0):
+                bad = np.flatnonzero(a < 0)
+                where = "" if E == 1 else f" at element {bad[0]} ({bad.size} negative)"
+                raise ValueError(f"{k} must be >= 0{what}, got {a[bad[0]]:g}{where}")
         if self.slider_rest is not None:
             w = _as_param("slider_rest", self.slider_rest, E)
             object.__setattr__(self, "slider_rest", np.broadcast_to(w, (E,)).copy())

@@ -259,6 +259,17 @@ def test_hysteresis_bad_parameters_are_one_line_and_write_nothing(tmp_path, caps
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"error: hysteresis: {field}: "), err
     assert not (tmp_path / "h.png").exists()
+    if field == "--ku":   # the number as typed, not an array's repr
+        assert err[0] == "error: hysteresis: --ku: ku must be >= 0 (stiffness), got -1"
+
+
+def test_negative_contact_parameters_name_the_first_element():
+    from pipeline.contact import YangMenq
+    with pytest.raises(ValueError, match=r"^kv must be >= 0 \(stiffness\), got -2 at element 1 "
+                                         r"\(2 negative\)$"):
+        YangMenq(ku=1.0, kv=[0.0, -2.0, -3.0], mu=0.3, n0=1.0)
+    with pytest.raises(ValueError, match=r"^mu must be >= 0, got -0.3$"):
+        YangMenq(ku=1.0, kv=0.0, mu=-0.3, n0=1.0)
 
 
 def test_hysteresis_draws_the_motion_given(tmp_path, monkeypatch):
