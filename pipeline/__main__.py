@@ -128,6 +128,7 @@ def _cmd_optimise(args) -> int:
     from .study.figures.optimum_figure import optimum_figure
     from .study.files.documents import load_study
     from .study.execution.optimum_search import find_optimum, window_end
+    from .study.kinds import kind_of
     from .study.execution.cases import default_solver
     from .study.execution.checkpoint import checkpoint_dir
     from .study.execution.run import check_writable, sigint_interrupts
@@ -140,6 +141,10 @@ def _cmd_optimise(args) -> int:
                    else (os.cpu_count() or 1))
     if workers < 1:
         raise UsageError(f"{args.study}: --workers: must be >= 1, got {workers}")
+    word = kind_of(study).word
+    if word != "response":   # a modes, nonlinear-modes or accuracy-cost study
+        raise UsageError(f"{args.study}: study.kind: an optimum-preload search needs a "
+                         f"\"response\" study, this one is {word!r}")
     if study.output.optimum is None:
         raise UsageError(f"{args.study}: output.optimum_preload: missing: give dof and "
                          "bounds = [low, high] (N) for the search")

@@ -242,3 +242,16 @@ def test_example2_optimum_within_its_tolerance_of_a_finer_search():
     assert opt["preload"] == pytest.approx(np.exp(fine.x), rel=1e-3)
     assert 137.0 < opt["preload"] < 138.5
     assert opt["peak"] <= fine.fun * (1 + 1e-7)
+
+
+@pytest.mark.parametrize("name, word", [("disk_laxalde", "modes"), ("blade_modes", "modes"),
+                                        ("disk_nonlinear_modes", "nonlinear_modes"),
+                                        ("accuracy_cost", "accuracy_cost")])
+def test_optimise_refuses_a_study_that_is_not_a_response_study(tmp_path, capsys, name, word):
+    from pipeline.__main__ import main
+    f = ROOT / "studies" / f"{name}.toml"
+    assert main(["optimise", str(f), "--out", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"error: {f}: study.kind: an optimum-preload search needs a \"response\" study, this "
+        f"one is {word!r}")
+    assert not any(tmp_path.iterdir())
