@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import numbers
 import pickle
 import re
 from collections.abc import Callable
@@ -69,6 +70,19 @@ class FrequencyRange:
     start: float
     stop: float
     unit: str
+
+    def __post_init__(self):   # a Python-built study meets the study file's rules
+        if self.unit not in FREQUENCY_UNITS:
+            raise ValueError(f"FrequencyRange: unit must be 'rad/s' or 'Hz', got {self.unit!r}")
+        for k in ("start", "stop"):
+            x = getattr(self, k)
+            if isinstance(x, bool) or not isinstance(x, numbers.Real) or not math.isfinite(x) \
+                    or not x > 0:
+                raise ValueError(f"FrequencyRange: {k} must be a finite number > 0 "
+                                 f"[{self.unit}], got {x!r}")
+        if self.start == self.stop:
+            raise ValueError(f"FrequencyRange: start and stop are equal ({self.start:g} "
+                             f"{self.unit}): empty interval")
 
     @property
     def to_rad_s(self) -> float:

@@ -12,6 +12,7 @@ import re
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pipeline.__main__ import main
@@ -192,3 +193,17 @@ def test_the_walkthrough_study_in_studies_readme_is_valid():
     s = build_system(full.scene, {"preload": 2.0})
     got = np.concatenate([natural_frequencies(s, m)[:2] for m in ("open", "stuck")]) / (2 * np.pi)
     np.testing.assert_allclose(got, stated, atol=0.05)
+
+
+@pytest.mark.parametrize("args, what", [((150.0, 250.0, "hz"), "unit must be 'rad/s' or 'Hz', got 'hz'"),
+                                        ((150.0, 250.0, "rpm"), "unit must be 'rad/s' or 'Hz'"),
+                                        ((-10.0, 250.0, "rad/s"), "start must be a finite number > 0"),
+                                        ((150.0, float("nan"), "Hz"), "stop must be a finite number > 0"),
+                                        ((150.0, 150.0, "Hz"), "start and stop are equal")])
+def test_a_frequency_range_built_in_python_meets_the_study_files_rules(args, what):
+    """A Python-built study's range is checked as a study file's is: an unknown unit
+    would otherwise run in rad/s under another unit's label."""
+    from pipeline.study.files.spec import FrequencyRange
+    with pytest.raises(ValueError, match=re.escape(what)):
+        FrequencyRange(*args)
+    assert FrequencyRange(150, 250.0, "Hz").omega_stop == pytest.approx(500 * np.pi)
