@@ -129,7 +129,7 @@ def _cmd_optimise(args) -> int:
     from .study.files.documents import load_study
     from .study.execution.optimum_search import find_optimum, window_end
     from .study.kinds import kind_of
-    from .study.execution.cases import default_solver
+    from .study.execution.cases import StaticDivergence, default_solver
     from .study.execution.checkpoint import checkpoint_dir
     from .study.execution.run import check_writable, sigint_interrupts
     from .study.execution.search_checkpoint import search_file
@@ -157,6 +157,9 @@ def _cmd_optimise(args) -> int:
             res = find_optimum(study, None, cdir, workers=workers)
     except UndeclaredSeparation as exc:
         print(f"error: {args.study}: scene.effects: {exc}", file=sys.stderr)
+        return 1
+    except StaticDivergence as exc:
+        print(f"error: {args.study}: scene: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         kept = search_file(cdir)

@@ -80,6 +80,11 @@ class CubicSpring:
     def size(self) -> int:
         return self.k3.size
 
+    def linear_limit(self, contacts: str) -> np.ndarray:
+        """(E, 1) springs [N/m] of every linear limit (`model.system.linear_stiffness`):
+        k1, the spring's tangent at rest, whatever the contacts do."""
+        return self.k1[:, None].copy()
+
     def evaluate(self, X, method: str = "exact", n_samples: int = 0,
                  jacobian: bool = True):
         """Fourier coefficients F (E, 1, 2H+1) of f(u) and J (E, 1, 2H+1, 2H+1) =

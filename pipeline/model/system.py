@@ -180,15 +180,54 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     # every frequency: one dense eigen-solve of the whole structure (N n DOFs for an
     # N-sector assembly), whether the matrices are stored sparse or not
     K = linear_stiffness(system, contacts)
-    return np.sqrt(np.abs(sla.eigh(K, dense(system.M), eigvals_only=True)))
+    return from_squares(sla.eigh(K, dense(system.M), eigvals_only=True))
 
 
-def linear_stiffness(system: System, contacts: str = "open") -> np.ndarray:
+NEGATIVE_REL = 1e-8   # an omega^2 below -NEGATIVE_REL max |omega^2|: a negative stiffness
+
+
+def from_squares(w2, scale: float = 0.0) -> np.ndarray:
+    """Frequencies [rad/s] from the eigenvalues omega^2 [rad^2/s^2] of K - omega^2 M:
+    sqrt, 0 for a round-off negative (a free body), NaN for an omega^2 below
+    -NEGATIVE_REL max(|omega^2|, scale) (the structure diverges statically there: no
+    frequency, `negative_stiffness`); `scale` [rad^2/s^2] for a subset of the
+    eigenvalues (`square_scale`)."""
+    w2 = np.asarray(w2, float)
+    if w2.size == 0:
+        return w2
+    floor = -NEGATIVE_REL * max(float(np.max(np.abs(w2))), scale)
+    return np.where(w2 < floor, np.nan, np.sqrt(np.maximum(w2, 0.0)))
+
+
+def square_scale(system: System) -> float:
+    """max |K_ii| / max M_ii [rad^2/s^2]: the scale of the structure's omega^2, for
+    telling a negative stiffness from round-off when only the lowest are known."""
+    dK = np.abs(system.K.diagonal() if hasattr(system.K, "diagonal") else np.diag(system.K))
+    dM = np.abs(system.M.diagonal() if hasattr(system.M, "diagonal") else np.diag(system.M))
+    return float(np.max(dK) / np.max(dM)) if dK.size and np.max(dM) > 0 else 0.0
+
+
+def negative_stiffness(system: System) -> float | None:
+    """The lowest omega^2 [rad^2/s^2] of the structure alone (K with its cyclic
+    coupling; no contact, no further law) where it is a negative stiffness (below
+    -NEGATIVE_REL of its scale, `from_squares`), else None: such a structure
+    diverges statically (spin softening beyond the speed of divergence), so a
+    periodic response about it is unstable whatever a stability rule assumes.  A
+    law's negative k1 is left out: a softening spring with a stiffening k3 (a double
+    well) has stable equilibria away from rest."""
+    w2 = lowest_squares(system, "open", 6, laws=False)
+    if w2.size == 0 or not np.isnan(from_squares(w2, square_scale(system))[0]):
+        return None
+    return float(w2[0])
+
+
+def linear_stiffness(system: System, contacts: str = "open", laws: bool = True) -> np.ndarray:
     """The dense stiffness [N/m] of a linear limit (`natural_frequencies`' meaning of
-    `contacts`): K plus the stuck contacts' springs; for a cyclic sector the Hermitian
-    stiffness of the engine-order family (complex unless phi = 0 or pi).  "small":
-    the limit of vanishing vibration, the preloaded elements (n0 > 0) stuck in both
-    directions and the others (a gap) open."""
+    `contacts`): K plus the stuck contacts' springs and (`laws`) the further laws'
+    linear limits; for a cyclic sector the Hermitian stiffness of the engine-order
+    family (complex unless phi = 0 or pi).  "small": the limit of vanishing
+    vibration, the preloaded elements (n0 > 0) stuck in both directions and the others
+    (a gap) open."""
     cy = system.cyclic
     K = dense(coupled_stiffness(system, cy.phase if cy is not None else 0.0))
     if contacts in ("stuck", "tied", "small"):
@@ -201,18 +240,18 @@ def linear_stiffness(system: System, contacts: str = "open") -> np.ndarray:
             Bn = dense(Bn) + z * dense(cy.Bn_next)
         ku = el.ku * closed if contacts == "small" else el.ku
         K = K + (stiffness_along(Bt, ku) + stiffness_along(Bn, el.kv * closed))
-        for le in system.laws:        # further laws with linear limits (2D friction)
-            limit = getattr(le.law, "linear_limit", None)
-            if limit is None:
-                continue
-            k = limit(contacts)       # (E, D) springs along the law's directions [N/m]
-            for d, B in enumerate(le.maps):
-                if cy is not None and le.maps_next:
-                    B = dense(B) + np.exp(1j * cy.phase) * dense(le.maps_next[d])
-                K = K + stiffness_along(B, k[:, d])
     elif contacts != "open":
         raise ValueError("contacts must be 'open', 'stuck', 'tied' or 'small', "
                          f"got {contacts!r}")
+    for le in system.laws if laws else ():   # 2D friction's limits; a spring's k1
+        limit = getattr(le.law, "linear_limit", None)
+        if limit is None:
+            continue
+        k = limit(contacts)       # (E, D) springs along the law's directions [N/m]
+        for d, B in enumerate(le.maps):
+            if cy is not None and le.maps_next:
+                B = dense(B) + np.exp(1j * cy.phase) * dense(le.maps_next[d])
+            K = K + stiffness_along(B, k[:, d])
     return K
 
 
@@ -247,13 +286,23 @@ DENSE_EIGEN_MAX = 2000   # DOFs: above, the lowest frequencies by sparse shift-i
 
 def lowest_frequencies(system: System, contacts: str, k: int) -> np.ndarray:
     """The k lowest undamped natural frequencies [rad/s] (`natural_frequencies`'
-    meaning of `contacts`), without a dense whole-structure matrix above
-    DENSE_EIGEN_MAX DOFs: there, K (+ the stuck contacts' ku, kv) and M stay sparse
+    meaning of `contacts`; NaN for a negative stiffness, `from_squares`), without a
+    dense whole-structure matrix above DENSE_EIGEN_MAX DOFs (`lowest_squares`)."""
+    return from_squares(lowest_squares(system, contacts, k), square_scale(system))
+
+
+def lowest_squares(system: System, contacts: str, k: int, laws: bool = True) -> np.ndarray:
+    """The k lowest eigenvalues omega^2 [rad^2/s^2] of a linear limit (`laws` as
+    `linear_stiffness`), ascending;
+    above DENSE_EIGEN_MAX DOFs K (+ the stuck contacts' ku, kv) and M stay sparse
     and ARPACK's shift-invert Lanczos about 0 finds them (a full wheel)."""
+    import scipy.linalg as sla
+
     n = system.n_dof
     k = min(int(k), n)
     if n <= DENSE_EIGEN_MAX or system.cyclic is not None or not sp.issparse(system.K):
-        return natural_frequencies(system, contacts)[:k]
+        K = linear_stiffness(system, contacts, laws)
+        return sla.eigh(K, dense(system.M), eigvals_only=True)[:k]
     import scipy.sparse.linalg as spla
 
     K = sp.csr_matrix(system.K, dtype=float)
@@ -262,15 +311,15 @@ def lowest_frequencies(system: System, contacts: str, k: int) -> np.ndarray:
         closed = np.ones(el.size, bool) if contacts == "tied" else el.n0 > 0
         Bt, Bn = sp.csr_matrix(system.Bt), sp.csr_matrix(system.Bn)
         K = K + Bt.T @ sp.diags(el.ku) @ Bt + Bn.T @ sp.diags(el.kv * closed) @ Bn
-        for le in system.laws:        # further laws' linear limits (2D friction)
-            if getattr(le.law, "linear_limit", None) is not None:
-                k = le.law.linear_limit(contacts)
-                for d, B in enumerate(le.maps):
-                    B = sp.csr_matrix(B)
-                    K = K + B.T @ sp.diags(k[:, d]) @ B
     elif contacts != "open":
         raise ValueError(f"contacts must be 'open', 'stuck' or 'tied', got {contacts!r}")
+    for le in system.laws if laws else ():   # 2D friction's limits; a spring's k1
+        if getattr(le.law, "linear_limit", None) is not None:
+            k = le.law.linear_limit(contacts)
+            for d, B in enumerate(le.maps):
+                B = sp.csr_matrix(B)
+                K = K + B.T @ sp.diags(k[:, d]) @ B
     w2 = spla.eigsh(K.tocsc(), k=k, M=sp.csc_matrix(system.M), sigma=0.0,
                     return_eigenvectors=False, v0=np.ones(n))
-    return np.sqrt(np.abs(np.sort(w2)))
+    return np.sort(w2)
 

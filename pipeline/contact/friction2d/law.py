@@ -107,7 +107,9 @@ class Friction2D:
         """(E, 3) springs [N/m] of a linear limit (`model.system.linear_stiffness`): as
         the Yang-Menq element's -- "stuck": ku, ku2 along the tangents of every
         element, kv where n0 > 0; "tied": every element closed; "small": the preloaded
-        elements stuck, the others open."""
+        elements stuck, the others open; "open": none."""
+        if contacts == "open":
+            return np.zeros((self.size, 3))
         closed = np.ones(self.size, bool) if contacts == "tied" else self.n0 > 0
         k = np.stack([self.ku, self.ku2], axis=1)
         k = k * closed[:, None] if contacts == "small" else k

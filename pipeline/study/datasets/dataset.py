@@ -235,11 +235,13 @@ def response_meta(unit: str, computed: bool) -> dict:
                            "0: not excluded (see the case's message)"),
         "residual_tolerance": ((), "N", "residual norm accepted as converged"), **CASE_FLAGS,
         "natural_frequency_free": (("mode",), unit, "undamped natural frequency without contacts "
-                                                   f"(the lowest, at most {MAX_MODES})"),
+                                                   f"(further laws' linear springs kept; the "
+                                                   f"lowest, at most {MAX_MODES}; NaN: a "
+                                                   "negative stiffness, omega^2 < 0)"),
         "natural_frequency_stuck": (("mode",), unit,
                                     "undamped natural frequency with the contacts stuck "
                                     f"(ku of every contact, kv where n0 > 0; the lowest, at most "
-                                    f"{MAX_MODES})"),
+                                    f"{MAX_MODES}; NaN: a negative stiffness, omega^2 < 0)"),
         "window_peak_amplitude": (("sector", "peak_window", "dof"), "m",
                                   "largest amplitude over converged points inside the peak window"),
         "window_peak_frequency": (("sector", "peak_window", "dof"), unit,

@@ -11,6 +11,7 @@ import numpy as np
 
 from ...solve.response import linear_response
 from ...solve.response import response
+from ...model.system import negative_stiffness
 from .checkpoint import load_cases, save_case
 from ..files.declared import SeparationGuard, UndeclaredSeparation, needs_guard
 from ..files.spec import Study, is_linear_scene
@@ -37,6 +38,9 @@ def run_case(solver, system, H, omega_start, omega_stop, kwargs, guard=None):
     separates, and every point of the finished curve is checked, so such a case
     fails instead of being solved with separation."""
     try:
+        w2 = negative_stiffness(system)
+        if w2 is not None:
+            return None, divergence(w2)
         if guard is not None:
             kwargs = dict(kwargs)
             check, progress = guard.callback(system, H), kwargs.get("callback")
@@ -47,10 +51,21 @@ def run_case(solver, system, H, omega_start, omega_stop, kwargs, guard=None):
             guard.check_curve(system, curve)
         return curve, None
     except UndeclaredSeparation as exc:  # reported once, in the case's progress line
-        return None, f"{type(exc).__name__}: {exc}"
+        return None, str(exc)
     except Exception as exc:  # numerical failures of one case must not lose the others
         logging.getLogger(__name__).exception("case failed")
         return None, f"{type(exc).__name__}: {exc}"
+
+
+class StaticDivergence(RuntimeError):
+    """The structure has a negative stiffness (`negative_stiffness`): not solved."""
+
+
+def divergence(w2: float) -> str:
+    """The case error of a structure with a negative stiffness (`negative_stiffness`)."""
+    return (f"the structure diverges statically: without its contacts its stiffness has a "
+            f"negative eigenvalue, omega^2 = {w2:.4g} rad^2/s^2 (spin softening beyond the "
+            "speed of divergence?), so no stable periodic response exists; not solved")
 
 
 def separation_guard(study):

@@ -12,7 +12,8 @@ import numpy as np
 
 from ...solve.response.optimum import grid_nodes
 from ...solve.response.peak_tracking import band_peak, optimum_preload
-from .cases import map_jobs, separation_guard
+from ...model.system import negative_stiffness
+from .cases import StaticDivergence, divergence, map_jobs, separation_guard
 from .search_checkpoint import load_search, save_search
 from ..files.spec import Study
 
@@ -34,7 +35,7 @@ def study_optimum(study: Study, solver, curves, cdir=None, workers=1, scheduler=
     try:
         return find_optimum(study, list(zip([c for _, c in study.sweep.cases()], curves))
                             if hbm else None, cdir, workers, scheduler, early), None
-    except UndeclaredSeparation as exc:
+    except (UndeclaredSeparation, StaticDivergence) as exc:
         log.error("%s: optimum preload search stopped: %s", study.name, exc)
         return None, str(exc)
 
@@ -63,6 +64,9 @@ def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None,
     cases: `planned_grid`) taken as they are; Brent's trials, continued from them,
     run here."""
     o, sv = study.output.optimum, study.solver
+    w2 = negative_stiffness(study.system({"preload": o["bounds"][0]}))
+    if w2 is not None:   # a structure that diverges has no resonant peak to minimise
+        raise StaticDivergence(divergence(w2))
     identity, window, dof = search_identity(study)
     kw = {k: v for k, v in sv.kwargs().items() if k not in ("stability",)}
     guard, current = separation_guard(study), {}

@@ -74,7 +74,9 @@ def family_frequencies(res: dict, dims: tuple) -> dict:
             "static": "natural frequency, the pairs of the static contact solution "
                       "(interference and speed) stuck, the others open"}
     return {f"frequency_{k}": (dims, np.asarray(res[k], float),
-                               {"units": "Hz", "long_name": text})
+                               {"units": "Hz", "long_name": text + " (NaN: a negative "
+                                "stiffness, omega^2 < 0: the blade diverges, e.g. spin "
+                                "softening beyond the speed of divergence)"})
             for k, text in long.items() if k in res}
 
 
