@@ -247,9 +247,10 @@ def response_meta(unit: str, computed: bool) -> dict:
         "window_peak_frequency": (("sector", "peak_window", "dof"), unit,
                                   "frequency of the largest amplitude inside the peak window"),
         "window_peak_complete": (("peak_window",), "1",
-                                 "1: the converged points span the whole peak window, so the "
-                                 "window's peak is its largest amplitude; 0: the branch does not "
-                                 "reach across it"),
+                                 "1: the converged points span the whole peak window (its "
+                                 "largest amplitude is a resonant peak unless it lies on a "
+                                 "flank at the window's edge: run warns); 0: the branch does "
+                                 "not reach across it"),
         **sd.stability_meta(unit),
     }
 

@@ -2,7 +2,8 @@
 amplitude is the largest traced, not the peak of the interval (`peak_complete` = 0
 in the dataset).  `incomplete_cases` words them for the end of `python -m pipeline run`,
 `edge_peaks` the complete cases whose largest amplitude lies at an end of the interval
-(a resonance outside it, or none: not a peak), `absent_effects` declared contact
+(a resonance outside it, or none: not a peak), `window_edges` the same for the peak
+windows, `absent_effects` declared contact
 effects that no case shows;
 `CASE_FLAGS` describes that flag and the count of points accepted on the residual's
 round-off floor (`solve.harmonic_balance.roundoff`).
@@ -103,6 +104,44 @@ def edge_peaks(study, ds) -> list:
             out.append((case, f"the largest amplitude {'; '.join(ends)}: not a resonant peak "
                               f"(a peak inside {lo:g}-{hi:g} {unit}, if any, is lower; widen "
                               "[sweep] frequency if a resonance lies beyond)"))
+    return out
+
+
+def window_edges(study, ds) -> list:
+    """[({axis: value}, what)] of every case and `[output] peak_windows` entry whose
+    largest amplitude inside the window is no local maximum of the branch: a converged
+    neighbour along the branch, outside the window, is higher, so the value is the
+    curve's flank at the window's edge (a resonance beyond it), not a resonant peak."""
+    if ds is None or "window_peak_frequency" not in ds or "peak_window_low" not in ds:
+        return []
+    unit = ds["frequency"].attrs.get("units", "")
+    lows, highs = ds["peak_window_low"].values, ds["peak_window_high"].values
+    dofs = [str(d) for d in ds["dof"].values]
+    out = []
+    for idx, case in study.sweep.cases():
+        sub = ds.isel(dict(zip(study.sweep.axes, idx)))
+        f, conv = sub["frequency"].values, sub["converged"].values.astype(bool)
+        A = sub["amplitude"].transpose(..., "point", "dof").values.reshape(
+            -1, f.size, len(dofs))                       # (sectors, points, dofs)
+        at = np.flatnonzero(conv)                        # converged points, branch order
+        for w, (lo, hi) in enumerate(zip(lows, highs)):
+            inside = conv[at] & (f[at] >= lo) & (f[at] <= hi)
+            if not inside.any():
+                continue
+            names = []
+            for k, d in enumerate(dofs):
+                a = A[:, at, k]                          # (sectors, converged points)
+                j = np.argmax(np.where(inside, a, -np.inf), axis=1)
+                rows = np.arange(a.shape[0])
+                prev, nxt = a[rows, np.maximum(j - 1, 0)], a[rows, np.minimum(j + 1, at.size - 1)]
+                if np.any((prev > a[rows, j]) | (nxt > a[rows, j])):
+                    names.append(f"{d} at {f[at][j[0]]:.6g} {unit}")
+            if names:
+                out.append((case, f"the largest amplitude in peak window {w} ({lo:g}-{hi:g} "
+                                  f"{unit}) of {', '.join(names)} lies on the curve's flank "
+                                  "at the window's edge, not at a resonant peak (the "
+                                  "amplitude rises beyond the window; move or widen [output] "
+                                  "peak_windows)"))
     return out
 
 

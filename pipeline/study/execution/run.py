@@ -30,7 +30,7 @@ from .cases import SchedulerUnreachable, WorkerLost, default_solver
 from .checkpoint import kept_cases
 from .optimum_search import window_end
 from ..files.documents import load_study, text_describes
-from ..datasets.incomplete import absent_effects, edge_peaks, incomplete_cases
+from ..datasets.incomplete import absent_effects, edge_peaks, incomplete_cases, window_edges
 from ..kinds import kind_of
 from ..files.spec import SWEEP_AXES, StudyResult
 
@@ -171,7 +171,8 @@ def warnings(file, study, ds) -> list:
     largest amplitudes at the range's end, declared effects no case shows, an optimum
     at its window's end (printed, so that no progress bar hides them)."""
     out = [f"warning: {file}: case {_case_words(case)}: {what}"
-           for case, what in incomplete_cases(study, ds) + edge_peaks(study, ds)]
+           for case, what in (incomplete_cases(study, ds) + edge_peaks(study, ds)
+                              + window_edges(study, ds))]
     out += [f"warning: {file}: scene.effects: {what}" for what in absent_effects(study, ds)]
     if ds is not None and "optimum_peak_frequency" in ds:
         what = window_end(study, float(ds["optimum_peak_frequency"])

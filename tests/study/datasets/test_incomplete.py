@@ -2,6 +2,8 @@
 branch cut short (`incomplete_cases`, tests/solve/harmonic_balance/test_roundoff.py)
 and a largest amplitude at an end of the interval (`edge_peaks`), for the cases and
 for the optimum-preload search."""
+import pytest
+
 from pipeline.__main__ import main as cli
 from helpers import example1_study
 
@@ -50,6 +52,33 @@ def test_an_optimum_whose_window_holds_no_peak_is_named(tmp_path, capsys):
     f.write_text(BELOW + '\n[output.optimum_preload]\ndof = "x"\nbounds = [0.5, 10.0]\n')
     assert cli(["optimise", str(f), "--out", str(tmp_path / "e"), "--workers", "1"]) == 0
     assert "warning:" not in capsys.readouterr().err
+
+
+def test_a_window_whose_largest_amplitude_is_a_flank_is_named(tmp_path, capsys):
+    """Example 1 open (188.4 rad/s) and stuck (213.3 rad/s), windows 150-200 and
+    200-250 rad/s: the open case's second window and the stuck case's first hold only
+    a flank of the other window's resonance, one warning each; the windows around the
+    resonances none."""
+    f = tmp_path / "windows.toml"
+    f.write_text(example1_study("windows", preload="[0.0, 1000.0]",
+                                solver="harmonics = 1\nstability = false",
+                                output='dofs = ["x"]\nfigures = []\n'
+                                       'peak_windows = [[150.0, 200.0], [200.0, 250.0]]'))
+    assert cli(["run", str(f), "--out", str(tmp_path / "a"), "--workers", "1"]) == 0
+    warns = [ln for ln in capsys.readouterr().err.splitlines()
+             if ln.startswith("warning:") and "peak window" in ln]   # (and: never slips)
+    assert len(warns) == 2, warns
+    for w, (n, k, lo, hi) in zip(warns, (("0", 1, 200, 250), ("1000", 0, 150, 200))):
+        assert w.startswith(f"warning: {f}: case preload = {n} N: the largest amplitude in "
+                            f"peak window {k} ({lo}-{hi} rad/s) of x at "), w
+        assert w.endswith("lies on the curve's flank at the window's edge, not at a resonant "
+                          "peak (the amplitude rises beyond the window; move or widen [output] "
+                          "peak_windows)"), w
+    import xarray as xr
+    with xr.open_dataset(tmp_path / "a" / "windows.nc") as ds:   # the flank values named
+        edge = ds.window_peak_frequency.sel(dof="x").values      # (preload, window)
+    assert 200.0 <= edge[0, 1] < 205.0 and 195.0 < edge[1, 0] <= 200.0   # next to the edge
+    assert f"at {edge[0, 1]:.6g} rad/s" in warns[0] and f"at {edge[1, 0]:.6g} rad/s" in warns[1]
 
 
 def test_a_declared_effect_no_case_shows_is_named(tmp_path, capsys):
