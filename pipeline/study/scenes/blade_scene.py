@@ -49,7 +49,7 @@ from ...structure.fe_model import BladeParams, boundary_dofs
 from ...structure.reduction import DEFAULT_MODES
 from . import blade_wheel_scene as blade_disk
 from . import lumped_disk_scene as disk_scene
-from .blade_size import check_blade_size
+from .blade_size import check_blade_size, check_material
 from .matrix_scene import scene_matrices
 from ..files.validation import Checker
 from ..files.rules import check_optimum_axes, check_scene_rules
@@ -276,6 +276,7 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
                                                   "replaces the modal ratios): give one of the two")
     placement, assembly = (blade_disk.parse_placement(ck, tab) if "disk" in tab
                            else (None, Single()))
+    check_material(ck, params, lambda k: fld(f"blade.{k}"))   # SI units
     if mesh is None:   # before anything is meshed: lengths in metres, a model of sane size
         check_blade_size(ck, tab.get("blade", {}), params, placement,
                          lambda k: fld(f"blade.{k}"))

@@ -17,7 +17,9 @@ blade of a few thousand.  Three rules, each one error naming the field:
   the largest measured; 35,250 DOFs, 12 s of CPU).  The default blade has 11,934 DOFs
   (8 x 2 x 20 elements), 16 x 4 x 40 elements 82,689.
 
-A mesh file (`mesh = "file"`) is not checked here: its size is the file's.
+A generated blade's dimensions are also at most MAX_LENGTH, and its material (E, rho)
+within the range of blade materials in SI units (`check_material`).  A mesh file
+(`mesh = "file"`) is not checked here: its size is the file's.
 """
 from __future__ import annotations
 
@@ -28,7 +30,22 @@ from ...structure.mesh_size import mesh_size
 MAX_DIMENSION_RATIO = 1000.0
 MAX_HUB_TO_LENGTH = 20.0
 MAX_FE_DOFS = 100_000
+MAX_LENGTH = 5.0           # [m] a blade dimension (the longest steam-turbine blades: ~2 m)
 LENGTHS = ("length", "chord", "thickness", "shroud_chord", "shroud_width", "shroud_height")
+# [SI] the materials a blade is made of (polymers to tungsten carbide), unit slips outside
+MATERIAL = {"E": (1e9, 1e12, "Pa", "Young's modulus", "MPa", 1e6),
+            "rho": (500.0, 25000.0, "kg/m^3", "density", "t/mm^3", 1e12)}
+
+
+def check_material(ck, p: BladeParams, where) -> None:
+    """Fail through `ck` when E or rho lies outside every blade material's range in SI
+    units (E = 2.1e5 is MPa, rho = 7.85e-9 t/mm^3: a blade 1e6 times too soft or
+    1e12 times too light, solved without a word)."""
+    for k, (lo, hi, unit, what, other, factor) in MATERIAL.items():
+        x = getattr(p, k)
+        if not lo <= x <= hi:
+            ck.fail(where(k), f"{x:g} {unit} is no blade material's {what} ({lo:g} to {hi:g} "
+                              f"{unit}): SI units ({x:g} {other} is {x * factor:g} {unit})")
 
 
 def check_blade_size(ck, given: dict, p: BladeParams, placement, where) -> None:
@@ -42,6 +59,10 @@ def check_blade_size(ck, given: dict, p: BladeParams, placement, where) -> None:
     if placement is not None:   # a wheel derives the shroud width: the given one is unused
         dims.pop("shroud_width", None)
     hi, lo = max(dims, key=dims.get), min(dims, key=dims.get)
+    if dims[hi] > MAX_LENGTH:
+        ck.fail(where(hi if hi in given else next(iter(k for k in LENGTHS if k in given), hi)),
+                f"{dims[hi]:g} m ({hi}) is larger than any turbine blade's (at most "
+                f"{MAX_LENGTH:g} m): lengths are in metres (a value in millimetres?)")
     if dims[hi] > MAX_DIMENSION_RATIO * dims[lo]:
         blame = hi if hi in given or lo not in given else lo
         ck.fail(where(blame), f"{dims[hi]:g} m ({hi}) is {dims[hi] / dims[lo]:.3g} times "
