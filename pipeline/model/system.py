@@ -167,9 +167,9 @@ def coupled_stiffness(system: System, angle: float):
 def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     """Undamped natural frequencies [rad/s] with the contacts open or stuck.
 
-    "stuck" adds ku along Bt and kv along Bn of every element in contact (n0 > 0 or
-    kv = 0): the linear limits the nonlinear response tends to; "tied" adds them
-    for every element, whatever its preload (all contacts closed and stuck).  For a cyclic
+    "stuck" (or "tied") adds ku along Bt and kv along Bn of every element, whatever its
+    preload (every contact closed and stuck: with a gap too, where sticking needs the
+    contact closed): with "open" the linear limits the nonlinear response tends to.  For a cyclic
     sector the maps of the first harmonic, B = Bt + exp(i phi) Bt_next, give the
     Hermitian stiffness K + B^H ku B + ... (with a linear inter-sector coupling,
     `coupled_stiffness(system, phi)` in place of K): the frequencies of the
@@ -232,7 +232,7 @@ def linear_stiffness(system: System, contacts: str = "open", laws: bool = True) 
     K = dense(coupled_stiffness(system, cy.phase if cy is not None else 0.0))
     if contacts in ("stuck", "tied", "small"):
         el = system.contact
-        closed = np.ones(el.size, bool) if contacts == "tied" else el.n0 > 0
+        closed = np.ones(el.size, bool) if contacts in ("stuck", "tied") else el.n0 > 0
         Bt, Bn = system.Bt, system.Bn
         if cy is not None:
             z = np.exp(1j * cy.phase)
@@ -308,7 +308,7 @@ def lowest_squares(system: System, contacts: str, k: int, laws: bool = True) -> 
     K = sp.csr_matrix(system.K, dtype=float)
     if contacts in ("stuck", "tied"):
         el = system.contact
-        closed = np.ones(el.size, bool) if contacts == "tied" else el.n0 > 0
+        closed = np.ones(el.size, bool) if contacts in ("stuck", "tied") else el.n0 > 0
         Bt, Bn = sp.csr_matrix(system.Bt), sp.csr_matrix(system.Bn)
         K = K + Bt.T @ sp.diags(el.ku) @ Bt + Bn.T @ sp.diags(el.kv * closed) @ Bn
     elif contacts != "open":

@@ -90,3 +90,16 @@ def test_a_structure_that_diverges_is_refused_and_a_free_body_is_not():
     assert negative_stiffness(free) is None
     assert natural_frequencies(free, "open") == [0.0]
     assert negative_stiffness(example1(2.0)) is None
+
+
+def test_a_gap_contacts_stuck_limit_is_closed_and_stuck():
+    """Example 3 with a gap (n0 = -100 N): the stuck limit is the contact closed and
+    stuck, ku and kv (1.41366 rad/s, as at every positive preload), not ku alone
+    (1.22263 rad/s, neither limit); open: K alone."""
+    from pipeline.paper_systems import example3
+    gap, pressed = example3(-100.0), example3(10.0)
+    np.testing.assert_allclose(natural_frequencies(gap, "stuck"),
+                               natural_frequencies(pressed, "stuck"), rtol=1e-14)
+    np.testing.assert_allclose(natural_frequencies(gap, "stuck"),
+                               natural_frequencies(gap, "tied"), rtol=1e-14)
+    assert natural_frequencies(gap, "stuck")[0] == pytest.approx(1.41366, abs=1e-5)

@@ -105,12 +105,12 @@ class Friction2D:
 
     def linear_limit(self, contacts: str) -> np.ndarray:
         """(E, 3) springs [N/m] of a linear limit (`model.system.linear_stiffness`): as
-        the Yang-Menq element's -- "stuck": ku, ku2 along the tangents of every
-        element, kv where n0 > 0; "tied": every element closed; "small": the preloaded
+        the Yang-Menq element's -- "stuck" or "tied": ku, ku2 along the tangents and kv
+        of every element (closed and stuck, a gap too); "small": the preloaded
         elements stuck, the others open; "open": none."""
         if contacts == "open":
             return np.zeros((self.size, 3))
-        closed = np.ones(self.size, bool) if contacts == "tied" else self.n0 > 0
+        closed = np.ones(self.size, bool) if contacts in ("stuck", "tied") else self.n0 > 0
         k = np.stack([self.ku, self.ku2], axis=1)
         k = k * closed[:, None] if contacts == "small" else k
         return np.column_stack([k, self.kv * closed])

@@ -83,8 +83,9 @@ def static_variables(study, cases, systems) -> dict:
         n0[idx] = contact_set(system).elements.n0
         s[idx] = static_normal_load(system)
     sw = tuple(study.sweep.axes)
-    closed = ("with every contact closed and stuck and no excitation (the structure deflected "
-              "under the preload)")
+    closed = ("with every contact closed and no excitation (the structure deflected under the "
+              "preload against the normal springs kv; a stuck slider rests at its static "
+              "position, so ku carries no static force)")
     return {
         "preload_pair": (sw + ("pair",), n0, {
             "units": "N", "long_name": "preload n0 of the element (nominal normal load, "

@@ -239,8 +239,9 @@ def response_meta(unit: str, computed: bool) -> dict:
                                                    f"lowest, at most {MAX_MODES}; NaN: a "
                                                    "negative stiffness, omega^2 < 0)"),
         "natural_frequency_stuck": (("mode",), unit,
-                                    "undamped natural frequency with the contacts stuck "
-                                    f"(ku of every contact, kv where n0 > 0; the lowest, at most "
+                                    "undamped natural frequency with the contacts closed and "
+                                    f"stuck (ku and kv of every element, a gap too; the lowest, "
+                                    f"at most "
                                     f"{MAX_MODES}; NaN: a negative stiffness, omega^2 < 0)"),
         "window_peak_amplitude": (("sector", "peak_window", "dof"), "m",
                                   "largest amplitude over converged points inside the peak window"),
