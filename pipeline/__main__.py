@@ -100,7 +100,9 @@ def _cmd_hysteresis(args) -> int:
     if out.is_dir():
         out = out / "hysteresis.png"
     if out.suffix.lower() != ".png":
-        print(f"error: --out: {args.out}: must be a .png file or a folder", file=sys.stderr)
+        why = ("no such folder (give an existing folder, or a file name ending in .png)"
+               if not out.exists() else "must be a .png file or a folder")
+        print(f"error: --out: {args.out}: {why}", file=sys.stderr)
         return 2
     import numpy as np
 

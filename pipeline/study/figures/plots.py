@@ -80,8 +80,12 @@ def demo_motion(H: int = 3):
 
 
 def check_element(mu, ku, kv, n0):
-    """ValueError naming the parameter unless (mu, ku, kv, n0) make a contact element."""
+    """ValueError naming the parameter unless (mu, ku, kv, n0) make a contact element
+    that transmits a tangential force (ku > 0: a loop of ku = 0 is a flat zero)."""
     YangMenq(ku=ku, kv=kv, mu=mu, n0=n0)
+    if not ku > 0:
+        raise ValueError(f"ku must be > 0 (a zero tangential stiffness transmits no force), "
+                         f"got {ku:g}")
 
 
 def hysteresis_figure(path, mu=0.4, ku=1.0, kv=1.0, n0=1.0, U=None, V=None, n_points=2000):

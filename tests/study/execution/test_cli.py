@@ -252,15 +252,24 @@ def test_hysteresis_writes_into_a_folder_and_refuses_other_files(tmp_path, capsy
     assert not (tmp_path / "loop.txt").exists()
 
 
-@pytest.mark.parametrize("args, field", [(["--ku", "-1"], "--ku"), (["--mu", "nan"], "--mu"),
+@pytest.mark.parametrize("args, field", [(["--ku", "-1"], "--ku"), (["--ku", "0"], "--ku"),
+                                         (["--mu", "nan"], "--mu"),
                                          (["--u", "inf"], "--u"), (["--v", "0", "nan"], "--v")])
 def test_hysteresis_bad_parameters_are_one_line_and_write_nothing(tmp_path, capsys, args, field):
     assert cli(["hysteresis", "--out", str(tmp_path / "h.png"), *args]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"error: hysteresis: {field}: "), err
     assert not (tmp_path / "h.png").exists()
-    if field == "--ku":   # the number as typed, not an array's repr
+    if args == ["--ku", "-1"]:   # the number as typed, not an array's repr
         assert err[0] == "error: hysteresis: --ku: ku must be >= 0 (stiffness), got -1"
+
+
+def test_hysteresis_names_a_missing_output_folder(tmp_path, capsys):
+    assert cli(["hysteresis", "--out", str(tmp_path / "new")]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"error: --out: {tmp_path / 'new'}: no such folder (give an existing folder, or a "
+        "file name ending in .png)")
+    assert not (tmp_path / "new").exists()
 
 
 def test_negative_contact_parameters_name_the_first_element():
