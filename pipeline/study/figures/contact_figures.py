@@ -61,12 +61,18 @@ def draw_face_loops(study, ds, ax) -> None:
         case = ", ".join(f"{a} = {study.sweep.axes[a][i]:g} {ds[a].attrs.get('units', '')}"
                          for a, i in sel.items())
         ax.plot(loop["u"], loop["f"], lw=1.6,
-                label=f"{case}: {loop['name']} ({loop['elements']} elements) at "
+                label=f"{case}: {loop['name']} ({elements(loop['elements'])}) at "
                       f"{loop['frequency']:.4g} {unit}, W = {loop['energy']:.3g} J/cycle")
     ax.set_xlabel("mean tangential relative displacement of its elements [m]")
     ax.set_ylabel("contact's total friction force [N]")
-    wrapped_title(ax, f"{study.title}\nat the peak: the contact dissipating most, face total "
+    total = "face total" if getattr(study.scene, "model", "") != "lumped" else "its total"
+    wrapped_title(ax, f"{study.title}\nat the peak: the contact dissipating most, {total} "
                       "(W: energy dissipated per cycle)", fontsize=9)
+
+
+def elements(n: int) -> str:
+    """'1 element', 'n elements'."""
+    return f"{n} element" + ("" if n == 1 else "s")
 
 
 def plane_orbit(ds, sel: dict, samples: int) -> dict | None:
@@ -127,7 +133,7 @@ def draw_plane_orbits(study, ds, axes_pair) -> None:
         line, = ax_u.plot(*orbit["u"], lw=1.6, label=f"{case} at {orbit['frequency']:.4g} {unit}")
         ax_u.plot(*orbit["w"], lw=1.0, ls="--", color=line.get_color())
         ax_f.plot(*orbit["f"], lw=1.6, color=line.get_color(),
-                  label=f"{orbit['name']} ({orbit['elements']} elements), "
+                  label=f"{orbit['name']} ({elements(orbit['elements'])}), "
                         f"W = {orbit['energy']:.3g} J/cycle")
     ax_u.set(xlabel="relative displacement along t1 [m]", ylabel="along t2 = n x t1 [m]",
              title="mean relative motion (solid) and slider (dashed)")

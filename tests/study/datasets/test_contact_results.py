@@ -352,7 +352,7 @@ def test_hysteresis_figure_draws_the_contact_loop_with_its_energy(tmp_path):
         plt.close = real_close
     assert [p.name for p in map(__import__("pathlib").Path, paths)] == ["hysteresis.png"]
     labels = [t.get_text() for t in captured["fig"].axes[0].get_legend().get_texts()]
-    assert len(labels) == 2 and all("J/cycle" in t and "gap (1 elements)" in t for t in labels)
+    assert len(labels) == 2 and all("J/cycle" in t and "gap (1 element) at" in t for t in labels)
     real_close(captured["fig"])
 
 
