@@ -91,7 +91,8 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
         f"on {e.workers} worker(s){search}")
     lines.append(
         f"  assumes {e.points[0]:.0f}-{e.points[1]:.0f} points per case ({e.modes} natural "
-        f"frequenc{'y' if e.modes == 1 else 'ies'} in the range) at {e.per_point[0] * 1e3:.3g}-{e.per_point[1] * 1e3:.3g} "
+        f"frequenc{'y' if e.modes == 1 else 'ies'} in the range, contacts open and stuck counted "
+        f"apart) at {e.per_point[0] * 1e3:.3g}-{e.per_point[1] * 1e3:.3g} "
         f"ms each (residual + Jacobian {tm.t_residual * 1e3:.3g} ms and Newton solve "
         f"{tm.t_solve * 1e3:.3g} ms of {tm.unknowns} unknowns, timed now on this model, "
         f"{e.pairs[0]:g}-{e.pairs[1]:g} times a point, plus bookkeeping and stability {study.solver.stability or 'off'}) = "
