@@ -25,7 +25,7 @@ pipeline/bench/README.md "Cost estimates"); the estimate is the range they give,
 study costs n_cases t_case / workers, plus the model's build and reduction (timed) and
 an optimum-preload search: SEARCH_GRID cases' worth without stability on the
 workers and SEARCH_SERIAL in one process.  It assumes
-the compiled kernels are cached (a first run compiles them: up to 40 s more) and a
+the compiled kernels are cached (a first run compiles them: up to 50 s more) and a
 machine as loaded as when it timed: the constant terms are scaled by the slowdown
 measured then (wall / CPU time of one thread, `slowdown`) against CALIBRATION_SLOWDOWN.
 A curve with many more folds costs more.

@@ -99,7 +99,7 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
         f"{time_range(*e.case)} per case; model build and reduction {seconds(tm.setup)}; one "
         f"thread here {tm.slowdown:.2g}x as slow as on an idle core now; "
         "calibrated on the shipped studies (bench estimate); assumes the compiled kernels "
-        "already cached (the first run after an install compiles them: up to 40 s more); a "
+        "already cached (the first run after an install compiles them: up to 50 s more); a "
         "fresh process adds 2-5 s of start-up (imports, the first figure); a "
         "curve with many more folds costs more")
     if e.modes == 0:
