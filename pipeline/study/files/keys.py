@@ -213,7 +213,8 @@ _FIXED = [
     ("scene.contact", "stiffness", "", '"per_node"', 'FE faces: `"per_node"` (ku, kv per node) '
                                                      'or `"per_face"` (face totals by node area)'),
     ("scene.contact", "tangent", "1", "circumferential", "shroud pairs: slip direction [x, y, z], "
-                                                         "projected into the face (2D: in it)"),
+                                                         "projected into the face from within 60° of it (2D: in "
+                                                         "it)"),
     ("scene.contact", "interference", "m", "", "shroud pairs: overlap (> 0) or gap (< 0) in "
                                                "the assembled position; sets the preload with "
                                                "the speed (instead of n0)"),

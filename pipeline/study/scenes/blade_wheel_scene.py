@@ -20,7 +20,8 @@ shroud carrying 2 x 2 contact points per face).
 With friction = "2d" (a face contact too) the pair's elements are the 2D friction
 law's (`contact.friction2d`: tangents t1 = the tangent, t2 = n x t1), declared by
 the effect "friction_2d" beside "friction", evaluated by AFT (force_evaluation =
-"aft"); a given tangent must then lie in the face plane (within 1e-3 rad).
+"aft"); a given tangent must then lie in the face plane (within 1e-3 rad), a 1D pair's
+within 60 deg of it (projected).
 
 The generated wheel derives the shroud width from R and N so that neighbouring
 faces coincide (`structure.disk.wheel_params`); a user mesh (`mesh = "file"`, in the
@@ -127,18 +128,25 @@ def plane_friction(contacts) -> bool:
     return any(getattr(c, "friction", "1d") == "2d" for c in contacts)
 
 
+MAX_TANGENT_TILT = 60.0   # [deg] a 1D pair's tangent out of the face: projected up to this
+
+
 def check_tangents(ck, blade, contacts):
     """A 2D pair's given first tangent lies in the right shroud face's plane (to
-    1e-3 rad): the second is n x t1, so a tilted one would not span the plane."""
+    1e-3 rad): the second is n x t1, so a tilted one would not span the plane.  A 1D
+    pair's tangent is projected into the face, but one more than MAX_TANGENT_TILT out
+    of it is nearly the face normal (a normal typed to 3 digits left a projection of
+    2.5e-5 of it, an arbitrary slip direction), refused."""
     for i, c in enumerate(contacts):
-        if not (isinstance(c, ShroudPair) and c.friction == "2d" and c.tangent is not None):
+        if not (isinstance(c, ShroudPair) and c.tangent is not None):
             continue
         n = np.asarray(blade.frames["shroud_right"].normal, float)
         t = np.asarray(c.tangent, float)
-        tilt = abs(float(t @ n)) / np.linalg.norm(t)
-        if tilt > 1e-3:
+        tilt = np.degrees(np.arcsin(min(abs(float(t @ n)) / np.linalg.norm(t), 1.0)))
+        limit = np.degrees(1e-3) if c.friction == "2d" else MAX_TANGENT_TILT
+        if tilt > limit:
             ck.fail(f"scene.contact[{i}].tangent", f"not in the shroud face plane: "
-                    f"{np.degrees(np.arcsin(min(tilt, 1.0))):.3g} deg out of it (face normal "
+                    f"{tilt:.3g} deg out of it (at most {limit:.3g}; face normal "
                     f"{np.round(n, 4).tolist()}); give a direction in the face")
 
 
