@@ -143,10 +143,9 @@ def _cmd_optimise(args) -> int:
                    else (os.cpu_count() or 1))
     if workers < 1:
         raise UsageError(f"{args.study}: --workers: must be >= 1, got {workers}")
-    word = kind_of(study).word
-    if word != "response":   # a modes, nonlinear-modes or accuracy-cost study
+    if not kind_of(study).optimum:   # a modes, nonlinear-modes or accuracy-cost study
         raise UsageError(f"{args.study}: study.kind: an optimum-preload search needs a "
-                         f"\"response\" study, this one is {word!r}")
+                         f"\"response\" study, this one is {kind_of(study).word!r}")
     if study.output.optimum is None:
         raise UsageError(f"{args.study}: output.optimum_preload: missing: give dof and "
                          "bounds = [low, high] (N) for the search")

@@ -221,4 +221,4 @@ def run_response_study(study: Study, out_dir="results", *, workers: int = 1,
 
 KIND = StudyKind(name="response", word="response", fits=always, by_default=always,
                  parse=parse, describe=describe, estimate=estimate, run=run_response_study,
-                 cases=n_cases)
+                 cases=n_cases, optimum=True)

@@ -187,6 +187,7 @@ class StudyKind:
     estimate: Callable  # (study, workers) -> estimate [s]: .lo, .hi, .mid
     run: Callable       # (study, out_dir, **options of `run.run_study`) -> StudyResult
     cases: Callable     # study -> number of cases it runs
+    optimum: bool = False   # its studies may search the optimum preload (`optimise`)
 
 
 def always(document) -> bool:
