@@ -94,9 +94,11 @@ def edge_peaks(study, ds) -> list:
         if not bool(ds["peak_complete"].values[idx]):
             continue
         f = np.asarray(ds["peak_frequency"].values[idx], float).reshape(-1, len(dofs))
+        a = np.asarray(ds["peak_amplitude"].values[idx], float).reshape(-1, len(dofs))
         ends = []
-        for end in (lo, hi):
-            names = [d for k, d in enumerate(dofs) if (np.abs(f[:, k] - end) <= tol).any()]
+        for end in (lo, hi):   # a DOF that never moves (amplitude 0) has no peak to miss
+            names = [d for k, d in enumerate(dofs)
+                     if (np.abs(f[:, k] - end) <= tol).any() and np.nanmax(a[:, k]) > 0]
             if names:
                 ends.append(f"of {', '.join(names)} is its value at the range's end, "
                             f"{end:g} {unit}")

@@ -54,6 +54,25 @@ def test_an_optimum_whose_window_holds_no_peak_is_named(tmp_path, capsys):
     assert "warning:" not in capsys.readouterr().err
 
 
+def test_a_dof_that_never_moves_has_no_peak_at_the_ranges_end(tmp_path, capsys):
+    """Example 1 beside a second, unloaded and uncoupled mass y: its amplitude is 0 at
+    every point, so its 'largest amplitude' at the first point is no missed peak."""
+    f = tmp_path / "still.toml"
+    text = example1_study("a mass that never moves", preload="[2.0]",
+                          solver="harmonics = 1\nstability = false",
+                          output='dofs = ["x", "y"]\nfigures = []')
+    text = (text.replace('dofs = ["x"]\n\n[scene.matrices]', 'dofs = ["x", "y"]\n\n[scene.matrices]')
+            .replace("M = [[1.0]]", "M = [[1.0, 0.0], [0.0, 1.0]]")
+            .replace("C = [[0.3]]", "C = [[0.3, 0.0], [0.0, 0.3]]")
+            .replace("K = [[3.55e4]]", "K = [[3.55e4, 0.0], [0.0, 1.0e4]]"))
+    f.write_text(text)
+    assert cli(["run", str(f), "--out", str(tmp_path / "a"), "--workers", "1"]) == 0
+    import xarray as xr
+    with xr.open_dataset(tmp_path / "a" / "still.nc") as ds:
+        assert float(ds.peak_amplitude.sel(dof="y").max()) == 0.0
+    assert "warning:" not in capsys.readouterr().err
+
+
 def test_a_window_whose_largest_amplitude_is_a_flank_is_named(tmp_path, capsys):
     """Example 1 open (188.4 rad/s) and stuck (213.3 rad/s), windows 150-200 and
     200-250 rad/s: the open case's second window and the stuck case's first hold only
