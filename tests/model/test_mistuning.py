@@ -16,8 +16,7 @@ from pipeline.solve.harmonic_balance import hbm
 from pipeline.study.datasets.conformance import problems
 from pipeline.errors import UsageError
 from pipeline.solve.response.response import frequency_response
-from pipeline.study.files.documents import load_study, study_from_document
-from pipeline.study.files.mapping import study_to_mapping
+from pipeline.study.files.documents import load_study, study_from_document, study_to_mapping
 from pipeline.model.scene import stiffness_factors
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -20,7 +20,6 @@ from .mistuned import tuned_references
 from .optimum_search import grid_job, optimum_figure_of, planned_grid, study_optimum
 from ..figures.peak_shapes import write_peak_shapes
 from ..figures.response_figures import sector_output_dofs, write_figures
-from ..files.mapping import study_to_mapping
 from ..files.spec import SWEEP_AXES, Study, StudyKind, StudyResult, always, is_linear_scene
 
 log = logging.getLogger("pipeline.study.execution.run")
@@ -32,17 +31,6 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
     read = (blade_scene.response_from_mapping if blade_scene.is_blade_document(data)
             else scene.study_from_mapping)
     return read(data, file=file, name=name, text=text, quick=quick)
-
-
-def check_built_in_python(study: Study) -> None:
-    """A study built in Python (no text) of a lumped or disk scene without further
-    laws meets its study file's rules (`mapping.study_to_mapping`, then `parse`): the
-    `UsageError` of the first field that fails (undeclared effects, harmonics = 0, an
-    empty sweep, ...), before any case runs, instead of one traceback per case."""
-    sc = study.scene
-    if study.text or sc.model not in ("lumped", "disk") or sc.laws:
-        return
-    parse(study_to_mapping(study), file=f"<{study.name}: built in Python>", name=study.name)
 
 
 def _num(x) -> str:
@@ -172,7 +160,6 @@ def run_response_study(study: Study, out_dir="results", *, workers: int = 1,
     from ..datasets.dataset import to_dataset, write_netcdf
 
     t0 = time.perf_counter()
-    check_built_in_python(study)
     solver = solver or default_solver(study)
     out_dir = Path(out_dir)
     log.info("%s: %d case(s) %s, H = %d, %s forces%s", study.name, len(study.sweep.cases()),

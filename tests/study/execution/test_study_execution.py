@@ -521,38 +521,3 @@ def test_separation_not_declared_is_one_error_line_from_the_cli(tmp_path):
     assert r.returncode == 1 and (tmp_path / "out2" / "ex3_closed.nc").is_file()
     assert len(errors) == 1 and errors[0].startswith(f"error: {f}: case preload = 10 N: ")
     assert "contact 'shroud' separates at" in errors[0]
-
-
-def python_study(effects=("friction",), harmonics=3, preloads=(2.0,)):
-    """Example 1 built in Python (as the README's example), with one field varied."""
-    import numpy as np
-
-    import pipeline
-    structure = pipeline.Lumped(M=np.array([[1.0]]), C=np.array([[0.3]]),
-                                K=np.array([[3.55e4]]), dofs=("x",))
-    damper = pipeline.DofContact(name="damper", bt=np.array([1.0]), bn=np.array([0.0]),
-                                 ku=1.0e4, kv=0.0, mu=0.5, n0=None)
-    scene = pipeline.Scene(structure=structure, contacts=(damper,), effects=effects,
-                           loads=(pipeline.Forcing(np.array([[0.0, 1.0]], dtype=complex)),),
-                           model="lumped")
-    return pipeline.Study(
-        name="py", title="Example 1 in Python", reference="Sec. 6.1", scene=scene,
-        sweep=pipeline.Sweep(axes={"preload": preloads},
-                             frequency=pipeline.FrequencyRange(150.0, 250.0, "rad/s")),
-        solver=pipeline.SolverSettings(harmonics=harmonics),
-        output=pipeline.OutputSettings(dofs=("x",)))
-
-
-@pytest.mark.parametrize("change, message", [
-    ({"effects": ()}, "scene.effects: declare \"friction\" exactly when the scene has contacts"),
-    ({"harmonics": 0}, "solver.harmonics: must be in [1, 200], got 0"),
-    ({"preloads": ()}, "sweep.preload: must not be empty")])
-def test_a_study_built_in_python_meets_its_files_rules(tmp_path, change, message):
-    """One UsageError naming the field, before any case runs and nothing written (was
-    a traceback per case, or an empty dataset)."""
-    from pipeline.errors import UsageError
-    from pipeline.study.execution.run import run_study
-    with pytest.raises(UsageError) as err:
-        run_study(python_study(**change), tmp_path, progress=False)
-    assert str(err.value) == f"<py: built in Python>: {message}"
-    assert not any(tmp_path.iterdir())
