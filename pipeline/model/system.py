@@ -180,10 +180,11 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     # every frequency: one dense eigen-solve of the whole structure (N n DOFs for an
     # N-sector assembly), whether the matrices are stored sparse or not
     K = linear_stiffness(system, contacts)
-    return from_squares(sla.eigh(K, dense(system.M), eigvals_only=True))
+    return from_squares(sla.eigh(K, dense(system.M), eigvals_only=True), square_scale(system))
 
 
-NEGATIVE_REL = 1e-8   # an omega^2 below -NEGATIVE_REL max |omega^2|: a negative stiffness
+NEGATIVE_REL = 1e-12  # an omega^2 below -NEGATIVE_REL of the scale: a negative stiffness
+#                       (eigh's round-off: about eps times the largest omega^2)
 
 
 def from_squares(w2, scale: float = 0.0) -> np.ndarray:
@@ -208,15 +209,17 @@ def square_scale(system: System) -> float:
 
 
 def negative_stiffness(system: System) -> float | None:
-    """The lowest omega^2 [rad^2/s^2] of the structure alone (K with its cyclic
-    coupling; no contact, no further law) where it is a negative stiffness (below
-    -NEGATIVE_REL of its scale, `from_squares`), else None: such a structure
-    diverges statically (spin softening beyond the speed of divergence), so a
-    periodic response about it is unstable whatever a stability rule assumes.  A
-    law's negative k1 is left out: a softening spring with a stiffening k3 (a double
-    well) has stable equilibria away from rest."""
+    """The lowest omega^2 [rad^2/s^2] of the structure at rest (the "small" limit:
+    preloaded contacts stuck, the others open, the further laws' springs) where it is
+    a negative stiffness (below -NEGATIVE_REL of its scale, `from_squares`), else None:
+    such a structure is statically unstable about rest (spin softening beyond the
+    speed of divergence).  None with a nonlinear elastic law (a cubic spring): a
+    negative linear stiffness with a stiffening k3 (a double well) has stable
+    equilibria away from rest."""
+    if any(getattr(le.law, "k3", None) is not None for le in system.laws):
+        return None
     try:
-        w2 = lowest_squares(system, "open", 6, laws=False)
+        w2 = lowest_squares(system, "small", 6)
     except (RuntimeError, np.linalg.LinAlgError):   # shift-invert about 0 of a singular K:
         return None                                 # a free body, no negative stiffness found
     if w2.size == 0 or not np.isnan(from_squares(w2, square_scale(system))[0]):
@@ -296,9 +299,10 @@ def lowest_frequencies(system: System, contacts: str, k: int) -> np.ndarray:
 
 def lowest_squares(system: System, contacts: str, k: int, laws: bool = True) -> np.ndarray:
     """The k lowest eigenvalues omega^2 [rad^2/s^2] of a linear limit (`laws` as
-    `linear_stiffness`), ascending;
-    above DENSE_EIGEN_MAX DOFs K (+ the stuck contacts' ku, kv) and M stay sparse
-    and ARPACK's shift-invert Lanczos about 0 finds them (a full wheel)."""
+    `linear_stiffness`), ascending; above DENSE_EIGEN_MAX DOFs K (+ the stuck
+    contacts' ku, kv) and M stay sparse and ARPACK's shift-invert Lanczos about 0
+    finds the k nearest 0 (the lowest where K has no large negative eigenvalue; a
+    full wheel)."""
     import scipy.linalg as sla
 
     n = system.n_dof
@@ -309,13 +313,15 @@ def lowest_squares(system: System, contacts: str, k: int, laws: bool = True) -> 
     import scipy.sparse.linalg as spla
 
     K = sp.csr_matrix(system.K, dtype=float)
-    if contacts in ("stuck", "tied"):
+    if contacts in ("stuck", "tied", "small"):
         el = system.contact
         closed = np.ones(el.size, bool) if contacts in ("stuck", "tied") else el.n0 > 0
+        ku = el.ku * closed if contacts == "small" else el.ku
         Bt, Bn = sp.csr_matrix(system.Bt), sp.csr_matrix(system.Bn)
-        K = K + Bt.T @ sp.diags(el.ku) @ Bt + Bn.T @ sp.diags(el.kv * closed) @ Bn
+        K = K + Bt.T @ sp.diags(ku) @ Bt + Bn.T @ sp.diags(el.kv * closed) @ Bn
     elif contacts != "open":
-        raise ValueError(f"contacts must be 'open', 'stuck' or 'tied', got {contacts!r}")
+        raise ValueError(f"contacts must be 'open', 'stuck', 'tied' or 'small', got "
+                         f"{contacts!r}")
     for le in system.laws if laws else ():   # 2D friction's limits; a spring's k1
         if getattr(le.law, "linear_limit", None) is not None:
             k = le.law.linear_limit(contacts)

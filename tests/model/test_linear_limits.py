@@ -67,29 +67,44 @@ def test_a_negative_stiffness_has_no_frequency():
 
 
 def bare(K):
-    """One mass on a spring K [N/m] with an open Jenkins element (ku = 1e4 N/m)."""
+    """Unit masses on springs K [N/m]; a Jenkins element (ku = 1e4 N/m, preloaded) on the
+    last one."""
     n = np.asarray(K, float).shape[0]
     return System(M=np.eye(n), C=0.1 * np.eye(n), K=np.asarray(K, float),
-                  Bt=np.eye(1, n), Bn=np.zeros((1, n)),
+                  Bt=np.eye(1, n, n - 1), Bn=np.zeros((1, n)),
                   contact=YangMenq(ku=1e4, kv=0.0, mu=0.5, n0=1.0),
                   forcing=np.eye(n, 2, 1, dtype=complex))
 
 
 def test_a_structure_that_diverges_is_refused_and_a_free_body_is_not():
     """K = diag(-50, 10): omega^2 = -50 rad^2/s^2, NaN, and a response case is refused
-    with its eigenvalue; a free mass (K = 0) is a zero frequency, solved."""
+    with its eigenvalue; a free mass (K = 0) is a zero frequency, solved; a stuck
+    preloaded contact that holds the negative spring (K = -50 N/m, ku = 1e4 N/m) is
+    stable at rest, solved; a free-free chain's zero mode (round-off) is no negative
+    stiffness."""
     s = bare([[-50.0, 0.0], [0.0, 10.0]])
     assert negative_stiffness(s) == pytest.approx(-50.0, rel=1e-12)
     f = natural_frequencies(s, "open")
     assert np.isnan(f[0]) and f[1] == pytest.approx(np.sqrt(10.0), rel=1e-14)
     curve, err = run_case(frequency_response, s, 1, 1.0, 5.0, {})
     assert curve is None and err.startswith(
-        "the structure diverges statically: without its contacts its stiffness has a "
-        "negative eigenvalue, omega^2 = -50 rad^2/s^2")
-    free = bare([[0.0]])
+        "the structure is statically unstable about rest: at vanishing vibration (preloaded "
+        "contacts stuck, the others open) its stiffness has a negative eigenvalue, omega^2 = "
+        "-50 rad^2/s^2")
+    free = bare([[0.0, 0.0], [0.0, 10.0]])
     assert negative_stiffness(free) is None
-    assert natural_frequencies(free, "open") == [0.0]
+    assert natural_frequencies(free, "open")[0] == 0.0
+    assert negative_stiffness(bare([[-50.0]])) is None     # held by the stuck contact
     assert negative_stiffness(example1(2.0)) is None
+    k = 1e9   # a stiff free-free chain of 6 masses: a rigid mode at round-off
+    chain = k * (2 * np.eye(6) - np.eye(6, k=1) - np.eye(6, k=-1))
+    chain[0, 0] = chain[-1, -1] = k
+    ff = bare(chain)
+    ff = System(M=ff.M, C=ff.C, K=ff.K, Bt=np.zeros((1, 6)), Bn=np.zeros((1, 6)),
+                contact=ff.contact, forcing=ff.forcing)
+    assert negative_stiffness(ff) is None
+    f0 = natural_frequencies(ff, "open")[0]
+    assert np.isfinite(f0) and f0 < 1e-2       # [rad/s] the rigid mode: 0 to round-off
 
 
 def test_a_gap_contacts_stuck_limit_is_closed_and_stuck():

@@ -98,7 +98,7 @@ def edge_peaks(study, ds) -> list:
         ends = []
         for end in (lo, hi):   # a DOF that never moves (amplitude 0) has no peak to miss
             names = [d for k, d in enumerate(dofs)
-                     if (np.abs(f[:, k] - end) <= tol).any() and np.nanmax(a[:, k]) > 0]
+                     if ((np.abs(f[:, k] - end) <= tol) & (a[:, k] > 0)).any()]
             if names:
                 ends.append(f"of {', '.join(names)} is its value at the range's end, "
                             f"{end:g} {unit}")
@@ -135,9 +135,13 @@ def window_edges(study, ds) -> list:
                 a = A[:, at, k]                          # (sectors, converged points)
                 j = np.argmax(np.where(inside, a, -np.inf), axis=1)
                 rows = np.arange(a.shape[0])
+                top = a[rows, j] * (1 + 1e-9)            # above round-off
                 prev, nxt = a[rows, np.maximum(j - 1, 0)], a[rows, np.minimum(j + 1, at.size - 1)]
-                if np.any((prev > a[rows, j]) | (nxt > a[rows, j])):
-                    names.append(f"{d} at {f[at][j[0]]:.6g} {unit}")
+                flank = np.flatnonzero((prev > top) | (nxt > top))
+                if flank.size:
+                    s0 = flank[0]
+                    where = f" (sector {s0})" if a.shape[0] > 1 else ""
+                    names.append(f"{d}{where} at {f[at][j[s0]]:.6g} {unit}")
             if names:
                 out.append((case, f"the largest amplitude in peak window {w} ({lo:g}-{hi:g} "
                                   f"{unit}) of {', '.join(names)} lies on the curve's flank "

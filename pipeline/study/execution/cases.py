@@ -63,9 +63,10 @@ class StaticDivergence(RuntimeError):
 
 def divergence(w2: float) -> str:
     """The case error of a structure with a negative stiffness (`negative_stiffness`)."""
-    return (f"the structure diverges statically: without its contacts its stiffness has a "
-            f"negative eigenvalue, omega^2 = {w2:.4g} rad^2/s^2 (spin softening beyond the "
-            "speed of divergence?), so no stable periodic response exists; not solved")
+    return (f"the structure is statically unstable about rest: at vanishing vibration "
+            f"(preloaded contacts stuck, the others open) its stiffness has a negative "
+            f"eigenvalue, omega^2 = {w2:.4g} rad^2/s^2 (spin softening beyond the speed of "
+            "divergence?); not solved")
 
 
 def separation_guard(study):

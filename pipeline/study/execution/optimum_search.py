@@ -187,6 +187,9 @@ def early_peak(*args):
 def search_peak(system, H, omega_start, omega_end, dof, kwargs, guard=None):
     """`band_peak` of one preload's system (in a worker of `map_jobs`), its continuation
     checked by the separation guard (`declared.SeparationGuard`) when there is one."""
+    w2 = negative_stiffness(system)
+    if w2 is not None:   # unstable about rest: no peak to search (find_optimum says so)
+        raise StaticDivergence(divergence(w2))
     kwargs = dict(kwargs)
     if guard is not None:
         kwargs["callback"] = guard.callback(system, H)

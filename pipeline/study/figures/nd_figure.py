@@ -44,9 +44,10 @@ def nodal_diameter_figure(path, ds):
     _families(ax, nd, ds, range(n_modes))
     _families(zoom, nd, ds, [0])
     first = np.concatenate([ds.frequency_stuck.values[:, 0], ds.frequency_open.values[:, 0]])
-    lo, hi = float(np.nanmin(first)), float(np.nanmax(first))
-    pad = 0.06 * max(hi - lo, 1e-3 * hi)
-    zoom.set_ylim(lo - pad, hi + pad)
+    if np.isfinite(first).any():   # NaN: a negative stiffness (no frequency) throughout
+        lo, hi = float(np.nanmin(first)), float(np.nanmax(first))
+        pad = 0.06 * max(hi - lo, 1e-3 * hi)
+        zoom.set_ylim(lo - pad, hi + pad)
     sectors = ds.attrs.get("sectors")
     eo = ds.attrs.get("engine_order")
     for a in (ax, zoom):

@@ -113,8 +113,8 @@ def study_to_mapping(study: Study) -> dict:
         contacts.append(e)
     sector_dofs = sc.sector_dofs  # disk scenes: the sector's names
     forcing = sc.loads[0].amplitudes
-    excitation = [{"dof": sector_dofs[j], "amplitude": float(abs(F)), "harmonic": int(h),
-                   "phase": float(np.angle(F)) if h else 0.0}
+    excitation = [{"dof": sector_dofs[j], "amplitude": float(abs(F)) if h else float(F.real),
+                   "harmonic": int(h), "phase": float(np.angle(F)) if h else 0.0}
                   for j, h in zip(*np.nonzero(forcing)) for F in [forcing[j, h]]]
     fr = study.sweep.frequency
     sweep = {a: list(v) for a, v in study.sweep.axes.items()}

@@ -17,8 +17,8 @@ blade of a few thousand.  Three rules, each one error naming the field:
   the largest measured; 35,250 DOFs, 12 s of CPU).  The default blade has 11,934 DOFs
   (8 x 2 x 20 elements), 16 x 4 x 40 elements 82,689.
 
-A generated blade's dimensions are also at most MAX_LENGTH, and its material (E, rho)
-within the range of blade materials in SI units (`check_material`).  A mesh file
+A generated blade's dimensions are also at most MAX_LENGTH; every blade's [scene.blade]
+material (E, rho) lies within the range of blade materials in SI units (`check_material`).  A mesh file
 (`mesh = "file"`) is not checked here: its size is the file's.
 """
 from __future__ import annotations
@@ -33,19 +33,21 @@ MAX_FE_DOFS = 100_000
 MAX_LENGTH = 5.0           # [m] a blade dimension (the longest steam-turbine blades: ~2 m)
 LENGTHS = ("length", "chord", "thickness", "shroud_chord", "shroud_width", "shroud_height")
 # [SI] the materials a blade is made of (polymers to tungsten carbide), unit slips outside
-MATERIAL = {"E": (1e9, 1e12, "Pa", "Young's modulus", "MPa", 1e6),
-            "rho": (500.0, 25000.0, "kg/m^3", "density", "t/mm^3", 1e12)}
+MATERIAL = {"E": (1e9, 1e12, "Pa", "Young's modulus", (("MPa", 1e6), ("GPa", 1e9))),
+            "rho": (500.0, 25000.0, "kg/m^3", "density", (("t/mm^3", 1e12), ("g/cm^3", 1e3)))}
 
 
 def check_material(ck, p: BladeParams, where) -> None:
     """Fail through `ck` when E or rho lies outside every blade material's range in SI
     units (E = 2.1e5 is MPa, rho = 7.85e-9 t/mm^3: a blade 1e6 times too soft or
     1e12 times too light, solved without a word)."""
-    for k, (lo, hi, unit, what, other, factor) in MATERIAL.items():
+    for k, (lo, hi, unit, what, others) in MATERIAL.items():
         x = getattr(p, k)
         if not lo <= x <= hi:
+            hint = "; ".join(f"{x:g} {o} is {x * f:g} {unit}" for o, f in others
+                             if lo <= x * f <= hi)   # the slips that would make sense
             ck.fail(where(k), f"{x:g} {unit} is no blade material's {what} ({lo:g} to {hi:g} "
-                              f"{unit}): SI units ({x:g} {other} is {x * factor:g} {unit})")
+                              f"{unit}): SI units" + (f" ({hint})" if hint else ""))
 
 
 def check_blade_size(ck, given: dict, p: BladeParams, placement, where) -> None:
