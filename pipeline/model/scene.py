@@ -251,7 +251,7 @@ def timed_blade_model(structure: Blade) -> tuple:
 
 @lru_cache(maxsize=16)
 def blade_at_speed(structure: Blade, speed: float):
-    """The blade turning at `speed` [rpm]: K + Omega^2 (K_sigma1 - M_P), Omega = speed
+    """The blade turning at `speed` [rpm]: K + Omega^2 (K_sigma1 - M_P + K_1) + Omega^4 K_2, Omega = speed
     x 2 pi / 60 (`structure.rotation`); at speed 0 the blade itself."""
     blade = blade_model(structure)
     if speed == 0.0:
@@ -259,7 +259,7 @@ def blade_at_speed(structure: Blade, speed: float):
     if blade.rotation is None:
         raise ValueError(f"speed {speed} rpm on a blade that does not turn: declare "
                          "\"centrifugal_stiffening\" (a solid blade in a disk)")
-    return replace(blade, K=(blade.K + (speed * RPM) ** 2 * blade.rotation.stiffness).tocsr())
+    return replace(blade, K=(blade.K + blade.rotation.speed_stiffness(speed * RPM)).tocsr())
 
 
 def case_speed(structure, case: dict | None) -> float:

@@ -14,9 +14,12 @@ from skfem import MeshHex, MeshTet
 from skfem.io.meshio import HEX_MAPPING
 
 from .fe_model import REQUIRED_SETS, BladeModel, point_displacements
+from .quadratic_cells import CORNERS, curved_mesh
 
 _INV_HEX = [HEX_MAPPING.index(i) for i in range(8)]
-CORNERS = {"hexahedron": 8, "hexahedron20": 8, "hexahedron27": 8, "tetra": 4, "tetra10": 4}
+# volume cells of meshio that no element here honours: refused, never dropped
+UNSUPPORTED = ("wedge", "wedge12", "wedge15", "wedge18", "pyramid", "pyramid13", "pyramid14",
+               "hexahedron24", "tetra4", "tetra20", "hexahedron64")
 
 
 def write_mesh(model: BladeModel, path, point_data: dict | None = None) -> Path:
@@ -44,7 +47,9 @@ def write_mesh(model: BladeModel, path, point_data: dict | None = None) -> Path:
 
 @dataclass(frozen=True, eq=False)
 class VolumeMesh:
-    """A volume mesh file read: `mesh` (scikit-fem, corner vertices), `node_sets`
+    """A volume mesh file read: `mesh` (scikit-fem: the corner vertices, and for
+    quadratic cells the isoparametric MeshHex2 / MeshTet2 of all their nodes, curved
+    edges as drawn: `quadratic_cells.curved_mesh`), `node_sets`
     (name -> vertex indices), `cell_type` (meshio's name of the volume cells, e.g.
     "hexahedron20"), `cells` (E, nodes) their full connectivity in file point indices
     (meshio's node order), `vertex` (file point -> vertex index, -1 for a midside or
@@ -62,8 +67,9 @@ def read_mesh(path, required=REQUIRED_SETS):
     """Read a volume mesh and its named node sets: (skfem mesh, {name: vertex indices}).
 
     A set is found as (in order) a point-data mask, a meshio point set, or a cell
-    set (its cells' nodes, e.g. gmsh physical surfaces).  Quadratic cells are read
-    by their corner nodes; unused points are dropped.
+    set (its cells' nodes, e.g. gmsh physical surfaces).  Quadratic cells keep their
+    midside nodes (their geometry, `read_volume`); the sets hold vertices; unused
+    points are dropped.
     """
     v = read_volume(path, required)
     return v.mesh, v.node_sets
@@ -76,6 +82,11 @@ def read_volume(path, required=REQUIRED_SETS, scale: float = 1.0) -> VolumeMesh:
     if not path.exists():
         raise ValueError(f"mesh file {path} does not exist")
     m = meshio.read(path)
+    other = sorted({c.type for c in m.cells if c.type in UNSUPPORTED})
+    if other:
+        raise ValueError(f"{path}: {', '.join(other)} cells are not supported (no element here "
+                         "honours them, and none is dropped): mesh the blade with hexahedra "
+                         "(8, 20 or 27 nodes) or tetrahedra (4 or 10 nodes) only")
     blocks = [c for c in m.cells if c.type in CORNERS]
     if not blocks:
         raise ValueError(f"{path}: no hexahedral or tetrahedral cells "
@@ -98,6 +109,7 @@ def read_volume(path, required=REQUIRED_SETS, scale: float = 1.0) -> VolumeMesh:
     t = renum[conn].T
     hexa = cell_type.startswith("hexa")
     mesh = MeshHex(X, np.ascontiguousarray(t[_INV_HEX])) if hexa else MeshTet(X, t)
+    mesh = curved_mesh(mesh, cell_type, full, renum, scale * m.points[:, :3].T)
     node_sets = {}
     for k, v in sets.items():
         r = renum[np.asarray(v, dtype=np.int64)]

@@ -22,10 +22,8 @@ import numpy as np
 from skfem import Basis, ElementHexS2, ElementTetP2, MeshHex
 from skfem.io.meshio import HEX_MAPPING
 
-HEX20_EDGES = ((0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4),
-               (0, 4), (1, 5), (2, 6), (3, 7))
-TET10_EDGES = ((0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3))
-EDGES = {"hexahedron20": HEX20_EDGES, "tetra10": TET10_EDGES}
+from ..quadratic_cells import EDGES, HEX20_EDGES, TET10_EDGES, edge_index
+
 FIELD = 20        # characters CalculiX reads of a number
 
 
@@ -37,11 +35,6 @@ def number(x: float) -> str:
         if len(text) <= FIELD:
             return text
     raise ValueError(f"{x!r} does not fit a CalculiX field")
-
-
-def edge_index(mesh) -> dict:
-    """(vertex a, vertex b) sorted -> the mesh's edge index."""
-    return {tuple(sorted(e)): k for k, e in enumerate(mesh.edges.T)}
 
 
 def quadratic_cells(mesh, basis) -> np.ndarray:
