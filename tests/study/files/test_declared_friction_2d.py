@@ -16,6 +16,7 @@ from pipeline.fourier.harmonics import basis
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.response.response import frequency_response
 from pipeline.study.datasets.dataset import read_dataset
+from pipeline.study.datasets.incomplete import absent_effects
 from pipeline.study.execution.run import run_study
 from pipeline.study.files.declared import SeparationGuard, UndeclaredSeparation, separating
 from pipeline.study.files.documents import parse_study
@@ -114,14 +115,19 @@ def test_2d_contact_that_separates_undeclared_fails_its_case(tmp_path):
             assert n_min.max() < -11.0
 
 
+def with_damper(text):
+    """A Jenkins damper on x ([[scene.contact]], n0 = 50 N constant: it never separates
+    nor slips here) beside the 2D contact."""
+    return text.replace("[[scene.friction_2d]]", '[[scene.contact]]\nname = "damper"\n'
+                        'tangential = ["x"]\nku = 1.0e3\nmu = 0.5\nn0 = 50.0\n\n'
+                        '[[scene.friction_2d]]', 1)
+
+
 def test_the_guard_reads_a_2d_contact_beside_a_1d_one():
-    """A Jenkins damper ([[scene.contact]], constant normal load: it never separates)
-    beside the 2D contact: the guard reads the 2D contact's normal load too (before,
+    """The guard reads the 2D contact's normal load beside a Jenkins damper's (before,
     only the Yang-Menq set), and names it."""
-    text = oscillator(["friction", "friction_2d", "normal_load_variation"]).replace(
-        "[[scene.friction_2d]]", '[[scene.contact]]\nname = "damper"\ntangential = ["x"]\n'
-        'ku = 1.0e3\nmu = 0.5\nn0 = 50.0\n\n[[scene.friction_2d]]', 1)
-    study = parse_study(text, file="mixed.toml")
+    study = parse_study(with_damper(oscillator(["friction", "friction_2d",
+                                                "normal_load_variation"])), file="mixed.toml")
     system = study.system()
     assert system.contact.size == 1 and len(system.laws) == 1
     fr = study.sweep.frequency
@@ -134,3 +140,21 @@ def test_the_guard_reads_a_2d_contact_beside_a_1d_one():
     assert not any(separating(prob, q[prob.c], system.contact).any() for q in curve.Q)
     with pytest.raises(UndeclaredSeparation, match=r"^friction_2d element 0 separates at "):
         SeparationGuard(names=("damper",)).check_curve(system, curve)
+
+
+def test_no_absent_separation_warning_where_a_2d_contact_separates(tmp_path):
+    """The dataset's contact-state fractions are the damper's only; the 2D contact,
+    which separates at every point (n down to -12 N: the guard test above samples it), is not recorded there,
+    so "separation" is not called absent.  The damper's slip fraction is recorded: it
+    never slips (n0 = 50 N), and that warning stays."""
+    study = parse_study(with_damper(oscillator(
+        ["friction", "friction_2d", "normal_load_variation", "separation"], scales=[1.0])),
+        file="mixed.toml", name="mixed")
+    res = run_study(study, tmp_path, workers=1, figures=False, progress=False)
+    assert res.ok
+    ds = read_dataset(res.path)
+    assert float(ds["separation_fraction"].where(ds["converged"] == 1).max()) == 0.0
+    assert float(ds["slip_fraction"].where(ds["converged"] == 1).max()) == 0.0
+    said = absent_effects(study, ds)
+    assert not any("separation" in w for w in said), said
+    assert len(said) == 1 and said[0].startswith("\"friction\" is declared but no contact slips")
