@@ -94,7 +94,7 @@ def check_scene_rules(ck, effects, contacts, h_excited, H, axes, spath, wpath,
         ck.fail(f"{spath}.harmonics", f"H = {H} is below the excited harmonic {h_excited} "
                                       "(scene.excitation)")
     own = [c for c in contacts if c.swept]
-    for a in ("preload", "mu", "ku", "kv"):
+    for a in ("preload", "normal_load", "mu", "ku", "kv"):
         if a in axes and not own:
             ck.fail(f"{wpath}.{a}", "the scene has no [[scene.contact]] to apply it to")
     check_preload_given(ck, own, axes, wpath)
