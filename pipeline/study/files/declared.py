@@ -26,6 +26,7 @@ import numpy as np
 from ...fourier.harmonics import basis
 from ...solve.harmonic_balance.hbm import contact_motion, law_motion, set_motion, setup
 from ...fourier.trigroots import sign_changes
+from ...model.system import normal_load_laws
 
 
 class UndeclaredSeparation(RuntimeError):
@@ -51,8 +52,7 @@ def normal_sets(system) -> tuple:
     each further law with a normal direction and a preload (k its `System.laws`
     index)."""
     own = ((None, system.contact),) if system.contact.size else ()
-    return own + tuple((k, le.law) for k, le in enumerate(system.laws)
-                       if "normal" in le.law.directions and hasattr(le.law, "n0"))
+    return own + tuple((k, system.laws[k].law) for k in normal_load_laws(system.laws))
 
 
 def first_separation(prob, Qc):

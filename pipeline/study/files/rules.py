@@ -15,6 +15,7 @@ import numpy as np
 
 from ...contact.registry import study_laws
 from ...model.contacts import DofContact
+from ...model.system import normal_load_laws
 
 
 @dataclass(frozen=True)
@@ -40,8 +41,8 @@ def contact_rules(scene) -> tuple:
     """The `ContactRule`s of a scene: its contacts (a lumped row has a normal direction
     where its normal row is not zero, an FE face or shroud pair always; a pair's
     interference gives n0 = kv interference), then the elements of every further law
-    with a normal direction and a preload (`model.system.contact_set` reads the same),
-    named by their study-file table."""
+    with a normal load (`model.system.normal_load_laws`), named by their study-file
+    table."""
     out = []
     for i, c in enumerate(getattr(scene, "contacts", ())):
         inter = getattr(c, "interference", None)
@@ -51,17 +52,16 @@ def contact_rules(scene) -> tuple:
             preload_key="n0" if inter is None else "interference"))
     tables = {cls: table for table, cls in study_laws().items()}
     counts = {}
-    for le in getattr(scene, "laws", ()):
+    laws = getattr(scene, "laws", ())
+    for le in (laws[k] for k in normal_load_laws(laws)):
         law = le.law
-        if "normal" not in law.directions or not hasattr(law, "n0"):
-            continue
         table = tables.get(type(law), law.name)
         normal_map = le.maps[law.directions.index("normal")]
-        rows = (normal_map != 0).sum(axis=1)
+        rows = np.asarray((normal_map != 0).sum(axis=1)).ravel()
         for e in range(law.size):
             j = counts[table] = counts.get(table, -1) + 1
             out.append(ContactRule(f"scene.{table}[{j}]", float(law.n0[e]), float(law.kv[e]),
-                                   bool(np.asarray(rows).ravel()[e]), float(law.mu[e]),
+                                   bool(rows[e]), float(law.mu[e]),
                                    swept=False))
     return tuple(out)
 
