@@ -194,12 +194,13 @@ class Scene:
 
     @property
     def coupled(self) -> bool:
-        """True if an element reaches the next sector (effect "cyclic_coupling")."""
-        n = len(self.sector_dofs)
-        return self.cyclic and any(isinstance(c, ShroudPair) or
-                                   (isinstance(c, DofContact) and (np.any(c.bt[n:]) or
-                                                                   np.any(c.bn[n:])))
-                                   for c in self.contacts)
+        """True if an element reaches the next sector (effect "cyclic_coupling"); the
+        structure's DOFs are counted (an FE blade reduced) only for `DofContact` rows."""
+        if not self.cyclic or any(isinstance(c, ShroudPair) for c in self.contacts):
+            return self.cyclic
+        rows = [c for c in self.contacts if isinstance(c, DofContact)]
+        n = len(self.sector_dofs) if rows else 0
+        return any(np.any(c.bt[n:]) or np.any(c.bn[n:]) for c in rows)
 
     def dof_index(self, name: str) -> int:
         """Row of DOF `name` in a case's `System` ("x1@3" = 3 n + i when mistuned)."""

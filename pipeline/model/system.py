@@ -127,13 +127,21 @@ class ContactSet:
         return self.elements.size
 
 
+def normal_load_laws(laws) -> tuple:
+    """Indices of the `LawElements` of `laws` whose elements carry a normal load
+    n = n0 + kv v (a normal direction and a preload: the 2D friction law), which
+    can separate."""
+    return tuple(k for k, le in enumerate(laws)
+                 if "normal" in le.law.directions and hasattr(le.law, "n0"))
+
+
 def contact_set(system: System) -> ContactSet:
     """The `ContactSet` of a system (see there)."""
     cy = system.cyclic
     if system.contact.size == 0:
-        for k, le in enumerate(system.laws):
-            if "normal" in le.law.directions and hasattr(le.law, "n0"):
-                return ContactSet(le.law, tuple(le.maps), tuple(le.maps_next), k)
+        for k in normal_load_laws(system.laws)[:1]:
+            le = system.laws[k]
+            return ContactSet(le.law, tuple(le.maps), tuple(le.maps_next), k)
     nxt = (cy.Bt_next, cy.Bn_next) if cy is not None else ()
     return ContactSet(system.contact, (system.Bt, system.Bn), nxt)
 

@@ -252,6 +252,11 @@ def set_motion(prob: HBMProblem, Qc):
     k = contact_set(prob.system).law
     if k is None:
         return np.stack(contact_motion(prob, Qc), axis=1)
+    return law_motion(prob, Qc, k)
+
+
+def law_motion(prob: HBMProblem, Qc, k: int):
+    """X (E, D, 2H+1) of the elements of `System.laws[k]` along the law's directions."""
     slots = prob.laws[k]
     return motion(slots, Qc, slots.rot, turn)
 

@@ -49,8 +49,6 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
 from ...structure.reduction import DEFAULT_MODES
 from .dataset import recommendation_lines, results_table, to_dataset
 from .measure import case_systems, run_case
@@ -60,7 +58,7 @@ from ..scenes.blade_scene import OUT_DOF_PATTERN, base_dir_of, parse_blade_param
 from ..files.validation import Checker
 from ..files.header import overlay, parse_header, quick_tables
 from .pareto_figure import pareto_figure
-from ..files.rules import check_scene_rules
+from ..files.rules import check_scene_rules, contact_rules
 from ..scenes.lumped_scene import parse_scene, parse_sweep
 from ..execution.kind_costs import accuracy_estimate, estimate_lines
 from ..files.spec import (MAX_HARMONICS, FrequencyRange, StudyKind, always, never,
@@ -249,12 +247,8 @@ def _case(ck, c, tab, scene, h_excited, where) -> Case:
                     "the scene reads a mesh file: it cannot be refined")
     if preload is not None and not scene.contacts:
         ck.fail(where("preload"), "the scene has no contact to apply it to")
-    n0s = [cc.n0 for cc in scene.contacts]
-    kvs = [cc.kv for cc in scene.contacts]
-    has_normal = (any(np.any(cc.bn) for cc in scene.contacts) if c == "lumped"
-                  else bool(scene.contacts))
     axes = {"preload": (preload,)} if preload is not None else {}
-    check_scene_rules(_Prefixed(ck.file, c), scene.effects, n0s, kvs, has_normal, h_excited,
+    check_scene_rules(_Prefixed(ck.file, c), scene.effects, contact_rules(scene), h_excited,
                       reference.harmonics, axes, "reference", "")
     return Case(name=c, scene=scene, dof=dof, preload=preload,
                 frequency=FrequencyRange(freq.start, freq.stop, freq.unit), repeats=repeats,

@@ -17,6 +17,7 @@ from ..scenes import lumped_scene as scene
 from .cases import default_solver, execute_cases
 from .checkpoint import checkpoint_dir, remove_stale
 from .mistuned import tuned_references
+from .python_study import check_python_study
 from .optimum_search import grid_job, optimum_figure_of, planned_grid, study_optimum
 from ..figures.peak_shapes import write_peak_shapes
 from ..figures.response_figures import sector_output_dofs, write_figures
@@ -159,6 +160,7 @@ def run_response_study(study: Study, out_dir="results", *, workers: int = 1,
     the directory is removed once the dataset is written."""
     from ..datasets.dataset import to_dataset, write_netcdf
 
+    check_python_study(study)   # a study built in Python meets its file's rules
     t0 = time.perf_counter()
     solver = solver or default_solver(study)
     out_dir = Path(out_dir)

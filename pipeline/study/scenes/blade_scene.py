@@ -52,7 +52,7 @@ from . import lumped_disk_scene as disk_scene
 from .blade_size import check_blade_size, check_material
 from .matrix_scene import scene_matrices
 from ..files.validation import Checker
-from ..files.rules import check_optimum_axes, check_scene_rules
+from ..files.rules import check_optimum_axes, check_scene_rules, contact_rules
 from ..files.header import overlay, parse_header, quick_tables
 from .lumped_scene import (check_windows, output_common, parse_optimum, parse_solver, parse_sweep,
                     quick_response_tables, solver_sweep_tables)
@@ -478,12 +478,10 @@ def _consistency(ck, scene, solver, axes, spath, wpath, data):
     """Cross-field rules (scene.check_scene_rules); every face contact has a normal."""
     blade_disk.check_interference(ck, scene.contacts, axes, wpath)
     blade_disk.check_friction(ck, scene.contacts, scene.effects, solver, spath)
-    check_scene_rules(ck, scene.effects, [c.n0 if getattr(c, "interference", None) is None
-                                          else c.kv * c.interference for c in scene.contacts],
-                      [c.kv for c in scene.contacts], bool(scene.contacts),
+    check_scene_rules(ck, scene.effects, contact_rules(scene),
                       max([ld.harmonic for ld in scene.loads] + [0]), solver.harmonics,
                       axes, spath, wpath, disk=scene.cyclic, can_turn=blade_disk.can_turn(scene),
-                      speed=scene.structure.speed, mus=[c.mu for c in scene.contacts])
+                      speed=scene.structure.speed)
     if scene.cyclic:  # engine order, "cyclic_coupling", mistuning: as a lumped disk's
         disk_scene.check_disk_rules(ck, scene, axes, wpath, data)
 

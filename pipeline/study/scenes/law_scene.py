@@ -30,9 +30,7 @@ def law_tables(ck, tab, dofs, effects, disk, signed_row) -> tuple:
         items = ck.array(raw, f, min_length=0)
         if items and disk:
             ck.fail(f, f"a {cls.name} acts on one structure: not in a disk scene")
-        if bool(items) != (cls.effect in effects):
-            ck.fail("scene.effects", f"declare \"{cls.effect}\" exactly when the scene has "
-                                     f"[[scene.{table}]]")
+        check_law_effects(ck, {table: bool(items)}, effects)
         for i, c in enumerate(items):
             fi = f"{f}[{i}]"
             c = ck.table(c, fi)
@@ -51,6 +49,16 @@ def law_tables(ck, tab, dofs, effects, disk, signed_row) -> tuple:
             except ValueError as exc:
                 ck.fail(fi, str(exc))
     return tuple(out)
+
+
+def check_law_effects(ck, present: dict, effects) -> None:
+    """A scene declares a law's effect exactly when it has elements of the law
+    (`present`: {study table: whether the scene has some})."""
+    laws = study_laws()
+    for table, has in present.items():
+        if has != (laws[table].effect in effects):
+            ck.fail("scene.effects", f"declare \"{laws[table].effect}\" exactly when the scene "
+                                     f"has [[scene.{table}]]")
 
 
 def supported(laws, stability) -> bool:

@@ -35,7 +35,7 @@ from . import lumped_disk_scene as disk_scene
 from ..files.validation import Checker, join_field, kind_of
 from ..files.header import parse_header, quick_tables
 from .law_scene import check_law_methods, check_law_solvers, law_tables, supported
-from ..files.rules import check_optimum_axes, check_scene_rules
+from ..files.rules import check_optimum_axes, check_scene_rules, contact_rules
 from .matrix_scene import exported_lumped, ordered, typed_matrices
 from ..files.spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
                    MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, STABILITY_WHEN_TRUE, SWEEP_AXES,
@@ -472,10 +472,9 @@ def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
     disk = scene.model == "disk"
     if disk:
         disk_scene.check_disk_rules(ck, scene, axes, wpath, data)
-    check_scene_rules(ck, scene.effects, [c.n0 for c in scene.contacts],
-                      [c.kv for c in scene.contacts], [bool(np.any(c.bn)) for c in scene.contacts],
+    check_scene_rules(ck, scene.effects, contact_rules(scene),
                       scene.loads[0].amplitudes.shape[1] - 1, solver.harmonics, axes, spath, wpath,
-                      disk=disk, mus=[c.mu for c in scene.contacts])
+                      disk=disk)
 
 
 def _check_build(ck, study: Study):
