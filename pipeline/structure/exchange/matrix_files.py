@@ -85,26 +85,36 @@ def symmetric(path, rows, cols, vals, n: int) -> sp.csr_matrix:
 
 
 def _numbers(path, lines, count: int, kinds, sep=None):
-    """Rows of `count` numbers (converters `kinds`) from the non-empty lines."""
+    """Rows of `count` numbers (converters `kinds`) from the non-empty lines; a bad
+    last line is named as the end of a file cut short."""
     out = []
+    last = max((k for k, line in enumerate(lines, 1) if line.strip()), default=0)
     for k, line in enumerate(lines, 1):
         if not line.strip() or line.lstrip().startswith(("*", "#", "%", "**")):
             continue
         parts = [p for p in (line.split(sep) if sep else line.split()) if p.strip()]
+        cut = " (the last line: the file truncated?)" if k == last else ""
         if len(parts) != count:
-            _fail(path, f"line {k}", f"expected {count} numbers, got {line.strip()!r}")
+            _fail(path, f"line {k}", f"expected {count} numbers, got {line.strip()!r}{cut}")
         try:
             out.append([conv(p.strip()) for conv, p in zip(kinds, parts)])
         except ValueError:
-            _fail(path, f"line {k}", f"not a number in {line.strip()!r}")
+            _fail(path, f"line {k}", f"not a number in {line.strip()!r}{cut}")
     return out
 
 
-def _triplets(path, n: int):
-    rows = _numbers(path, _text(path), 3, (int, int, float))
+def _triplets(path, n: int, dof_file):
+    """The symmetric matrix of a CalculiX "i j value" file of `n` rows (`dof_file`
+    maps them); a file whose entries stop short of row n was cut short."""
+    lines = _text(path)
+    rows = _numbers(path, lines, 3, (int, int, float))
     if not rows:
         _fail(path, "entries", "no matrix entries")
     i, j, v = (np.array(c) for c in zip(*rows))
+    last = int(max(i.max(), j.max()))
+    if last < n:
+        _fail(path, f"ends at line {len(lines)}", f"its last row is {last}, but {dof_file} "
+                                                  f"maps {n} rows: truncated?")
     return symmetric(path, i - 1, j - 1, v, n)
 
 
@@ -126,8 +136,8 @@ def read_calculix(stem) -> ExportedMatrices:
     n = len(dofs)
     if n == 0:
         _fail(dof_file, "entries", "no DOF")
-    K = _triplets(stem.with_suffix(".sti"), n)
-    M = _triplets(stem.with_suffix(".mas"), n)
+    K = _triplets(stem.with_suffix(".sti"), n, dof_file)
+    M = _triplets(stem.with_suffix(".mas"), n, dof_file)
     return ExportedMatrices(K, M, tuple(dofs), f"calculix:{stem}")
 
 

@@ -209,3 +209,23 @@ def test_malformed_files_are_one_line_naming_file_and_place(tmp_path):
     with pytest.raises(UsageError) as e:
         read_matrix_market(tmp_path / "none.mtx", tmp_path / "none.mtx", tmp_path / "k.mapping")
     one_line(e, tmp_path / "k.mapping", "line 1")
+
+
+def test_a_calculix_file_cut_short_is_named_truncated(tmp_path):
+    """The .sti of the 7 x 7 K_REF (28 entries, column by column) cut after column 6
+    (line 21), and in the middle of line 22: each named where it ends, 'truncated?'
+    -- not read as a K with an empty last row (singular)."""
+    write_calculix(tmp_path / "job", K_REF, M_REF, DOFS)
+    sti = tmp_path / "job.sti"
+    lines = sti.read_text().splitlines(keepends=True)
+    assert len(lines) == 28
+    sti.write_text("".join(lines[:21]))
+    with pytest.raises(UsageError, match=r"job\.sti: ends at line 21: its last row is 6, but "
+                                         r"\S*job\.dof maps 7 rows: truncated\?$") as e:
+        read_calculix(tmp_path / "job")
+    one_line(e, sti, "ends at line 21")
+    sti.write_text("".join(lines[:21]) + lines[21][:4])
+    with pytest.raises(UsageError, match=r"expected 3 numbers, got '1 7' \(the last line: "
+                                         r"the file truncated\?\)") as e:
+        read_calculix(tmp_path / "job")
+    one_line(e, sti, "line 22")
