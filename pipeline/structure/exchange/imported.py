@@ -83,12 +83,13 @@ class MatrixFiles:
         return str(self.mass)
 
 
-def read_exported(files: MatrixFiles) -> ExportedMatrices:
-    """The matrices of `files` with their (node, direction) map, in SI units."""
+def read_exported(files: MatrixFiles, complete: bool = True) -> ExportedMatrices:
+    """The matrices of `files` with their (node, direction) map, in SI units;
+    `complete`: every row has entries (not so a damping matrix read as `stiffness`)."""
     if files.format == "calculix":
-        ex = read_calculix(files.stiffness)
+        ex = read_calculix(files.stiffness, complete)
     elif files.format == "abaqus":
-        ex = read_abaqus(files.stiffness, files.mass)
+        ex = read_abaqus(files.stiffness, files.mass, complete)
     elif files.format == "ansys":
         ex = read_ansys(files.stiffness, files.mass, files.dofs)
     elif files.format == "matrix_market":

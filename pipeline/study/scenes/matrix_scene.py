@@ -109,7 +109,8 @@ def exported_lumped(ck, tab: dict, base_dir: Path):
     files = parse_matrices(ck, t, "scene.matrices", base_dir, extra=("damping",))
     try:
         ex = read_exported(files)
-        C = (read_exported(replace(files, stiffness=str(_path(ck, damping, base_dir)))).K
+        C = (read_exported(replace(files, stiffness=str(_path(ck, damping, base_dir))),
+                           complete=False).K
              if damping is not None else None)
     except (ValueError, UsageError) as exc:
         ck.fail("scene.matrices", str(exc))
