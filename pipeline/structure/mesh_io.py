@@ -7,6 +7,8 @@ write ROOT, SHROUD_LEFT).  An Abaqus / CalculiX deck (.inp) is read with its
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import re
 import tempfile
 from dataclasses import dataclass
@@ -95,10 +97,16 @@ def deck_lines(path, depth: int = 0) -> list:
 
 
 def _read_file(path: Path):
-    """The meshio Mesh of a file; a deck read with its includes inlined, its parse
-    errors as ValueError (meshio.read prints them and exits)."""
+    """The meshio Mesh of a file; a deck read with its includes inlined; a file meshio
+    cannot parse a ValueError (meshio.read prints why and exits)."""
     if path.suffix.lower() != ".inp":
-        return meshio.read(path)
+        said = io.StringIO()
+        try:
+            with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+                return meshio.read(path)
+        except SystemExit:
+            why = " ".join(said.getvalue().split())
+            raise ValueError(f"{path}: not a readable mesh (meshio: {why})") from None
     with tempfile.TemporaryDirectory() as tmp:
         flat = Path(tmp) / path.name
         flat.write_text("\n".join(deck_lines(path)) + "\n")
