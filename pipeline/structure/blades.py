@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .beam import beam_blade
 from .fe_model import CONTACT_SETS, REQUIRED_SETS, BladeModel, BladeParams, DiskPlacement
-from .mesh_io import read_volume
+from .mesh_io import check_span, read_volume
 from .solid import MESH_ELEMENTS, solid_blade, solid_from_mesh
 
 
@@ -24,8 +24,10 @@ def build_blade(p: BladeParams, disk: DiskPlacement | None = None,
 def load_blade(path, p: BladeParams = BladeParams(),
                required=("root",) + CONTACT_SETS, rotation_centre=None) -> BladeModel:
     """Solid blade from a mesh file (.msh/.vtu/.xdmf) with named node sets; material
-    and damping from `p`.  A missing set raises ValueError naming file and set."""
+    and damping from `p`.  A missing set raises ValueError naming file and set, as do
+    coordinates that span more than a blade (lengths are metres)."""
     v = read_volume(path, required)
+    check_span(v.mesh.p, path, "(mesh files are read in metres)")
     keep = {k: s for k, s in v.node_sets.items() if k in REQUIRED_SETS}
     return solid_from_mesh(v.mesh, keep, p, str(path), MESH_ELEMENTS[v.cell_type](),
                            rotation_centre=rotation_centre)

@@ -46,6 +46,9 @@ import scipy.sparse as sp
 CONTACT_SETS = ("shroud_left", "shroud_right")
 POINT_SETS = ("excitation", "response")
 REQUIRED_SETS = ("root",) + CONTACT_SETS + POINT_SETS
+# what a real blade is, SI units: outside, a number in another unit
+MAX_LENGTH = 5.0           # [m] a blade dimension (the longest steam-turbine blades: ~2 m)
+DENSITY_RANGE = (500.0, 25000.0)   # [kg/m^3] blade materials, polymers to tungsten carbide
 
 
 # ---------------------------------------------------------------------------

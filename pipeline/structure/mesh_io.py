@@ -1,10 +1,16 @@
 """Mesh files (meshio): blade meshes with named node sets, displacement fields.
 
 Node sets are stored as 0/1 point-data masks; read back from masks, meshio point
-sets, cell sets or gmsh physical groups.
+sets, cell sets or gmsh physical groups, their names ignoring case (pre-processors
+write ROOT, SHROUD_LEFT).  An Abaqus / CalculiX deck (.inp) is read with its
+`*INCLUDE` files inlined (`deck_lines`).
 """
 from __future__ import annotations
 
+import contextlib
+import io
+import re
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -13,7 +19,7 @@ import numpy as np
 from skfem import MeshHex, MeshTet
 from skfem.io.meshio import HEX_MAPPING
 
-from .fe_model import REQUIRED_SETS, BladeModel, point_displacements
+from .fe_model import MAX_LENGTH, REQUIRED_SETS, BladeModel, point_displacements
 from .quadratic_cells import CORNERS, curved_mesh
 
 _INV_HEX = [HEX_MAPPING.index(i) for i in range(8)]
@@ -75,13 +81,65 @@ def read_mesh(path, required=REQUIRED_SETS):
     return v.mesh, v.node_sets
 
 
+def deck_lines(path, depth: int = 0) -> list:
+    """The lines of an Abaqus / CalculiX deck with each `*INCLUDE, INPUT=file` replaced
+    by that file's lines (a path relative to the file that includes it), recursively."""
+    path = Path(path)
+    out = []
+    for line in path.read_text(errors="replace").splitlines():
+        m = re.match(r"\s*\*\s*INCLUDE\s*,.*?INPUT\s*=\s*([^,]+)", line, re.IGNORECASE)
+        if not m:
+            out.append(line)
+            continue
+        name = m.group(1).strip().strip("'\"")
+        target = Path(name) if Path(name).is_absolute() else path.parent / name
+        if not target.is_file():
+            raise ValueError(f"{path}: *INCLUDE, INPUT={name}: no such file {target}")
+        if depth >= 20:
+            raise ValueError(f"{path}: *INCLUDE, INPUT={name}: included more than 20 deep "
+                             "(a file that includes itself?)")
+        out += deck_lines(target, depth + 1)
+    return out
+
+
+def _read_file(path: Path):
+    """The meshio Mesh of a file; a deck read with its includes inlined; a file meshio
+    cannot parse a ValueError (meshio.read prints why and exits)."""
+    if path.suffix.lower() != ".inp":
+        said = io.StringIO()
+        try:
+            with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+                return meshio.read(path)
+        except SystemExit:
+            why = " ".join(said.getvalue().split())
+            raise ValueError(f"{path}: not a readable mesh (meshio: {why})") from None
+    with tempfile.TemporaryDirectory() as tmp:
+        flat = Path(tmp) / path.name
+        flat.write_text("\n".join(deck_lines(path)) + "\n")
+        try:
+            return meshio.abaqus.read(flat)
+        except (meshio.ReadError, KeyError, IndexError, ValueError, TypeError) as exc:
+            raise ValueError(f"{path}: not a readable deck ({type(exc).__name__}: "
+                             f"{exc})") from None
+
+
+def check_span(X, path, hint: str) -> None:
+    """ValueError when the points X (3, n) [m] span more than MAX_LENGTH: lengths in
+    another unit (a mesh in millimetres read as metres spans 1000 times its size);
+    `hint` says what to set."""
+    span = float(np.max(np.ptp(X, axis=1))) if X.size else 0.0
+    if span > MAX_LENGTH:
+        raise ValueError(f"{path}: coordinates span {span:.3g} m, more than any turbine "
+                         f"blade (at most {MAX_LENGTH:g} m): a mesh in millimetres? {hint}")
+
+
 def read_volume(path, required=REQUIRED_SETS, scale: float = 1.0) -> VolumeMesh:
     """`read_mesh` with the file's cell type and point numbering (`VolumeMesh`);
     coordinates multiplied by `scale` (1e-3 for a mesh in millimetres)."""
     path = Path(path)
     if not path.exists():
         raise ValueError(f"mesh file {path} does not exist")
-    m = meshio.read(path)
+    m = _read_file(path)
     other = sorted({c.type for c in m.cells if c.type in UNSUPPORTED})
     if other:
         raise ValueError(f"{path}: {', '.join(other)} cells are not supported (no element here "
@@ -97,11 +155,11 @@ def read_volume(path, required=REQUIRED_SETS, scale: float = 1.0) -> VolumeMesh:
     cell_type = blocks[0].type
     full = np.concatenate([c.data for c in blocks])
     conn = full[:, :CORNERS[cell_type]]
-    sets = _named_sets(m)
+    sets = _named_sets(m, path, tuple(required) + REQUIRED_SETS)
     for name in required:
-        if name not in sets or len(sets[name]) == 0:
+        if len(sets.get(name.lower(), ())) == 0:
             raise ValueError(f"mesh file {path} has no node set {name!r} "
-                             f"(found: {sorted(sets) or 'none'})")
+                             f"(found: {sorted(sets) or 'none'}; names ignore case)")
     used = np.unique(conn)
     renum = -np.ones(len(m.points), dtype=np.int64)
     renum[used] = np.arange(used.size)
@@ -118,28 +176,38 @@ def read_volume(path, required=REQUIRED_SETS, scale: float = 1.0) -> VolumeMesh:
                       {k: np.asarray(v, dtype=np.int64) for k, v in sets.items()})
 
 
-def _named_sets(m) -> dict:
-    """name -> file point indices of the named sets of a meshio Mesh (masks, point
-    sets, cell sets, gmsh physical groups; the first found wins)."""
-    sets = {}
+def _named_sets(m, path, used=REQUIRED_SETS) -> dict:
+    """name in lower case -> file point indices of the named sets of a meshio Mesh
+    (masks, point sets, cell sets, gmsh physical groups; the first found wins); two
+    sets of a `used` name spelled in different case are an error naming both."""
+    sets, spelled, used = {}, {}, {u.lower() for u in used}
+
+    def add(name, nodes):
+        key = str(name).lower()
+        if key in used and spelled.get(key, name) != name:
+            raise ValueError(f"{path}: node sets {spelled[key]!r} and {name!r} differ only "
+                             "in case (set names ignore case): rename one")
+        if key not in sets:
+            sets[key], spelled[key] = nodes, name
+
     for name, arr in m.point_data.items():
         a = np.asarray(arr).ravel()
         if a.size == len(m.points):
-            sets[name] = np.nonzero(a > 0.5)[0]
+            add(name, np.nonzero(a > 0.5)[0])
     for name, idx in (getattr(m, "point_sets", None) or {}).items():
-        sets.setdefault(name, np.asarray(idx).ravel())
+        add(name, np.asarray(idx).ravel())
     for name, per_block in (m.cell_sets or {}).items():
         nodes = [m.cells[j].data[np.asarray(ix, dtype=np.int64)].ravel()
                  for j, ix in enumerate(per_block) if ix is not None and len(ix)]
         if nodes:
-            sets.setdefault(name, np.unique(np.concatenate(nodes)))
+            add(name, np.unique(np.concatenate(nodes)))
     if "gmsh:physical" in m.cell_data and m.field_data:
         for name, (tag, _) in m.field_data.items():
             nodes = [c.data[np.asarray(m.cell_data["gmsh:physical"][j]) == tag].ravel()
                      for j, c in enumerate(m.cells)]
             nodes = np.concatenate(nodes) if nodes else np.array([], int)
             if nodes.size:
-                sets.setdefault(name, np.unique(nodes))
+                add(name, np.unique(nodes))
     return sets
 
 

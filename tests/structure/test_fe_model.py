@@ -147,6 +147,18 @@ def test_missing_set_names_file_and_set(coarse, tmp_path):
         read_mesh(tmp_path / "nothing.vtu")
 
 
+def test_a_file_meshio_cannot_parse_is_a_value_error_and_prints_nothing(tmp_path, capfd):
+    """meshio.read prints why and exits the process on such a file; read_mesh says it in
+    one ValueError naming the file."""
+    (tmp_path / "garbage.vtu").write_text("not a mesh\n")
+    (tmp_path / "garbage.inp").write_text("*ELEMENT, TYPE=C3D8\n1, 1, 2, 3, 4, 5, 6, 7, 8\n")
+    for name in ("garbage.vtu", "garbage.inp"):
+        with pytest.raises(ValueError, match=rf"garbage\.(vtu|inp): not a readable "
+                                             r"(mesh|deck) \(.+\)$"):
+            read_mesh(tmp_path / name)
+    assert capfd.readouterr() == ("", "")
+
+
 def test_gmsh_physical_groups_are_node_sets(coarse, tmp_path):
     """User meshes may carry sets as tagged cells (gmsh physical groups)."""
     root = coarse.node_sets["root"]

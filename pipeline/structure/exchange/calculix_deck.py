@@ -22,6 +22,7 @@ import numpy as np
 from skfem import Basis, ElementHexS2, ElementTetP2, MeshHex
 from skfem.io.meshio import HEX_MAPPING
 
+from ..mesh_io import deck_lines
 from ..quadratic_cells import EDGES, HEX20_EDGES, TET10_EDGES, edge_index
 
 FIELD = 20        # characters CalculiX reads of a number
@@ -98,12 +99,13 @@ def write_deck(mesh, node_sets: dict, p, path) -> Path:
 
 def node_numbers(path, count: int) -> np.ndarray:
     """The node number of each point of a mesh file, in meshio's point order: the
-    `*NODE` numbers of an Abaqus / CalculiX deck (.inp), else 1 ... count."""
+    `*NODE` numbers of an Abaqus / CalculiX deck (.inp, its `*INCLUDE` files inlined),
+    else 1 ... count."""
     path = Path(path)
     if path.suffix.lower() != ".inp":
         return np.arange(1, count + 1)
     ids, inside = [], False
-    for line in path.read_text(errors="replace").splitlines():
+    for line in deck_lines(path):
         if line.startswith("**"):
             continue
         if line.startswith("*"):

@@ -18,20 +18,33 @@ C3D10 / SOLID187 -> ElementTetP2, 8-node -> ElementHex1, 4-node -> ElementTetP1:
 their nodes, not a new discretisation), and K must be positive definite on the free
 DOFs (a root set that does not clamp the blade leaves rigid-body modes).
 
+M must weigh what the mesh holds (`check_mass`): its translation mass in each
+direction, m_d = r_d^T M r_d (r_d a unit translation of the free DOFs), against the
+mesh's volume V (scikit-fem, the cells' corners) times the density.  The clamped DOFs
+are not in the files, so m_d = integral of rho (1 - phi)^2 dV, phi the sum of the root
+nodes' shape functions (0 outside the cells touching the root, volume V_r; within
+-0.31 and 1 for the quadratic and linear elements here): rho (V - V_r) <= m_d <=
+rho (V + V_r), widened by RHO_MARGIN for curved cells measured straight.  The density
+is the blade's when given (`MatrixFiles.density`), else any of the blade materials'
+(`fe_model.DENSITY_RANGE`).  K and M swapped, a stale mass file or a model in mm
+read as SI miss it by factors of 1e3 to 1e12.  The mesh must not span more than a
+blade can (`mesh_io.check_span`).
+
 Units: "SI" (N/m, kg, m) or "mm" (N/mm, tonne, mm -- the usual consistent set of
 Abaqus and ANSYS models): K x 1e3, M x 1e3, coordinates x 1e-3.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from skfem import ElementHex1, ElementHex2, ElementHexS2, ElementTetP1, ElementTetP2
 
-from ..fe_model import REQUIRED_SETS, BladeModel
-from ..mesh_io import read_volume
+from ..fe_model import DENSITY_RANGE, REQUIRED_SETS, BladeModel
+from ..mesh_io import check_span, read_volume
 from ..solid import solid_from_mesh
 from .calculix_deck import EDGES, edge_index, node_numbers
 from .matrix_files import (ExportedMatrices, read_abaqus, read_ansys, read_calculix,
@@ -39,6 +52,7 @@ from .matrix_files import (ExportedMatrices, read_abaqus, read_ansys, read_calcu
 
 FORMATS = ("calculix", "abaqus", "ansys", "matrix_market")
 UNITS = {"SI": (1.0, 1.0, 1.0), "mm": (1e3, 1e3, 1e-3)}   # K, M, length factors to SI
+RHO_MARGIN = 1.1    # the volume of curved cells, measured on straight ones
 ELEMENTS = {"hexahedron": ElementHex1, "hexahedron20": ElementHexS2,
             "hexahedron27": ElementHex2, "tetra": ElementTetP1, "tetra10": ElementTetP2}
 
@@ -48,21 +62,34 @@ class MatrixFiles:
     """Where an exported structure lies.  calculix: `stiffness` is the job
     (`<job>.sti/.mas/.dof`); abaqus: the stiffness and mass `.mtx`; ansys: the two
     Harwell-Boeing files and the `.mapping` as `dofs`; matrix_market: the two `.mtx`
-    and the "node direction" table as `dofs`.  `units`: a key of `UNITS`."""
+    and the "node direction" table as `dofs`.  `units`: a key of `UNITS`.  `density`
+    [kg/m^3]: the blade's, which M must weigh (None: any blade material's)."""
 
     format: str
     stiffness: str
     mass: str | None = None
     dofs: str | None = None
     units: str = "SI"
+    density: float | None = None
+
+    @property
+    def mass_file(self) -> str:
+        """The file that holds M."""
+        if self.format == "calculix":     # the job's, as `read_calculix` finds it
+            stem = Path(self.stiffness)
+            if stem.suffix in (".sti", ".mas", ".dof", ".inp"):
+                stem = stem.with_suffix("")
+            return str(stem.with_suffix(".mas"))
+        return str(self.mass)
 
 
-def read_exported(files: MatrixFiles) -> ExportedMatrices:
-    """The matrices of `files` with their (node, direction) map, in SI units."""
+def read_exported(files: MatrixFiles, complete: bool = True) -> ExportedMatrices:
+    """The matrices of `files` with their (node, direction) map, in SI units;
+    `complete`: every row has entries (not so a damping matrix read as `stiffness`)."""
     if files.format == "calculix":
-        ex = read_calculix(files.stiffness)
+        ex = read_calculix(files.stiffness, complete)
     elif files.format == "abaqus":
-        ex = read_abaqus(files.stiffness, files.mass)
+        ex = read_abaqus(files.stiffness, files.mass, complete)
     elif files.format == "ansys":
         ex = read_ansys(files.stiffness, files.mass, files.dofs)
     elif files.format == "matrix_market":
@@ -129,12 +156,57 @@ def check_definite(K, M, source) -> None:
                          f"the blade?")
 
 
+def mass_bounds(basis, root) -> tuple:
+    """(V [m^3], V_r [m^3], (lo, hi)) of the mesh of `basis` whose vertices `root` are
+    clamped: a translation mass m [kg] of the free DOFs implies a density between
+    lo m and hi m [kg/m^3] (see the module)."""
+    cell = basis.dx.sum(axis=1)                      # [m^3] each cell's volume
+    V = float(cell.sum())
+    V_r = float(cell[np.isin(basis.mesh.t, root).any(axis=0)].sum())
+    lo = 1.0 / (RHO_MARGIN * (V + V_r))
+    hi = RHO_MARGIN / (V - V_r) if V > V_r else np.inf
+    return V, V_r, (lo, hi)
+
+
+def check_mass(M, basis, root, files: MatrixFiles, mesh) -> None:
+    """ValueError naming the mass file unless M (over the 3 N vector DOFs, clamped ones
+    zero) weighs the mesh's volume times the density (see the module)."""
+    V, _, (lo, hi) = mass_bounds(basis, root)
+    rho_lo, rho_hi = ((files.density, files.density) if files.density is not None
+                      else DENSITY_RANGE)
+    for d, axis in enumerate("xyz"):
+        r = np.zeros(M.shape[0])
+        r[d::3] = 1.0
+        m = float(r @ (M @ r))
+        if m > 0 and lo * m <= rho_hi and rho_lo <= hi * m:
+            continue
+        want = (f"the blade's density is {files.density:g} kg/m^3" if files.density is not None
+                else f"no blade material's ({rho_lo:g} to {rho_hi:g} kg/m^3)")
+        causes = ["K and M swapped (the stiffness read as the mass)", "wrong units (a model "
+                  "in mm and tonnes read as SI: units = \"mm\")", "a stale file (another "
+                  "material or mesh)"]
+        if m * lo > rho_hi:                             # too heavy
+            first = 0 if m * lo > 1e3 * rho_hi else 2
+        else:
+            first = 1 if m * hi < 1e-3 * rho_lo else 2
+        likely = [causes[first]] + [c for k, c in enumerate(causes) if k != first]
+        bounds = (f"{lo * m:.3g} to {hi * m:.3g}" if np.isfinite(hi * m)
+                  else f"at least {lo * m:.3g}")
+        raise ValueError(f"{files.mass_file}: mass {m:.3g} kg (translation along {axis}) "
+                         f"for a volume of {V:.3g} m^3 ({mesh}): density {m / V:.3g} kg/m^3 "
+                         f"({bounds} with the clamped root's share), where {want}: likely "
+                         f"{likely[0]}; else {likely[1]} or {likely[2]}")
+
+
 def import_blade(mesh_path, files: MatrixFiles, p, required=("root",)) -> BladeModel:
     """The clamped blade of an exported structure on its mesh (see the module): sets,
-    frames and face areas from the mesh, K and M from the files; `p` (BladeParams)
-    supplies the damping ratios only."""
+    frames and face areas from the mesh, K and M from the files (M weighed against
+    the mesh's volume, `check_mass`); `p` (BladeParams) supplies the damping ratios
+    only."""
     _, _, length = UNITS[files.units]
     vol = read_volume(mesh_path, required, scale=length)
+    check_span(vol.mesh.p, mesh_path, 'set [scene.matrices] units = "mm"' if files.units == "SI"
+               else f'(read with units = "{files.units}")')
     ex = read_exported(files)
     numbers = node_numbers(mesh_path, vol.vertex.size)
     source = str(mesh_path)
@@ -145,9 +217,9 @@ def import_blade(mesh_path, files: MatrixFiles, p, required=("root",)) -> BladeM
         P = sp.csr_matrix((np.ones(rows.size), (rows, np.arange(rows.size))),
                           shape=(n, rows.size))
         K, M = (P @ ex.K @ P.T).tocsr(), (P @ ex.M @ P.T).tocsr()
+        check_mass(M, basis, vol.node_sets["root"], files, source)
         check_definite(K[free][:, free], M[free][:, free], ex.source)
         return K, M
 
     sets = {k: v for k, v in vol.node_sets.items() if k in REQUIRED_SETS}
     return solid_from_mesh(vol.mesh, sets, p, source, ELEMENTS[vol.cell_type](), matrices)
-

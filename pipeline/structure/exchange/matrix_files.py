@@ -85,32 +85,45 @@ def symmetric(path, rows, cols, vals, n: int) -> sp.csr_matrix:
 
 
 def _numbers(path, lines, count: int, kinds, sep=None):
-    """Rows of `count` numbers (converters `kinds`) from the non-empty lines."""
+    """Rows of `count` numbers (converters `kinds`) from the non-empty lines; a bad
+    last line is named as the end of a file cut short."""
     out = []
+    last = max((k for k, line in enumerate(lines, 1) if line.strip()), default=0)
     for k, line in enumerate(lines, 1):
         if not line.strip() or line.lstrip().startswith(("*", "#", "%", "**")):
             continue
         parts = [p for p in (line.split(sep) if sep else line.split()) if p.strip()]
+        cut = " (the last line: the file truncated?)" if k == last else ""
         if len(parts) != count:
-            _fail(path, f"line {k}", f"expected {count} numbers, got {line.strip()!r}")
+            _fail(path, f"line {k}", f"expected {count} numbers, got {line.strip()!r}{cut}")
         try:
             out.append([conv(p.strip()) for conv, p in zip(kinds, parts)])
         except ValueError:
-            _fail(path, f"line {k}", f"not a number in {line.strip()!r}")
+            _fail(path, f"line {k}", f"not a number in {line.strip()!r}{cut}")
     return out
 
 
-def _triplets(path, n: int):
-    rows = _numbers(path, _text(path), 3, (int, int, float))
+def _triplets(path, n: int, dof_file, complete: bool):
+    """The symmetric matrix of a CalculiX "i j value" file of `n` rows (`dof_file`
+    maps them); when `complete`, a file whose entries stop short of row n was cut
+    short."""
+    lines = _text(path)
+    rows = _numbers(path, lines, 3, (int, int, float))
     if not rows:
         _fail(path, "entries", "no matrix entries")
     i, j, v = (np.array(c) for c in zip(*rows))
+    last = int(max(i.max(), j.max()))
+    if complete and last < n:
+        _fail(path, f"ends at line {len(lines)}", f"its last row is {last}, but {dof_file} "
+                                                  f"maps {n} rows: truncated?")
     return symmetric(path, i - 1, j - 1, v, n)
 
 
-def read_calculix(stem) -> ExportedMatrices:
+def read_calculix(stem, complete: bool = True) -> ExportedMatrices:
     """`<stem>.sti`, `<stem>.mas` and `<stem>.dof` of a CalculiX
-    `*FREQUENCY, SOLVER=MATRIXSTORAGE` step (`stem` with or without a suffix)."""
+    `*FREQUENCY, SOLVER=MATRIXSTORAGE` step (`stem` with or without a suffix).
+    `complete`: every row has entries (a stiffness, a mass; not a damping matrix,
+    which may leave DOFs out), else the file was cut short."""
     stem = Path(stem)
     stem = stem.with_suffix("") if stem.suffix in (".sti", ".mas", ".dof", ".inp") else stem
     dof_file = stem.with_suffix(".dof")
@@ -126,22 +139,32 @@ def read_calculix(stem) -> ExportedMatrices:
     n = len(dofs)
     if n == 0:
         _fail(dof_file, "entries", "no DOF")
-    K = _triplets(stem.with_suffix(".sti"), n)
-    M = _triplets(stem.with_suffix(".mas"), n)
+    K = _triplets(stem.with_suffix(".sti"), n, dof_file, complete)
+    M = _triplets(stem.with_suffix(".mas"), n, dof_file, complete)
     return ExportedMatrices(K, M, tuple(dofs), f"calculix:{stem}")
 
 
-def read_abaqus(stiffness, mass) -> ExportedMatrices:
+def read_abaqus(stiffness, mass, complete: bool = True) -> ExportedMatrices:
     """Abaqus `*MATRIX OUTPUT, FORMAT=COORDINATE` files of the stiffness and the mass:
     lines "row node, row dof, column node, column dof, value"; the rows are the (node,
-    dof) pairs the files name, in ascending order."""
-    data = {}
+    dof) pairs the files name, in ascending order.  `complete`: as `read_calculix`'s
+    (a file that stops before the other's last pair was cut short)."""
+    data, length = {}, {}
     for path in (stiffness, mass):
-        data[path] = _numbers(path, _text(path), 5, (int, int, int, int, float), sep=",")
+        lines = _text(path)
+        data[path], length[path] = _numbers(path, lines, 5, (int, int, int, int, float),
+                                            sep=","), len(lines)
         if not data[path]:
             _fail(path, "entries", "no matrix entries")
     pairs = sorted({(int(r[a]), int(r[a + 1])) for rows in data.values() for r in rows
                     for a in (0, 2)})
+    for path, rows in data.items():       # rows come in ascending order: a cut file's stop
+        last = max((int(r[a]), int(r[a + 1])) for r in rows for a in (0, 2))
+        if complete and last < pairs[-1]:
+            other = mass if path == stiffness else stiffness
+            _fail(path, f"ends at line {length[path]}", f"its last row is node {last[0]} dof "
+                  f"{last[1]}, but {other} goes on to node {pairs[-1][0]} dof "
+                  f"{pairs[-1][1]}: truncated?")
     for path, rows in data.items():
         bad = [p for p in pairs if not 1 <= p[1] <= 6]
         if bad:
@@ -168,7 +191,8 @@ def _fixed(lines, width: int, count: int, conv, path, where):
         out += [line[k:k + width] for k in range(0, len(line), width)
                 if line[k:k + width].strip()]
     if len(out) < count:
-        _fail(path, where, f"expected {count} numbers, found {len(out)}")
+        _fail(path, where, f"expected {count} numbers, found {len(out)}: the file cut short "
+                           "(truncated?)")
     try:
         return np.array([conv(x.strip().replace("D", "E").replace("d", "e"))
                          for x in out[:count]])

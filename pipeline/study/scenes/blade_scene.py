@@ -262,7 +262,7 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
         if model != "solid_blade":
             ck.fail(fld("mesh"), f"a mesh file needs model = \"solid_blade\", got {model!r}")
         mesh = _mesh(ck, tab["mesh"], fld("mesh"), base_dir, tab, contacts)
-    matrices = scene_matrices(ck, tab, mesh, base_dir)
+    matrices = scene_matrices(ck, tab, mesh, base_dir, fld)
     n_modes = ck.integer(tab.get("craig_bampton_modes", DEFAULT_MODES),
                          fld("craig_bampton_modes"), 0, 10_000)
     rayleigh = None

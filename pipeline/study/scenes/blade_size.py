@@ -17,24 +17,24 @@ blade of a few thousand.  Three rules, each one error naming the field:
   the largest measured; 35,250 DOFs, 12 s of CPU).  The default blade has 11,934 DOFs
   (8 x 2 x 20 elements), 16 x 4 x 40 elements 82,689.
 
-A generated blade's dimensions are also at most MAX_LENGTH; every blade's [scene.blade]
+A generated blade's dimensions are also at most MAX_LENGTH (`structure.fe_model`, which
+also bounds a mesh file's span, `mesh_io.check_span`); every blade's [scene.blade]
 material (E, rho) lies within the range of blade materials in SI units (`check_material`).  A mesh file
 (`mesh = "file"`) is not checked here: its size is the file's.
 """
 from __future__ import annotations
 
 from ...structure.disk import wheel_shroud_width
-from ...structure.fe_model import BladeParams
+from ...structure.fe_model import DENSITY_RANGE, MAX_LENGTH, BladeParams
 from ...structure.mesh_size import mesh_size
 
 MAX_DIMENSION_RATIO = 1000.0
 MAX_HUB_TO_LENGTH = 20.0
 MAX_FE_DOFS = 100_000
-MAX_LENGTH = 5.0           # [m] a blade dimension (the longest steam-turbine blades: ~2 m)
 LENGTHS = ("length", "chord", "thickness", "shroud_chord", "shroud_width", "shroud_height")
 # [SI] the materials a blade is made of (polymers to tungsten carbide), unit slips outside
 MATERIAL = {"E": (1e9, 1e12, "Pa", "Young's modulus", (("MPa", 1e6), ("GPa", 1e9))),
-            "rho": (500.0, 25000.0, "kg/m^3", "density", (("t/mm^3", 1e12), ("g/cm^3", 1e3)))}
+            "rho": (*DENSITY_RANGE, "kg/m^3", "density", (("t/mm^3", 1e12), ("g/cm^3", 1e3)))}
 
 
 def check_material(ck, p: BladeParams, where) -> None:

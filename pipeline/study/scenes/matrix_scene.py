@@ -12,7 +12,8 @@ abaqus: `stiffness`, `mass` (`*MATRIX OUTPUT, FORMAT=COORDINATE` files); ansys:
 `stiffness`, `mass` (HBMAT files), `mapping`; matrix_market: `stiffness`, `mass`,
 `dofs` (the "node direction" table).  Paths are relative to the study file.  The
 blade is then `structure.exchange.imported.import_blade`: K and M from the files,
-the rest (faces, frames, sets) from the mesh.
+the rest (faces, frames, sets) from the mesh.  [scene.blade] may give rho (the mass
+is weighed against it), not E or nu.
 """
 from __future__ import annotations
 
@@ -29,15 +30,27 @@ FILES = {"calculix": ("job",), "abaqus": ("stiffness", "mass"),
          "matrix_market": ("stiffness", "mass", "dofs")}
 
 
-def scene_matrices(ck, tab: dict, mesh, base_dir: Path) -> MatrixFiles | None:
+def scene_matrices(ck, tab: dict, mesh, base_dir: Path,
+                   fld=lambda path: f"scene.{path}") -> MatrixFiles | None:
     """The `MatrixFiles` of a blade [scene] table's `matrices` (None without one);
-    `mesh`: the scene's mesh file, which the matrices need."""
+    `mesh`: the scene's mesh file, which the matrices need.  The exported K holds the
+    material's stiffness: [scene.blade] E and nu are refused (they would do nothing);
+    its rho is the density M must weigh (`imported.check_mass`).  `fld(path)`: the
+    field of a path inside [scene] (a quick override names its own)."""
     if "matrices" not in tab:
         return None
     if mesh is None:
         ck.fail("scene.matrices", "exported matrices need the mesh they belong to: "
                                   "give scene.mesh (the deck with the node sets)")
-    return parse_matrices(ck, tab["matrices"], "scene.matrices", base_dir)
+    blade = tab.get("blade") if isinstance(tab.get("blade"), dict) else {}
+    for key in ("E", "nu"):
+        if key in blade:
+            ck.fail(fld(f"blade.{key}"), "unused with scene.matrices (the exported K holds "
+                                         "the stiffness): remove it")
+    files = parse_matrices(ck, tab["matrices"], "scene.matrices", base_dir)
+    if "rho" in blade:      # a number > 0, read with the blade's parameters
+        files = replace(files, density=float(blade["rho"]))
+    return files
 
 
 def parse_matrices(ck, value, field: str, base_dir: Path, extra=()) -> MatrixFiles:
@@ -96,7 +109,8 @@ def exported_lumped(ck, tab: dict, base_dir: Path):
     files = parse_matrices(ck, t, "scene.matrices", base_dir, extra=("damping",))
     try:
         ex = read_exported(files)
-        C = (read_exported(replace(files, stiffness=str(_path(ck, damping, base_dir)))).K
+        C = (read_exported(replace(files, stiffness=str(_path(ck, damping, base_dir))),
+                           complete=False).K
              if damping is not None else None)
     except (ValueError, UsageError) as exc:
         ck.fail("scene.matrices", str(exc))

@@ -209,3 +209,49 @@ def test_malformed_files_are_one_line_naming_file_and_place(tmp_path):
     with pytest.raises(UsageError) as e:
         read_matrix_market(tmp_path / "none.mtx", tmp_path / "none.mtx", tmp_path / "k.mapping")
     one_line(e, tmp_path / "k.mapping", "line 1")
+
+
+def test_a_calculix_file_cut_short_is_named_truncated(tmp_path):
+    """The .sti of the 7 x 7 K_REF (28 entries, column by column) cut after column 6
+    (line 21), and in the middle of line 22: each named where it ends, 'truncated?'
+    -- not read as a K with an empty last row (singular), unless read as a damping
+    matrix, which may have one."""
+    write_calculix(tmp_path / "job", K_REF, M_REF, DOFS)
+    sti = tmp_path / "job.sti"
+    lines = sti.read_text().splitlines(keepends=True)
+    assert len(lines) == 28
+    sti.write_text("".join(lines[:21]))
+    with pytest.raises(UsageError, match=r"job\.sti: ends at line 21: its last row is 6, but "
+                                         r"\S*job\.dof maps 7 rows: truncated\?$") as e:
+        read_calculix(tmp_path / "job")
+    one_line(e, sti, "ends at line 21")
+    # a damping matrix may leave DOFs out: read so, the last row and column are zero
+    C = read_calculix(tmp_path / "job", complete=False).K.toarray()
+    assert not C[6].any() and not C[:, 6].any()
+    assert np.abs(C[:6, :6] - K_REF[:6, :6]).max() <= 1e-14 * np.abs(K_REF).max()
+    sti.write_text("".join(lines[:21]) + lines[21][:4])
+    with pytest.raises(UsageError, match=r"expected 3 numbers, got '1 7' \(the last line: "
+                                         r"the file truncated\?\)") as e:
+        read_calculix(tmp_path / "job")
+    one_line(e, sti, "line 22")
+
+
+def test_abaqus_and_harwell_boeing_files_cut_short_are_named_truncated(tmp_path):
+    """An Abaqus stiffness file without its entries of the last node (9, dof 6) beside a
+    whole mass file; a Harwell-Boeing file without its last line of values."""
+    write_abaqus(tmp_path / "k.mtx", K_REF, DOFS)
+    write_abaqus(tmp_path / "m.mtx", M_REF, DOFS)
+    k = tmp_path / "k.mtx"
+    lines = [x for x in k.read_text().splitlines() if not x.startswith("9, 6")]
+    k.write_text("\n".join(lines) + "\n")
+    with pytest.raises(UsageError, match=r"its last row is node 4 dof 3, but \S*m\.mtx goes on "
+                                         r"to node 9 dof 6: truncated\?$") as e:
+        read_abaqus(k, tmp_path / "m.mtx")
+    one_line(e, k, f"ends at line {len(lines)}")
+    write_hb_rsa(tmp_path / "k.hb", K_REF)
+    hb = tmp_path / "k.hb"
+    hb.write_text("\n".join(hb.read_text().splitlines()[:-1]) + "\n")
+    write_mapping(tmp_path / "k.mapping", DOFS)
+    with pytest.raises(UsageError, match=r"found \d+: the file cut short \(truncated\?\)") as e:
+        read_ansys(hb, hb, tmp_path / "k.mapping")
+    one_line(e, hb, "values")

@@ -4,7 +4,9 @@ The files are written here without CalculiX: the package's wheel blade as a deck
 (`calculix_deck.write_deck`, 20-node hexahedra) and its own K and M (ElementHexS2) in
 CalculiX's `.sti` / `.mas` / `.dof` layout.  A study on them runs; every mistake in
 the table or the files is one line naming the study file and the field, exit 2,
-nothing written."""
+nothing written: the files checked against each other and against the mesh (the
+mass M weighs against the mesh's volume, a file cut short, lengths in millimetres),
+set names ignoring case, decks with `*INCLUDE` files."""
 import re
 
 import numpy as np
@@ -13,6 +15,7 @@ from skfem import Basis, ElementHexS2
 
 from pipeline.__main__ import main as cli
 from pipeline.errors import UsageError
+from pipeline.model.scene import blade_model
 from pipeline.structure.disk import wheel_params
 from pipeline.structure.exchange.calculix_deck import write_deck
 from pipeline.structure.fe_model import BladeParams, DiskPlacement
@@ -26,25 +29,28 @@ DISK = DiskPlacement(hub_radius=0.12, sectors=36)
 MATRICES = 'matrices = { format = "calculix", job = "blade", units = "SI" }'
 
 
-def write_export(folder, drop_root=True, sets_kept=None):
-    """The wheel blade's deck and its K, M as CalculiX writes them (root DOFs absent
-    when `drop_root`)."""
+def write_export(folder, drop_root=True, sets_kept=None, mm=False):
+    """The wheel blade's deck and its K, M as CalculiX writes them (the upper triangle
+    column by column; root DOFs absent when `drop_root`); `mm`: in N/mm, tonnes and mm.
+    Returns the package's full K, M (root DOFs kept, SI units) and the DOFs written."""
     mesh, sets = solid_mesh(BLADE, DISK)
     p = wheel_params(BLADE, DISK)
     if sets_kept is not None:
         sets = {k: v for k, v in sets.items() if k in sets_kept}
-    write_deck(mesh, sets, p, folder / "blade.inp")
+    write_deck(mesh.scaled(1e3) if mm else mesh, sets, p, folder / "blade.inp")
     basis = Basis(mesh, ElementHexS2(), intorder=4)
     K, M = assemble_elasticity(basis, p.E, p.nu, p.rho)
     root = np.nonzero(np.abs(basis.doflocs[2]) < 1e-12)[0]
     keep = np.setdiff1d(np.arange(K.shape[0]),
                         (3 * root[:, None] + np.arange(3)).ravel() if drop_root else [])
     for suffix, A in ((".sti", K), (".mas", M)):
-        T = A[keep][:, keep].tocoo()
-        up = T.row <= T.col
+        T = (A[keep][:, keep] / (1e3 if mm else 1.0)).tocoo()
+        up = np.nonzero(T.row <= T.col)[0]
+        up = up[np.lexsort((T.row[up], T.col[up]))]     # ccx's order: column by column
         (folder / f"blade{suffix}").write_text("".join(
             f"{i + 1} {j + 1} {v:.17e}\n" for i, j, v in zip(T.row[up], T.col[up], T.data[up])))
     (folder / "blade.dof").write_text("".join(f"{k // 3 + 1}.{k % 3 + 1}\n" for k in keep))
+    return K, M, keep
 
 
 def study_text(scene_lines):
@@ -112,12 +118,190 @@ def test_bad_imported_blade_is_one_line_exit_2(tmp_path, case, capsys):
             spoil(tmp_path)
     f = tmp_path / "bad.toml"
     f.write_text(study_text(lines))
+    assert refused(f, field, pattern, capsys)
+
+
+def refused(f, field, pattern, capsys) -> str:
+    """The one error line of study `f` (load and `run`: exit 2, nothing written), which
+    must name `field` and match `pattern`."""
+    out = f.parent / "out"
     with pytest.raises(UsageError, match=f"{re.escape(field)}: .*({pattern})"):
         load_study(f)
-    assert cli(["run", str(f), "--out", str(tmp_path / "out")]) == 2
+    assert cli(["run", str(f), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"error: {f}: {field}: "), err
-    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+    assert not out.exists() or not any(out.iterdir())
+    return err[0]
+
+
+# ------------------------------------------------------- the files against the mesh
+SCENE = 'mesh = "blade.inp"\n' + MATRICES
+DENSITY = r"density (\S+) kg/m\^3"
+
+
+def blade_of(folder, scene_lines=SCENE, name="s"):
+    """The blade of a study on the files in `folder`."""
+    (folder / f"{name}.toml").write_text(study_text(scene_lines))
+    return blade_model(load_study(folder / f"{name}.toml").scene.structure)
+
+
+def same_blade(a, b):
+    assert (a.K != b.K).nnz == 0 and (a.M != b.M).nnz == 0
+    assert a.dof_sets.keys() == b.dof_sets.keys() and a.frames.keys() == b.frames.keys()
+    for name, d in a.dof_sets.items():
+        np.testing.assert_array_equal(b.dof_sets[name], d)
+    for name, f in a.frames.items():
+        np.testing.assert_array_equal(b.frames[name].weights, f.weights)
+
+
+def test_swapped_stiffness_and_mass_files_are_refused_by_their_mass(tmp_path, capsys):
+    """.sti and .mas exchanged load without complaint otherwise (both are positive
+    definite; the frequencies come out 1e-5 Hz).  The "mass" the message names is the
+    hand sum of the .mas file over its x rows (both triangles), the volume the
+    package's full M summed over the x DOFs over rho: they agree to the 3 digits
+    printed."""
+    _, M, keep = write_export(tmp_path)
+    sti, mas = tmp_path / "blade.sti", tmp_path / "blade.mas"
+    text = sti.read_text()
+    sti.write_text(mas.read_text())
+    mas.write_text(text)
+    (tmp_path / "swapped.toml").write_text(study_text(SCENE))
+    line = refused(tmp_path / "swapped.toml", "scene.matrices",
+                   r"blade\.mas: mass .* kg \(translation along x\) .*: likely K and M "
+                   r"swapped", capsys)
+    i, j, v = np.loadtxt(mas, unpack=True)
+    x = (keep[i.astype(int) - 1] % 3 == 0) & (keep[j.astype(int) - 1] % 3 == 0)
+    m = v[x].sum() + v[x & (i != j)].sum()
+    r = np.zeros(M.shape[0])
+    r[0::3] = 1.0
+    volume = r @ M @ r / wheel_params(BLADE, DISK).rho
+    got = re.search(r"mass (\S+) kg .* volume of (\S+) m\^3 .*" + DENSITY, line)
+    assert m > 1e8 and volume == pytest.approx(1.623e-5, rel=1e-3)
+    for value, want in zip(got.groups(), (m, volume, m / volume)):
+        assert float(value) == pytest.approx(want, rel=5e-3)
+
+
+def test_the_blades_rho_is_what_the_imported_mass_must_weigh(tmp_path, capsys):
+    """The steel blade's matrices (7850 kg/m^3) with [scene.blade] rho = 4430 kg/m^3
+    (titanium): refused, naming the density the free DOFs' translation mass implies
+    (by hand: r^T M r over the written rows / the volume, 7560 kg/m^3: the clamped
+    root's share is missing); rho = 7850 kg/m^3 loads, and M is the file's."""
+    _, M, keep = write_export(tmp_path)
+    r = np.zeros(M.shape[0])
+    r[0::3] = 1.0
+    free = r[keep] @ M[keep][:, keep] @ r[keep]
+    implied = free / (r @ M @ r / wheel_params(BLADE, DISK).rho)
+    assert implied == pytest.approx(7560, rel=1e-3)
+    (tmp_path / "ti.toml").write_text(study_text(SCENE).replace(
+        "n_span = 8\n", "n_span = 8\nrho = 4430.0\n", 1))
+    line = refused(tmp_path / "ti.toml", "scene.matrices",
+                   "where the blade's density is 4430 kg/m\\^3: likely a stale file", capsys)
+    assert float(re.search(DENSITY, line).group(1)) == pytest.approx(implied, rel=5e-3)
+    steel = blade_of(tmp_path, SCENE, "steel")
+    assert abs(steel.M - M[keep][:, keep]).max() <= 1e-14 * abs(M).max()
+
+
+@pytest.mark.parametrize("key, value", [("E", "2.1e11"), ("nu", "0.3")])
+def test_stiffness_material_given_with_matrices_is_refused(tmp_path, capsys, key, value):
+    write_export(tmp_path)
+    (tmp_path / "bad.toml").write_text(study_text(SCENE).replace(
+        "n_span = 8\n", f"n_span = 8\n{key} = {value}\n", 1))
+    refused(tmp_path / "bad.toml", f"scene.blade.{key}",
+            r"unused with scene\.matrices \(the exported K holds the stiffness\)", capsys)
+
+
+def test_a_truncated_stiffness_file_is_named_so(tmp_path, capsys):
+    """The first 3/5 of the .sti lines (CalculiX writes the upper triangle column by
+    column, so the last columns are missing): named at its last line and its last
+    row, not as a K that is not positive definite."""
+    write_export(tmp_path)
+    sti = tmp_path / "blade.sti"
+    lines = sti.read_text().splitlines(keepends=True)
+    kept = lines[:len(lines) * 3 // 5]
+    sti.write_text("".join(kept))
+    last = max(max(int(a), int(b)) for a, b, _ in (x.split() for x in kept))
+    assert last < 399
+    (tmp_path / "cut.toml").write_text(study_text(SCENE))
+    refused(tmp_path / "cut.toml", "scene.matrices",
+            rf"blade\.sti: ends at line {len(kept)}: its last row is {last}, but "
+            rf"\S*blade\.dof maps 399 rows: truncated\?", capsys)
+
+
+def test_a_deck_in_millimetres_read_as_si_is_named_a_unit_mistake(tmp_path, capsys):
+    """The deck in mm (and K, M in N/mm and tonnes) without units = "mm": refused,
+    naming the span (the package mesh's largest extent x 1000) and the cure, on the
+    matrices' route and on the mesh's; with units = "mm" the blade equals the SI
+    export's to 1e-12."""
+    write_export(tmp_path, mm=True)
+    mesh, _ = solid_mesh(BLADE, DISK)
+    span = 1e3 * np.ptp(mesh.p, axis=1).max()
+    (tmp_path / "mm.toml").write_text(study_text(SCENE))
+    refused(tmp_path / "mm.toml", "scene.matrices",
+            rf'coordinates span {span:.3g} m.*a mesh in millimetres\? set \[scene\.matrices\] '
+            r'units = "mm"', capsys)
+    (tmp_path / "mesh.toml").write_text(study_text('mesh = "blade.inp"'))
+    refused(tmp_path / "mesh.toml", "scene.mesh",
+            rf"coordinates span {span:.3g} m.*a mesh in millimetres\?", capsys)
+    mm = blade_of(tmp_path, SCENE.replace('"SI"', '"mm"'))
+    (tmp_path / "si").mkdir()
+    write_export(tmp_path / "si")
+    si = blade_of(tmp_path / "si")
+    assert abs(mm.K - si.K).max() <= 1e-12 * abs(si.K).max()
+    assert abs(mm.M - si.M).max() <= 1e-12 * abs(si.M).max()
+
+
+SET_NAMES = ("root", "shroud_left", "shroud_right", "excitation", "response")
+
+
+def test_upper_case_set_names_are_the_required_sets(tmp_path, capsys):
+    """ROOT, SHROUD_LEFT, ... (as pre-processors write them): the same blade as the
+    lower-case deck; two sets whose names differ only in case: refused, naming both."""
+    write_export(tmp_path)
+    lower = blade_of(tmp_path)
+    deck = tmp_path / "blade.inp"
+    text = deck.read_text()
+    for name in SET_NAMES:
+        text = text.replace(f"NSET={name}\n", f"NSET={name.upper()}\n")
+    assert "NSET=root" not in text and "NSET=SHROUD_LEFT" in text
+    (tmp_path / "upper").mkdir()
+    (tmp_path / "upper" / "blade.inp").write_text(text)
+    for suffix in (".sti", ".mas", ".dof"):
+        (tmp_path / "upper" / f"blade{suffix}").write_text(
+            (tmp_path / f"blade{suffix}").read_text())
+    same_blade(lower, blade_of(tmp_path / "upper"))
+    deck.write_text(text.replace("*MATERIAL", "*NSET, NSET=Root\n1\n*MATERIAL"))
+    (tmp_path / "both.toml").write_text(study_text(SCENE))
+    refused(tmp_path / "both.toml", "scene.mesh",
+            r"node sets 'ROOT' and 'Root' differ only in case", capsys)
+
+
+def test_a_deck_with_include_files_reads_as_the_flat_deck(tmp_path, capsys):
+    """The deck's nodes and node sets moved to included files (parts/nodes.inp;
+    parts/sets.inp, which includes response.inp beside it): the blade of the flat
+    deck, node numbers and all; a missing include: one line naming it and the file
+    that includes it."""
+    write_export(tmp_path)
+    flat = blade_of(tmp_path)
+    text = (tmp_path / "blade.inp").read_text()
+    head, rest = text.split("*NODE", 1)
+    nodes, rest = rest.split("*ELEMENT", 1)
+    elements, rest = rest.split("*NSET", 1)
+    sets, rest = rest.split("*MATERIAL", 1)
+    sets, response = sets.split("*NSET, NSET=response")
+    parts = tmp_path / "parts"
+    parts.mkdir()
+    (parts / "nodes.inp").write_text("*NODE" + nodes)
+    (parts / "sets.inp").write_text("*NSET" + sets + "*Include, input = response.inp\n")
+    (parts / "response.inp").write_text("*NSET, NSET=response" + response)
+    (tmp_path / "blade.inp").write_text(head + "*INCLUDE, INPUT=parts/nodes.inp\n*ELEMENT"
+                                        + elements + "*INCLUDE, INPUT=parts/sets.inp\n"
+                                        "*MATERIAL" + rest)
+    same_blade(flat, blade_of(tmp_path, name="included"))
+    (parts / "response.inp").unlink()
+    (tmp_path / "missing.toml").write_text(study_text(SCENE))
+    refused(tmp_path / "missing.toml", "scene.mesh",
+            r"parts/sets\.inp: \*INCLUDE, INPUT=response\.inp: no such file \S*parts/"
+            r"response\.inp", capsys)
 
 
 # --------------------------------------------------------------------------- lumped scenes
