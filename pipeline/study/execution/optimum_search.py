@@ -106,7 +106,7 @@ def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None,
                  len(kept), cdir)
     t0 = time.perf_counter()
     res = optimum_preload(build, sv.harmonics, window.omega_start, window.omega_stop, dof,
-                          o["bounds"], rtol=o["rtol"], known={**kept, **free},
+                          o["bounds"], rtol=o["rtol"], known=free, replay=kept,
                           extra_nodes=list(free), on_evaluation=keep, states=states,
                           grid_map=grid_map if (workers > 1 or scheduler or early) else None,
                           **kw)

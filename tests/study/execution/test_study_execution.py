@@ -521,3 +521,143 @@ def test_separation_not_declared_is_one_error_line_from_the_cli(tmp_path):
     assert r.returncode == 1 and (tmp_path / "out2" / "ex3_closed.nc").is_file()
     assert len(errors) == 1 and errors[0].startswith(f"error: {f}: case preload = 10 N: ")
     assert "contact 'shroud' separates at" in errors[0]
+
+
+# ---------------------------------------------------------------------------
+# killed at any write, resumed: the dataset of the uninterrupted run
+# ---------------------------------------------------------------------------
+
+# two cases and an optimum search over [1, 10] N (grid, brackets, Brent's local trials,
+# the band check of each bracket) on Example 1 at H = 1: about 2 s a run
+TINY = """
+[study]
+title = "Example 1 at H = 1 with an optimum search"
+[scene]
+model = "lumped"
+effects = ["friction"]
+dofs = ["x"]
+[scene.matrices]
+M = [[1.0]]
+C = [[3.0]]
+K = [[3.55e4]]
+[[scene.contact]]
+name = "damper"
+tangential = ["x"]
+ku = 1.0e4
+mu = 0.5
+[[scene.excitation]]
+dof = "x"
+amplitude = 1.0
+[sweep]
+preload = [2.0, 5.0]
+frequency = { start = 150.0, stop = 250.0, unit = "rad/s" }
+[solver]
+harmonics = 1
+tolerance = 1e-7
+stability = false
+max_step = 0.5
+[output]
+dofs = ["x"]
+figures = []
+[output.optimum_preload]
+dof = "x"
+bounds = [1.0, 10.0]
+rtol = 1e-2
+"""
+
+
+class Killed(BaseException):
+    """The run's process ends here (nothing after it runs, as after SIGKILL)."""
+
+
+class KillAtWrite:
+    """The run's writes to its checkpoint folder (each finished case, each optimum-search
+    evaluation) counted; at write `at` the process is killed, `before` it (the write
+    interrupted: a partial temporary file left, the kept file unchanged) or just after
+    it (the computing that follows is lost: a SIGKILL anywhere up to the next write
+    leaves the same files)."""
+
+    def __init__(self, monkeypatch, at=None, before=False):
+        import pipeline.study.execution.cases as cases_mod
+        import pipeline.study.execution.optimum_search as search_mod
+
+        self.at, self.before, self.writes = at, before, 0
+        for mod, name in ((cases_mod, "save_case"), (search_mod, "save_search")):
+            monkeypatch.setattr(mod, name, self.wrap(getattr(mod, name)))
+
+    def wrap(self, real):
+        def write(cdir, *args):
+            self.writes += 1
+            if self.writes == self.at and self.before:
+                Path(cdir).mkdir(parents=True, exist_ok=True)
+                (Path(cdir) / ".optimum-search.0badf00d.tmp").write_bytes(b"\x89HDF\r\n")
+                raise Killed
+            out = real(cdir, *args)
+            if self.writes == self.at:
+                raise Killed
+            return out
+        return write
+
+
+def tiny_run(out, monkeypatch, at=None, before=False):
+    """The tiny study run into `out`, killed at write `at` (None: not killed); the
+    number of writes it made."""
+    study = parse_study(TINY, file="tiny.toml", name="tiny")
+    with monkeypatch.context() as mp:
+        kill = KillAtWrite(mp, at, before)
+        try:
+            res = run_study(study, out, workers=1, figures=False, progress=False)
+        except Killed:
+            return None, kill.writes
+    assert res.ok
+    return read_dataset(res.path), kill.writes
+
+
+@pytest.fixture(scope="module")
+def tiny_whole(tmp_path_factory):
+    with pytest.MonkeyPatch.context() as mp:
+        return tiny_run(tmp_path_factory.mktemp("tiny_whole"), mp)
+
+
+def untimed(ds: xr.Dataset) -> xr.Dataset:
+    return comparable(ds.drop_vars([v for v in ("optimum_search_wall_time",) if v in ds]))
+
+
+def resumed_equals_uninterrupted(whole, writes, at, before, out, monkeypatch):
+    ds, n = tiny_run(out, monkeypatch, at, before)
+    assert ds is None and n == at and not (out / "tiny.nc").exists()
+    ds, _ = tiny_run(out, monkeypatch)
+    xr.testing.assert_identical(untimed(ds), untimed(whole))
+    assert not list(out.glob(".tiny.*.cases"))
+
+
+@pytest.mark.parametrize("at, before", [(4, True), (-1, False)],
+                         ids=["inside-the-grid", "after-the-last-check"])
+def test_killed_at_a_write_and_resumed_equals_the_uninterrupted_run(tiny_whole, tmp_path,
+                                                                    monkeypatch, at, before):
+    """Killed in the search's grid (a write cut short) or after the search's last band
+    evaluation (the last bracket's check: only the dataset was left to write), the
+    rerun's dataset is the uninterrupted run's in every variable (wall times aside):
+    the optimum, every preload the search evaluated, its peak, whether it was a grid
+    node and whether it was valued over the band (a resumed search that knew the last
+    check's band value from the start took it for Brent's trial at that preload)."""
+    whole, writes = tiny_whole
+    assert writes == 8 and int(whole["optimum_search_band"].sum()) < whole[
+        "optimum_search_preload"].size           # Brent's local trials are in the search
+    resumed_equals_uninterrupted(whole, writes, at % (writes + 1), before, tmp_path / "out",
+                                 monkeypatch)
+
+
+@pytest.mark.slow
+def test_killed_at_random_writes_and_resumed_equals_the_uninterrupted_run(
+        tiny_whole, tmp_path, monkeypatch):
+    """Twelve seeded random moments among the run's writes (each write cut short or just
+    done; every one after the second inside the optimum search): each resumed dataset is
+    the uninterrupted one."""
+    whole, writes = tiny_whole
+    moments = random.Random(20261207).sample(
+        [(at, before) for at in range(1, writes + 1) for before in (False, True)], 12)
+    assert sum(at > 2 for at, _ in moments) >= 8
+    for i, (at, before) in enumerate(moments):
+        resumed_equals_uninterrupted(whole, writes, at, before, tmp_path / f"out{i}",
+                                     monkeypatch)
