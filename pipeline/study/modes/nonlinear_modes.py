@@ -156,6 +156,17 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
 
 
 def run_case(study: NonlinearModesStudy, case: dict) -> dict:
+    """`case_result`, or for a case that raises {"case", "error"}: a failing case is
+    recorded as failed (`nonlinear_modes_dataset.case_status`), never the end of the
+    others."""
+    try:
+        return case_result(study, case)
+    except Exception as exc:  # numerical failures of one case must not lose the others
+        log.exception("case %s failed", case)
+        return {"case": case, "error": f"{type(exc).__name__}: {exc}"}
+
+
+def case_result(study: NonlinearModesStudy, case: dict) -> dict:
     """Backbone, synthesis per force scale and (compare) the full response of one case."""
     sv, resp = study.response.solver, study.response
     system = resp.system(case)
@@ -187,8 +198,12 @@ def run_case(study: NonlinearModesStudy, case: dict) -> dict:
         kw = sv.kwargs()
         kw["stability"] = False
         kw["peak_dofs"] = [list(system.dof_names).index(d) for d in resp.output.dofs]
-        out["curve"] = default_solver(resp)(
-            system, sv.harmonics, fr.omega_start, fr.omega_stop, **kw)
+        try:   # the backbone is kept whatever the comparison does
+            out["curve"] = default_solver(resp)(
+                system, sv.harmonics, fr.omega_start, fr.omega_stop, **kw)
+        except Exception as exc:  # noqa: BLE001 -- recorded in the case's message
+            log.exception("case %s: the full harmonic balance failed", case)
+            out["compare_error"] = f"{type(exc).__name__}: {exc}"
         out["curve_time"] = time.perf_counter() - t1
     return out
 
@@ -198,7 +213,7 @@ def run(study: NonlinearModesStudy, out_dir="results", *, figures: bool = True,
     """`out_dir/<name>.nc` and the figures `out_dir/<name>/backbones.png`,
     `synthesis_<dof>.png`; the cases on `workers` processes."""
     from ..datasets.dataset import write_netcdf
-    from .nonlinear_modes_dataset import modes_dataset
+    from .nonlinear_modes_dataset import case_status, modes_dataset
     from ..figures.backbone_figures import write_backbone_figures
 
     t0 = time.perf_counter()
@@ -207,12 +222,13 @@ def run(study: NonlinearModesStudy, out_dir="results", *, figures: bool = True,
 
     def done(k, res):
         results[k] = res
-        bb = res["backbone"]
+        bb, n_done = res.get("backbone"), sum(r is not None for r in results)
+        if bb is None or not bb.s.size:
+            log.error("case %d/%d %s: %s", n_done, len(cases), cases[k], case_status(res)[1])
+            return
         log.info("case %d/%d %s: %d points, %.4g to %.4g Hz, zeta up to %.3g, %.2f s%s",
-                 sum(r is not None for r in results), len(cases), cases[k], bb.s.size,
-                 *(bb.omega[[0, -1]] / (2 * np.pi) if bb.s.size else (np.nan, np.nan)),
-                 np.max(bb.zeta) if bb.s.size else np.nan, res["time"],
-                 f" ({bb.message})" if bb.message else "")
+                 n_done, len(cases), cases[k], bb.s.size, *(bb.omega[[0, -1]] / (2 * np.pi)),
+                 np.max(bb.zeta), res["time"], f" ({bb.message})" if bb.message else "")
 
     if workers > 1 and len(cases) > 1:   # a process pool, as the response studies' cases
         from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -224,15 +240,17 @@ def run(study: NonlinearModesStudy, out_dir="results", *, figures: bool = True,
     else:
         for k, c in enumerate(cases):
             done(k, run_case(study, c))
+    failed = [(r["case"], msg) for r in results for status, msg in [case_status(r)] if status]
     ds = modes_dataset(study, results)
+    if ds is None:
+        log.error("%s: no converged backbone point in any case; nothing written", study.name)
+        return StudyResult(study=study, dataset=None, path=None, failures=len(failed),
+                           failed=failed, wall_time=time.perf_counter() - t0)
     path = write_netcdf(ds, Path(out_dir) / f"{study.name}.nc")
     log.info("wrote %s", path)
     written = write_backbone_figures(Path(out_dir) / study.name, ds) if figures else []
-    failures = sum(1 for r in results if r["backbone"].message)
-    return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=failures,
-                       failed=[(r["case"], r["backbone"].message) for r in results
-                               if r["backbone"].message],
-                       wall_time=time.perf_counter() - t0)
+    return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=len(failed),
+                       failed=failed, wall_time=time.perf_counter() - t0)
 
 
 POINTS, ITERATIONS = 40, 4   # a backbone's points and Newton iterations a point (typical)

@@ -84,3 +84,79 @@ def test_a_disk_needs_its_nodal_diameters():
                     .replace("nodal_diameters = [3, 12]\n", ""), file="d.toml")
     with pytest.raises(UsageError, match=r"^d.toml: modes.nodal_diameters: .* 0 ... 12"):
         parse_study(text.replace("[3, 6, 12]", "[3, 13]"), file="d.toml")
+
+
+def fail_at(monkeypatch, preload, how):
+    """The case at `preload` [N] fails: its backbone does not start (Newton from a NaN
+    linear mode: no converged first point) or its mode problem raises."""
+    from pipeline.solve.nonlinear_modes import backbone
+    import pipeline.study.modes.nonlinear_modes as nm
+
+    def at(mp_or_system):
+        system = getattr(getattr(mp_or_system, "hbm", None), "system", mp_or_system)
+        return float(np.ravel(system.contact.n0)[0]) == preload
+
+    if how == "start":
+        real = backbone.linear_guess
+        monkeypatch.setattr(backbone, "linear_guess",
+                            lambda mp: real(mp) * (np.nan if at(mp) else 1.0))
+    else:
+        real = nm.mode_problem
+
+        def raising(system, *args):
+            if at(system):
+                raise ValueError("singular mass matrix")
+            return real(system, *args)
+        monkeypatch.setattr(nm, "mode_problem", raising)
+
+
+@pytest.mark.parametrize("how, why", [
+    ("start", "failed: no converged point at the start log10 a = "),
+    ("raises", "failed: ValueError: singular mass matrix")])
+def test_a_failing_case_is_recorded_and_the_others_written(tmp_path, monkeypatch, capsys,
+                                                           how, why):
+    """One case of two fails (its backbone does not start, or it raises): the run writes
+    the dataset and figures with the other case's backbone, from the stuck frequency
+    sqrt((k + ku)/m) to near the open one sqrt(k/m), and the failed case as padding
+    with status -1 and why in `message`; its slip onset mu n0 / ku where its mode was
+    set up; one error line names it, exit code 1."""
+    from pipeline.__main__ import main as cli
+
+    f = tmp_path / "jenkins_modes.toml"
+    f.write_text(LUMPED.replace("[modes]", "[modes]\ncompare = false"))
+    fail_at(monkeypatch, 2.0, how)
+    out = tmp_path / "out"
+    assert cli(["run", str(f), "--out", str(out), "--workers", "1"]) == 1
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.startswith("error:")]
+    assert lines == [f"error: {f}: case preload = 2 N: {why}" + lines[0].split(why)[1]]
+    nc = out / "jenkins_modes.nc"
+    assert problems(nc) == []
+    assert (out / "jenkins_modes" / "backbones.png").stat().st_size > 10_000
+    ds = xr.open_dataset(nc)
+    assert ds["status"].values.tolist() == [0, -1]
+    assert ds["message"].values[0] == "" and ds["message"].values[1].startswith(why)
+    ok, failed = ds.sel(preload=1.0), ds.sel(preload=2.0)
+    f_ok = ok["frequency"].values[ok["converged"].values == 1]
+    assert f_ok.size > 10
+    assert f_ok[0] == pytest.approx(np.sqrt(4.55e4) / (2 * np.pi), rel=1e-5)
+    assert f_ok[-1] == pytest.approx(np.sqrt(3.55e4) / (2 * np.pi), rel=1e-3)
+    assert float(ok["slip_onset_amplitude"]) == pytest.approx(0.5 * 1.0 / 1.0e4, rel=1e-12)
+    assert not failed["converged"].values.any() and np.isnan(failed["frequency"].values).all()
+    assert np.isnan(failed["synthesis_peak_frequency"].values).all()
+    onset = float(failed["slip_onset_amplitude"])
+    assert onset == pytest.approx(0.5 * 2.0 / 1.0e4, rel=1e-12) if how == "start" \
+        else np.isnan(onset)
+
+
+def test_no_case_with_a_backbone_point_writes_nothing(tmp_path, monkeypatch):
+    """Every case fails: no dataset, both cases reported failed."""
+    from pipeline.study.execution.run import run_study
+
+    fail_at(monkeypatch, 1.0, "start")
+    fail_at(monkeypatch, 2.0, "raises")
+    study = parse_study(LUMPED.replace("[modes]", "[modes]\ncompare = false"), name="none")
+    res = run_study(study, tmp_path / "out", workers=1, figures=False)
+    assert res.path is None and res.dataset is None and not res.ok
+    assert [c for c, _ in res.failed] == [{"preload": 1.0}, {"preload": 2.0}]
+    assert not (tmp_path / "out" / "none.nc").exists()
