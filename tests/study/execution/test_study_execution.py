@@ -661,3 +661,69 @@ def test_killed_at_random_writes_and_resumed_equals_the_uninterrupted_run(
     for i, (at, before) in enumerate(moments):
         resumed_equals_uninterrupted(whole, writes, at, before, tmp_path / f"out{i}",
                                      monkeypatch)
+
+
+# ---------------------------------------------------------------------------
+# a failing case, or a failing optimum search, loses nothing else
+# ---------------------------------------------------------------------------
+
+def cases_only(text: str) -> str:
+    return text[:text.index("[output.optimum_preload]")]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_case_whose_model_cannot_be_built_fails_alone(tmp_path, monkeypatch, workers):
+    """The system of the 3 N case cannot be built (a singular static solve): that case
+    is recorded failed with its error, the dataset holds the other two exactly as a
+    study of those two alone gives them."""
+    import pipeline.study.files.spec as spec
+
+    text = cases_only(TINY).replace("preload = [2.0, 5.0]", "preload = [2.0, 3.0, 5.0]")
+    real = spec.case_system
+
+    def singular(scene, case=None):
+        if (case or {}).get("preload") == 3.0:
+            raise np.linalg.LinAlgError("Singular matrix")
+        return real(scene, case)
+
+    monkeypatch.setattr(spec, "case_system", singular)
+    study = parse_study(text, file="three.toml", name="three")
+    res = run_study(study, tmp_path / "a", workers=workers, figures=True, progress=False)
+    assert res.path is not None and not res.ok and res.failures == 1
+    assert res.failed == [({"preload": 3.0}, "LinAlgError: Singular matrix")]
+    ds = read_dataset(res.path)
+    assert str(ds["message"].sel(preload=3.0).values) == "failed: LinAlgError: Singular matrix"
+    assert int(ds["n_points"].sel(preload=3.0)) == 0
+    assert np.isnan(ds["preload_pair"].sel(preload=3.0).values).all()
+    two = parse_study(cases_only(TINY), file="three.toml", name="three")
+    alone = read_dataset(run_study(two, tmp_path / "b", workers=1, figures=False,
+                                   progress=False).path)
+    both = comparable(ds.sel(preload=[2.0, 5.0]))
+    for name, var in comparable(alone).data_vars.items():
+        np.testing.assert_array_equal(both[name].values, var.values, err_msg=name)
+
+
+def test_an_optimum_search_that_raises_keeps_the_dataset_of_the_cases(tmp_path, monkeypatch):
+    """A band evaluation of the search raises: the search is reported failed (not ok,
+    its error kept) and the dataset of the cases is written, equal to the same study's
+    without a search."""
+    import pipeline.solve.response.peak_tracking as tracking
+
+    real = tracking.band_peak
+
+    def raising(system, *args, **kw):
+        if float(system.contact.n0[0]) == 10.0:
+            raise FloatingPointError("overflow in the Jacobian")
+        return real(system, *args, **kw)
+
+    monkeypatch.setattr(tracking, "band_peak", raising)
+    res = run_study(parse_study(TINY, file="tiny.toml", name="tiny"), tmp_path / "a",
+                    workers=1, figures=True, progress=False)
+    assert res.path is not None and not res.ok and res.failures == 0
+    assert res.optimum_error == "FloatingPointError: overflow in the Jacobian"
+    ds = read_dataset(res.path)
+    assert "optimum_preload" not in ds and (ds["n_points"] > 0).all()
+    plain = read_dataset(run_study(parse_study(cases_only(TINY), file="tiny.toml", name="tiny"),
+                                   tmp_path / "b", workers=1, figures=False,
+                                   progress=False).path)
+    xr.testing.assert_identical(comparable(ds).drop_attrs(), comparable(plain).drop_attrs())
