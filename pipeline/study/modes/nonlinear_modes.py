@@ -37,6 +37,7 @@ import numpy as np
 from ...solve.nonlinear_modes.backbone import continue_mode, damping_peak
 from ...solve.nonlinear_modes.epmc import mode_problem, onset_amplitude
 from ...solve.nonlinear_modes.synthesis import refiner, synthesise
+from ...errors import interrupt_in_chain
 from ..execution import response_study
 from ..execution.cases import default_solver
 from ..execution.kind_costs import RangeEstimate, estimate_lines
@@ -162,6 +163,8 @@ def run_case(study: NonlinearModesStudy, case: dict) -> dict:
     try:
         return case_result(study, case)
     except Exception as exc:  # numerical failures of one case must not lose the others
+        if interrupt_in_chain(exc):
+            raise
         log.exception("case %s failed", case)
         return {"case": case, "error": f"{type(exc).__name__}: {exc}"}
 
@@ -202,6 +205,8 @@ def case_result(study: NonlinearModesStudy, case: dict) -> dict:
             out["curve"] = default_solver(resp)(
                 system, sv.harmonics, fr.omega_start, fr.omega_stop, **kw)
         except Exception as exc:  # noqa: BLE001 -- recorded in the case's message
+            if interrupt_in_chain(exc):
+                raise
             log.exception("case %s: the full harmonic balance failed", case)
             out["compare_error"] = f"{type(exc).__name__}: {exc}"
         out["curve_time"] = time.perf_counter() - t1

@@ -160,3 +160,21 @@ def test_no_case_with_a_backbone_point_writes_nothing(tmp_path, monkeypatch):
     assert res.path is None and res.dataset is None and not res.ok
     assert [c for c, _ in res.failed] == [{"preload": 1.0}, {"preload": 2.0}]
     assert not (tmp_path / "out" / "none.nc").exists()
+
+
+def test_an_interrupt_in_a_case_is_no_failed_case(monkeypatch):
+    """Ctrl-C inside a compiled kernel reaches the case as a SystemError caused by the
+    KeyboardInterrupt: it stops the run (`pipeline.errors.interrupt_in_chain`) instead
+    of being recorded as the case's failure."""
+    import pipeline.study.modes.nonlinear_modes as nm
+
+    def interrupted(*args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise SystemError("returned a result with an exception set") from exc
+
+    monkeypatch.setattr(nm, "mode_problem", interrupted)
+    study = parse_study(LUMPED)
+    with pytest.raises(SystemError):
+        nm.run_case(study, {"preload": 1.0})
