@@ -178,3 +178,24 @@ def test_an_interrupt_in_a_case_is_no_failed_case(monkeypatch):
     study = parse_study(LUMPED)
     with pytest.raises(SystemError):
         nm.run_case(study, {"preload": 1.0})
+
+
+def test_a_comparison_that_raises_keeps_the_backbone(monkeypatch):
+    """The full harmonic balance compared with a case raises: the case keeps its
+    backbone (from the stuck frequency sqrt((k + ku)/m)), status 1 and the comparison's
+    error in its message; the dataset has no compared curve."""
+    import pipeline.study.modes.nonlinear_modes as nm
+    from pipeline.study.modes.nonlinear_modes_dataset import modes_dataset
+
+    def raising(*args, **kw):
+        raise FloatingPointError("overflow in the Jacobian")
+
+    monkeypatch.setattr(nm, "default_solver", lambda resp: raising)
+    study = parse_study(LUMPED.replace("preload = [1.0, 2.0]", "preload = [1.0]"), name="cmp")
+    ds = modes_dataset(study, [nm.run_case(study, case) for _, case in study.cases()])
+    assert ds["status"].values.tolist() == [1]
+    assert str(ds["message"].values[0]) == ("the full harmonic balance failed: "
+                                            "FloatingPointError: overflow in the Jacobian")
+    f = ds["frequency"].values[0][ds["converged"].values[0] == 1]
+    assert f.size > 10 and f[0] == pytest.approx(np.sqrt(4.55e4) / (2 * np.pi), rel=1e-5)
+    assert "hbm_frequency" not in ds
