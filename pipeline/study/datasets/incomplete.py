@@ -15,6 +15,8 @@ import re
 
 import numpy as np
 
+from ...errors import interrupt_in_chain
+
 PEAK_NAME = ("largest amplitude over converged points (the peak of the frequency interval "
              "only where peak_complete = 1)")
 # (dims after the sweep axes, units, long_name) of the per-case flags (`dataset`)
@@ -49,8 +51,8 @@ def case_system_or_none(study, case, curve):
     built (its variables stay padding: the other cases are written)."""
     try:
         return study.system(case)
-    except Exception:
-        if curve is not None:
+    except Exception as exc:
+        if curve is not None or interrupt_in_chain(exc):
             raise
         return None
 
