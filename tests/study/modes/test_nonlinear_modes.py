@@ -199,3 +199,39 @@ def test_a_comparison_that_raises_keeps_the_backbone(monkeypatch):
     f = ds["frequency"].values[0][ds["converged"].values[0] == 1]
     assert f.size > 10 and f[0] == pytest.approx(np.sqrt(4.55e4) / (2 * np.pi), rel=1e-5)
     assert "hbm_frequency" not in ds
+
+
+class Killed(BaseException):
+    """The run's process ends here (nothing after it runs, as after SIGKILL)."""
+
+
+def test_a_killed_run_resumes_with_the_kept_backbones(tmp_path, monkeypatch):
+    """Killed just after its first case was kept (its backbone and compared curve), the
+    rerun computes only the second case and writes the uninterrupted run's dataset in
+    every variable but the wall times; the folder of kept cases is then removed."""
+    import pipeline.study.modes.nonlinear_modes_checkpoint as kept
+    from pipeline.study.execution.run import run_study
+
+    study = parse_study(LUMPED, name="jenkins")
+    whole = run_study(study, tmp_path / "whole", figures=False)
+    assert whole.ok and whole.computed == 2
+    real = kept.save_kept
+
+    def kill_after(*args):
+        real(*args)
+        raise Killed
+
+    out = tmp_path / "out"
+    with monkeypatch.context() as mp:
+        mp.setattr(kept, "save_kept", kill_after)
+        with pytest.raises(Killed):
+            run_study(study, out, figures=False)
+    assert not (out / "jenkins.nc").exists()
+    assert len(list(out.glob(".jenkins.*.cases/case-*.nc"))) == 1
+    res = run_study(study, out, figures=False)
+    assert res.ok and res.reused == 1 and res.computed == 1
+    a, b = (xr.open_dataset(r.path).drop_vars(["synthesis_time", "backbone_time", "hbm_time"])
+            for r in (res, whole))
+    a.attrs.pop("created"), b.attrs.pop("created")
+    xr.testing.assert_identical(a, b)
+    assert not list(out.glob(".jenkins.*.cases"))
