@@ -40,9 +40,13 @@ between nodes) resolves the two basins of the shrouded disk (1.44 N and 6.14 N, 
 factor 4.3 apart): nodes 1.78 N and 5.62 N fall in them, the case at 3 N between.
 
 The function is evaluated through a memo keyed by the exact preload: `known` values
-(the study's case curves, a checkpoint of an interrupted search) are never
-recomputed, and since the trial points depend only on the values, a resumed search
-visits exactly the same preloads as an uninterrupted one.
+(the study's case curves) are never recomputed.  An interrupted search's evaluations
+(`replay`) are never recomputed either, but each enters the memo only when the search
+asks for its preload: the decisions read the memo (the best value so far, a bracket's
+nodes, the evaluated preload nearest a trial, a trial already valued over the band),
+so a search that knew a later evaluation too early would decide otherwise than the
+run that made it.  Taken in turn, the trial points depend only on the values, and a
+resumed search visits exactly the same preloads as an uninterrupted one.
 """
 from __future__ import annotations
 
@@ -175,15 +179,15 @@ def brent(f, a: float, b: float, xatol: float, x: float | None = None, fx: float
 def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
                    per_decade: float = PER_DECADE, known=None, extra_nodes=(),
                    on_evaluation=None, local=None, verify_rel: float = VERIFY_REL,
-                   evaluate_many=None) -> dict:
+                   evaluate_many=None, replay=None) -> dict:
     """The preload in `bounds` [N] with the smallest value of evaluate(n0) -> (peak,
     omega), peak = inf for a failed evaluation (see the module docstring: grid,
     brackets of every local minimum, Brent in each to |d ln n0| <= rtol / REFINE
     (`log`) or |d n0| <= rtol hi / REFINE).
 
-    known: {n0: (peak, omega)} evaluated before (reused, never recomputed: the cases,
-    an interrupted search's checkpoint); extra_nodes: preloads added to the grid
-    (those inside the bounds; the cases, whose values are known);
+    known: {n0: (peak, omega)} known from the start (the cases); replay: those of an
+    interrupted run of this search, each taken for evaluate(n0) when asked (module
+    docstring); extra_nodes: preloads added to the grid (the cases);
     on_evaluation(n0, peak, omega) is called after each new evaluation (a checkpoint).
     evaluate_many(list of n0, record): the grid nodes not known yet evaluated together
     (e.g. in parallel), record(n0, peak, omega) called as each ends; default evaluate
@@ -201,6 +205,7 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
     (new evaluations), reused, success (some evaluation finite)."""
     lo, hi = float(bounds[0]), float(bounds[1])
     memo = {float(k): (float(p), float(o)) for k, (p, o) in dict(known or {}).items()}
+    kept = {float(k): (float(p), float(o)) for k, (p, o) in dict(replay or {}).items()}
     lmemo = {}        # n0 -> (peak, omega) by `local` (lower bounds)
     reused, verified = set(), []
     computed = [0]
@@ -217,15 +222,16 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
 
     def peak_at(n0):
         n0 = float(n0)
-        if n0 in memo:
+        if n0 in memo or n0 in kept:
             reused.add(n0)
+            memo.setdefault(n0, kept.get(n0))
             return memo[n0][0]
         return record(n0, *evaluate(n0))
 
     to_n0 = (lambda t: float(np.exp(t))) if log else float
     to_t = (lambda n0: math.log(n0)) if log else float
     nodes = grid_nodes(lo, hi, log=log, per_decade=per_decade, extra=extra_nodes)
-    todo = [float(n0) for n0 in nodes if float(n0) not in memo]
+    todo = [float(n0) for n0 in nodes if float(n0) not in memo and float(n0) not in kept]
     if evaluate_many is not None and len(todo) > 1:
         evaluate_many(todo, record)
     values = [peak_at(n0) for n0 in nodes]

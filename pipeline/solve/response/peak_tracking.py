@@ -170,7 +170,7 @@ def band_peak(system, H, omega_start, omega_end, dof, **kwargs) -> tuple:
 def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
                     log=True, known=None, extra_nodes=(), on_evaluation=None,
                     per_decade=PER_DECADE, states=None, local=True, grid_map=None,
-                    **kwargs):
+                    replay=None, **kwargs):
     """The preload [N] in `bounds` that minimises the resonant peak of `dof`, globally.
 
     build(n0) -> System.  Each band evaluation traces the frequency response over
@@ -184,6 +184,8 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     evaluated (`local_peak`) and the bracket's result is verified by a band evaluation
     (module docstring).
     known {n0: (peak, omega)} are reused, extra_nodes join the grid (the study's cases);
+    replay {n0: (peak, omega)}: an interrupted search's evaluations, each reused when the
+    search comes to it (`optimum.global_minimum`);
     states {n0: (omega, Q)}: the peak states of known preloads (Q all DOFs'
     coefficients), where local peaks may start; on_evaluation(n0, peak, omega, Q)
     follows each new band evaluation (Q its peak state, None for a failed one); grid_map(list
@@ -229,5 +231,6 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
                           known=known, extra_nodes=extra_nodes,
                           on_evaluation=evaluated if on_evaluation is not None else None,
                           local=near_peak if local else None, verify_rel=VERIFY_REL,
-                          evaluate_many=many if grid_map is not None else None)
+                          evaluate_many=many if grid_map is not None else None,
+                          replay=replay)
 

@@ -345,9 +345,11 @@ def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool
         results.append(run_case(case, study.target, case_systems(case), solver))
     ds = to_dataset(study, results)
     res = StudyResult(study=study, dataset=ds, path=None)
-    # a knob value whose continuation fails is a finding; a failed reference or a crash is not
+    # a knob value whose continuation fails is a finding; a failed reference, a crash or a
+    # failed time-integration check is not
     res.failures = sum(int(not r["rows"][0]["m"].success) for r in results) + sum(
-        int(row["m"].crashed) for r in results for row in r["rows"])
+        int(row["m"].crashed) for r in results for row in r["rows"]) + sum(
+        int(r.get("ti_error") is not None) for r in results)
     res.path = write_netcdf(ds, out_dir / f"{study.name}.nc")
     log.info("wrote %s", res.path)
     table = results_table(results, study.target)

@@ -80,6 +80,8 @@ def static_variables(study, cases, systems) -> dict:
     n0 = np.full(shape + (E,), np.nan)
     s = np.full(shape + (E,), np.nan)
     for (idx, _), system in zip(cases, systems):
+        if system is None:   # a failed case whose model cannot be built
+            continue
         n0[idx] = contact_set(system).elements.n0
         s[idx] = static_normal_load(system)
     sw = tuple(study.sweep.axes)
@@ -117,6 +119,8 @@ def element_parameters(study, cases, systems) -> dict:
     k = {n: np.full(study.sweep.shape + (E,), np.nan)
          for n in (("ku", "kv", "mu", "ku2") if plane else ("ku", "kv", "mu"))}
     for (idx, _), system in zip(cases, systems):
+        if system is None:   # a failed case whose model cannot be built
+            continue
         for n in k:
             k[n][idx] = getattr(contact_set(system).elements, n)
     sw = tuple(study.sweep.axes)
@@ -138,6 +142,8 @@ def contact_state_variables(study, cases, systems) -> dict:
     s = np.full(shape + (E,), np.nan)
     count = np.zeros(shape, dtype=np.int32)
     for (idx, _), system in zip(cases, systems):
+        if system is None:   # a failed case whose model cannot be built
+            continue
         s[idx], closed = static_contact(system)
         count[idx] = int(closed.sum())
     sw = tuple(study.sweep.axes)

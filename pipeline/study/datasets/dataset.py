@@ -36,7 +36,8 @@ import xarray as xr
 from ...model.scene import AT, stiffness_factors
 from ...model.system import contact_set, lowest_frequencies
 from .describe import points_attrs, provenance, scene_attrs, solution_method
-from .incomplete import CASE_FLAGS, PEAK_NAME, case_flags, readable_message
+from .incomplete import (CASE_FLAGS, PEAK_NAME, case_flags, case_system_or_none,
+                         readable_message)
 from .meanings import annotate_natural_frequencies, sweep_long_name
 from .optimum_dataset import add_optimum
 from ..files.spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
@@ -351,10 +352,12 @@ def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> x
     v, message = empty_arrays(lay), np.full(lay.shape, "", dtype=object)
     systems = []
     for (idx, case), c, err in zip(cases, curves, errors):
-        sysc = study.system(case)                 # per case: mistuning changes them
+        sysc = case_system_or_none(study, case, c)   # per case: mistuning changes them
         systems.append(sysc)
-        v["natural_frequency_stuck"][idx] = lowest_frequencies(sysc, "stuck", lay.n) / lay.to_unit
-        v["natural_frequency_free"][idx] = lowest_frequencies(sysc, "open", lay.n) / lay.to_unit
+        for name, limit in (("natural_frequency_stuck", "stuck"), ("natural_frequency_free",
+                                                                   "open")):
+            if sysc is not None:   # else a failed case whose model cannot be built
+                v[name][idx] = lowest_frequencies(sysc, limit, lay.n) / lay.to_unit
         message[idx] = (fill_case(v, idx, c, lay, study.output.peak_windows) if c is not None
                         else f"failed: {err}" if err else "failed")
     data_vars = response_variables(study, v, message, lay)

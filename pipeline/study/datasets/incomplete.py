@@ -6,7 +6,8 @@ in the dataset).  `incomplete_cases` words them for the end of `python -m pipeli
 windows, `absent_effects` declared contact
 effects that no case shows;
 `CASE_FLAGS` describes that flag and the count of points accepted on the residual's
-round-off floor (`solve.harmonic_balance.roundoff`).
+round-off floor (`solve.harmonic_balance.roundoff`); `case_system_or_none` the system of
+a case that may have failed because its model cannot be built.
 """
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import re
 
 import numpy as np
 
+from ...errors import interrupt_in_chain
 from ..files.rules import contact_rules
 
 PEAK_NAME = ("largest amplitude over converged points (the peak of the frequency interval "
@@ -43,6 +45,17 @@ def readable_message(message: str, to_unit: float, unit: str) -> str:
         message = message.replace(old, new)
     return _LAM.sub(lambda m: f"{names[m.group(1)]} = {float(m.group(2)) / to_unit:.6g} {unit}",
                     message)
+
+
+def case_system_or_none(study, case, curve):
+    """The case's system; None for a failed case (`curve` None) whose model cannot be
+    built (its variables stay padding: the other cases are written)."""
+    try:
+        return study.system(case)
+    except Exception as exc:
+        if curve is not None or interrupt_in_chain(exc):
+            raise
+        return None
 
 
 def case_flags(curve) -> tuple:

@@ -13,6 +13,7 @@ from ...solve.response import linear_response
 from ...solve.response import response
 from ...model.system import negative_stiffness
 from .checkpoint import load_cases, save_case
+from ...errors import interrupt_in_chain
 from ..files.declared import SeparationGuard, UndeclaredSeparation, needs_guard
 from ..files.spec import Study, is_linear_scene
 
@@ -55,6 +56,12 @@ def run_case(solver, system, H, omega_start, omega_stop, kwargs, guard=None):
     except Exception as exc:  # numerical failures of one case must not lose the others
         logging.getLogger(__name__).exception("case failed")
         return None, f"{type(exc).__name__}: {exc}"
+
+
+def failed_case(error: str):
+    """The result of a case whose model could not be built (`execute_cases`): (None,
+    error), as `run_case` returns for a case that fails."""
+    return None, error
 
 
 class StaticDivergence(RuntimeError):
@@ -170,8 +177,14 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None, extra=
     def job(k):
         if k in extra:
             return extra[k]
-        return (run_case, solver, study.system(cases[k][1]), H, fr.omega_start, fr.omega_stop,
-                kw, guard)
+        try:
+            system = study.system(cases[k][1])
+        except Exception as exc:  # a case whose model cannot be built fails alone
+            if interrupt_in_chain(exc):
+                raise
+            log.exception("case %s: its model cannot be built", cases[k][1])
+            return failed_case, f"{type(exc).__name__}: {exc}"
+        return (run_case, solver, system, H, fr.omega_start, fr.omega_stop, kw, guard)
 
     def done(k, res):
         if k in extra:
@@ -189,7 +202,10 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None, extra=
             kwk["callback"] = lambda x, lam: bar.frequency(lam)
         if k in extra:
             return call(*extra[k])
-        _, solver_k, system, H_k, a, b, _, g = job(k)
+        fn, *args = job(k)
+        if fn is not run_case:
+            return fn(*args)
+        solver_k, system, H_k, a, b, _, g = args
         return run_case(solver_k, system, H_k, a, b, kwk, g)
 
     try:

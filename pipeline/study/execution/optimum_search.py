@@ -13,6 +13,7 @@ import numpy as np
 from ...solve.response.optimum import grid_nodes
 from ...solve.response.peak_tracking import band_peak, optimum_preload
 from ...model.system import negative_stiffness
+from ...errors import interrupt_in_chain
 from .cases import StaticDivergence, divergence, map_jobs, separation_guard
 from .search_checkpoint import load_search, save_search
 from ..files.spec import Study
@@ -25,8 +26,9 @@ def study_optimum(study: Study, solver, curves, cdir=None, workers=1, scheduler=
     """(optimum dict or None, error text or None) of a study run whose cases gave
     `curves` with `solver`: `find_optimum` (its grid on the run's `workers` or
     `scheduler`, the `early` band evaluations run beside the cases reused), the cases
-    reused when they are HBM curves; a search stopped by an undeclared separation is
-    an error (the dataset is written without it), logged."""
+    reused when they are HBM curves; a search stopped by an undeclared separation, or by
+    an evaluation that raises, is an error (the dataset of the cases is written without
+    it), logged."""
     from ..files.declared import UndeclaredSeparation
 
     if study.output.optimum is None:
@@ -38,6 +40,11 @@ def study_optimum(study: Study, solver, curves, cdir=None, workers=1, scheduler=
     except (UndeclaredSeparation, StaticDivergence) as exc:
         log.error("%s: optimum preload search stopped: %s", study.name, exc)
         return None, str(exc)
+    except Exception as exc:  # a failing evaluation must not lose the cases
+        if interrupt_in_chain(exc):
+            raise
+        log.exception("%s: optimum preload search failed", study.name)
+        return None, f"{type(exc).__name__}: {exc}"
 
 
 def optimum_figure_of(study: Study, optimum: dict, fig_dir):
@@ -106,7 +113,7 @@ def find_optimum(study: Study, cases=None, cdir=None, workers=1, scheduler=None,
                  len(kept), cdir)
     t0 = time.perf_counter()
     res = optimum_preload(build, sv.harmonics, window.omega_start, window.omega_stop, dof,
-                          o["bounds"], rtol=o["rtol"], known={**kept, **free},
+                          o["bounds"], rtol=o["rtol"], known=free, replay=kept,
                           extra_nodes=list(free), on_evaluation=keep, states=states,
                           grid_map=grid_map if (workers > 1 or scheduler or early) else None,
                           **kw)

@@ -3,8 +3,9 @@
 Beside the finished cases (`pipeline.study.execution.checkpoint`), the search keeps every
 evaluation preload -> (peak, its frequency) in `DIR/.<name>.<key>.cases/optimum-search.nc`,
 rewritten atomically after each one.  A resumed search (`peak_tracking.optimum_preload`,
-known = these values) reuses them; its trial preloads depend only on the values, so it
-visits the same preloads as an uninterrupted search and ends at the same optimum.
+replay = these values) reuses each when it comes to its preload, not before; its trial
+preloads depend only on the values, so it visits the same preloads as an uninterrupted
+search, values Brent's trials alike and ends at the same optimum.
 
 The file is data only (netCDF variables `preload` [N], `peak` [m], `peak_omega`
 [rad/s] on one dimension, `state` [m] the Fourier coefficients of all DOFs at each

@@ -34,6 +34,7 @@ from ...model.cyclic import sector_system
 from ...model.static_load import static_contact
 from ...model.scene import Scene, sector
 from ...model.system import natural_frequencies
+from ...errors import interrupt_in_chain
 from ..figures.nd_figure import excited_nodal_diameter
 
 STATES = {"open": "open", "stuck": "tied"}   # dataset name -> natural_frequencies' limit
@@ -132,29 +133,58 @@ def crossings(scene: Scene, speeds, nodal_diameters, freqs: dict, engine_orders)
                             return g[i] if x == s[i] else g[i + 1]
                         return frequencies_at(scene, x, [nd], k + 1, state)[0, k] - eo * x / 60
 
-                    root = s[i] if g[i] == 0.0 else s[i + 1] if g[i + 1] == 0.0 else brentq(
-                        gap, s[i], s[i + 1], xtol=XTOL * s[-1], rtol=4 * np.finfo(float).eps)
+                    try:
+                        root = s[i] if g[i] == 0.0 else s[i + 1] if g[i + 1] == 0.0 else \
+                            brentq(gap, s[i], s[i + 1], xtol=XTOL * s[-1],
+                                   rtol=4 * np.finfo(float).eps)
+                    except Exception as exc:  # one crossing lost, not the diagram
+                        if interrupt_in_chain(exc):
+                            raise
+                        log.exception("Campbell: the crossing of EO %d with ND %d mode %d "
+                                      "(%s) between %g and %g rpm is not located", eo, nd,
+                                      k + 1, state, s[i], s[i + 1])
+                        continue
                     found.append((eo, nd, k + 1, state, float(root), eo * float(root) / 60.0))
     return found
 
 
+def speed_frequencies(scene: Scene, speed: float, nodal_diameters, n_frequencies: int,
+                      names) -> tuple:
+    """({state: (len(nodal_diameters), n_frequencies) [Hz]} at `speed` [rpm] for the
+    states `names`, sharing one reduction, and "" ; or, where the model at that speed
+    cannot be built or solved, NaN and why (the other speeds are kept)."""
+    try:
+        sec = speed_sector(scene, speed)
+        return {state: frequencies_at(scene, speed, nodal_diameters, n_frequencies, state, sec)
+                for state in names}, ""
+    except Exception as exc:  # one speed that fails must not lose the others
+        if interrupt_in_chain(exc):
+            raise
+        log.exception("Campbell: %g rpm failed", speed)
+        nan = np.full((len(nodal_diameters), n_frequencies), np.nan)
+        return {state: nan for state in names}, f"{type(exc).__name__}: {exc}"
+
+
 def campbell(scene: Scene, speeds, nodal_diameters, n_frequencies: int, engine_orders) -> dict:
     """{"open", "stuck"[, "static"]}: (speed, nodal diameter, mode) natural frequencies
-    [Hz] (`states`); "crossings": the list of `crossings`.  Progress is logged every
+    [Hz] (`states`); "crossings": the list of `crossings`; "message": per speed, why it
+    failed ("" where solved; NaN frequencies there).  Progress is logged every
     `PROGRESS` seconds and at the end (the reductions' own lines only at debug level)."""
     t0 = shown = time.perf_counter()
-    freqs = {state: [] for state in states(scene)}
+    freqs, message = {state: [] for state in states(scene)}, []
     with quiet(REDUCTION_LOG):
         for k, v in enumerate(speeds):   # one reduction a speed, shared by the states
-            sec = speed_sector(scene, v)
+            row, why = speed_frequencies(scene, v, nodal_diameters, n_frequencies, freqs)
+            message.append(why)
             for state, f in freqs.items():
-                f.append(frequencies_at(scene, v, nodal_diameters, n_frequencies, state, sec))
+                f.append(row[state])
             if time.perf_counter() - shown >= PROGRESS or k + 1 == len(speeds):
                 shown = time.perf_counter()
                 log.info("Campbell: %d/%d speeds (%g rpm), %.1f s", k + 1, len(speeds), v,
                          shown - t0)
         freqs = {state: np.array(f) for state, f in freqs.items()}
         freqs["crossings"] = crossings(scene, speeds, nodal_diameters, freqs, engine_orders)
+        freqs["message"] = message
     log.info("Campbell: %d engine-order crossing(s) located by Brent, %.1f s",
              len(freqs["crossings"]), time.perf_counter() - t0)
     return freqs

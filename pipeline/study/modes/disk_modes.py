@@ -165,8 +165,10 @@ def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: b
                        if study.speeds else nodal_diameter_figure(
                            Path(out_dir) / study.name / "nodal_diameter_diagram.png", ds))
         log.info("wrote %s", written[-1])
-    return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=0,
-                       wall_time=time.perf_counter() - t0)
+    failed = [({"speed": v}, why) for v, why in zip(study.speeds, res.get("message", ()))
+              if why]
+    return StudyResult(study=study, dataset=ds, path=path, figures=written,
+                       failures=len(failed), failed=failed, wall_time=time.perf_counter() - t0)
 
 
 def describe(study: DiskModesStudy, workers: int = 1) -> list:

@@ -131,7 +131,10 @@ def campbell_to_dataset(study, res: dict) -> xr.Dataset:
          "crossing_frequency": cvar(5, float, "Hz", "frequency at the crossing, EO x "
                                                     "speed / 60"),
          "solve_time": ((), float(res["time_s"]), {"units": "s", "long_name": "wall time of "
-                                                   "the eigen-solves and the root finding"})},
+                                                   "the eigen-solves and the root finding"}),
+         "message": (("speed",), np.asarray(res.get("message", [""] * len(study.speeds)), str),
+                     {"long_name": "why the model at this speed could not be built or solved "
+                                   "(its frequencies NaN; empty: solved)"})},
         coords={"speed": ("speed", np.asarray(study.speeds, float),
                           {"units": "rpm", "long_name": "rotation speed of the disk"}),
                 **family_coords(study, res["open"].shape[2]),

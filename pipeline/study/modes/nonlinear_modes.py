@@ -37,6 +37,7 @@ import numpy as np
 from ...solve.nonlinear_modes.backbone import continue_mode, damping_peak
 from ...solve.nonlinear_modes.epmc import mode_problem, onset_amplitude
 from ...solve.nonlinear_modes.synthesis import refiner, synthesise
+from ...errors import interrupt_in_chain
 from ..execution import response_study
 from ..execution.cases import default_solver
 from ..execution.kind_costs import RangeEstimate, estimate_lines
@@ -156,30 +157,41 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
 
 
 def run_case(study: NonlinearModesStudy, case: dict) -> dict:
+    """`case_result`, or for a case that raises {"case", "error"}: a failing case is
+    recorded as failed (`nonlinear_modes_dataset.case_status`), never the end of the
+    others."""
+    try:
+        return case_result(study, case)
+    except Exception as exc:  # numerical failures of one case must not lose the others
+        if interrupt_in_chain(exc):
+            raise
+        log.exception("case %s failed", case)
+        return {"case": case, "error": f"{type(exc).__name__}: {exc}"}
+
+
+def case_problem(study: NonlinearModesStudy, system):
+    """(mode problem, slip-onset modal amplitude) of a case's system."""
+    sv = study.response.solver
+    ref = (None if study.reference_dof is None
+           else list(system.dof_names).index(study.reference_dof))
+    mp = mode_problem(system, sv.harmonics, study.mode, sv.force_evaluation, sv.samples, ref)
+    return mp, onset_amplitude(mp)
+
+
+def case_result(study: NonlinearModesStudy, case: dict) -> dict:
     """Backbone, synthesis per force scale and (compare) the full response of one case."""
     sv, resp = study.response.solver, study.response
     system = resp.system(case)
     t0 = time.perf_counter()
-    ref = (None if study.reference_dof is None
-           else list(system.dof_names).index(study.reference_dof))
-    mp = mode_problem(system, sv.harmonics, study.mode, sv.force_evaluation, sv.samples, ref)
-    a_on = onset_amplitude(mp)
+    mp, a_on = case_problem(study, system)
     # a mode that moves no preloaded contact (ND 0 of shrouds whose neighbours move
     # alike) is linear: its backbone is drawn over the range of a unit modal amplitude
     lo, hi = (np.log10((a_on if np.isfinite(a_on) else 1.0) * f) for f in study.amplitude)
     bb = continue_mode(mp, lo, hi, tol_rel=sv.tolerance)
     peak = damping_peak(mp, bb, sv.tolerance)
-    t_bb = time.perf_counter() - t0
-    out = {"case": case, "backbone": bb, "onset": a_on, "problem": mp, "time": t_bb,
-           "damping_peak": peak,
-           "synthesis": [], "synthesis_time": []}
-    F1 = np.asarray(system.forcing, complex)[:, 1] if system.forcing.shape[1] > 1 else None
-    for f in study.force_scales:
-        t1 = time.perf_counter()
-        syn = None if F1 is None or bb.s.size < 2 else synthesise(
-            bb, mp.M, mp.C, f * F1, refine=refiner(mp, bb, sv.tolerance))
-        out["synthesis"].append(syn)
-        out["synthesis_time"].append(time.perf_counter() - t1)
+    out = {"case": case, "backbone": bb, "onset": a_on, "problem": mp,
+           "time": time.perf_counter() - t0, "damping_peak": peak}
+    add_synthesis(study, system, out)
     out["curve"] = None
     if study.compare is True or (study.compare and case.get("eo") in study.compare):
         fr = resp.sweep.frequency
@@ -187,52 +199,105 @@ def run_case(study: NonlinearModesStudy, case: dict) -> dict:
         kw = sv.kwargs()
         kw["stability"] = False
         kw["peak_dofs"] = [list(system.dof_names).index(d) for d in resp.output.dofs]
-        out["curve"] = default_solver(resp)(
-            system, sv.harmonics, fr.omega_start, fr.omega_stop, **kw)
+        try:   # the backbone is kept whatever the comparison does
+            out["curve"] = default_solver(resp)(
+                system, sv.harmonics, fr.omega_start, fr.omega_stop, **kw)
+        except Exception as exc:  # noqa: BLE001 -- recorded in the case's message
+            if interrupt_in_chain(exc):
+                raise
+            log.exception("case %s: the full harmonic balance failed", case)
+            out["compare_error"] = f"{type(exc).__name__}: {exc}"
         out["curve_time"] = time.perf_counter() - t1
     return out
 
 
+def add_synthesis(study: NonlinearModesStudy, system, out: dict):
+    """The synthesised response of `out`'s backbone per force scale (and its times)."""
+    bb, mp, tol = out["backbone"], out["problem"], study.response.solver.tolerance
+    out["synthesis"], out["synthesis_time"] = [], []
+    F1 = np.asarray(system.forcing, complex)[:, 1] if system.forcing.shape[1] > 1 else None
+    for f in study.force_scales:
+        t1 = time.perf_counter()
+        syn = None if F1 is None or bb.s.size < 2 else synthesise(
+            bb, mp.M, mp.C, f * F1, refine=refiner(mp, bb, tol))
+        out["synthesis"].append(syn)
+        out["synthesis_time"].append(time.perf_counter() - t1)
+
+
+def resumed_case(study: NonlinearModesStudy, case: dict, kept, curve) -> dict:
+    """The result of a case kept by an interrupted run (`nonlinear_modes_checkpoint`):
+    its backbone, times, damping peak and compared curve as kept, its mode problem and
+    synthesis from the same system and backbone."""
+    system = study.response.system(case)
+    mp, a_on = case_problem(study, system)
+    out = {"case": case, "backbone": kept.backbone(), "onset": a_on, "problem": mp,
+           "time": kept.time, "damping_peak": tuple(kept.damping_peak), "curve": curve,
+           "curve_time": kept.curve_time}
+    if kept.compare_error:
+        out["compare_error"] = kept.compare_error
+    add_synthesis(study, system, out)
+    return out
+
+
 def run(study: NonlinearModesStudy, out_dir="results", *, figures: bool = True,
-        workers: int = 1, **_) -> StudyResult:
+        workers: int = 1, checkpoints: bool = True, **_) -> StudyResult:
     """`out_dir/<name>.nc` and the figures `out_dir/<name>/backbones.png`,
-    `synthesis_<dof>.png`; the cases on `workers` processes."""
+    `synthesis_<dof>.png`; the cases on `workers` processes.  With `checkpoints` each
+    finished case is kept at once (`nonlinear_modes_checkpoint`), a rerun computes only
+    the missing ones, and the folder is removed once the dataset is written with no
+    failed case."""
+    import shutil
+
     from ..datasets.dataset import write_netcdf
-    from .nonlinear_modes_dataset import modes_dataset
+    from ..execution.cases import map_jobs
+    from ..execution.checkpoint import remove_stale
+    from .nonlinear_modes_checkpoint import load_kept, modes_checkpoint_dir, save_kept
+    from .nonlinear_modes_dataset import case_status, modes_dataset
     from ..figures.backbone_figures import write_backbone_figures
 
     t0 = time.perf_counter()
     cases = [c for _, c in study.cases()]
-    results = [None] * len(cases)
+    cdir = modes_checkpoint_dir(study, out_dir) if checkpoints else None
+    if cdir is not None:
+        remove_stale(Path(out_dir), study.name, cdir)
+    kept = load_kept(cdir, cases) if cdir is not None else {}
+    results = [resumed_case(study, cases[k], *kept[k]) if k in kept else None
+               for k in range(len(cases))]
+    if kept:
+        log.info("%s: resuming: %d of %d case(s) finished earlier (kept in %s)", study.name,
+                 len(kept), len(cases), cdir)
 
     def done(k, res):
         results[k] = res
-        bb = res["backbone"]
+        bb, n_done = res.get("backbone"), sum(r is not None for r in results)
+        if bb is None or not bb.s.size:
+            log.error("case %d/%d %s: %s", n_done, len(cases), cases[k], case_status(res)[1])
+            return
+        if cdir is not None:
+            save_kept(cdir, k, cases[k], res)
         log.info("case %d/%d %s: %d points, %.4g to %.4g Hz, zeta up to %.3g, %.2f s%s",
-                 sum(r is not None for r in results), len(cases), cases[k], bb.s.size,
-                 *(bb.omega[[0, -1]] / (2 * np.pi) if bb.s.size else (np.nan, np.nan)),
-                 np.max(bb.zeta) if bb.s.size else np.nan, res["time"],
-                 f" ({bb.message})" if bb.message else "")
+                 n_done, len(cases), cases[k], bb.s.size, *(bb.omega[[0, -1]] / (2 * np.pi)),
+                 np.max(bb.zeta), res["time"], f" ({bb.message})" if bb.message else "")
 
-    if workers > 1 and len(cases) > 1:   # a process pool, as the response studies' cases
-        from concurrent.futures import ProcessPoolExecutor, as_completed
-
-        with ProcessPoolExecutor(max_workers=min(workers, len(cases))) as pool:
-            futs = {pool.submit(run_case, study, c): k for k, c in enumerate(cases)}
-            for fut in as_completed(futs):
-                done(futs[fut], fut.result())
-    else:
-        for k, c in enumerate(cases):
-            done(k, run_case(study, c))
+    map_jobs(run_case, [k for k in range(len(cases)) if k not in kept],
+             lambda k: (study, cases[k]), done, workers)
+    failed = [(r["case"], msg) for r in results for status, msg in [case_status(r)] if status]
     ds = modes_dataset(study, results)
-    path = write_netcdf(ds, Path(out_dir) / f"{study.name}.nc")
-    log.info("wrote %s", path)
-    written = write_backbone_figures(Path(out_dir) / study.name, ds) if figures else []
-    failures = sum(1 for r in results if r["backbone"].message)
-    return StudyResult(study=study, dataset=ds, path=path, figures=written, failures=failures,
-                       failed=[(r["case"], r["backbone"].message) for r in results
-                               if r["backbone"].message],
-                       wall_time=time.perf_counter() - t0)
+    res = StudyResult(study=study, dataset=ds, path=None, failures=len(failed), failed=failed,
+                      reused=len(kept), computed=len(cases) - len(kept))
+    if ds is None:
+        log.error("%s: no converged backbone point in any case; nothing written", study.name)
+    else:
+        res.path = write_netcdf(ds, Path(out_dir) / f"{study.name}.nc")
+        log.info("wrote %s", res.path)
+        res.figures = write_backbone_figures(Path(out_dir) / study.name, ds) if figures else []
+    if cdir is not None and (ds is None or all(case_status(r)[0] >= 0 for r in results)):
+        shutil.rmtree(cdir, ignore_errors=True)
+    elif cdir is not None:
+        log.info("%s: %d case(s) failed; the finished ones stay in %s, a rerun retries only "
+                 "the failed ones", study.name, len(failed), cdir)
+    res.wall_time = time.perf_counter() - t0
+    return res
 
 
 POINTS, ITERATIONS = 40, 4   # a backbone's points and Newton iterations a point (typical)

@@ -2,7 +2,8 @@
 axes, a disk's engine orders as `nodal_diameter`) the backbone along `point`, the
 synthesised forced response per `force_scale`, and the full harmonic balance's curve
 and peak (`hbm_point`) where it was compared.  Every number has its unit; a case's
-shorter backbone is padded with NaN (`converged` 0)."""
+shorter backbone is padded with NaN (`converged` 0); a case that failed (its backbone
+did not start, or it raised) is all padding, with `status` -1 and why in `message`."""
 from __future__ import annotations
 
 import numpy as np
@@ -34,6 +35,22 @@ def axes_of(study) -> tuple:
             out.append((a, np.asarray(v, float), {"units": SWEEP_AXES[a][0],
                                                   "long_name": SWEEP_AXES[a][1]}))
     return out
+
+
+def case_status(res) -> tuple:
+    """(status, message) of one case's result (`nonlinear_modes.run_case`): 0 the
+    backbone covers the amplitude range; 1 it stopped short, or the compared full
+    harmonic balance failed (message: why); -1 the case failed, no backbone point
+    (message "failed: <why>")."""
+    if "error" in res:
+        return -1, f"failed: {res['error']}"
+    bb = res["backbone"]
+    if not bb.s.size:
+        return -1, f"failed: {bb.message or 'no backbone point'}"
+    why = [bb.message] if bb.message else []
+    if res.get("compare_error"):
+        why.append(f"the full harmonic balance failed: {res['compare_error']}")
+    return (1 if why else 0), "; ".join(why)
 
 
 def backbone_values(study, res, dofs):
@@ -87,6 +104,17 @@ def synthesis_values(study, res, dofs):
 def fill_case(arrays, idx, row, res, cur, grid, sizes):
     """Write one case's backbone, synthesis and compared curve into `arrays` at idx."""
     P, Ph, nf, dofs = sizes
+    status, message = case_status(res)
+    arrays.setdefault("status", grid((), -1, np.int8))[idx] = status
+    arrays.setdefault("message", grid((), "", object))[idx] = message
+    if row is None:           # failed: no backbone point (a setup that raised: nothing)
+        if "problem" in res:
+            arrays.setdefault("slip_onset_amplitude", grid(()))[idx] = res["onset"]
+            arrays.setdefault("linear_frequency", grid(()))[idx] = \
+                res["problem"].omega0 / TWO_PI
+        if res.get("curve") is not None:
+            fill_compared(arrays, idx, res, grid, sizes)
+        return
     bv, sv = row
     n = res["backbone"].s.size
     for k, v in bv.items():
@@ -109,33 +137,44 @@ def fill_case(arrays, idx, row, res, cur, grid, sizes):
     arrays.setdefault("peak_damping_ratio", grid(()))[idx] = z_pk
     arrays.setdefault("peak_damping_amplitude", grid(()))[idx] = 10.0 ** s_pk
     arrays.setdefault("peak_damping_frequency", grid(()))[idx] = w_pk / TWO_PI
-    arrays.setdefault("message", grid((), "", object))[idx] = res["backbone"].message
     if cur is not None:
-        m = cur.omega.size
-        arrays.setdefault("hbm_frequency", grid((Ph,)))[idx][:m] = cur.omega / TWO_PI
-        amp = np.where(cur.converged[:, None], cur.amplitude[:, dofs], np.nan)
-        arrays.setdefault("hbm_amplitude", grid((Ph, len(dofs))))[idx][:m] = amp
-        k = int(np.nanargmax(amp[:, 0])) if np.any(np.isfinite(amp[:, 0])) else None
-        arrays.setdefault("hbm_peak_frequency", grid(()))[idx] = (
-            cur.omega[k] / TWO_PI if k is not None else np.nan)
-        arrays.setdefault("hbm_peak_amplitude", grid((len(dofs),)))[idx] = (
-            amp[k] if k is not None else np.nan)
-        arrays.setdefault("hbm_time", grid(()))[idx] = res["curve_time"]
+        fill_compared(arrays, idx, res, grid, sizes)
 
 
-def modes_dataset(study, results) -> xr.Dataset:
-    """The dataset of a finished nonlinear modes study (`nonlinear_modes.run`)."""
+def fill_compared(arrays, idx, res, grid, sizes):
+    """The compared full harmonic balance's curve and highest point at idx."""
+    _, Ph, _, dofs = sizes
+    cur = res["curve"]
+    m = cur.omega.size
+    arrays.setdefault("hbm_frequency", grid((Ph,)))[idx][:m] = cur.omega / TWO_PI
+    amp = np.where(cur.converged[:, None], cur.amplitude[:, dofs], np.nan)
+    arrays.setdefault("hbm_amplitude", grid((Ph, len(dofs))))[idx][:m] = amp
+    k = int(np.nanargmax(amp[:, 0])) if np.any(np.isfinite(amp[:, 0])) else None
+    arrays.setdefault("hbm_peak_frequency", grid(()))[idx] = (
+        cur.omega[k] / TWO_PI if k is not None else np.nan)
+    arrays.setdefault("hbm_peak_amplitude", grid((len(dofs),)))[idx] = (
+        amp[k] if k is not None else np.nan)
+    arrays.setdefault("hbm_time", grid(()))[idx] = res["curve_time"]
+
+
+def modes_dataset(study, results) -> xr.Dataset | None:
+    """The dataset of a finished nonlinear modes study (`nonlinear_modes.run`); None
+    when no case has a backbone point."""
     axes = axes_of(study)
     shape = tuple(len(v) for _, v, _ in axes)
     cdims = tuple(d for d, _, _ in axes)
     dof_names = list(study.response.output.dofs)
-    system0 = results[0]["problem"].hbm.system
+    traced = [r for r in results if case_status(r)[0] >= 0]
+    if not traced:
+        return None
+    system0 = traced[0]["problem"].hbm.system
     dofs = [list(system0.dof_names).index(d) for d in dof_names]
     E = system0.contact.size
-    P = max(r["backbone"].s.size for r in results)
+    P = max(r["backbone"].s.size for r in traced)
     nf = len(study.force_scales)
-    rows = [(backbone_values(study, r, dofs), synthesis_values(study, r, dofs)) for r in results]
-    curves = [r["curve"] for r in results]
+    rows = [(backbone_values(study, r, dofs), synthesis_values(study, r, dofs))
+            if case_status(r)[0] >= 0 else None for r in results]
+    curves = [r.get("curve") for r in results]
     Ph = max((c.omega.size for c in curves if c is not None), default=0)
 
     def grid(tail, fill=np.nan, dtype=float):
@@ -147,7 +186,8 @@ def modes_dataset(study, results) -> xr.Dataset:
     data_vars = {k: _var(cdims + DIMS[k], arrays[k], *META[k]) for k in arrays if k in META}
     data_vars["message"] = (cdims, arrays["message"].astype(str),
                             {"long_name": "why the backbone stopped before the amplitude range "
-                                          "ended (empty: it covered the range)"})
+                                          "ended, or why the case failed (empty: it covered "
+                                          "the range)"})
     coords = {d: (d, v, a) for d, v, a in axes}
     coords.update({"point": ("point", np.arange(P, dtype=np.int32),
                              {"units": "1", "long_name": "point along the backbone"}),
@@ -193,7 +233,7 @@ DIMS = {
     "synthesis_frequency_above": ("force_scale", "point"),
     "synthesis_peak_frequency": ("force_scale",),
     "synthesis_peak_amplitude": ("force_scale", "dof"), "synthesis_time": ("force_scale",),
-    "backbone_time": (), "slip_onset_amplitude": (), "linear_frequency": (),
+    "status": (), "backbone_time": (), "slip_onset_amplitude": (), "linear_frequency": (),
     "peak_damping_ratio": (), "peak_damping_amplitude": (), "peak_damping_frequency": (),
     "hbm_frequency": ("hbm_point",), "hbm_amplitude": ("hbm_point", "dof"),
     "hbm_peak_frequency": (), "hbm_peak_amplitude": ("dof",), "hbm_time": (),
@@ -226,6 +266,9 @@ META = {
     "synthesis_peak_amplitude": ("m", "synthesised response: amplitude of the DOF at the peak "
                                       "(NaN: beyond the backbone's range)"),
     "synthesis_time": ("s", "wall time of the synthesis (peak located exactly)"),
+    "status": ("1", "0: the backbone covers the amplitude range; 1: it stopped short, or "
+                    "the compared full harmonic balance failed (see message); -1: the case "
+                    "failed, no backbone point (see message)"),
     "backbone_time": ("s", "wall time of the backbone"),
     "slip_onset_amplitude": ("kg0.5 m", "modal amplitude at which the first element of the "
                                         "linear mode slips or lifts off (inf: none does, the "

@@ -240,6 +240,49 @@ def test_a_resumed_search_reuses_its_kept_evaluations(tmp_path, k):
     assert res["computed"] == len(whole.calls) - k and res["reused"] == k
 
 
+def test_a_search_resumed_after_any_evaluation_decides_as_the_uninterrupted_one():
+    """With Brent's trials valued locally from the nearest evaluated preload (here a
+    lower bound 1e-9 |ln n0 - ln near| below the band's value, as a peak continued from
+    another start differs in its last digits), a search interrupted after its k-th band
+    evaluation, for every k, and resumed with those k (`replay`) returns the same
+    optimum, the same evaluations, local trials, checks and brackets as the
+    uninterrupted one, and recomputes none of the k.  Given as `known` from the start,
+    a later evaluation changes the decisions made before it (the last check's band
+    value taken for Brent's trial at that preload)."""
+    def local(n0, near):
+        return bimodal(n0) - 1e-9 * abs(math.log(n0 / near)), 10.0 * n0
+
+    def run(stop_at=None, **kw):
+        calls = []
+
+        def curve(n0):
+            if len(calls) == stop_at:
+                raise KeyboardInterrupt
+            calls.append(n0)
+            return bimodal(n0), 10.0 * n0
+
+        try:
+            res = global_minimum(curve, BOUNDS, rtol=1e-3, local=local, **kw)
+        except KeyboardInterrupt:
+            res = None
+        return res, calls
+
+    def decisions(res):
+        return {k: v for k, v in res.items() if k not in ("computed", "reused")}
+
+    whole, order = run()
+    assert whole["local"] and whole["verified"]
+    differs = []
+    for k in range(1, len(order) + 1):
+        _, first = run(stop_at=k)
+        kept = {n0: (bimodal(n0), 10.0 * n0) for n0 in first}
+        res, again = run(replay=kept)
+        assert not set(again) & set(first) and again == order[k:]
+        assert decisions(res) == decisions(whole), k
+        differs.append(decisions(run(known=kept)[0]) != decisions(whole))
+    assert differs[-1]          # the old resume (the kept values known from the start)
+
+
 def test_a_kept_search_of_another_search_or_a_broken_file_is_ignored(tmp_path):
     save_search(tmp_path, IDENT, {1.0: (2.0, 3.0), 2.0: (np.inf, np.nan)})
     kept = load_search(tmp_path, IDENT)

@@ -267,3 +267,61 @@ def test_forced_response_synthesised_from_the_nonlinear_mode(quick):
     assert int(r["n_folds"]) == 1 and float(r["fold_frequency_error"]) == np.inf
     assert folds[0] == pytest.approx(ref[1], rel=1e-4)
     assert str(_run(ds, "lumped/recommended")["forced_response"].values) == "harmonic_balance"
+
+
+TINY = """
+[study]
+title = "Example 1: harmonics against cost"
+kind = "accuracy_cost"
+[lumped]
+dof = "x"
+preload = 2.0
+frequency = { start = 150.0, stop = 250.0, unit = "rad/s" }
+time_integration = true
+[lumped.scene]
+model = "lumped"
+effects = ["friction"]
+dofs = ["x"]
+[lumped.scene.matrices]
+M = [[1.0]]
+C = [[0.3]]
+K = [[3.55e4]]
+[[lumped.scene.contact]]
+name = "damper"
+tangential = ["x"]
+ku = 1.0e4
+mu = 0.5
+[[lumped.scene.excitation]]
+dof = "x"
+amplitude = 1.0
+[lumped.reference]
+harmonics = 3
+tolerance = 1e-9
+[lumped.baseline]
+harmonics = 1
+[lumped.knobs]
+harmonics = [2]
+"""
+
+
+def test_a_time_integration_check_that_raises_keeps_the_runs(tmp_path, monkeypatch):
+    """The reference's event-driven check raises: the runs' dataset, table and figure are
+    written without the check's variables, and the run reports a failure; its peaks
+    are those of the same study without the check."""
+    import pipeline.study.accuracy.measure as measure
+    from pipeline.study.accuracy.study import run_accuracy_study
+
+    def raising(*args, **kw):
+        raise FloatingPointError("step size underflow")
+
+    monkeypatch.setattr(measure, "time_integration_check", raising)
+    res = run_accuracy_study(parse_study(TINY, name="tiny"), tmp_path / "a")
+    assert res.failures == 1 and not res.ok and problems(res.path) == []
+    assert (tmp_path / "a" / "tiny" / "table.md").is_file()
+    ds = res.dataset
+    assert not [v for v in ds.data_vars if "time_integration" in v]
+    plain = run_accuracy_study(parse_study(TINY.replace("time_integration = true", ""),
+                                           name="tiny"), tmp_path / "b", figures=False)
+    assert plain.failures == 0
+    for name in ("peak_amplitude", "peak_frequency", "error"):
+        np.testing.assert_array_equal(ds[name].values, plain.dataset[name].values)

@@ -521,3 +521,209 @@ def test_separation_not_declared_is_one_error_line_from_the_cli(tmp_path):
     assert r.returncode == 1 and (tmp_path / "out2" / "ex3_closed.nc").is_file()
     assert len(errors) == 1 and errors[0].startswith(f"error: {f}: case preload = 10 N: ")
     assert "contact 'shroud' separates at" in errors[0]
+
+
+# ---------------------------------------------------------------------------
+# killed at any write, resumed: the dataset of the uninterrupted run
+# ---------------------------------------------------------------------------
+
+# two cases and an optimum search over [1, 10] N (grid, brackets, Brent's local trials,
+# the band check of each bracket) on Example 1 at H = 1: about 2 s a run
+TINY = """
+[study]
+title = "Example 1 at H = 1 with an optimum search"
+[scene]
+model = "lumped"
+effects = ["friction"]
+dofs = ["x"]
+[scene.matrices]
+M = [[1.0]]
+C = [[3.0]]
+K = [[3.55e4]]
+[[scene.contact]]
+name = "damper"
+tangential = ["x"]
+ku = 1.0e4
+mu = 0.5
+[[scene.excitation]]
+dof = "x"
+amplitude = 1.0
+[sweep]
+preload = [2.0, 5.0]
+frequency = { start = 150.0, stop = 250.0, unit = "rad/s" }
+[solver]
+harmonics = 1
+tolerance = 1e-7
+stability = false
+max_step = 0.5
+[output]
+dofs = ["x"]
+figures = []
+[output.optimum_preload]
+dof = "x"
+bounds = [1.0, 10.0]
+rtol = 1e-2
+"""
+
+
+class Killed(BaseException):
+    """The run's process ends here (nothing after it runs, as after SIGKILL)."""
+
+
+class KillAtWrite:
+    """The run's writes to its checkpoint folder (each finished case, each optimum-search
+    evaluation) counted; at write `at` the process is killed, `before` it (the write
+    interrupted: a partial temporary file left, the kept file unchanged) or just after
+    it (the computing that follows is lost: a SIGKILL anywhere up to the next write
+    leaves the same files)."""
+
+    def __init__(self, monkeypatch, at=None, before=False):
+        import pipeline.study.execution.cases as cases_mod
+        import pipeline.study.execution.optimum_search as search_mod
+
+        self.at, self.before, self.writes = at, before, 0
+        for mod, name in ((cases_mod, "save_case"), (search_mod, "save_search")):
+            monkeypatch.setattr(mod, name, self.wrap(getattr(mod, name)))
+
+    def wrap(self, real):
+        def write(cdir, *args):
+            self.writes += 1
+            if self.writes == self.at and self.before:
+                Path(cdir).mkdir(parents=True, exist_ok=True)
+                (Path(cdir) / ".optimum-search.0badf00d.tmp").write_bytes(b"\x89HDF\r\n")
+                raise Killed
+            out = real(cdir, *args)
+            if self.writes == self.at:
+                raise Killed
+            return out
+        return write
+
+
+def tiny_run(out, monkeypatch, at=None, before=False):
+    """The tiny study run into `out`, killed at write `at` (None: not killed); the
+    number of writes it made."""
+    study = parse_study(TINY, file="tiny.toml", name="tiny")
+    with monkeypatch.context() as mp:
+        kill = KillAtWrite(mp, at, before)
+        try:
+            res = run_study(study, out, workers=1, figures=False, progress=False)
+        except Killed:
+            return None, kill.writes
+    assert res.ok
+    return read_dataset(res.path), kill.writes
+
+
+@pytest.fixture(scope="module")
+def tiny_whole(tmp_path_factory):
+    with pytest.MonkeyPatch.context() as mp:
+        return tiny_run(tmp_path_factory.mktemp("tiny_whole"), mp)
+
+
+def untimed(ds: xr.Dataset) -> xr.Dataset:
+    return comparable(ds.drop_vars([v for v in ("optimum_search_wall_time",) if v in ds]))
+
+
+def resumed_equals_uninterrupted(whole, writes, at, before, out, monkeypatch):
+    ds, n = tiny_run(out, monkeypatch, at, before)
+    assert ds is None and n == at and not (out / "tiny.nc").exists()
+    ds, _ = tiny_run(out, monkeypatch)
+    xr.testing.assert_identical(untimed(ds), untimed(whole))
+    assert not list(out.glob(".tiny.*.cases"))
+
+
+@pytest.mark.parametrize("at, before", [(4, True), (-1, False)],
+                         ids=["inside-the-grid", "after-the-last-check"])
+def test_killed_at_a_write_and_resumed_equals_the_uninterrupted_run(tiny_whole, tmp_path,
+                                                                    monkeypatch, at, before):
+    """Killed in the search's grid (a write cut short) or after the search's last band
+    evaluation (the last bracket's check: only the dataset was left to write), the
+    rerun's dataset is the uninterrupted run's in every variable (wall times aside):
+    the optimum, every preload the search evaluated, its peak, whether it was a grid
+    node and whether it was valued over the band (a resumed search that knew the last
+    check's band value from the start took it for Brent's trial at that preload)."""
+    whole, writes = tiny_whole
+    assert writes == 8 and int(whole["optimum_search_band"].sum()) < whole[
+        "optimum_search_preload"].size           # Brent's local trials are in the search
+    resumed_equals_uninterrupted(whole, writes, at % (writes + 1), before, tmp_path / "out",
+                                 monkeypatch)
+
+
+@pytest.mark.slow
+def test_killed_at_random_writes_and_resumed_equals_the_uninterrupted_run(
+        tiny_whole, tmp_path, monkeypatch):
+    """Twelve seeded random moments among the run's writes (each write cut short or just
+    done; every one after the second inside the optimum search): each resumed dataset is
+    the uninterrupted one."""
+    whole, writes = tiny_whole
+    moments = random.Random(20261207).sample(
+        [(at, before) for at in range(1, writes + 1) for before in (False, True)], 12)
+    assert sum(at > 2 for at, _ in moments) >= 8
+    for i, (at, before) in enumerate(moments):
+        resumed_equals_uninterrupted(whole, writes, at, before, tmp_path / f"out{i}",
+                                     monkeypatch)
+
+
+# ---------------------------------------------------------------------------
+# a failing case, or a failing optimum search, loses nothing else
+# ---------------------------------------------------------------------------
+
+def cases_only(text: str) -> str:
+    return text[:text.index("[output.optimum_preload]")]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_case_whose_model_cannot_be_built_fails_alone(tmp_path, monkeypatch, workers):
+    """The system of the 3 N case cannot be built (a singular static solve): that case
+    is recorded failed with its error, the dataset holds the other two exactly as a
+    study of those two alone gives them."""
+    import pipeline.study.files.spec as spec
+
+    text = cases_only(TINY).replace("preload = [2.0, 5.0]", "preload = [2.0, 3.0, 5.0]")
+    real = spec.case_system
+
+    def singular(scene, case=None):
+        if (case or {}).get("preload") == 3.0:
+            raise np.linalg.LinAlgError("Singular matrix")
+        return real(scene, case)
+
+    monkeypatch.setattr(spec, "case_system", singular)
+    study = parse_study(text, file="three.toml", name="three")
+    res = run_study(study, tmp_path / "a", workers=workers, figures=True, progress=False)
+    assert res.path is not None and not res.ok and res.failures == 1
+    assert res.failed == [({"preload": 3.0}, "LinAlgError: Singular matrix")]
+    ds = read_dataset(res.path)
+    assert str(ds["message"].sel(preload=3.0).values) == "failed: LinAlgError: Singular matrix"
+    assert int(ds["n_points"].sel(preload=3.0)) == 0
+    assert np.isnan(ds["preload_pair"].sel(preload=3.0).values).all()
+    two = parse_study(cases_only(TINY), file="three.toml", name="three")
+    alone = read_dataset(run_study(two, tmp_path / "b", workers=1, figures=False,
+                                   progress=False).path)
+    both = comparable(ds.sel(preload=[2.0, 5.0]))
+    for name, var in comparable(alone).data_vars.items():
+        np.testing.assert_array_equal(both[name].values, var.values, err_msg=name)
+
+
+def test_an_optimum_search_that_raises_keeps_the_dataset_of_the_cases(tmp_path, monkeypatch):
+    """A band evaluation of the search raises: the search is reported failed (not ok,
+    its error kept) and the dataset of the cases is written, equal to the same study's
+    without a search."""
+    import pipeline.solve.response.peak_tracking as tracking
+
+    real = tracking.band_peak
+
+    def raising(system, *args, **kw):
+        if float(system.contact.n0[0]) == 10.0:
+            raise FloatingPointError("overflow in the Jacobian")
+        return real(system, *args, **kw)
+
+    monkeypatch.setattr(tracking, "band_peak", raising)
+    res = run_study(parse_study(TINY, file="tiny.toml", name="tiny"), tmp_path / "a",
+                    workers=1, figures=True, progress=False)
+    assert res.path is not None and not res.ok and res.failures == 0
+    assert res.optimum_error == "FloatingPointError: overflow in the Jacobian"
+    ds = read_dataset(res.path)
+    assert "optimum_preload" not in ds and (ds["n_points"] > 0).all()
+    plain = read_dataset(run_study(parse_study(cases_only(TINY), file="tiny.toml", name="tiny"),
+                                   tmp_path / "b", workers=1, figures=False,
+                                   progress=False).path)
+    xr.testing.assert_identical(comparable(ds).drop_attrs(), comparable(plain).drop_attrs())

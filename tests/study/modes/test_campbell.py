@@ -158,3 +158,56 @@ def test_progress_is_logged_without_a_line_per_reduction(quick, caplog, monkeypa
         "Campbell: 3/3 speeds (14000 rpm)"]
     assert any(f"{len(res['crossings'])} engine-order crossing(s)" in t for t in text)
     assert logging.getLogger(cb.REDUCTION_LOG).level == before
+
+
+def test_a_speed_that_fails_loses_no_other(quick, diagram, tmp_path, monkeypatch):
+    """The model at 10,000 rpm cannot be built: that speed's frequencies are NaN and its
+    message says why, every other speed's frequencies equal the diagram computed
+    without the failure, and so does every crossing whose bracket does not end at that
+    speed; the dataset and figure are written, the run reports the one failure."""
+    from dataclasses import replace
+
+    import pipeline.study.modes.campbell as cb
+    from pipeline.study.modes.disk_modes import run_disk_modes_study
+
+    whole, speeds = diagram
+    real = cb.speed_sector
+
+    def failing(scene, speed):
+        if speed == 10000.0:
+            raise np.linalg.LinAlgError("Singular matrix")
+        return real(scene, speed)
+
+    monkeypatch.setattr(cb, "speed_sector", failing)
+    study = replace(quick, speeds=speeds, nodal_diameters=NDS, n_frequencies=2,
+                    engine_orders=(3, 6))
+    res = run_disk_modes_study(study, tmp_path, figures=True)
+    assert res.failed == [({"speed": 10000.0}, "LinAlgError: Singular matrix")]
+    assert not res.ok and (tmp_path / study.name / "campbell_diagram.png").is_file()
+    ds = read_dataset(res.path)
+    assert ds["message"].values.tolist() == ["", "", "LinAlgError: Singular matrix", ""]
+    for state in ("open", "stuck"):
+        f = ds[f"frequency_{state}"].values
+        assert np.isnan(f[2]).all()
+        np.testing.assert_array_equal(f[[0, 1, 3]], whole[state][[0, 1, 3]])
+    kept = {c for c in whole["crossings"] if not 5000.0 < c[4] < 15000.0}
+    found = set(zip(*(ds[f"crossing_{k}"].values.tolist() for k in (
+        "engine_order", "nodal_diameter", "mode", "contacts", "speed", "frequency"))))
+    assert kept and found == kept
+
+
+def test_a_crossing_that_cannot_be_located_loses_no_other(quick, monkeypatch, caplog):
+    """Flat 100 Hz families: EO 6 meets ND 6 on the grid speed 1000 rpm (no root
+    finding), EO 3 meets ND 3 between 1000 and 3000 rpm, where the model fails at
+    Brent's first trial speed: that crossing is left out (logged), the other kept."""
+    import pipeline.study.modes.campbell as cb
+
+    def failing(*args, **kw):
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    monkeypatch.setattr(cb, "frequencies_at", failing)
+    freqs = {"open": np.full((3, 2, 1), 100.0)}
+    found = cb.crossings(quick.scene, (0.0, 1000.0, 3000.0), (3, 6), freqs, (3, 6))
+    assert found == [(6, 6, 1, "open", 1000.0, 100.0)]
+    assert "crossing of EO 3 with ND 3 mode 1 (open) between 1000 and 3000 rpm is not " \
+           "located" in caplog.text

@@ -84,3 +84,154 @@ def test_a_disk_needs_its_nodal_diameters():
                     .replace("nodal_diameters = [3, 12]\n", ""), file="d.toml")
     with pytest.raises(UsageError, match=r"^d.toml: modes.nodal_diameters: .* 0 ... 12"):
         parse_study(text.replace("[3, 6, 12]", "[3, 13]"), file="d.toml")
+
+
+def fail_at(monkeypatch, preload, how):
+    """The case at `preload` [N] fails: its backbone does not start (Newton from a NaN
+    linear mode: no converged first point) or its mode problem raises."""
+    from pipeline.solve.nonlinear_modes import backbone
+    import pipeline.study.modes.nonlinear_modes as nm
+
+    def at(mp_or_system):
+        system = getattr(getattr(mp_or_system, "hbm", None), "system", mp_or_system)
+        return float(np.ravel(system.contact.n0)[0]) == preload
+
+    if how == "start":
+        real = backbone.linear_guess
+        monkeypatch.setattr(backbone, "linear_guess",
+                            lambda mp: real(mp) * (np.nan if at(mp) else 1.0))
+    else:
+        real = nm.mode_problem
+
+        def raising(system, *args):
+            if at(system):
+                raise ValueError("singular mass matrix")
+            return real(system, *args)
+        monkeypatch.setattr(nm, "mode_problem", raising)
+
+
+@pytest.mark.parametrize("how, why", [
+    ("start", "failed: no converged point at the start log10 a = "),
+    ("raises", "failed: ValueError: singular mass matrix")])
+def test_a_failing_case_is_recorded_and_the_others_written(tmp_path, monkeypatch, capsys,
+                                                           how, why):
+    """One case of two fails (its backbone does not start, or it raises): the run writes
+    the dataset and figures with the other case's backbone, from the stuck frequency
+    sqrt((k + ku)/m) to near the open one sqrt(k/m), and the failed case as padding
+    with status -1 and why in `message`; its slip onset mu n0 / ku where its mode was
+    set up; one error line names it, exit code 1."""
+    from pipeline.__main__ import main as cli
+
+    f = tmp_path / "jenkins_modes.toml"
+    f.write_text(LUMPED.replace("[modes]", "[modes]\ncompare = false"))
+    fail_at(monkeypatch, 2.0, how)
+    out = tmp_path / "out"
+    assert cli(["run", str(f), "--out", str(out), "--workers", "1"]) == 1
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.startswith("error:")]
+    assert lines == [f"error: {f}: case preload = 2 N: {why}" + lines[0].split(why)[1]]
+    nc = out / "jenkins_modes.nc"
+    assert problems(nc) == []
+    assert (out / "jenkins_modes" / "backbones.png").stat().st_size > 10_000
+    ds = xr.open_dataset(nc)
+    assert ds["status"].values.tolist() == [0, -1]
+    assert ds["message"].values[0] == "" and ds["message"].values[1].startswith(why)
+    ok, failed = ds.sel(preload=1.0), ds.sel(preload=2.0)
+    f_ok = ok["frequency"].values[ok["converged"].values == 1]
+    assert f_ok.size > 10
+    assert f_ok[0] == pytest.approx(np.sqrt(4.55e4) / (2 * np.pi), rel=1e-5)
+    assert f_ok[-1] == pytest.approx(np.sqrt(3.55e4) / (2 * np.pi), rel=1e-3)
+    assert float(ok["slip_onset_amplitude"]) == pytest.approx(0.5 * 1.0 / 1.0e4, rel=1e-12)
+    assert not failed["converged"].values.any() and np.isnan(failed["frequency"].values).all()
+    assert np.isnan(failed["synthesis_peak_frequency"].values).all()
+    onset = float(failed["slip_onset_amplitude"])
+    assert onset == pytest.approx(0.5 * 2.0 / 1.0e4, rel=1e-12) if how == "start" \
+        else np.isnan(onset)
+
+
+def test_no_case_with_a_backbone_point_writes_nothing(tmp_path, monkeypatch):
+    """Every case fails: no dataset, both cases reported failed."""
+    from pipeline.study.execution.run import run_study
+
+    fail_at(monkeypatch, 1.0, "start")
+    fail_at(monkeypatch, 2.0, "raises")
+    study = parse_study(LUMPED.replace("[modes]", "[modes]\ncompare = false"), name="none")
+    res = run_study(study, tmp_path / "out", workers=1, figures=False)
+    assert res.path is None and res.dataset is None and not res.ok
+    assert [c for c, _ in res.failed] == [{"preload": 1.0}, {"preload": 2.0}]
+    assert not (tmp_path / "out" / "none.nc").exists()
+
+
+def test_an_interrupt_in_a_case_is_no_failed_case(monkeypatch):
+    """Ctrl-C inside a compiled kernel reaches the case as a SystemError caused by the
+    KeyboardInterrupt: it stops the run (`pipeline.errors.interrupt_in_chain`) instead
+    of being recorded as the case's failure."""
+    import pipeline.study.modes.nonlinear_modes as nm
+
+    def interrupted(*args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise SystemError("returned a result with an exception set") from exc
+
+    monkeypatch.setattr(nm, "mode_problem", interrupted)
+    study = parse_study(LUMPED)
+    with pytest.raises(SystemError):
+        nm.run_case(study, {"preload": 1.0})
+
+
+def test_a_comparison_that_raises_keeps_the_backbone(monkeypatch):
+    """The full harmonic balance compared with a case raises: the case keeps its
+    backbone (from the stuck frequency sqrt((k + ku)/m)), status 1 and the comparison's
+    error in its message; the dataset has no compared curve."""
+    import pipeline.study.modes.nonlinear_modes as nm
+    from pipeline.study.modes.nonlinear_modes_dataset import modes_dataset
+
+    def raising(*args, **kw):
+        raise FloatingPointError("overflow in the Jacobian")
+
+    monkeypatch.setattr(nm, "default_solver", lambda resp: raising)
+    study = parse_study(LUMPED.replace("preload = [1.0, 2.0]", "preload = [1.0]"), name="cmp")
+    ds = modes_dataset(study, [nm.run_case(study, case) for _, case in study.cases()])
+    assert ds["status"].values.tolist() == [1]
+    assert str(ds["message"].values[0]) == ("the full harmonic balance failed: "
+                                            "FloatingPointError: overflow in the Jacobian")
+    f = ds["frequency"].values[0][ds["converged"].values[0] == 1]
+    assert f.size > 10 and f[0] == pytest.approx(np.sqrt(4.55e4) / (2 * np.pi), rel=1e-5)
+    assert "hbm_frequency" not in ds
+
+
+class Killed(BaseException):
+    """The run's process ends here (nothing after it runs, as after SIGKILL)."""
+
+
+def test_a_killed_run_resumes_with_the_kept_backbones(tmp_path, monkeypatch):
+    """Killed just after its first case was kept (its backbone and compared curve), the
+    rerun computes only the second case and writes the uninterrupted run's dataset in
+    every variable but the wall times; the folder of kept cases is then removed."""
+    import pipeline.study.modes.nonlinear_modes_checkpoint as kept
+    from pipeline.study.execution.run import run_study
+
+    study = parse_study(LUMPED, name="jenkins")
+    whole = run_study(study, tmp_path / "whole", figures=False)
+    assert whole.ok and whole.computed == 2
+    real = kept.save_kept
+
+    def kill_after(*args):
+        real(*args)
+        raise Killed
+
+    out = tmp_path / "out"
+    with monkeypatch.context() as mp:
+        mp.setattr(kept, "save_kept", kill_after)
+        with pytest.raises(Killed):
+            run_study(study, out, figures=False)
+    assert not (out / "jenkins.nc").exists()
+    assert len(list(out.glob(".jenkins.*.cases/case-*.nc"))) == 1
+    res = run_study(study, out, figures=False)
+    assert res.ok and res.reused == 1 and res.computed == 1
+    a, b = (xr.open_dataset(r.path).drop_vars(["synthesis_time", "backbone_time", "hbm_time"])
+            for r in (res, whole))
+    a.attrs.pop("created"), b.attrs.pop("created")
+    xr.testing.assert_identical(a, b)
+    assert not list(out.glob(".jenkins.*.cases"))
