@@ -23,10 +23,11 @@ circumferential axis Y (a = 0: faces normal to Y).
 
 Contact maps: at a face point k with displacement d_k (3 components),
 u_k = t . d_k (tangential) and v_k = n . d_k (normal, n outward: v > 0 closes the
-gap, as the Yang-Menq normal load n0 + kv v of `pipeline.contact`).  The tangent
-t = n_R x e_Z / |n_R x e_Z| is the same for both faces of a blade so that the pair
-(right face of blade j, left face of blade j+1) shares one frame; t2 = t x n_R is the
-second (radial) tangent.  Rows of Bt, Bn (as in system.py) carry these direction
+gap, as the Yang-Menq normal load n0 + kv v of `pipeline.contact`).  The frame's
+tangent t = n_R x e_Z / |n_R x e_Z| is the same for both faces of a blade; t2 = t x n_R
+is the second (radial) tangent.  A shroud pair in a disk slides along its own tangent,
+the circumferential direction at the right face's centre projected into the face
+(`model.contacts.pair_frame`); the frame's t serves a face against a wall.  Rows of Bt, Bn (as in system.py) carry these direction
 cosines on the DOFs of the point; against a rigid neighbour they are the relative
 displacements.
 
