@@ -202,16 +202,19 @@ def placement_field(message: str) -> tuple:
 
 def turning(ck, tab, structure: Blade, model: str, effects) -> Blade:
     """The blade spec with its speed (`scene.disk.speed` [rpm]) and whether it turns
-    (the effect "centrifugal_stiffening" on a solid blade in a disk, its own assembly)."""
+    (the effect "centrifugal_stiffening" on a solid blade in a disk, its own assembly or
+    matrices exported at speeds)."""
     if structure.disk is None:
         return structure
     speed = ck.number(tab["disk"].get("speed", 0.0), "scene.disk.speed", ge=0.0)
     rotating = ("centrifugal_stiffening" in effects and model == "solid_blade"
-                and structure.matrices is None)
+                and (structure.matrices is None or bool(structure.matrices.speeds)))
     return replace(structure, speed=float(speed), rotating=rotating)
 
 
 def can_turn(scene) -> bool:
-    """Whether the scene's blades can turn: solid, in a disk, the package's assembly."""
+    """Whether the scene's blades can turn: solid, in a disk, the package's assembly or
+    matrices exported at one or more speeds."""
     st = scene.structure
-    return scene.model == "solid_blade" and st.disk is not None and st.matrices is None
+    return (scene.model == "solid_blade" and st.disk is not None
+            and (st.matrices is None or bool(st.matrices.speeds)))
