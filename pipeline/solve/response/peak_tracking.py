@@ -154,17 +154,20 @@ def _failed(fp, why, t_start, spent) -> ResponseCurve:
 
 
 def band_peak(system, H, omega_start, omega_end, dof, **kwargs) -> tuple:
-    """(peak [m], its Omega [rad/s], all DOFs' coefficients there) of `dof` over the
-    band: `frequency_response` keeping its peaks (stability off unless asked); (inf,
-    NaN, None) for an incomplete curve (it may miss its peak), logged."""
+    """(peak [m], its Omega [rad/s], all DOFs' coefficients there, unresolved) of `dof`
+    over the band: `frequency_response` keeping its peaks (stability off unless
+    asked); (inf, NaN, None, unresolved) for an incomplete curve (it may miss its
+    peak), logged.  unresolved: the curve's steps across a resonance that could not be
+    shortened to its half-power band (a peak may hide there)."""
     kwargs.setdefault("stability", False)
     kwargs["keep"] = "peaks"  # only the peak is read, no curve is drawn
     c = frequency_response(system, H, omega_start, omega_end, peak_dofs=[dof], **kwargs)
+    unresolved = int(c.info.get("unresolved_resonance_steps", 0))
     if not c.success:
         logger.warning("optimum search: curve incomplete (%s); skipped", c.message)
-        return np.inf, np.nan, None
+        return np.inf, np.nan, None, unresolved
     a, om, i = c.peak(dof)
-    return a, om, c.Q[i]
+    return a, om, c.Q[i], unresolved
 
 
 def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
@@ -189,16 +192,20 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     follows each new band evaluation (Q its peak state, None for a failed one); grid_map(list
     of n0, done): the grid nodes evaluated together (a caller's process pool), done(k,
     `band_peak` result) as each ends; else one by one here.  Returns
-    the dict of `optimum.global_minimum`.
+    the dict of `optimum.global_minimum`, with unresolved {n0: steps} of the band
+    evaluations whose steps across a resonance were not resolved (a peak may hide
+    there; those evaluated in this call).
     """
     if log and not 0 < bounds[0] < bounds[1]:
         raise ValueError(f"bounds must satisfy 0 < low < high for a log search, got {bounds}")
-    states = dict(states or {})
+    states, unresolved = dict(states or {}), {}
 
     def keep(n0, result):
-        a, om, Q = result
+        a, om, Q = result[:3]
         if Q is not None:
             states[float(n0)] = (om, Q)
+        if len(result) > 3 and result[3]:
+            unresolved[float(n0)] = int(result[3])
         return a, om
 
     def peak(n0):
@@ -225,9 +232,11 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     def evaluated(n0, p, om):
         on_evaluation(n0, p, om, states.get(float(n0), (None, None))[1])
 
-    return global_minimum(peak, bounds, rtol=rtol, log=log, per_decade=per_decade,
-                          known=known, extra_nodes=extra_nodes,
-                          on_evaluation=evaluated if on_evaluation is not None else None,
-                          local=near_peak if local else None, verify_rel=VERIFY_REL,
-                          evaluate_many=many if grid_map is not None else None)
+    res = global_minimum(peak, bounds, rtol=rtol, log=log, per_decade=per_decade,
+                         known=known, extra_nodes=extra_nodes,
+                         on_evaluation=evaluated if on_evaluation is not None else None,
+                         local=near_peak if local else None, verify_rel=VERIFY_REL,
+                         evaluate_many=many if grid_map is not None else None)
+    res["unresolved"] = dict(sorted(unresolved.items()))
+    return res
 

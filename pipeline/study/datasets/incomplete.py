@@ -1,7 +1,7 @@
 """Cases whose branch stopped short of the frequency interval: their largest
 amplitude is the largest traced, not the peak of the interval (`peak_complete` = 0
 in the dataset).  `incomplete_cases` words them for the end of `python -m pipeline run`,
-`edge_peaks` the complete cases whose largest amplitude lies at an end of the interval
+`hidden_peaks` those with resonance steps not resolved, `edge_peaks` the complete cases whose largest amplitude lies at an end of the interval
 (a resonance outside it, or none: not a peak), `window_edges` the same for the peak
 windows, `absent_effects` declared contact
 effects that no case shows;
@@ -148,6 +148,22 @@ def window_edges(study, ds) -> list:
                                   "at the window's edge, not at a resonant peak (the "
                                   "amplitude rises beyond the window; move or widen [output] "
                                   "peak_windows)"))
+    return out
+
+
+HIDDEN = "a peak may hide there"   # the end of a curve's note on unresolved resonance steps
+
+
+def hidden_peaks(study, ds) -> list:
+    """[({axis: value}, what)] of every case whose message notes steps across a
+    resonance that could not be shortened to its half-power band (`response`: a
+    peak may hide between two points), in the study's words."""
+    if ds is None or "message" not in ds:
+        return []
+    out = []
+    for idx, case in study.sweep.cases():
+        notes = [n.strip() for n in str(ds["message"].values[idx]).split(";") if HIDDEN in n]
+        out += [(case, notes[0])] if notes else []
     return out
 
 

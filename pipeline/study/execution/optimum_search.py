@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...solve.response.optimum import grid_nodes
+from ...solve.response.optimum import FLAT_SPREAD, grid_nodes
 from ...solve.response.peak_tracking import band_peak, optimum_preload
 from ...model.system import negative_stiffness
 from .cases import StaticDivergence, divergence, map_jobs, separation_guard
@@ -134,6 +134,39 @@ def window_end(study: Study, peak_omega: float) -> str | None:
             f"peak inside {lo / u:.6g}-{hi / u:.6g} {window.unit}, if any, is lower), so the "
             "optimum minimises an off-resonance amplitude (widen [output.optimum_preload] "
             "frequency, or [sweep] frequency)")
+
+
+def search_warnings(study: Study, res: dict) -> list:
+    """The end-of-search warnings of `optimise` (`find_optimum`'s result): a peak that
+    does not depend on the preload, else an optimum whose largest amplitude lies at an
+    end of the window."""
+    what = (independence(study, res.get("independent"), res.get("spread"))
+            or window_end(study, res["peak_omega"]))
+    hidden = hidden_search_peaks(res.get("unresolved", {}))
+    return ([what] if what else []) + ([hidden] if hidden else [])
+
+
+def hidden_search_peaks(unresolved: dict) -> str | None:
+    """The warning for the band evaluations {n0 [N]: steps} whose steps across a
+    resonance could not be shortened to its half-power band, else None."""
+    bad = {float(n0): int(k) for n0, k in unresolved.items() if k}
+    if not bad:
+        return None
+    where = ", ".join(f"{n0:.6g} N ({k})" for n0, k in sorted(bad.items()))
+    return (f"at preload(s) {where} the band's continuation took step(s) across a resonance "
+            "that could not be shortened to its half-power band: a peak may hide there "
+            "(its band peak, and so the optimum, may be too low)")
+
+
+def independence(study: Study, independent, spread) -> str | None:
+    """The warning for a search whose peak is the same at every preload of its grid
+    (`optimum.global_minimum`: relative spread below FLAT_SPREAD), else None."""
+    if not independent:
+        return None
+    return (f"the peak of {study.output.optimum['dof']} is the same at every preload of the "
+            f"search's grid (relative spread {float(spread):.3g}, below {FLAT_SPREAD:g}): it "
+            "does not depend on the preload, so no optimum preload is reported "
+            "(optimum_preload NaN)")
 
 
 def search_identity(study: Study) -> tuple:
