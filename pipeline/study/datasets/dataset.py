@@ -176,8 +176,10 @@ def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
     v["amplitude"][idx][:, :p] = a["amplitude"]
     v["harmonic_amplitude"][idx][:, :p, :, :h1] = a["harmonic_amplitude"]
     v["harmonic_amplitude"][idx][:, :p, :, h1:] = 0.0
-    v["peak_amplitude"][idx], v["peak_frequency"][idx] = _peak(
-        a["frequency"], a["amplitude"], a["converged"])
+    lo, hi = np.asarray(c.info.get("window", (-np.inf, np.inf))) / lay.to_unit  # the range's
+    v["peak_amplitude"][idx], v["peak_frequency"][idx] = _peak(  # peak: inside it only
+        a["frequency"], a["amplitude"], a["converged"] & (a["frequency"] >= lo)
+        & (a["frequency"] <= hi))
     for w, (lo, hi) in enumerate(windows):
         inside = a["converged"] & (a["frequency"] >= lo) & (a["frequency"] <= hi)
         v["window_peak_amplitude"][idx][:, w], v["window_peak_frequency"][idx][:, w] = _peak(

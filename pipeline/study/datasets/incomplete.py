@@ -14,7 +14,8 @@ import re
 
 import numpy as np
 
-PEAK_NAME = ("largest amplitude over converged points (the peak of the frequency interval "
+PEAK_NAME = ("largest amplitude over the converged points inside the frequency interval "
+             "(a branch followed beyond it: not its points outside; the peak of the interval "
              "only where peak_complete = 1)")
 # (dims after the sweep axes, units, long_name) of the per-case flags (`dataset`)
 CASE_FLAGS = {
@@ -151,19 +152,24 @@ def window_edges(study, ds) -> list:
     return out
 
 
-HIDDEN = "a peak may hide there"   # the end of a curve's note on unresolved resonance steps
+# the ends of a curve's notes on steps across a resonance not resolved (`response`) and
+# on a largest amplitude traced outside the range (`window`)
+NOTES = ("a peak may hide there", "lies outside the range: not its peak")
 
 
-def hidden_peaks(study, ds) -> list:
+def hidden_peaks(study, ds, named=()) -> list:
     """[({axis: value}, what)] of every case whose message notes steps across a
-    resonance that could not be shortened to its half-power band (`response`: a
-    peak may hide between two points), in the study's words."""
+    resonance that could not be shortened to its half-power band (a peak may hide
+    between two points), or a largest amplitude traced outside the range (the branch
+    followed beyond it; not for the cases in `named`, whose largest amplitude at the
+    range's end is said already: `edge_peaks`), in the study's words."""
     if ds is None or "message" not in ds:
         return []
     out = []
     for idx, case in study.sweep.cases():
-        notes = [n.strip() for n in str(ds["message"].values[idx]).split(";") if HIDDEN in n]
-        out += [(case, notes[0])] if notes else []
+        words = NOTES[:1] if case in named else NOTES
+        out += [(case, n.strip()) for n in str(ds["message"].values[idx]).split(";")
+                if any(w in n for w in words)]
     return out
 
 

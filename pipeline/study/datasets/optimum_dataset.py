@@ -47,6 +47,11 @@ def add_optimum(data_vars, coords, opt, study, to_unit, unit):
         "units": "1", "long_name": "steps of that preload's band evaluation across a "
                                    "resonance that could not be shortened to its half-power "
                                    "band: a peak may hide there (0: none)"})
+    data_vars["optimum_search_outside_peak"] = ((dim,), np.isin(ev[:, 0], np.asarray(
+        opt.get("outside", []), dtype=float)).astype(np.int8), {
+        "units": "1", "long_name": "1: that band evaluation's largest amplitude traced lies "
+                                   "outside the window (its branch followed beyond it); "
+                                   "optimum_search_peak is the largest inside"})
     data_vars["optimum_search_wall_time"] = ((), float(opt.get("wall_time", np.nan)), {
         "units": "s", "long_name": "wall time of the optimum search"})
 

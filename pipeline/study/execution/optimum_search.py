@@ -139,11 +139,27 @@ def window_end(study: Study, peak_omega: float) -> str | None:
 def search_warnings(study: Study, res: dict) -> list:
     """The end-of-search warnings of `optimise` (`find_optimum`'s result): a peak that
     does not depend on the preload, else an optimum whose largest amplitude lies at an
-    end of the window."""
-    what = (independence(study, res.get("independent"), res.get("spread"))
-            or window_end(study, res["peak_omega"]))
-    hidden = hidden_search_peaks(res.get("unresolved", {}))
-    return ([what] if what else []) + ([hidden] if hidden else [])
+    end of the window; band evaluations with steps across a resonance not resolved;
+    unless the optimum lies at the window's end (said already), those whose largest
+    amplitude traced lies outside the window."""
+    end = window_end(study, res["peak_omega"])
+    what = independence(study, res.get("independent"), res.get("spread")) or end
+    more = [hidden_search_peaks(res.get("unresolved", {})),
+            None if end else outside_search_peaks(study, res.get("outside", []))]
+    return [w for w in [what] + more if w]
+
+
+def outside_search_peaks(study: Study, preloads) -> str | None:
+    """The warning for the band evaluations at `preloads` [N] whose largest amplitude
+    traced lies outside the window (their band peak is the largest inside), else None."""
+    if not len(preloads):
+        return None
+    window = study.output.optimum["window"] or study.sweep.frequency
+    lo, hi = sorted((window.start, window.stop))
+    return (f"at preload(s) {', '.join(f'{float(n0):.6g} N' for n0 in preloads)} the largest "
+            f"amplitude traced lies outside the window {lo:g}-{hi:g} {window.unit} (the "
+            "branch followed beyond it): the band peak there is the largest inside the "
+            "window, not that resonance")
 
 
 def hidden_search_peaks(unresolved: dict) -> str | None:
