@@ -240,18 +240,11 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
     values = [peak_at(n0) for n0 in nodes]
     reused.difference_update(todo)      # evaluated here, not known before
     spread = relative_spread(values)
-    if spread < FLAT_SPREAD:            # no basin to refine: the peak ignores the preload
-        logger.info("optimum search: the peak is the same at every preload of the grid "
-                    "(relative spread %.3g): it does not depend on the preload", spread)
-        res = _result(memo, lmemo, (lo, hi), grid=[float(x) for x in nodes], verified=[],
-                      brackets=[], skipped=[], computed=computed[0], reused=len(reused),
-                      independent=True, spread=spread)
-        res["preload"], (res["peak"], res["peak_omega"]) = np.nan, memo[float(nodes[0])]
-        return res
+    independent = spread < FLAT_SPREAD  # no basin to refine: the peak ignores the preload
     t = [to_t(n0) for n0 in nodes]
     xatol = (rtol if log else rtol * hi) / REFINE
     brackets, skipped = [], []
-    for i in sorted(local_minima(values), key=lambda i: values[i]):
+    for i in [] if independent else sorted(local_minima(values), key=lambda i: values[i]):
         a, b = t[max(i - 1, 0)], t[min(i + 1, len(t) - 1)]
         brackets.append((to_n0(a), float(nodes[i]), to_n0(b)))
         best = min(p for p, _ in memo.values())
@@ -265,9 +258,12 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
             verified.append(refine_bracket(peak_at, local, memo, lmemo, to_n0, to_t,
                                            (a, b), xatol, inner, verify_rel, (lo, hi)))
         logger.debug("optimum search: bracket [%.6g, %.6g] N refined", to_n0(a), to_n0(b))
-    return _result(memo, lmemo, (lo, hi), grid=[float(x) for x in nodes], verified=verified,
-                   brackets=brackets, skipped=skipped, computed=computed[0],
-                   reused=len(reused), independent=False, spread=spread)
+    res = _result(memo, lmemo, (lo, hi), grid=[float(x) for x in nodes], verified=verified,
+                  brackets=brackets, skipped=skipped, computed=computed[0],
+                  reused=len(reused), independent=independent, spread=spread)
+    if independent:      # the value at every preload, no optimum
+        res["preload"], (res["peak"], res["peak_omega"]) = np.nan, memo[float(nodes[0])]
+    return res
 
 
 def relative_spread(values) -> float:

@@ -4,8 +4,6 @@ fold outside the window, against the closed form of the one-harmonic balance and
 sweep over a range that holds the whole resonance; peaks read inside the window only;
 the optimum preload searched on such a branch."""
 import re
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,8 +16,8 @@ from pipeline.solve.response.peak_tracking import band_peak, optimum_preload
 from pipeline.solve.response.response import frequency_response
 from pipeline.solve.response.window import rising_ends
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "contact"))
-from test_cubic_spring import BETA, F, c, duffing, k, m  # noqa: E402
+m, c, k, k3, F = 1.0, 0.05, 1.0, 0.5, 0.1
+BETA = 0.75 * k3
 
 # m x'' + c x' + k x + k3 x^3 = F cos(W t) (m = 1 kg, c = 0.05 N s/m, k = 1 N/m,
 # k3 = 0.5 N/m^3, F = 0.1 N): its folds at 1.1337 and 1.3505 rad/s.  In the window
@@ -61,15 +59,21 @@ def test_a_resonance_behind_a_fold_outside_the_window_is_found(start, end, keep)
         assert cur.omega.min() < 1.14 and cur.omega.max() == WINDOW[1]
 
 
-def jenkins_duffing(n0):
-    """The Duffing oscillator with a friction damper to ground (ku = 0.2 N/m, mu = 1,
-    normal load n0 [N]): the more n0, the more it sticks (stiffer, less damped)."""
+def jenkins_duffing(n0, ku=0.2):
+    """The Duffing oscillator with a friction damper to ground (ku [N/m], mu = 1,
+    normal load n0 [N]): the more n0, the more it sticks (stiffer, less damped);
+    ku = 0: no damper (its element has no stiffness, and no normal load)."""
     return System(M=np.array([[m]]), C=np.array([[c]]), K=np.array([[k]]),
                   Bt=np.ones((1, 1)), Bn=np.zeros((1, 1)),
-                  contact=YangMenq(ku=np.array([0.2]), kv=np.zeros(1), mu=np.ones(1),
+                  contact=YangMenq(ku=np.array([ku]), kv=np.zeros(1), mu=np.ones(1),
                                    n0=np.array([float(n0)])),
                   forcing=np.array([[0.0, F]], complex),
-                  laws=(LawElements(CubicSpring(k3=[0.5], k1=[0.0]), (np.ones((1, 1)),)),))
+                  laws=(LawElements(CubicSpring(k3=[k3], k1=[0.0]), (np.ones((1, 1)),)),))
+
+
+def duffing():
+    """The Duffing oscillator alone (`jenkins_duffing` without the damper)."""
+    return jenkins_duffing(0.0, ku=0.0)
 
 
 def wide_peak(n0):
