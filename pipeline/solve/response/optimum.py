@@ -205,9 +205,8 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
     evaluation failed), local (the preloads among them valued by `local` alone),
     verified [(n0, local, full)] (each bracket's check), grid (the nodes), brackets
     [(low, node, high)] [N], skipped (the brackets not refined: SKIP_REL), computed
-    (new evaluations), reused, success (some evaluation finite), spread (the grid
-    values' `relative_spread`), independent (spread below FLAT_SPREAD: no optimum,
-    preload NaN; module docstring)."""
+    (new evaluations), reused, success (some evaluation finite), spread (the grid's
+    `relative_spread`), independent (below FLAT_SPREAD: preload NaN, module docstring)."""
     lo, hi = float(bounds[0]), float(bounds[1])
     memo = {float(k): (float(p), float(o)) for k, (p, o) in dict(known or {}).items()}
     lmemo = {}        # n0 -> (peak, omega) by `local` (lower bounds)
@@ -239,12 +238,11 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
         evaluate_many(todo, record)
     values = [peak_at(n0) for n0 in nodes]
     reused.difference_update(todo)      # evaluated here, not known before
-    spread = relative_spread(values)
-    independent = spread < FLAT_SPREAD  # no basin to refine: the peak ignores the preload
+    spread = relative_spread(values)   # below FLAT_SPREAD: no basin, the peak ignores n0
     t = [to_t(n0) for n0 in nodes]
     xatol = (rtol if log else rtol * hi) / REFINE
     brackets, skipped = [], []
-    for i in [] if independent else sorted(local_minima(values), key=lambda i: values[i]):
+    for i in sorted(local_minima(values) if spread >= FLAT_SPREAD else [], key=values.__getitem__):
         a, b = t[max(i - 1, 0)], t[min(i + 1, len(t) - 1)]
         brackets.append((to_n0(a), float(nodes[i]), to_n0(b)))
         best = min(p for p, _ in memo.values())
@@ -258,12 +256,9 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
             verified.append(refine_bracket(peak_at, local, memo, lmemo, to_n0, to_t,
                                            (a, b), xatol, inner, verify_rel, (lo, hi)))
         logger.debug("optimum search: bracket [%.6g, %.6g] N refined", to_n0(a), to_n0(b))
-    res = _result(memo, lmemo, (lo, hi), grid=[float(x) for x in nodes], verified=verified,
-                  brackets=brackets, skipped=skipped, computed=computed[0],
-                  reused=len(reused), independent=independent, spread=spread)
-    if independent:      # the value at every preload, no optimum
-        res["preload"], (res["peak"], res["peak_omega"]) = np.nan, memo[float(nodes[0])]
-    return res
+    return _result(memo, lmemo, (lo, hi), grid=[float(x) for x in nodes], verified=verified,
+                   brackets=brackets, skipped=skipped, computed=computed[0],
+                   reused=len(reused), independent=spread < FLAT_SPREAD, spread=spread)
 
 
 def relative_spread(values) -> float:
@@ -278,7 +273,8 @@ def relative_spread(values) -> float:
 
 def _result(memo, lmemo, bounds, **more) -> dict:
     """`global_minimum`'s dict: the evaluations within `bounds` (full and local values
-    merged, full ones first), the best full value, and `more`."""
+    merged, full ones first), the best full value (preload NaN where `more` says the
+    peak is independent of it), and `more`."""
     lo, hi = bounds
     merged = {**{k: v for k, v in lmemo.items() if k not in memo}, **memo}
     evaluations = sorted((n0, (p if np.isfinite(p) else np.nan), om)
@@ -286,6 +282,8 @@ def _result(memo, lmemo, bounds, **more) -> dict:
     # candidates: full values only (a local value is a lower bound, checked where it won)
     finite = [e for e in evaluations if np.isfinite(e[1]) and e[0] in memo]
     best = min(finite, key=lambda e: e[1]) if finite else (np.nan, np.nan, np.nan)
+    if more.get("independent"):    # the value at every preload (the first node's): no optimum
+        best = (np.nan, *memo[more["grid"][0]])
     return {"preload": best[0], "peak": best[1], "peak_omega": best[2],
             "evaluations": evaluations,
             "local": sorted(k for k in lmemo if k not in memo and lo <= k <= hi),
