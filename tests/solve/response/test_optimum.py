@@ -404,7 +404,12 @@ def test_a_peak_the_same_at_every_preload_has_no_optimum(wiggle, independent):
     assert res["spread"] == pytest.approx(wiggle * math.log(100.0) / (1 + wiggle * math.log(100.0)),
                                           abs=1e-15)
     if independent:
+        from pipeline.study.figures.optimum_figure import optimum_plot
+
         assert math.isnan(res["preload"]) and res["brackets"] == []
         assert res["computed"] == len(res["grid"]) and res["peak"] == pytest.approx(2.0e-5)
+        labels = [t.get_text() for t in optimum_plot(res, "x").axes[0].get_legend().get_texts()]
+        assert "no optimum: the peak does not depend on the preload" in labels
+        assert not any(lb.startswith("optimum ") for lb in labels)   # no star
     else:
         assert res["preload"] == 1.0
