@@ -13,9 +13,9 @@ DOF of `dofs` has its largest in-window amplitude at the in-window point next to
 end (the amplitude still rising out of the window), with the resonance guard and the
 caller's callback, until
 
-- it has left the window, moves away from it and every DOF's amplitude falls (a
-  local maximum outside the window is enclosed: the branch does not come back
-  within that rise), or
+- it has left the window, moves away from it and the amplitude of every DOF that
+  rose out of the window falls (a local maximum outside the window is enclosed: the
+  branch does not come back within that rise), or
 - it leaves [lo - FAR (hi - lo), hi + FAR (hi - lo)] (frequencies kept positive), or
   the continuation stops (max_points, a step below ds_min, the callback);
 
@@ -42,20 +42,21 @@ OUTSIDE = "lies outside the range: not its peak"   # the message's words for tha
 RISE_REL = 1e-9    # an end amplitude this close (relative) to the window's largest is it
 
 
-def rising_ends(lam, A, converged, window) -> list:
-    """The branch's ends ("first", "last") at which some column of A (P, D) has its
-    largest converged in-window value at the in-window point next to that end, above
-    its in-window neighbour (rising out of the window)."""
+def rising_ends(lam, A, converged, window) -> dict:
+    """{end: DOF mask} of the branch's ends ("first", "last") at which some column of
+    A (P, D) has its largest converged in-window value at the in-window point next to
+    that end, above its in-window neighbour (rising out of the window); the mask
+    (D,) marks those columns."""
     lo, hi = window
     inside = np.flatnonzero(converged & (lam >= lo) & (lam <= hi))
     if inside.size < 2:
-        return []
-    out = []
+        return {}
+    top = A[inside].max(axis=0)
+    out = {}
     for end, (k, nb) in (("first", inside[:2]), ("last", inside[::-1][:2])):
-        a = A[inside]
-        top = a.max(axis=0)
-        if np.any((top > 0) & (A[k] >= top * (1 - RISE_REL)) & (A[k] > A[nb])):
-            out.append(end)
+        rising = (top > 0) & (A[k] >= top * (1 - RISE_REL)) & (A[k] > A[nb])
+        if rising.any():
+            out[end] = rising
     return out
 
 
@@ -66,8 +67,11 @@ def follow_out(fp, br, window, dofs, callback=None, **kw):
     continuation options (ds, ds_max, max_points, segment_check)."""
     lo, hi = window
     notes = []
-    for end in rising_ends(br.lam, amplitudes_at(fp.prob, br.x, br.lam, dofs), br.converged,
-                           window):
+    for end in ("first", "last"):   # each end decided on the branch as it is by then
+        A = amplitudes_at(fp.prob, br.x, br.lam, dofs)
+        rising = rising_ends(br.lam, A, br.converged, window).get(end)
+        if rising is None:
+            continue
         last = end == "last"
         x0, lam0 = (br.x[-1], br.lam[-1]) if last else (br.x[0], br.lam[0])
         t_out = br.tangent[-1] if last else -br.tangent[0]
@@ -78,7 +82,7 @@ def follow_out(fp, br, window, dofs, callback=None, **kw):
         direction = int(np.sign(t_out[-1] * (far - lam0)))
         if direction == 0:
             continue
-        stop = ExcursionStop(fp.prob, dofs, window, callback)
+        stop = ExcursionStop(fp.prob, [d for d, r in zip(dofs, rising) if r], window, callback)
         ext = continue_branch(fp.fun, x0, lam0, far, tol=1.0, groups=fp.groups,
                               lam_back=back, tangent=t_out, direction=direction,
                               callback=stop, **kw)
@@ -90,10 +94,10 @@ def follow_out(fp, br, window, dofs, callback=None, **kw):
             parts = ([br, piece(ext, drop_first=True)] if last
                      else [piece(ext, reverse=True), piece(br, drop_first=True)])
             br = join(parts, br.message, br.success, br.status)
-        top = amplitudes_at(fp.prob, br.x, br.lam, dofs)[(br.lam >= lo) & (br.lam <= hi)]
+        top = amplitudes_at(fp.prob, br.x, br.lam, stop.dofs)[(br.lam >= lo) & (br.lam <= hi)]
         if np.any(stop.outside[0] > top.max(axis=0)):
             k = int(np.argmax(stop.outside[0] - top.max(axis=0)))
-            notes.append(f"the largest amplitude traced of model DOF {dofs[k]}, "
+            notes.append(f"the largest amplitude traced of model DOF {stop.dofs[k]}, "
                          f"{stop.outside[0][k]:.6g} m at lam = {stop.outside[1][k]:.6g}, "
                          f"{OUTSIDE}")
     return br, notes

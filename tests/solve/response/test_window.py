@@ -121,9 +121,11 @@ def test_rising_ends_are_where_the_windows_largest_amplitude_meets_its_edge():
     lam = np.array([0.9, 1.0, 1.5, 2.0, 2.1])
     conv = np.ones(5, bool)
     A = np.array([[5.0, 0.0], [3.0, 0.0], [2.0, 0.0], [1.0, 0.0], [9.0, 0.0]])
-    assert rising_ends(lam, A, conv, (1.0, 2.0)) == ["first"]
+    ends = rising_ends(lam, A, conv, (1.0, 2.0))
+    assert list(ends) == ["first"] and ends["first"].tolist() == [True, False]
     A[:, 1] = [0.0, 1.0, 2.0, 4.0, 0.0]
-    assert rising_ends(lam, A, conv, (1.0, 2.0)) == ["first", "last"]
+    ends = rising_ends(lam, A, conv, (1.0, 2.0))
+    assert list(ends) == ["first", "last"] and ends["last"].tolist() == [False, True]
     A[:, 0] = [0.0, 1.0, 3.0, 1.0, 0.0]
     A[:, 1] = 0.0   # a peak inside, a DOF that never moves: no end
-    assert rising_ends(lam, A, conv, (1.0, 2.0)) == []
+    assert rising_ends(lam, A, conv, (1.0, 2.0)) == {}
