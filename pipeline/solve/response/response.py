@@ -22,7 +22,7 @@ from ..continuation.pseudo_arclength import continue_branch
 from ...fourier.harmonics import amplitude_half_peak_to_peak
 from ..continuation.newton import newton, scale_rows
 from .resonance import MAX_DENSE_DOF, step_guard
-from .window import follow_out, peak_points, windowed
+from .window import edge_points, follow_out, peak_points, windowed
 from ..continuation.restarts import cover_range
 from ..stability.branch_stability import branch_stability
 from ..stability.methods import stability_mode
@@ -168,7 +168,7 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     dofs = list(peak_dofs if peak_dofs is not None else range(system.n_dof))
     window = (min(omega_start, omega_end), max(omega_start, omega_end))
     br, notes = follow_out(fp, br, window, dofs, **kw) if br.success else (br, [])
-    pts = branch_points(br)
+    pts = edge_points(fp, branch_points(br), window)
     if axes:
         pts = densify(prob, pts, fun, tol, dofs, axes=axes)
     pts = insert_peaks(prob, pts, fun, tol, elem, dofs, largest=keep == "peaks", window=window)

@@ -34,6 +34,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..continuation.amplitudes import amplitudes_at
+from ..continuation.newton import linear_solve, newton
 from ..continuation.pseudo_arclength import continue_branch
 from ..continuation.restarts import join, piece
 
@@ -200,3 +201,44 @@ def windowed(curve, window, dofs, notes):
     message = "; ".join([curve.message] + notes + ([] if said else out[:1]))
     return replace(curve, message=message, info={**curve.info, "window": (lo, hi),
                                                   "outside_peak": said or bool(out)})
+
+
+def edge_points(fp, pts, window) -> dict:
+    """The branch points `pts` (`response.branch_points`) with a point exactly on each
+    edge of `window` that the branch crosses between two of them (one inside, one
+    outside): Newton at lam = edge from the chord's crossing, its tangent the null
+    vector of [dR/dx, dR/dlam] oriented along the branch.  The largest amplitude of a
+    branch that rises out of the window is then its value at the edge, not at the last
+    point before it.  A crossing whose Newton fails is left as it was."""
+    L, X = pts["lam"], pts["x"]
+    add = []
+    for i in range(L.size - 1):
+        for edge in window:
+            if (L[i] - edge) * (L[i + 1] - edge) >= 0:
+                continue   # no crossing, or a point already on the edge
+            u = (edge - L[i]) / (L[i + 1] - L[i])
+            nr = newton(lambda y: fp.fun(y, edge)[:2], X[i] + u * (X[i + 1] - X[i]), 1.0,
+                        max_iter=20)
+            if nr.success:
+                add.append((i + u, nr, edge))
+    if not add:
+        return pts
+    keys = ("x", "lam", "nit", "converged", "tangent")
+    out = {**pts, **{k: list(pts[k]) for k in keys}}
+    for pos, nr, edge in sorted(add, key=lambda a: -a[0]):   # from the end: indices hold
+        k = int(pos) + 1
+        _, Jx, Jl = fp.fun(nr.x, edge)
+        try:
+            t = np.append(-linear_solve(Jx, Jl), 1.0)
+        except (np.linalg.LinAlgError, RuntimeError):   # a fold on the edge: left out
+            continue
+        ref = np.asarray(pts["tangent"][k - 1])
+        t = t * np.sign(t @ ref) * np.linalg.norm(ref / pts["scale"]) / np.linalg.norm(
+            t / pts["scale"])
+        for key, v in (("x", nr.x), ("lam", edge), ("nit", nr.nit), ("converged", True),
+                       ("tangent", t)):
+            out[key].insert(k, v)
+    for key, dtype in (("x", float), ("lam", float), ("nit", int), ("converged", bool)):
+        out[key] = np.array(out[key], dtype)
+    out["extra_nfev"] = pts["extra_nfev"] + sum(nr.nfev + 1 for _, nr, _ in add)
+    return out

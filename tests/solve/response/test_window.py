@@ -59,6 +59,33 @@ def test_a_resonance_behind_a_fold_outside_the_window_is_found(start, end, keep)
         assert cur.omega.min() < 1.14 and cur.omega.max() == WINDOW[1]
 
 
+def upper_sheet(W):
+    """The largest amplitude a [m] of the one-harmonic balance at W [rad/s]: the
+    largest real root s = a^2 of G, a cubic in s."""
+    d = k - m * W**2
+    s_roots = np.roots([BETA**2, 2 * BETA * d, d * d + (c * W) ** 2, -F**2])
+    return float(np.sqrt(max(r.real for r in s_roots if abs(r.imag) < 1e-12)))
+
+
+@pytest.mark.parametrize("keep", ["curve", "peaks"])
+def test_a_peak_beyond_the_window_is_never_its_peak(keep):
+    """1.3 down to 1.0 rad/s: the branch from 1.3 (on the lower sheet) folds at 1.1337,
+    climbs the middle sheet past 1.3 to the fold at 1.3505 (the resonance, 1.4815 m,
+    outside the window) and comes back on the upper sheet.  Before, 1.4815 m at
+    1.3497 rad/s was reported as the window's peak; now its peak is the upper sheet's
+    amplitude on the window's edge, 1.3 rad/s (closed form), and the message says
+    where the larger one lies."""
+    cur = frequency_response(duffing(), 1, 1.3, 1.0, stability=False, tol_rel=1e-12,
+                             keep=keep)
+    a, W, _ = cur.peak(0)
+    assert cur.success and W == 1.3
+    assert a == pytest.approx(upper_sheet(1.3), rel=1e-9)
+    said = re.search(r"the largest amplitude traced of model DOF 0, ([0-9.]+) m at lam = "
+                     r"([0-9.]+), lies outside the range", cur.message)
+    assert float(said.group(1)) == pytest.approx(closed_form_peak()[0], rel=1e-3)
+    assert 1.3 < float(said.group(2)) < 1.3506
+
+
 def jenkins_duffing(n0, ku=0.2):
     """The Duffing oscillator with a friction damper to ground (ku [N/m], mu = 1,
     normal load n0 [N]): the more n0, the more it sticks (stiffer, less damped);
