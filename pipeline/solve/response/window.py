@@ -16,16 +16,20 @@ caller's callback, until
 - it has left the window, moves away from it and the amplitude of every DOF that
   rose out of the window falls (a local maximum outside the window is enclosed: the
   branch does not come back within that rise), or
-- it leaves [lo - FAR (hi - lo), hi + FAR (hi - lo)] (frequencies kept positive), or
+- it leaves [max(lo - FAR (hi - lo), lo / 2), hi + FAR (hi - lo)], or
   the continuation stops (max_points, a step below ds_min, the callback);
 
 where it comes back into the window it is followed through it like any branch.  The
 excursion up to its last point inside the window is joined to the branch (in order
 along it; the tail that left for good is not kept: it may climb an undamped resonance
-outside, whose points the residual's round-off floor decides); peaks are read inside
-the window only
-(`ResponseCurve.peak`, `insert_peaks(window=...)`), and a largest amplitude traced
-outside the window, above the window's, is said in the curve's message.
+outside, whose points the residual's round-off floor decides).  Every crossing of a
+window edge between two points gets a point exactly on the edge (`edge_points`).
+Peaks are read inside the window only (`ResponseCurve.peak`,
+`insert_peaks(window=...)`), and a largest amplitude traced outside the window, above
+the window's, is said in the curve's message.
+
+Not found: a resonance on a sheet that the branch does not reach within that reach
+(an isola), or one behind a branch that leaves the window falling.
 """
 from __future__ import annotations
 
