@@ -167,8 +167,11 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
                             **kw)
     dofs = list(peak_dofs if peak_dofs is not None else range(system.n_dof))
     window = (min(omega_start, omega_end), max(omega_start, omega_end))
-    br, notes = follow_out(fp, br, window, dofs, **kw) if br.success else (br, [])
-    pts = edge_points(fp, branch_points(br), window)
+    br, notes, A = follow_out(fp, br, window, dofs, **kw) if br.success else (br, [], None)
+    pts = branch_points(br)
+    if A is not None:   # read by `insert_peaks` (not drawn again)
+        pts["amplitude"], pts["amplitude_dofs"] = A, dofs
+    pts = edge_points(fp, pts, window)
     if axes:
         pts = densify(prob, pts, fun, tol, dofs, axes=axes)
     pts = insert_peaks(prob, pts, fun, tol, elem, dofs, largest=keep == "peaks", window=window)

@@ -69,11 +69,12 @@ def follow_out(fp, br, window, dofs, callback=None, **kw):
     """The Branch `br` (covering `window` [rad/s]) with its excursions beyond the ends
     where the amplitude of a DOF of `dofs` rises out of the window (module
     docstring), and the notes [text] of what each excursion found.  `kw`: the
-    continuation options (ds, ds_max, max_points, segment_check)."""
+    continuation options (ds, ds_max, max_points, segment_check).  Also returns the
+    amplitudes (P, D) of `dofs` at the returned branch's points."""
     lo, hi = window
     notes = []
+    A = amplitudes_at(fp.prob, br.x, br.lam, dofs)
     for end in ("first", "last"):   # each end decided on the branch as it is by then
-        A = amplitudes_at(fp.prob, br.x, br.lam, dofs)
         rising = rising_ends(br.lam, A, br.converged, window).get(end)
         if rising is None:
             continue
@@ -99,13 +100,14 @@ def follow_out(fp, br, window, dofs, callback=None, **kw):
             parts = ([br, piece(ext, drop_first=True)] if last
                      else [piece(ext, reverse=True), piece(br, drop_first=True)])
             br = join(parts, br.message, br.success, br.status)
-        top = amplitudes_at(fp.prob, br.x, br.lam, stop.dofs)[(br.lam >= lo) & (br.lam <= hi)]
-        if np.any(stop.outside[0] > top.max(axis=0)):
-            k = int(np.argmax(stop.outside[0] - top.max(axis=0)))
+            A = amplitudes_at(fp.prob, br.x, br.lam, dofs)
+        top = A[(br.lam >= lo) & (br.lam <= hi)][:, rising].max(axis=0)
+        if np.any(stop.outside[0] > top):
+            k = int(np.argmax(stop.outside[0] - top))
             notes.append(f"the largest amplitude traced of model DOF {stop.dofs[k]}, "
                          f"{stop.outside[0][k]:.6g} m at lam = {stop.outside[1][k]:.6g}, "
                          f"{OUTSIDE}")
-    return br, notes
+    return br, notes, A
 
 
 def until_back(br, window):
@@ -229,6 +231,7 @@ def edge_points(fp, pts, window) -> dict:
         return pts
     keys = ("x", "lam", "nit", "converged", "tangent")
     out = {**pts, **{k: list(pts[k]) for k in keys}}
+    out.pop("amplitude", None)   # drawn at the points before
     for pos, nr, edge in sorted(add, key=lambda a: -a[0]):   # from the end: indices hold
         k = int(pos) + 1
         _, Jx, Jl = fp.fun(nr.x, edge)
