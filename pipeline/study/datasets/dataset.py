@@ -325,6 +325,7 @@ def response_attrs(study: Study, lay: Layout) -> dict:
              "force_evaluation": sv.force_evaluation, "aft_samples": int(sv.samples),
              "tolerance": float(sv.tolerance), "frequency_unit": lay.unit,
              "quick": int(study.quick), **points_attrs(study.output),
+             "frequency_range": np.sort([study.sweep.frequency.start, study.sweep.frequency.stop]),
              **provenance("pipeline (harmonic balance with Yang-Menq contact, continuation, "
                           "Hill / Floquet stability)")}
     attrs.update(scene_attrs(scene))  # FE blade and disk scenes describe their model
