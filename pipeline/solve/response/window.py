@@ -128,20 +128,28 @@ def until_back(br, window):
 
 class ExcursionStop:
     """The callback of an excursion: True once the branch is outside the window,
-    moving away from it, with every DOF's amplitude below the largest it reached on
-    the excursion (or when the caller's callback asks)."""
+    moving away from it, with every watched DOF's amplitude below the largest it
+    reached on the excursion; or when the caller's callback asks, or raises at a
+    point outside the window (its check, e.g. an undeclared separation, is the
+    range's: the excursion stops there, and its tail is not kept)."""
 
     def __init__(self, prob, dofs, window, callback=None):
         self.prob, self.dofs, self.window, self.callback = prob, list(dofs), window, callback
         self.top = np.full(len(self.dofs), -np.inf)
-        self.prev, self.returned, self.fell = None, False, False
+        self.prev, self.returned, self.fell, self.refused = None, False, False, None
         # per DOF: the largest amplitude at a point outside the window, its lam
         self.outside = (np.full(len(self.dofs), -np.inf), np.full(len(self.dofs), np.nan))
 
     def __call__(self, x, lam):
-        if self.callback is not None and self.callback(x, lam):
-            return True
         lo, hi = self.window
+        try:
+            if self.callback is not None and self.callback(x, lam):
+                return True
+        except Exception as exc:   # e.g. a separation not declared: the range's concern
+            if lo <= lam <= hi:
+                raise
+            self.refused = str(exc)
+            return True
         a = amplitudes_at(self.prob, x[None], np.array([lam]), self.dofs)[0]
         falling = bool(np.all(a < self.top))
         self.top = np.maximum(self.top, a)
@@ -160,8 +168,9 @@ class ExcursionStop:
         how = ("came back into the range" if self.returned else "did not come back into "
                "the range")
         end = ("then fell away from it" if self.fell else
-               f"stopped at lam = {ext.lam[-1]:.6g} ({ext.message})")
-        return f"the branch rising out of the range at lam = {lam0:.6g} was followed: it {how}, {end}"
+               f"stopped at lam = {ext.lam[-1]:.6g} ({self.refused or ext.message})")
+        return (f"the branch rising out of the range at lam = {lam0:.6g} was followed: it "
+                f"{how}, {end}")
 
 
 def peak_points(prob, pts, dofs, window=(-np.inf, np.inf)) -> dict:

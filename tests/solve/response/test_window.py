@@ -156,3 +156,31 @@ def test_rising_ends_are_where_the_windows_largest_amplitude_meets_its_edge():
     A[:, 0] = [0.0, 1.0, 3.0, 1.0, 0.0]
     A[:, 1] = 0.0   # a peak inside, a DOF that never moves: no end
     assert rising_ends(lam, A, conv, (1.0, 2.0)) == {}
+
+
+def test_a_check_that_refuses_a_point_outside_the_window_stops_the_excursion_only():
+    """The caller's callback (e.g. the separation guard) raising at points below the
+    window: the excursion stops at its first point there (its tail not kept), the
+    curve over the window stands (the lower sheet's value at 1.25 rad/s, the closed
+    form's smallest root there), and a check raising inside the window still raises."""
+    def below(x, lam):
+        if lam < WINDOW[0]:
+            raise ValueError("refused below the window")
+        return False
+
+    cur = frequency_response(duffing(), 1, *WINDOW, stability=False, tol_rel=1e-12,
+                             callback=below)
+    assert cur.success and cur.omega.min() == WINDOW[0]
+    assert "stopped at lam = " in cur.message and "(refused below the window)" in cur.message
+    d = k - m * WINDOW[0] ** 2
+    s = np.roots([BETA**2, 2 * BETA * d, d * d + (c * WINDOW[0]) ** 2, -F**2])
+    lower = float(np.sqrt(min(r.real for r in s if abs(r.imag) < 1e-12)))
+    assert cur.peak(0)[:2] == (pytest.approx(lower, rel=1e-9), WINDOW[0])
+
+    def inside(x, lam):
+        if lam > 1.4:
+            raise ValueError("refused inside the window")
+        return False
+
+    with pytest.raises(ValueError, match="inside the window"):
+        frequency_response(duffing(), 1, *WINDOW, stability=False, callback=inside)
