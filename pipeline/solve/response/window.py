@@ -6,12 +6,14 @@ through the window's end leaves it, passes a fold outside and comes back in on
 another sheet with a larger amplitude (a Duffing oscillator whose lower fold lies
 below lo: from lo the branch runs on the lower sheet to hi, while the resonant sheet
 and its fold, the peak, lie inside the window).  Its sign: the largest amplitude
-inside the window lies where the branch meets its edge, still rising there.
+inside the window lies where the branch meets its edge, still rising there; more
+generally, the branch rises out of the window (a smaller resonance inside it may hide
+the larger one behind the edge).
 
-`follow_out` therefore continues the branch beyond each of its two ends at which a
-DOF of `dofs` has its largest in-window amplitude at the in-window point next to that
-end (the amplitude still rising out of the window), with the resonance guard and the
-caller's callback, until
+`follow_out` therefore continues the branch beyond each of its two ends at which the
+amplitude of a DOF of `dofs` rises out of the window (at least RISE_SHARE of its
+largest in-window amplitude), with the resonance guard and the caller's callback,
+until
 
 - it has left the window, moves away from it and the amplitude of every DOF that
   rose out of the window falls (a local maximum outside the window is enclosed: the
@@ -44,14 +46,16 @@ from ..continuation.restarts import join, piece
 
 FAR = 1.0          # how far beyond the window (of its width) an excursion may go
 OUTSIDE = "lies outside the range: not its peak"   # the message's words for that
-RISE_REL = 1e-9    # an end amplitude this close (relative) to the window's largest is it
+RISE_SHARE = 0.05  # a rising end below this share of the window's largest: not followed
 
 
 def rising_ends(lam, A, converged, window) -> dict:
     """{end: DOF mask} of the branch's ends ("first", "last") at which some column of
-    A (P, D) has its largest converged in-window value at the in-window point next to
-    that end, above its in-window neighbour (rising out of the window); the mask
-    (D,) marks those columns."""
+    A (P, D) rises out of the window: its value at the in-window point next to that
+    end is above its in-window neighbour's and at least RISE_SHARE of its largest
+    converged in-window value (a smaller one could not hold the window's peak any
+    more than `insert_peaks` reads such a local maximum); the mask (D,) marks those
+    columns."""
     lo, hi = window
     inside = np.flatnonzero(converged & (lam >= lo) & (lam <= hi))
     if inside.size < 2:
@@ -59,7 +63,7 @@ def rising_ends(lam, A, converged, window) -> dict:
     top = A[inside].max(axis=0)
     out = {}
     for end, (k, nb) in (("first", inside[:2]), ("last", inside[::-1][:2])):
-        rising = (top > 0) & (A[k] >= top * (1 - RISE_REL)) & (A[k] > A[nb])
+        rising = (top > 0) & (A[k] >= RISE_SHARE * top) & (A[k] > A[nb])
         if rising.any():
             out[end] = rising
     return out

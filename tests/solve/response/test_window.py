@@ -156,6 +156,14 @@ def test_rising_ends_are_where_the_windows_largest_amplitude_meets_its_edge():
     A[:, 0] = [0.0, 1.0, 3.0, 1.0, 0.0]
     A[:, 1] = 0.0   # a peak inside, a DOF that never moves: no end
     assert rising_ends(lam, A, conv, (1.0, 2.0)) == {}
+    # a peak inside, and the branch rising out at 1.0 below it: followed there (a larger
+    # resonance may lie behind that edge), unless under 5 % of the peak
+    lam = np.array([1.0, 1.2, 1.5, 1.8, 2.0])
+    ends = rising_ends(lam, np.array([[1.0, 0.8, 3.0, 0.8, 0.5]]).T, np.ones(5, bool),
+                       (1.0, 2.0))
+    assert list(ends) == ["first"]
+    assert rising_ends(lam, np.array([[0.1, 0.08, 3.0, 0.8, 0.5]]).T, np.ones(5, bool),
+                       (1.0, 2.0)) == {}
 
 
 def test_a_check_that_refuses_a_point_outside_the_window_stops_the_excursion_only():
