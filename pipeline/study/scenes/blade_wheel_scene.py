@@ -168,6 +168,17 @@ def check_interference(ck, contacts, axes, wpath):
             ck.fail(f"{f}.kv", "an interference needs a normal stiffness kv > 0 [N/m] to press")
 
 
+def check_interference_search(ck, contacts, optimum):
+    """An optimum-preload search varies n0, which an interference fixes (n0 = kv x
+    interference, the blades' closure): every trial preload would give the same
+    response, so the search is refused."""
+    pressed = [i for i, c in enumerate(contacts) if getattr(c, "interference", None) is not None]
+    if optimum is not None and pressed:
+        ck.fail("output.optimum_preload", f"searches the preload n0, but "
+                f"scene.contact[{pressed[0]}].interference sets it (n0 = kv x interference): "
+                "the response does not depend on the searched preload; remove one of the two")
+
+
 def check_disk_contacts(ck, contacts, placement):
     """Shroud pairs need a disk, and a disk of FE blades needs a shroud pair (checked
     before the blade is built)."""
