@@ -66,7 +66,13 @@ class RotationTerms:
     limit: float | None = None
 
     def speed_stiffness(self, omega: float) -> sp.csr_matrix:
-        """K(Omega) - K (n, n) [N/m] at the speed `omega` [rad/s]."""
+        """K(Omega) - K (n, n) [N/m] at the speed `omega` [rad/s]; ValueError beyond
+        `limit` (a fit is not extrapolated)."""
+        if self.limit is not None and omega > self.limit * (1.0 + 1e-9):
+            raise ValueError(f"speed {omega * 30 / np.pi:g} rpm is beyond the highest speed of "
+                             f"the exported stiffness ({self.limit * 30 / np.pi:g} rpm): the fit "
+                             "K + Omega^2 K_1 + Omega^4 K_2 is not extrapolated; export K at "
+                             "the highest speed studied")
         s = omega * omega
         if self.deflected is None:
             return s * self.stiffness

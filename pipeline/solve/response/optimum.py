@@ -214,9 +214,7 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
     lo, hi = float(bounds[0]), float(bounds[1])
     memo = {float(k): (float(p), float(o)) for k, (p, o) in dict(known or {}).items()}
     kept = {float(k): (float(p), float(o)) for k, (p, o) in dict(replay or {}).items()}
-    lmemo = {}        # n0 -> (peak, omega) by `local` (lower bounds)
-    reused, verified = set(), []
-    computed = [0]
+    lmemo, reused, verified, computed = {}, set(), [], [0]   # lmemo: n0 -> `local`'s bound
 
     def record(n0, p, om):
         p, om = float(p), float(om)

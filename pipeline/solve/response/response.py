@@ -69,7 +69,7 @@ class ResponseCurve:
 
     def peak(self, dof: int):
         """(amplitude, omega, index) of the largest converged amplitude of a DOF inside
-        info["window"] (lo, hi) [rad/s] where given (a branch followed beyond it:
+        info["window"] [lo, hi] [rad/s] where given (a branch followed beyond it:
         `window.follow_out`): the peak of the range only if `success` (else the
         curve stopped short of it)."""
         w = self.info.get("window", (-np.inf, np.inf))

@@ -203,8 +203,8 @@ def peak_points(prob, pts, dofs, window=(-np.inf, np.inf)) -> dict:
 
 
 def windowed(curve, window, dofs, notes):
-    """The ResponseCurve with info["window"] (its peaks read inside it) and, in its
-    message, the excursions' `notes` and, where a DOF of `dofs` has its largest
+    """The ResponseCurve with info["window"] [lo, hi] (its peaks read inside it; a
+    list, as a checkpoint reads it back) and, in its message, the excursions' `notes` and, where a DOF of `dofs` has its largest
     converged amplitude outside the window, where that is (not the range's peak)."""
     lo, hi = window
     inside = (curve.omega >= lo) & (curve.omega <= hi)
@@ -218,7 +218,7 @@ def windowed(curve, window, dofs, notes):
                        f"{curve.omega[k]:.6g}, {OUTSIDE}")
     said = any(OUTSIDE in n for n in notes)
     message = "; ".join([curve.message] + notes + ([] if said else out[:1]))
-    return replace(curve, message=message, info={**curve.info, "window": (lo, hi),
+    return replace(curve, message=message, info={**curve.info, "window": [lo, hi],
                                                   "outside_peak": said or bool(out)})
 
 

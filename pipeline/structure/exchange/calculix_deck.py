@@ -23,7 +23,7 @@ from skfem import Basis, ElementHexS2, ElementTetP2, MeshHex
 from skfem.io.meshio import HEX_MAPPING
 
 from ..mesh_io import deck_lines
-from ..quadratic_cells import EDGES, HEX20_EDGES, TET10_EDGES, edge_index
+from ..quadratic_cells import HEX20_EDGES, TET10_EDGES, edge_index
 
 FIELD = 20        # characters CalculiX reads of a number
 

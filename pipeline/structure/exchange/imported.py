@@ -47,7 +47,8 @@ from ..fe_model import DENSITY_RANGE, REQUIRED_SETS, BladeModel
 from ..mesh_io import check_span, read_volume
 from ..rotation import centrifugal_load, fitted_terms
 from ..solid import solid_from_mesh
-from .calculix_deck import EDGES, edge_index, node_numbers
+from ..quadratic_cells import EDGES, edge_index
+from .calculix_deck import node_numbers
 from .matrix_files import (ExportedMatrices, read_abaqus, read_ansys, read_calculix,
                            read_matrix_market)
 

@@ -178,8 +178,8 @@ def hidden_peaks(study, ds, named=()) -> list:
     between two points), or a largest amplitude traced outside the range (the branch
     followed beyond it; not for the cases in `named`, whose largest amplitude at the
     range's end is said already: `edge_peaks`), in the study's words."""
-    if ds is None or "message" not in ds:
-        return []
+    if ds is None or "message" not in ds or getattr(study, "sweep", None) is None:
+        return []           # a response study's only (a Campbell study's messages are per speed)
     out = []
     for idx, case in study.sweep.cases():
         words = NOTES[:1] if case in named else NOTES

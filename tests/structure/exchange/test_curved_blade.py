@@ -17,8 +17,6 @@ package's K and M equal ccx's to 1e-10 (measured 1e-14); the package's own rule
 (intorder 4: exact mass on straight cells) differs from it by 0.8 % in K's largest
 entry and 1.1 % in the first eight frequencies on this blade."""
 import re
-import shutil
-import subprocess
 
 import numpy as np
 import pytest
@@ -30,9 +28,8 @@ from pipeline.structure.fe_model import BladeParams
 from pipeline.structure.mesh_io import read_volume
 from pipeline.structure.solid import assemble_elasticity, solid_from_mesh
 from helpers import frequencies
+from calculix import ccx, needs_ccx, turning_deck
 
-needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason=(
-    "CalculiX (ccx) is not installed: apt-get install calculix-ccx"))
 TITANIUM = BladeParams(E=1.1e11, nu=0.34, rho=4430.0)
 SPAN, HUB = 0.10, 0.25      # m
 
@@ -52,13 +49,6 @@ def curved_blade(tetra=False, n=(4, 1, 8)):
     X = np.array([xi * np.cos(g) - eta * np.sin(g), xi * np.sin(g) + eta * np.cos(g),
                   SPAN * s + 0.004 * np.sin(np.pi * a)])
     return type(q)(X, m.t), {"root": np.nonzero(m.p[2] < 1e-12)[0]}
-
-
-def ccx(folder, job):
-    run = subprocess.run(["ccx", "-i", job], cwd=folder, capture_output=True, text=True,
-                         timeout=300)
-    assert run.returncode == 0, run.stdout[-800:]
-    return (folder / f"{job}.dat").read_text() if (folder / f"{job}.dat").exists() else ""
 
 
 def exported(folder, tetra=False):
@@ -112,12 +102,7 @@ def perturbation_frequencies(folder, rpm, count=8):
     """CalculiX's frequencies [rad/s] of the blade deck turning at `rpm` about the axis
     parallel to X through (0, 0, -HUB): a linear CENTRIF static step, then
     *FREQUENCY, PERTURBATION."""
-    text = (folder / "blade.inp").read_text()
-    w2 = (rpm * np.pi / 30) ** 2
-    (folder / "spin.inp").write_text(text[:text.index("*STEP")] + "\n".join([
-        "*STEP", "*STATIC", "*DLOAD", f"EALL, CENTRIF, {w2:.17g}, 0., 0., {-HUB}, 1., 0., 0.",
-        "*END STEP", "*STEP, PERTURBATION", "*FREQUENCY", str(count), "*END STEP", ""]))
-    dat = ccx(folder, "spin")
+    dat = turning_deck(folder, "spin", rpm, HUB, ("*FREQUENCY", str(count)))
     table = dat[dat.index("E I G E N V A L U E   O U T P U T"):]
     rows = re.findall(r"^\s+\d+\s+(\S+)\s+(\S+)\s+\S+\s+\S+\s*$", table, re.M)
     return np.array([float(r[1]) for r in rows[:count]])
@@ -147,13 +132,8 @@ def test_a_mesh_with_wedges_is_refused_not_dropped(tmp_path):
 def export_at_speed(folder, rpm):
     """The job `spin<rpm>`: K and M that ccx writes in a PERTURBATION step after the
     linear CENTRIF step at `rpm` (stress stiffening, spin softening, deflection)."""
-    text = (folder / "blade.inp").read_text()
-    w2 = (rpm * np.pi / 30) ** 2
     job = f"spin{int(rpm)}"
-    (folder / f"{job}.inp").write_text(text[:text.index("*STEP")] + "\n".join([
-        "*STEP", "*STATIC", "*DLOAD", f"EALL, CENTRIF, {w2:.17g}, 0., 0., {-HUB}, 1., 0., 0.",
-        "*END STEP", "*STEP, PERTURBATION", "*FREQUENCY, SOLVER=MATRIXSTORAGE", "*END STEP", ""]))
-    ccx(folder, job)
+    turning_deck(folder, job, rpm, HUB, ("*FREQUENCY, SOLVER=MATRIXSTORAGE",))
     return folder / job
 
 
@@ -163,7 +143,8 @@ def test_imported_blade_turns_with_its_stiffness_exported_at_two_speeds(tmp_path
     at 10,000 rpm (not fitted) the first eight frequencies within 0.1 % of ccx's own
     PERTURBATION step there (measured 3e-7, the printed digits); one speed (K_2 = 0)
     is refused: through 15,000 rpm alone it would miss by 12 %.  The centrifugal load
-    of the mesh and density equals the package's (the same integral)."""
+    of the mesh and density equals the package's (the same integral); a speed above the
+    highest exported is refused (the fit is not extrapolated)."""
     from dataclasses import replace as with_
     exported(tmp_path)
     jobs = {rpm: str(export_at_speed(tmp_path, rpm)) for rpm in (7500.0, 15000.0)}
@@ -183,3 +164,5 @@ def test_imported_blade_turns_with_its_stiffness_exported_at_two_speeds(tmp_path
     assert np.abs(blade.rotation.load - ours.rotation.load).max() < 1e-12 * np.abs(
         ours.rotation.load).max()
     assert blade.rotation.limit == pytest.approx(15000.0 * np.pi / 30, rel=1e-15)
+    with pytest.raises(ValueError, match="beyond the highest speed"):
+        blade.rotation.speed_stiffness(15001.0 * np.pi / 30)

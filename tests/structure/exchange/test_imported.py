@@ -10,43 +10,16 @@ it exactly).  The shrouded-disk study of the imported blade equals that of the s
 mesh assembled by the package to 1e-8 (peaks, linear frequencies, static normal
 loads: measured 5e-10, 2e-12, 2e-11).  Without ccx the tests skip saying why."""
 import re
-import shutil
-import subprocess
 
 import numpy as np
-import pytest
 from skfem import Basis, ElementHexS2, ElementTetP2
 
 from pipeline.__main__ import main as cli
-from pipeline.structure.disk import wheel_params
-from pipeline.structure.exchange.calculix_deck import write_deck
 from pipeline.structure.exchange.imported import MatrixFiles, import_blade
-from pipeline.structure.fe_model import BladeParams, DiskPlacement
-from pipeline.structure.solid import assemble_elasticity, solid_from_mesh, solid_mesh
+from pipeline.structure.solid import assemble_elasticity, solid_from_mesh
 from pipeline.study.datasets.dataset import read_dataset
 from helpers import STUDIES, frequencies
-
-needs_ccx = pytest.mark.skipif(shutil.which("ccx") is None, reason=(
-    "CalculiX (ccx) is not installed: apt-get install calculix-ccx"))
-BLADE = BladeParams(n_chord=2, n_thick=1, n_span=4)
-DISK = DiskPlacement(hub_radius=0.12, sectors=36)
-
-
-def ccx(folder, job):
-    run = subprocess.run(["ccx", "-i", job], cwd=folder, capture_output=True, text=True,
-                         timeout=300)
-    assert run.returncode == 0, run.stdout[-800:]
-
-
-def exported_blade(folder, mesh=None):
-    """The wheel blade written as a deck, run through ccx: (mesh, sets, params)."""
-    m, sets = solid_mesh(BLADE, DISK)
-    mesh = m if mesh is None else mesh(m)
-    p = wheel_params(BLADE, DISK)
-    write_deck(mesh, sets, p, folder / "blade.inp")
-    ccx(folder, "blade")
-    return mesh, sets, p
-
+from calculix import exported_blade, needs_ccx
 
 def relative(A, B):
     return abs(A - B).max() / abs(B).max()

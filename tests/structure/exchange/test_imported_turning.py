@@ -9,25 +9,19 @@ crossing speeds to 1e-7 (measured 3e-9 and 6e-9), the speed study's peaks to 1e-
 import re
 
 import numpy as np
-import pytest
 
 from pipeline.__main__ import main as cli
 from pipeline.study.datasets.dataset import read_dataset
 from helpers import STUDIES
-from structure.exchange.test_imported import DISK, ccx, exported_blade, needs_ccx
+from calculix import DISK, exported_blade, needs_ccx, turning_deck
 
 SPEEDS = (7500.0, 15000.0)
 
 
 def export_speeds(folder):
-    text = (folder / "blade.inp").read_text()
     for rpm in SPEEDS:
-        w2 = (rpm * np.pi / 30) ** 2
-        (folder / f"spin{int(rpm)}.inp").write_text(text[:text.index("*STEP")] + "\n".join([
-            "*STEP", "*STATIC", "*DLOAD",
-            f"EALL, CENTRIF, {w2:.17g}, 0., 0., {-DISK.hub_radius}, 1., 0., 0.", "*END STEP",
-            "*STEP, PERTURBATION", "*FREQUENCY, SOLVER=MATRIXSTORAGE", "*END STEP", ""]))
-        ccx(folder, f"spin{int(rpm)}")
+        turning_deck(folder, f"spin{int(rpm)}", rpm, DISK.hub_radius,
+                     ("*FREQUENCY, SOLVER=MATRIXSTORAGE",))
 
 
 MATRICES = """
