@@ -22,9 +22,18 @@ S = owner-sum (E -> C),
     S s = S D p + S kv Bn0 A^-1 (F0 - Bn0^T D p) = target   (C x C linear in p),
 
 one solve of A = K0 + Bn0^T kv Bn0 with C + 1 right-hand sides.
+
+The contact is unilateral: an element whose s would be a tension is open (a gap,
+its springs carry nothing), found by active sets (`static_state`).  That state is
+what the pipeline calls the static contact state everywhere: the datasets' static
+normal loads (compressive only, 0 where open), the stuck linear limit (the closed
+elements stuck, the open ones open: `stuck_limit_system`), a requested static load
+(the active set iterated with n0: `preload_for_unilateral_load`) and the state a
+nonlinear mode starts from.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
@@ -47,8 +56,9 @@ def contact_owner(scene: Scene) -> np.ndarray:
     return np.arange(len(scene.contacts))
 
 
-def _static_operators(system: System):
-    """(A = K0 + Bn0^T kv Bn0, Bn0, F0) of the closed static problem (module doc)."""
+def _static_operators(system: System, closed=None):
+    """(A = K0 + Bn0^T kv Bn0, Bn0, F0) of the static problem (module doc) with the
+    springs of the `closed` elements (default: all)."""
     cs = contact_set(system)
     K0 = coupled_stiffness(system, 0.0)
     Bn = cs.maps[-1]
@@ -57,7 +67,7 @@ def _static_operators(system: System):
         Bn = (sp.csr_matrix(Bn, dtype=float) + sp.csr_matrix(Bx, dtype=float)
               if sp.issparse(Bn) or sp.issparse(Bx)
               else np.asarray(Bn, float) + np.asarray(Bx, float))
-    kv = cs.elements.kv
+    kv = cs.elements.kv if closed is None else np.where(closed, cs.elements.kv, 0.0)
     F0 = np.asarray(system.forcing)[:, 0].real.astype(float)
     if sp.issparse(K0) or sp.issparse(Bn):
         Bs = sp.csr_matrix(Bn, dtype=float)
@@ -93,34 +103,67 @@ def static_normal_load(system: System) -> np.ndarray:
     return el.n0 + el.kv * (Bn @ q0)
 
 
-def static_contact(system: System, max_sweeps: int | None = None) -> tuple:
-    """(s (E,) [N], closed (E,) bool): the static contact solution at zero excitation with
-    unilateral normal contact -- an element is closed with s = n0 + kv v0 > 0 or open
-    with s = 0 and n0 + kv v0 <= 0 (a gap; its spring carries nothing) -- found by
-    active sets: solve with the closed elements' springs, open those pulling (s <= 0),
-    close the open ones that penetrate, until nothing changes.  Tangentially as
-    `static_normal_load` (a stuck slider at the middle of its band carries no force).
-    With every element closed it is `static_normal_load`."""
+@dataclass(frozen=True)
+class StaticState:
+    """The unilateral static contact state at zero excitation (`static_state`): per
+    element the normal load `load` [N] (> 0 where closed, 0 where open), `closed`, and
+    `trial` = n0 + kv v0 [N] with the state's displacement (the load where closed,
+    <= 0 where open: minus kv times the gap); `q0` (n,) [m] the static displacement."""
+
+    load: np.ndarray
+    closed: np.ndarray
+    trial: np.ndarray
+    q0: np.ndarray
+
+    @property
+    def tensile(self) -> np.ndarray:
+        """The elements that would pull (trial < 0): open.  An element at exactly zero
+        load (n0 = 0 and nothing pressing) touches without force: not tensile."""
+        return self.trial < 0.0
+
+
+def static_state(system: System, max_sweeps: int | None = None) -> StaticState:
+    """The static contact solution at zero excitation with unilateral normal contact
+    -- an element is closed with s = n0 + kv v0 > 0 or open with s = 0 and
+    n0 + kv v0 <= 0 (a gap; its spring carries nothing) -- found by active sets: solve
+    with the closed elements' springs, open those pulling (s <= 0), close the open ones
+    that penetrate, until nothing changes (ValueError if it does not settle).
+    Tangentially as `static_normal_load` (a stuck slider at the middle of its band
+    carries no force).  With every element closed it is `static_normal_load`."""
     el = contact_set(system).elements
     E = el.size
     if E == 0:
-        return np.zeros(0), np.zeros(0, bool)
-    A, Bn, F0 = _static_operators(system)
+        e = np.zeros(0)
+        return StaticState(e, np.zeros(0, bool), e, np.zeros(system.n_dof))
     kv = np.asarray(el.kv, float)
     closed = np.ones(E, bool)
     for _ in range(max_sweeps or 2 * E + 2):
-        k = np.where(closed, kv, 0.0)
-        Ac = A - Bn.T @ (sp.diags(kv - k) @ Bn) if sp.issparse(A) else \
-            A - Bn.T @ ((kv - k)[:, None] * Bn)
-        Ac = Ac.tocsc() if sp.issparse(Ac) else Ac
+        Ac, Bn, F0 = _static_operators(system, closed)
         q0 = _solve(Ac, (F0 - Bn.T @ np.where(closed, el.n0, 0.0))[:, None])[:, 0]
         trial = el.n0 + kv * (Bn @ q0)
         now = trial > 0.0
         if np.array_equal(now, closed):
-            return np.where(closed, trial, 0.0), closed
+            return StaticState(np.where(closed, trial, 0.0), closed, trial, q0)
         closed = now
     raise ValueError(f"the static contact solution did not settle in {max_sweeps or 2 * E + 2} "
                      "active-set sweeps")
+
+
+def static_contact(system: System, max_sweeps: int | None = None) -> tuple:
+    """(s (E,) [N], closed (E,) bool) of `static_state`."""
+    st = static_state(system, max_sweeps)
+    return st.load, st.closed
+
+
+def stuck_limit_system(system: System, state: StaticState | None = None) -> System:
+    """The system whose "small" linear limit (`system.linear_stiffness`) is the stuck
+    limit about the unilateral static state: every element that is not tensile
+    (`StaticState.tensile`) stuck (ku, kv), the tensile ones open.  Only the sign of n0
+    is read there, so n0 becomes +1 or -1 N; use it for linear limits only."""
+    st = static_state(system) if state is None else state
+    if st.closed.size == 0:
+        return system
+    return with_preload(system, np.where(st.tensile, -1.0, 1.0))
 
 
 def face_totals(values, owner, n_contacts: int) -> np.ndarray:
@@ -131,34 +174,63 @@ def face_totals(values, owner, n_contacts: int) -> np.ndarray:
     return values @ S
 
 
-def preload_for_static_load(system: System, owner, distribution, target) -> np.ndarray:
+def preload_for_static_load(system: System, owner, distribution, target,
+                            closed=None) -> np.ndarray:
     """n0 (E,) [N] whose static normal loads sum to `target` (C,) [N] over each
     contact's elements, n0 = distribution * p[owner] (`distribution` (E,): each
-    element's share of a unit face total).  Linear: one solve (module doc)."""
+    element's share of a unit face total), with the `closed` elements (default: all)
+    carrying load and the others open.  Linear: one solve (module doc)."""
     el = contact_set(system).elements
     owner = np.asarray(owner, int)
     target = np.asarray(target, float)
     C = target.size
+    on = np.ones(el.size, bool) if closed is None else np.asarray(closed, bool)
     D = np.zeros((el.size, C))
     D[np.arange(el.size), owner] = np.asarray(distribution, float)
-    A, Bn, F0 = _static_operators(system)
-    X = _solve(A, np.column_stack([Bn.T @ D, F0]))
+    A, Bn, F0 = _static_operators(system, on)
+    X = _solve(A, np.column_stack([Bn.T @ (D * on[:, None]), F0]))
     V = Bn @ X                                    # v0 of each unit face load, of F0
-    G = face_totals((D - el.kv[:, None] * V[:, :C]).T, owner, C).T   # (C, C)
-    c = face_totals(el.kv * V[:, C], owner, C)
-    p = np.linalg.solve(G, target - c)
+    G = face_totals(((D - el.kv[:, None] * V[:, :C]) * on[:, None]).T, owner, C).T   # (C, C)
+    c = face_totals(np.where(on, el.kv * V[:, C], 0.0), owner, C)
+    try:
+        p = np.linalg.solve(G, target - c)
+    except np.linalg.LinAlgError:
+        raise ValueError("no static preload gives the requested normal load: a contact has "
+                         "no element in contact") from None
     return D @ p
+
+
+def preload_for_unilateral_load(system: System, owner, distribution, target,
+                                max_sweeps: int | None = None) -> np.ndarray:
+    """`preload_for_static_load` with unilateral contact: the elements in tension at
+    the n0 found do not count towards the target.  The active set depends on n0, so
+    solve n0 with the current set (first: every element closed), recompute the set
+    (`static_state`), until it settles; ValueError naming the sweeps if it does not."""
+    E = contact_set(system).elements.size
+    sweeps = max_sweeps or 2 * E + 2
+    closed = np.ones(E, bool)
+    for _ in range(sweeps):
+        n0 = preload_for_static_load(system, owner, distribution, target, closed)
+        now = static_state(with_preload(system, n0)).closed
+        if np.array_equal(now, closed):
+            return n0
+        closed = now
+    raise ValueError(f"the preload for the requested static normal load of "
+                     f"{', '.join(f'{x:g}' for x in np.atleast_1d(target))} N per contact "
+                     f"did not settle: the elements in contact still change after {sweeps} "
+                     "sweeps")
 
 
 def case_system(scene: Scene, case: dict | None = None) -> System:
     """`build_system` of a case; a case with `normal_load` (the static normal load of
-    every contact, face total [N]) gets the preload n0 that produces it."""
+    every contact, face total [N], compressive elements only) gets the preload n0 that
+    produces it (`preload_for_unilateral_load`)."""
     case = dict(case or {})
     if NORMAL_LOAD not in case:
         return build_system(scene, case)
     target = float(case.pop(NORMAL_LOAD))
     unit = build_system(scene, {**case, "preload": 1.0})
     owner = contact_owner(scene)
-    n0 = preload_for_static_load(unit, owner, contact_set(unit).elements.n0,
-                                 np.full(len(scene.contacts), target))
+    n0 = preload_for_unilateral_load(unit, owner, contact_set(unit).elements.n0,
+                                     np.full(len(scene.contacts), target))
     return with_preload(unit, n0)

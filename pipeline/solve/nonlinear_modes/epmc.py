@@ -38,13 +38,14 @@ rate=True, `apply_terms` of the term at zeta = 1), dQ/ds = ln 10 Q_h.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.linalg as sla
 
 from ...fourier.harmonics import derivative_matrix
-from ...model.system import System, dense, linear_stiffness
+from ...model.static_load import StaticState, static_state
+from ...model.system import System, contact_set, dense, linear_stiffness, with_preload
 from ..harmonic_balance.dynamic_stiffness import apply_full, apply_terms
 from ..harmonic_balance.terms import Term
 from ..harmonic_balance.full_operators import full_linear_operator
@@ -67,6 +68,7 @@ class ModeProblem:
     omega0: float
     zeta0: float
     shape: np.ndarray
+    static: StaticState | None = None   # the unilateral static state it starts from
 
     @property
     def n(self) -> int:
@@ -82,11 +84,23 @@ class ModeProblem:
         return self.n * (2 * self.H + 1) + 2
 
 
-def linear_mode(system: System, mode: int = 0):
+def static_start(system: System) -> StaticState:
+    """The unilateral static contact state the mode starts from (`static_load.
+    static_state`) with the forcing ignored, as the EPMC ignores it: an element that
+    would pull is open, the others closed and stuck at their static normal load."""
+    return static_state(replace(system, forcing=np.zeros_like(system.forcing)))
+
+
+def linear_mode(system: System, mode: int = 0, closed=None):
     """(omega [rad/s], shape (n,) complex, M-normalised) of the linear mode `mode`
-    (0: the lowest) of the small-amplitude limit: preloaded contacts stuck, gaps open
-    (`linear_stiffness(system, "small")`; a cyclic sector's engine-order family)."""
-    K = linear_stiffness(system, "small")
+    (0: the lowest) of the small-amplitude limit: the `closed` elements of the
+    `contact_set` stuck in both directions, the others open (default: the closed ones
+    of the unilateral static state, `static_start`; a cyclic sector's engine-order
+    family)."""
+    if closed is None:
+        closed = static_start(system).closed
+    signed = with_preload(system, np.where(closed, 1.0, -1.0)) if np.size(closed) else system
+    K = linear_stiffness(signed, "small")     # reads only the sign of n0
     M = dense(system.M)
     w2, V = sla.eigh(K, M)
     if not 0 <= mode < w2.size:
@@ -105,8 +119,9 @@ def mode_problem(system: System, H: int, mode: int = 0, method: str = "exact",
     nodal diameter come in degenerate pairs); it is M-normalised here."""
     prob = setup(system, H, method, n_samples)
     M, C = dense(system.M), dense(system.C)
+    st = static_start(system)
     if start is None:
-        omega0, phi = linear_mode(system, mode)
+        omega0, phi = linear_mode(system, mode, st.closed)
     else:
         omega0, phi = float(start[0]), np.asarray(start[1], complex)
         phi = phi / np.sqrt(np.real(phi.conj() @ M @ phi))
@@ -116,12 +131,14 @@ def mode_problem(system: System, H: int, mode: int = 0, method: str = "exact",
         raise ValueError(f"ref must be a DOF index in 0..{system.n_dof - 1}, got {ref}")
     phi = phi * np.exp(-1j * np.angle(phi[ref]))
     zeta0 = float(np.real(phi.conj() @ C @ phi)) / (2.0 * omega0)
-    return ModeProblem(prob, int(ref), M, C, omega0, zeta0, phi)
+    return ModeProblem(prob, int(ref), M, C, omega0, zeta0, phi, st)
 
 
 def onset_amplitude(mp) -> float:
-    """The smallest modal amplitude [kg^0.5 m] at which an element of the linear mode
-    slips (mu n0 / (ku |u|)) or lifts off (n0 / (kv |v|)), u, v per unit amplitude."""
+    """The smallest modal amplitude [kg^0.5 m] at which a closed element of the linear
+    mode slips (mu s / (ku |u|)) or lifts off (s / (kv |v|)), s its static normal load
+    in the unilateral static state the mode starts from (`ModeProblem.static`; n0
+    without one), u, v per unit amplitude; open elements do not count."""
     sysm = mp.hbm.system
     Bt, Bn = dense(sysm.Bt).astype(complex), dense(sysm.Bn).astype(complex)
     cy = sysm.cyclic
@@ -130,16 +147,22 @@ def onset_amplitude(mp) -> float:
         Bt, Bn = Bt + z * dense(cy.Bt_next), Bn + z * dense(cy.Bn_next)
     u, v = np.abs(Bt @ mp.shape), np.abs(Bn @ mp.shape)
     el = sysm.contact
+    s = el.n0
+    if mp.static is not None and contact_set(sysm).law is None:
+        s = mp.static.load
     with np.errstate(divide="ignore", invalid="ignore"):
-        a = np.concatenate([np.where((el.n0 > 0) & (el.ku * u > 0), el.mu * el.n0 / (el.ku * u),
+        a = np.concatenate([np.where((s > 0) & (el.ku * u > 0), el.mu * s / (el.ku * u),
                                      np.inf),
-                            np.where((el.n0 > 0) & (el.kv * v > 0), el.n0 / (el.kv * v), np.inf)])
+                            np.where((s > 0) & (el.kv * v > 0), s / (el.kv * v), np.inf)])
     return float(np.min(a)) if a.size else np.inf
 
 
 def linear_guess(mp: ModeProblem) -> np.ndarray:
-    """y of the linear mode: Q_0 = 0, Psi_1 = (Re phi, -Im phi), omega0, zeta0."""
+    """y of the linear mode: Q_0 the static state's displacement (0 without one),
+    Psi_1 = (Re phi, -Im phi), omega0, zeta0."""
     Z = np.zeros((mp.n, 2 * mp.H + 1))
+    if mp.static is not None and mp.static.q0.size == mp.n:
+        Z[:, 0] = mp.static.q0
     Z[:, 1], Z[:, 2] = mp.shape.real, -mp.shape.imag
     return np.concatenate([Z.ravel(), [mp.omega0, mp.zeta0]])
 

@@ -6,10 +6,11 @@ of faces or one element over named DOFs) and `pair` (the elements: one per face 
 or node pair; coordinate `pair_contact`, the contact each belongs to).
 
 Static (sweeps..., pair | contact): the nominal preload n0 and the static normal
-load s = n0 + kv v0 (`model.static_load`: the structure deflects under n0 with
-every contact closed and stuck, no excitation).  The attribute `preload_given`
-says which of the two the study gave (`sweep.normal_load` gives s; n0 is then
-solved for it).  The elements' ku, kv, mu as solved (`element_parameters`).
+load s = n0 + kv v0 (`model.static_load`: the structure deflects under n0, no
+excitation, with unilateral contact: a pair that would pull is open, s = 0, and the
+face totals sum the compressive pairs only), and the pairs in contact per contact.
+The attribute `preload_given` says which of the two the study gave
+(`sweep.normal_load` gives s; n0 is then solved for it).  The elements' ku, kv, mu as solved (`element_parameters`).
 
 Per point (sweeps..., point, pair | contact), from the exact transition times of
 each converged point's periodic contact motion (`contact.cycle`): the fractions
@@ -31,8 +32,7 @@ from ...contact.cycle import cycle_results
 from ...contact.friction2d.law import cycle_results as plane_cycle_results
 from ...fourier.harmonics import shift
 from .harmonics_dataset import add_harmonic_coefficients
-from ...model.static_load import (NORMAL_LOAD, contact_owner, face_totals, static_contact,
-                                  static_normal_load)
+from ...model.static_load import NORMAL_LOAD, contact_owner, face_totals, static_state
 from ...model.system import contact_set
 
 
@@ -73,21 +73,27 @@ def contact_coords(study) -> dict:
 
 
 def static_variables(study, cases, systems) -> dict:
-    """Nominal preload and static normal load per pair and per contact."""
+    """Nominal preload, and the unilateral static state (`static_load.static_state`):
+    the static normal load per pair (0 where the pair opens) and per contact (the
+    compressive pairs' sum), and the pairs in contact per contact."""
     scene = study.scene
     owner, C = element_owner(study), len(scene.contacts)
     shape, E = study.sweep.shape, owner.size
     n0 = np.full(shape + (E,), np.nan)
     s = np.full(shape + (E,), np.nan)
+    count = np.full(shape + (C,), -1, dtype=np.int32)
     for (idx, _), system in zip(cases, systems):
         if system is None:   # a failed case whose model cannot be built
             continue
         n0[idx] = contact_set(system).elements.n0
-        s[idx] = static_normal_load(system)
+        st = static_state(system)
+        s[idx] = st.load
+        count[idx] = np.bincount(owner[st.closed], minlength=C)
     sw = tuple(study.sweep.axes)
-    closed = ("with every contact closed and no excitation (the structure deflected under the "
-              "preload against the normal springs kv; a stuck slider rests at its static "
-              "position, so ku carries no static force)")
+    state = ("with no excitation: the structure deflected under the preload against the "
+             "normal springs kv of the pairs in contact, unilateral (a pair that would pull "
+             "is open and carries 0); a stuck slider rests at its static position, so ku "
+             "carries no static force")
     return {
         "preload_pair": (sw + ("pair",), n0, {
             "units": "N", "long_name": "preload n0 of the element (nominal normal load, "
@@ -96,12 +102,15 @@ def static_variables(study, cases, systems) -> dict:
             "units": "N", "long_name": "preload n0 summed over the contact's elements "
                                        "(face total)"}),
         "static_normal_load_pair": (sw + ("pair",), s, {
-            "units": "N", "long_name": f"static normal load n0 + kv v0 of the element {closed}"}),
+            "units": "N", "long_name": f"static normal load n0 + kv v0 of the element, 0 where "
+                                       f"it opens, {state}"}),
         "static_normal_load": (sw + ("contact",), face_totals(s, owner, C), {
             "units": "N", "long_name": f"static normal load n0 + kv v0 summed over the contact's "
-                                       f"elements (face total) {closed}"}),
+                                       f"elements in contact (face total) {state}"}),
+        "static_pairs_in_contact": (sw + ("contact",), count, {
+            "units": "1", "long_name": "elements (node pairs) of the contact in contact in the "
+                                       "static state (-1: a case whose model was not built)"}),
         **element_parameters(study, cases, systems),
-        **(contact_state_variables(study, cases, systems) if pressed(scene) else {}),
     }
 
 
@@ -127,35 +136,6 @@ def element_parameters(study, cases, systems) -> dict:
     return {f"{n}_pair": (sw + ("pair",), v, {"units": PARAMETERS[n][0], "long_name":
                                               f"{PARAMETERS[n][1]} of the element"})
             for n, v in k.items()}
-
-
-def pressed(scene) -> bool:
-    """Whether a contact of the scene is set by an interference (its static state is
-    then worth reporting as the unilateral contact solution)."""
-    return any(getattr(c, "interference", None) is not None for c in scene.contacts)
-
-
-def contact_state_variables(study, cases, systems) -> dict:
-    """The unilateral static contact solution per case (`static_load.static_contact`):
-    the normal load of each pair (zero where open) and the pairs in contact."""
-    shape, E = study.sweep.shape, element_owner(study).size
-    s = np.full(shape + (E,), np.nan)
-    count = np.zeros(shape, dtype=np.int32)
-    for (idx, _), system in zip(cases, systems):
-        if system is None:   # a failed case whose model cannot be built
-            continue
-        s[idx], closed = static_contact(system)
-        count[idx] = int(closed.sum())
-    sw = tuple(study.sweep.axes)
-    return {
-        "static_contact_load_pair": (sw + ("pair",), s, {
-            "units": "N", "long_name": "normal load of the element in the static contact "
-                                       "solution (unilateral: 0 where the pair opens; no "
-                                       "excitation, interference and speed applied)"}),
-        "static_pairs_in_contact": (sw, count, {
-            "units": "1", "long_name": "pairs in contact in the static contact solution "
-                                       "(the contact area, counted in node pairs)"}),
-    }
 
 
 def contact_motions(system, Q):

@@ -34,6 +34,7 @@ import numpy as np
 import xarray as xr
 
 from ...model.scene import AT, stiffness_factors
+from ...model.static_load import stuck_limit_system
 from ...model.system import contact_set, lowest_frequencies
 from .describe import points_attrs, provenance, scene_attrs, solution_method
 from .incomplete import (CASE_FLAGS, PEAK_NAME, case_flags, case_system_or_none,
@@ -242,9 +243,10 @@ def response_meta(unit: str, computed: bool) -> dict:
                                                    f"lowest, at most {MAX_MODES}; NaN: a "
                                                    "negative stiffness, omega^2 < 0)"),
         "natural_frequency_stuck": (("mode",), unit,
-                                    "undamped natural frequency with the contacts closed and "
-                                    f"stuck (ku and kv of every element, a gap too; the lowest, "
-                                    f"at most "
+                                    "undamped natural frequency with the contacts of the "
+                                    "static state stuck (ku and kv of every element the "
+                                    "unilateral static solution does not open; an element that "
+                                    "would pull, a gap, stays open; the lowest, at most "
                                     f"{MAX_MODES}; NaN: a negative stiffness, omega^2 < 0)"),
         "window_peak_amplitude": (("sector", "peak_window", "dof"), "m",
                                   "largest amplitude over converged points inside the peak window"),
@@ -357,10 +359,11 @@ def to_dataset(study: Study, curves, errors=None, optimum=None, tuned=None) -> x
     for (idx, case), c, err in zip(cases, curves, errors):
         sysc = case_system_or_none(study, case, c)   # per case: mistuning changes them
         systems.append(sysc)
-        for name, limit in (("natural_frequency_stuck", "stuck"), ("natural_frequency_free",
-                                                                   "open")):
-            if sysc is not None:   # else a failed case whose model cannot be built
-                v[name][idx] = lowest_frequencies(sysc, limit, lay.n) / lay.to_unit
+        if sysc is not None:   # else a failed case whose model cannot be built
+            v["natural_frequency_stuck"][idx] = lowest_frequencies(
+                stuck_limit_system(sysc), "small", lay.n) / lay.to_unit
+            v["natural_frequency_free"][idx] = lowest_frequencies(sysc, "open",
+                                                                  lay.n) / lay.to_unit
         message[idx] = (fill_case(v, idx, c, lay, study.output.peak_windows) if c is not None
                         else f"failed: {err}" if err else "failed")
     data_vars = response_variables(study, v, message, lay)

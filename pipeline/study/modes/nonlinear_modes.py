@@ -21,9 +21,12 @@ the dataset shows what the single-mode synthesis gains and what it misses.
                                       share of the linear mode's kinetic energy)
 
 The rest is a response study's file (`[scene]`, `[sweep]` with its frequency range
-and grid axes but `eo`, `[solver]`, `[output]`).  The slip onset is the smallest
-modal amplitude at which an element of the linear mode would slip (mu n0 / (ku |u|))
-or lift off (n0 / (kv |v|)), u, v its relative motions per unit modal amplitude.
+and grid axes but `eo`, `[solver]`, `[output]`).  Each backbone starts from the
+unilateral static state (`epmc.static_start`: an element that would pull is open, the
+others closed and stuck); the slip onset is the smallest modal amplitude at which a
+closed element of the linear mode would slip (mu s / (ku |u|)) or lift off
+(s / (kv |v|)), s its static normal load, u, v its relative motions per unit modal
+amplitude.
 """
 from __future__ import annotations
 
@@ -175,7 +178,12 @@ def case_problem(study: NonlinearModesStudy, system):
     ref = (None if study.reference_dof is None
            else list(system.dof_names).index(study.reference_dof))
     mp = mode_problem(system, sv.harmonics, study.mode, sv.force_evaluation, sv.samples, ref)
-    return mp, onset_amplitude(mp)
+    a_on, st = onset_amplitude(mp), mp.static
+    log.info("the mode starts from the unilateral static state: %d of %d element(s) closed and "
+             "stuck, %d open; linear frequency %.6g Hz, slip onset %.4g kg^0.5 m",
+             int(st.closed.sum()), st.closed.size, int((~st.closed).sum()),
+             mp.omega0 / (2 * np.pi), a_on)
+    return mp, a_on
 
 
 def case_result(study: NonlinearModesStudy, case: dict) -> dict:

@@ -17,6 +17,10 @@ from ..datasets.describe import provenance, scene_attrs
 from ..files.spec import SWEEP_AXES
 
 TWO_PI = 2.0 * np.pi
+STARTING_STATE = ("each backbone starts from the unilateral static state without excitation: "
+                  "an element that would pull (n0 + kv v0 < 0) is open, the others closed and "
+                  "stuck; linear_frequency and slip_onset_amplitude are those of the closed "
+                  "elements only (static_pairs_in_contact)")
 
 
 def _var(dims, data, units, long_name):
@@ -112,6 +116,7 @@ def fill_case(arrays, idx, row, res, cur, grid, sizes):
             arrays.setdefault("slip_onset_amplitude", grid(()))[idx] = res["onset"]
             arrays.setdefault("linear_frequency", grid(()))[idx] = \
                 res["problem"].omega0 / TWO_PI
+            fill_static(arrays, idx, res["problem"], grid)
         if res.get("curve") is not None:
             fill_compared(arrays, idx, res, grid, sizes)
         return
@@ -133,12 +138,24 @@ def fill_case(arrays, idx, row, res, cur, grid, sizes):
     arrays.setdefault("backbone_time", grid(()))[idx] = res["time"]
     arrays.setdefault("slip_onset_amplitude", grid(()))[idx] = res["onset"]
     arrays.setdefault("linear_frequency", grid(()))[idx] = res["problem"].omega0 / TWO_PI
+    fill_static(arrays, idx, res["problem"], grid)
     s_pk, z_pk, w_pk = res["damping_peak"]
     arrays.setdefault("peak_damping_ratio", grid(()))[idx] = z_pk
     arrays.setdefault("peak_damping_amplitude", grid(()))[idx] = 10.0 ** s_pk
     arrays.setdefault("peak_damping_frequency", grid(()))[idx] = w_pk / TWO_PI
     if cur is not None:
         fill_compared(arrays, idx, res, grid, sizes)
+
+
+def fill_static(arrays, idx, mp, grid):
+    """The unilateral static state the case's mode starts from (`epmc.static_start`):
+    each element's static normal load and the elements in contact."""
+    st = mp.static
+    if st is None:
+        return
+    arrays.setdefault("static_normal_load_pair", grid((st.load.size,)))[idx] = st.load
+    arrays.setdefault("static_pairs_in_contact", grid((), -1, np.int32))[idx] = \
+        int(st.closed.sum())
 
 
 def fill_compared(arrays, idx, res, grid, sizes):
@@ -210,6 +227,7 @@ def modes_dataset(study, results) -> xr.Dataset | None:
              "tolerance": float(sv.tolerance), "n_elements": int(E),
              "frequency_range": np.array([fr.omega_start, fr.omega_stop]) / TWO_PI,
              "amplitude_range": np.asarray(study.amplitude, float),
+             "starting_state": STARTING_STATE,
              "normalisation": ("modal_amplitude a: Q_h = a Psi_h for h >= 1 with sum_h "
                                "Psi_h^T M Psi_h = 1 over the vibration's harmonics (cos and "
                                "sin parts; the static part excluded); first_harmonic_amplitude: "
@@ -235,6 +253,7 @@ DIMS = {
     "synthesis_peak_amplitude": ("force_scale", "dof"), "synthesis_time": ("force_scale",),
     "status": (), "backbone_time": (), "slip_onset_amplitude": (), "linear_frequency": (),
     "peak_damping_ratio": (), "peak_damping_amplitude": (), "peak_damping_frequency": (),
+    "static_normal_load_pair": ("pair",), "static_pairs_in_contact": (),
     "hbm_frequency": ("hbm_point",), "hbm_amplitude": ("hbm_point", "dof"),
     "hbm_peak_frequency": (), "hbm_peak_amplitude": ("dof",), "hbm_time": (),
 }
@@ -270,11 +289,16 @@ META = {
                     "the compared full harmonic balance failed (see message); -1: the case "
                     "failed, no backbone point (see message)"),
     "backbone_time": ("s", "wall time of the backbone"),
-    "slip_onset_amplitude": ("kg0.5 m", "modal amplitude at which the first element of the "
-                                        "linear mode slips or lifts off (inf: none does, the "
-                                        "mode is linear; drawn over the unit amplitude range)"),
-    "linear_frequency": ("Hz", "frequency of the small-amplitude linear mode (preloaded "
-                               "contacts stuck)"),
+    "slip_onset_amplitude": ("kg0.5 m", "modal amplitude at which the first closed element "
+                                        "of the linear mode slips or lifts off, from its static "
+                                        "normal load (inf: none does, the mode is linear; drawn "
+                                        "over the unit amplitude range)"),
+    "linear_frequency": ("Hz", "frequency of the small-amplitude linear mode (the elements "
+                               "closed in the static state stuck, the open ones open)"),
+    "static_normal_load_pair": ("N", "static normal load n0 + kv v0 of the element in the "
+                                     "unilateral static state the mode starts from (0: open)"),
+    "static_pairs_in_contact": ("1", "elements closed (and stuck) in the static state the mode "
+                                     "starts from"),
     "peak_damping_ratio": ("1", "largest modal damping ratio along the backbone (located "
                                 "between the points)"),
     "peak_damping_amplitude": ("kg0.5 m", "modal amplitude of the largest damping ratio"),

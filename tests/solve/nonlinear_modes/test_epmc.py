@@ -201,3 +201,45 @@ def test_cyclic_sector_mode_is_a_mode_of_the_assembled_wheel(eo):
     assert bb.omega[0] == pytest.approx(stuck, rel=1e-4)
     assert bb.omega[-1] == pytest.approx(open_, rel=1e-3)
     assert point_at(mp, bb, -4.0)[0] == pytest.approx(np.interp(-4.0, bb.s, bb.omega), rel=1e-3)
+
+
+# two contacts on one mass, pressing its normal DOF y: the larger preload pushes the mass
+# back so far that the other contact would pull, and opens
+KX, KY, KU2, KV2, MU2, N_A, N_B = 1.0e4, 1.0e4, 2.0e4, 1.0e5, 0.3, 30.0, 10.0
+
+
+def one_contact_opened():
+    """x (tangential) and y (normal) of a 1 kg mass on springs KX, KY to ground; contacts
+    A and B both with u = x, v = y (v > 0 closes), n0 = 30 and 10 N."""
+    el = YangMenq(ku=[KU2, KU2], kv=[KV2, KV2], mu=[MU2, MU2], n0=[N_A, N_B])
+    Bt, Bn = np.array([[1.0, 0.0], [1.0, 0.0]]), np.array([[0.0, 1.0], [0.0, 1.0]])
+    return System(M=np.eye(2), C=np.zeros((2, 2)), K=np.diag([KX, KY]), Bt=Bt, Bn=Bn,
+                  contact=el, forcing=np.zeros((2, 2), complex))
+
+
+def test_the_mode_starts_from_the_unilateral_static_state():
+    """By hand: both closed, (KY + 2 kv) y = -(n_A + n_B) gives y = -1.905e-4 m and
+    s_B = 10 + kv y = -9.05 N: B would pull, so it is open.  A alone: y = -n_A / (KY + kv)
+    = -2.7273e-4 m, s_A = n_A KY / (KY + kv) = 2.7273 N (B's n0 + kv y = -17.3 N: open).
+    The linear mode is x with A stuck: omega0 = sqrt((KX + ku) / m) = 173.205 rad/s (both
+    stuck: 223.607), and A slips at the modal amplitude mu s_A sqrt(m) / ku = 4.0909e-5
+    kg^0.5 m (mu n0_B / ku = 1.5e-4 from the preloads).  Along the backbone the mode
+    is linear below that amplitude (omega0, the static y) and softens above it."""
+    mp = epmc.mode_problem(one_contact_opened(), 3)
+    y_open = -N_A / (KY + KV2)
+    s_a = N_A + KV2 * y_open
+    assert N_B + KV2 * -(N_A + N_B) / (KY + 2 * KV2) < 0 and N_B + KV2 * y_open < 0
+    assert s_a == pytest.approx(2.7272727273, rel=1e-10)
+    assert mp.static.closed.tolist() == [True, False]
+    np.testing.assert_allclose(mp.static.load, [s_a, 0.0], rtol=1e-12)
+    assert mp.omega0 == pytest.approx(np.sqrt(KX + KU2), rel=1e-12)
+    onset = epmc.onset_amplitude(mp)
+    assert onset == pytest.approx(MU2 * s_a / KU2, rel=1e-12)
+    bb = continue_mode(mp, np.log10(0.01 * onset), np.log10(3.0 * onset), tol_rel=1e-10)
+    assert bb.message == ""
+    a = bb.amplitude
+    below, above = a < 0.99 * onset, a > 1.5 * onset
+    assert below.sum() > 3 and above.sum() > 3
+    np.testing.assert_allclose(bb.omega[below], np.sqrt(KX + KU2), rtol=1e-9)
+    np.testing.assert_allclose(bb.Q[below, 1, 0], y_open, rtol=1e-9)
+    assert np.all(bb.omega[above] < np.sqrt(KX + KU2) * (1 - 1e-6))

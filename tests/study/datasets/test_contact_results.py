@@ -88,6 +88,108 @@ def test_dataset_stores_the_static_normal_load_per_pair_and_per_contact():
     assert ds.attrs["preload_given"] == "n0"
 
 
+def assert_unilateral(system, s):
+    """The static loads s (E,) [N] checked on their own terms: applied to the structure
+    as forces, K0 q = F0 - Bn0^T s (Bn0 = Bn + Bn_next on a cyclic sector), they give
+    n0 + kv Bn0 q = s where s > 0, and <= 0 (a gap) where s = 0."""
+    from pipeline.model.system import contact_set, coupled_stiffness, dense
+
+    cs = contact_set(system)
+    Bn = dense(cs.maps[-1]) + (dense(cs.maps_next[-1]) if cs.maps_next else 0.0)
+    K0 = dense(coupled_stiffness(system, 0.0))
+    F0 = np.asarray(system.forcing)[:, 0].real
+    q = np.linalg.solve(K0, F0 - Bn.T @ s)
+    trial = cs.elements.n0 + cs.elements.kv * (Bn @ q)
+    scale = np.abs(cs.elements.n0).max()
+    assert np.all(s >= 0)
+    np.testing.assert_allclose(trial[s > 0], s[s > 0], rtol=1e-8, atol=1e-9 * scale)
+    assert np.all(trial[s == 0] <= 1e-9 * scale)
+
+
+P_STATIC = 100.0   # N, static load on x2 pulling the masses apart
+
+
+def pulled_apart(sweep: str):
+    """TWO_MASSES with a static load P on x2 (v = x1 - x2 > 0 closes: P opens)."""
+    text = TWO_MASSES.replace("{sweep}", sweep).replace("[sweep]", f"""[[scene.excitation]]
+dof = "x2"
+amplitude = {P_STATIC}
+harmonic = 0
+
+[sweep]""")
+    return parse_study(text, file="pulled_apart.toml")
+
+
+def hand_pulled_load(n0):
+    """(s [N], closed) of the element with P on x2, by hand.  Closed: k1 x1 = -n,
+    k2 x2 = n + P, so v = x1 - x2 = -n / k_eff - P / k2 and n = n0 + kv v gives
+        n = (n0 - kv P / k2) k_eff / (k_eff + kv);
+    a pair that would pull (n < 0) is open: n = 0 (the gap v0 = -P / k2)."""
+    k_eff = K1 * K2 / (K1 + K2)
+    n = (n0 - KV * P_STATIC / K2) * k_eff / (k_eff + KV)
+    return max(n, 0.0), n > 0
+
+
+def test_static_normal_load_is_compressive_and_zero_once_the_pair_opens():
+    """n0 = 50 N: (50 - 2e4 * 100 / 6e4) 2.4e4 / 4.4e4 = 9.0909 N, in contact; n0 = 20 N
+    would pull (-7.2727 N): open, 0 N, no pair in contact."""
+    study = pulled_apart("preload = [50.0, 20.0]")
+    ds = to_dataset(study, [None, None], errors=["not run", "not run"])
+    want = [hand_pulled_load(50.0), hand_pulled_load(20.0)]
+    assert want[0][0] == pytest.approx(9.0909090909, rel=1e-9) and want[1] == (0.0, False)
+    np.testing.assert_allclose(ds.static_normal_load_pair.values[:, 0], [w[0] for w in want],
+                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(ds.static_normal_load.sel(contact="gap").values,
+                               [w[0] for w in want], rtol=1e-12, atol=1e-12)
+    assert ds.static_pairs_in_contact.sel(contact="gap").values.tolist() == [1, 0]
+    assert ds.static_pairs_in_contact.attrs["units"] == "1"
+
+
+def test_stuck_limit_has_only_the_closed_pairs():
+    """natural_frequency_stuck [rad/s]: n0 = 50 N (closed) adds ku on y1 and kv between
+    x1 and x2, K = [[k1 + kv, -kv], [-kv, k2 + kv]] with M = diag(1, 2) kg; n0 = 20 N
+    (open) is the bare structure: sqrt(k1 / 1), sqrt(k2 / 2), sqrt(k1 / 1) -- the open
+    limit, which stays as it was."""
+    study = pulled_apart("preload = [50.0, 20.0]")
+    ds = to_dataset(study, [None, None], errors=["not run", "not run"])
+    a, b, c = (K1 + KV) / 1.0, (K2 + KV) / 2.0, KV / np.sqrt(2.0)   # M^-1/2 K M^-1/2
+    mid, half = (a + b) / 2, np.hypot((a - b) / 2, c)
+    closed = np.sort(np.sqrt([mid - half, mid + half, K1 + KU]))
+    free = np.sort(np.sqrt([K1, K2 / 2.0, K1]))
+    np.testing.assert_allclose(ds.natural_frequency_stuck.values[0], closed, rtol=1e-10)
+    np.testing.assert_allclose(ds.natural_frequency_stuck.values[1], free, rtol=1e-10)
+    np.testing.assert_allclose(ds.natural_frequency_free.values, [free, free], rtol=1e-10)
+
+
+def test_a_face_with_pairs_in_tension_sums_only_its_compressive_pairs():
+    """The shrouded disk at 8,000 rpm with a 0.1 mm gap (quick): the speed closes a few of
+    the 15 pairs, the others would pull.  The face total is the sum of the compressive
+    pairs and the count the pairs with a load; the state is checked on its own terms:
+    the reported loads applied to the structure as forces, K0 q = F0 - Bn0^T s, give
+    n0 + kv Bn0 q = s where s > 0 and <= 0 (a gap) where s = 0."""
+    from pathlib import Path
+
+    from pipeline.model.static_load import static_normal_load
+    from pipeline.model.system import contact_set
+
+    text = (Path(__file__).resolve().parents[3] / "studies" /
+            "shrouded_disk_speed.toml").read_text()
+    study = parse_study(text, file="shrouded_disk_speed.toml", quick=True)
+    cases = [(idx, c) for idx, c in study.sweep.cases() if c["speed"] == 8000.0]
+    system = study.system(cases[0][1])
+    E = contact_set(system).elements.size
+    full = [None] * len(study.sweep.cases())
+    ds = to_dataset(study, full, errors=["not run"] * len(full)).sel(speed=8000.0)
+    s = ds.static_normal_load_pair.values
+    assert s.shape == (E,) and np.all(s >= 0)
+    n_in = int((s > 0).sum())
+    assert 0 < n_in < E                                   # some pairs open
+    assert (static_normal_load(system) < 0).any()      # every pair closed: some would pull
+    assert int(ds.static_pairs_in_contact.sum()) == n_in
+    assert float(ds.static_normal_load.sum()) == pytest.approx(s[s > 0].sum(), rel=1e-12)
+    assert_unilateral(system, s)
+
+
 def test_dataset_records_each_elements_contact_parameters_as_solved():
     """ku, kv, mu per element and case, in SI units, from the systems solved (a swept
     mu varies along its axis; a study changed in Python records its own numbers)."""
@@ -124,6 +226,60 @@ def test_requested_static_load_gives_the_preload_of_the_hand_computation():
     assert ds.attrs["preload_given"] == "static_normal_load"
     np.testing.assert_allclose(ds.static_normal_load.values[:, 0], [10.0, 250.0], rtol=1e-10)
     assert np.all(ds.preload_total.values[:, 0] > ds.static_normal_load.values[:, 0])
+
+
+def tilted_blade(sweep_line: str):
+    """blade_shroud_contact (quick) with 1,000 N static along x at the excitation node:
+    the shroud faces tilt against their walls, and with 3 N per face some node pairs
+    would pull."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[3] / "studies" /
+            "blade_shroud_contact.toml").read_text()
+    text = "\n".join(ln for ln in text.splitlines() if not ln.startswith("optimum_preload"))
+    text = text.replace("[sweep]", """[[scene.excitation]]
+set = "excitation"
+direction = [1.0, 0.0, 0.0]
+amplitude = 1000.0
+harmonic = 0
+
+[sweep]""")
+    text = text.replace("preload = [0.3, 3.0, 30.0, 1000.0]", sweep_line).replace(
+        "preload = [30.0]", sweep_line)
+    return parse_study(text, file="tilted_blade.toml", quick=True)
+
+
+def test_requested_static_load_counts_only_the_pairs_in_contact():
+    """normal_load = 3 N per face on the tilted blade: the preload is solved with the
+    pairs in contact (iterated with the set), so the compressive pairs' loads sum to
+    3 N per face, to 1e-10, and the state is unilateral (`assert_unilateral`)."""
+    from pipeline.model.static_load import contact_owner, face_totals
+
+    study = tilted_blade("normal_load = [3.0]")
+    system = study.system(study.sweep.cases()[0][1])
+    ds = to_dataset(study, [None], errors=["not run"])
+    s = ds.static_normal_load_pair.values[0]
+    assert_unilateral(system, s)
+    owner = contact_owner(study.scene)
+    np.testing.assert_allclose(face_totals(s, owner, 2), [3.0, 3.0], rtol=1e-10)
+    np.testing.assert_allclose(ds.static_normal_load.values[0], [3.0, 3.0], rtol=1e-10)
+    count = ds.static_pairs_in_contact.values[0]
+    assert np.all((0 < count) & (count < 27))                 # some of each face's 27 open
+    np.testing.assert_array_equal(count, np.bincount(owner[s > 0], minlength=2))
+
+
+def test_requested_static_load_that_does_not_settle_is_refused():
+    """The active set changes with n0: an iteration cut short says so."""
+    from pipeline.model.static_load import contact_owner, preload_for_unilateral_load
+    from pipeline.model.system import contact_set
+
+    study = tilted_blade("preload = [1.0]")
+    unit = study.system(study.sweep.cases()[0][1])
+    el = contact_set(unit).elements
+    with pytest.raises(ValueError, match=r"3 N per contact did not settle: the elements in "
+                                         r"contact still change after 1 sweeps"):
+        preload_for_unilateral_load(unit, contact_owner(study.scene), el.n0, [3.0, 3.0],
+                                    max_sweeps=1)
 
 
 @pytest.mark.parametrize("name", ["shrouded_disk", "blade_shroud_contact"])

@@ -235,3 +235,81 @@ def test_a_killed_run_resumes_with_the_kept_backbones(tmp_path, monkeypatch):
     a.attrs.pop("created"), b.attrs.pop("created")
     xr.testing.assert_identical(a, b)
     assert not list(out.glob(".jenkins.*.cases"))
+
+
+# a 1 kg mass (x tangential, y normal) on two contacts pressing y: 30 N opens the 10 N one
+TWO_CONTACTS = """
+[study]
+title = "two contacts, one opened by the other's preload"
+kind = "nonlinear_modes"
+
+[scene]
+model = "lumped"
+effects = ["friction", "normal_load_variation", "separation"]
+dofs = ["x", "y"]
+
+[scene.matrices]
+M = [[1.0, 0.0], [0.0, 1.0]]
+C = [[0.5, 0.0], [0.0, 0.5]]
+K = [[1.0e4, 0.0], [0.0, 1.0e4]]
+
+[[scene.contact]]
+name = "a"
+tangential = ["x"]
+normal = ["y"]
+ku = 2.0e4
+kv = 1.0e5
+mu = 0.3
+n0 = 30.0
+
+[[scene.contact]]
+name = "b"
+tangential = ["x"]
+normal = ["y"]
+ku = 2.0e4
+kv = 1.0e5
+mu = 0.3
+n0 = 10.0
+
+[[scene.excitation]]
+dof = "x"
+amplitude = 0.1
+
+[sweep]
+mu = [0.3]
+frequency = { start = 150.0, stop = 200.0, unit = "rad/s" }
+
+[solver]
+harmonics = 3
+
+[output]
+dofs = ["x"]
+
+[modes]
+amplitude = [0.01, 3.0]
+compare = false
+"""
+
+
+def test_the_dataset_says_the_mode_starts_from_the_unilateral_static_state(tmp_path):
+    """As `test_epmc.test_the_mode_starts_from_the_unilateral_static_state`, by hand: b
+    is open (10 + 1e5 y < 0 with y = -30 / 1.1e5 m), a carries s_a = 30 * 1e4 / 1.1e5 =
+    2.7273 N; the linear frequency is sqrt(3e4) / (2 pi) = 27.566 Hz (a stuck; both
+    stuck: 35.588 Hz) and the slip onset 0.3 s_a / 2e4 = 4.0909e-5 kg^0.5 m."""
+    from pipeline.study.execution.run import run_study
+
+    f = tmp_path / "two_contacts.toml"
+    f.write_text(TWO_CONTACTS)
+    ds = run_study(parse_study(TWO_CONTACTS, file=str(f), name="two_contacts"),
+                   out_dir=tmp_path, figures=False).dataset.sel(mu=0.3)
+    s_a = 30.0 * 1.0e4 / 1.1e5
+    assert float(ds["linear_frequency"]) == pytest.approx(np.sqrt(3.0e4) / (2 * np.pi),
+                                                          rel=1e-12)
+    assert float(ds["slip_onset_amplitude"]) == pytest.approx(0.3 * s_a / 2.0e4, rel=1e-12)
+    np.testing.assert_allclose(ds["static_normal_load_pair"].values, [s_a, 0.0], rtol=1e-12)
+    assert int(ds["static_pairs_in_contact"]) == 1
+    assert ds["static_normal_load_pair"].attrs["units"] == "N"
+    assert "unilateral static state" in ds.attrs["starting_state"]
+    ok = ds["converged"].values == 1
+    assert float(ds["frequency"].values[ok][0]) == pytest.approx(np.sqrt(3.0e4) / (2 * np.pi),
+                                                                 rel=1e-6)
