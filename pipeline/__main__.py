@@ -129,7 +129,7 @@ def _cmd_optimise(args) -> int:
     from .study.files.declared import UndeclaredSeparation
     from .study.figures.optimum_figure import optimum_figure
     from .study.files.documents import load_study
-    from .study.execution.optimum_search import find_optimum, window_end
+    from .study.execution.optimum_search import find_optimum, search_warnings
     from .study.kinds import kind_of
     from .study.execution.cases import StaticDivergence, default_solver
     from .study.execution.checkpoint import checkpoint_dir
@@ -173,7 +173,9 @@ def _cmd_optimise(args) -> int:
         cdir.rmdir()
     o = study.output.optimum
     fr = study.sweep.frequency
-    print(f"{study.name}: preload minimising the peak of {o['dof']}: {res['preload']:.6g} N "
+    best = ("none, the peak does not depend on it" if res.get("independent")
+            else f"{res['preload']:.6g} N")
+    print(f"{study.name}: preload minimising the peak of {o['dof']}: {best} "
           f"(peak {res['peak']:.6g} m at {res['peak_omega'] / fr.to_rad_s:.6g} {fr.unit}; "
           f"{len(res['evaluations'])} evaluations: grid of {len(res['grid'])}, "
           f"{len(res['brackets'])} minimum(s) bracketed, {len(res.get('skipped', ()))} of them "
@@ -186,8 +188,7 @@ def _cmd_optimise(args) -> int:
     path = optimum_figure(Path(args.out) / study.name / "optimum_preload.png", res, o["dof"],
                           study.title)
     print(f"wrote {path}")
-    what = window_end(study, res["peak_omega"])
-    if what:
+    for what in search_warnings(study, res):
         print(f"warning: {args.study}: output.optimum_preload: {what}", file=sys.stderr)
     return 0
 

@@ -237,11 +237,9 @@ def timed_blade_model(structure: Blade) -> tuple:
     t0 = time.perf_counter()
     centre = structure.disk.centre if structure.rotating else None
     if structure.matrices is not None:
-        if structure.rotating:
-            raise ValueError("a blade of exported matrices does not turn: its stress "
-                             "stiffness needs the package's own assembly")
         from ..structure.exchange.imported import import_blade
-        blade = import_blade(structure.mesh, structure.matrices, structure.params)
+        blade = import_blade(structure.mesh, structure.matrices, structure.params,
+                             rotation_centre=centre)
     elif structure.mesh:
         blade = load_blade(structure.mesh, structure.params, required=("root",),
                            rotation_centre=centre)
@@ -260,6 +258,11 @@ def blade_at_speed(structure: Blade, speed: float):
     if blade.rotation is None:
         raise ValueError(f"speed {speed} rpm on a blade that does not turn: declare "
                          "\"centrifugal_stiffening\" (a solid blade in a disk)")
+    limit = blade.rotation.limit
+    if limit is not None and speed * RPM > limit * (1.0 + 1e-9):
+        raise ValueError(f"speed {speed:g} rpm is beyond the highest speed of the exported "
+                         f"stiffness ({limit / RPM:g} rpm): the fit K + Omega^2 K_1 + Omega^4 K_2 "
+                         "is not extrapolated; export K at the highest speed studied")
     return replace(blade, K=(blade.K + blade.rotation.speed_stiffness(speed * RPM)).tocsr())
 
 

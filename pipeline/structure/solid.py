@@ -335,9 +335,7 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
             n_right = f.normal if name == "shroud_right" else n_right
             frames[name] = f
     turning = None if rotation_centre is None else rotation_terms(
-        sbasis, free, K, p.E, p.nu, p.rho, rotation_centre,
-        assemble=None if matrices is not None else
-        lambda b: assemble_elasticity(b, p.E, p.nu, p.rho)[0])
+        sbasis, free, K, p.E, p.nu, p.rho, rotation_centre)
     t = mesh.t if cell_type == "tetra" else mesh.t[HEX_MAPPING[:8]]
     log.info("solid blade (%s): %d cells, %d free DOFs", source, mesh.t.shape[1], free.size)
     vertices = mesh.p[:, :mesh.nvertices]   # a curved mesh's p holds its midside nodes too

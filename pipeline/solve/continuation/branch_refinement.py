@@ -22,13 +22,15 @@ from .branch import hermite_point
 from .newton import KeptFactors, augment, linear_solve, newton
 
 
-def _local_maxima(amps, converged, rel=0.05):
+def _local_maxima(amps, converged, rel=0.05, inside=None):
     """Interior local maxima of the amplitude along the branch above rel * max:
-    the resonance peaks (several modes in one range), highest first."""
+    the resonance peaks (several modes in one range), highest first; only at the
+    points `inside` (bool, P) if given, the max over those."""
     a = np.where(converged, amps, -np.inf)
-    top = a.max()
+    inside = np.ones(a.size, bool) if inside is None else inside
+    top = a[inside].max() if inside.any() else -np.inf
     idx = [i for i in range(1, a.size - 1)
-           if a[i] >= a[i - 1] and a[i] > a[i + 1] and a[i] >= rel * top]
+           if inside[i] and a[i] >= a[i - 1] and a[i] > a[i + 1] and a[i] >= rel * top]
     return sorted(idx, key=lambda i: -a[i])
 
 
@@ -225,9 +227,12 @@ _NEAR_SIGMA = 0.1   # a trial this close to an earlier one starts from it
 LARGEST_MARGIN = 0.8  # `insert_peaks(largest=True)` skips local maxima below this share
 
 
-def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l, largest=False):
+def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l, largest=False,
+                 window=None):
     """Locate each DOF's resonance peaks (local amplitude maxima) along the branch
-    exactly and insert them; with `largest`, only those that can be the DOF's largest:
+    exactly and insert them (only those at points with lam in `window` (lo, hi), if
+    given: the points outside are read neither as peaks nor as the largest known);
+    with `largest`, only those that can be the DOF's largest:
     a local maximum whose three points stay below LARGEST_MARGIN times the largest
     amplitude known of that DOF (its highest point, or a peak located) is left as it
     is (the curve would have to be 1 / LARGEST_MARGIN - 1 = 25 % low there to matter).
@@ -252,10 +257,13 @@ def insert_peaks(prob, pts, fun, tol, elem, dofs, omega_of=lambda l: l, largest=
     if A is None or pts.get("amplitude_dofs") != dofs or len(A) != L.size:
         A = amplitudes_at(prob, X, L, dofs, omega_of)
     best = {}  # dof -> the largest amplitude known of it (`largest`)
+    conv = np.asarray(pts["converged"], bool)
+    inside = (np.ones(L.size, bool) if window is None
+              else (L >= window[0]) & (L <= window[1]))
     for dof, amps in zip(dofs, A.T):
         todo += [(dof, i, amps[i], amps[i - 1:i + 2])
-                 for i in _local_maxima(amps, pts["converged"])]
-        best[dof] = np.max(np.where(pts["converged"], amps, -np.inf))
+                 for i in _local_maxima(amps, conv, inside=inside)]
+        best[dof] = np.max(np.where(conv & inside, amps, -np.inf))
     found = []  # (position along the branch, z): i + sigma, sigma in [-1, 1]
     tangents = list(pts.get("tangent", [None] * L.size))
     solved = {}  # i -> the trials solved around point i, shared by the DOFs peaking there

@@ -28,6 +28,12 @@ whichever basin its first golden-section points fall in.  `global_minimum` there
    against 2.017e-5 m found at 6.14 N) costs no continuation;
 4. returns the best of all evaluations.
 
+A peak that does not depend on the preload (every grid node's value the same to
+round-off: relative spread (max - min) / max below FLAT_SPREAD, e.g. a contact whose
+closure an `interference` fixes) has no optimum: the search stops after the grid
+and returns preload NaN, `independent` True and the `spread` (the peak and its
+frequency those of the first node, the value at every preload).
+
 Assumption (when a minimum can still be missed): the global minimum's basin must hold
 a grid node whose value is below the nodes on either side, i.e. the interval around
 the minimiser over which p is lower than both neighbouring nodes must be wider than
@@ -63,6 +69,7 @@ REFINE = 10             # Brent's xatol = rtol / REFINE (module docstring)
 SNAP = 1.0 / 3.0        # an extra node replaces a regular one this close (of the spacing)
 FLAT_REL = 1e-7         # a local minimum shallower than this (relative) is a plateau
 SKIP_REL = 0.1          # a bracket whose parabola stays this far above the best: not refined
+FLAT_SPREAD = 1e-9      # grid values within this relative spread: the peak ignores n0
 VERIFY_REL = 1e-6       # a bracket's local result and its band value agree to this (relative)
 GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))
 SQRT_EPS = math.sqrt(np.finfo(float).eps)
@@ -202,7 +209,8 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
     evaluation failed), local (the preloads among them valued by `local` alone),
     verified [(n0, local, full)] (each bracket's check), grid (the nodes), brackets
     [(low, node, high)] [N], skipped (the brackets not refined: SKIP_REL), computed
-    (new evaluations), reused, success (some evaluation finite)."""
+    (new evaluations), reused, success (some evaluation finite), spread (the grid's
+    `relative_spread`), independent (below FLAT_SPREAD: preload NaN, module docstring)."""
     lo, hi = float(bounds[0]), float(bounds[1])
     memo = {float(k): (float(p), float(o)) for k, (p, o) in dict(known or {}).items()}
     kept = {float(k): (float(p), float(o)) for k, (p, o) in dict(replay or {}).items()}
@@ -236,10 +244,11 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
         evaluate_many(todo, record)
     values = [peak_at(n0) for n0 in nodes]
     reused.difference_update(todo)      # evaluated here, not known before
+    spread = relative_spread(values)   # below FLAT_SPREAD: no basin, the peak ignores n0
     t = [to_t(n0) for n0 in nodes]
     xatol = (rtol if log else rtol * hi) / REFINE
     brackets, skipped = [], []
-    for i in sorted(local_minima(values), key=lambda i: values[i]):
+    for i in sorted(local_minima(values) if spread >= FLAT_SPREAD else [], key=values.__getitem__):
         a, b = t[max(i - 1, 0)], t[min(i + 1, len(t) - 1)]
         brackets.append((to_n0(a), float(nodes[i]), to_n0(b)))
         best = min(p for p, _ in memo.values())
@@ -255,12 +264,23 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
         logger.debug("optimum search: bracket [%.6g, %.6g] N refined", to_n0(a), to_n0(b))
     return _result(memo, lmemo, (lo, hi), grid=[float(x) for x in nodes], verified=verified,
                    brackets=brackets, skipped=skipped, computed=computed[0],
-                   reused=len(reused))
+                   reused=len(reused), independent=spread < FLAT_SPREAD, spread=spread)
+
+
+def relative_spread(values) -> float:
+    """(max - min) / max |v| of the sampled values; inf where fewer than two, or some
+    not finite (a failed evaluation: the curve is not known there), or all zero."""
+    v = np.asarray(values, dtype=float)
+    top = np.max(np.abs(v)) if v.size else 0.0
+    if v.size < 2 or not np.all(np.isfinite(v)) or top == 0:
+        return np.inf
+    return float((v.max() - v.min()) / top)
 
 
 def _result(memo, lmemo, bounds, **more) -> dict:
     """`global_minimum`'s dict: the evaluations within `bounds` (full and local values
-    merged, full ones first), the best full value, and `more`."""
+    merged, full ones first), the best full value (preload NaN where `more` says the
+    peak is independent of it), and `more`."""
     lo, hi = bounds
     merged = {**{k: v for k, v in lmemo.items() if k not in memo}, **memo}
     evaluations = sorted((n0, (p if np.isfinite(p) else np.nan), om)
@@ -268,6 +288,8 @@ def _result(memo, lmemo, bounds, **more) -> dict:
     # candidates: full values only (a local value is a lower bound, checked where it won)
     finite = [e for e in evaluations if np.isfinite(e[1]) and e[0] in memo]
     best = min(finite, key=lambda e: e[1]) if finite else (np.nan, np.nan, np.nan)
+    if more.get("independent"):    # the value at every preload (the first node's): no optimum
+        best = (np.nan, *memo[more["grid"][0]])
     return {"preload": best[0], "peak": best[1], "peak_omega": best[2],
             "evaluations": evaluations,
             "local": sorted(k for k in lmemo if k not in memo and lo <= k <= hi),

@@ -45,7 +45,8 @@ from ..continuation.pseudo_arclength import continue_branch
 from ..continuation.restarts import join, piece
 from .optimum import PER_DECADE, VERIFY_REL, global_minimum
 from .response import (ResponseCurve, branch_points, curve_from_points, frequency_problem,
-                       frequency_response, peak_points)
+                       frequency_response)
+from .window import peak_points
 
 logger = logging.getLogger(__name__)
 
@@ -154,17 +155,23 @@ def _failed(fp, why, t_start, spent) -> ResponseCurve:
 
 
 def band_peak(system, H, omega_start, omega_end, dof, **kwargs) -> tuple:
-    """(peak [m], its Omega [rad/s], all DOFs' coefficients there) of `dof` over the
-    band: `frequency_response` keeping its peaks (stability off unless asked); (inf,
-    NaN, None) for an incomplete curve (it may miss its peak), logged."""
+    """(peak [m], its Omega [rad/s], all DOFs' coefficients there, notes) of `dof`
+    over the band (its largest amplitude inside the band, `ResponseCurve.peak`):
+    `frequency_response` keeping its peaks (stability off unless asked); (inf, NaN,
+    None, notes) for an incomplete curve (it may miss its peak), logged.  notes:
+    {"unresolved": the curve's steps across a resonance that could not be shortened to
+    its half-power band (a peak may hide there), "outside": whether its largest
+    amplitude traced lies outside the band (the branch followed beyond it)}."""
     kwargs.setdefault("stability", False)
     kwargs["keep"] = "peaks"  # only the peak is read, no curve is drawn
     c = frequency_response(system, H, omega_start, omega_end, peak_dofs=[dof], **kwargs)
+    notes = {"unresolved": int(c.info.get("unresolved_resonance_steps", 0)),
+             "outside": bool(c.info.get("outside_peak", False))}
     if not c.success:
         logger.warning("optimum search: curve incomplete (%s); skipped", c.message)
-        return np.inf, np.nan, None
+        return np.inf, np.nan, None, notes
     a, om, i = c.peak(dof)
-    return a, om, c.Q[i]
+    return a, om, c.Q[i], notes
 
 
 def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
@@ -191,16 +198,24 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     follows each new band evaluation (Q its peak state, None for a failed one); grid_map(list
     of n0, done): the grid nodes evaluated together (a caller's process pool), done(k,
     `band_peak` result) as each ends; else one by one here.  Returns
-    the dict of `optimum.global_minimum`.
+    the dict of `optimum.global_minimum`, with unresolved {n0: steps} of the band
+    evaluations whose steps across a resonance were not resolved (a peak may hide
+    there) and outside [n0], those whose largest amplitude traced lies outside the
+    band (`band_peak` notes; the evaluations made in this call).
     """
     if log and not 0 < bounds[0] < bounds[1]:
         raise ValueError(f"bounds must satisfy 0 < low < high for a log search, got {bounds}")
-    states = dict(states or {})
+    states, unresolved, outside = dict(states or {}), {}, set()
 
     def keep(n0, result):
-        a, om, Q = result
+        a, om, Q = result[:3]
         if Q is not None:
             states[float(n0)] = (om, Q)
+        notes = result[3] if len(result) > 3 else {}
+        if notes.get("unresolved"):
+            unresolved[float(n0)] = int(notes["unresolved"])
+        if notes.get("outside"):
+            outside.add(float(n0))
         return a, om
 
     def peak(n0):
@@ -227,10 +242,12 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     def evaluated(n0, p, om):
         on_evaluation(n0, p, om, states.get(float(n0), (None, None))[1])
 
-    return global_minimum(peak, bounds, rtol=rtol, log=log, per_decade=per_decade,
-                          known=known, extra_nodes=extra_nodes,
-                          on_evaluation=evaluated if on_evaluation is not None else None,
-                          local=near_peak if local else None, verify_rel=VERIFY_REL,
-                          evaluate_many=many if grid_map is not None else None,
-                          replay=replay)
+    res = global_minimum(peak, bounds, rtol=rtol, log=log, per_decade=per_decade,
+                         known=known, extra_nodes=extra_nodes,
+                         on_evaluation=evaluated if on_evaluation is not None else None,
+                         local=near_peak if local else None, verify_rel=VERIFY_REL,
+                         evaluate_many=many if grid_map is not None else None,
+                         replay=replay)
+    res["unresolved"], res["outside"] = dict(sorted(unresolved.items())), sorted(outside)
+    return res
 

@@ -22,6 +22,7 @@ from ..continuation.pseudo_arclength import continue_branch
 from ...fourier.harmonics import amplitude_half_peak_to_peak
 from ..continuation.newton import newton, scale_rows
 from .resonance import MAX_DENSE_DOF, step_guard
+from .window import edge_points, follow_out, peak_points, windowed
 from ..continuation.restarts import cover_range
 from ..stability.branch_stability import branch_stability
 from ..stability.methods import stability_mode
@@ -67,9 +68,13 @@ class ResponseCurve:
         return self.parameter.size
 
     def peak(self, dof: int):
-        """(amplitude, omega, index) of the largest converged amplitude of a DOF: the
-        peak of the range only if `success` (else the curve stopped short of it)."""
-        a = np.where(self.converged, self.amplitude[:, dof], -np.inf)
+        """(amplitude, omega, index) of the largest converged amplitude of a DOF inside
+        info["window"] (lo, hi) [rad/s] where given (a branch followed beyond it:
+        `window.follow_out`): the peak of the range only if `success` (else the
+        curve stopped short of it)."""
+        w = self.info.get("window", (-np.inf, np.inf))
+        inside = self.converged & (self.omega >= w[0]) & (self.omega <= w[1])
+        a = np.where(inside, self.amplitude[:, dof], -np.inf)
         i = int(np.argmax(a))
         return float(a[i]), float(self.omega[i]), i
 
@@ -160,16 +165,22 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     initial = fp.checked_state(initial)
     br, spent = cover_range(fun, fp.start_at, omega_start, omega_end, tol, groups, initial,
                             **kw)
-    dofs = peak_dofs if peak_dofs is not None else range(system.n_dof)
+    dofs = list(peak_dofs if peak_dofs is not None else range(system.n_dof))
+    window = (min(omega_start, omega_end), max(omega_start, omega_end))
+    br, notes, A = follow_out(fp, br, window, dofs, **kw) if br.success else (br, [], None)
     pts = branch_points(br)
+    if A is not None:   # read by `insert_peaks` (not drawn again)
+        pts["amplitude"], pts["amplitude_dofs"] = A, dofs
+    pts = edge_points(fp, pts, window)
     if axes:
         pts = densify(prob, pts, fun, tol, dofs, axes=axes)
-    pts = insert_peaks(prob, pts, fun, tol, elem, dofs, largest=keep == "peaks")
+    pts = insert_peaks(prob, pts, fun, tol, elem, dofs, largest=keep == "peaks", window=window)
     if keep == "peaks":
-        pts = peak_points(prob, pts, dofs)
+        pts = peak_points(prob, pts, dofs, window)
     pts["resonance_guard"] = guard is not None
-    return curve_from_points(prob, br, pts, lambda lam: elem, tols, stability, lambda lam: lam,
-                              time.perf_counter() - t_start, spent)
+    return windowed(curve_from_points(prob, br, pts, lambda lam: elem, tols, stability,
+                                      lambda lam: lam, time.perf_counter() - t_start, spent),
+                    window, dofs, notes)
 
 
 KEEP = ("curve", "peaks")  # what `frequency_response` keeps of the branch
@@ -221,27 +232,6 @@ def frequency_problem(system, H, method="exact", n_samples=256, tol_rel=1e-10,
     return FrequencyProblem(prob, elem, tols, floored, fun,
                             np.repeat(np.arange(prob.c.size), prob.nh),
                             step_guard(prob, lambda lam: elem))
-
-
-def peak_points(prob, pts, dofs) -> dict:
-    """The branch points `pts` reduced to those where a DOF of `dofs` has its
-    largest converged amplitude (each kept once, in branch order)."""
-    L = pts["lam"]
-    if L.size == 0:
-        return pts
-    dofs = list(dofs)
-    A = pts.get("amplitude")  # from `insert_peaks`, if it drew these DOFs at these points
-    if A is None or pts.get("amplitude_dofs") != dofs or len(A) != L.size:
-        A = amplitudes_at(prob, pts["x"], L, dofs)
-    A = np.where(pts["converged"][:, None], A, -np.inf)
-    keep = np.unique(np.argmax(A, axis=0))
-    out = dict(pts)
-    for k in ("x", "lam", "nit", "converged"):
-        out[k] = np.asarray(pts[k])[keep]
-    if "tangent" in pts:
-        out["tangent"] = [pts["tangent"][k] for k in keep]
-    out.pop("amplitude", None)
-    return out
 
 
 def dense_axes(dense_output) -> tuple:

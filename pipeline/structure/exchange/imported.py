@@ -35,7 +35,7 @@ Abaqus and ANSYS models): K x 1e3, M x 1e3, coordinates x 1e-3.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +45,7 @@ from skfem import ElementHex1, ElementHex2, ElementHexS2, ElementTetP1, ElementT
 
 from ..fe_model import DENSITY_RANGE, REQUIRED_SETS, BladeModel
 from ..mesh_io import check_span, read_volume
+from ..rotation import centrifugal_load, fitted_terms
 from ..solid import solid_from_mesh
 from .calculix_deck import EDGES, edge_index, node_numbers
 from .matrix_files import (ExportedMatrices, read_abaqus, read_ansys, read_calculix,
@@ -63,7 +64,9 @@ class MatrixFiles:
     (`<job>.sti/.mas/.dof`); abaqus: the stiffness and mass `.mtx`; ansys: the two
     Harwell-Boeing files and the `.mapping` as `dofs`; matrix_market: the two `.mtx`
     and the "node direction" table as `dofs`.  `units`: a key of `UNITS`.  `density`
-    [kg/m^3]: the blade's, which M must weigh (None: any blade material's)."""
+    [kg/m^3]: the blade's, which M must weigh (None: any blade material's).  `speeds`:
+    ((rpm, stiffness), ...) the stiffness exported at each speed of a turning blade (the
+    `stiffness` key's file, a job for calculix; the mass and DOF map are the rest's)."""
 
     format: str
     stiffness: str
@@ -71,6 +74,7 @@ class MatrixFiles:
     dofs: str | None = None
     units: str = "SI"
     density: float | None = None
+    speeds: tuple = ()
 
     @property
     def mass_file(self) -> str:
@@ -198,18 +202,28 @@ def check_mass(M, basis, root, files: MatrixFiles, mesh) -> None:
                          f"{likely[0]}; else {likely[1]} or {likely[2]}")
 
 
-def import_blade(mesh_path, files: MatrixFiles, p, required=("root",)) -> BladeModel:
+def import_blade(mesh_path, files: MatrixFiles, p, required=("root",),
+                 rotation_centre=None) -> BladeModel:
     """The clamped blade of an exported structure on its mesh (see the module): sets,
     frames and face areas from the mesh, K and M from the files (M weighed against
     the mesh's volume, `check_mass`); `p` (BladeParams) supplies the damping ratios
-    only."""
+    only.  Turning about the axis (along X) through `rotation_centre` [m]: K(Omega)
+    fitted through the stiffnesses exported at `files.speeds` (`rotation.fitted_terms`)
+    and the centrifugal load of the density `files.density` on the mesh."""
     _, _, length = UNITS[files.units]
     vol = read_volume(mesh_path, required, scale=length)
     check_span(vol.mesh.p, mesh_path, 'set [scene.matrices] units = "mm"' if files.units == "SI"
                else f'(read with units = "{files.units}")')
     ex = read_exported(files)
+    spun = [read_exported(replace(files, stiffness=path, speeds=())) for _, path in files.speeds]
+    for rpm, other in zip((r for r, _ in files.speeds), spun):
+        if other.dofs != ex.dofs or relative_change(other.M, ex.M) > 1e-9:
+            raise ValueError(f"{other.source}: the matrices exported at {rpm:g} rpm are not on "
+                             f"the DOFs and mass of {ex.source} (another mesh, material or "
+                             f"constraint?)")
     numbers = node_numbers(mesh_path, vol.vertex.size)
     source = str(mesh_path)
+    kept = {}
 
     def matrices(basis, free):
         rows = exported_rows(ex, numbers, point_dofs(vol, basis), free, source)
@@ -219,7 +233,24 @@ def import_blade(mesh_path, files: MatrixFiles, p, required=("root",)) -> BladeM
         K, M = (P @ ex.K @ P.T).tocsr(), (P @ ex.M @ P.T).tocsr()
         check_mass(M, basis, vol.node_sets["root"], files, source)
         check_definite(K[free][:, free], M[free][:, free], ex.source)
+        kept.update(basis=basis, free=free,
+                    spun=[(P @ o.K @ P.T).tocsr()[free][:, free] for o in spun])
         return K, M
 
     sets = {k: v for k, v in vol.node_sets.items() if k in REQUIRED_SETS}
-    return solid_from_mesh(vol.mesh, sets, p, source, ELEMENTS[vol.cell_type](), matrices)
+    blade = solid_from_mesh(vol.mesh, sets, p, source, ELEMENTS[vol.cell_type](), matrices)
+    if rotation_centre is None:
+        return blade
+    if not files.speeds or files.density is None:
+        raise ValueError(f"{source}: an imported blade turns with its stiffness exported at "
+                         "one or more speeds and its density (for the centrifugal load)")
+    load = centrifugal_load(kept["basis"], files.density, rotation_centre)[kept["free"]]
+    omegas = [rpm * np.pi / 30.0 for rpm, _ in files.speeds]
+    return replace(blade, rotation=fitted_terms(load, blade.K, omegas, kept["spun"]))
+
+
+def relative_change(A, B) -> float:
+    """max |A - B| / max |B| of two sparse matrices (inf when their shapes differ)."""
+    if A.shape != B.shape:
+        return float("inf")
+    return float(abs(A - B).max() / max(abs(B).max(), 1e-300))

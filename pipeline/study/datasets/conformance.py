@@ -24,8 +24,9 @@ The contract (studies/README.md, section Dataset), as checked here:
   0 ... N-1), never encoded in a label such as "x1@4";
 - `harmonic` is 0 ... H with H the `harmonics` attribute;
 - every converged point has a finite frequency and amplitudes; amplitudes are
-  not negative; `peak_amplitude` is the largest converged amplitude and
-  `peak_frequency` the frequency of that point;
+  not negative; `peak_amplitude` is the largest converged amplitude (of the points
+  inside the attribute `frequency_range`, where given: a branch may be followed
+  beyond it) and `peak_frequency` the frequency of that point;
 - `stable` is 1 (stable), 0 (unstable) or NaN (not computed), says so in
   `flag_meanings` or `comment`, is never 1 at a point that did not converge, and
   holds no value at all where its `stability_computed` attribute is 0;
@@ -256,12 +257,16 @@ def _check_values(ds, say):
             say(f"variable {vname!r} is NaN at a converged point")
         if bool((ds[vname] < 0).any()):
             say(f"variable {vname!r} is negative somewhere")
+    rng = ds.attrs.get("frequency_range")   # the branch followed beyond it: not its peak
+    if rng is not None:
+        conv = conv & (f >= np.min(rng)) & (f <= np.max(rng))
     a = amp.where(conv)
     pk = a.max("point")
     peak = ds["peak_amplitude"]
     close = abs(pk - peak) <= RTOL * (1e-300 + abs(pk))
     if bool((~close & ~(pk.isnull() & peak.isnull())).any()):
-        say("variable 'peak_amplitude' differs from the largest 'amplitude' over converged points")
+        say("variable 'peak_amplitude' differs from the largest 'amplitude' over converged points"
+            + (" inside frequency_range" if rng is not None else ""))
         return
     tol = RTOL * abs(peak)
     at_peak = conv & (abs(a - peak) <= tol) & (abs(f - ds["peak_frequency"])

@@ -177,8 +177,10 @@ def fill_case(v: dict, idx, c, lay: Layout, windows) -> str:
     v["amplitude"][idx][:, :p] = a["amplitude"]
     v["harmonic_amplitude"][idx][:, :p, :, :h1] = a["harmonic_amplitude"]
     v["harmonic_amplitude"][idx][:, :p, :, h1:] = 0.0
-    v["peak_amplitude"][idx], v["peak_frequency"][idx] = _peak(
-        a["frequency"], a["amplitude"], a["converged"])
+    lo, hi = np.asarray(c.info.get("window", (-np.inf, np.inf))) / lay.to_unit  # the range's
+    v["peak_amplitude"][idx], v["peak_frequency"][idx] = _peak(  # peak: inside it only
+        a["frequency"], a["amplitude"], a["converged"] & (a["frequency"] >= lo)
+        & (a["frequency"] <= hi))
     for w, (lo, hi) in enumerate(windows):
         inside = a["converged"] & (a["frequency"] >= lo) & (a["frequency"] <= hi)
         v["window_peak_amplitude"][idx][:, w], v["window_peak_frequency"][idx][:, w] = _peak(
@@ -324,6 +326,7 @@ def response_attrs(study: Study, lay: Layout) -> dict:
              "force_evaluation": sv.force_evaluation, "aft_samples": int(sv.samples),
              "tolerance": float(sv.tolerance), "frequency_unit": lay.unit,
              "quick": int(study.quick), **points_attrs(study.output),
+             "frequency_range": np.sort([study.sweep.frequency.start, study.sweep.frequency.stop]),
              **provenance("pipeline (harmonic balance with Yang-Menq contact, continuation, "
                           "Hill / Floquet stability)")}
     attrs.update(scene_attrs(scene))  # FE blade and disk scenes describe their model

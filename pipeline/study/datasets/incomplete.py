@@ -1,7 +1,7 @@
 """Cases whose branch stopped short of the frequency interval: their largest
 amplitude is the largest traced, not the peak of the interval (`peak_complete` = 0
 in the dataset).  `incomplete_cases` words them for the end of `python -m pipeline run`,
-`edge_peaks` the complete cases whose largest amplitude lies at an end of the interval
+`hidden_peaks` those with resonance steps not resolved, `edge_peaks` the complete cases whose largest amplitude lies at an end of the interval
 (a resonance outside it, or none: not a peak), `window_edges` the same for the peak
 windows, `absent_effects` declared contact
 effects that no case shows;
@@ -18,7 +18,8 @@ import numpy as np
 from ...errors import interrupt_in_chain
 from ..files.rules import contact_rules
 
-PEAK_NAME = ("largest amplitude over converged points (the peak of the frequency interval "
+PEAK_NAME = ("largest amplitude over the converged points inside the frequency interval "
+             "(a branch followed beyond it: not its points outside; the peak of the interval "
              "only where peak_complete = 1)")
 # (dims after the sweep axes, units, long_name) of the per-case flags (`dataset`)
 CASE_FLAGS = {
@@ -163,6 +164,27 @@ def window_edges(study, ds) -> list:
                                   "at the window's edge, not at a resonant peak (the "
                                   "amplitude rises beyond the window; move or widen [output] "
                                   "peak_windows)"))
+    return out
+
+
+# the ends of a curve's notes on steps across a resonance not resolved (`response`) and
+# on a largest amplitude traced outside the range (`window`)
+NOTES = ("a peak may hide there", "lies outside the range: not its peak")
+
+
+def hidden_peaks(study, ds, named=()) -> list:
+    """[({axis: value}, what)] of every case whose message notes steps across a
+    resonance that could not be shortened to its half-power band (a peak may hide
+    between two points), or a largest amplitude traced outside the range (the branch
+    followed beyond it; not for the cases in `named`, whose largest amplitude at the
+    range's end is said already: `edge_peaks`), in the study's words."""
+    if ds is None or "message" not in ds:
+        return []
+    out = []
+    for idx, case in study.sweep.cases():
+        words = NOTES[:1] if case in named else NOTES
+        out += [(case, n.strip()) for n in str(ds["message"].values[idx]).split(";")
+                if any(w in n for w in words)]
     return out
 
 

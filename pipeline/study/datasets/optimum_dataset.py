@@ -18,9 +18,11 @@ def add_optimum(data_vars, coords, opt, study, to_unit, unit):
     data_vars["optimum_preload"] = ((), float(opt["preload"]), {
         "units": "N", "long_name": f"preload minimising the resonant peak of {dof} (peak on "
                                    f"a grid of {grid.size} preloads over the bounds, Brent in "
-                                   "each bracketed minimum, the best taken)"})
+                                   "each bracketed minimum, the best taken)",
+        **independence_attrs(opt)})
     data_vars["optimum_peak_amplitude"] = ((), float(opt["peak"]), {
-        "units": "m", "long_name": f"resonant peak of {dof} at the optimum preload"})
+        "units": "m", "long_name": f"resonant peak of {dof} at the optimum preload (at every "
+                                   "preload where independent_of_preload is 1)"})
     data_vars["optimum_peak_frequency"] = ((), float(opt["peak_omega"]) / to_unit, {
         "units": unit, "long_name": "frequency of that peak"})
     data_vars["optimum_search_peak"] = ((dim,), ev[:, 1], {
@@ -39,5 +41,30 @@ def add_optimum(data_vars, coords, opt, study, to_unit, unit):
         "units": "1", "long_name": "1: the peak over the whole band; 0: the local peak "
                                    "continued from the nearest preload evaluated (a lower "
                                    "bound of the band's, used by Brent's trials only)"})
+    steps = opt.get("unresolved", {})
+    data_vars["optimum_search_unresolved_steps"] = ((dim,), np.array(
+        [steps.get(float(n0), 0) for n0 in ev[:, 0]], dtype=np.int32), {
+        "units": "1", "long_name": "steps of that preload's band evaluation across a "
+                                   "resonance that could not be shortened to its half-power "
+                                   "band: a peak may hide there (0: none)"})
+    data_vars["optimum_search_outside_peak"] = ((dim,), np.isin(ev[:, 0], np.asarray(
+        opt.get("outside", []), dtype=float)).astype(np.int8), {
+        "units": "1", "long_name": "1: that band evaluation's largest amplitude traced lies "
+                                   "outside the window (its branch followed beyond it); "
+                                   "optimum_search_peak is the largest inside"})
     data_vars["optimum_search_wall_time"] = ((), float(opt.get("wall_time", np.nan)), {
         "units": "s", "long_name": "wall time of the optimum search"})
+
+
+def independence_attrs(opt) -> dict:
+    """The attributes of `optimum_preload` that say whether the peak depends on the
+    preload at all: independent_of_preload 1 (the value is then NaN: no optimum) or
+    0, and the grid values' relative spread (`optimum.relative_spread`)."""
+    spread = float(opt.get("spread", np.nan))
+    out = {"independent_of_preload": np.int8(bool(opt.get("independent", False))),
+           "peak_relative_spread": spread}
+    if opt.get("independent", False):
+        out["comment"] = (f"NaN: the peak is the same at every preload of the grid (relative "
+                          f"spread {spread:.3g}, below 1e-9): it does not depend on the "
+                          "preload, so no preload is optimal")
+    return out

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...solve.response.optimum import grid_nodes
+from ...solve.response.optimum import FLAT_SPREAD, grid_nodes
 from ...solve.response.peak_tracking import band_peak, optimum_preload
 from ...model.system import negative_stiffness
 from ...errors import interrupt_in_chain
@@ -141,6 +141,55 @@ def window_end(study: Study, peak_omega: float) -> str | None:
             f"peak inside {lo / u:.6g}-{hi / u:.6g} {window.unit}, if any, is lower), so the "
             "optimum minimises an off-resonance amplitude (widen [output.optimum_preload] "
             "frequency, or [sweep] frequency)")
+
+
+def search_warnings(study: Study, res: dict) -> list:
+    """The end-of-search warnings of `optimise` (`find_optimum`'s result): a peak that
+    does not depend on the preload, else an optimum whose largest amplitude lies at an
+    end of the window; band evaluations with steps across a resonance not resolved;
+    unless the optimum lies at the window's end (said already), those whose largest
+    amplitude traced lies outside the window."""
+    end = window_end(study, res["peak_omega"])
+    what = independence(study, res.get("independent"), res.get("spread")) or end
+    more = [hidden_search_peaks(res.get("unresolved", {})),
+            None if end else outside_search_peaks(study, res.get("outside", []))]
+    return [w for w in [what] + more if w]
+
+
+def outside_search_peaks(study: Study, preloads) -> str | None:
+    """The warning for the band evaluations at `preloads` [N] whose largest amplitude
+    traced lies outside the window (their band peak is the largest inside), else None."""
+    if not len(preloads):
+        return None
+    window = study.output.optimum["window"] or study.sweep.frequency
+    lo, hi = sorted((window.start, window.stop))
+    return (f"at preload(s) {', '.join(f'{float(n0):.6g} N' for n0 in preloads)} the largest "
+            f"amplitude traced lies outside the window {lo:g}-{hi:g} {window.unit} (the "
+            "branch followed beyond it): the band peak there is the largest inside the "
+            "window, not that resonance")
+
+
+def hidden_search_peaks(unresolved: dict) -> str | None:
+    """The warning for the band evaluations {n0 [N]: steps} whose steps across a
+    resonance could not be shortened to its half-power band, else None."""
+    bad = {float(n0): int(k) for n0, k in unresolved.items() if k}
+    if not bad:
+        return None
+    where = ", ".join(f"{n0:.6g} N ({k})" for n0, k in sorted(bad.items()))
+    return (f"at preload(s) {where} the band's continuation took step(s) across a resonance "
+            "that could not be shortened to its half-power band: a peak may hide there "
+            "(its band peak, and so the optimum, may be too low)")
+
+
+def independence(study: Study, independent, spread) -> str | None:
+    """The warning for a search whose peak is the same at every preload of its grid
+    (`optimum.global_minimum`: relative spread below FLAT_SPREAD), else None."""
+    if not independent:
+        return None
+    return (f"the peak of {study.output.optimum['dof']} is the same at every preload of the "
+            f"search's grid (relative spread {float(spread):.3g}, below {FLAT_SPREAD:g}): it "
+            "does not depend on the preload, so no optimum preload is reported "
+            "(optimum_preload NaN)")
 
 
 def search_identity(study: Study) -> tuple:

@@ -28,9 +28,11 @@ from pathlib import Path
 from ...errors import UsageError, interrupt_in_chain
 from .cases import SchedulerUnreachable, WorkerLost, default_solver
 from .checkpoint import kept_cases
-from .optimum_search import window_end
+from .optimum_search import (hidden_search_peaks, independence, outside_search_peaks,
+                             window_end)
 from ..files.documents import load_study, text_describes
-from ..datasets.incomplete import absent_effects, edge_peaks, incomplete_cases, window_edges
+from ..datasets.incomplete import (absent_effects, edge_peaks, hidden_peaks, incomplete_cases,
+                                   window_edges)
 from ..kinds import kind_of
 from ..files.spec import SWEEP_AXES, StudyResult
 
@@ -168,16 +170,28 @@ def _case_words(case: dict) -> str:
 
 def warnings(file, study, ds) -> list:
     """The `warning: <file>: <where>: <what>` lines of a finished run: incomplete cases,
-    largest amplitudes at the range's end, declared effects no case shows, an optimum
+    largest amplitudes at the range's end, peaks that may hide between two points
+    (resonance steps not resolved), declared effects no case shows, an optimum
     at its window's end (printed, so that no progress bar hides them)."""
+    edges = edge_peaks(study, ds)
     out = [f"warning: {file}: case {_case_words(case)}: {what}"
-           for case, what in (incomplete_cases(study, ds) + edge_peaks(study, ds)
-                              + window_edges(study, ds))]
+           for case, what in (incomplete_cases(study, ds) + edges + window_edges(study, ds)
+                              + hidden_peaks(study, ds, [c for c, _ in edges]))]
     out += [f"warning: {file}: scene.effects: {what}" for what in absent_effects(study, ds)]
+    end = None
     if ds is not None and "optimum_peak_frequency" in ds:
-        what = window_end(study, float(ds["optimum_peak_frequency"])
-                          * study.sweep.frequency.to_rad_s)
+        attrs = ds["optimum_preload"].attrs
+        end = window_end(study, float(ds["optimum_peak_frequency"])
+                         * study.sweep.frequency.to_rad_s)
+        what = independence(study, attrs.get("independent_of_preload", 0),
+                            attrs.get("peak_relative_spread", float("nan"))) or end
         out += [f"warning: {file}: output.optimum_preload: {what}"] if what else []
+    if ds is not None and "optimum_search_outside_peak" in ds:
+        n0 = ds["optimum_search_preload"].values
+        more = [hidden_search_peaks(dict(zip(n0, ds["optimum_search_unresolved_steps"].values))),
+                None if end else outside_search_peaks(
+                    study, n0[ds["optimum_search_outside_peak"].values == 1])]
+        out += [f"warning: {file}: output.optimum_preload: {w}" for w in more if w]
     return out
 
 

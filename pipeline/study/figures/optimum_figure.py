@@ -38,7 +38,9 @@ def optimum_plot(result, dof, title=""):
         for n0 in ev[~ok, 0]:
             ax.axvline(n0, color="#9e9e9e", lw=0.8, ls=":", zorder=0)
         ax.plot([], [], ":", color="#9e9e9e", label="incomplete curve (no peak)")
-    best = np.isfinite(result.get("peak", np.nan))
+    best = bool(np.isfinite(result.get("peak", np.nan)) and np.isfinite(result["preload"]))
+    if result.get("independent"):   # the same peak at every preload: no optimum to mark
+        ax.plot([], [], " ", label="no optimum: the peak does not depend on the preload")
     if best:
         p0, a0 = float(result["preload"]), float(result["peak"])
         ax.plot([p0], [a0], "*", ms=14, color="#d62728", zorder=3,

@@ -193,10 +193,12 @@ def check_speed_rules(ck, effects, axes, wpath, can_turn, speed, axis_field=None
     if speeds and not can_turn:
         ck.fail(field if "speed" in axes else "scene.disk.speed",
                 "a rotation speed needs a turning structure: solid blades in a disk "
-                "([scene.disk] gives the axis; the package's own assembly)")
+                "([scene.disk] gives the axis), generated, meshed or imported with their "
+                "stiffness exported at the speeds ([[scene.matrices.speed]])")
     if declared and not can_turn:
         ck.fail("scene.effects", "\"centrifugal_stiffening\" needs a turning structure: solid "
-                                 "blades in a disk ([scene.disk], the package's own assembly)")
+                                 "blades in a disk ([scene.disk]; imported matrices with "
+                                 "[[scene.matrices.speed]])")
     if speeds and not declared:
         ck.fail(field if "speed" in axes else "scene.disk.speed",
                 "a rotation speed stiffens the blades: declare \"centrifugal_stiffening\"")

@@ -441,8 +441,10 @@ def _output(ck, t, scene):
             ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>' with set excitation "
                                          "or response and component x, y or z")
     figs, yscale, windows = output_common(ck, t)
+    optimum = parse_optimum(ck, t, scene)
+    blade_disk.check_interference_search(ck, scene.contacts, optimum)
     return OutputSettings(dofs=tuple(dofs), figures=figs, yscale=yscale, peak_windows=windows,
-                          optimum=parse_optimum(ck, t, scene),
+                          optimum=optimum,
                           curves=disk_scene.parse_curves(ck, t, scene, windows))
 
 

@@ -168,6 +168,17 @@ def check_interference(ck, contacts, axes, wpath):
             ck.fail(f"{f}.kv", "an interference needs a normal stiffness kv > 0 [N/m] to press")
 
 
+def check_interference_search(ck, contacts, optimum):
+    """An optimum-preload search varies n0, which an interference fixes (n0 = kv x
+    interference, the blades' closure): every trial preload would give the same
+    response, so the search is refused."""
+    pressed = [i for i, c in enumerate(contacts) if getattr(c, "interference", None) is not None]
+    if optimum is not None and pressed:
+        ck.fail("output.optimum_preload", f"searches the preload n0, but "
+                f"scene.contact[{pressed[0]}].interference sets it (n0 = kv x interference): "
+                "the response does not depend on the searched preload; remove one of the two")
+
+
 def check_disk_contacts(ck, contacts, placement):
     """Shroud pairs need a disk, and a disk of FE blades needs a shroud pair (checked
     before the blade is built)."""
@@ -202,16 +213,19 @@ def placement_field(message: str) -> tuple:
 
 def turning(ck, tab, structure: Blade, model: str, effects) -> Blade:
     """The blade spec with its speed (`scene.disk.speed` [rpm]) and whether it turns
-    (the effect "centrifugal_stiffening" on a solid blade in a disk, its own assembly)."""
+    (the effect "centrifugal_stiffening" on a solid blade in a disk, its own assembly or
+    matrices exported at speeds)."""
     if structure.disk is None:
         return structure
     speed = ck.number(tab["disk"].get("speed", 0.0), "scene.disk.speed", ge=0.0)
     rotating = ("centrifugal_stiffening" in effects and model == "solid_blade"
-                and structure.matrices is None)
+                and (structure.matrices is None or bool(structure.matrices.speeds)))
     return replace(structure, speed=float(speed), rotating=rotating)
 
 
 def can_turn(scene) -> bool:
-    """Whether the scene's blades can turn: solid, in a disk, the package's assembly."""
+    """Whether the scene's blades can turn: solid, in a disk, the package's assembly or
+    matrices exported at one or more speeds."""
     st = scene.structure
-    return scene.model == "solid_blade" and st.disk is not None and st.matrices is None
+    return (scene.model == "solid_blade" and st.disk is not None
+            and (st.matrices is None or bool(st.matrices.speeds)))

@@ -8,12 +8,20 @@
     job = "blade"                       # calculix: blade.sti, blade.mas, blade.dof
     units = "SI"                        # SI (N/m, kg, m) | mm (N/mm, tonne, mm)
 
+    [[scene.matrices.speed]]            # a turning blade: K exported at a speed
+    rpm = 15000.0                       # (CalculiX: *STATIC with CENTRIF, then
+    job = "blade_15000"                 #  *FREQUENCY, PERTURBATION, SOLVER=MATRIXSTORAGE)
+
 abaqus: `stiffness`, `mass` (`*MATRIX OUTPUT, FORMAT=COORDINATE` files); ansys:
 `stiffness`, `mass` (HBMAT files), `mapping`; matrix_market: `stiffness`, `mass`,
 `dofs` (the "node direction" table).  Paths are relative to the study file.  The
 blade is then `structure.exchange.imported.import_blade`: K and M from the files,
 the rest (faces, frames, sets) from the mesh.  [scene.blade] may give rho (the mass
-is weighed against it), not E or nu.
+is weighed against it), not E or nu.  A `speed` table per exported speed gives the
+stiffness key of the format (`job`, or `stiffness`) of K at `rpm`: two or more speeds
+fit K(Omega) = K + Omega^2 K_1 + Omega^4 K_2 (`structure.rotation.fitted_terms`; one
+would fix K_1 alone, 12 % off between on a twisted blade), used up to the highest
+speed; rho is then needed (the centrifugal load of an interference).
 """
 from __future__ import annotations
 
@@ -47,10 +55,48 @@ def scene_matrices(ck, tab: dict, mesh, base_dir: Path,
         if key in blade:
             ck.fail(fld(f"blade.{key}"), "unused with scene.matrices (the exported K holds "
                                          "the stiffness): remove it")
-    files = parse_matrices(ck, tab["matrices"], "scene.matrices", base_dir)
+    files = parse_matrices(ck, tab["matrices"], "scene.matrices", base_dir, extra=("speed",))
     if "rho" in blade:      # a number > 0, read with the blade's parameters
         files = replace(files, density=float(blade["rho"]))
-    return files
+    speeds = parse_speeds(ck, tab["matrices"].get("speed", []), files, base_dir)
+    if speeds and files.density is None:
+        ck.fail(fld("blade.rho"), "needed with scene.matrices.speed: the density [kg/m^3] "
+                                  "gives the centrifugal load of the turning blade")
+    return replace(files, speeds=speeds)
+
+
+def parse_speeds(ck, value, files: MatrixFiles, base_dir: Path) -> tuple:
+    """((rpm, stiffness path), ...) of the `[[scene.matrices.speed]]` tables, rpm > 0,
+    distinct, ascending."""
+    field = "scene.matrices.speed"
+    if not isinstance(value, list):
+        ck.fail(field, "must be an array of tables ([[scene.matrices.speed]])")
+    key = FILES[files.format][0]
+    out = []
+    for i, t in enumerate(value):
+        f = f"{field}[{i}]"
+        t = ck.table(t, f)
+        ck.keys(t, f, ("rpm", key), required=("rpm", key))
+        rpm = t["rpm"]
+        if isinstance(rpm, bool) or not isinstance(rpm, (int, float)) or not 0 < rpm < 1e6:
+            ck.fail(f"{f}.rpm", f"must be a speed in rpm > 0, got {rpm!r}")
+        path = parse_matrices(ck, {"format": files.format, "units": files.units,
+                                   **_rest(files), key: t[key]}, f, base_dir).stiffness
+        out.append((float(rpm), path))
+    rpms = [r for r, _ in out]
+    if len(rpms) == 1:
+        ck.fail(field, "one speed: export K at two or more speeds (K(Omega) = K + Omega^2 K_1 "
+                       "+ Omega^4 K_2 needs two; the Omega^4 part of a deflecting blade is "
+                       "not small)")
+    if len(set(rpms)) != len(rpms):
+        ck.fail(field, f"two tables give the same rpm ({sorted(rpms)})")
+    return tuple(sorted(out))
+
+
+def _rest(files: MatrixFiles) -> dict:
+    """The non-stiffness keys of a format, as the rest's files give them."""
+    keys = FILES[files.format][1:]
+    return dict(zip(keys, (files.mass, files.dofs)[:len(keys)]))
 
 
 def parse_matrices(ck, value, field: str, base_dir: Path, extra=()) -> MatrixFiles:

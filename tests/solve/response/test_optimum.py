@@ -28,6 +28,7 @@ class FakeCurve:
 
     success, message = True, ""
     Q = np.zeros((1, 1, 3))
+    info = {"unresolved_resonance_steps": 0}
 
     def __init__(self, n0):
         self.n0 = n0
@@ -431,3 +432,27 @@ def test_a_trial_without_a_local_peak_is_evaluated_over_the_band(fake_peaks, mon
     assert opt["local"] == [] and fake_peaks.local
     assert set(fake_peaks.local) <= set(fake_peaks)      # each trial then over the band
     assert "no local peak at" in caplog.text
+
+
+@pytest.mark.parametrize("wiggle, independent", [(0.0, True), (1e-12, True), (1e-6, False)])
+def test_a_peak_the_same_at_every_preload_has_no_optimum(wiggle, independent):
+    """A peak that does not depend on the preload (relative spread over the grid below
+    1e-9: equal, or round-off) gives preload NaN and `independent`, after the grid alone;
+    a spread of 1e-6 is a curve, whose minimum is searched (here at the lower bound)."""
+    def peak(n0):
+        return 2.0e-5 * (1.0 + wiggle * math.log(n0)), 1000.0
+
+    res = global_minimum(peak, (1.0, 100.0))
+    assert res["independent"] is independent
+    assert res["spread"] == pytest.approx(wiggle * math.log(100.0) / (1 + wiggle * math.log(100.0)),
+                                          abs=1e-15)
+    if independent:
+        from pipeline.study.figures.optimum_figure import optimum_plot
+
+        assert math.isnan(res["preload"]) and res["brackets"] == []
+        assert res["computed"] == len(res["grid"]) and res["peak"] == pytest.approx(2.0e-5)
+        labels = [t.get_text() for t in optimum_plot(res, "x").axes[0].get_legend().get_texts()]
+        assert "no optimum: the peak does not depend on the preload" in labels
+        assert not any(lb.startswith("optimum ") for lb in labels)   # no star
+    else:
+        assert res["preload"] == 1.0

@@ -552,3 +552,30 @@ def test_two_axis_grid_gives_one_figure_per_other_axis_value(tmp_path):
                                              "amplitude_v_mu=0.2.png", "amplitude_v_mu=0.4.png"]
     back = read_dataset(write_netcdf(ds, tmp_path / "grid.nc"))
     xr.testing.assert_identical(ds, back)
+
+
+def test_a_branch_followed_beyond_the_range_keeps_the_ranges_peak(tmp_path, ex1):
+    """A curve with points beyond the study's 150-250 rad/s (a branch followed out of
+    its window, `solve.response.window`), the largest amplitude at one of them (set
+    here 10x the rest): `peak_amplitude` is the largest over the points inside the
+    range (by hand), the global attribute `frequency_range` says which, and the
+    contract checker accepts it; without that attribute it reads every point and
+    refuses the peak."""
+    curves = curves_for(ex1, lengths=[40, 40, 40])
+    c = curves[1]
+    om = np.linspace(150.0, 270.0, c.n_points)   # the last 7 points beyond 250 rad/s
+    amp = c.amplitude.copy()
+    amp[-1] = 10 * amp.max()
+    curves[1] = ResponseCurve(**{**vars(c), "omega": om, "parameter": om, "amplitude": amp,
+                                 "info": {**c.info, "window": (150.0, 250.0)}})
+    ds = to_dataset(ex1, curves)
+    inside = om <= 250.0
+    k = int(np.argmax(np.where(inside, amp[:, 0], -np.inf)))
+    assert float(ds["peak_amplitude"].values[1, 0]) == amp[k, 0] < amp[-1, 0]
+    assert float(ds["peak_frequency"].values[1, 0]) == om[k]
+    assert ds.attrs["frequency_range"].tolist() == [150.0, 250.0]
+    assert problems(write_netcdf(ds, tmp_path / "beyond.nc")) == []
+    old = ds.copy()
+    del old.attrs["frequency_range"]
+    assert any("'peak_amplitude' differs" in p
+               for p in problems(write_netcdf(old, tmp_path / "old.nc")))

@@ -2,6 +2,7 @@
 branch cut short (`incomplete_cases`, tests/solve/harmonic_balance/test_roundoff.py)
 and a largest amplitude at an end of the interval (`edge_peaks`), for the cases and
 for the optimum-preload search."""
+import numpy as np
 import pytest
 
 from pipeline.__main__ import main as cli
@@ -154,3 +155,73 @@ def test_absent_effects_judge_response_datasets_only():
     assert absent_effects(study, ds) == ["\"friction\" is declared but no contact slips at "
                                          "any point of any case (slip_fraction 0 everywhere): "
                                          "the friction limit is never reached"]
+
+
+def stuck_peak(c=0.3, k=3.55e4 + 1.0e4, F=1.0):
+    """The largest amplitude [m] of m x'' + c x' + k x = F cos(w t), m = 1 kg, over w
+    (closed form): F / (c sqrt(k - c^2 / 4))."""
+    return F / (c * (k - c * c / 4) ** 0.5)
+
+
+def test_a_peak_that_does_not_depend_on_the_preload_has_no_optimum(tmp_path, capsys):
+    """Bounds 1000-10000 N keep Example 1's damper stuck (|ku u| <= 160 N < mu n0 =
+    500 N): the peak is the linear stuck oscillator's at every preload (closed form), so
+    no preload is reported as optimal: NaN in the dataset, said by its attributes, and
+    one printed line after `run` and after `optimise` (before, the optimum was the
+    lower bound, 1000 N, with no warning)."""
+    import xarray as xr
+
+    f = tmp_path / "stuck.toml"
+    f.write_text(BELOW + '\n[output.optimum_preload]\ndof = "x"\nbounds = [1000.0, 1.0e4]\n')
+    assert cli(["run", str(f), "--out", str(tmp_path / "a"), "--workers", "1"]) == 0
+    warns = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("warning:")]
+    assert len(warns) == 1 and warns[0].startswith(
+        f"warning: {f}: output.optimum_preload: the peak of x is the same at every preload "
+        "of the search's grid (relative spread ")
+    assert "does not depend on the preload" in warns[0]
+    with xr.open_dataset(tmp_path / "a" / "stuck.nc") as ds:
+        assert np.isnan(float(ds["optimum_preload"]))
+        assert int(ds["optimum_preload"].attrs["independent_of_preload"]) == 1
+        assert float(ds["optimum_preload"].attrs["peak_relative_spread"]) < 1e-9
+        assert float(ds["optimum_peak_amplitude"]) == pytest.approx(stuck_peak(), rel=1e-8)
+        assert np.allclose(ds["optimum_search_peak"].values, stuck_peak(), rtol=1e-8)
+    assert cli(["optimise", str(f), "--out", str(tmp_path / "b"), "--workers", "1"]) == 0
+    out = capsys.readouterr()
+    assert "preload minimising the peak of x: none, the peak does not depend on it" in out.out
+    warns = [ln for ln in out.err.splitlines() if ln.startswith("warning:")]
+    assert len(warns) == 1 and "does not depend on the preload" in warns[0]
+
+
+def test_a_peak_that_may_hide_between_two_points_is_printed(tmp_path, capsys, monkeypatch):
+    """Every branch made to count 2 steps across a resonance not resolved (the
+    continuation's own count, here set): each case's message says 'a peak may hide
+    there', and so does one printed line per case after `run`, and one line naming
+    the preloads after `optimise` (before, the dataset's message only)."""
+    import dataclasses
+
+    import pipeline.solve.response.response as resp
+
+    real = resp.cover_range
+
+    def unresolved(*args, **kwargs):
+        br, spent = real(*args, **kwargs)
+        return dataclasses.replace(br, n_unresolved=2), spent
+
+    monkeypatch.setattr(resp, "cover_range", unresolved)
+    f = tmp_path / "hidden.toml"
+    f.write_text(BELOW + '\n[output.optimum_preload]\ndof = "x"\nbounds = [0.5, 10.0]\n')
+    assert cli(["run", str(f), "--out", str(tmp_path / "a"), "--workers", "1"]) == 0
+    warns = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("warning:")]
+    note = ("2 step(s) across a resonance could not be shortened to its half-power band: a "
+            "peak may hide there")
+    assert f"warning: {f}: case preload = 0.5 N: {note}" in warns
+    assert f"warning: {f}: case preload = 1000 N: {note}" in warns
+    search = [w for w in warns if w.startswith(f"warning: {f}: output.optimum_preload: at "
+                                               "preload(s) ")]   # the cases' reused
+    assert len(search) == 1 and "a peak may hide there" in search[0]
+    assert cli(["optimise", str(f), "--out", str(tmp_path / "b"), "--workers", "1"]) == 0
+    warns = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("warning:")]
+    assert len(warns) == 1 and warns[0].startswith(
+        f"warning: {f}: output.optimum_preload: at preload(s) 0.5 N (2), ")
+    assert warns[0].endswith("a peak may hide there (its band peak, and so the optimum, may "
+                             "be too low)")
