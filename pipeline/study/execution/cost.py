@@ -29,11 +29,13 @@ static_contact_load_pair; both timed on the first case), and
 an optimum-preload search: SEARCH_GRID cases' worth without stability on the
 workers and SEARCH_SERIAL in one process:
 
-    t = n_cases t_case / w + setup + (S - 1) t_red / w + n_cases t_static [+ search],
+    t = n_cases t_case / w + setup + (S - 1) t_red / w + n_cases t_static
+        + slowdown OUTPUT [+ search],
 
 S the distinct speeds of the cases (1 without a speed axis).  t_R and t_S are timed at
 the study's own H and AFT samples: their growth with the (2H + 1) n_c unknowns and
-with samples x elements is measured, not modelled (pipeline/bench/README.md "Cost
+with samples x elements is measured, not modelled; OUTPUT the dataset and its
+figures, written once (pipeline/bench/README.md "Cost
 estimates" gives the exponents measured on the shipped models).  It assumes
 the compiled kernels are cached (a first run compiles them: up to 50 s more) and a
 machine as loaded as when it timed: the constant terms are scaled by the slowdown
@@ -79,6 +81,8 @@ CALIBRATION_SLOWDOWN = 5.0
 POINTS = (0.6, 2.0)                   # x the middle 60 (1 + m)^0.6
 PEAKS_ONLY = 0.4   # x P for a case keeping its largest peaks only (`[output] curves = false`:
 #                    no dense output; the mistuned wheel at 1 N: 373 points against 958)
+OUTPUT = 1.0   # [s] on an idle core: the dataset and its figures (lumped disk_cyclic, load 6
+#                and wall / CPU about 1: dataset 0.17 s, amplitude figures 0.65-0.96 s)
 SEARCH_GRID = (6.0, 13.0)   # an optimum-preload search's band evaluations (its grid nodes,
 #                             cases' worth without stability, spread on the workers: the
 #                             full shrouded disk's 8, Example 3's 12)
@@ -252,7 +256,7 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
                              1.0 if getattr(study.output, "curves", True) else PEAKS_ONLY)
     case = (points[0] * point[0], points[1] * point[1])
     search = None
-    fixed = timing.setup + model_work(study, timing, w)
+    fixed = timing.setup + model_work(study, timing, w) + timing.slowdown * OUTPUT
     lo = n_cases * case[0] / w + fixed
     hi = n_cases * case[1] / w + fixed
     if study.output.optimum is not None:

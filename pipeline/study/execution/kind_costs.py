@@ -48,8 +48,9 @@ SPREAD = 2.0               # the range is middle / SPREAD ... middle x SPREAD
 FIXED = 0.3                # [s] dataset and figure of a disk modal study (modules imported)
 MODES_FIXED = 0.8          # [s] ... of a blade modal study, its mode shapes' VTU included
 STEP_REF = 0.1             # continuation step whose curves `cost.POINTS` counts
-BRENT = 4.5                # trial speeds of one crossing's Brent search (the quick Campbell
-#                            study: 60 for 14 crossings, 4.3 each, the grid's ends known)
+BRENT = 4.5                # trial speeds of one crossing's Brent search, the grid's ends
+#                            known: the Campbell study 42 for 11 crossings quick (3.8 each),
+#                            51 for 12 in full (4.3)
 
 
 @dataclass(frozen=True)
