@@ -22,9 +22,21 @@ natural frequencies (contacts open and stuck) inside the frequency range, which 
 how many points the curve needs.  c, s0, s1, s_stab and the spread of P are ranges
 calibrated on the shipped studies (`python -m pipeline bench estimate`,
 pipeline/bench/README.md "Cost estimates"); the estimate is the range they give, its middle the geometric mean.  The
-study costs n_cases t_case / workers, plus the model's build and reduction (timed) and
+study costs n_cases t_case / workers, plus the model's build and reduction (timed),
+a reduction for every further speed of a speed sweep, the static contact solution
+of every case whose shrouds are set by an `interference` (the dataset's
+static_contact_load_pair; both timed on the first case), and
 an optimum-preload search: SEARCH_GRID cases' worth without stability on the
-workers and SEARCH_SERIAL in one process.  It assumes
+workers and SEARCH_SERIAL in one process:
+
+    t = n_cases t_case / w + setup + (S - 1) t_red / w + n_cases t_static
+        + slowdown OUTPUT [+ search],
+
+S the distinct speeds of the cases (1 without a speed axis).  t_R and t_S are timed at
+the study's own H and AFT samples: their growth with the (2H + 1) n_c unknowns and
+with samples x elements is measured, not modelled; OUTPUT the dataset and its
+figures, written once (pipeline/bench/README.md "Cost
+estimates" gives the exponents measured on the shipped models).  It assumes
 the compiled kernels are cached (a first run compiles them: up to 50 s more) and a
 machine as loaded as when it timed: the constant terms are scaled by the slowdown
 measured then (wall / CPU time of one thread, `slowdown`) against CALIBRATION_SLOWDOWN.
@@ -69,6 +81,8 @@ CALIBRATION_SLOWDOWN = 5.0
 POINTS = (0.6, 2.0)                   # x the middle 60 (1 + m)^0.6
 PEAKS_ONLY = 0.4   # x P for a case keeping its largest peaks only (`[output] curves = false`:
 #                    no dense output; the mistuned wheel at 1 N: 373 points against 958)
+OUTPUT = 1.0   # [s] on an idle core: the dataset and its figures (lumped disk_cyclic, load 6
+#                and wall / CPU about 1: dataset 0.17 s, amplitude figures 0.65-0.96 s)
 SEARCH_GRID = (6.0, 13.0)   # an optimum-preload search's band evaluations (its grid nodes,
 #                             cases' worth without stability, spread on the workers: the
 #                             full shrouded disk's 8, Example 3's 12)
@@ -88,6 +102,8 @@ class PointTiming:
     setup: float
     sparse: bool = False        # the Jacobian is scipy.sparse (a full wheel)
     slowdown: float = CALIBRATION_SLOWDOWN   # wall / CPU time of one thread, now
+    reduction: float = 0.0      # [s] one reduction of an FE blade (a further speed's)
+    static: float = 0.0         # [s] the static contact solution of a case (interference)
 
 
 @dataclass(frozen=True)
@@ -121,16 +137,23 @@ def time_point(study, repeats: int = 5) -> PointTiming:
     frequency range, from the linear response there (medians of `repeats`)."""
     sv, fr = study.solver, study.sweep.frequency
     t0 = time.perf_counter()
-    system = study.system(study.sweep.cases()[0][1])
+    case = study.sweep.cases()[0][1]
+    system = study.system(case)
     setup = time.perf_counter() - t0
-    if getattr(study.scene.structure, "params", None) is not None:   # FE: as first built
-        from ...model.scene import reduced_model, timed_blade_model
-        setup += (timed_blade_model(study.scene.structure)[1]
-                  + reduced_model(study.scene.structure, study.scene.reduction)[1])
+    st, t_red, t_static = study.scene.structure, 0.0, 0.0
+    if getattr(st, "params", None) is not None:   # FE: as first built
+        from ...model.scene import case_speed, reduced_model, timed_blade_model
+        t_red = reduced_model(st, study.scene.reduction, case_speed(st, case))[1]
+        setup += timed_blade_model(st)[1] + t_red
+    if any(getattr(c, "interference", None) is not None for c in study.scene.contacts):
+        from ...model.static_load import static_contact
+        t1 = time.perf_counter()
+        static_contact(system)
+        t_static = time.perf_counter() - t1
     t_r, t_s, unknowns, sparse = time_system_point(
         system, sv.harmonics, sv.force_evaluation, sv.samples,
         math.sqrt(fr.omega_start * fr.omega_stop), repeats)
-    return PointTiming(t_r, t_s, unknowns, setup, sparse, slowdown())
+    return PointTiming(t_r, t_s, unknowns, setup, sparse, slowdown(), t_red, t_static)
 
 
 def time_system_point(system, H: int, method: str, samples: int, omega: float,
@@ -233,8 +256,9 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
                              1.0 if getattr(study.output, "curves", True) else PEAKS_ONLY)
     case = (points[0] * point[0], points[1] * point[1])
     search = None
-    lo = n_cases * case[0] / w + timing.setup
-    hi = n_cases * case[1] / w + timing.setup
+    fixed = timing.setup + model_work(study, timing, w) + timing.slowdown * OUTPUT
+    lo = n_cases * case[0] / w + fixed
+    hi = n_cases * case[1] / w + fixed
     if study.output.optimum is not None:
         bare = tuple(c * timing.t_residual + k * timing.t_solve + f * (s0 + s1 * n)
                      for c, k, s0, s1 in zip(pairs, lus, *OVERHEAD))
@@ -243,6 +267,18 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
         lo, hi = lo + search[0], hi + search[1]
     return Estimate(lo=lo, hi=hi, case=case, n_cases=n_cases, workers=w, timing=timing,
                     per_point=point, points=points, search=search, modes=m, pairs=pairs)
+
+
+def speeds_of(study) -> int:
+    """S: the distinct rotation speeds of a study's cases (1 without a speed axis)."""
+    return len({float(case.get("speed", 0.0)) for _, case in study.sweep.cases()})
+
+
+def model_work(study, timing: PointTiming, workers: int = 1) -> float:
+    """[s] beyond the first case's model (module docstring): a reduction for each
+    further speed, on the workers, and each case's static contact solution."""
+    return ((speeds_of(study) - 1) * timing.reduction / workers
+            + len(study.sweep.cases()) * timing.static)
 
 
 def work_per_point(unknowns: int, sparse: bool) -> tuple:

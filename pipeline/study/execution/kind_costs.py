@@ -7,6 +7,22 @@ model it builds: the response studies' estimate is `cost`, these use its timings
                  8.3 s at N = 11934 on an idle core;
     disk_modes   the sector model built and one eigen-solve timed now, times the 2 x (nodal
                  diameters) solves (contacts open and stuck), + FIXED;
+    campbell     a disk modes study with speeds (`study.modes.campbell`): a reduction
+                 (Craig-Bampton at that speed) and the eigen-solves of every nodal
+                 diameter and contact state at each speed, and Brent's evaluations of
+                 each engine-order crossing (a reduction and one eigen-solve each):
+
+                     t = t_blade + (S + BRENT c) t_red + (S D Z + BRENT c) t_eig
+                         + S t_static + FIXED,
+
+                 S speeds, D nodal diameters, Z contact states (open, stuck, and static
+                 with an interference), c crossings; t_blade, t_red (the sector at the
+                 largest speed), t_eig (mean of the solves of the excited nodal diameters)
+                 and t_static (the static contact solution, with an interference) timed
+                 now; c counted now as the engine-order lines whose sign against a
+                 family changes between the first and the last speed (the run brackets
+                 on the whole grid: a family crossed twice is counted once, as the run
+                 finds it);
     accuracy     each distinct run (settings) timed now on its own model as `cost`
                  times a response point, times its points (`cost.points_per_case`, more
                  below a continuation step of 0.1: (0.1 / max_step)^(1/3)), times the
@@ -21,6 +37,8 @@ import math
 import time
 from dataclasses import dataclass
 
+import numpy as np
+
 from .cost import (CALIBRATION_SLOWDOWN, OVERHEAD, modes_in_range, points_per_case,
                    slowdown, time_system_point, work_per_point)
 
@@ -30,6 +48,9 @@ SPREAD = 2.0               # the range is middle / SPREAD ... middle x SPREAD
 FIXED = 0.3                # [s] dataset and figure of a disk modal study (modules imported)
 MODES_FIXED = 0.8          # [s] ... of a blade modal study, its mode shapes' VTU included
 STEP_REF = 0.1             # continuation step whose curves `cost.POINTS` counts
+BRENT = 4.5                # trial speeds of one crossing's Brent search, the grid's ends
+#                            known: the Campbell study 42 for 11 crossings quick (3.8 each),
+#                            51 for 12 in full (4.3)
 
 
 @dataclass(frozen=True)
@@ -62,7 +83,10 @@ def modes_estimate(study) -> RangeEstimate:
 
 
 def disk_modes_estimate(study) -> RangeEstimate:
-    """A disk modes study (module docstring): the sector built and solved once now."""
+    """A disk modes study (module docstring): the sector built and solved once now;
+    with speeds, `campbell_estimate`."""
+    if getattr(study, "speeds", ()):
+        return campbell_estimate(study)
     from ...model.cyclic import sector_system
     from ...model.system import natural_frequencies
     from ...model.scene import sector
@@ -83,6 +107,68 @@ def disk_modes_estimate(study) -> RangeEstimate:
     t = build + solves * t_solve + slowdown() * FIXED
     return _spread(t, f"sector model {build:.2g} s, {solves} sector eigen-solves of "
                       f"{t_solve * 1e3:.3g} ms (timed now)")
+
+
+def campbell_estimate(study) -> RangeEstimate:
+    """A Campbell diagram (module docstring): its parts timed now, `campbell_cost`."""
+    from ...model.cyclic import sector_system
+    from ...model.static_load import static_contact
+    from ..figures.nd_figure import excited_nodal_diameter
+    from ..modes.campbell import STATIC, frequencies_at, speed_sector, states
+
+    sc, speeds = study.scene, study.speeds
+    N, nf = sc.assembly.sectors, study.n_frequencies
+    t_blade = 0.0
+    if getattr(sc.structure, "params", None) is not None:   # FE: as first built
+        from ...model.scene import timed_blade_model
+        t_blade = timed_blade_model(sc.structure)[1]
+    ends = (speeds[0], speeds[-1])
+    secs = [speed_sector(sc, ends[0])]   # the blade built (t_blade), then reduced
+    t1 = time.perf_counter()
+    secs.append(speed_sector(sc, ends[1]))
+    t_red = time.perf_counter() - t1
+    nds = [nd for nd in dict.fromkeys(excited_nodal_diameter(eo, N) for eo in
+                                      study.engine_orders) if nd in study.nodal_diameters]
+    nds = nds or [study.nodal_diameters[0]]
+    names = states(sc)
+    t_static = 0.0
+    if STATIC in names:
+        t2 = time.perf_counter()
+        static_contact(sector_system(secs[1], 0))
+        t_static = time.perf_counter() - t2
+    f, t_eig, solves = {}, 0.0, 0
+    for i, (v, sec) in enumerate(zip(ends, secs)):
+        for state in names:
+            t2 = time.perf_counter()
+            f[i, state] = frequencies_at(sc, v, nds, nf, state, sec)
+            t_eig += time.perf_counter() - t2 - (t_static if state == STATIC else 0.0)
+            solves += len(nds)
+    crossings = 0
+    for eo in study.engine_orders:
+        nd = excited_nodal_diameter(eo, N)
+        if nd in nds:
+            j = nds.index(nd)
+            for state in names:
+                g = [f[i, state][j] - eo * v / 60.0 for i, v in enumerate(ends)]
+                crossings += int(np.sum(np.sign(g[0]) * np.sign(g[1]) <= 0))
+    t_eig = max(t_eig, 0.0) / solves
+    t = campbell_cost(t_blade, t_red, t_eig, t_static, len(speeds),
+                      len(study.nodal_diameters), len(names), crossings) + slowdown() * FIXED
+    return _spread(t, f"{len(speeds)} speeds x (a reduction of {t_red:.2g} s + "
+                      f"{len(study.nodal_diameters)} nodal diameters x {len(names)} contact "
+                      f"states, eigen-solves of {t_eig * 1e3:.3g} ms"
+                      + (f", the static contact solution {t_static * 1e3:.3g} ms" if t_static
+                         else "") + f"), {crossings} engine-order crossing(s) x {BRENT:g} "
+                      "trial speeds (timed now)")
+
+
+def campbell_cost(t_blade: float, t_red: float, t_eig: float, t_static: float, speeds: int,
+                  nodal_diameters: int, states: int, crossings: int) -> float:
+    """t [s] of a Campbell diagram without FIXED (module docstring): the blade built
+    once, each speed reduced and solved, each crossing's trial speeds."""
+    trials = BRENT * crossings
+    return (t_blade + (speeds + trials) * t_red + speeds * t_static
+            + (speeds * nodal_diameters * states + trials) * t_eig)
 
 
 def accuracy_estimate(study) -> RangeEstimate:

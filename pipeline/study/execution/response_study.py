@@ -97,7 +97,8 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
         f"ms each (residual + Jacobian {tm.t_residual * 1e3:.3g} ms and Newton solve "
         f"{tm.t_solve * 1e3:.3g} ms of {tm.unknowns} unknowns, timed now on this model, "
         f"{e.pairs[0]:g}-{e.pairs[1]:g} times a point, plus bookkeeping and stability {study.solver.stability or 'off'}) = "
-        f"{time_range(*e.case)} per case; model build and reduction {seconds(tm.setup)}; one "
+        f"{time_range(*e.case)} per case; model build and reduction {seconds(tm.setup)}"
+        f"{model_words(study, tm)}; one "
         f"thread here {tm.slowdown:.2g}x as slow as on an idle core now; "
         "calibrated on the shipped studies (bench estimate); assumes the compiled kernels "
         "already cached (the first run after an install compiles them: up to 50 s more); a "
@@ -109,6 +110,18 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
                      f"{fr.start:g}-{fr.stop:g} {fr.unit}: the curves may hold no resonant "
                      "peak (is the range's unit the one meant?)")
     return lines
+
+
+def model_words(study, tm) -> str:
+    """What `cost.model_work` adds, in words: the further speeds' reductions and the
+    static contact solutions (empty without either)."""
+    from .cost import speeds_of
+
+    S = speeds_of(study)
+    return ((f", + {S - 1} further speed(s), a reduction of {tm.reduction:.2g} s each"
+             if S > 1 else "")
+            + (f", + the static contact solution of each case ({tm.static * 1e3:.3g} ms, "
+               "interference)" if tm.static else ""))
 
 
 def estimate(study: Study, workers: int = 1):

@@ -211,3 +211,34 @@ def test_a_crossing_that_cannot_be_located_loses_no_other(quick, monkeypatch, ca
     assert found == [(6, 6, 1, "open", 1000.0, 100.0)]
     assert "crossing of EO 3 with ND 3 mode 1 (open) between 1000 and 3000 rpm is not " \
            "located" in caplog.text
+
+
+def test_check_counts_each_speed_and_the_crossings_the_run_locates(quick, diagram, monkeypatch):
+    """`check`'s Campbell estimate (`kind_costs.campbell_estimate`) counts what the run
+    does: the diagram's speeds, nodal diameters and contact states, and as many
+    engine-order crossings as the run locates by Brent on the grid (here EO 3 and 6 on
+    the first family, open and stuck, and more); each further speed adds a reduction,
+    the static solution and D Z eigen-solves, each crossing BRENT trials of a reduction
+    and one solve (the formula of `kind_costs`, by hand)."""
+    from dataclasses import replace
+
+    from pipeline.study.execution import kind_costs
+
+    res, speeds = diagram
+    counted = []
+    monkeypatch.setattr(kind_costs, "campbell_cost", lambda *a: counted.append(a[4:]) or 1.0)
+    study = replace(quick, speeds=speeds, nodal_diameters=NDS, n_frequencies=2,
+                    engine_orders=(3, 6))
+    kind_costs.disk_modes_estimate(study)
+    assert counted == [(len(speeds), len(NDS), 2, len(res["crossings"]))]
+    assert len(res["crossings"]) >= 4
+    monkeypatch.undo()
+    cost = kind_costs.campbell_cost
+    t = dict(t_blade=3.0, t_red=0.25, t_eig=0.004, t_static=0.002)   # [s]
+    base = cost(**t, speeds=16, nodal_diameters=19, states=2, crossings=11)
+    assert base == pytest.approx(3.0 + (16 + 4.5 * 11) * 0.25 + 16 * 0.002
+                                 + (16 * 19 * 2 + 4.5 * 11) * 0.004, rel=1e-12)
+    assert cost(**t, speeds=17, nodal_diameters=19, states=2, crossings=11) - base == \
+        pytest.approx(0.25 + 0.002 + 19 * 2 * 0.004, rel=1e-12)
+    assert cost(**t, speeds=16, nodal_diameters=19, states=2, crossings=12) - base == \
+        pytest.approx(4.5 * (0.25 + 0.004), rel=1e-12)

@@ -1,0 +1,64 @@
+"""`check`'s estimate of a response study (`study.execution.cost`) counts the work a
+speed sweep and an interference add: one reduction for each speed after the first
+(the run reduces the blade once a speed) and the static contact solution of every
+case whose shrouds are set by an interference (the dataset's static state), by the
+module's formula, checked by hand on a constructed timing (no time measured)."""
+from dataclasses import replace
+
+import pytest
+
+from pipeline.study.execution import cost
+from pipeline.study.files.documents import load_study
+from helpers import STUDIES
+
+
+@pytest.fixture(scope="module")
+def speed_study():
+    return load_study(STUDIES / "shrouded_disk_speed.toml", quick=True)
+
+
+def timing(reduction=0.0, static=0.0):
+    """A constructed `PointTiming` [s] (the machine's slowdown as calibrated)."""
+    return cost.PointTiming(t_residual=1e-3, t_solve=2e-3, unknowns=91, setup=1.5,
+                            reduction=reduction, static=static)
+
+
+def test_each_further_speed_adds_a_reduction_and_each_case_its_static_solution(speed_study):
+    """The quick speed study: 3 cases at 6,000, 7,250 and 8,000 rpm, a shroud gap
+    (interference -0.1 mm): 2 further reductions and 3 static solutions beside the
+    cases, on one worker; on two the reductions are shared, the static solutions
+    (written with the dataset, in the main process) are not."""
+    assert [c["speed"] for _, c in speed_study.sweep.cases()] == [6000.0, 7250.0, 8000.0]
+    assert cost.speeds_of(speed_study) == 3
+    bare = cost.estimate(speed_study, 1, timing())
+    more = cost.estimate(speed_study, 1, timing(reduction=0.4, static=0.01))
+    assert more.lo - bare.lo == pytest.approx(2 * 0.4 + 3 * 0.01, rel=1e-12)
+    assert more.hi - bare.hi == pytest.approx(2 * 0.4 + 3 * 0.01, rel=1e-12)
+    assert cost.model_work(speed_study, timing(0.4, 0.01), workers=2) == \
+        pytest.approx(0.4 + 3 * 0.01, rel=1e-12)
+
+
+def test_one_speed_adds_no_reduction(speed_study):
+    """The same study at one speed (the sweep's first) adds no reduction, only its
+    static solutions."""
+    sw = speed_study.sweep
+    one = replace(speed_study, sweep=replace(sw, axes={"speed": (6000.0,)}))
+    assert cost.speeds_of(one) == 1
+    assert cost.model_work(one, timing(reduction=0.4, static=0.01)) == pytest.approx(0.01)
+
+
+def test_the_point_is_timed_with_the_studys_own_harmonics_and_samples(monkeypatch):
+    """The residual and the Newton solve are timed on the harmonic-balance problem of
+    the study's H and AFT samples (2D friction: H = 1 and 64 samples quick, 3 and 128
+    in full), so their growth with (2H + 1) x contact DOFs and samples x elements is
+    measured, not assumed: the quick 2D disk has 90 contact DOFs, (2 x 1 + 1) x 90 =
+    270 unknowns."""
+    from pipeline.solve.harmonic_balance import hbm
+
+    seen = []
+    setup = hbm.setup
+    monkeypatch.setattr(hbm, "setup", lambda system, H, method, samples, *a, **k: (
+        seen.append((H, method, samples)) or setup(system, H, method, samples, *a, **k)))
+    quick = load_study(STUDIES / "shrouded_disk_2d.toml", quick=True)
+    tm = cost.time_point(quick, repeats=1)
+    assert seen == [(1, "aft", 64)] and tm.unknowns == 270
