@@ -78,9 +78,9 @@ class Blade:
     blade is then shaped for it, `solid.solid_mesh`, `beam.shroud_face_geometry`),
     needed by `ShroudPair`s.  matrices: K and M exported by another FE code for
     `mesh` (`structure.exchange.imported.MatrixFiles`) instead of the package's own.
-    rotating: the blade turns about the disk axis at `speed` [rpm] (or a case's): its
-    stiffness is K + Omega^2 (K_sigma1 - M_P) (`structure.rotation`; a solid blade in a
-    disk, the package's own assembly)."""
+    rotating: the blade turns about the disk axis at `speed` [rpm] (or a case's)
+    (`structure.rotation`: its own assembly's prestress, or exported matrices' fit).
+    mesh_scale: metres per unit of the mesh file's coordinates (1e-3: millimetres)."""
 
     params: object           # fe_model.BladeParams
     mesh: str | None = None
@@ -89,6 +89,7 @@ class Blade:
     matrices: object = None  # imported.MatrixFiles | None
     rotating: bool = False   # turns about the disk axis (`structure.rotation`)
     speed: float = 0.0       # [rpm] unless a case sets `speed`
+    mesh_scale: float = 1.0  # [m] per mesh-file length unit
 
 
 @dataclass(frozen=True)
@@ -242,7 +243,7 @@ def timed_blade_model(structure: Blade) -> tuple:
                              rotation_centre=centre)
     elif structure.mesh:
         blade = load_blade(structure.mesh, structure.params, required=("root",),
-                           rotation_centre=centre)
+                           rotation_centre=centre, scale=structure.mesh_scale)
     else:
         blade = build_blade(structure.params, structure.disk, rotation_centre=centre)
     return blade, time.perf_counter() - t0

@@ -22,12 +22,15 @@ def build_blade(p: BladeParams, disk: DiskPlacement | None = None,
 
 
 def load_blade(path, p: BladeParams = BladeParams(),
-               required=("root",) + CONTACT_SETS, rotation_centre=None) -> BladeModel:
-    """Solid blade from a mesh file (.msh/.vtu/.xdmf) with named node sets; material
-    and damping from `p`.  A missing set raises ValueError naming file and set, as do
-    coordinates that span more than a blade (lengths are metres)."""
-    v = read_volume(path, required)
-    check_span(v.mesh.p, path, "(mesh files are read in metres)")
+               required=("root",) + CONTACT_SETS, rotation_centre=None,
+               scale: float = 1.0) -> BladeModel:
+    """Solid blade from a mesh file (.msh/.vtu/.xdmf/.inp) with named node sets, its
+    coordinates times `scale` in metres (1e-3: a mesh in millimetres); material and
+    damping from `p`.  A missing set raises ValueError naming file and set, as do
+    coordinates that span more than a blade."""
+    v = read_volume(path, required, scale=scale)
+    check_span(v.mesh.p, path, 'set [scene] units = "mm"' if scale == 1.0
+               else f"(read times {scale:g})")
     keep = {k: s for k, s in v.node_sets.items() if k in REQUIRED_SETS}
     return solid_from_mesh(v.mesh, keep, p, str(path), MESH_ELEMENTS[v.cell_type](),
                            rotation_centre=rotation_centre)

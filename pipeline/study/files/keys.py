@@ -173,6 +173,8 @@ _FIXED = [
     ("scene", "blade", "", "{}", "FE blades: `BladeParams` fields"),
     ("scene", "mesh", "", "", "solid blades: a mesh file with named node sets "
                               "(meshes/README.md), relative to the study file"),
+    ("scene", "units", "", '"SI"', 'the mesh file\'s coordinates: "SI" (m) or "mm"; the '
+                                  "material stays SI"),
     ("scene", "craig_bampton_modes", "1", str(DEFAULT_MODES), "FE blades: fixed-interface modes "
                                                              "of the reduction"),
     ("scene", "rayleigh", "1/s, s", "", "FE blades: `[α, β]`, C = αM + βK (instead of "
@@ -188,6 +190,8 @@ _FIXED = [
     ("scene.matrices", "mass", "", _REQ, "abaqus, ansys, matrix_market: the M file"),
     ("scene.matrices", "mapping", "", _REQ, "ansys: the `.mapping` file of the HBMAT export"),
     ("scene.matrices", "dofs", "", _REQ, "matrix_market: the \"node direction\" table"),
+    ("scene.matrices", "speed", "", "[]", "a turning blade: tables `rpm` and the format's "
+                                          "stiffness key, K exported at that speed (two or more)"),
     ("scene.matrices", "damping", "", "zeros", "lumped scenes from files: the C file (the "
                                                "stiffness's format; DOFs `n<node>.<x|y|z|rx|ry|rz>`)"),
     ("scene.modal", "masses", "kg", _REQ, "modal masses m"),

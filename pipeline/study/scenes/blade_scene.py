@@ -49,7 +49,7 @@ from ...structure.fe_model import BladeParams, boundary_dofs
 from ...structure.reduction import DEFAULT_MODES
 from . import blade_wheel_scene as blade_disk
 from . import lumped_disk_scene as disk_scene
-from .blade_size import check_blade_size, check_material
+from .blade_size import check_blade_size, check_material, mesh_units
 from .matrix_scene import scene_matrices
 from ..files.validation import Checker
 from ..files.rules import check_optimum_axes, check_scene_rules, contact_rules
@@ -246,8 +246,8 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
     tables only).  `fld`: as `field` of `parse_blade_params`.  `contacts`: the scene
     has contacts and excitation (a response or a disk's modes; a blade's modes have
     none); `loaded`: an excitation is required (a response)."""
-    allowed = ("model", "effects", "blade", "mesh", "matrices", "craig_bampton_modes",
-               "rayleigh", "disk")
+    allowed = ("model", "effects", "blade", "mesh", "units", "matrices",
+               "craig_bampton_modes", "rayleigh", "disk")
     if contacts:
         allowed += ("contact", "excitation")
     ck.keys(tab, "scene", allowed, required=("model",))
@@ -263,6 +263,7 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
             ck.fail(fld("mesh"), f"a mesh file needs model = \"solid_blade\", got {model!r}")
         mesh = _mesh(ck, tab["mesh"], fld("mesh"), base_dir, tab, contacts)
     matrices = scene_matrices(ck, tab, mesh, base_dir, fld)
+    mesh_scale = mesh_units(ck, tab, mesh, matrices, fld)
     n_modes = ck.integer(tab.get("craig_bampton_modes", DEFAULT_MODES),
                          fld("craig_bampton_modes"), 0, 10_000)
     rayleigh = None
@@ -283,7 +284,7 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
     contacts, loads = (_contacts_and_loads(ck, tab, loaded, params) if contacts else ((), ()))
     blade_disk.check_disk_contacts(ck, contacts, placement)
     structure = Blade(params=params, mesh=mesh, rayleigh=rayleigh, disk=placement,
-                      matrices=matrices)
+                      matrices=matrices, mesh_scale=mesh_scale)
     scene = Scene(structure=blade_disk.turning(ck, tab, structure, model, effects),
                   contacts=contacts, loads=loads, reduction=CraigBampton(n_modes),
                   effects=effects, model=model, assembly=assembly)

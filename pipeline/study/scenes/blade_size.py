@@ -91,3 +91,15 @@ def check_blade_size(ck, given: dict, p: BladeParams, placement, where) -> None:
                     f"{ws:.3g} m; check the hub radius (metres) and the sector count")
         mesh_keys = [k for k in ("n_chord", "n_thick", "n_span") if k in given]
         ck.fail(where(mesh_keys[0]) if mesh_keys else "scene.blade", f"{what}: a coarser mesh")
+
+
+def mesh_units(ck, tab, mesh, matrices, fld) -> float:
+    """Metres per unit of the mesh file's coordinates from `[scene] units` ("SI": metres,
+    "mm": millimetres); only with a mesh and without `[scene.matrices]`, which gives its
+    own `units` for the matrices and the mesh alike."""
+    if "units" not in tab:
+        return 1.0
+    if mesh is None or matrices is not None:
+        ck.fail(fld("units"), "the unit of a mesh file's coordinates: needs scene.mesh, and "
+                              "with scene.matrices its units says it")
+    return {"SI": 1.0, "mm": 1e-3}[ck.string(tab["units"], fld("units"), ("SI", "mm"))]

@@ -231,7 +231,8 @@ def test_a_deck_in_millimetres_read_as_si_is_named_a_unit_mistake(tmp_path, caps
     """The deck in mm (and K, M in N/mm and tonnes) without units = "mm": refused,
     naming the span (the package mesh's largest extent x 1000) and the cure, on the
     matrices' route and on the mesh's; with units = "mm" the blade equals the SI
-    export's to 1e-12."""
+    export's to 1e-12, on the matrices' route ([scene.matrices] units) and on the
+    mesh's ([scene] units; with matrices that key is refused: theirs says it)."""
     write_export(tmp_path, mm=True)
     mesh, _ = solid_mesh(BLADE, DISK)
     span = 1e3 * np.ptp(mesh.p, axis=1).max()
@@ -248,6 +249,16 @@ def test_a_deck_in_millimetres_read_as_si_is_named_a_unit_mistake(tmp_path, caps
     si = blade_of(tmp_path / "si")
     assert abs(mm.K - si.K).max() <= 1e-12 * abs(si.K).max()
     assert abs(mm.M - si.M).max() <= 1e-12 * abs(si.M).max()
+    # the mesh route reads it with [scene] units = "mm": the SI mesh's blade, its own
+    # K and M, faces and frames (coordinates 1e-3 x the file's)
+    on_mm = blade_of(tmp_path, 'mesh = "blade.inp"\nunits = "mm"', name="mesh_mm")
+    on_si = blade_of(tmp_path / "si", 'mesh = "blade.inp"', name="mesh_si")
+    assert abs(on_mm.K - on_si.K).max() <= 1e-12 * abs(on_si.K).max()
+    assert abs(on_mm.M - on_si.M).max() <= 1e-12 * abs(on_si.M).max()
+    for name, f in on_si.frames.items():
+        np.testing.assert_allclose(on_mm.frames[name].points, f.points, rtol=0, atol=1e-15)
+    (tmp_path / "both_units.toml").write_text(study_text(SCENE + '\nunits = "mm"'))
+    refused(tmp_path / "both_units.toml", "scene.units", "with scene.matrices", capsys)
 
 
 SET_NAMES = ("root", "shroud_left", "shroud_right", "excitation", "response")
