@@ -16,7 +16,6 @@ import numpy as np
 
 from ..harmonic_balance import hbm
 from ..harmonic_balance import roundoff
-from ..continuation.amplitudes import amplitudes_at
 from ..continuation.branch_refinement import PLOT_AXES, densify, insert_peaks
 from ..continuation.pseudo_arclength import continue_branch
 from ...fourier.harmonics import amplitude_half_peak_to_peak
