@@ -82,8 +82,11 @@ def test_a_peak_beyond_the_window_is_never_its_peak(keep):
     assert a == pytest.approx(upper_sheet(1.3), rel=1e-9)
     said = re.search(r"the largest amplitude traced of model DOF 0, ([0-9.]+) m at lam = "
                      r"([0-9.]+), lies outside the range", cur.message)
-    assert float(said.group(1)) == pytest.approx(closed_form_peak()[0], rel=1e-3)
-    assert 1.3 < float(said.group(2)) < 1.3506
+    # the largest traced point (not refined: that is the window's peak's job), near the
+    # closed-form resonance: measured 4e-4 in amplitude and 9e-4 in frequency
+    a_peak, w_peak = closed_form_peak()
+    assert float(said.group(1)) == pytest.approx(a_peak, rel=1e-3)
+    assert float(said.group(2)) == pytest.approx(w_peak, rel=2e-3)
 
 
 def jenkins_duffing(n0, ku=0.2):

@@ -22,6 +22,7 @@ from pipeline.study.files.documents import parse_study
 from pipeline.study.execution.checkpoint import checkpoint_dir
 from pipeline.study.execution.run import run_study
 from pipeline.study.execution.cases import default_solver
+from helpers import example1_study
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -529,41 +530,12 @@ def test_separation_not_declared_is_one_error_line_from_the_cli(tmp_path):
 
 # two cases and an optimum search over [1, 10] N (grid, brackets, Brent's local trials,
 # the band check of each bracket) on Example 1 at H = 1: about 2 s a run
-TINY = """
-[study]
-title = "Example 1 at H = 1 with an optimum search"
-[scene]
-model = "lumped"
-effects = ["friction"]
-dofs = ["x"]
-[scene.matrices]
-M = [[1.0]]
-C = [[3.0]]
-K = [[3.55e4]]
-[[scene.contact]]
-name = "damper"
-tangential = ["x"]
-ku = 1.0e4
-mu = 0.5
-[[scene.excitation]]
-dof = "x"
-amplitude = 1.0
-[sweep]
-preload = [2.0, 5.0]
-frequency = { start = 150.0, stop = 250.0, unit = "rad/s" }
-[solver]
-harmonics = 1
-tolerance = 1e-7
-stability = false
-max_step = 0.5
-[output]
-dofs = ["x"]
-figures = []
-[output.optimum_preload]
-dof = "x"
-bounds = [1.0, 10.0]
-rtol = 1e-2
-"""
+TINY = example1_study(
+    "Example 1 at H = 1 with an optimum search", preload="[2.0, 5.0]",
+    solver="harmonics = 1\ntolerance = 1e-7\nstability = false\nmax_step = 0.5",
+    output='dofs = ["x"]\nfigures = []',
+    extra="[output.optimum_preload]\ndof = \"x\"\nbounds = [1.0, 10.0]\nrtol = 1e-2\n",
+).replace("C = [[0.3]]", "C = [[3.0]]")
 
 
 class Killed(BaseException):
