@@ -167,7 +167,10 @@ def read_volume(path, required=REQUIRED_SETS, scale: float = 1.0) -> VolumeMesh:
     t = renum[conn].T
     hexa = cell_type.startswith("hexa")
     mesh = MeshHex(X, np.ascontiguousarray(t[_INV_HEX])) if hexa else MeshTet(X, t)
-    mesh = curved_mesh(mesh, cell_type, full, renum, scale * m.points[:, :3].T)
+    try:
+        mesh = curved_mesh(mesh, cell_type, full, renum, scale * m.points[:, :3].T)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
     node_sets = {}
     for k, v in sets.items():
         r = renum[np.asarray(v, dtype=np.int64)]

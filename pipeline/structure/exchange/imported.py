@@ -36,7 +36,6 @@ Abaqus and ANSYS models): K x 1e3, M x 1e3, coordinates x 1e-3.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
@@ -49,8 +48,8 @@ from ..rotation import centrifugal_load, fitted_terms
 from ..solid import solid_from_mesh
 from ..quadratic_cells import EDGES, edge_index
 from .calculix_deck import node_numbers
-from .matrix_files import (ExportedMatrices, read_abaqus, read_ansys, read_calculix,
-                           read_matrix_market)
+from .matrix_files import (ExportedMatrices, calculix_file, read_abaqus, read_ansys,
+                           read_calculix, read_matrix_market)
 
 FORMATS = ("calculix", "abaqus", "ansys", "matrix_market")
 UNITS = {"SI": (1.0, 1.0, 1.0), "mm": (1e3, 1e3, 1e-3)}   # K, M, length factors to SI
@@ -81,10 +80,7 @@ class MatrixFiles:
     def mass_file(self) -> str:
         """The file that holds M."""
         if self.format == "calculix":     # the job's, as `read_calculix` finds it
-            stem = Path(self.stiffness)
-            if stem.suffix in (".sti", ".mas", ".dof", ".inp"):
-                stem = stem.with_suffix("")
-            return str(stem.with_suffix(".mas"))
+            return str(calculix_file(self.stiffness, ".mas"))
         return str(self.mass)
 
 

@@ -119,14 +119,25 @@ def _triplets(path, n: int, dof_file, complete: bool):
     return symmetric(path, i - 1, j - 1, v, n)
 
 
+JOB_SUFFIXES = (".sti", ".mas", ".dof", ".inp")
+
+
+def calculix_file(job, suffix: str) -> Path:
+    """The file `<job><suffix>` of a CalculiX job, `job` given with or without one of
+    its files' suffixes (a job named "blade.v2" keeps its dot: "blade.v2.sti")."""
+    job = Path(job)
+    if job.suffix in JOB_SUFFIXES:
+        job = job.with_suffix("")
+    return job.parent / (job.name + suffix)
+
+
 def read_calculix(stem, complete: bool = True) -> ExportedMatrices:
     """`<stem>.sti`, `<stem>.mas` and `<stem>.dof` of a CalculiX
     `*FREQUENCY, SOLVER=MATRIXSTORAGE` step (`stem` with or without a suffix).
     `complete`: every row has entries (a stiffness, a mass; not a damping matrix,
     which may leave DOFs out), else the file was cut short."""
-    stem = Path(stem)
-    stem = stem.with_suffix("") if stem.suffix in (".sti", ".mas", ".dof", ".inp") else stem
-    dof_file = stem.with_suffix(".dof")
+    dof_file = calculix_file(stem, ".dof")
+    stem = dof_file.with_suffix("")
     dofs = []
     for k, line in enumerate(_text(dof_file), 1):
         if not line.strip():
@@ -139,8 +150,8 @@ def read_calculix(stem, complete: bool = True) -> ExportedMatrices:
     n = len(dofs)
     if n == 0:
         _fail(dof_file, "entries", "no DOF")
-    K = _triplets(stem.with_suffix(".sti"), n, dof_file, complete)
-    M = _triplets(stem.with_suffix(".mas"), n, dof_file, complete)
+    K = _triplets(calculix_file(stem, ".sti"), n, dof_file, complete)
+    M = _triplets(calculix_file(stem, ".mas"), n, dof_file, complete)
     return ExportedMatrices(K, M, tuple(dofs), f"calculix:{stem}")
 
 

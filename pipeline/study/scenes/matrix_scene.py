@@ -32,6 +32,7 @@ import numpy as np
 
 from ...errors import UsageError
 from ...structure.exchange.imported import FORMATS, UNITS, MatrixFiles, read_exported
+from ...structure.exchange.matrix_files import calculix_file
 
 FILES = {"calculix": ("job",), "abaqus": ("stiffness", "mass"),
          "ansys": ("stiffness", "mass", "mapping"),
@@ -113,7 +114,7 @@ def parse_matrices(ck, value, field: str, base_dir: Path, extra=()) -> MatrixFil
     for key in FILES[fmt]:
         s = ck.string(t[key], f"{field}.{key}")
         path = Path(s) if Path(s).is_absolute() else base_dir / s
-        needed = ([path.with_suffix(x) for x in (".sti", ".mas", ".dof")] if fmt == "calculix"
+        needed = ([calculix_file(path, x) for x in (".sti", ".mas", ".dof")] if fmt == "calculix"
                   else [path])
         for f in needed:
             if not f.is_file():

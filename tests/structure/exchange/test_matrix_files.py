@@ -151,6 +151,19 @@ def test_calculix_files_round_trip(tmp_path):
     assert_same(ex)
 
 
+def test_a_calculix_job_named_with_a_dot_keeps_its_name(tmp_path):
+    """Job "blade.v2" has files blade.v2.sti, .mas, .dof: its dot is not a suffix."""
+    job = tmp_path / "blade.v2"
+    for suffix, A_ in ((".sti", K_REF), (".mas", M_REF)):
+        write_calculix(tmp_path / "x", A_, A_, DOFS)
+        (tmp_path / "x.sti").rename(tmp_path / f"blade.v2{suffix}")
+    (tmp_path / "x.dof").rename(tmp_path / "blade.v2.dof")
+    for given in (job, tmp_path / "blade.v2.mas"):
+        ex = read_calculix(given)
+        assert list(ex.dofs) == DOFS
+        assert_same(ex)
+
+
 def test_abaqus_files_round_trip(tmp_path):
     write_abaqus(tmp_path / "k.mtx", K_REF, DOFS)
     write_abaqus(tmp_path / "m.mtx", M_REF, DOFS)
