@@ -17,8 +17,6 @@ same pairing of the faces and the same turn of the neighbour's vector by the pit
 as the elements that are solved."""
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 
 from .contacts import ShroudPair, shroud_pair_maps
@@ -44,7 +42,6 @@ def plane_rows(scene, case: dict | None = None) -> dict:
             for i, pair in free_pairs(scene)}
 
 
-@lru_cache(maxsize=32)
 def pair_rows(structure, reduction, pair: ShroudPair, speed: float) -> tuple:
     """(own, next) of one pair (`plane_rows`), reduced as the case's system is."""
     blade = blade_model(structure)
