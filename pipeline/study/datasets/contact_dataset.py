@@ -31,6 +31,7 @@ from ...contact import YangMenq
 from ...contact.cycle import cycle_results
 from ...contact.friction2d.law import cycle_results as plane_cycle_results
 from ...fourier.harmonics import shift
+from .free_direction import WARNED, free_direction_variables
 from .harmonics_dataset import add_harmonic_coefficients
 from ...model.static_load import NORMAL_LOAD, contact_owner, face_totals, static_state
 from ...model.system import contact_set
@@ -272,6 +273,10 @@ def add_contact_variables(data_vars, coords, attrs, study, cases, curves, system
     coords.update(contact_coords(study))
     data_vars.update(static_variables(study, cases, systems))
     data_vars.update(cycle_variables(study, cases, curves, systems, data_vars["converged"][1]))
+    free, warned = free_direction_variables(study, cases, curves, systems, int(lay.rows[0, 0]))
+    if free:   # 1D shroud pairs: how far their faces move along the direction left free
+        data_vars.update(free)
+        attrs[WARNED] = ", ".join(warned)
     if "hysteresis" in study.output.figures and wheel_sectors(study) is None:
         data_vars.update(peak_motion_variables(study, cases, curves, systems, data_vars))
         coords.setdefault("coefficient", ("coefficient", np.arange(2 * study.solver.harmonics + 1,

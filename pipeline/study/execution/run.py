@@ -31,6 +31,7 @@ from .checkpoint import kept_cases
 from .optimum_search import (hidden_search_peaks, independence, outside_search_peaks,
                              window_end)
 from ..files.documents import load_study, text_describes
+from ..datasets.free_direction import free_direction_notes
 from ..datasets.incomplete import (absent_effects, edge_peaks, hidden_peaks, incomplete_cases,
                                    window_edges)
 from ..kinds import kind_of
@@ -171,13 +172,16 @@ def _case_words(case: dict) -> str:
 def warnings(file, study, ds) -> list:
     """The `warning: <file>: <where>: <what>` lines of a finished run: incomplete cases,
     largest amplitudes at the range's end, peaks that may hide between two points
-    (resonance steps not resolved), declared effects no case shows, an optimum
-    at its window's end (printed, so that no progress bar hides them)."""
+    (resonance steps not resolved), declared effects no case shows, 1D shroud pairs
+    whose faces move along the direction they leave free (`free_direction`), an
+    optimum at its window's end (printed, so that no progress bar hides them)."""
     edges = edge_peaks(study, ds)
     out = [f"warning: {file}: case {_case_words(case)}: {what}"
            for case, what in (incomplete_cases(study, ds) + edges + window_edges(study, ds)
                               + hidden_peaks(study, ds, [c for c, _ in edges]))]
     out += [f"warning: {file}: scene.effects: {what}" for what in absent_effects(study, ds)]
+    out += [f"warning: {file}: {field}: " + (f"case {_case_words(case)}: " if case else "") + what
+            for field, case, what in free_direction_notes(study, ds)]
     end = None
     if ds is not None and "optimum_peak_frequency" in ds:
         attrs = ds["optimum_preload"].attrs
