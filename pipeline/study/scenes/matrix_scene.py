@@ -65,6 +65,9 @@ def scene_matrices(ck, tab: dict, mesh, base_dir: Path,
     axis = parse_axis(ck, ck.table(tab["matrices"], "scene.matrices").get("axis"), tab)
     files = parse_matrices(ck, tab["matrices"], "scene.matrices", base_dir,
                            extra=("speed", "axis"))
+    if axis is not None and "disk" not in tab:
+        ck.fail("scene.matrices.axis", "the engine axis of a disk: give [scene.disk] (sectors, "
+                                       "hub_radius) or remove it")
     if "rho" in blade:      # a number > 0, read with the blade's parameters
         files = replace(files, density=float(blade["rho"]))
     speeds = parse_speeds(ck, tab["matrices"].get("speed", []), files, base_dir)
@@ -77,7 +80,7 @@ def scene_matrices(ck, tab: dict, mesh, base_dir: Path,
 def parse_axis(ck, value, tab) -> tuple | None:
     """((x, y, z), (dx, dy, dz)) of `scene.matrices.axis` (None when absent): a point
     [the matrices' length unit] and a direction of the model's engine axis, finite, the
-    direction not zero; the blade's disk ([scene.disk]) is needed."""
+    direction not zero."""
     if value is None:
         return None
     field = "scene.matrices.axis"
@@ -88,9 +91,6 @@ def parse_axis(ck, value, tab) -> tuple | None:
     if not np.linalg.norm(direction) > 0:
         ck.fail(f"{field}.direction", "must not be the zero vector (the engine axis's "
                                       "direction)")
-    if "disk" not in tab:
-        ck.fail(field, "the engine axis of a disk: give [scene.disk] (sectors, hub_radius) "
-                       "or remove it")
     return tuple(map(float, point)), tuple(map(float, direction))
 
 
