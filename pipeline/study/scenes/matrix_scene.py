@@ -7,10 +7,10 @@
     format = "calculix"                 # calculix | abaqus | ansys | matrix_market
     job = "blade"                       # calculix: blade.sti, blade.mas, blade.dof
     units = "SI"                        # SI (N/m, kg, m) | mm (N/mm, tonne, mm)
-
+    # the model's engine axis, in its frame and units (default: the disk frame's,
+    # parallel to X through (0, 0, -R))
     axis = { point = [0.0, 0.0, 0.0], direction = [0.0, 0.0, 1.0] }
-                                        # the model's engine axis, in its frame and units
-                                        # (default: the disk frame's, X through (0, 0, -R))
+
     [[scene.matrices.speed]]            # a turning blade: K exported at a speed
     rpm = 15000.0                       # (CalculiX: *STATIC with CENTRIF, then
     job = "blade_15000"                 #  *FREQUENCY, PERTURBATION, SOLVER=MATRIXSTORAGE)
@@ -62,7 +62,7 @@ def scene_matrices(ck, tab: dict, mesh, base_dir: Path,
         if key in blade:
             ck.fail(fld(f"blade.{key}"), "unused with scene.matrices (the exported K holds "
                                          "the stiffness): remove it")
-    axis = parse_axis(ck, ck.table(tab["matrices"], "scene.matrices").get("axis"), tab)
+    axis = parse_axis(ck, ck.table(tab["matrices"], "scene.matrices").get("axis"))
     files = parse_matrices(ck, tab["matrices"], "scene.matrices", base_dir,
                            extra=("speed", "axis"))
     if axis is not None and "disk" not in tab:
@@ -77,7 +77,7 @@ def scene_matrices(ck, tab: dict, mesh, base_dir: Path,
     return replace(files, speeds=speeds, axis=axis)
 
 
-def parse_axis(ck, value, tab) -> tuple | None:
+def parse_axis(ck, value) -> tuple | None:
     """((x, y, z), (dx, dy, dz)) of `scene.matrices.axis` (None when absent): a point
     [the matrices' length unit] and a direction of the model's engine axis, finite, the
     direction not zero."""
