@@ -37,13 +37,30 @@ def exported_blade(folder, mesh=None):
     return mesh, sets, p
 
 
-def turning_deck(folder, job, rpm, hub, frequency):
-    """Write `job`.inp: the deck `blade.inp` turning at `rpm` about the axis parallel to
-    X through (0, 0, -hub) [m] -- `*STATIC` with `CENTRIF`, then `*STEP, PERTURBATION`
-    with the frequency step's line `frequency` -- and run it; its .dat text."""
-    text = (folder / "blade.inp").read_text()
+def turning_deck(folder, job, rpm, hub, frequency, deck="blade", axis=None):
+    """Write `job`.inp: the deck `deck`.inp turning at `rpm` about the axis parallel to
+    X through (0, 0, -hub) [m] (or `axis` = (point [m], direction)) -- `*STATIC` with
+    `CENTRIF`, then `*STEP, PERTURBATION` with the frequency step's line `frequency` --
+    and run it; its .dat text."""
+    text = (folder / f"{deck}.inp").read_text()
     w2 = (rpm * np.pi / 30) ** 2
+    point, direction = axis if axis is not None else ((0.0, 0.0, -hub), (1.0, 0.0, 0.0))
+    line = ", ".join(f"{v:.17g}" for v in (w2, *point, *direction))
     (folder / f"{job}.inp").write_text(text[:text.index("*STEP")] + "\n".join([
-        "*STEP", "*STATIC", "*DLOAD", f"EALL, CENTRIF, {w2:.17g}, 0., 0., {-hub}, 1., 0., 0.",
+        "*STEP", "*STATIC", "*DLOAD", f"EALL, CENTRIF, {line}",
         "*END STEP", "*STEP, PERTURBATION", *frequency, "*END STEP", ""]))
     return ccx(folder, job)
+
+
+def moved_deck(folder, deck, job, Q, b):
+    """Write `job`.inp: the deck `deck`.inp with every node moved rigidly to Q x + b
+    [m] (Q (3, 3) a rotation) -- the same blade in another frame."""
+    lines, out, nodes = (folder / f"{deck}.inp").read_text().splitlines(), [], False
+    for line in lines:
+        if line.startswith("*"):
+            nodes = line.upper().startswith("*NODE")
+        elif nodes and line.strip():
+            n, *x = line.split(",")
+            line = f"{n}, " + ", ".join(f"{v:.17g}" for v in Q @ np.array(x, float) + b)
+        out.append(line)
+    (folder / f"{job}.inp").write_text("\n".join(out) + "\n")

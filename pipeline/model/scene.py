@@ -240,7 +240,7 @@ def timed_blade_model(structure: Blade) -> tuple:
     if structure.matrices is not None:
         from ..structure.exchange.imported import import_blade
         blade = import_blade(structure.mesh, structure.matrices, structure.params,
-                             rotation_centre=centre)
+                             rotation_centre=centre, disk=structure.disk)
     elif structure.mesh:
         blade = load_blade(structure.mesh, structure.params, required=("root",),
                            rotation_centre=centre, scale=structure.mesh_scale)

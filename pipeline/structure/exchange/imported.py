@@ -32,10 +32,16 @@ blade can (`mesh_io.check_span`).
 
 Units: "SI" (N/m, kg, m) or "mm" (N/mm, tonne, mm -- the usual consistent set of
 Abaqus and ANSYS models): K x 1e3, M x 1e3, coordinates x 1e-3.
+
+Frame: the mesh and matrices are in the disk frame (the engine axis parallel to X
+through (0, 0, -R)) unless `MatrixFiles.axis` names the model's own engine axis; the
+blade is then moved rigidly into the disk frame, nodes and matrices alike
+(`disk_frame`).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 import scipy.sparse as sp
@@ -48,6 +54,7 @@ from ..rotation import centrifugal_load, fitted_terms
 from ..solid import solid_from_mesh
 from ..quadratic_cells import EDGES, edge_index
 from .calculix_deck import node_numbers
+from .disk_frame import check_right_face, disk_frame, moved_volume, turned
 from .matrix_files import (ExportedMatrices, calculix_file, read_abaqus, read_ansys,
                            read_calculix, read_matrix_market)
 
@@ -66,7 +73,9 @@ class MatrixFiles:
     and the "node direction" table as `dofs`.  `units`: a key of `UNITS`.  `density`
     [kg/m^3]: the blade's, which M must weigh (None: any blade material's).  `speeds`:
     ((rpm, stiffness), ...) the stiffness exported at each speed of a turning blade (the
-    `stiffness` key's file, a job for calculix; the mass and DOF map are the rest's)."""
+    `stiffness` key's file, a job for calculix; the mass and DOF map are the rest's).
+    `axis`: ((x, y, z), (dx, dy, dz)) the model's engine axis, a point [the file's
+    length unit] and a direction, None: the disk frame's (`disk_frame`)."""
 
     format: str
     stiffness: str
@@ -75,6 +84,7 @@ class MatrixFiles:
     units: str = "SI"
     density: float | None = None
     speeds: tuple = ()
+    axis: tuple | None = None
 
     @property
     def mass_file(self) -> str:
@@ -200,13 +210,15 @@ def check_mass(M, basis, root, files: MatrixFiles, mesh) -> None:
 
 
 def import_blade(mesh_path, files: MatrixFiles, p, required=("root",),
-                 rotation_centre=None) -> BladeModel:
+                 rotation_centre=None, disk=None) -> BladeModel:
     """The clamped blade of an exported structure on its mesh (see the module): sets,
     frames and face areas from the mesh, K and M from the files (M weighed against
     the mesh's volume, `check_mass`); `p` (BladeParams) supplies the damping ratios
-    only.  Turning about the axis (along X) through `rotation_centre` [m]: K(Omega)
-    fitted through the stiffnesses exported at `files.speeds` (`rotation.fitted_terms`)
-    and the centrifugal load of the density `files.density` on the mesh."""
+    only.  With `files.axis`, moved from the model's frame into the frame of the disk
+    `disk` (`fe_model.DiskPlacement`: its axis along X through its `centre`, `disk_frame`).  Turning about the
+    axis (along X) through `rotation_centre` [m]: K(Omega) fitted through the
+    stiffnesses exported at `files.speeds` (`rotation.fitted_terms`) and the centrifugal
+    load of the density `files.density` on the mesh."""
     _, _, length = UNITS[files.units]
     vol = read_volume(mesh_path, required, scale=length)
     check_span(vol.mesh.p, mesh_path, 'set [scene.matrices] units = "mm"' if files.units == "SI"
@@ -220,6 +232,16 @@ def import_blade(mesh_path, files: MatrixFiles, p, required=("root",),
                              f"constraint?)")
     numbers = node_numbers(mesh_path, vol.vertex.size)
     source = str(mesh_path)
+    place = sp.csr_matrix          # the model's frame is the disk's
+    if files.axis is not None:
+        if disk is None:
+            raise ValueError(f"{source}: an engine axis places the blade in a disk: give the "
+                             "disk (its hub radius)")
+        point, direction = files.axis
+        Q, b = disk_frame((length * np.asarray(point, float), direction),
+                          vol.mesh.p[:, vol.node_sets["root"]], disk.centre)
+        vol = moved_volume(vol, Q, b)
+        place = partial(turned, Q=Q)
     kept = {}
 
     def matrices(basis, free):
@@ -227,15 +249,17 @@ def import_blade(mesh_path, files: MatrixFiles, p, required=("root",),
         n = 3 * basis.N
         P = sp.csr_matrix((np.ones(rows.size), (rows, np.arange(rows.size))),
                           shape=(n, rows.size))
-        K, M = (P @ ex.K @ P.T).tocsr(), (P @ ex.M @ P.T).tocsr()
+        K, M = (place(P @ A @ P.T) for A in (ex.K, ex.M))
         check_mass(M, basis, vol.node_sets["root"], files, source)
         check_definite(K[free][:, free], M[free][:, free], ex.source)
         kept.update(basis=basis, free=free,
-                    spun=[(P @ o.K @ P.T).tocsr()[free][:, free] for o in spun])
+                    spun=[place(P @ o.K @ P.T)[free][:, free] for o in spun])
         return K, M
 
     sets = {k: v for k, v in vol.node_sets.items() if k in REQUIRED_SETS}
     blade = solid_from_mesh(vol.mesh, sets, p, source, ELEMENTS[vol.cell_type](), matrices)
+    if files.axis is not None and "shroud_right" in blade.frames:
+        check_right_face(blade.frames["shroud_right"], files.axis[1], disk.centre, source)
     if rotation_centre is None:
         return blade
     if not files.speeds or files.density is None:

@@ -192,6 +192,13 @@ _FIXED = [
     ("scene.matrices", "dofs", "", _REQ, "matrix_market: the \"node direction\" table"),
     ("scene.matrices", "speed", "", "[]", "a turning blade: tables `rpm` and the format's "
                                           "stiffness key, K exported at that speed (two or more)"),
+    ("scene.matrices", "axis", "", "X through (0, 0, −R)", "solid blades in a disk: the "
+                                                          "model's engine axis, `point` and "
+                                                          "`direction` (meshes/README.md)"),
+    ("scene.matrices.axis", "point", "m or mm", _REQ, "a point of the engine axis in the "
+                                                      "model's frame, in `units`' length"),
+    ("scene.matrices.axis", "direction", "1", _REQ, "the axis direction (not zero); the "
+                                                    "next blade lies towards r × direction"),
     ("scene.matrices", "damping", "", "zeros", "lumped scenes from files: the C file (the "
                                                "stiffness's format; DOFs `n<node>.<x|y|z|rx|ry|rz>`)"),
     ("scene.modal", "masses", "kg", _REQ, "modal masses m"),
@@ -343,7 +350,7 @@ def _law_rows() -> list:
 def rows() -> list:
     """[(table, key, unit, default, meaning)] in the order of a study file."""
     laws = [f"scene.{t}" for t in study_laws()]
-    order = ["study", "scene", "scene.matrices", "scene.modal", "scene.contact", *laws,
+    order = ["study", "scene", "scene.matrices", "scene.matrices.axis", "scene.modal", "scene.contact", *laws,
              "scene.excitation", "scene.disk", "scene.disk.mistuning", "scene.disk.spring",
              "scene.blade", "sweep", "sweep.frequency", "sweep.mistuning_seed", "solver", "output",
              "output.optimum_preload", "modes", "modes.speeds", "quick", "quick.scene", "recommendation",

@@ -25,8 +25,9 @@ within 60 deg of it (projected).
 
 The generated wheel derives the shroud width from R and N so that neighbouring
 faces coincide (`structure.disk.wheel_params`); a user mesh (`mesh = "file"`, in the
-blade's frame, the disk axis parallel to X through (0, 0, -R)) is paired by the same
-rotation, and faces that do not match are a one-line error naming the first
+blade's frame, the disk axis parallel to X through (0, 0, -R), or moved there from its
+model's own `[scene.matrices] axis`, `structure.exchange.disk_frame`) is paired by the
+same rotation, and faces that do not match are a one-line error naming the first
 unmatched node.  Each case is solved on ONE sector by the cyclic reduction
 (`model.cyclic`), the neighbour's displacement turned by 2 pi / N into this
 sector's frame (`model.contacts.ShroudPair`).  A shroud pair is the effect

@@ -7,6 +7,9 @@
     format = "calculix"                 # calculix | abaqus | ansys | matrix_market
     job = "blade"                       # calculix: blade.sti, blade.mas, blade.dof
     units = "SI"                        # SI (N/m, kg, m) | mm (N/mm, tonne, mm)
+    # the model's engine axis, in its frame and units (default: the disk frame's,
+    # parallel to X through (0, 0, -R))
+    axis = { point = [0.0, 0.0, 0.0], direction = [0.0, 0.0, 1.0] }
 
     [[scene.matrices.speed]]            # a turning blade: K exported at a speed
     rpm = 15000.0                       # (CalculiX: *STATIC with CENTRIF, then
@@ -21,7 +24,11 @@ is weighed against it), not E or nu.  A `speed` table per exported speed gives t
 stiffness key of the format (`job`, or `stiffness`) of K at `rpm`: two or more speeds
 fit K(Omega) = K + Omega^2 K_1 + Omega^4 K_2 (`structure.rotation.fitted_terms`; one
 would fix K_1 alone, 12 % off between on a twisted blade), used up to the highest
-speed; rho is then needed (the centrifugal load of an interference).
+speed; rho is then needed (the centrifugal load of an interference).  With an `axis`
+the blade is moved rigidly into the disk frame (`structure.exchange.disk_frame`): X
+along the axis direction, Z radial out through the root's centroid, Y = Z x X towards
+the next blade; the study's directions (excitation `direction`, a pair's `tangent`,
+the components of `output.dofs`) are that frame's.  It needs [scene.disk].
 """
 from __future__ import annotations
 
@@ -56,14 +63,36 @@ def scene_matrices(ck, tab: dict, mesh, base_dir: Path,
         if key in blade:
             ck.fail(fld(f"blade.{key}"), "unused with scene.matrices (the exported K holds "
                                          "the stiffness): remove it")
-    files = parse_matrices(ck, tab["matrices"], "scene.matrices", base_dir, extra=("speed",))
+    axis = parse_axis(ck, ck.table(tab["matrices"], "scene.matrices").get("axis"))
+    files = parse_matrices(ck, tab["matrices"], "scene.matrices", base_dir,
+                           extra=("speed", "axis"))
+    if axis is not None and "disk" not in tab:
+        ck.fail("scene.matrices.axis", "the engine axis of a disk: give [scene.disk] (sectors, "
+                                       "hub_radius) or remove it")
     if "rho" in blade:      # a number > 0, read with the blade's parameters
         files = replace(files, density=float(blade["rho"]))
     speeds = parse_speeds(ck, tab["matrices"].get("speed", []), files, base_dir)
     if speeds and files.density is None:
         ck.fail(fld("blade.rho"), "needed with scene.matrices.speed: the density [kg/m^3] "
                                   "gives the centrifugal load of the turning blade")
-    return replace(files, speeds=speeds)
+    return replace(files, speeds=speeds, axis=axis)
+
+
+def parse_axis(ck, value) -> tuple | None:
+    """((x, y, z), (dx, dy, dz)) of `scene.matrices.axis` (None when absent): a point
+    [the matrices' length unit] and a direction of the model's engine axis, finite, the
+    direction not zero."""
+    if value is None:
+        return None
+    field = "scene.matrices.axis"
+    t = ck.table(value, field)
+    ck.keys(t, field, ("point", "direction"), required=("point", "direction"))
+    point = ck.numbers(t["point"], f"{field}.point", 3)
+    direction = ck.numbers(t["direction"], f"{field}.direction", 3)
+    if not np.linalg.norm(direction) > 0:
+        ck.fail(f"{field}.direction", "must not be the zero vector (the engine axis's "
+                                      "direction)")
+    return tuple(map(float, point)), tuple(map(float, direction))
 
 
 def parse_speeds(ck, value, files: MatrixFiles, base_dir: Path) -> tuple:

@@ -56,6 +56,8 @@ frequency = { start = 0.5, stop = 1.5, unit = "rad/s" }
 for _fmt, _files in (("calculix", 'job = "b"'), ("abaqus", 'stiffness = "k", mass = "m"'),
                      ("ansys", 'stiffness = "k", mass = "m", mapping = "k.mapping"'),
                      ("matrix_market", 'stiffness = "k", mass = "m", dofs = "d"')):
+    _axis = (', axis = { point = [0.0, 0.0, -0.25], direction = [1.0, 0.0, 0.0] }'
+             if _fmt == "calculix" else "")     # the model's engine axis
     EXTRA[f"exported {_fmt}"] = f"""
 [study]
 title = "t"
@@ -63,7 +65,7 @@ kind = "modes"
 [scene]
 model = "solid_blade"
 mesh = "{ROOT / 'meshes' / 'blade_coarse.vtu'}"
-matrices = {{ format = "{_fmt}", units = "SI", {_files} }}
+matrices = {{ format = "{_fmt}", units = "SI", {_files}{_axis} }}
 [modes]
 mode_counts = [0, 5]
 """

@@ -29,18 +29,21 @@ DISK = DiskPlacement(hub_radius=0.12, sectors=36)
 MATRICES = 'matrices = { format = "calculix", job = "blade", units = "SI" }'
 
 
-def write_export(folder, drop_root=True, sets_kept=None, mm=False):
+def write_export(folder, drop_root=True, sets_kept=None, mm=False, frame=None):
     """The wheel blade's deck and its K, M as CalculiX writes them (the upper triangle
-    column by column; root DOFs absent when `drop_root`); `mm`: in N/mm, tonnes and mm.
+    column by column; root DOFs absent when `drop_root`); `mm`: in N/mm, tonnes and mm;
+    `frame` (Q, b): the blade moved to Q x + b [m], K and M assembled there.
     Returns the package's full K, M (root DOFs kept, SI units) and the DOFs written."""
     mesh, sets = solid_mesh(BLADE, DISK)
+    root = np.nonzero(np.abs(Basis(mesh, ElementHexS2()).doflocs[2]) < 1e-12)[0]
+    if frame is not None:
+        mesh = type(mesh)(frame[0] @ mesh.p + frame[1][:, None], mesh.t)
     p = wheel_params(BLADE, DISK)
     if sets_kept is not None:
         sets = {k: v for k, v in sets.items() if k in sets_kept}
     write_deck(mesh.scaled(1e3) if mm else mesh, sets, p, folder / "blade.inp")
     basis = Basis(mesh, ElementHexS2(), intorder=4)
     K, M = assemble_elasticity(basis, p.E, p.nu, p.rho)
-    root = np.nonzero(np.abs(basis.doflocs[2]) < 1e-12)[0]
     keep = np.setdiff1d(np.arange(K.shape[0]),
                         (3 * root[:, None] + np.arange(3)).ravel() if drop_root else [])
     for suffix, A in ((".sti", K), (".mas", M)):
@@ -259,6 +262,38 @@ def test_a_deck_in_millimetres_read_as_si_is_named_a_unit_mistake(tmp_path, caps
         np.testing.assert_allclose(on_mm.frames[name].points, f.points, rtol=0, atol=1e-15)
     (tmp_path / "both_units.toml").write_text(study_text(SCENE + '\nunits = "mm"'))
     refused(tmp_path / "both_units.toml", "scene.units", "with scene.matrices", capsys)
+
+
+def test_a_deck_in_its_own_engine_frame_imports_as_the_disk_frames(tmp_path, capsys):
+    """The blade written with its engine axis along Z through (30, -20, 50) mm, its
+    radial line at 0.7 rad in XY, in mm, K and M assembled there: with that `axis` (in
+    mm) its blade equals the disk-frame export's -- K and M to 1e-12 of their largest
+    entry (measured 3e-15, 4e-15), the face points to 1e-15 m (6e-17 m), normals and
+    tangents to 1e-14 (7e-16); with the direction reversed the right face faces the
+    blade before, refused saying so."""
+    axis, radial = np.array([0.0, 0.0, 1.0]), np.array([np.cos(0.7), np.sin(0.7), 0.0])
+    Q = np.column_stack([axis, np.cross(radial, axis), radial])     # disk -> model
+    point = np.array([0.03, -0.02, 0.05])
+    write_export(tmp_path, mm=True, frame=(Q, point - Q @ DISK.centre))
+    axis_of = ('units = "mm", axis = {{ point = [30.0, -20.0, 50.0], '
+               'direction = [0.0, 0.0, {}] }}').format
+    model = blade_of(tmp_path, SCENE.replace('units = "SI"', axis_of("1.0")))
+    (tmp_path / "si").mkdir()
+    write_export(tmp_path / "si")
+    disk = blade_of(tmp_path / "si")
+    assert abs(model.K - disk.K).max() <= 1e-12 * abs(disk.K).max()
+    assert abs(model.M - disk.M).max() <= 1e-12 * abs(disk.M).max()
+    for name, f in disk.frames.items():
+        g = model.frames[name]
+        np.testing.assert_allclose(g.points, f.points, rtol=0, atol=1e-15)
+        for v in ("normal", "tangent", "tangent2"):
+            np.testing.assert_allclose(getattr(g, v), getattr(f, v), rtol=0, atol=1e-14)
+    for name, d in disk.dof_sets.items():
+        np.testing.assert_array_equal(model.dof_sets[name], d)
+    (tmp_path / "reversed.toml").write_text(study_text(
+        SCENE.replace('units = "SI"', axis_of("-1.0"))))
+    refused(tmp_path / "reversed.toml", "scene.matrices",
+            "faces the blade before.*reverse the axis direction", capsys)
 
 
 SET_NAMES = ("root", "shroud_left", "shroud_right", "excitation", "response")
