@@ -8,7 +8,10 @@ pseudo-arclength continuation (`continuation.continue_branch`) in the unknowns a
 s = log10 a, so a fold in the amplitude is passed.  Every point is accepted only if
 its recomputed residual meets the tolerance in newtons (`epmc.check`).  Where the
 continuation stops early (a branch point, a normalisation that degenerates) the
-backbone ends there and says so in `message`.
+backbone ends there and says so in `message`.  Where a higher harmonic takes over the
+motion (an internal resonance: h omega meets another mode) the branch turns into that
+mode's; the backbone stops before it, says so, and resumes the family beyond it when
+Newton finds it there (`internal_resonance`, `family_beyond`).
 """
 from __future__ import annotations
 
@@ -19,6 +22,10 @@ import numpy as np
 from ...model.system import dense
 from ..continuation.pseudo_arclength import continue_branch
 from .epmc import ModeProblem, check_values, evaluate, linear_guess, residual, unpack
+
+TONGUE = 0.5    # a harmonic h >= 2 carrying more of the motion where the amplitude turns
+FAMILY = 0.9    # the first harmonic's share of a point on the family itself
+MAX_SKIPS = 3   # internal resonances skipped along one backbone
 
 
 @dataclass(frozen=True)
@@ -83,16 +90,48 @@ def continue_mode(mp: ModeProblem, s_from: float, s_to: float, tol_rel: float = 
     """Backbone of `mp` from s_from to s_to (s = log10 a, a [kg^0.5 m]), starting from
     the linear mode at s_from (Newton), then by the pseudo-arclength continuation of
     `continuation.continue_branch` in (y, s): it follows the mode through a fold in
-    the amplitude (an internal resonance turns it) as through any other point.  Every
-    point is recomputed and held to the tolerance in newtons (`epmc.check`); the
-    backbone keeps the points up to the first that fails it.  `progress(s)` is called
-    after every accepted point."""
+    the amplitude as through any other point.  Every point is recomputed and held to
+    the tolerance in newtons (`epmc.check`); the backbone keeps the points up to the
+    first that fails it.  `progress(s)` is called after every accepted point.
+
+    Where a harmonic h >= 2 takes over the motion (`internal_resonance`: its h-th
+    harmonic has met another mode) the branch is no longer the family's: the backbone
+    keeps the points before it, says so in `message`, seeks the family beyond it
+    (`family_beyond`) and, when found, continues it towards s_to (the backbone then
+    holds both stretches with a gap between, named in `message`)."""
     if not (np.isfinite(s_from) and np.isfinite(s_to)) or s_to <= s_from:
         raise ValueError(f"need s_from < s_to (log10 of the modal amplitude), got "
                          f"{s_from}, {s_to}")
     y0, _, ok = newton(mp, linear_guess(mp), s_from, tol_rel)
     if y0 is None:
         return _backbone(mp, [], f"no converged point at the start log10 a = {s_from:.3g}")
+    kw = dict(tol_rel=tol_rel, max_points=max_points, ds=ds, ds_max=ds_max,
+              progress=progress)
+    pts, message = stretch(mp, y0, s_from, s_to, **kw)
+    notes, start = [], 0
+    for _ in range(MAX_SKIPS):
+        tongue = internal_resonance(mp, pts, start)
+        if tongue is None:
+            break
+        c, b, note = tongue
+        s_c = pts[c][0]
+        pts, message = pts[:c], f"stopped at {note}"
+        found = None if b is None else family_beyond(mp, pts[b], s_c, s_to, tol_rel)
+        if found is None:
+            break
+        s_j, y_j = found
+        notes.append(f"{note}; the family skips it from log10 a = {pts[-1][0]:.4g} to "
+                     f"{s_j:.4g} (no point between)")
+        more, message = stretch(mp, y_j, s_j, s_to, **kw)
+        start, pts = len(pts), pts + more
+    message = "; ".join(notes + ([message] if message else []))
+    return _backbone(mp, pts, message)
+
+
+def stretch(mp: ModeProblem, y0, s_from: float, s_to: float, *, tol_rel, max_points, ds,
+            ds_max, progress):
+    """(points [(s, y, iterations, ModeCheck)], message) of one continuation run from
+    the converged y0 at s_from towards s_to."""
     nh = 2 * mp.H + 1
     groups = np.concatenate([np.repeat(np.arange(mp.n), nh), [mp.n, mp.n + 1]])
     r_ref = float(np.linalg.norm(residual(mp, y0, s_from, jacobian=False)[0][:-2]) +
@@ -123,7 +162,63 @@ def continue_mode(mp: ModeProblem, s_from: float, s_to: float, tol_rel: float = 
                    "or a degenerate normalisation)")
     elif not message and br.lam[-1] < s_to:
         message = f"stopped at log10 a = {br.lam[-1]:.4g}: the amplitude turned back"
-    return _backbone(mp, pts, message)
+    return pts, message
+
+
+def harmonic_shares(mp: ModeProblem, Z) -> np.ndarray:
+    """The share of each harmonic h = 1 ... H in the shape's mass norm
+    sum_h Psi_h^T M Psi_h of Z (n, 2H+1) (cosine and sine parts together)."""
+    e = np.array([np.sum(Z[:, 2 * h - 1:2 * h + 1] * (mp.M @ Z[:, 2 * h - 1:2 * h + 1]))
+                  for h in range(1, mp.H + 1)])
+    return e / e.sum()
+
+
+def internal_resonance(mp: ModeProblem, pts, start: int = 0):
+    """The first point c >= start where a harmonic h >= 2 carries more than TONGUE of
+    the shape's mass norm: its h-th harmonic has met another mode near h omega, an
+    internal h:1 resonance, and the branch from there is that mode's (on the shrouded
+    disk's ND 12 at 3 N: harmonic 2 takes over near 760 Hz, carries 99.9 % at the
+    turn of the amplitude and the branch returns to the linear mode, its sign flipped;
+    on a two-DOF model with omega_2 / omega_1 between the stuck and the separated
+    ratios, omega locks at omega_2 / 2 and the amplitude grows on the second mode).
+    (c, index b of the last point before c whose first harmonic carries at least
+    FAMILY or None, the note for `message`), or None."""
+    for c in range(start, len(pts)):
+        s, y = pts[c][0], pts[c][1]
+        shares = harmonic_shares(mp, unpack(mp, y, s)[0])
+        h = 1 + int(np.argmax(shares))
+        if h > 1 and shares[h - 1] > TONGUE:
+            break
+    else:
+        return None
+    fam = [i for i in range(start, c)
+           if harmonic_shares(mp, unpack(mp, pts[i][1], pts[i][0])[0])[0] >= FAMILY]
+    f_c = unpack(mp, y, s)[1] / (2 * np.pi)
+    return c, (fam[-1] if fam else None), (
+        f"an internal {h}:1 resonance at log10 a = {s:.4g} ({f_c:.5g} Hz): harmonic {h} "
+        f"carries {100 * shares[h - 1]:.1f} % of the motion there (another mode near "
+        f"{h * f_c:.5g} Hz)")
+
+
+def family_beyond(mp: ModeProblem, point, s_c: float, s_to: float, tol_rel: float):
+    """The family beyond an internal resonance found at s_c (`internal_resonance`):
+    from the family's last point (s_b, y_b, ...) before it, its higher harmonics
+    dropped, Newton at s_c + k (s_c - s_b), k = 1, 2, 4, 8, until a point whose first
+    harmonic carries at least FAMILY converges.  (s_j, y_j), or None (none below s_to)."""
+    s_b = point[0]
+    Z, om, ze, _ = unpack(mp, point[1], s_b)
+    Z = Z.copy()
+    Z[:, 3:] = 0.0
+    Z[:, 1:3] /= np.sqrt(np.sum(Z[:, 1:3] * (mp.M @ Z[:, 1:3])))
+    guess = np.concatenate([Z.ravel(), [om, ze]])
+    for k in (1, 2, 4, 8):
+        s_j = s_c + k * max(s_c - s_b, 0.01)
+        if s_j >= s_to:
+            return None
+        y, _, ok = newton(mp, guess, s_j, tol_rel)
+        if y is not None and harmonic_shares(mp, unpack(mp, y, s_j)[0])[0] >= FAMILY:
+            return s_j, y
+    return None
 
 
 def _backbone(mp: ModeProblem, pts, message: str) -> Backbone:

@@ -243,3 +243,43 @@ def test_the_mode_starts_from_the_unilateral_static_state():
     np.testing.assert_allclose(bb.omega[below], np.sqrt(KX + KU2), rtol=1e-9)
     np.testing.assert_allclose(bb.Q[below, 1, 0], y_open, rtol=1e-9)
     assert np.all(bb.omega[above] < np.sqrt(KX + KU2) * (1 - 1e-6))
+
+
+def two_to_one():
+    """Two DOFs, DOF 0 pressed on a unilateral spring (kv = 1 N/m, n0 = 0.1 N) that
+    opens as the first mode grows: omega_1 falls from 1.407 rad/s (closed) towards
+    1.16 rad/s, through half the closed second mode's 2.494 rad/s, where the opening's
+    second harmonic drives that mode (an internal 2:1 resonance)."""
+    K = np.array([[1.0, -0.3], [-0.3, 6.2]])
+    el = YangMenq(ku=[1.0], kv=[1.0], mu=[0.3], n0=[0.1])
+    return System(M=np.eye(2), C=0.002 * K, K=K, Bt=np.zeros((1, 2)),
+                  Bn=np.array([[1.0, 0.0]]), contact=el, forcing=np.zeros((2, 2), complex))
+
+
+def test_an_internal_resonance_is_named_and_the_family_found_beyond_it():
+    """H = 3: near omega = omega_2 / 2 the second harmonic takes over (the branch locks
+    at omega_2 / 2 and grows on the second mode, which the old backbone reported as the
+    family with no message).  The backbone stops there, names the 2:1 resonance at
+    omega_2 / 2 (the closed K's second frequency, 0.1 %), and resumes the family beyond
+    it: every kept point's first harmonic carries >= half the motion, and beyond the
+    gap the frequency equals the H = 1 backbone's (where no internal resonance exists)
+    as closely as before it (H = 1's truncation: 0.3-0.5 %; bound 1 %)."""
+    from pipeline.solve.nonlinear_modes.backbone import harmonic_shares
+
+    system = two_to_one()
+    mp = epmc.mode_problem(system, 3)
+    bb = continue_mode(mp, -2.0, 1.5, tol_rel=1e-9)
+    one = continue_mode(epmc.mode_problem(system, 1), -2.0, 1.5, tol_rel=1e-9)
+    assert one.message == "" and one.s[-1] == 1.5
+    w2 = np.sqrt(np.linalg.eigvalsh(system.K + np.diag([1.0, 0.0]))[1])
+    assert "internal 2:1 resonance" in bb.message and "the family skips it" in bb.message
+    f_note = float(bb.message.split(" Hz)")[0].split("(")[-1])
+    assert abs(f_note / (w2 / 2 / (2 * np.pi)) - 1) < 1e-3
+    shares = np.array([harmonic_shares(mp, Q / np.r_[1.0, [10.0 ** s] * 6])
+                       for s, Q in zip(bb.s, bb.Q)])
+    assert shares[:, 0].min() >= 0.5
+    jump = int(np.argmax(np.diff(bb.s)))
+    assert bb.s[jump] < -0.45 and bb.s[jump + 1] > -0.45 and bb.s[-1] == 1.5
+    beyond = bb.s > bb.s[jump]
+    err = bb.omega[beyond] / np.interp(bb.s[beyond], one.s, one.omega) - 1
+    assert np.abs(err).max() < 1e-2 and shares[beyond, 0].min() >= 0.9
