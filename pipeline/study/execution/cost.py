@@ -23,16 +23,19 @@ how many points the curve needs.  c, s0, s1, s_stab and the spread of P are rang
 calibrated on the shipped studies (`python -m pipeline bench estimate`,
 pipeline/bench/README.md "Cost estimates"); the estimate is the range they give, its middle the geometric mean.  The
 study costs n_cases t_case / workers, plus the model's build and reduction (timed),
-a reduction for every further speed of a speed sweep, the static contact solution
+a reduction for every further speed of a speed sweep and one at rest for the
+dataset's description when no case is at rest, the static contact solution
 of every case whose shrouds are set by an `interference` (the dataset's
 static_contact_load_pair; both timed on the first case), and
 an optimum-preload search: SEARCH_GRID cases' worth without stability on the
 workers and SEARCH_SERIAL in one process:
 
-    t = n_cases t_case / w + setup + (S - 1) t_red / w + n_cases t_static
+    t = n_cases t_case / w + setup + r t_red + n_cases t_static
         + slowdown OUTPUT [+ search],
 
-S the distinct speeds of the cases (1 without a speed axis).  t_R and t_S are timed at
+r = S' - 1 on one worker, (S - 1) / w + S' on a pool (whose main process reduces
+again for the dataset and the peak shapes), S the distinct speeds of the cases (1
+without a speed axis) and S' those with 0 rpm.  t_R and t_S are timed at
 the study's own H and AFT samples: their growth with the (2H + 1) n_c unknowns and
 with samples x elements is measured, not modelled; OUTPUT the dataset and its
 figures, written once (pipeline/bench/README.md "Cost
@@ -269,15 +272,33 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
                     per_point=point, points=points, search=search, modes=m, pairs=pairs)
 
 
+def case_speeds(study) -> set:
+    """The distinct rotation speeds [rpm] of a study's cases (a case's `speed`, else
+    the structure's; 0 for a blade at rest or a lumped scene)."""
+    st = study.scene.structure
+    return {float(case.get("speed", getattr(st, "speed", 0.0))) for _, case in study.sweep.cases()}
+
+
 def speeds_of(study) -> int:
     """S: the distinct rotation speeds of a study's cases (1 without a speed axis)."""
-    return len({float(case.get("speed", 0.0)) for _, case in study.sweep.cases()})
+    return len(case_speeds(study))
+
+
+def further_reductions(study, workers: int = 1) -> float:
+    """Reductions of an FE blade beyond the first case's (module docstring), per
+    process: one at each further case speed, on the workers, and the one at rest
+    that the dataset describes (its reduced frequencies and DOF names) when no case
+    is at rest; on a pool the main process also reduces at every case speed (the
+    peak shapes, expanded at their case's speed), which a serial run has cached."""
+    speeds = case_speeds(study)
+    every = len(speeds | {0.0})
+    return every - 1.0 if workers <= 1 else (len(speeds) - 1.0) / workers + every
 
 
 def model_work(study, timing: PointTiming, workers: int = 1) -> float:
-    """[s] beyond the first case's model (module docstring): a reduction for each
-    further speed, on the workers, and each case's static contact solution."""
-    return ((speeds_of(study) - 1) * timing.reduction / workers
+    """[s] beyond the first case's model (module docstring): the further reductions
+    (`further_reductions`) and each case's static contact solution."""
+    return (further_reductions(study, workers) * timing.reduction
             + len(study.sweep.cases()) * timing.static)
 
 
