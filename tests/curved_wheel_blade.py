@@ -15,11 +15,15 @@ it, s = z / L along the span; gamma the stagger angle, c the chord):
 Both vanish at the shroud's root (s = 1) and above, so the shroud, and the pairing of
 its faces, is the generated one; chordwise edges are bent by the camber and spanwise
 edges by the twist, so the cells are curved (their corners alone are another blade).
-`python tests/curved_wheel_blade.py OUT.inp [n_chord n_thick n_span]` writes one.
+`python tests/curved_wheel_blade.py FOLDER [n_chord n_thick n_span]` writes one as
+FOLDER/blade.inp, and beside it the response study `STUDY` on it as FOLDER/study.toml
+(EO 3 at 8,000 rpm, a shroud gap of 20 um which the centrifugal load closes in part;
+pipeline/bench/README.md "Cost estimates" gives its cost and its variants).
 """
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import numpy as np
 from skfem import MeshHex2
@@ -32,6 +36,45 @@ from pipeline.structure.solid import solid_mesh
 DISK = DiskPlacement(hub_radius=0.12, sectors=36)     # as studies/shrouded_disk*.toml
 TWIST = np.deg2rad(12.0)   # rad: the largest twist, at mid-span
 CAMBER = 0.08              # camber height / chord at the root
+
+# the response study on it: a turning disk whose shroud gap closes in part
+STUDY = """
+[study]
+title = "curved wheel blade from a deck, 36 sectors, EO 3: shroud gap 20 um at 8,000 rpm"
+[scene]
+model = "solid_blade"
+mesh = "blade.inp"
+effects = ["friction", "normal_load_variation", "separation", "cyclic_coupling",
+           "centrifugal_stiffening"]
+craig_bampton_modes = 20
+rayleigh = [20.0, 4e-6]
+[scene.disk]
+sectors = 36
+hub_radius = 0.12
+engine_order = 3
+[[scene.contact]]
+pair = "shroud"
+ku = 5e5
+kv = 5e5
+mu = 0.3
+stiffness = "per_face"
+interference = -2e-5
+[[scene.excitation]]
+set = "excitation"
+direction = [0.0, 1.0, 0.0]
+amplitude = 1.0
+[sweep]
+speed = [8000.0]
+frequency = { start = 180.0, stop = 550.0, unit = "Hz" }
+[solver]
+harmonics = 1
+force_evaluation = "exact"
+tolerance = 1e-8
+[output]
+dofs = ["response.y"]
+figures = ["amplitude"]
+yscale = "log"
+"""
 
 
 def airfoil_map(X, z, p: BladeParams, twist: float = TWIST, camber: float = CAMBER):
@@ -74,6 +117,10 @@ def write_curved_wheel_blade(path, p: BladeParams = BladeParams(), disk: DiskPla
 
 
 if __name__ == "__main__":
+    folder = Path(sys.argv[1])
+    folder.mkdir(parents=True, exist_ok=True)
     counts = [int(a) for a in sys.argv[2:5]]
     params = BladeParams(**dict(zip(("n_chord", "n_thick", "n_span"), counts)))
-    print(write_curved_wheel_blade(sys.argv[1], params))
+    print(write_curved_wheel_blade(folder / "blade.inp", params))
+    (folder / "study.toml").write_text(STUDY)
+    print(folder / "study.toml")

@@ -25,46 +25,13 @@ from pipeline.structure.reduction import reconstruct
 from pipeline.study.datasets.dataset import to_dataset
 from pipeline.study.figures.peak_shapes import write_peak_shapes
 from pipeline.study.files.documents import load_study
-from curved_wheel_blade import curved_wheel_blade, write_curved_wheel_blade
+from curved_wheel_blade import STUDY, curved_wheel_blade, write_curved_wheel_blade
 
 # 6 chordwise elements: a shroud face of 7 x 2 vertices, 6 x 2 chordwise and 7 radial
 # midside nodes = 33 node pairs
 BLADE = BladeParams(n_chord=6, n_thick=1, n_span=6)
 PAIRS = 7 * 2 + 6 * 2 + 7
 
-STUDY = """
-[study]
-title = "curved wheel blade from a deck, shroud gap 20 um at 8,000 rpm"
-[scene]
-model = "solid_blade"
-mesh = "blade.inp"
-effects = ["friction", "normal_load_variation", "separation", "cyclic_coupling",
-           "centrifugal_stiffening"]
-craig_bampton_modes = 20
-rayleigh = [20.0, 4e-6]
-[scene.disk]
-sectors = 36
-hub_radius = 0.12
-engine_order = 3
-[[scene.contact]]
-pair = "shroud"
-ku = 5e5
-kv = 5e5
-mu = 0.3
-stiffness = "per_face"
-interference = -2e-5
-[[scene.excitation]]
-set = "excitation"
-direction = [0.0, 1.0, 0.0]
-amplitude = 1.0
-[sweep]
-speed = [8000.0]
-frequency = { start = 180.0, stop = 550.0, unit = "Hz" }
-[solver]
-harmonics = 1
-[output]
-dofs = ["response.y"]
-"""
 
 
 @pytest.fixture(scope="module")
