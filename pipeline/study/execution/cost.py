@@ -33,9 +33,9 @@ workers and SEARCH_SERIAL in one process:
     t = n_cases t_case / w + setup + r t_red + n_cases t_static
         + slowdown OUTPUT [+ search],
 
-r = S' - 1 on one worker, (S - 1) / w + S' on a pool (whose main process reduces
-again for the dataset and the peak shapes), S the distinct speeds of the cases (1
-without a speed axis) and S' those with 0 rpm.  t_R and t_S are timed at
+r = S' - 1 further reductions, S' the distinct speeds of the cases with 0 rpm (the
+main process builds every case's model, on a pool too, and describes the blade at
+rest).  t_R and t_S are timed at
 the study's own H and AFT samples: their growth with the (2H + 1) n_c unknowns and
 with samples x elements is measured, not modelled; OUTPUT the dataset and its
 figures, written once (pipeline/bench/README.md "Cost
@@ -259,7 +259,7 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
                              1.0 if getattr(study.output, "curves", True) else PEAKS_ONLY)
     case = (points[0] * point[0], points[1] * point[1])
     search = None
-    fixed = timing.setup + model_work(study, timing, w) + timing.slowdown * OUTPUT
+    fixed = timing.setup + model_work(study, timing) + timing.slowdown * OUTPUT
     lo = n_cases * case[0] / w + fixed
     hi = n_cases * case[1] / w + fixed
     if study.output.optimum is not None:
@@ -284,21 +284,19 @@ def speeds_of(study) -> int:
     return len(case_speeds(study))
 
 
-def further_reductions(study, workers: int = 1) -> float:
-    """Reductions of an FE blade beyond the first case's (module docstring), per
-    process: one at each further case speed, on the workers, and the one at rest
-    that the dataset describes (its reduced frequencies and DOF names) when no case
-    is at rest; on a pool the main process also reduces at every case speed (the
-    peak shapes, expanded at their case's speed), which a serial run has cached."""
-    speeds = case_speeds(study)
-    every = len(speeds | {0.0})
-    return every - 1.0 if workers <= 1 else (len(speeds) - 1.0) / workers + every
+def further_reductions(study) -> int:
+    """Reductions of an FE blade beyond the first case's (module docstring): one at
+    each further case speed and the one at rest that the dataset describes (its
+    reduced frequencies and DOF names) when no case is at rest.  All are made in the
+    main process, on a pool too (each case's model is built there and sent to a
+    worker), one after another."""
+    return len(case_speeds(study) | {0.0}) - 1
 
 
-def model_work(study, timing: PointTiming, workers: int = 1) -> float:
+def model_work(study, timing: PointTiming) -> float:
     """[s] beyond the first case's model (module docstring): the further reductions
     (`further_reductions`) and each case's static contact solution."""
-    return (further_reductions(study, workers) * timing.reduction
+    return (further_reductions(study) * timing.reduction
             + len(study.sweep.cases()) * timing.static)
 
 

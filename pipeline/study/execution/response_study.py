@@ -98,7 +98,7 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
         f"{tm.t_solve * 1e3:.3g} ms of {tm.unknowns} unknowns, timed now on this model, "
         f"{e.pairs[0]:g}-{e.pairs[1]:g} times a point, plus bookkeeping and stability {study.solver.stability or 'off'}) = "
         f"{time_range(*e.case)} per case; model build and reduction {seconds(tm.setup)}"
-        f"{model_words(study, tm, e.workers)}; one "
+        f"{model_words(study, tm)}; one "
         f"thread here {tm.slowdown:.2g}x as slow as on an idle core now; "
         "calibrated on the shipped studies (bench estimate); assumes the compiled kernels "
         "already cached (the first run after an install compiles them: up to 50 s more); a "
@@ -112,13 +112,13 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
     return lines
 
 
-def model_words(study, tm, workers: int = 1) -> str:
+def model_words(study, tm) -> str:
     """What `cost.model_work` adds, in words: the further reductions and the static
     contact solutions (empty without either)."""
     from .cost import further_reductions
 
-    r = further_reductions(study, workers)
-    return ((f", + {r:.3g} further reduction(s) (speeds, the dataset's at rest), "
+    r = further_reductions(study)
+    return ((f", + {r} further reduction(s) (speeds, the dataset's at rest), "
              f"{tm.reduction:.2g} s each" if r and tm.reduction else "")
             + (f", + the static contact solution of each case ({tm.static * 1e3:.3g} ms, "
                "interference)" if tm.static else ""))
