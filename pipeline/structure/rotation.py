@@ -46,7 +46,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from skfem import Basis, BilinearForm, ElementVector, LinearForm
-from skfem.helpers import ddot, dot, eye, grad, mul, sym_grad, trace, transpose
+from skfem.helpers import dot, grad, mul
 from skfem.models.elasticity import lame_parameters
 
 
@@ -115,30 +115,58 @@ def rotation_terms(sbasis, free, K, E: float, nu: float, rho: float, centre, axi
                          (K_u1.tocsr()[free][:, free].tocsr(), K_u2.tocsr()[free][:, free].tocsr()))
 
 
-def initial_displacement(sbasis, u1, lam: float, mu: float) -> tuple:
+def initial_displacement(sbasis, u1, lam: float, mu: float, chunk: int = 256) -> tuple:
     """(K_u1, K_u2) (3 N, 3 N) [kg, kg s^2]: the initial-displacement stiffness of the
     static deflection u_1 (3 N,) per Omega^2 (module doc), Lame parameters lam, mu [Pa],
-    on the vector DOFs 3 s + c (scikit-fem's ElementVector order)."""
+    on the vector DOFs 3 s + c of the scalar basis `sbasis`.
+
+    Vectorised over elements, as `solid.assemble_elasticity` (scikit-fem's generic
+    form loop makes one numpy call per local DOF pair, 2 x 3600 on a 20-node
+    hexahedron: 11.3 s of CPU on the 7,878-DOF curved wheel blade, 2.2 s here).  The shape function phi_i along
+    e_a has grad u = e_a g_i (g_i = grad phi_i), so sym(grad u) = sym(e_a g_i) and the
+    strain of the deflection sym(H^T grad u) = sym(h_a g_i), h_a the row a of H_1;
+    with sigma(A) : B = 2 mu A : B + lam tr A tr B on symmetric tensors,
+
+        K_u1 = int sigma(N_u) : E_v + E_u : sigma(N_v) dV,   K_u2 = int sigma(N_u) : N_v dV,
+
+    E = sym(e_a g_i) and N = sym(h_a g_i) per local vector DOF (i, a)."""
     vb = Basis(sbasis.mesh, ElementVector(sbasis.elem), quadrature=sbasis.quadrature)
-    H1 = vb.interpolate(u1).grad
+    H = np.asarray(vb.interpolate(u1).grad)                               # (a, k, E, q)
+    nb = len(sbasis.basis)
+    G = np.stack([sbasis.basis[i][0].grad for i in range(nb)], axis=1)    # (k, nb, E, q)
+    W = sbasis.dx                                                         # (E, q)
+    ne, eye = W.shape[0], np.eye(3)
+    K1 = np.empty((ne, 3 * nb, 3 * nb))
+    K2 = np.empty((ne, 3 * nb, 3 * nb))
+    for lo in range(0, ne, chunk):
+        e = slice(lo, min(lo + chunk, ne))
+        g = G[:, :, e].transpose(2, 1, 0, 3)                              # (e, i, k, q)
+        h = H[:, :, e].transpose(2, 0, 1, 3)                              # (e, a, j, q)
+        # (e, (i, a), j, k, q): the tensors p g_i with p = e_a (E) or h_a (N)
+        pe = np.einsum("ab,eikq->eiabkq", eye, g)
+        pn = np.einsum("eajq,eikq->eiajkq", h, g)
+        shape = (g.shape[0], 3 * nb, 3, 3, g.shape[-1])
+        Eu = 0.5 * (pe + pe.swapaxes(3, 4)).reshape(shape)
+        Nu = 0.5 * (pn + pn.swapaxes(3, 4)).reshape(shape)
+        w = W[e][:, None, None, None, :]
 
-    def strain(a):
-        return 0.5 * (a + transpose(a))
+        def form(A, B):
+            """int sigma(A) : B over each element, (e, m, n)."""
+            flat = (g.shape[0], 3 * nb, -1)
+            full = (2.0 * mu * A * w).reshape(flat) @ B.reshape(flat).transpose(0, 2, 1)
+            ta, tb = np.einsum("emjjq->emq", A), np.einsum("emjjq->emq", B)
+            return full + lam * (ta * W[e][:, None, :]) @ tb.transpose(0, 2, 1)
 
-    def stress(e):
-        return 2.0 * mu * e + lam * eye(trace(e), 3)
-
-    @BilinearForm
-    def linear(u, v, w):
-        nu_, nv = strain(mul(transpose(w.h), grad(u))), strain(mul(transpose(w.h), grad(v)))
-        return ddot(stress(nu_), sym_grad(v)) + ddot(sym_grad(u), stress(nv))
-
-    @BilinearForm
-    def quadratic(u, v, w):
-        nu_, nv = strain(mul(transpose(w.h), grad(u))), strain(mul(transpose(w.h), grad(v)))
-        return ddot(stress(nu_), nv)
-
-    return linear.assemble(vb, h=H1), quadratic.assemble(vb, h=H1)
+        K2[e] = form(Nu, Nu)
+        K1[e] = form(Nu, Eu)
+        K1[e] += K1[e].transpose(0, 2, 1)
+    s = sbasis.element_dofs                                               # (nb, E)
+    dofs = (3 * s.T[:, :, None] + np.arange(3)).reshape(ne, 3 * nb)
+    rows = np.broadcast_to(dofs[:, :, None], K1.shape).ravel()
+    cols = np.broadcast_to(dofs[:, None, :], K1.shape).ravel()
+    n = 3 * sbasis.N
+    return tuple(sp.coo_matrix((Kd.ravel(), (rows, cols)), shape=(n, n)).tocsr()
+                 for Kd in (K1, K2))
 
 
 def centrifugal_load(sbasis, rho: float, centre, axis=(1.0, 0, 0)) -> np.ndarray:

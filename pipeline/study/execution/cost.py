@@ -23,16 +23,19 @@ how many points the curve needs.  c, s0, s1, s_stab and the spread of P are rang
 calibrated on the shipped studies (`python -m pipeline bench estimate`,
 pipeline/bench/README.md "Cost estimates"); the estimate is the range they give, its middle the geometric mean.  The
 study costs n_cases t_case / workers, plus the model's build and reduction (timed),
-a reduction for every further speed of a speed sweep, the static contact solution
+a reduction for every further speed of a speed sweep and one at rest for the
+dataset's description when no case is at rest, the static contact solution
 of every case whose shrouds are set by an `interference` (the dataset's
 static_contact_load_pair; both timed on the first case), and
 an optimum-preload search: SEARCH_GRID cases' worth without stability on the
 workers and SEARCH_SERIAL in one process:
 
-    t = n_cases t_case / w + setup + (S - 1) t_red / w + n_cases t_static
+    t = n_cases t_case / w + setup + r t_red + n_cases t_static
         + slowdown OUTPUT [+ search],
 
-S the distinct speeds of the cases (1 without a speed axis).  t_R and t_S are timed at
+r = S' - 1 further reductions, S' the distinct speeds of the cases with 0 rpm (the
+main process builds every case's model, on a pool too, and describes the blade at
+rest).  t_R and t_S are timed at
 the study's own H and AFT samples: their growth with the (2H + 1) n_c unknowns and
 with samples x elements is measured, not modelled; OUTPUT the dataset and its
 figures, written once (pipeline/bench/README.md "Cost
@@ -256,7 +259,7 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
                              1.0 if getattr(study.output, "curves", True) else PEAKS_ONLY)
     case = (points[0] * point[0], points[1] * point[1])
     search = None
-    fixed = timing.setup + model_work(study, timing, w) + timing.slowdown * OUTPUT
+    fixed = timing.setup + model_work(study, timing) + timing.slowdown * OUTPUT
     lo = n_cases * case[0] / w + fixed
     hi = n_cases * case[1] / w + fixed
     if study.output.optimum is not None:
@@ -269,15 +272,31 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
                     per_point=point, points=points, search=search, modes=m, pairs=pairs)
 
 
+def case_speeds(study) -> set:
+    """The distinct rotation speeds [rpm] of a study's cases (a case's `speed`, else
+    the structure's; 0 for a blade at rest or a lumped scene)."""
+    st = study.scene.structure
+    return {float(case.get("speed", getattr(st, "speed", 0.0))) for _, case in study.sweep.cases()}
+
+
 def speeds_of(study) -> int:
     """S: the distinct rotation speeds of a study's cases (1 without a speed axis)."""
-    return len({float(case.get("speed", 0.0)) for _, case in study.sweep.cases()})
+    return len(case_speeds(study))
 
 
-def model_work(study, timing: PointTiming, workers: int = 1) -> float:
-    """[s] beyond the first case's model (module docstring): a reduction for each
-    further speed, on the workers, and each case's static contact solution."""
-    return ((speeds_of(study) - 1) * timing.reduction / workers
+def further_reductions(study) -> int:
+    """Reductions of an FE blade beyond the first case's (module docstring): one at
+    each further case speed and the one at rest that the dataset describes (its
+    reduced frequencies and DOF names) when no case is at rest.  All are made in the
+    main process, on a pool too (each case's model is built there and sent to a
+    worker), one after another."""
+    return len(case_speeds(study) | {0.0}) - 1
+
+
+def model_work(study, timing: PointTiming) -> float:
+    """[s] beyond the first case's model (module docstring): the further reductions
+    (`further_reductions`) and each case's static contact solution."""
+    return (further_reductions(study) * timing.reduction
             + len(study.sweep.cases()) * timing.static)
 
 

@@ -113,13 +113,13 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
 
 
 def model_words(study, tm) -> str:
-    """What `cost.model_work` adds, in words: the further speeds' reductions and the
-    static contact solutions (empty without either)."""
-    from .cost import speeds_of
+    """What `cost.model_work` adds, in words: the further reductions and the static
+    contact solutions (empty without either)."""
+    from .cost import further_reductions
 
-    S = speeds_of(study)
-    return ((f", + {S - 1} further speed(s), a reduction of {tm.reduction:.2g} s each"
-             if S > 1 else "")
+    r = further_reductions(study)
+    return ((f", + {r} further reduction(s) (speeds, the dataset's at rest), "
+             f"{tm.reduction:.2g} s each" if r and tm.reduction else "")
             + (f", + the static contact solution of each case ({tm.static * 1e3:.3g} ms, "
                "interference)" if tm.static else ""))
 

@@ -12,7 +12,9 @@ results of that point (`contact_dataset`): `stick_fraction`, `slip_fraction`,
 A shroud pair's element sits on its right-face node; the mesh holds the
 vertices only, so elements on mid-side face nodes are not drawn (every element is
 in the dataset, with the face totals).  A Craig-Bampton-reduced
-solution is expanded to the whole blade (`reduction.reconstruct`)."""
+solution is expanded to the whole blade (`reduction.reconstruct`) by the reduction
+of its case's speed (a turning blade's modes and constraint modes are those of
+K(Omega))."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -20,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ...model.contacts import FaceContact, ShroudPair
-from ...model.scene import Lumped, blade_model, reduced_model
+from ...model.scene import Lumped, blade_model, case_speed, reduced_model
 
 FIELDS = {"stick_fraction": "stick_fraction", "slip_fraction": "slip_fraction",
           "separation_fraction": "separation_fraction",
@@ -61,7 +63,6 @@ def write_peak_shapes(study, ds, curves, out_dir) -> list:
     model = blade_model(scene.structure)
     if not model.cells:
         return []
-    red = reduced_model(scene.structure, scene.reduction)[0] if scene.reduction else None
     elems, nodes = element_points(model, scene.contacts)
     axes, paths = list(study.sweep.axes), []
     for (idx, case), c in zip(study.sweep.cases(), curves):
@@ -72,6 +73,8 @@ def write_peak_shapes(study, ds, curves, out_dir) -> list:
         amp = sub["amplitude"].isel(dof=0).values
         i = int(np.argmax(np.where(ok, amp, -np.inf)))
         Q = np.asarray(c.Q[i], float)
+        red = (reduced_model(scene.structure, scene.reduction,
+                             case_speed(scene.structure, case))[0] if scene.reduction else None)
         fields = {"static": Q[:, 0], "harmonic1": Q[:, 1] - 1j * Q[:, 2]}
         data = {}
         for name, q in fields.items():

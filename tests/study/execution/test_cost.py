@@ -1,6 +1,7 @@
 """`check`'s estimate of a response study (`study.execution.cost`) counts the work a
 speed sweep and an interference add: one reduction for each speed after the first
-(the run reduces the blade once a speed) and the static contact solution of every
+(the run reduces the blade once a speed) and one at rest (the dataset's description,
+counted in a run) and the static contact solution of every
 case whose shrouds are set by an interference (the dataset's static state), by the
 module's formula, checked by hand on a constructed timing (no time measured)."""
 from dataclasses import replace
@@ -23,28 +24,52 @@ def timing(reduction=0.0, static=0.0):
                             reduction=reduction, static=static)
 
 
-def test_each_further_speed_adds_a_reduction_and_each_case_its_static_solution(speed_study):
+def test_each_speed_adds_a_reduction_and_each_case_its_static_solution(speed_study):
     """The quick speed study: 3 cases at 6,000, 7,250 and 8,000 rpm, a shroud gap
-    (interference -0.1 mm): 2 further reductions and 3 static solutions beside the
-    cases, on one worker; on two the reductions are shared, the static solutions
-    (written with the dataset, in the main process) are not."""
+    (interference -0.1 mm): beside the first case's reduction, 2 further speeds' and
+    the one at rest the dataset describes, and 3 static solutions, on one worker as
+    on two (the main process builds every case's model and writes the dataset)."""
     assert [c["speed"] for _, c in speed_study.sweep.cases()] == [6000.0, 7250.0, 8000.0]
     assert cost.speeds_of(speed_study) == 3
-    bare = cost.estimate(speed_study, 1, timing())
-    more = cost.estimate(speed_study, 1, timing(reduction=0.4, static=0.01))
-    assert more.lo - bare.lo == pytest.approx(2 * 0.4 + 3 * 0.01, rel=1e-12)
-    assert more.hi - bare.hi == pytest.approx(2 * 0.4 + 3 * 0.01, rel=1e-12)
-    assert cost.model_work(speed_study, timing(0.4, 0.01), workers=2) == \
-        pytest.approx(0.4 + 3 * 0.01, rel=1e-12)
+    for workers in (1, 2):
+        bare = cost.estimate(speed_study, workers, timing())
+        more = cost.estimate(speed_study, workers, timing(reduction=0.4, static=0.01))
+        assert more.lo - bare.lo == pytest.approx(3 * 0.4 + 3 * 0.01, rel=1e-12)
+        assert more.hi - bare.hi == pytest.approx(3 * 0.4 + 3 * 0.01, rel=1e-12)
 
 
-def test_one_speed_adds_no_reduction(speed_study):
-    """The same study at one speed (the sweep's first) adds no reduction, only its
-    static solutions."""
+def test_one_speed_adds_the_reduction_at_rest(speed_study):
+    """The same study at one speed (the sweep's first) adds the reduction at rest and
+    its static solution; at rest, nothing but the static solution."""
     sw = speed_study.sweep
     one = replace(speed_study, sweep=replace(sw, axes={"speed": (6000.0,)}))
     assert cost.speeds_of(one) == 1
-    assert cost.model_work(one, timing(reduction=0.4, static=0.01)) == pytest.approx(0.01)
+    assert cost.model_work(one, timing(reduction=0.4, static=0.01)) == pytest.approx(0.41)
+    rest = replace(speed_study, sweep=replace(sw, axes={"speed": (0.0,)}))
+    assert cost.model_work(rest, timing(reduction=0.4, static=0.01)) == pytest.approx(0.01)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_the_reductions_counted_are_the_ones_a_run_makes(speed_study, tmp_path, monkeypatch,
+                                                         workers):
+    """Counted in the run (figures and peak shapes written), serially and on a pool of
+    two (whose workers get each case's model built by the main process): the quick
+    speed study reduces its blade 4 times, at each of its 3 speeds and at rest (the
+    dataset's reduced frequencies), which the estimate counts (the first in its
+    setup)."""
+    from pipeline.model import scene as model_scene
+    from pipeline.structure import reduction
+    from pipeline.study.execution.run import run_study
+
+    made = []
+    real = reduction.reduce_blade
+    monkeypatch.setattr(reduction, "reduce_blade",
+                        lambda blade, *a, **k: made.append(1) or real(blade, *a, **k))
+    for cached in (model_scene.reduced_model, model_scene.blade_at_speed):
+        cached.cache_clear()
+    run_study(speed_study, tmp_path, workers=workers, progress=False, checkpoints=False)
+    assert len(made) == 4
+    assert 1 + cost.model_work(speed_study, timing(reduction=1.0)) == len(made)
 
 
 def test_the_point_is_timed_with_the_studys_own_harmonics_and_samples(monkeypatch):
