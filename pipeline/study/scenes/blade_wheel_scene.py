@@ -165,8 +165,9 @@ def check_interference(ck, contacts, axes, wpath):
             ck.fail(f"{f}.interference", f"the interference is swept ({wpath.lstrip('.')}."
                                          "interference sets every shroud pair's): give not both")
         if c.n0 is not None:
-            ck.fail(f"{f}.n0", "the interference sets the preload (n0 = kv x interference "
-                               "before the blades deflect): give one of the two")
+            ck.fail(f"{f}.n0", f"{'the ' if own else wpath.lstrip('.') + '.'}interference sets "
+                               "the preload (n0 = kv x interference before the blades "
+                               "deflect): give one of the two")
         for a in ("preload", "normal_load"):
             if a in axes:
                 ck.fail(f"{wpath}.{a}", f"contact {i} has an interference, which sets its "
