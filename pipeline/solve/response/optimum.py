@@ -34,8 +34,8 @@ round-off: relative spread (max - min) / max below FLAT_SPREAD, e.g. a contact w
 closure an `interference` fixes) has no optimum: the search stops after the grid
 and returns preload NaN, `independent` True and the `spread` (the peak and its
 frequency those of the first node, the value at every preload).  Nor has a smallest
-peak shared by a stretch of the bounds (two grid nodes or more within FLAT_REL of the
-best value: a shroud gap that stays open over the cycle, the peak the free blades'
+peak shared by a stretch of the bounds (two grid nodes or more within PLATEAU_REL of
+the best value: a shroud gap that stays open over the cycle, the peak the free blades'
 whatever the gap): preload NaN and `plateau` (low, high), the evaluations there.
 
 Assumption (when a minimum can still be missed): the global minimum's basin must hold
@@ -73,6 +73,8 @@ LINEAR_NODES = 9        # grid nodes of a linear search (an interference) unless
 REFINE = 10             # Brent's xatol = rtol / REFINE (module docstring)
 SNAP = 1.0 / 3.0        # an extra node replaces a regular one this close (of the spacing)
 FLAT_REL = 1e-7         # a local minimum shallower than this (relative) is a plateau
+PLATEAU_REL = 1e-6      # grid nodes this close to the best (relative): a flat minimum, above
+#                         the peaks' round-off (8e-8 on the shrouded disk at tolerance 1e-8)
 SKIP_REL = 0.1          # a bracket whose parabola stays this far above the best: not refined
 FLAT_SPREAD = 1e-9      # grid values within this relative spread: the peak ignores n0
 VERIFY_REL = 1e-6       # a bracket's local result and its band value agree to this (relative)
@@ -304,9 +306,9 @@ def _result(memo, lmemo, bounds, **more) -> dict:
 
 def flat_minimum(evaluations, grid, best: float) -> tuple | None:
     """(low, high) of the `evaluations` [(x, peak, omega)] whose peak equals the `best`
-    to FLAT_REL where two `grid` nodes or more are among them (the smallest peak is
+    to PLATEAU_REL where two `grid` nodes or more are among them (the smallest peak is
     the same over at least one node spacing: no single optimum), else None."""
-    flat = [x for x, p, _ in evaluations if p - best <= FLAT_REL * abs(best)]
+    flat = [x for x, p, _ in evaluations if p - best <= PLATEAU_REL * abs(best)]
     if np.isin(flat, grid).sum() < 2:
         return None
     return (float(min(flat)), float(max(flat)))

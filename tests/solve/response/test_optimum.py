@@ -472,10 +472,11 @@ def gap_curve(x):
 
 
 def open_lowest(x):
-    """The gap's plateau is the smallest peak (2, with round-off of 1e-12 on it), the
-    curve rising once the gap closes at x = -1."""
+    """The gap's plateau is the smallest peak (2, with a round-off of 1e-7 on it: the
+    continuation's, measured 8e-8 on the shrouded disk), the curve rising once the gap
+    closes at x = -1."""
     if x <= -1.0:
-        return 2.0 * (1.0 + 1e-12 * math.sin(1e3 * x))
+        return 2.0 * (1.0 + 1e-7 * math.sin(1e3 * x))
     return 2.0 + (x + 1.0) ** 2
 
 
@@ -505,7 +506,7 @@ def test_a_smallest_peak_shared_by_a_stretch_is_no_optimum():
                          min_nodes=13)
     assert math.isnan(res["preload"]) and not res["independent"]
     assert res["plateau"][0] == -2.0 and -1.0 - 1e-3 <= res["plateau"][1] <= -1.0
-    assert res["peak"] == pytest.approx(2.0, rel=1e-11)
+    assert res["peak"] == pytest.approx(2.0, rel=1e-7)
     flat = global_minimum(lambda x: (7.0, 1.0), GAP_BOUNDS, rtol=1e-3, log=False, min_nodes=13)
     assert flat["independent"] and flat["plateau"] is None and math.isnan(flat["preload"])
 
