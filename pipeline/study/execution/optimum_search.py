@@ -42,12 +42,12 @@ def study_optimum(study: Study, solver, curves, cdir=None, workers=1, scheduler=
         return find_optimum(study, list(zip([c for _, c in study.sweep.cases()], curves))
                             if hbm else None, cdir, workers, scheduler, early), None
     except (UndeclaredSeparation, StaticDivergence) as exc:
-        log.error("%s: optimum preload search stopped: %s", study.name, exc)
+        log.error("%s: optimum %s search stopped: %s", study.name, variable_of(study)[0], exc)
         return None, str(exc)
     except Exception as exc:  # a failing evaluation must not lose the cases
         if interrupt_in_chain(exc):
             raise
-        log.exception("%s: optimum preload search failed", study.name)
+        log.exception("%s: optimum %s search failed", study.name, variable_of(study)[0])
         return None, f"{type(exc).__name__}: {exc}"
 
 
