@@ -34,8 +34,8 @@ round-off: relative spread (max - min) / max below FLAT_SPREAD, e.g. a contact w
 closure an `interference` fixes) has no optimum: the search stops after the grid
 and returns preload NaN, `independent` True and the `spread` (the peak and its
 frequency those of the first node, the value at every preload).  Nor has a smallest
-peak shared by a stretch of the bounds (two grid nodes or more within PLATEAU_REL of
-the best value: a shroud gap that stays open over the cycle, the peak the free blades'
+peak shared by a stretch of the bounds (two grid nodes or more within `plateau_rel`
+of the best value, PLATEAU_REL or the peaks' round-off: a shroud gap that stays open over the cycle, the peak the free blades'
 whatever the gap): preload NaN and `plateau` (low, high), the evaluations there.
 
 Assumption (when a minimum can still be missed): the global minimum's basin must hold
@@ -73,8 +73,9 @@ LINEAR_NODES = 9        # grid nodes of a linear search (an interference) unless
 REFINE = 10             # Brent's xatol = rtol / REFINE (module docstring)
 SNAP = 1.0 / 3.0        # an extra node replaces a regular one this close (of the spacing)
 FLAT_REL = 1e-7         # a local minimum shallower than this (relative) is a plateau
-PLATEAU_REL = 1e-6      # grid nodes this close to the best (relative): a flat minimum, above
-#                         the peaks' round-off (8e-8 on the shrouded disk at tolerance 1e-8)
+PLATEAU_REL = FLAT_REL  # grid nodes this close to the best (relative): a flat minimum; a
+PLATEAU_PER_TOL = 100   # search on traced peaks widens it to this many Newton tolerances, above
+#                         their round-off (8e-8 on the shrouded disk at tolerance 1e-8)
 SKIP_REL = 0.1          # a bracket whose parabola stays this far above the best: not refined
 FLAT_SPREAD = 1e-9      # grid values within this relative spread: the peak ignores n0
 VERIFY_REL = 1e-6       # a bracket's local result and its band value agree to this (relative)
@@ -193,29 +194,29 @@ def brent(f, a: float, b: float, xatol: float, x: float | None = None, fx: float
 def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
                    per_decade: float = PER_DECADE, min_nodes: int = MIN_NODES, known=None,
                    extra_nodes=(), on_evaluation=None, local=None, verify_rel: float = VERIFY_REL,
-                   evaluate_many=None, replay=None) -> dict:
+                   evaluate_many=None, replay=None, plateau_rel=PLATEAU_REL) -> dict:
     """The preload in `bounds` [N] with the smallest value of evaluate(n0) -> (peak,
     omega), peak = inf for a failed evaluation (see the module docstring: grid,
     brackets of every local minimum, Brent in each to |d ln n0| <= rtol / REFINE
     (`log`) or |d n0| <= rtol (hi - lo) / REFINE; at least `min_nodes` grid nodes).
 
     known: {n0: (peak, omega)} known from the start (the cases); replay: those of an
-    interrupted run of this search, each taken for evaluate(n0) when asked (module
-    docstring); extra_nodes: preloads added to the grid (the cases);
+    interrupted run, each taken for evaluate(n0) when asked; extra_nodes: added nodes;
     on_evaluation(n0, peak, omega) is called after each new evaluation (a checkpoint).
     evaluate_many(list of n0, record): the grid nodes not known yet evaluated together
     (e.g. in parallel), record(n0, peak, omega) called as each ends; else one by one.
 
     local(n0, near) -> (peak, omega): a cheaper lower bound of evaluate(n0) from the
     evaluated preload `near` (the peak continued in preload) for Brent's trials, its
-    result checked by evaluate to verify_rel (`refine_bracket`).  Returns a dict: preload, peak, peak_omega, evaluations [(n0, peak, omega)] sorted
-    by n0 (every preload looked at, reused ones included; peak and omega NaN where the
-    evaluation failed), local (the preloads among them valued by `local` alone),
-    verified [(n0, local, full)] (each bracket's check), grid (the nodes), brackets
-    [(low, node, high)] [N], skipped (the brackets not refined: SKIP_REL), computed
-    (new evaluations), reused, success (some evaluation finite), spread (the grid's
-    `relative_spread`), independent (below FLAT_SPREAD: preload NaN, module docstring),
-    plateau ((low, high) of a smallest peak shared by a stretch: preload NaN; or None)."""
+    result checked by evaluate to verify_rel (`refine_bracket`).  Returns a dict:
+    preload, peak, peak_omega, evaluations [(n0, peak, omega)] sorted by n0 (every
+    preload looked at, reused ones included; peak and omega NaN where the evaluation
+    failed), local (the preloads among them valued by `local` alone), verified [(n0,
+    local, full)] (each bracket's check), grid (the nodes), brackets [(low, node, high)]
+    [N], skipped (the brackets not refined: SKIP_REL), computed (new evaluations),
+    reused, success (some evaluation finite), spread (the grid's `relative_spread`),
+    independent (below FLAT_SPREAD: preload NaN, module docstring), plateau ((low, high)
+    of a smallest peak shared, to plateau_rel, by a stretch: preload NaN; or None)."""
     lo, hi = float(bounds[0]), float(bounds[1])
     memo = {float(k): (float(p), float(o)) for k, (p, o) in dict(known or {}).items()}
     kept = {float(k): (float(p), float(o)) for k, (p, o) in dict(replay or {}).items()}
@@ -268,7 +269,8 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
         logger.debug("optimum search: bracket [%.6g, %.6g] N refined", to_n0(a), to_n0(b))
     return _result(memo, lmemo, (lo, hi), grid=[float(x) for x in nodes], verified=verified,
                    brackets=brackets, skipped=skipped, computed=computed[0],
-                   reused=len(reused), independent=spread < FLAT_SPREAD, spread=spread)
+                   reused=len(reused), independent=spread < FLAT_SPREAD, spread=spread,
+                   plateau_rel=plateau_rel)
 
 
 def relative_spread(values) -> float:
@@ -292,11 +294,11 @@ def _result(memo, lmemo, bounds, **more) -> dict:
     # candidates: full values only (a local value is a lower bound, checked where it won)
     finite = [e for e in evaluations if np.isfinite(e[1]) and e[0] in memo]
     best = min(finite, key=lambda e: e[1]) if finite else (np.nan, np.nan, np.nan)
-    plateau = None
+    plateau, rel = None, more.pop("plateau_rel", PLATEAU_REL)
     if more.get("independent"):    # the value at every preload (the first node's): no optimum
         best = (np.nan, *memo[more["grid"][0]])
     elif finite:
-        plateau = flat_minimum(finite, more["grid"], best[1])
+        plateau = flat_minimum(finite, more["grid"], best[1], rel)
         best = best if plateau is None else (np.nan, *best[1:])
     return {"preload": best[0], "peak": best[1], "peak_omega": best[2],
             "evaluations": evaluations,
@@ -304,11 +306,11 @@ def _result(memo, lmemo, bounds, **more) -> dict:
             "success": bool(finite), "plateau": plateau, **more}
 
 
-def flat_minimum(evaluations, grid, best: float) -> tuple | None:
+def flat_minimum(evaluations, grid, best: float, rel: float = PLATEAU_REL) -> tuple | None:
     """(low, high) of the `evaluations` [(x, peak, omega)] whose peak equals the `best`
-    to PLATEAU_REL where two `grid` nodes or more are among them (the smallest peak is
-    the same over at least one node spacing: no single optimum), else None."""
-    flat = [x for x, p, _ in evaluations if p - best <= PLATEAU_REL * abs(best)]
+    to `rel` where two `grid` nodes or more are among them (the smallest peak is the
+    same over at least one node spacing: no single optimum), else None."""
+    flat = [x for x, p, _ in evaluations if p - best <= rel * abs(best)]
     if np.isin(flat, grid).sum() < 2:
         return None
     return (float(min(flat)), float(max(flat)))
