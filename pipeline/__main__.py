@@ -129,7 +129,8 @@ def _cmd_optimise(args) -> int:
     from .study.files.declared import UndeclaredSeparation
     from .study.figures.optimum_figure import optimum_figure
     from .study.files.documents import load_study
-    from .study.execution.optimum_search import find_optimum, search_warnings
+    from .study.execution.optimum_search import (find_optimum, optimum_words, search_warnings,
+                                                 variable_of)
     from .study.kinds import kind_of
     from .study.execution.cases import StaticDivergence, default_solver
     from .study.execution.checkpoint import checkpoint_dir
@@ -148,7 +149,8 @@ def _cmd_optimise(args) -> int:
                          f"\"response\" study, this one is {kind_of(study).word!r}")
     if study.output.optimum is None:
         raise UsageError(f"{args.study}: output.optimum_preload: missing: give dof and "
-                         "bounds = [low, high] (N) for the search")
+                         "bounds = [low, high] (N) for the search (or "
+                         "[output.optimum_interference], bounds in m)")
     check_writable(args.study, Path(args.out), study.name, dataset=False)   # its figure
     # the evaluations are kept as they come (with `run`'s cases of the same study):
     # a rerun after Ctrl-C resumes the search
@@ -173,24 +175,30 @@ def _cmd_optimise(args) -> int:
         cdir.rmdir()
     o = study.output.optimum
     fr = study.sweep.frequency
-    best = ("none, the peak does not depend on it" if res.get("independent")
-            else f"{res['preload']:.6g} N")
-    print(f"{study.name}: preload minimising the peak of {o['dof']}: {best} "
+    var, unit = variable_of(study)
+    print(f"{study.name}: {var} minimising the peak of {o['dof']}: {optimum_words(res, unit)} "
           f"(peak {res['peak']:.6g} m at {res['peak_omega'] / fr.to_rad_s:.6g} {fr.unit}; "
           f"{len(res['evaluations'])} evaluations: grid of {len(res['grid'])}, "
           f"{len(res['brackets'])} minimum(s) bracketed, {len(res.get('skipped', ()))} of them "
           f"not refined (their parabola above the best), {res['reused']} reused; "
           f"{res['wall_time']:.1f} s)")
-    print(f"{'preload [N]':>14} {'peak [m]':>14} {'at [' + fr.unit + ']':>12}")
+    static = res.get("static", {})
+    print(f"{var + ' [' + unit + ']':>18} {'peak [m]':>14} {'at [' + fr.unit + ']':>12}"
+          + (f" {'static load [N]':>16} {'pairs closed':>12}" if static else ""))
     for n0, a, om in res["evaluations"]:
-        print(f"{n0:14.6g} {a:14.6g} {om / fr.to_rad_s:12.6g}"
+        more = ""
+        if float(n0) in static:
+            load, pairs = static[float(n0)]
+            more = f" {float(sum(load)):16.6g} {int(sum(pairs)):12d}"
+        print(f"{n0:18.6g} {a:14.6g} {om / fr.to_rad_s:12.6g}{more}"
               f"{'  <- optimum' if n0 == res['preload'] else ''}")
-    path = optimum_figure(Path(args.out) / study.name / "optimum_preload.png", res, o["dof"],
-                          study.title)
+    path = optimum_figure(Path(args.out) / study.name / f"optimum_{var}.png", res, o["dof"],
+                          study.title, (var, unit))
     print(f"wrote {path}")
     for what in search_warnings(study, res):
-        print(f"warning: {args.study}: output.optimum_preload: {what}", file=sys.stderr)
+        print(f"warning: {args.study}: output.optimum_{var}: {what}", file=sys.stderr)
     return 0
+
 
 
 def _cmd_bench(args) -> int:

@@ -397,6 +397,37 @@ def shrouded_disk_speed(out, nc, ds, st):
     assert np.all(np.diff(ds["peak_frequency"].values.ravel()) > 0)
 
 
+def shrouded_disk_interference(out, nc, ds, st):
+    """Quick: 'optimum -1.52e-5 m, peak 1.700e-5 m, 23.4 N on 14 pairs; open 2.216e-5 m,
+    stuck 1.780e-5 m'.  The wide gaps stay open over the cycle (the same peak, no static
+    load); with every pair closed the static load grows linearly in the interference, at
+    less than kv (the blades give way); each search evaluation's static load is the
+    case's at the same interference; the optimum is the lowest band peak evaluated."""
+    assert problems(nc) == [] and ds["interference"].attrs["units"] == "m"
+    assert ds["optimum_interference"].attrs["units"] == "m"
+    assert_stated(float(ds["optimum_interference"]), "-1.52e-5")
+    assert_stated(float(ds["optimum_peak_amplitude"]), "1.700e-5")
+    assert_stated(float(ds["optimum_static_normal_load"].sum()), "23.4")
+    assert int(ds["optimum_static_pairs_in_contact"].sum()) == 14
+    x = ds["optimum_search_interference"].values
+    peak = ds["optimum_search_peak"].values
+    load = ds["optimum_search_static_normal_load"].sum("contact").values
+    band = ds["optimum_search_band"].values == 1
+    assert float(ds["optimum_peak_amplitude"]) == peak[band].min()
+    assert_stated(peak[x == -2e-4][0], "2.216e-5")
+    assert_stated(peak[x == 1e-4][0], "1.780e-5")
+    gap = x <= -1.5e-4
+    assert np.all(load[gap] == 0.0) and np.ptp(peak[gap]) <= 1e-6 * peak[gap].max()
+    closed = x >= 5e-5                                     # 5, 7.5, 10 x 1e-5 m
+    assert np.all(ds["optimum_search_static_pairs_in_contact"].values[closed] == 15)
+    steps = np.diff(load[closed])
+    np.testing.assert_allclose(steps, steps[0], rtol=1e-9)
+    assert 0.5 < steps[0] / (2.5e-5 * st.scene.contacts[0].kv) < 1.0
+    for xi in ds["interference"].values:                   # the cases' own static state
+        case = ds["static_normal_load"].sel(interference=xi).sum("contact").values
+        np.testing.assert_allclose(load[x == xi], case, rtol=1e-12)
+
+
 def disk_nonlinear_modes(out, nc, ds, st):
     """'ND 3: 458.3 Hz (shroud stuck) -> 377.6 Hz (the free blade), damping ratio up to
     0.090; ND 12: 508.6 Hz -> 377.6 Hz, up to 0.164'; 'ND 3 peaks 2 % lower (8.75e-6 vs
@@ -467,6 +498,7 @@ CHECKS = {f.__name__: f for f in (
     paper_example1, paper_example2, paper_example3, blade3_stability, blade_modes,
     blade_shroud_contact, accuracy_cost, accuracy_cost_friction2d, disk_cyclic, disk_laxalde, disk_mistuned,
     shrouded_disk, shrouded_disk_2d, shrouded_disk_modes, shrouded_disk_campbell, shrouded_disk_speed,
+    shrouded_disk_interference,
     shrouded_disk_mistuned, shrouded_disk_monte_carlo,
     disk_nonlinear_modes,
     shrouded_disk_nonlinear_modes)}

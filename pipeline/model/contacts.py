@@ -271,10 +271,16 @@ def contact_elements(contacts, case: dict, owner=None, weights=None,
     (or `ShroudPair`'s) preload is the total of its face: shared equally ("per_node")
     or, with ku and kv, by node area ("per_face"; `weights[i]` the areas of contact
     i's nodes).  A shroud pair with an `interference` takes n0_k = kv_k (interference
-    + closure_k) instead, `closure` (E,) [m] the centrifugal v_c (default zero).  The
-    2D law's ku2 (along the second tangent) is a contact's own, else its ku."""
+    + closure_k) instead, `closure` (E,) [m] the centrifugal v_c (default zero); a
+    case's `interference` [m] is every shroud pair's.  The 2D law's ku2 (along the
+    second tangent) is a contact's own, else its ku."""
     case = dict(case or {})
     owner = np.arange(len(contacts)) if owner is None else np.asarray(owner)
+    if "interference" in case:
+        if not any(isinstance(c, ShroudPair) for c in contacts):
+            raise ValueError("a case's interference is of shroud pairs; no contact is one")
+        contacts = [replace(c, interference=float(case["interference"]), n0=None)
+                    if isinstance(c, ShroudPair) else c for c in contacts]
     pressed = [i for i, c in enumerate(contacts) if getattr(c, "interference", None) is not None]
     ku, kv, mu = (case_parameter(contacts, owner, case, *p) for p in
                   (("ku", "ku"), ("kv", "kv"), ("mu", "mu")))

@@ -23,8 +23,8 @@ that every solver takes:
 
 So an FE blade in a cyclic disk is `Scene(Blade(..., disk=DiskPlacement(R, N)),
 (ShroudPair(...),), loads, Cyclic(N, EO), CraigBampton(m))`: no other code path.
-A case is a dict of overrides (`CASE_KEYS`): `preload` sets n0 of every contact,
-`mu`, `ku`, `kv` those of every contact, `excitation_scale` scales every load,
+A case is a dict of overrides (`CASE_KEYS`): `preload` sets n0 of every contact (`mu`,
+`ku`, `kv`, `interference` [m]: every shroud pair's), `excitation_scale` scales every load,
 `eo` the engine order and `mistuning_seed` the mistuning draw of a cyclic assembly.
 
 FE models and reductions are cached on the frozen specs (`blade_model`,
@@ -46,7 +46,8 @@ from .contacts import (DofContact, FaceContact, ShroudPair, blade_contact_sets, 
 from .loads import Forcing, point_forcing
 from .system import System
 
-CASE_KEYS = ("preload", "mu", "ku", "kv", "excitation_scale", "eo", "mistuning_seed", "speed")
+CASE_KEYS = ("preload", "mu", "ku", "kv", "interference", "excitation_scale", "eo",
+             "mistuning_seed", "speed")
 CYCLIC_CASE_KEYS = ("eo", "mistuning_seed", "speed")
 RPM = 2.0 * np.pi / 60.0   # rad/s per rpm
 NEXT = "next."          # a DOF of the next sector in a cyclic contact row

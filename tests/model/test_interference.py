@@ -79,3 +79,45 @@ def test_a_gap_that_speed_closes_closes_at_the_computed_speed():
         s = build_system(st.scene, {"speed": f * closing})
         counts.append(int(static_contact(s)[1].sum()))
     assert counts[0] == 0 and counts[1] >= 1, (closing, counts)
+
+
+def test_a_swept_interference_is_n0_by_hand_at_the_speed():
+    """A case's interference x (`[sweep] interference`, studies/shrouded_disk_interference.toml
+    quick at 8,000 rpm) gives every pair n0_k = kv_k (x + v_c,k), kv_k = kv a_k / A (per
+    face), v_c the pair's relative normal displacement under the centrifugal load,
+    computed here from the blade at rest and its static deflection per Omega^2; the
+    harmonic-balance residual of that case equals the one of the same scene given
+    those n0 by hand, and of the scene whose pair states x in the file."""
+    from pipeline.model.system import with_preload
+    from pipeline.solve.harmonic_balance import hbm
+    from pipeline.solve.response.response import initial_guess
+    from pipeline.study.files.documents import load_study
+
+    st = load_study(STUDIES / "shrouded_disk_interference.toml", quick=True)
+    assert st.scene.structure.speed == 8000.0 and st.scene.contacts[0].interference is None
+    pair = st.scene.contacts[0]
+    blade = blade_model(st.scene.structure)
+    _, Bn, _, Bn_next, _, weights = fe_contact_maps(blade, st.scene.contacts,
+                                                     st.scene.structure.disk)
+    vc = (Bn + Bn_next) @ ((8000.0 * RPM) ** 2 * blade.rotation.static)
+    kv = pair.kv * weights[0] / weights[0].sum()
+    text = re.sub(r"\[output\.optimum_interference\]\n(.+\n)+", "",
+                  (STUDIES / "shrouded_disk_interference.toml").read_text())
+    fixed = parse_study(text.replace(
+        'stiffness = "per_face"\n', 'stiffness = "per_face"\ninterference = -3e-05\n').replace(
+        "interference = [-2e-4, -1e-4, -5e-5, 0.0, 1e-4]", "speed = [8000.0]").replace(
+        "interference = [-2e-4, -5e-5, 1e-4]", ""), file="fixed.toml", quick=True)
+    for x in (-1e-4, -3e-5, 2e-5):
+        s = build_system(st.scene, {"interference": x})
+        n0 = kv * (x + vc)
+        assert np.any(n0 < 0) or x > 0           # some pairs open at the gaps
+        np.testing.assert_allclose(s.contact.n0, n0, rtol=1e-12, atol=1e-12 * np.abs(n0).max())
+        by_hand = with_preload(build_system(st.scene, {"interference": 0.0}), n0)
+        others = [by_hand] + ([build_system(fixed.scene, {"speed": 8000.0})] if x == -3e-5 else [])
+        prob = hbm.setup(s, 1, "exact", 64)
+        q = initial_guess(prob, 2 * np.pi * 370.0, s.contact)
+        q = q + 1e-6 * np.random.default_rng(1).standard_normal(q.size)  # slips and opens
+        R = hbm.residual(prob, q, 2 * np.pi * 370.0, s.contact)[0]
+        for o in others:
+            Ro = hbm.residual(hbm.setup(o, 1, "exact", 64), q, 2 * np.pi * 370.0, o.contact)[0]
+            np.testing.assert_allclose(Ro, R, rtol=0, atol=1e-12 * np.abs(R).max())

@@ -6,8 +6,9 @@ shrouded disk's curve (studies/shrouded_disk.toml) has a local minimum (2.658e-5
 whichever basin its first golden-section points fall in.  `global_minimum` therefore
 
 1. samples p on a grid of nodes t_0 < ... < t_N over the bounds, t = ln n0
-   (log spacing: bounds span decades) or t = n0: `grid_nodes` gives
-   N + 1 = max(MIN_NODES, ceil(PER_DECADE log10(hi / lo)) + 1) evenly spaced nodes,
+   (log spacing: bounds span decades) or t = x (linear: a variable that crosses zero,
+   a shroud interference [m]): `grid_nodes` gives N + 1 = max(MIN_NODES,
+   ceil(PER_DECADE log10(hi / lo)) + 1) evenly spaced nodes (linear: `min_nodes`),
    plus the `extra_nodes` inside the bounds (the study's own cases, whose peaks are
    known: free nodes), each of which replaces a regular node closer than SNAP of the
    spacing (a case at 3 N stands for the node at 3.16 N: one continuation fewer, the
@@ -18,7 +19,7 @@ whichever basin its first golden-section points fall in.  `global_minimum` there
    basin);
 3. refines each bracket [t_(i-1), t_(i+1)] by Brent's method (golden section and
    parabolic steps, started from the known node t_i) to xatol = rtol / REFINE in t
-   (rtol hi / REFINE without log): Brent stops with the minimiser anywhere in a final
+   (rtol (hi - lo) / REFINE on a linear grid): Brent stops with the minimiser anywhere in a final
    bracket about 4/3 xatol wide, and the peak is flat at its minimum (Example 1: 1e-6
    over 1 % of preload), so a tenth of rtol keeps the optimum within rtol with margin;
    — best basin first; a later bracket whose parabola through its three nodes stays
@@ -32,7 +33,10 @@ A peak that does not depend on the preload (every grid node's value the same to
 round-off: relative spread (max - min) / max below FLAT_SPREAD, e.g. a contact whose
 closure an `interference` fixes) has no optimum: the search stops after the grid
 and returns preload NaN, `independent` True and the `spread` (the peak and its
-frequency those of the first node, the value at every preload).
+frequency those of the first node, the value at every preload).  Nor has a smallest
+peak shared by a stretch of the bounds (two grid nodes or more within `plateau_rel`
+of the best value, PLATEAU_REL or the peaks' round-off: a shroud gap that stays open over the cycle, the peak the free blades'
+whatever the gap): preload NaN and `plateau` (low, high), the evaluations there.
 
 Assumption (when a minimum can still be missed): the global minimum's basin must hold
 a grid node whose value is below the nodes on either side, i.e. the interval around
@@ -65,9 +69,13 @@ logger = logging.getLogger(__name__)
 
 PER_DECADE = 4          # grid nodes per decade of preload (log spacing)
 MIN_NODES = 7           # at least this many grid nodes however narrow the bounds
+LINEAR_NODES = 9        # grid nodes of a linear search (an interference) unless asked
 REFINE = 10             # Brent's xatol = rtol / REFINE (module docstring)
 SNAP = 1.0 / 3.0        # an extra node replaces a regular one this close (of the spacing)
 FLAT_REL = 1e-7         # a local minimum shallower than this (relative) is a plateau
+PLATEAU_REL = FLAT_REL  # grid nodes this close to the best (relative): a flat minimum; a
+PLATEAU_PER_TOL = 100   # search on traced peaks widens it to this many Newton tolerances, above
+#                         their round-off (8e-8 on the shrouded disk at tolerance 1e-8)
 SKIP_REL = 0.1          # a bracket whose parabola stays this far above the best: not refined
 FLAT_SPREAD = 1e-9      # grid values within this relative spread: the peak ignores n0
 VERIFY_REL = 1e-6       # a bracket's local result and its band value agree to this (relative)
@@ -86,7 +94,7 @@ def grid_nodes(lo: float, hi: float, *, log: bool = True, per_decade: float = PE
     if not lo < hi or (log and lo <= 0):
         raise ValueError(f"bounds must satisfy {'0 < ' if log else ''}low < high, got "
                          f"({lo:g}, {hi:g})")
-    decades = math.log10(hi / lo) if lo > 0 else 1.0
+    decades = math.log10(hi / lo) if log else 0.0   # linear: min_nodes nodes
     n = max(int(min_nodes), int(math.ceil(per_decade * decades - 1e-9)) + 1)
     base = np.exp(np.linspace(math.log(lo), math.log(hi), n)) if log else np.linspace(lo, hi, n)
     base[0], base[-1] = lo, hi      # exactly the bounds (exp(ln x) may round)
@@ -184,33 +192,31 @@ def brent(f, a: float, b: float, xatol: float, x: float | None = None, fx: float
 
 
 def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
-                   per_decade: float = PER_DECADE, known=None, extra_nodes=(),
-                   on_evaluation=None, local=None, verify_rel: float = VERIFY_REL,
-                   evaluate_many=None, replay=None) -> dict:
+                   per_decade: float = PER_DECADE, min_nodes: int = MIN_NODES, known=None,
+                   extra_nodes=(), on_evaluation=None, local=None, verify_rel: float = VERIFY_REL,
+                   evaluate_many=None, replay=None, plateau_rel=PLATEAU_REL) -> dict:
     """The preload in `bounds` [N] with the smallest value of evaluate(n0) -> (peak,
     omega), peak = inf for a failed evaluation (see the module docstring: grid,
     brackets of every local minimum, Brent in each to |d ln n0| <= rtol / REFINE
-    (`log`) or |d n0| <= rtol hi / REFINE).
+    (`log`) or |d n0| <= rtol (hi - lo) / REFINE; at least `min_nodes` grid nodes).
 
     known: {n0: (peak, omega)} known from the start (the cases); replay: those of an
-    interrupted run of this search, each taken for evaluate(n0) when asked (module
-    docstring); extra_nodes: preloads added to the grid (the cases);
+    interrupted run, each taken for evaluate(n0) when asked; extra_nodes: added nodes;
     on_evaluation(n0, peak, omega) is called after each new evaluation (a checkpoint).
     evaluate_many(list of n0, record): the grid nodes not known yet evaluated together
-    (e.g. in parallel), record(n0, peak, omega) called as each ends; default evaluate
-    on each in turn.
+    (e.g. in parallel), record(n0, peak, omega) called as each ends; else one by one.
 
     local(n0, near) -> (peak, omega): a cheaper lower bound of evaluate(n0) from the
     evaluated preload `near` (the peak continued in preload) for Brent's trials, its
-    result checked by evaluate to verify_rel (`refine_bracket`).
-
-    Returns a dict: preload, peak, peak_omega, evaluations [(n0, peak, omega)] sorted
-    by n0 (every preload looked at, reused ones included; peak and omega NaN where the
-    evaluation failed), local (the preloads among them valued by `local` alone),
-    verified [(n0, local, full)] (each bracket's check), grid (the nodes), brackets
-    [(low, node, high)] [N], skipped (the brackets not refined: SKIP_REL), computed
-    (new evaluations), reused, success (some evaluation finite), spread (the grid's
-    `relative_spread`), independent (below FLAT_SPREAD: preload NaN, module docstring)."""
+    result checked by evaluate to verify_rel (`refine_bracket`).  Returns a dict:
+    preload, peak, peak_omega, evaluations [(n0, peak, omega)] sorted by n0 (every
+    preload looked at, reused ones included; peak and omega NaN where the evaluation
+    failed), local (the preloads among them valued by `local` alone), verified [(n0,
+    local, full)] (each bracket's check), grid (the nodes), brackets [(low, node, high)]
+    [N], skipped (the brackets not refined: SKIP_REL), computed (new evaluations),
+    reused, success (some evaluation finite), spread (the grid's `relative_spread`),
+    independent (below FLAT_SPREAD: preload NaN, module docstring), plateau ((low, high)
+    of a smallest peak shared, to plateau_rel, by a stretch: preload NaN; or None)."""
     lo, hi = float(bounds[0]), float(bounds[1])
     memo = {float(k): (float(p), float(o)) for k, (p, o) in dict(known or {}).items()}
     kept = {float(k): (float(p), float(o)) for k, (p, o) in dict(replay or {}).items()}
@@ -236,7 +242,8 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
 
     to_n0 = (lambda t: float(np.exp(t))) if log else float
     to_t = (lambda n0: math.log(n0)) if log else float
-    nodes = grid_nodes(lo, hi, log=log, per_decade=per_decade, extra=extra_nodes)
+    nodes = grid_nodes(lo, hi, log=log, per_decade=per_decade, min_nodes=min_nodes,
+                       extra=extra_nodes)
     todo = [float(n0) for n0 in nodes if float(n0) not in memo and float(n0) not in kept]
     if evaluate_many is not None and len(todo) > 1:
         evaluate_many(todo, record)
@@ -244,7 +251,7 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
     reused.difference_update(todo)      # evaluated here, not known before
     spread = relative_spread(values)   # below FLAT_SPREAD: no basin, the peak ignores n0
     t = [to_t(n0) for n0 in nodes]
-    xatol = (rtol if log else rtol * hi) / REFINE
+    xatol = (rtol if log else rtol * (hi - lo)) / REFINE
     brackets, skipped = [], []
     for i in sorted(local_minima(values) if spread >= FLAT_SPREAD else [], key=values.__getitem__):
         a, b = t[max(i - 1, 0)], t[min(i + 1, len(t) - 1)]
@@ -262,7 +269,8 @@ def global_minimum(evaluate, bounds, *, rtol: float = 1e-3, log: bool = True,
         logger.debug("optimum search: bracket [%.6g, %.6g] N refined", to_n0(a), to_n0(b))
     return _result(memo, lmemo, (lo, hi), grid=[float(x) for x in nodes], verified=verified,
                    brackets=brackets, skipped=skipped, computed=computed[0],
-                   reused=len(reused), independent=spread < FLAT_SPREAD, spread=spread)
+                   reused=len(reused), independent=spread < FLAT_SPREAD, spread=spread,
+                   plateau_rel=plateau_rel)
 
 
 def relative_spread(values) -> float:
@@ -286,12 +294,26 @@ def _result(memo, lmemo, bounds, **more) -> dict:
     # candidates: full values only (a local value is a lower bound, checked where it won)
     finite = [e for e in evaluations if np.isfinite(e[1]) and e[0] in memo]
     best = min(finite, key=lambda e: e[1]) if finite else (np.nan, np.nan, np.nan)
+    plateau, rel = None, more.pop("plateau_rel", PLATEAU_REL)
     if more.get("independent"):    # the value at every preload (the first node's): no optimum
         best = (np.nan, *memo[more["grid"][0]])
+    elif finite:
+        plateau = flat_minimum(finite, more["grid"], best[1], rel)
+        best = best if plateau is None else (np.nan, *best[1:])
     return {"preload": best[0], "peak": best[1], "peak_omega": best[2],
             "evaluations": evaluations,
             "local": sorted(k for k in lmemo if k not in memo and lo <= k <= hi),
-            "success": bool(finite), **more}
+            "success": bool(finite), "plateau": plateau, **more}
+
+
+def flat_minimum(evaluations, grid, best: float, rel: float = PLATEAU_REL) -> tuple | None:
+    """(low, high) of the `evaluations` [(x, peak, omega)] whose peak equals the `best`
+    to `rel` where two `grid` nodes or more are among them (the smallest peak is the
+    same over at least one node spacing: no single optimum), else None."""
+    flat = [x for x, p, _ in evaluations if p - best <= rel * abs(best)]
+    if np.isin(flat, grid).sum() < 2:
+        return None
+    return (float(min(flat)), float(max(flat)))
 
 
 def refine_bracket(full, local, memo, lmemo, to_n0, to_t, ab, xatol, inner, verify_rel,

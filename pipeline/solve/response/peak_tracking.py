@@ -43,7 +43,8 @@ from ..continuation.branch_refinement import insert_peaks, solve_on_plane
 from ..continuation.newton import augment, linear_solve
 from ..continuation.pseudo_arclength import continue_branch
 from ..continuation.restarts import join, piece
-from .optimum import PER_DECADE, VERIFY_REL, global_minimum
+from .optimum import (MIN_NODES, PER_DECADE, PLATEAU_PER_TOL, PLATEAU_REL, VERIFY_REL,
+                      global_minimum)
 from .response import (ResponseCurve, branch_points, curve_from_points, frequency_problem,
                        frequency_response)
 from .window import peak_points
@@ -177,7 +178,7 @@ def band_peak(system, H, omega_start, omega_end, dof, **kwargs) -> tuple:
 def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
                     log=True, known=None, extra_nodes=(), on_evaluation=None,
                     per_decade=PER_DECADE, states=None, local=True, grid_map=None,
-                    replay=None, **kwargs):
+                    replay=None, min_nodes=MIN_NODES, **kwargs):
     """The preload [N] in `bounds` that minimises the resonant peak of `dof`, globally.
 
     build(n0) -> System.  Each band evaluation traces the frequency response over
@@ -189,10 +190,12 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
     (`optimum.global_minimum`, which states when a minimum can still be missed).  With
     `local`, Brent's trial preloads take the peak continued from the nearest preload
     evaluated (`local_peak`) and the bracket's result is verified by a band evaluation
-    (module docstring).
+    (module docstring).  The searched variable is whatever `build` reads: with
+    log=False a linear grid of `min_nodes` nodes (a shroud interference [m], which
+    crosses zero).  A smallest peak shared by grid nodes to PLATEAU_PER_TOL times the
+    Newton tolerance `tol_rel` (their round-off) is a plateau, no optimum.
     known {n0: (peak, omega)} are reused, extra_nodes join the grid (the study's cases);
-    replay {n0: (peak, omega)}: an interrupted search's evaluations, each reused when the
-    search comes to it (`optimum.global_minimum`);
+    replay {n0: (peak, omega)}: an interrupted search's evaluations (`global_minimum`);
     states {n0: (omega, Q)}: the peak states of known preloads (Q all DOFs'
     coefficients), where local peaks may start; on_evaluation(n0, peak, omega, Q)
     follows each new band evaluation (Q its peak state, None for a failed one); grid_map(list
@@ -243,6 +246,8 @@ def optimum_preload(build, H, omega_start, omega_end, dof, bounds, *, rtol=1e-3,
         on_evaluation(n0, p, om, states.get(float(n0), (None, None))[1])
 
     res = global_minimum(peak, bounds, rtol=rtol, log=log, per_decade=per_decade,
+                         min_nodes=min_nodes, plateau_rel=max(
+                             PLATEAU_REL, PLATEAU_PER_TOL * kwargs.get("tol_rel", 0.0)),
                          known=known, extra_nodes=extra_nodes,
                          on_evaluation=evaluated if on_evaluation is not None else None,
                          local=near_peak if local else None, verify_rel=VERIFY_REL,

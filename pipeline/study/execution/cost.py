@@ -148,7 +148,8 @@ def time_point(study, repeats: int = 5) -> PointTiming:
         from ...model.scene import case_speed, reduced_model, timed_blade_model
         t_red = reduced_model(st, study.scene.reduction, case_speed(st, case))[1]
         setup += timed_blade_model(st)[1] + t_red
-    if any(getattr(c, "interference", None) is not None for c in study.scene.contacts):
+    if "interference" in study.sweep.axes or any(
+            getattr(c, "interference", None) is not None for c in study.scene.contacts):
         from ...model.static_load import static_contact
         t1 = time.perf_counter()
         static_contact(system)

@@ -50,6 +50,7 @@ def check_python_study(study) -> None:
                                for table, cls in study_laws().items()}, sc.effects)
     else:
         blade_disk.check_interference(ck, sc.contacts, axes, "sweep")
+        blade_disk.check_interference_search(ck, sc.contacts, study.output.optimum, axes, "sweep")
         blade_disk.check_friction(ck, sc.contacts, sc.effects, sv, "solver")
     check_scene_rules(ck, sc.effects, contact_rules(sc), excited_harmonic(sc.loads),
                       int(sv.harmonics), axes, "solver", "sweep", disk=sc.cyclic,

@@ -18,7 +18,7 @@ from .cases import default_solver, execute_cases
 from .checkpoint import checkpoint_dir, remove_stale
 from .mistuned import tuned_references
 from .python_study import check_python_study
-from .optimum_search import grid_job, optimum_figure_of, planned_grid, study_optimum
+from .optimum_search import grid_job, optimum_figure_of, planned_grid, study_optimum, variable_of
 from ..figures.peak_shapes import write_peak_shapes
 from ..figures.response_figures import sector_output_dofs, write_figures
 from ..files.spec import SWEEP_AXES, Study, StudyKind, StudyResult, always, is_linear_scene
@@ -71,9 +71,9 @@ def describe(study: Study, workers: int = 1) -> list:
                      + (f", {steps}" if steps else ""))
     o = study.output
     lines.append(f"output: dofs {', '.join(o.dofs)}; figures {', '.join(o.figures) or 'none'}"
-                 + (f"; optimum-preload search on {o.optimum['dof']} in "
-                    f"[{o.optimum['bounds'][0]:g}, {o.optimum['bounds'][1]:g}] N"
-                    if o.optimum else ""))
+                 + (f"; optimum-{variable_of(study)[0]} search on {o.optimum['dof']} in "
+                    f"[{o.optimum['bounds'][0]:g}, {o.optimum['bounds'][1]:g}] "
+                    f"{variable_of(study)[1]}" if o.optimum else ""))
     return lines + estimate_lines(study, n_cases, workers, linear)
 
 
@@ -86,7 +86,8 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
     lines = [model_line(study)]
     e = cost_estimate(study, workers)
     tm = e.timing
-    search = (f", of which the optimum-preload search {time_range(*e.search)}" if e.search else "")
+    search = (f", of which the optimum-{variable_of(study)[0]} search {time_range(*e.search)}"
+              if e.search else "")
     lines.append(
         f"estimated cost: {time_range(e.lo, e.hi)} (middle {seconds(e.mid)}) for {n_cases} case(s) "
         f"on {e.workers} worker(s){search}")

@@ -28,8 +28,7 @@ from pathlib import Path
 from ...errors import UsageError, interrupt_in_chain
 from .cases import SchedulerUnreachable, WorkerLost, default_solver
 from .checkpoint import kept_cases
-from .optimum_search import (hidden_search_peaks, independence, outside_search_peaks,
-                             window_end)
+from .optimum_search import dataset_warnings
 from ..files.documents import load_study, text_describes
 from ..datasets.free_direction import free_direction_notes
 from ..datasets.incomplete import (absent_effects, edge_peaks, hidden_peaks, incomplete_cases,
@@ -182,20 +181,7 @@ def warnings(file, study, ds) -> list:
     out += [f"warning: {file}: scene.effects: {what}" for what in absent_effects(study, ds)]
     out += [f"warning: {file}: {field}: " + (f"case {_case_words(case)}: " if case else "") + what
             for field, case, what in free_direction_notes(study, ds)]
-    end = None
-    if ds is not None and "optimum_peak_frequency" in ds:
-        attrs = ds["optimum_preload"].attrs
-        end = window_end(study, float(ds["optimum_peak_frequency"])
-                         * study.sweep.frequency.to_rad_s)
-        what = independence(study, attrs.get("independent_of_preload", 0),
-                            attrs.get("peak_relative_spread", float("nan"))) or end
-        out += [f"warning: {file}: output.optimum_preload: {what}"] if what else []
-    if ds is not None and "optimum_search_outside_peak" in ds:
-        n0 = ds["optimum_search_preload"].values
-        more = [hidden_search_peaks(dict(zip(n0, ds["optimum_search_unresolved_steps"].values))),
-                None if end else outside_search_peaks(
-                    study, n0[ds["optimum_search_outside_peak"].values == 1])]
-        out += [f"warning: {file}: output.optimum_preload: {w}" for w in more if w]
+    out += [f"warning: {file}: {field}: {what}" for field, what in dataset_warnings(study, ds)]
     return out
 
 

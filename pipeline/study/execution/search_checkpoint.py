@@ -7,7 +7,8 @@ replay = these values) reuses each when it comes to its preload, not before; its
 preloads depend only on the values, so it visits the same preloads as an uninterrupted
 search, values Brent's trials alike and ends at the same optimum.
 
-The file is data only (netCDF variables `preload` [N], `peak` [m], `peak_omega`
+The file is data only (netCDF variables `preload` [N] (an interference search's
+`interference` [m], its identity's `variable`), `peak` [m], `peak_omega`
 [rad/s] on one dimension, `state` [m] the Fourier coefficients of all DOFs at each
 peak (where the peak continued in preload starts: a resumed search needs no band
 evaluation again for them; NaN where not kept), and the search's identity as a JSON
@@ -26,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import interrupt_deferred
+from ..files.spec import OPTIMUM_UNITS
 
 log = logging.getLogger(__name__)
 
@@ -53,8 +55,9 @@ def save_search(cdir, identity: dict, evaluations: dict, states=None) -> bool:
     for i, k in enumerate(keys):
         if (states or {}).get(k) is not None:
             Q[i] = states[k]
+    var = identity.get("variable", "preload")
     ds = xr.Dataset(
-        {"preload": ("evaluation", arr[:, 0], {"units": "N"}),
+        {var: ("evaluation", arr[:, 0], {"units": OPTIMUM_UNITS[var]}),
          "peak": ("evaluation", arr[:, 1], {"units": "m"}),
          "peak_omega": ("evaluation", arr[:, 2], {"units": "rad/s"}),
          "state": (("evaluation", "dof", "coefficient"), Q, {"units": "m"})},
@@ -94,7 +97,8 @@ def load_search(cdir, identity: dict, with_states: bool = False):
             raise ValueError("not an optimum-search checkpoint of this format")
         if json.loads(ds.attrs["identity"]) != json.loads(json.dumps(identity, sort_keys=True)):
             raise ValueError("kept by a different search")
-        arr = [np.asarray(ds[v].values, dtype=float) for v in ("preload", "peak", "peak_omega")]
+        arr = [np.asarray(ds[v].values, dtype=float)
+               for v in (identity.get("variable", "preload"), "peak", "peak_omega")]
         if any(a.ndim != 1 or a.size != arr[0].size for a in arr):
             raise ValueError("arrays of different shapes")
         if not np.all(np.isfinite(arr[0])):

@@ -21,6 +21,7 @@ from ...contact.registry import study_laws
 from ...structure.fe_model import BladeParams
 from ...structure.reduction import DEFAULT_MODES
 from ..accuracy.spec import Settings
+from ...solve.response.optimum import LINEAR_NODES
 from .spec import EFFECTS, FIGURES, SWEEP_AXES, SolverSettings
 
 FILE = ""                    # the top level of a study file
@@ -36,6 +37,7 @@ ALIASES = {
     "quick.modes": "modes",
     "quick.scene.blade": "scene.blade",
     "output.optimum_preload.frequency": "sweep.frequency",
+    "output.optimum_interference.frequency": "sweep.frequency",
     "lumped": CASE,
     "blade": CASE,
     "quick.lumped": CASE,    # a case's keys but `scene`
@@ -130,6 +132,8 @@ def _sweep_rows() -> list:
     rows = [("sweep", "frequency", "", _REQ, "continuation interval `{start, stop, unit}`")]
     for k, (unit, text) in SWEEP_AXES.items():
         extra = {"preload": "; not with a contact's `n0`",
+                 "interference": "; FE blades in a disk, not with a pair's `n0` or "
+                                 "`interference`, nor `preload` / `normal_load`",
                  "normal_load": "; instead of `preload`, > 0",
                  "eo": "; integers 0 ... N/2", "mistuning_seed": "; integers, or `{first, count}`"}.get(k, "")
         rows.append(("sweep", k, unit, "", f"list: {text}{extra}"))
@@ -265,6 +269,8 @@ _FIXED = [
     ("output", "peak_windows", "`unit`", "[]", "`[[lo, hi], ...]`: one resonance peak per "
                                                "window"),
     ("output", "optimum_preload", "", "", "the optimum-preload search (lumped and blade scenes)"),
+    ("output", "optimum_interference", "", "", "instead: the search over every shroud pair's "
+                                              "interference (FE blades in a disk)"),
     ("output", "curves", "", "true", "false (mistuned disks): each case keeps every sector's "
                                      "largest peak only, a Monte-Carlo sample"),
     ("output.optimum_preload", "dof", "", _REQ, "the DOF whose peak is minimised"),
@@ -272,6 +278,15 @@ _FIXED = [
     ("output.optimum_preload", "frequency", "", "the sweep's", "window `{start, stop, unit}`"),
     ("output.optimum_preload", "rtol", "1", "0.01", "tolerance of the optimum in log n0 "
                                                     "(Brent to a tenth of it)"),
+    ("output.optimum_interference", "dof", "", _REQ, "the DOF whose peak is minimised"),
+    ("output.optimum_interference", "bounds", "m", _REQ, "`[lo, hi]` of the interference "
+                                                         "(< 0: a gap)"),
+    ("output.optimum_interference", "frequency", "", "the sweep's", "window "
+                                                                    "`{start, stop, unit}`"),
+    ("output.optimum_interference", "rtol", "1", "0.01", "tolerance of the optimum, of "
+                                                         "hi - lo (Brent to a tenth of it)"),
+    ("output.optimum_interference", "nodes", "1", str(LINEAR_NODES), "nodes of the linear "
+                                                                     "grid over the bounds"),
     ("modes", "mode_counts", "1", "[0, 5, 10, 20, 40]", "blade modes study: Craig–Bampton "
                                                          "mode counts to compare"),
     ("modes", "n_frequencies", "1", "10", "frequencies compared (per nodal diameter on a disk)"),
@@ -353,7 +368,7 @@ def rows() -> list:
     order = ["study", "scene", "scene.matrices", "scene.matrices.axis", "scene.modal", "scene.contact", *laws,
              "scene.excitation", "scene.disk", "scene.disk.mistuning", "scene.disk.spring",
              "scene.blade", "sweep", "sweep.frequency", "sweep.mistuning_seed", "solver", "output",
-             "output.optimum_preload", "modes", "modes.speeds", "quick", "quick.scene", "recommendation",
+             "output.optimum_preload", "output.optimum_interference", "modes", "modes.speeds", "quick", "quick.scene", "recommendation",
              CASE, f"{CASE}.reference", f"{CASE}.knobs"]
     every = (_FIXED + _law_rows() + _blade_rows() + _sweep_rows() + _solver_rows()
              + _settings_rows())
@@ -403,7 +418,8 @@ def _cell(text: str) -> str:
 # the tables that take another's keys, as the markdown says it
 _ALIAS_TEXT = ("`[quick.sweep]`, `[quick.solver]`, `[quick.modes]`, `[quick.scene.blade]` take "
                "the keys of `[sweep]`, `[solver]`, `[modes]`, `[scene.blade]`; "
-               "`[sweep.frequency]` is also `[output.optimum_preload.frequency]` and a case's "
+               "`[sweep.frequency]` is also `[output.optimum_preload.frequency]`, "
+               "`[output.optimum_interference.frequency]` and a case's "
                "`frequency`; `[lumped.scene]`, `[blade.scene]` are written as `[scene]`; "
                "`[lumped.baseline]`, `[blade.baseline]` take the keys of their `reference`; "
                "`[quick.lumped]`, `[quick.blade]` those of their case but `scene`.")

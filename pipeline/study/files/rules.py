@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...contact.registry import study_laws
-from ...model.contacts import DofContact
+from ...model.contacts import DofContact, ShroudPair
 from ...model.system import normal_load_laws
 
 
@@ -26,7 +26,8 @@ class ContactRule:
     n = n0 + kv v can vary); `swept`: a contact of `Scene.contacts`, which the sweep's
     contact axes (preload, mu, ku, kv) set and "friction" declares (False: an element
     of a further law, `Scene.laws`, its values fixed); `preload_key` the key that
-    gives its preload ("n0", or "interference" for a shroud pair's overlap)."""
+    gives its preload ("n0", or "interference" for a shroud pair's overlap); `pair`: a
+    shroud pair, whose preload `[sweep] interference` may set (n0 = kv x interference)."""
 
     field: str
     n0: float | None
@@ -35,6 +36,7 @@ class ContactRule:
     mu: float
     swept: bool = True
     preload_key: str = "n0"
+    pair: bool = False
 
 
 def contact_rules(scene) -> tuple:
@@ -49,7 +51,8 @@ def contact_rules(scene) -> tuple:
         out.append(ContactRule(
             f"scene.contact[{i}]", c.n0 if inter is None else c.kv * inter, float(c.kv),
             bool(np.any(c.bn)) if isinstance(c, DofContact) else True, float(c.mu),
-            preload_key="n0" if inter is None else "interference"))
+            preload_key="n0" if inter is None else "interference",
+            pair=isinstance(c, ShroudPair)))
     tables = {cls: table for table, cls in study_laws().items()}
     counts = {}
     laws = getattr(scene, "laws", ())
@@ -97,6 +100,9 @@ def check_scene_rules(ck, effects, contacts, h_excited, H, axes, spath, wpath,
     for a in ("preload", "normal_load", "mu", "ku", "kv"):
         if a in axes and not own:
             ck.fail(f"{wpath}.{a}", "the scene has no [[scene.contact]] to apply it to")
+    if "interference" in axes and not any(c.pair for c in own):
+        ck.fail(f"{wpath}.interference", "sets the interference of shroud pairs (FE blades in a "
+                                         "disk, pair = \"shroud\"): the scene has none")
     check_preload_given(ck, own, axes, wpath)
     effects = set(effects)
     if bool(own) != ("friction" in effects):
@@ -117,7 +123,10 @@ def _kv(c: ContactRule, axes) -> float:
 
 
 def _n0(c: ContactRule, axes):
-    """The smallest preload n0 [N] of contact c over the sweep (None: not given)."""
+    """The smallest preload n0 [N] of contact c over the sweep (None: not given); a
+    shroud pair under a swept interference: kv times the smallest (its sign)."""
+    if c.pair and "interference" in axes:
+        return c.kv * min(axes["interference"])
     return min(axes["preload"]) if c.swept and "preload" in axes else c.n0
 
 
@@ -136,7 +145,8 @@ def check_separation(ck, effects, contacts, axes, wpath, varies):
         for c in contacts:
             kv, n0 = _kv(c, axes), _n0(c, axes)
             if c.normal and kv > 0 and n0 is not None and n0 <= 0:
-                where = (f"{wpath}.preload" if c.swept and "preload" in axes
+                where = (f"{wpath}.interference" if c.pair and "interference" in axes
+                         else f"{wpath}.preload" if c.swept and "preload" in axes
                          else f"{c.field}.{c.preload_key}")
                 ck.fail("scene.effects", f"{c.field} has a varying normal load (normal DOFs, "
                                          f"kv = {kv:g} N/m) and a preload of {n0:g} N "
@@ -151,7 +161,10 @@ def check_separation(ck, effects, contacts, axes, wpath, varies):
 def check_preload_given(ck, contacts, axes, wpath):
     """Each contact's preload given once: by its n0, the swept preload or the static
     normal load the sweep asks for (n0 solved for it), never by two of them
-    (`contacts`: the `ContactRule`s the sweep acts on)."""
+    (`contacts`: the `ContactRule`s the sweep acts on); a shroud pair's preload may come
+    from the swept interference instead (`blade_wheel_scene.check_interference`)."""
+    if "interference" in axes:
+        contacts = [c for c in contacts if not c.pair]
     if "normal_load" in axes:
         if "preload" in axes:
             ck.fail(f"{wpath}.normal_load", "give either the preload n0 (sweep.preload) or the "
@@ -208,8 +221,10 @@ def check_speed_rules(ck, effects, axes, wpath, can_turn, speed, axis_field=None
 
 
 def check_optimum_axes(ck, output, axes, wpath):
-    """The optimum search varies n0: a sweep that gives the static normal load instead
-    would be compared against a different quantity."""
+    """The optimum search varies n0 (or the shroud pairs' interference): a sweep that
+    gives the static normal load instead would be compared against a different
+    quantity."""
     if output.optimum is not None and "normal_load" in axes:
-        ck.fail("output.optimum_preload", f"searches the preload n0, but {wpath}.normal_load "
-                                          "gives the static normal load: sweep preload instead")
+        v = output.optimum.get("variable", "preload")
+        ck.fail(f"output.optimum_{v}", f"searches the {'preload n0' if v == 'preload' else v}, "
+                f"but {wpath}.normal_load gives the static normal load: sweep {v} instead")

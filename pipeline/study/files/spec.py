@@ -43,6 +43,8 @@ SWEEP_AXES = {
     "mistuning_seed": ("1", "seed of the random sector stiffness mistuning (disk scenes)"),
     "speed": ("rpm", "rotation speed of the disk: stress stiffening and spin softening of "
                      "its solid blades"),
+    "interference": ("m", "overlap (> 0) or gap (< 0) of every shroud pair in the assembled "
+                          "position: n0 = kv (interference + centrifugal closure)"),
 }
 INTEGER_SWEEP_AXES = ("eo", "mistuning_seed")
 FREQUENCY_UNITS = ("rad/s", "Hz")
@@ -54,6 +56,8 @@ FREQUENCY_UNITS = ("rad/s", "Hz")
 # at each branch's ends flipped at every fold)
 STABILITY_WHEN_TRUE = {"lumped": "monodromy+check", "disk": "hill",
                        "beam_blade": "stretch", "solid_blade": "stretch"}
+# the quantity an optimum search varies ([output.optimum_<name>]) -> its unit
+OPTIMUM_UNITS = {"preload": "N", "interference": "m"}
 FIGURES = ("amplitude", "hysteresis")
 DEFAULT_FIGURES = ("amplitude",)
 MAX_HARMONICS = 200
@@ -168,7 +172,7 @@ class OutputSettings:
     figures: tuple = DEFAULT_FIGURES
     yscale: str = "linear"
     peak_windows: tuple = ()     # ((lo, hi), ...) in the sweep's frequency unit
-    optimum: dict | None = None  # {dof, bounds (N), window (rad/s) | None, rtol}
+    optimum: dict | None = None  # {dof, bounds (N | m), window | None, rtol, variable, nodes}
     curves: bool = True          # False: each case keeps its DOFs' largest peaks only
 
 
@@ -188,6 +192,12 @@ class StudyKind:
     run: Callable       # (study, out_dir, **options of `run.run_study`) -> StudyResult
     cases: Callable     # study -> number of cases it runs
     optimum: bool = False   # its studies may search the optimum preload (`optimise`)
+
+
+def optimum_variable(optimum: dict | None) -> str:
+    """The quantity an optimum search (`OutputSettings.optimum`) varies: "preload" (the
+    contacts' n0 [N]) or "interference" (every shroud pair's [m])."""
+    return (optimum or {}).get("variable", "preload")
 
 
 def always(document) -> bool:

@@ -146,6 +146,7 @@ def response_from_mapping(data: dict, *, file: str, name: str, text: str = "",
         _consistency(ck, scene, sv, ax, spath, wpath, data)  # the rules need no mesh: the
         # model run is checked (--quick builds and reduces the quick blade only)
         check_optimum_axes(ck, output, ax, wpath)
+        blade_disk.check_interference_search(ck, scene.contacts, output.optimum, ax, wpath)
         st = Study(file=file, name=name, **header, text=text, scene=sc,
                    sweep=Sweep(axes=ax, frequency=fr), solver=sv, output=output, quick=is_quick)
         if is_quick == bool(quick):
@@ -423,13 +424,17 @@ def _loads(ck, raw) -> tuple:
 
 def _output(ck, t, scene):
     ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload",
-                          "curves"))
+                          "optimum_interference", "curves"))
     dofs = (ck.names(t["dofs"], "output.dofs") if "dofs" in t
             else tuple(f"response.{c}" for c in COMPONENTS))
+    searched = [k for k in ("optimum_preload", "optimum_interference") if k in t]
+    if len(searched) > 1:
+        ck.fail("output.optimum_interference", "one optimum search a study: give "
+                                               "optimum_preload or optimum_interference")
     if scene.mistuning is not None:   # every blade's: "response.y@3"
-        if "optimum_preload" in t:
-            ck.fail("output.optimum_preload", "the optimum-preload search is not available for "
-                                              "a mistuned disk")
+        if searched:
+            ck.fail(f"output.{searched[0]}", "the optimum search is not available for "
+                                             "a mistuned disk")
         for i, d in enumerate(dofs):
             if not OUT_DOF_PATTERN.match(d.rpartition("@")[0] or d):
                 ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>[@<sector>]'")
@@ -442,8 +447,8 @@ def _output(ck, t, scene):
             ck.fail(f"output.dofs[{i}]", f"{d!r} is not '<set>.<component>' with set excitation "
                                          "or response and component x, y or z")
     figs, yscale, windows = output_common(ck, t)
-    optimum = parse_optimum(ck, t, scene)
-    blade_disk.check_interference_search(ck, scene.contacts, optimum)
+    optimum = parse_optimum(ck, t, scene, "interference" if "optimum_interference" in t
+                            else "preload")
     return OutputSettings(dofs=tuple(dofs), figures=figs, yscale=yscale, peak_windows=windows,
                           optimum=optimum,
                           curves=disk_scene.parse_curves(ck, t, scene, windows))

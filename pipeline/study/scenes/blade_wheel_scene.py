@@ -153,31 +153,62 @@ def check_tangents(ck, blade, contacts):
 
 def check_interference(ck, contacts, axes, wpath):
     """An interference [m] sets the pair's preload: no n0, no swept preload or static
-    normal load beside it, and a normal stiffness to turn it into a load."""
+    normal load beside it, and a normal stiffness to turn it into a load.  The sweep
+    axis `interference` sets every shroud pair's, which then gives neither its own
+    interference nor n0 (`rules.check_scene_rules` refuses it without shroud pairs)."""
+    swept = "interference" in axes
     for i, c in enumerate(contacts):
-        if getattr(c, "interference", None) is None:
+        own = getattr(c, "interference", None) is not None
+        if not (own or (swept and isinstance(c, ShroudPair))):
             continue
         f = f"scene.contact[{i}]"
+        if own and swept:
+            ck.fail(f"{f}.interference", f"the interference is swept ({wpath.lstrip('.')}."
+                                         "interference sets every shroud pair's): give not both")
         if c.n0 is not None:
-            ck.fail(f"{f}.n0", "the interference sets the preload (n0 = kv x interference "
-                               "before the blades deflect): give one of the two")
+            ck.fail(f"{f}.n0", f"{'the ' if own else wpath.lstrip('.') + '.'}interference sets "
+                               "the preload (n0 = kv x interference before the blades "
+                               "deflect): give one of the two")
         for a in ("preload", "normal_load"):
             if a in axes:
                 ck.fail(f"{wpath}.{a}", f"contact {i} has an interference, which sets its "
-                                        "preload: sweep speed (or the interference) instead")
+                                        "preload: sweep speed (or the interference) instead"
+                        if not swept else f"{wpath.lstrip('.')}.interference sets the preload "
+                        "of every shroud pair (n0 = kv x interference before the blades "
+                        "deflect): sweep one of the two")
         if not c.kv > 0:
             ck.fail(f"{f}.kv", "an interference needs a normal stiffness kv > 0 [N/m] to press")
 
 
-def check_interference_search(ck, contacts, optimum):
-    """An optimum-preload search varies n0, which an interference fixes (n0 = kv x
-    interference, the blades' closure): every trial preload would give the same
-    response, so the search is refused."""
+def check_interference_search(ck, contacts, optimum, axes, wpath):
+    """The optimum search varies one quantity, the one that sets the shroud pairs'
+    preload: an optimum-preload search varies n0, which an interference (the pair's own
+    or `sweep.interference`) fixes (n0 = kv x interference, the blades' closure), so
+    every trial would give the same response: refused; an optimum-interference search
+    varies every shroud pair's interference, so each pair's preload must come from one
+    (not from its n0, a swept preload or a static normal load)."""
+    if optimum is None:
+        return
+    variable = optimum.get("variable", "preload")
+    field = f"output.optimum_{variable}"
     pressed = [i for i, c in enumerate(contacts) if getattr(c, "interference", None) is not None]
-    if optimum is not None and pressed:
-        ck.fail("output.optimum_preload", f"searches the preload n0, but "
-                f"scene.contact[{pressed[0]}].interference sets it (n0 = kv x interference): "
-                "the response does not depend on the searched preload; remove one of the two")
+    if variable == "preload":
+        if pressed or "interference" in axes:
+            sets = (f"scene.contact[{pressed[0]}].interference" if pressed
+                    else f"{wpath.lstrip('.')}.interference")
+            ck.fail(field, f"searches the preload n0, but {sets} sets it (n0 = kv x "
+                    "interference): the response does not depend on the searched preload; "
+                    "remove one of the two (or search [output.optimum_interference])")
+        return
+    pairs = [i for i, c in enumerate(contacts) if isinstance(c, ShroudPair)]
+    if not pairs:
+        ck.fail(field, "searches the interference of the shroud pairs (pair = \"shroud\"), "
+                       "but the scene has none")
+    for i in pairs:
+        if contacts[i].interference is None and "interference" not in axes:
+            ck.fail(field, f"searches the interference, but scene.contact[{i}] has its preload "
+                           f"from n0 or [sweep] preload / normal_load, which the search would "
+                           f"not change: give scene.contact[{i}].interference [m] instead")
 
 
 def check_disk_contacts(ck, contacts, placement):

@@ -31,6 +31,7 @@ from ...contact.registry import study_laws
 from ...model.contacts import DofContact
 from ...model.loads import Forcing
 from ...model.scene import Cyclic, Lumped, Scene, Single, Spring
+from ...solve.response.optimum import LINEAR_NODES
 from . import lumped_disk_scene as disk_scene
 from ..files.validation import Checker, join_field, kind_of
 from ..files.header import parse_header, quick_tables
@@ -190,7 +191,8 @@ def parse_sweep(ck, tab, path, partial=False):
             if isinstance(value, dict):
                 ck.fail(field, f"continuation in {key} is not supported yet; give a list of values")
             bounds = {"preload": {}, "normal_load": {"gt": 0.0}, "mu": {"ge": 0.0}, "ku": {"gt": 0.0}, "kv": {"ge": 0.0},
-                      "excitation_scale": {"gt": 0.0}, "speed": {"ge": 0.0}}[key]
+                      "excitation_scale": {"gt": 0.0}, "speed": {"ge": 0.0},
+                      "interference": {}}[key]
             vals = ck.numbers(value, field, **bounds)
             for i, v in enumerate(vals):
                 if v in vals[:i]:
@@ -437,21 +439,25 @@ def _output(ck, t, scene) -> OutputSettings:
                           curves=disk_scene.parse_curves(ck, t, scene, windows))
 
 
-def parse_optimum(ck, t, scene):
+def parse_optimum(ck, t, scene, variable: str = "preload"):
     """`[output] optimum_preload = { dof, bounds = [lo, hi] (N), frequency?, rtol? }`
-    (None when absent): the preload search of `peak_tracking.optimum_preload`."""
-    if "optimum_preload" not in t:
+    (None when absent): the preload search of `peak_tracking.optimum_preload`;
+    variable="interference": `optimum_interference`, bounds [m] of either sign on a
+    linear grid of `nodes` (default LINEAR_NODES), rtol of the bounds' width."""
+    key = f"optimum_{variable}"
+    if key not in t:
         return None
-    o, f = t["optimum_preload"], "output.optimum_preload"
+    o, f, linear = t[key], f"output.{key}", variable == "interference"
     if not isinstance(o, dict):
         ck.fail(f, f"must be a table, got {kind_of(o)}")
-    ck.keys(o, f, ("dof", "bounds", "frequency", "rtol"))
+    ck.keys(o, f, ("dof", "bounds", "frequency", "rtol") + (("nodes",) if linear else ()))
     if "dof" not in o or "bounds" not in o:
-        ck.fail(f, "needs dof and bounds = [low, high] (N)")
+        ck.fail(f, f"needs dof and bounds = [low, high] ({'m' if linear else 'N'})")
     dof = ck.string(o["dof"], f + ".dof", tuple(scene.dofs))
-    lo, hi = ck.numbers(o["bounds"], f + ".bounds", 2, gt=0.0)
+    lo, hi = ck.numbers(o["bounds"], f + ".bounds", 2, **({} if linear else {"gt": 0.0}))
     if not lo < hi:
-        ck.fail(f + ".bounds", f"must be [low, high] with 0 < low < high, got [{lo:g}, {hi:g}]")
+        ck.fail(f + ".bounds", f"must be [low, high] with {'' if linear else '0 < '}low < high, "
+                               f"got [{lo:g}, {hi:g}]{' m' if linear else ''}")
     window = None
     if "frequency" in o:
         w = o["frequency"]
@@ -461,7 +467,11 @@ def parse_optimum(ck, t, scene):
     rtol = ck.number(o.get("rtol", 1e-2), f + ".rtol", gt=0.0, lt=1.0)
     if not scene.contacts:
         ck.fail(f, "the scene has no contact: there is no preload to optimise")
-    return {"dof": dof, "bounds": (float(lo), float(hi)), "window": window, "rtol": float(rtol)}
+    out = {"dof": dof, "bounds": (float(lo), float(hi)), "window": window, "rtol": float(rtol)}
+    if linear:
+        out.update(variable=variable, nodes=ck.integer(o.get("nodes", LINEAR_NODES),
+                                                       f + ".nodes", 3, 200))
+    return out
 
 
 def _check_consistency(ck, scene, solver, axes, spath, wpath, data):

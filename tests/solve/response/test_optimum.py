@@ -456,3 +456,100 @@ def test_a_peak_the_same_at_every_preload_has_no_optimum(wiggle, independent):
         assert not any(lb.startswith("optimum ") for lb in labels)   # no star
     else:
         assert res["preload"] == 1.0
+
+
+# --------------------------------------------------------------------------- linear grids
+GAP_BOUNDS = (-2.0, 1.0)     # an interference [m] scaled: a gap (< 0) to an overlap
+
+
+def gap_curve(x):
+    """Peak against interference x: a gap that stays open (x <= -1) leaves the free peak
+    5 whatever it is; closing, the pairs slide and the peak dips to 3.2 at x = -0.23
+    (a parabola); from x = 0.5 they stick, the stuck peak 4.818.  Continuous."""
+    if x <= -1.0:
+        return 5.0
+    return 3.2 + 1.8 * ((min(x, 0.5) + 0.23) / 0.77) ** 2
+
+
+def open_lowest(x):
+    """The gap's plateau is the smallest peak (2, with a round-off of 1e-7 on it: the
+    continuation's, measured 8e-8 on the shrouded disk), the curve rising once the gap
+    closes at x = -1."""
+    if x <= -1.0:
+        return 2.0 * (1.0 + 1e-7 * math.sin(1e3 * x))
+    return 2.0 + (x + 1.0) ** 2
+
+
+def test_a_linear_search_across_zero_finds_the_dense_grid_minimum():
+    """Over bounds that cross zero, on a linear grid of 13 nodes, the search brackets the
+    dip and refines it to rtol (hi - lo) / 10: the minimum a grid of 30,001 points
+    finds, to its spacing; the open gap's plateau (equal nodes) is no basin."""
+    calls = []
+    res = global_minimum(lambda x: (calls.append(x), (gap_curve(x), 1.0))[1], GAP_BOUNDS,
+                         rtol=1e-3, log=False, min_nodes=13)
+    np.testing.assert_allclose(res["grid"], np.linspace(-2.0, 1.0, 13), rtol=0, atol=1e-15)
+    dense = np.linspace(*GAP_BOUNDS, 30_001)
+    values = np.array([gap_curve(x) for x in dense])
+    k = int(np.argmin(values))
+    assert abs(res["preload"] - dense[k]) <= 1e-4 + 3e-4     # the grid's spacing + xatol
+    assert res["peak"] <= values[k] + 1e-12 and res["peak"] == pytest.approx(3.2, abs=1e-6)
+    assert res["plateau"] is None and not res["independent"]
+    assert len(res["brackets"]) == 1 and len(calls) < 13 + 30
+
+
+def test_a_smallest_peak_shared_by_a_stretch_is_no_optimum():
+    """Where the open gap's plateau holds the smallest peak, every interference up to the
+    gap's closing is as good: no optimum (NaN), the stretch reported (from the lower
+    bound to the last node of the plateau, -1), whatever round-off picks as the least;
+    the whole grid flat is `independent` as before."""
+    res = global_minimum(lambda x: (open_lowest(x), 1.0), GAP_BOUNDS, rtol=1e-3, log=False,
+                         min_nodes=13, plateau_rel=100 * 1e-8)   # the search's at tolerance 1e-8
+    assert math.isnan(res["preload"]) and not res["independent"]
+    assert res["plateau"][0] == -2.0 and -1.0 - 1e-3 <= res["plateau"][1] <= -1.0
+    assert res["peak"] == pytest.approx(2.0, rel=1e-7)
+    flat = global_minimum(lambda x: (7.0, 1.0), GAP_BOUNDS, rtol=1e-3, log=False, min_nodes=13)
+    assert flat["independent"] and flat["plateau"] is None and math.isnan(flat["preload"])
+
+
+GAP_IDENT = {"dof": "x", "bounds": list(GAP_BOUNDS), "rtol": 1e-3, "variable": "interference",
+             "nodes": 13}
+
+
+@pytest.mark.parametrize("k", [4, 14])   # during the grid; during the refinement
+def test_an_interference_search_resumes_from_its_checkpoint(tmp_path, k):
+    """Killed after k evaluations, each kept on disk as it comes (the interference [m]
+    named and with its unit in the file, a preload search's identity not reading it),
+    the resumed search computes none of them again and ends where the uninterrupted one
+    does, at the same interferences."""
+    import xarray as xr
+
+    def run(stop_at=None, known=None, save=False):
+        calls = []
+
+        def evaluate(x):
+            if stop_at is not None and len(calls) == stop_at:
+                raise KeyboardInterrupt
+            calls.append(x)
+            return gap_curve(x), 1.0 + x
+
+        keep = (lambda x, p, om: save_search(tmp_path, GAP_IDENT, {
+            **load_search(tmp_path, GAP_IDENT), x: (p, om)})) if save else None
+        return calls, lambda: global_minimum(evaluate, GAP_BOUNDS, rtol=1e-3, log=False,
+                                             min_nodes=13, known=known, on_evaluation=keep)
+
+    whole, go = run()
+    ref = go()
+    assert len(whole) > k
+    first, go = run(stop_at=k, save=True)
+    with pytest.raises(KeyboardInterrupt):
+        go()
+    with xr.open_dataset(search_file(tmp_path)) as ds:
+        assert ds["interference"].attrs["units"] == "m" and "preload" not in ds
+        assert sorted(ds["interference"].values) == sorted(whole[:k])
+    as_preload = {k: v for k, v in GAP_IDENT.items() if k not in ("variable", "nodes")}
+    assert load_search(tmp_path, as_preload) == {}          # another search's file
+    kept = load_search(tmp_path, GAP_IDENT)
+    second, go = run(known=kept)
+    res = go()
+    assert second == whole[k:] and res["evaluations"] == ref["evaluations"]
+    assert res["preload"] == ref["preload"] and res["reused"] == k

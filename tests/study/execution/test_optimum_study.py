@@ -255,3 +255,31 @@ def test_optimise_refuses_a_study_that_is_not_a_response_study(tmp_path, capsys,
         f"error: {f}: study.kind: an optimum-preload search needs a \"response\" study, this "
         f"one is {word!r}")
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.slow
+def test_an_interference_search_finds_the_dense_grid_minimum():
+    """studies/shrouded_disk_interference.toml quick, searched over [-30, -5] um on a
+    coarse grid of 5 nodes (6.25 um apart): the search's optimum is the minimum of 21
+    band evaluations 1.25 um apart (the peaks traced over the band, each on its own),
+    to their spacing, and no higher than it; the static load there that of the state
+    solved on its own."""
+    from dataclasses import replace
+
+    from pipeline.model.static_load import static_state
+    from pipeline.study.execution.optimum_search import find_optimum, grid_job
+
+    st = parse_study((ROOT / "studies" / "shrouded_disk_interference.toml").read_text(),
+                     name="interference", quick=True)
+    o = dict(st.output.optimum, bounds=(-3e-5, -5e-6), nodes=5)
+    st = replace(st, output=replace(st.output, optimum=o))
+    res = find_optimum(st)
+    assert res["variable"] == "interference" and len(res["grid"]) == 5
+    dense = np.linspace(-3e-5, -5e-6, 21)
+    peaks = [grid_job(st, x)[0](*grid_job(st, x)[1:])[0] for x in dense]
+    k = int(np.argmin(peaks))
+    assert 0 < k < dense.size - 1                     # inside: a minimum of the grid
+    assert abs(res["preload"] - dense[k]) <= dense[1] - dense[0]
+    assert res["peak"] <= peaks[k] * (1 + 1e-9)
+    state = static_state(st.system({"interference": res["preload"]}))
+    assert np.sum(res["static"][res["preload"]][0]) == pytest.approx(state.load.sum(), rel=1e-12)

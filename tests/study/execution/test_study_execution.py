@@ -635,6 +635,45 @@ def test_killed_at_random_writes_and_resumed_equals_the_uninterrupted_run(
                                      monkeypatch)
 
 
+# the same over the shroud interference: the quick FE disk at 8,000 rpm, one case, a
+# grid of 3 interferences over [-30, -5] um (about 15 s a run)
+INTERFERENCE = re.sub(
+    r"\[output\.optimum_interference\]\n(.+\n)+",
+    '[output.optimum_interference]\ndof = "response.y"\nbounds = [-3e-5, -5e-6]\nnodes = 3\n'
+    'rtol = 0.05\n', (ROOT / "studies" / "shrouded_disk_interference.toml").read_text()
+    ).replace("interference = [-2e-4, -5e-5, 1e-4]", "interference = [-2e-5]").replace(
+    'figures = ["amplitude"]', "figures = []")
+
+
+@pytest.mark.slow
+def test_an_interference_search_killed_at_a_seeded_write_resumes(tmp_path, monkeypatch):
+    """Killed at one seeded moment of its writes (a case, a search evaluation; cut short
+    or just done), the interference study's rerun equals the uninterrupted run in every
+    variable (wall times aside): the optimum interference [m], every interference
+    evaluated, its peak and its static contact load."""
+    study = parse_study(INTERFERENCE, file="tiny_interference.toml", name="tiny", quick=True)
+
+    def run(out, at=None, before=False):
+        with monkeypatch.context() as mp:
+            kill = KillAtWrite(mp, at, before)
+            try:
+                res = run_study(study, out, workers=1, figures=False, progress=False)
+            except Killed:
+                return None, kill.writes
+        assert res.ok
+        return read_dataset(res.path), kill.writes
+
+    whole, writes = run(tmp_path / "whole")
+    assert whole["optimum_interference"].attrs["units"] == "m" and writes >= 4
+    at, before = random.Random(20261207).choice(
+        [(k, b) for k in range(2, writes + 1) for b in (False, True)])   # in the search
+    out = tmp_path / "out"
+    ds, n = run(out, at, before)
+    assert ds is None and n == at and not (out / "tiny.nc").exists()
+    ds, _ = run(out)
+    xr.testing.assert_identical(untimed(ds), untimed(whole))
+
+
 # ---------------------------------------------------------------------------
 # a failing case, or a failing optimum search, loses nothing else
 # ---------------------------------------------------------------------------
