@@ -232,6 +232,8 @@ def cmd_run(args) -> int:
         return 1
     for case, reason in res.failed:  # one line each, whether or not a progress bar hid the log
         print(f"error: {args.study}: case {_case_words(case)}: {reason}", file=sys.stderr)
+    for case, why in res.stopped:    # a backbone cut short: its points are in the dataset
+        print(f"warning: {args.study}: case {_case_words(case)}: {why}", file=sys.stderr)
     for line in warnings(args.study, study, res.dataset):
         print(line, file=sys.stderr)
     if res.reused:

@@ -253,6 +253,7 @@ class StudyResult:
     figures: list = field(default_factory=list)
     failures: int = 0               # cases that raised
     failed: list = field(default_factory=list)  # ({axis: value}, reason) of each of them
+    stopped: list = field(default_factory=list)  # ({axis: value}, why) of cases cut short
     optimum_error: str | None = None  # why the optimum-preload search stopped
     reused: int = 0                 # cases taken from checkpoints of an interrupted run
     computed: int = 0               # cases computed in this run

@@ -289,9 +289,11 @@ def run(study: NonlinearModesStudy, out_dir="results", *, figures: bool = True,
 
     map_jobs(run_case, [k for k in range(len(cases)) if k not in kept],
              lambda k: (study, cases[k]), done, workers)
-    failed = [(r["case"], msg) for r in results for status, msg in [case_status(r)] if status]
+    states = [(r["case"], *case_status(r)) for r in results]
+    failed = [(case, msg) for case, status, msg in states if status < 0]
     ds = modes_dataset(study, results)
     res = StudyResult(study=study, dataset=ds, path=None, failures=len(failed), failed=failed,
+                      stopped=[(case, msg) for case, status, msg in states if status > 0],
                       reused=len(kept), computed=len(cases) - len(kept))
     if ds is None:
         log.error("%s: no converged backbone point in any case; nothing written", study.name)

@@ -149,6 +149,30 @@ def test_a_failing_case_is_recorded_and_the_others_written(tmp_path, monkeypatch
         else np.isnan(onset)
 
 
+def test_a_backbone_cut_short_is_a_warning_its_points_kept(tmp_path, monkeypatch, capsys):
+    """A backbone that stops before the amplitude range's end (here: said to meet an
+    internal resonance) keeps its points with status 1 and why in `message`; the run
+    prints a warning line naming the case (not an error: nothing failed) and exits 0."""
+    from dataclasses import replace
+
+    from pipeline.__main__ import main as cli
+    import pipeline.study.modes.nonlinear_modes as nm
+
+    why = "stopped at an internal 2:1 resonance (constructed)"
+    monkeypatch.setattr(nm, "continue_mode", lambda *a, **k: replace(
+        continue_mode(*a, **k), message=why))
+    f = tmp_path / "jenkins_modes.toml"
+    f.write_text(LUMPED.replace("[modes]", "[modes]\ncompare = false"))
+    out = tmp_path / "out"
+    assert cli(["run", str(f), "--out", str(out), "--workers", "1"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert not [ln for ln in err if ln.startswith("error:")]
+    assert [ln for ln in err if why in ln] == [
+        f"warning: {f}: case preload = {p:g} N: {why}" for p in (1.0, 2.0)]
+    ds = xr.open_dataset(out / "jenkins_modes.nc")
+    assert ds["status"].values.tolist() == [1, 1] and ds["converged"].values.any()
+
+
 def test_no_case_with_a_backbone_point_writes_nothing(tmp_path, monkeypatch):
     """Every case fails: no dataset, both cases reported failed."""
     from pipeline.study.execution.run import run_study
