@@ -61,8 +61,9 @@ def periodic_state(Ue, Ve, ku, kv, mu, n0, rest, has_rest, H, T, B16, ws):
     varying, n_n, n_l, n_h = band_roots(Nc, Lc, Hc, H, T, rt[0], sl[0], rt[1], sl[1],
                                         rt[2], sl[2], wv[7])
     crosses, in_contact = contact_state(Nc, B16, n_n)
-    maxlo, tlo = band_extreme(Lc, H, rt[1], sl[1], n_l, -1, True)
-    minhi, thi = band_extreme(Hc, H, rt[2], sl[2], n_h, 1, False)
+    # np.int64 / np.bool_: typed, not literal arguments (a literal compiles a copy per value)
+    maxlo, tlo = band_extreme(Lc, H, rt[1], sl[1], n_l, np.int64(-1), np.bool_(True))
+    minhi, thi = band_extreme(Hc, H, rt[2], sl[2], n_h, np.int64(1), np.bool_(False))
     if in_contact and maxlo <= minhi and tang:
         regime = 1
     elif crosses or in_contact:
@@ -139,7 +140,7 @@ def switching_forces(Ue, Ve, ku, kv, mu, r, H, nseg, ws, jac, Fu, JU, JV):
     X_st[:] = 0.0
     X_sl[:] = 0.0
     g[:] = 0.0
-    pending, pw, pt, pk = False, 0.0, 0.0, -1
+    pending, pw, pt, pk = False, 0.0, 0.0, np.int64(-1)  # typed, not a literal
     for i in range(nseg):
         st, a, b = si[0, i], sf[0, i], sf[1, i]
         if st < 0 or not b > a:
@@ -222,5 +223,5 @@ def segments_all(U, V, ku, kv, mu, n0, rest, has_rest, T, B16, a, b, state, w, r
     for e in range(U.shape[0]):
         regime[e], _v, nseg, _r, _c, _n = periodic_state(
             U[e], V[e], ku[e], kv[e], mu[e], n0[e], rest[e], has_rest, H, T, B16, ws)
-        a[e, :nseg], b[e, :nseg], w[e, :nseg] = sf[0, :nseg], sf[1, :nseg], sf[2, :nseg]
-        state[e, :nseg] = si[0, :nseg]
+        for i in range(nseg):  # element by element: a slice copy compiles a shape check
+            a[e, i], b[e, i], w[e, i], state[e, i] = sf[0, i], sf[1, i], sf[2, i], si[0, i]

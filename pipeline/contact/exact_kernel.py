@@ -68,7 +68,8 @@ def band_roots(Nc, Lc, Hc, H, T, nr, ns, lr, ls, hr, hs, D):
         n_h = sign_changes_one(D, H, nodes, B, B0, B1, B2, hr, hs)
     else:
         n_h = n_l
-        hr[:n_l], hs[:n_l] = lr[:n_l], ls[:n_l]
+        for i in range(n_l):  # element by element: a slice copy compiles a shape check
+            hr[i], hs[i] = lr[i], ls[i]
     return varying, n_n, n_l, n_h
 
 
@@ -124,15 +125,13 @@ def stuck_slider_one(maxlo, minhi, s_lo, s_hi, rk, rest, has_rest, dU, dV):
             dU[c] = 0.5 * (s_lo[c] + s_hi[c])
             dV[c] = 0.5 * rk * (s_hi[c] - s_lo[c])
         return 0.5 * (maxlo + minhi)
-    dU[:] = 0.0
-    dV[:] = 0.0
+    below, above = rest < maxlo, (not rest < maxlo) and rest > minhi
+    for c in range(dU.size):  # element by element: a slice copy compiles a shape check
+        dU[c] = s_lo[c] if below else (s_hi[c] if above else 0.0)
+        dV[c] = -rk * s_lo[c] if below else (rk * s_hi[c] if above else 0.0)
     if rest < maxlo:
-        dU[:] = s_lo
-        dV[:] = -rk * s_lo
         return maxlo
     if rest > minhi:
-        dU[:] = s_hi
-        dV[:] = rk * s_hi
         return minhi
     return rest
 
@@ -194,7 +193,7 @@ def crossing(P, H, sign, w, a, b, Q):
     qa = eval012(Q, H, a)[0]
     if qa >= 0:
         return a
-    return polish_one(Q, H, a, b, -1, secant_start(a, b, qa, eval012(Q, H, b)[0]))
+    return polish_one(Q, H, a, b, np.int64(-1), secant_start(a, b, qa, eval012(Q, H, b)[0]))
 
 
 @njit(cache=True, error_model="numpy")

@@ -233,7 +233,7 @@ def sign_changes_one(P, H, nodes, B, B0, B1, B2, roots, slopes):
     N = nodes.size - 1
     d = np.pi / N
     cheap = d * D1 + d * d / 2 * D2 + d ** 3 / 6 * D3
-    count = 0
+    count = np.int64(0)  # typed, not a literal (a literal compiles its callees twice)
     for i in range(N):
         p0 = _row_dot(B0, i, P)
         if abs(p0) > cheap:

@@ -103,7 +103,7 @@ def small_minimax(u, r, S, m, tol, best, support):
                             ok = False
                             break
                     if ok:
-                        best[:] = cand
+                        best[0], best[1], best[2] = cand[0], cand[1], cand[2]  # no slice copy: it compiles a shape check
                         support[0] = a
                         support[1] = b if j > i else -1
                         support[2] = c if k > j else -1

@@ -97,21 +97,27 @@ def _lu_pivoted(A):
 
 
 @njit(cache=True)
-def _lu_apply(A, perm, b, transpose):
-    """x with A x = b (or A^T x = b) from `_lu_pivoted`'s factors."""
+def _lu_solve(A, perm, b):
+    """x with A x = b from `_lu_pivoted`'s factors: L y = P b, then U x = y."""
     n = b.size
     x = np.empty(n)
-    if not transpose:
-        for i in range(n):  # L y = P b, then U x = y
-            x[i] = b[perm[i]]
-            for j in range(i):
-                x[i] -= A[i, j] * x[j]
-        for i in range(n - 1, -1, -1):
-            for j in range(i + 1, n):
-                x[i] -= A[i, j] * x[j]
-            x[i] /= A[i, i]
-        return x
-    y = np.empty(n)  # U^T y = b, L^T z = y, x = P^T z
+    for i in range(n):
+        x[i] = b[perm[i]]
+        for j in range(i):
+            x[i] -= A[i, j] * x[j]
+    for i in range(n - 1, -1, -1):
+        for j in range(i + 1, n):
+            x[i] -= A[i, j] * x[j]
+        x[i] /= A[i, i]
+    return x
+
+
+@njit(cache=True)
+def _lu_solve_transposed(A, perm, b):
+    """x with A^T x = b from `_lu_pivoted`'s factors: U^T y = b, L^T z = y, x = P^T z
+    (element by element: a fancy-index assignment compiles a shape check)."""
+    n = b.size
+    y = np.empty(n)
     for i in range(n):
         y[i] = b[i]
         for j in range(i):
@@ -120,7 +126,9 @@ def _lu_apply(A, perm, b, transpose):
     for i in range(n - 1, -1, -1):
         for j in range(i + 1, n):
             y[i] -= A[j, i] * y[j]
-    x[perm] = y
+    x = np.empty(n)
+    for i in range(n):
+        x[perm[i]] = y[i]
     return x
 
 
@@ -170,7 +178,7 @@ def hermite_point(Y, T, normal, target, v):
     for i in range(m):
         rn[i] = np.dot(Y[i], normal)
         rn[m + i] = h * np.dot(T[i], normal)
-    a = _lu_apply(V, perm, rn, False)  # normal . p(v) = sum_j a_j v^j
+    a = _lu_solve(V, perm, rn)  # normal . p(v) = sum_j a_j v^j
     v0 = v
     for _ in range(6):
         g, dg, vj = a[0] - target, 0.0, 1.0
@@ -186,7 +194,7 @@ def hermite_point(Y, T, normal, target, v):
     for j in range(n2):
         w[j] = vj
         vj *= v
-    b = _lu_apply(V, perm, w, True)  # p(v) = b . R
+    b = _lu_solve_transposed(V, perm, w)  # p(v) = b . R
     p = np.zeros(N)
     for i in range(m):
         p += b[i] * Y[i] + (b[m + i] * h) * T[i]
