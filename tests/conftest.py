@@ -13,14 +13,48 @@ for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 
+def shared_root(tmp_path_factory):
+    """A folder every test process of this run sees: the parent of the workers' own
+    temporary folders under pytest-xdist, the run's own folder without it."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+
+def once_per_run(folder, make, timeout=1800.0):
+    """make(folder) once per test run, whichever test process asks first; the others
+    wait for its `done` mark (or its `failed` one: they fail with its message).  The
+    lock is the folder's creation, which succeeds in one process only."""
+    import time
+    done, failed = folder / "done", folder / "failed"
+    try:
+        folder.mkdir(parents=True)
+    except FileExistsError:
+        t0 = time.monotonic()
+        while not (done.exists() or failed.exists()):
+            if time.monotonic() - t0 > timeout:
+                pytest.fail(f"{folder.name}: another test process did not finish it in "
+                            f"{timeout:.0f} s")
+            time.sleep(0.2)
+        if failed.exists():
+            pytest.fail(f"{folder.name} failed in another test process: {failed.read_text()}")
+        return
+    try:
+        make(folder)
+    except BaseException as exc:
+        failed.write_text(f"{type(exc).__name__}: {exc}"[:2000])
+        raise
+    done.touch()
+
+
 @pytest.fixture(scope="session")
 def quick_run(tmp_path_factory):
     """(name, figures=False) -> the shipped study `studies/<name>.toml` run once per
-    session in its quick variant, as a user runs it (`pipeline run <file> --quick --out
+    test run in its quick variant, as a user runs it (`pipeline run <file> --quick --out
     <dir>`, with `--no-figures` unless asked): (out dir, dataset path, dataset).  Tests
-    that read the same study's quick results share the one run.  A tuned disk response
-    study never builds the N-sector assembly (each engine order is solved on one
-    sector): asserted here on every such run."""
+    that read the same study's quick results share the one run, in whichever test
+    process they run (`once_per_run`).  A tuned disk response study never builds the
+    N-sector assembly (each engine order is solved on one sector): asserted here on
+    every such run."""
     from pipeline.__main__ import main as cli
     import pipeline.model.cyclic as cyclic
     from pipeline.model.scene import Cyclic
@@ -37,15 +71,21 @@ def quick_run(tmp_path_factory):
     def get(name, figures=False):
         if (name, figures) not in runs:
             path = STUDIES / f"{name}.toml"
-            st = load_study(path, quick=True)
-            out = tmp_path_factory.mktemp(name)
-            args = ["run", str(path), "--quick", "--out", str(out)] + ["--no-figures"] * (not figures)
-            tuned_disk = (isinstance(st, Study) and isinstance(st.scene.assembly, Cyclic)
-                          and st.scene.assembly.mistuning is None)
-            with pytest.MonkeyPatch.context() as mp:
-                if tuned_disk:
-                    mp.setattr(cyclic, "full_assembly", forbidden)
-                assert cli(args) == 0, name
+            out = shared_root(tmp_path_factory) / "quick_runs" / (
+                f"{name}-figures" if figures else name)
+
+            def make(out):
+                st = load_study(path, quick=True)
+                args = ["run", str(path), "--quick", "--out", str(out)] + (
+                    ["--no-figures"] * (not figures))
+                tuned_disk = (isinstance(st, Study) and isinstance(st.scene.assembly, Cyclic)
+                              and st.scene.assembly.mistuning is None)
+                with pytest.MonkeyPatch.context() as mp:
+                    if tuned_disk:
+                        mp.setattr(cyclic, "full_assembly", forbidden)
+                    assert cli(args) == 0, name
+
+            once_per_run(out, make)
             nc = out / f"{name}.nc"
             runs[name, figures] = (out, nc, read_dataset(nc))
         return runs[name, figures]
