@@ -12,6 +12,13 @@ for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(var, "1")
 os.environ.setdefault("MPLBACKEND", "Agg")
 
+pytest_plugins = ["cost_profile"]   # --cost-profile=FILE: where the suite's time goes
+
+
+def pytest_addoption(parser):
+    parser.addoption("--cost-profile", default=None, metavar="FILE",
+                     help="write a table of where the tests' time goes to FILE (markdown)")
+
 
 def shared_root(tmp_path_factory):
     """A folder every test process of this run sees: the parent of the workers' own
