@@ -26,6 +26,37 @@ import os as _os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
+# The compiled (Numba) kernels, cached once per machine and kernel version: under the
+# user's cache folder ($XDG_CACHE_HOME or ~/.cache)/shroud-pipeline/numba-<hash of
+# these files>, so that every process, pool worker and test process of an installation
+# finds them, and an edit of any kernel file recompiles all of them (Numba checks a
+# cached function against its own file only: a caller in another file would keep the
+# old code).  A NUMBA_CACHE_DIR of your own wins; an unwritable folder leaves Numba's
+# default (next to the sources).
+KERNEL_MODULES = ("fourier/harmonics.py", "fourier/trigkernel.py", "contact/exact_kernel.py",
+                  "contact/exact_integrals.py", "contact/friction2d/centre.py",
+                  "contact/friction2d/kernel.py", "solve/continuation/branch.py")
+
+
+def kernel_cache_dir() -> str:
+    """The folder the compiled kernels are cached in (see KERNEL_MODULES)."""
+    import hashlib
+    here = _os.path.dirname(_os.path.abspath(__file__))
+    digest = hashlib.sha256()
+    for name in KERNEL_MODULES:
+        with open(_os.path.join(here, name), "rb") as f:
+            digest.update(f.read())
+    base = _os.environ.get("XDG_CACHE_HOME") or _os.path.join(_os.path.expanduser("~"), ".cache")
+    return _os.path.join(base, "shroud-pipeline", f"numba-{digest.hexdigest()[:16]}")
+
+
+if "NUMBA_CACHE_DIR" not in _os.environ:
+    try:
+        _os.makedirs(kernel_cache_dir(), exist_ok=True)
+        _os.environ["NUMBA_CACHE_DIR"] = kernel_cache_dir()
+    except OSError:
+        pass
+
 __version__ = "0.1.0"
 
 # public name -> the module that defines it (imported on first use)

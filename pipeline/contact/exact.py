@@ -36,9 +36,7 @@ Evaluation: compiled (Numba), one element at a time in a loop over the elements
 (`contact.exact_kernel`: state sequence; `contact.exact_integrals`: forces and
 Jacobian).  The numpy evaluation of the same mathematics, `contact.exact_reference`,
 is kept as the independent reference of the tests.  The compiled code is cached
-next to the sources (`cache=True`); Numba checks each cached function against its
-own file only, so after editing a kernel module delete `pipeline/*/__pycache__/
-*.nbi, *.nbc`, or its callers in other files keep the old code.
+once per machine and kernel version (`pipeline.kernel_cache_dir`).
 """
 from __future__ import annotations
 
