@@ -37,7 +37,7 @@ _PUBLIC = {
     "Lumped": "pipeline.model.scene",
     "Single": "pipeline.model.scene",
     "Cyclic": "pipeline.model.scene",
-    "build_system": "pipeline.model.scene",
+    "build_system": "pipeline.model.build",
     "DofContact": "pipeline.model.contacts",
     "Forcing": "pipeline.model.loads",
     "frequency_response": "pipeline.solve.response.response",

@@ -75,7 +75,7 @@ def warm_up():
 
 def measure(path, quick: bool = False, out_dir=None) -> Measured:
     """Estimate, then run, the study at `path` (serially), after `warm_up`; `Measured`."""
-    from ..model import scene as model_scene
+    from ..model import blade_cache
     from ..study.execution.cost import slowdown
     from ..study.files.documents import load_study
     from ..study.kinds import kind_of
@@ -86,9 +86,9 @@ def measure(path, quick: bool = False, out_dir=None) -> Measured:
     kind = kind_of(study)
     load = slowdown()
     est = kind.estimate(study, workers=1)
-    model_scene.timed_blade_model.cache_clear()   # the run builds its model, as `run` does
-    model_scene.reduced_model.cache_clear()
-    model_scene.blade_at_speed.cache_clear()
+    blade_cache.timed_blade_model.cache_clear()   # the run builds its model, as `run` does
+    blade_cache.reduced_model.cache_clear()
+    blade_cache.blade_at_speed.cache_clear()
     with tempfile.TemporaryDirectory() as tmp:
         t0, c0 = time.perf_counter(), time.process_time()
         run_study(study, out_dir or tmp, workers=1, progress=False, checkpoints=False)

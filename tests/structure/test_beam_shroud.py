@@ -11,9 +11,9 @@ import scipy.linalg as la
 from pipeline.model.contacts import ShroudPair, pair_frame
 from pipeline.model.cyclic import expand, sector_system
 from pipeline.model.loads import PointLoad
-from pipeline.model.scene import (Blade, CraigBampton, Cyclic, Scene, blade_contact_maps,
-                                  blade_model, build_system, full_system, reduced_model,
-                                  scene_parts, sector)
+from pipeline.model.scene import Blade, CraigBampton, Cyclic, Scene
+from pipeline.model.build import blade_contact_maps, build_system, full_system, scene_parts, sector
+from pipeline.model.blade_cache import blade_model, reduced_model
 from pipeline.model.system import dense
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.structure.beam import beam_dofs, torsion_constant

@@ -24,7 +24,9 @@ from ...solve.time_integration import timesim
 from ...solve.harmonic_balance.hbm_state import state_at_zero
 from ...solve.response.response import frequency_response
 from ...solve.nonlinear_modes.synthesis import synthesised_curve
-from ...model.scene import CraigBampton, build_system, reduced_model, timed_blade_model
+from ...model.scene import CraigBampton
+from ...model.build import build_system
+from ...model.blade_cache import reduced_model, timed_blade_model
 from .spec import MESH_FIELDS, Case, Settings
 from ...errors import interrupt_in_chain
 from ..files.spec import solver_rule_violations
@@ -315,7 +317,7 @@ def checked_time_integration(case: Case, ref: Measurement) -> tuple:
 
 def _system(case: Case, s: Settings):
     """(System, index of the case's DOF, model time [s], n_dof_full) for settings s.
-    FE blades and their reductions are cached on their specs (`model.scene`); the
+    FE blades and their reductions are cached on their specs (`model.blade_cache`); the
     model time is what building and reducing took when first done."""
     case_arg = {"preload": case.preload} if case.preload is not None else None
     if case.name == "lumped":

@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ...model.scene import AT, stiffness_factors
+from ...model.scene import AT
+from ...model.build import stiffness_factors
 from ...model.static_load import stuck_limit_system
 from ...model.system import contact_set, lowest_frequencies
 from .describe import points_attrs, provenance, scene_attrs, solution_method

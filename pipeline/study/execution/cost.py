@@ -145,7 +145,7 @@ def time_point(study, repeats: int = 5) -> PointTiming:
     setup = time.perf_counter() - t0
     st, t_red, t_static = study.scene.structure, 0.0, 0.0
     if getattr(st, "params", None) is not None:   # FE: as first built
-        from ...model.scene import case_speed, reduced_model, timed_blade_model
+        from ...model.blade_cache import case_speed, reduced_model, timed_blade_model
         t_red = reduced_model(st, study.scene.reduction, case_speed(st, case))[1]
         setup += timed_blade_model(st)[1] + t_red
     if "interference" in study.sweep.axes or any(

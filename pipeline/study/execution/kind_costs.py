@@ -89,7 +89,7 @@ def disk_modes_estimate(study) -> RangeEstimate:
         return campbell_estimate(study)
     from ...model.cyclic import sector_system
     from ...model.system import natural_frequencies
-    from ...model.scene import sector
+    from ...model.build import sector
 
     sc = study.scene
     t0 = time.perf_counter()
@@ -98,7 +98,7 @@ def disk_modes_estimate(study) -> RangeEstimate:
     t1 = time.perf_counter()
     build = t1 - t0
     if getattr(sc.structure, "params", None) is not None:   # FE: as first built
-        from ...model.scene import reduced_model, timed_blade_model
+        from ...model.blade_cache import reduced_model, timed_blade_model
         build += (timed_blade_model(sc.structure)[1]
                   + reduced_model(sc.structure, sc.reduction)[1])
     natural_frequencies(sector_system(sec, study.nodal_diameters[0]), "open")
@@ -120,7 +120,7 @@ def campbell_estimate(study) -> RangeEstimate:
     N, nf = sc.assembly.sectors, study.n_frequencies
     t_blade = 0.0
     if getattr(sc.structure, "params", None) is not None:   # FE: as first built
-        from ...model.scene import timed_blade_model
+        from ...model.blade_cache import timed_blade_model
         t_blade = timed_blade_model(sc.structure)[1]
     ends = (speeds[0], speeds[-1])
     secs = [speed_sector(sc, ends[0])]   # the blade built (t_blade), then reduced

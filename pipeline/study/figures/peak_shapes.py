@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from ...model.contacts import FaceContact, ShroudPair
-from ...model.scene import Lumped, blade_model, case_speed, reduced_model
+from ...model.scene import Lumped
+from ...model.blade_cache import blade_model, case_speed, reduced_model
 
 FIELDS = {"stick_fraction": "stick_fraction", "slip_fraction": "slip_fraction",
           "separation_fraction": "separation_fraction",

@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from ...model.cyclic import sector_system
-from ...model.scene import Scene, sector
+from ...model.scene import Scene
+from ...model.build import sector
 from ...model.system import natural_frequencies
 from ..files.rules import check_speed_rules
 from ..scenes.blade_scene import BLADE_MODELS, base_dir_of, blade_scenes

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...model.scene import Scene, blade_model
+from ...model.scene import Scene
+from ...model.blade_cache import blade_model
 from ...structure.fe_model import boundary_dofs
 from ...structure.reduction import eigenmodes, reduce, reduced_modes
 from ..scenes.blade_scene import is_blade_document, modes_from_mapping

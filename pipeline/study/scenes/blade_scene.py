@@ -44,7 +44,8 @@ import numpy as np
 from ...errors import UsageError
 from ...model.contacts import FaceContact
 from ...model.loads import PointLoad, point_forcing
-from ...model.scene import Blade, CraigBampton, Scene, Single, blade_model
+from ...model.scene import Blade, CraigBampton, Scene, Single
+from ...model.blade_cache import blade_model
 from ...structure.fe_model import BladeParams, boundary_dofs
 from ...structure.reduction import DEFAULT_MODES
 from . import blade_wheel_scene as blade_disk

@@ -15,7 +15,7 @@ from pipeline.model import cyclic
 from pipeline.model.system import System, natural_frequencies
 from pipeline.solve.nonlinear_modes import epmc
 from pipeline.solve.nonlinear_modes.backbone import continue_mode, point_at
-from pipeline.model.scene import sector
+from pipeline.model.build import sector
 from pipeline.study.files.documents import load_study
 from helpers import STUDIES
 

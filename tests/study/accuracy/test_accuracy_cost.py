@@ -15,7 +15,8 @@ from pipeline.study.accuracy.spec import AccuracyStudy
 from pipeline.study.datasets.conformance import problems
 from pipeline.errors import UsageError
 from pipeline.study.files.documents import load_study, parse_study
-from pipeline.model.scene import blade_contact_maps, blade_elements, blade_model
+from pipeline.model.build import blade_contact_maps, blade_elements
+from pipeline.model.blade_cache import blade_model
 
 ROOT = Path(__file__).resolve().parents[3]
 STUDY = ROOT / "studies" / "accuracy_cost.toml"

@@ -523,7 +523,7 @@ def test_peak_shape_vtu_holds_the_peak_deflection_and_the_contact_results(tmp_pa
     from pipeline.solve.response.response import ResponseCurve
     from pipeline.study.files.documents import load_study
     from pipeline.study.figures.peak_shapes import element_points, write_peak_shapes
-    from pipeline.model.scene import blade_model
+    from pipeline.model.blade_cache import blade_model
 
     study = load_study(Path(__file__).resolve().parents[3] / "studies" /
                        "blade_shroud_contact.toml", quick=True)

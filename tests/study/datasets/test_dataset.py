@@ -16,7 +16,7 @@ from pipeline.solve.response.response import ResponseCurve
 from pipeline.study.files.documents import load_study
 from pipeline.study.figures.response_figures import write_figures
 from pipeline.study.execution.run import run_study
-from pipeline.model.scene import stiffness_factors
+from pipeline.model.build import stiffness_factors
 
 ROOT = Path(__file__).resolve().parents[3]
 STUDIES = ROOT / "studies"

@@ -186,7 +186,7 @@ def test_the_walkthrough_study_in_studies_readme_is_valid():
     assert full.sweep.frequency.unit == "Hz"
     # "its modes are at 22.5 and 45.0 Hz with the damper open, 26.3 and 51.0 Hz with it stuck"
     import numpy as np
-    from pipeline.model.scene import build_system
+    from pipeline.model.build import build_system
     from pipeline.model.system import natural_frequencies
 
     stated = [float(x) for x in re.search(

@@ -16,7 +16,7 @@ import scipy.sparse.linalg as spla
 from skfem import Basis, ElementHexS2, MeshHex
 
 from pipeline.fourier.harmonics import amplitude_half_peak_to_peak
-from pipeline.model.scene import blade_at_speed, blade_model, reduced_model
+from pipeline.model.blade_cache import blade_at_speed, blade_model, reduced_model
 from pipeline.model.static_load import static_state
 from pipeline.solve.response.response import ResponseCurve
 from pipeline.structure.fe_model import BladeParams, point_displacements

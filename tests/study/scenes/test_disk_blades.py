@@ -12,9 +12,9 @@ import pytest
 from pipeline.model.contacts import ShroudPair
 from pipeline.model.cyclic import expand, sector_system
 from pipeline.model.loads import PointLoad
-from pipeline.model.scene import (Blade, CraigBampton, Cyclic, Scene, Single, blade_contact_maps,
-                                  blade_model, build_system, full_system, reduced_model,
-                                  scene_parts, sector)
+from pipeline.model.scene import Blade, CraigBampton, Cyclic, Scene, Single
+from pipeline.model.build import blade_contact_maps, build_system, full_system, scene_parts, sector
+from pipeline.model.blade_cache import blade_model, reduced_model
 from pipeline.model.system import dense, natural_frequencies
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.continuation.newton import newton
