@@ -46,7 +46,7 @@ _PUBLIC = {
     "FrequencyRange": "pipeline.study.files.spec",
     "SolverSettings": "pipeline.study.files.spec",
     "OutputSettings": "pipeline.study.files.spec",
-    "to_dataset": "pipeline.study.datasets.dataset",
+    "to_dataset": "pipeline.study.datasets.response_dataset",
     "write_netcdf": "pipeline.study.datasets.dataset",
     "read_dataset": "pipeline.study.datasets.dataset",
     "UsageError": "pipeline.errors",

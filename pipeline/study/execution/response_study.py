@@ -172,7 +172,8 @@ def run_response_study(study: Study, out_dir="results", *, workers: int = 1,
     With `checkpoints`, each finished case is kept in `checkpoint_dir` as soon as
     it ends; a rerun after an interruption computes only the missing cases, and
     the directory is removed once the dataset is written."""
-    from ..datasets.dataset import to_dataset, write_netcdf
+    from ..datasets.response_dataset import to_dataset
+    from ..datasets.dataset import write_netcdf
 
     check_python_study(study)   # a study built in Python meets its file's rules
     t0 = time.perf_counter()

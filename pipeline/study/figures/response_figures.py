@@ -30,7 +30,7 @@ def write_figures(study: Study, ds, fig_dir, tuned=None) -> list:
     """Amplitude-frequency figures (one per response DOF and per combination of
     the non-curve sweep axes); one curve per value of `preload` (or the first axis).
     A mistuned disk gets its own figures (`disk_figures.write_sector_figures`)."""
-    from ..datasets.dataset import dof_selection   # deferred: xarray, only when figures are drawn
+    from ..datasets.response_dataset import dof_selection   # deferred: xarray, only when figures are drawn
 
     if "amplitude" not in study.output.figures:
         return hysteresis_figures(study, ds, fig_dir)

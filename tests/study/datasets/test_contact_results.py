@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pipeline.model.static_load import static_normal_load
-from pipeline.study.datasets.dataset import to_dataset
+from pipeline.study.datasets.response_dataset import to_dataset
 from pipeline.study.files.documents import parse_study
 
 K1, K2, KV, KU, MU = 4.0e4, 6.0e4, 2.0e4, 3.0e4, 0.3

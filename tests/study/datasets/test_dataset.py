@@ -10,7 +10,8 @@ import pytest
 import xarray as xr
 
 from pipeline.fourier import harmonics
-from pipeline.study.datasets.dataset import read_dataset, to_dataset, write_netcdf
+from pipeline.study.datasets.dataset import read_dataset, write_netcdf
+from pipeline.study.datasets.response_dataset import to_dataset
 from pipeline.study.datasets.conformance import UnreadableDataset, main as check_main, problems
 from pipeline.solve.response.response import ResponseCurve
 from pipeline.study.files.documents import load_study

@@ -88,7 +88,7 @@ def _curve(system, H, omega):
 
 
 def _dataset(study):
-    from pipeline.study.datasets.dataset import to_dataset
+    from pipeline.study.datasets.response_dataset import to_dataset
     fr = study.sweep.frequency
     om = np.linspace(fr.omega_start, fr.omega_stop, 20)
     return to_dataset(study, [_curve(study.system(case), study.solver.harmonics, om)
