@@ -59,7 +59,8 @@ from ..files.validation import Checker
 from ..files.header import overlay, parse_header, quick_tables
 from .pareto_figure import pareto_figure
 from ..files.rules import check_scene_rules, contact_rules
-from ..scenes.lumped_scene import parse_scene, parse_sweep
+from ..files.sections import parse_sweep
+from ..scenes.lumped_scene import parse_scene
 from ..execution.kind_costs import accuracy_estimate, estimate_lines
 from ..files.spec import (MAX_HARMONICS, FrequencyRange, StudyKind, always, never,
                    solver_rule_violations)

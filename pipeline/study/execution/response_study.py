@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from ..scenes import blade_scene
-from ..scenes import lumped_scene as scene
+from ..scenes import lumped_scene
 from .cases import default_solver, execute_cases
 from .checkpoint import checkpoint_dir, remove_stale
 from .mistuned import tuned_references
@@ -30,7 +30,7 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
           quick: bool = False) -> Study:
     """A response study document: an FE blade scene or a lumped or disk scene."""
     read = (blade_scene.response_from_mapping if blade_scene.is_blade_document(data)
-            else scene.study_from_mapping)
+            else lumped_scene.study_from_mapping)
     return read(data, file=file, name=name, text=text, quick=quick)
 
 

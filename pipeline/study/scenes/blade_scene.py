@@ -55,8 +55,8 @@ from .matrix_scene import scene_matrices
 from ..files.validation import Checker
 from ..files.rules import check_optimum_axes, check_scene_rules, contact_rules
 from ..files.header import overlay, parse_header, quick_tables
-from .lumped_scene import (check_windows, output_common, parse_optimum, parse_solver, parse_sweep,
-                    quick_response_tables, solver_sweep_tables)
+from ..files.sections import (check_windows, output_common, parse_optimum, parse_solver,
+                              parse_sweep, quick_response_tables, solver_sweep_tables)
 from ..files.spec import EFFECTS, MAX_HARMONICS, NAME_PATTERN, ModesStudy, OutputSettings, Study, Sweep
 
 log = logging.getLogger(__name__)

@@ -217,15 +217,6 @@ def output_dofs(ck, t, scene: Scene) -> tuple:
     return tuple(out)
 
 
-def seed_range(ck, value, field) -> list:
-    """`mistuning_seed = { first = 1, count = 100 }`: the seeds first ... first + count - 1
-    (a Monte-Carlo sample)."""
-    ck.keys(value, field, ("first", "count"), required=("first", "count"))
-    first = ck.integer(value["first"], f"{field}.first", 0, 1 << 30)
-    count = ck.integer(value["count"], f"{field}.count", 1, 100_000)
-    return list(range(first, first + count))
-
-
 def parse_curves(ck, t, scene, windows) -> bool:
     """`[output] curves` (default true); false (each case keeps its DOFs' largest
     peaks: a Monte-Carlo sample of a mistuned disk) only for a mistuned disk and
