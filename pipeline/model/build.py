@@ -59,7 +59,7 @@ def blade_forcing(scene: Scene, case: dict | None = None) -> np.ndarray:
 # ---------------------------------------------------------------------------
 
 @dataclass(frozen=True, eq=False)
-class Parts:
+class Unassembled:
     """The linear part, contact maps (own and next sector's) and load of one
     structure with a case applied, before assembly."""
 
@@ -99,20 +99,20 @@ def dof_rows(contacts, n: int, cyclic: bool) -> tuple:
     return Bt[:, :n], Bn[:, :n], Bt[:, n:], Bn[:, n:]
 
 
-def dof_parts(scene: Scene, case: dict) -> Parts:
-    """`Parts` of a lumped structure with `DofContact`s and one `Forcing`."""
+def lumped_unassembled(scene: Scene, case: dict) -> Unassembled:
+    """`Unassembled` of a lumped structure with `DofContact`s and one `Forcing`."""
     st = scene.structure
     if len(scene.loads) != 1 or not isinstance(scene.loads[0], Forcing):
         raise ValueError("a lumped structure is loaded by one Forcing (amplitudes over its DOFs)")
     Bt, Bn, Bt_next, Bn_next = dof_rows(scene.contacts, len(st.dofs), scene.cyclic)
-    return Parts(M=st.M, C=st.C, K=st.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next, Bn_next=Bn_next,
-                 contact=contact_elements(scene.contacts, case),
-                 forcing=scene.loads[0].amplitudes * float(case.get("excitation_scale", 1.0)),
-                 dofs=tuple(st.dofs))
+    return Unassembled(M=st.M, C=st.C, K=st.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next,
+                       Bn_next=Bn_next, contact=contact_elements(scene.contacts, case),
+                       forcing=scene.loads[0].amplitudes * float(case.get("excitation_scale", 1.0)),
+                       dofs=tuple(st.dofs))
 
 
-def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
-    """`Parts` of an FE blade: face contacts on the full model, then Craig-Bampton
+def blade_unassembled(scene: Scene, case: dict, reduced: bool = True) -> Unassembled:
+    """`Unassembled` of an FE blade: face contacts on the full model, then Craig-Bampton
     (dense, `scene.reduction`) or, with reduced=False, the unreduced sparse model
     (Rayleigh damping only).  `DofContact`s name reduced DOFs (one sector's, then the
     next sector's in a cyclic assembly)."""
@@ -136,9 +136,9 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
                              "(scene rayleigh = [alpha, beta]); modal damping is dense")
         a, b = st.rayleigh
         C = (a * blade.M + b * blade.K).tocsr()
-        return Parts(M=blade.M, C=C, K=blade.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next,
-                     Bn_next=Bn_next, contact=elem, forcing=F, dofs=(),
-                     laws=(plane,) if plane else ())
+        return Unassembled(M=blade.M, C=C, K=blade.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next,
+                           Bn_next=Bn_next, contact=elem, forcing=F, dofs=(),
+                           laws=(plane,) if plane else ())
     from ..structure.reduction import reduce_map  # deferred like blade_model's imports
 
     red = reduced_model(st, scene.reduction, case_speed(st, case))[0]
@@ -155,16 +155,17 @@ def blade_parts(scene: Scene, case: dict, reduced: bool = True) -> Parts:
     if plane:
         plane = LawElements(plane.law, tuple(reduce_map(red, B) for B in plane.maps),
                             tuple(reduce_map(red, B) for B in plane.maps_next))
-    return Parts(M=red.M, C=red.C, K=red.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next, Bn_next=Bn_next,
-                 contact=elem, forcing=Fr, dofs=dofs, laws=(plane,) if plane else ())
+    return Unassembled(M=red.M, C=red.C, K=red.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next,
+                       Bn_next=Bn_next, contact=elem, forcing=Fr, dofs=dofs,
+                       laws=(plane,) if plane else ())
 
 
-def scene_parts(scene: Scene, case: dict | None = None, reduced: bool = True) -> Parts:
-    """`Parts` of the scene's structure (one sector) with a case applied."""
+def unassembled(scene: Scene, case: dict | None = None, reduced: bool = True) -> Unassembled:
+    """`Unassembled` of the scene's structure (one sector) with a case applied."""
     case = check_case(scene, case)
     if isinstance(scene.structure, Lumped):
-        return dof_parts(scene, case)
-    return blade_parts(scene, case, reduced)
+        return lumped_unassembled(scene, case)
+    return blade_unassembled(scene, case, reduced)
 
 
 # ---------------------------------------------------------------------------
@@ -198,7 +199,7 @@ def stiffness_factors(scene: Scene, case: dict | None = None):
 
 def sector(scene: Scene, case: dict | None = None) -> cyclic.Sector:
     """The `cyclic.Sector` of a cyclic scene with a case applied."""
-    p = scene_parts(scene, case)
+    p = unassembled(scene, case)
     springs = scene.assembly.springs
     Ks, Kn = (cyclic.spring_stiffness([s.row for s in springs], [s.k for s in springs],
                                       len(p.dofs)) if springs else (None, None))
@@ -214,7 +215,7 @@ def build_system(scene: Scene, case: dict | None = None, reduced: bool = True) -
     cyclic reduction (`System.cyclic` set); mistuned: the full N-sector assembly with
     DOFs named as `scene.dofs`."""
     if not scene.cyclic:
-        p = scene_parts(scene, case, reduced)
+        p = unassembled(scene, case, reduced)
         return System(M=p.M, C=p.C, K=p.K, Bt=p.Bt, Bn=p.Bn, contact=p.contact,
                       forcing=p.forcing, dof_names=p.dofs, laws=p.laws + scene.laws)
     if scene.mistuning is None:

@@ -46,7 +46,7 @@ AT = "@"                # "<dof>@<sector>": a DOF of one sector of a mistuned as
 
 
 # ---------------------------------------------------------------------------
-# Parts
+# The parts a scene composes
 # ---------------------------------------------------------------------------
 
 @dataclass(frozen=True, eq=False)

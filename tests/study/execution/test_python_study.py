@@ -135,7 +135,7 @@ def test_the_check_builds_no_model(monkeypatch):
 
     study = load_study(ROOT / "studies" / "shrouded_disk_2d.toml", quick=True)
     for mod, name in ((scene_mod, "reduced_model"), (build_mod, "reduced_model"),
-                      (build_mod, "build_system"), (build_mod, "scene_parts"),
+                      (build_mod, "build_system"), (build_mod, "unassembled"),
                       (build_mod, "sector")):
         monkeypatch.setattr(mod, name, never)
     python_study.check_python_study(replace(study, text=""))
