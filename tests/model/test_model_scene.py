@@ -17,7 +17,7 @@ from pipeline.model.system import dense, natural_frequencies
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.response.response import frequency_response
 from pipeline.structure.fe_model import BladeParams
-from pipeline.study.files.spec import SWEEP_AXES
+from pipeline.study.files.study_types import SWEEP_AXES
 
 PARAMS = BladeParams(n_chord=2, n_thick=1, n_span=4)   # 100 reduced DOFs with 4 modes
 KU = 5e4          # [N/m] per node pair

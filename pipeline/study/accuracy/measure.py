@@ -29,7 +29,7 @@ from ...model.build import build_system
 from ...model.blade_cache import reduced_model, timed_blade_model
 from .spec import MESH_FIELDS, Case, Settings
 from ...errors import interrupt_in_chain
-from ..files.spec import solver_rule_violations
+from ..files.study_types import solver_rule_violations
 
 log = logging.getLogger(__name__)
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ..files.spec import StudyHeader, solver_rule_violations
+from ..files.study_types import StudyHeader, solver_rule_violations
 
 
 # ---------------------------------------------------------------------------

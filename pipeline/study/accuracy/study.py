@@ -62,8 +62,8 @@ from ..files.rules import check_scene_rules, contact_rules
 from ..files.sections import parse_sweep
 from ..scenes.lumped_scene import parse_scene
 from ..execution.kind_costs import accuracy_estimate, estimate_lines
-from ..files.spec import (MAX_HARMONICS, FrequencyRange, StudyKind, always, never,
-                   solver_rule_violations)
+from ..files.study_types import (MAX_HARMONICS, FrequencyRange, StudyKind, always, never,
+                                 solver_rule_violations)
 
 log = logging.getLogger(__name__)
 
@@ -334,7 +334,7 @@ def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool
     # dataset.py (xarray) and run.py are imported when a study runs: reading or checking
     # one needs neither
     from ..datasets.dataset import write_netcdf
-    from ..files.spec import StudyResult
+    from ..files.study_types import StudyResult
 
     t0 = time.perf_counter()
     out_dir = Path(out_dir)

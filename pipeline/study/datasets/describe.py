@@ -13,7 +13,7 @@ from ...model.scene import Blade
 from ...model.build import blade_contact_maps
 from ...model.blade_cache import reduced_model
 from .conformance import CONVENTIONS
-from ..files.spec import is_linear_scene
+from ..files.study_types import is_linear_scene
 
 
 def scene_attrs(scene) -> dict:

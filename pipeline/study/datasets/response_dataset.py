@@ -44,7 +44,7 @@ from ...model.system import contact_set, lowest_frequencies
 from .describe import points_attrs, provenance, scene_attrs, solution_method
 from .meanings import annotate_natural_frequencies, sweep_long_name
 from .optimum_dataset import add_optimum
-from ..files.spec import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
+from ..files.study_types import INTEGER_SWEEP_AXES, SWEEP_AXES, Study
 from . import stability_dataset as sd
 from .contact_dataset import add_contact_variables, set_motions
 

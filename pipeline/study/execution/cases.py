@@ -15,7 +15,7 @@ from ...model.system import negative_stiffness
 from .checkpoint import load_cases, save_case
 from ...errors import interrupt_in_chain
 from ..files.declared import SeparationGuard, UndeclaredSeparation, needs_guard
-from ..files.spec import Study, is_linear_scene
+from ..files.study_types import Study, is_linear_scene
 
 
 def default_solver(study: Study | None = None):

@@ -30,7 +30,7 @@ import numpy as np
 
 from ... import __version__
 from ...errors import interrupt_deferred
-from ..files.spec import content_bytes
+from ..files.study_types import content_bytes
 
 log = logging.getLogger(__name__)
 

@@ -20,7 +20,7 @@ from ...model.system import negative_stiffness
 from ...errors import interrupt_in_chain
 from .cases import StaticDivergence, divergence, map_jobs, separation_guard
 from .search_checkpoint import load_search, save_search
-from ..files.spec import OPTIMUM_UNITS, Study, optimum_variable
+from ..files.study_types import OPTIMUM_UNITS, Study, optimum_variable
 
 log = logging.getLogger("pipeline.study.execution.run")
 

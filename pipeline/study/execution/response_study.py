@@ -21,7 +21,7 @@ from .python_study import check_python_study
 from .optimum_search import grid_job, optimum_figure_of, planned_grid, study_optimum, variable_of
 from ..figures.peak_shapes import write_peak_shapes
 from ..figures.response_figures import sector_output_dofs, write_figures
-from ..files.spec import SWEEP_AXES, Study, StudyKind, StudyResult, always, is_linear_scene
+from ..files.study_types import SWEEP_AXES, Study, StudyKind, StudyResult, always, is_linear_scene
 
 log = logging.getLogger("pipeline.study.execution.run")
 

@@ -34,7 +34,7 @@ from ..datasets.free_direction import free_direction_notes
 from ..datasets.incomplete import (absent_effects, edge_peaks, hidden_peaks, incomplete_cases,
                                    window_edges)
 from ..kinds import kind_of
-from ..files.spec import SWEEP_AXES, StudyResult
+from ..files.study_types import SWEEP_AXES, StudyResult
 
 log = logging.getLogger("pipeline.study.execution.run")
 

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import interrupt_deferred
-from ..files.spec import OPTIMUM_UNITS
+from ..files.study_types import OPTIMUM_UNITS
 
 log = logging.getLogger(__name__)
 

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..execution.mistuned import SEED_AXIS, TunedCurve, tuned_reference
 from . import plots
-from ..files.spec import SWEEP_AXES
+from ..files.study_types import SWEEP_AXES
 
 log = logging.getLogger("pipeline.study.figures.disk_figures")
 AT = "@"

@@ -14,7 +14,7 @@ from .contact_figures import draw_face_loops, draw_plane_orbits
 from .disk_figures import is_sector_resolved, write_sector_figures
 from .plots import (atomic_savefig, pyplot, response_curves_figure, stability_for_plot,
                     wrapped_title)
-from ..files.spec import Study
+from ..files.study_types import Study
 
 
 def sector_output_dofs(study: Study) -> list:

@@ -22,7 +22,7 @@ from ...structure.fe_model import BladeParams
 from ...structure.reduction import DEFAULT_MODES
 from ..accuracy.spec import Settings
 from ...solve.response.optimum import LINEAR_NODES
-from .spec import EFFECTS, FIGURES, SWEEP_AXES, SolverSettings
+from .study_types import EFFECTS, FIGURES, SWEEP_AXES, SolverSettings
 
 FILE = ""                    # the top level of a study file
 CASE = "<case>"              # an accuracy-cost case: [lumped] or [blade]

@@ -11,9 +11,9 @@ from __future__ import annotations
 from dataclasses import replace
 
 from ...solve.response.optimum import LINEAR_NODES
-from .spec import (DEFAULT_FIGURES, FIGURES, FREQUENCY_UNITS, INTEGER_SWEEP_AXES, MAX_HARMONICS,
-                   STABILITY_MODES, STABILITY_WHEN_TRUE, SWEEP_AXES, FrequencyRange,
-                   SolverSettings, solver_rule_violations)
+from .study_types import (DEFAULT_FIGURES, FIGURES, FREQUENCY_UNITS, INTEGER_SWEEP_AXES,
+                          MAX_HARMONICS, STABILITY_MODES, STABILITY_WHEN_TRUE, SWEEP_AXES,
+                          FrequencyRange, SolverSettings, solver_rule_violations)
 from .validation import join_field, kind_of
 
 
@@ -42,7 +42,7 @@ _SOLVER_KEYS = ("harmonics", "force_evaluation", "samples", "tolerance", "stabil
 
 def parse_solver(ck, tab, path, base=None, model="lumped") -> SolverSettings:
     """`SolverSettings` from the table `tab` at field `path` (keys not given keep the values
-    of `base`, or the defaults; `stability = true`: `spec.STABILITY_WHEN_TRUE[model]`)."""
+    of `base`, or the defaults; `stability = true`: `study_types.STABILITY_WHEN_TRUE[model]`)."""
     ck.keys(tab, path, _SOLVER_KEYS)
     kw = {}
     if "harmonics" in tab:

@@ -44,7 +44,7 @@ from ..files.validation import Checker
 from ..files.header import overlay, parse_header, quick_tables
 from ..scenes.lumped_scene import parse_scene
 from ..execution.kind_costs import disk_modes_estimate, estimate_lines
-from ..files.spec import StudyHeader, StudyKind, StudyResult, never
+from ..files.study_types import StudyHeader, StudyKind, StudyResult, never
 
 log = logging.getLogger(__name__)
 TOP = ("study", "scene", "modes", "quick")

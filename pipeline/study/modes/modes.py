@@ -18,7 +18,7 @@ from ...structure.fe_model import boundary_dofs
 from ...structure.reduction import eigenmodes, reduce, reduced_modes
 from ..scenes.blade_scene import is_blade_document, modes_from_mapping
 from ..execution.kind_costs import estimate_lines, modes_estimate
-from ..files.spec import ModesStudy, StudyKind, StudyResult
+from ..files.study_types import ModesStudy, StudyKind, StudyResult
 
 log = logging.getLogger(__name__)
 

@@ -45,7 +45,7 @@ from ..execution import response_study
 from ..execution.cases import default_solver
 from ..execution.kind_costs import RangeEstimate, estimate_lines
 from ..files.header import overlay
-from ..files.spec import StudyHeader, StudyKind, Study, StudyResult, always, never
+from ..files.study_types import StudyHeader, StudyKind, Study, StudyResult, always, never
 from ..files.validation import Checker
 from .disk_modes import is_disk_document
 

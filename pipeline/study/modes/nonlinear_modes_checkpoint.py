@@ -24,7 +24,7 @@ import numpy as np
 from ... import __version__
 from ...solve.nonlinear_modes.backbone import Backbone
 from ..execution.checkpoint import NotACheckpoint, case_file, read, same_case, write
-from ..files.spec import content_bytes
+from ..files.study_types import content_bytes
 
 log = logging.getLogger(__name__)
 

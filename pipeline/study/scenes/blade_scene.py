@@ -57,7 +57,8 @@ from ..files.rules import check_optimum_axes, check_scene_rules, contact_rules
 from ..files.header import overlay, parse_header, quick_tables
 from ..files.sections import (check_windows, output_common, parse_optimum, parse_solver,
                               parse_sweep, quick_response_tables, solver_sweep_tables)
-from ..files.spec import EFFECTS, MAX_HARMONICS, NAME_PATTERN, ModesStudy, OutputSettings, Study, Sweep
+from ..files.study_types import (EFFECTS, MAX_HARMONICS, NAME_PATTERN, ModesStudy, OutputSettings,
+                                 Study, Sweep)
 
 log = logging.getLogger(__name__)
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from ...contact.laws import LawElements
 from ...contact.registry import study_laws
 from ...solve.stability.methods import require_mode
-from ..files.spec import NAME_PATTERN
+from ..files.study_types import NAME_PATTERN
 
 
 def law_tables(ck, tab, dofs, effects, disk, signed_row) -> tuple:

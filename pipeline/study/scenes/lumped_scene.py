@@ -41,8 +41,8 @@ from ..files.rules import check_optimum_axes, check_scene_rules, contact_rules
 from ..files.sections import (check_windows, output_common, parse_optimum, parse_solver,
                               parse_sweep, quick_response_tables, solver_sweep_tables)
 from .matrix_scene import exported_lumped, ordered, typed_matrices
-from ..files.spec import (EFFECTS, IMPLEMENTED_MODELS, MAX_DOFS, MAX_HARMONICS, MODELS,
-                          NAME_PATTERN, OutputSettings, Study, Sweep)
+from ..files.study_types import (EFFECTS, IMPLEMENTED_MODELS, MAX_DOFS, MAX_HARMONICS, MODELS,
+                                 NAME_PATTERN, OutputSettings, Study, Sweep)
 
 _SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
 
