@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from ...contact.cycle import cycle_results
+from ...contact.period_results import cycle_results
 from ...fourier.harmonics import amplitude_half_peak_to_peak
 from ...solve.nonlinear_modes.backbone import point_at
 from ..datasets.contact_dataset import contact_coords, contact_motions

@@ -307,7 +307,7 @@ def test_requested_static_load_is_recovered_per_face_on_fe_scenes(name):
 # ---------------------------------------------------------------------------
 
 from pipeline.contact import YangMenq                           # noqa: E402
-from pipeline.contact.cycle import cycle_results                 # noqa: E402
+from pipeline.contact.period_results import cycle_results                 # noqa: E402
 from pipeline.contact.exact import history                       # noqa: E402
 
 
