@@ -1,4 +1,4 @@
-"""The accuracy-cost study's results (`accuracy_measure.run_case`, one per case) as an
+"""The accuracy-cost study's results (`measure.run_case`, one per case) as an
 xarray Dataset and as a Markdown table.
 
 The Dataset has one `run` per measured setting (references, baselines, knob values,

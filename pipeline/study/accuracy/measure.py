@@ -5,10 +5,10 @@
 and the baseline (`relative_errors`), recommends a value per knob (`recommend`) and
 runs the recommended combination; for the lumped case it checks the reference
 against event-driven time integration (`time_integration_check`).  The study, its
-errors and the recommendation rule are described in accuracy_cost.py.
+errors and the recommendation rule are described in study.py.
 
 The systems come from the caller: `system_for(settings)` returns (System, index of the
-case's DOF, model time [s], DOFs of the unreduced model), `accuracy_cost.case_systems`.
+case's DOF, model time [s], DOFs of the unreduced model), `case_systems`.
 """
 from __future__ import annotations
 
@@ -312,7 +312,7 @@ def checked_time_integration(case: Case, ref: Measurement) -> tuple:
 
 
 # ---------------------------------------------------------------------------
-# The systems of a case's runs (measured by accuracy_measure)
+# The systems of a case's runs (measured by `run_case`)
 # ---------------------------------------------------------------------------
 
 def _system(case: Case, s: Settings):
@@ -333,7 +333,7 @@ def _system(case: Case, s: Settings):
 
 
 def case_systems(case: Case):
-    """`system_for` of `accuracy_measure.run_case`: settings -> (System, index of the
+    """`system_for` of `run_case`: settings -> (System, index of the
     case's DOF, model time [s], n_dof_full), FE blades cached per mesh and their
     reductions per (mesh, modes) for the case's runs."""
     return lambda s: _system(case, s)

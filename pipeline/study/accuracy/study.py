@@ -35,12 +35,12 @@ the dataset contract per run, the settings, times and errors), `DIR/<name>/paret
 (error against wall time, log-log, one series per knob) and
 `DIR/<name>/table.md`.
 
-This module reads a study document (`study_from_mapping`, the scenes through scene.py
+This module reads a study document (`study_from_mapping`, the scenes through lumped_scene.py
 and blade_scene.py), describes it for `check` and runs it (`run_accuracy_study`): its
 registry entry `KIND` (`kinds`); the estimate is `kind_costs.accuracy_estimate`, the
-systems of its runs `accuracy_measure.case_systems`.  The plain data is in accuracy_spec.py, the runs,
-errors and recommendation in accuracy_measure.py, the Dataset and the table in
-accuracy_dataset.py, the figure in pareto_figure.py.
+systems of its runs `measure.case_systems`.  The plain data is in spec.py, the runs, errors and
+recommendation in measure.py, the Dataset and the table in dataset.py, the figure in
+pareto_figure.py.
 """
 from __future__ import annotations
 

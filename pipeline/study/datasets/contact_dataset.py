@@ -166,7 +166,7 @@ def set_motions(system, Q):
 
 
 def element_cycles(system, X, samples: int) -> dict:
-    """`cycle.cycle_results` of the system's contact elements for the motions X
+    """`period_results.cycle_results` of the system's contact elements for the motions X
     (P, E, D, 2H+1), flattened to (P E,): exact for Yang-Menq, from the AFT cycle of
     `samples` samples for the 2D friction law."""
     P, E, D, nh = X.shape

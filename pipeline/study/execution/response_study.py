@@ -1,5 +1,5 @@
 """Response studies (`[study] kind = "response"`, the default): a lumped or disk scene
-(`scene`) or an FE blade scene (`blade_scene`), swept over a grid of cases, each one
+(`lumped_scene`) or an FE blade scene (`blade_scene`), swept over a grid of cases, each one
 frequency continuation `pipeline.solve.response.response.frequency_response(system, H,
 omega_start, omega_stop, **solver.kwargs())`, or one direct solve per frequency for
 a linear scene (`pipeline.solve.response.linear_response`).  Its registry entry `KIND`:

@@ -62,7 +62,7 @@ def _fmt(v) -> str:
 
 
 def _settings_rows() -> list:
-    """[<case>.reference]: the accuracy settings, defaults from `accuracy_spec.Settings`
+    """[<case>.reference]: the accuracy settings, defaults from `accuracy.spec.Settings`
     (a blade's mode count and mesh from the reduction's and the blade's)."""
     d = {f.name: f.default for f in fields(Settings)}
     p = BladeParams()

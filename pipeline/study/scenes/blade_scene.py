@@ -29,7 +29,7 @@ else "response"):
 - "response": frequency-response continuation per sweep case, the same command,
   dataset and figures as the lumped scenes (`scene.Study` with a `Scene`).
 
-Validation follows `scene.py`: every mistake is `UsageError("<file>: <field>: <what>")`.
+Validation follows `lumped_scene.py`: every mistake is `UsageError("<file>: <field>: <what>")`.
 """
 from __future__ import annotations
 

@@ -45,7 +45,7 @@ MAX_STIFFNESS_STD = 0.5
 
 
 # ---------------------------------------------------------------------------
-# Validation (called by scene.py; every mistake is `<file>: <field>: <what>`)
+# Validation (called by lumped_scene.py; every mistake is `<file>: <field>: <what>`)
 # ---------------------------------------------------------------------------
 
 def check_dof_names(ck, dofs):

@@ -309,7 +309,7 @@ def _output(ck, t, scene) -> OutputSettings:
 
 def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
     """Cross-field rules of a lumped or disk scene (`check_scene_rules`,
-    `disk_scene.check_disk_rules`, `check_law_solvers`)."""
+    `lumped_disk_scene.check_disk_rules`, `check_law_solvers`)."""
     check_law_solvers(ck, scene.laws, solver.stability, f"{spath}.stability")
     check_law_methods(ck, scene.laws, solver.force_evaluation, f"{spath}.force_evaluation")
     disk = scene.model == "disk"
