@@ -32,6 +32,7 @@ def timed_blade_model(structure) -> tuple:
     t0 = time.perf_counter()
     centre = structure.disk.centre if structure.rotating else None
     if structure.matrices is not None:
+        # deferred: an imported blade alone reads exported matrices
         from ..structure.exchange.imported import import_blade
         blade = import_blade(structure.mesh, structure.matrices, structure.params,
                              rotation_centre=centre, disk=structure.disk)
@@ -66,6 +67,7 @@ def reduced_model(structure, reduction, speed: float = 0.0) -> tuple:
     """(Craig-Bampton `ReducedModel` keeping contact faces, excitation and response
     DOFs, its wall time [s]) of a blade turning at `speed` [rpm] (built once per spec
     pair and speed)."""
+    # looked up at each call: a replaced `reduction.reduce_blade` is the one called
     from ..structure.reduction import reduce_blade
 
     kw = {"rayleigh": structure.rayleigh} if structure.rayleigh is not None else {}

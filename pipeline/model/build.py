@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..contact.laws import ContactElements, LawElements
+from ..structure.reduction import reduce_map
 from . import cyclic
 from .blade_cache import (COMPONENTS, RPM, blade_at_speed, blade_model, case_speed,
                           reduced_dof_names, reduced_model)
@@ -139,7 +140,6 @@ def blade_unassembled(scene: Scene, case: dict, reduced: bool = True) -> Unassem
         return Unassembled(M=blade.M, C=C, K=blade.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next,
                            Bn_next=Bn_next, contact=elem, forcing=F, dofs=(),
                            laws=(plane,) if plane else ())
-    from ..structure.reduction import reduce_map  # deferred like blade_model's imports
 
     red = reduced_model(st, scene.reduction, case_speed(st, case))[0]
     Fr = np.zeros((red.M.shape[0], F.shape[1]), dtype=complex)

@@ -42,6 +42,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from ...fourier.harmonics import complex_harmonics, derivative_matrix
 from ...model.system import coupled_stiffness, dense
@@ -335,7 +336,6 @@ class _Solver:
 
     def __init__(self, A):
         if sp.issparse(A):
-            import scipy.sparse.linalg as spla
             self.lu = spla.splu(A.tocsc())
             self.solve = self.lu.solve
             self.solve_T = lambda b: self.lu.solve(b, trans="T")

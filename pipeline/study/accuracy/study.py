@@ -49,6 +49,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from ...structure.fe_model import BladeParams
 from ...structure.reduction import DEFAULT_MODES
 from .dataset import recommendation_lines, results_table, to_dataset
 from .measure import case_systems, run_case
@@ -212,7 +213,6 @@ def _settings(ck, c, t, path, where, h_excited, base=None) -> Settings:
             s = replace(s, craig_bampton_modes=DEFAULT_MODES)
         if s.mesh is None:
             # fe_model imports scikit-fem (slow to import): only a blade case needs it
-            from ...structure.fe_model import BladeParams
             p = BladeParams()
             s = replace(s, mesh=(p.n_chord, p.n_thick, p.n_span))
     check_settings(ck, s, lambda k: where(f"{path}.{k}") if k in t else where(path))

@@ -64,6 +64,7 @@ def by_sector(da) -> dict:
     """{sector DOF name: `da` of that DOF with a `sector` dimension (coordinate: the
     sector numbers)}, from either layout: a `sector` dimension, or `<dof>@<sector>`
     labels along `dof` (then `sector` takes the place of `dof`)."""
+    # deferred: xarray (slow import), only when figures are drawn
     import xarray as xr
 
     if "sector" in da.dims:

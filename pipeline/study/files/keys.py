@@ -15,6 +15,7 @@ take the keys of another one (`[quick.solver]` those of `[solver]`, ...).
 """
 from __future__ import annotations
 
+import re
 from dataclasses import fields
 
 from ...contact.registry import study_laws
@@ -390,8 +391,6 @@ def keys_by_table() -> dict:
 def canonical(path: str) -> str:
     """The table whose keys the table at dotted `path` takes (list indices dropped,
     `ALIASES` applied)."""
-    import re
-
     path = re.sub(r"\[\d+\]", "", path)
     for _ in range(8):
         hit = max((a for a in ALIASES if path == a or path.startswith(a + ".")),

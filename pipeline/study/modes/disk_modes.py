@@ -36,6 +36,7 @@ from ...model.cyclic import sector_system
 from ...model.scene import Scene
 from ...model.build import sector
 from ...model.system import natural_frequencies
+from ..figures.nd_figure import nodal_diameter_figure
 from ..files.rules import check_speed_rules
 from ..scenes.blade_scene import BLADE_MODELS, base_dir_of, blade_scenes
 from ..scenes.blade_wheel_scene import can_turn
@@ -143,7 +144,6 @@ def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: b
     from ..datasets.dataset import write_netcdf
     from .modes_dataset import campbell_to_dataset, disk_modes_to_dataset
     from ..figures.campbell_figure import campbell_figure
-    from ..figures.nd_figure import nodal_diameter_figure
 
     t0 = time.perf_counter()
     sc = study.scene

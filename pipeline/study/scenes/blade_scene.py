@@ -47,6 +47,7 @@ from ...model.loads import PointLoad, point_forcing
 from ...model.scene import Blade, CraigBampton, Scene, Single
 from ...model.blade_cache import blade_model
 from ...structure.fe_model import BladeParams, boundary_dofs
+from ...structure.mesh_io import read_mesh
 from ...structure.reduction import DEFAULT_MODES
 from . import blade_wheel_scene as blade_disk
 from . import lumped_disk_scene as disk_scene
@@ -350,8 +351,6 @@ def _contacts_and_loads(ck, tab, loaded, params) -> tuple:
 
 
 def _mesh(ck, value, field_, base_dir, tab, contacts):
-    from ...structure.mesh_io import read_mesh  # deferred: meshio is slow to import
-
     s = ck.string(value, field_)
     path = Path(s) if Path(s).is_absolute() else base_dir / s
     if not path.is_file():
