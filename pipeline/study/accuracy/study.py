@@ -35,12 +35,12 @@ the dataset contract per run, the settings, times and errors), `DIR/<name>/paret
 (error against wall time, log-log, one series per knob) and
 `DIR/<name>/table.md`.
 
-This module reads a study document (`study_from_mapping`, the scenes through lumped_scene.py
-and blade_scene.py), describes it for `check` and runs it (`run_accuracy_study`): its
-registry entry `KIND` (`kinds`); the estimate is `kind_costs.accuracy_estimate`, the
-systems of its runs `measure.case_systems`.  The plain data is in spec.py, the runs, errors and
-recommendation in measure.py, the Dataset and the table in dataset.py, the figure in
-pareto_figure.py.
+This module reads a study document (`study_from_mapping`, the scenes through
+lumped_scene.py and blade_scene.py), describes it for `check` and runs it
+(`run_accuracy_study`): its registry entry `KIND` (`kinds`); the estimate is
+`kind_costs.accuracy_estimate`, the systems of its runs `measure.case_systems`.  The
+plain data is in spec.py, the runs, errors and recommendation in measure.py, the Dataset
+and the table in `datasets.accuracy_dataset`, the figure in `figures.pareto_figure`.
 """
 from __future__ import annotations
 
@@ -51,14 +51,14 @@ from pathlib import Path
 
 from ...structure.fe_model import BladeParams
 from ...structure.reduction import DEFAULT_MODES
-from .dataset import recommendation_lines, results_table, to_dataset
+from ..datasets.accuracy_dataset import recommendation_lines, results_table, to_dataset
 from .measure import case_systems, run_case
 from .spec import (MESH_FIELDS, AccuracyStudy, Case, Settings, beyond_reference,
                             check_settings, mesh_value)
 from ..scenes.blade_scene import OUT_DOF_PATTERN, base_dir_of, parse_blade_params, parse_blade_scene
 from ..files.validation import Checker
 from ..files.header import overlay, parse_header, quick_tables
-from .pareto_figure import pareto_figure
+from ..figures.pareto_figure import pareto_figure
 from ..files.rules import check_scene_rules, contact_rules
 from ..files.sections import parse_sweep
 from ..scenes.lumped_scene import parse_scene

@@ -142,7 +142,7 @@ def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: b
     """`out_dir/<name>.nc` and `out_dir/<name>/nodal_diameter_diagram.png`."""
     # deferred: xarray and matplotlib cost a second to import; validation needs neither
     from ..datasets.dataset import write_netcdf
-    from .modes_dataset import campbell_to_dataset, disk_modes_to_dataset
+    from ..datasets.modes_dataset import campbell_to_dataset, disk_modes_to_dataset
     from ..figures.campbell_figure import campbell_figure
 
     t0 = time.perf_counter()

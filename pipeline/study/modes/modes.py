@@ -84,7 +84,7 @@ def run_modes_study(study: ModesStudy, out_dir="results", *, figures: bool = Tru
     and `out_dir/<name>/modal_convergence.png`."""
     # deferred: xarray, matplotlib and meshio are slow to import; reading a study needs none
     from ..datasets.dataset import write_netcdf
-    from .modes_dataset import modes_to_dataset
+    from ..datasets.modes_dataset import modes_to_dataset
 
     t0 = time.perf_counter()
     sc = study.scene

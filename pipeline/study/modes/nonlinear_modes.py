@@ -165,7 +165,7 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
 
 def run_case(study: NonlinearModesStudy, case: dict) -> dict:
     """`case_result`, or for a case that raises {"case", "error"}: a failing case is
-    recorded as failed (`nonlinear_modes_dataset.case_status`), never the end of the
+    recorded as failed (`datasets.nonlinear_modes_dataset.case_status`), never the end of the
     others."""
     try:
         return case_result(study, case)
@@ -261,7 +261,7 @@ def run(study: NonlinearModesStudy, out_dir="results", *, figures: bool = True,
     # deferred: xarray and matplotlib (slow imports), only when the study runs
     from ..datasets.dataset import write_netcdf
     from .nonlinear_modes_checkpoint import load_kept, modes_checkpoint_dir, save_kept
-    from .nonlinear_modes_dataset import case_status, modes_dataset
+    from ..datasets.nonlinear_modes_dataset import case_status, modes_dataset
     from ..figures.backbone_figures import write_backbone_figures
 
     t0 = time.perf_counter()

@@ -70,7 +70,7 @@ def test_quick_study_writes_a_conforming_dataset_table_and_figure(quick):
 def test_pareto_time_axis_is_labelled_over_its_range(quick):
     """The quick study's wall times span less than a decade: at least three labelled
     ticks inside each panel's time range."""
-    from pipeline.study.accuracy.pareto_figure import pareto_plot
+    from pipeline.study.figures.pareto_figure import pareto_plot
     from pipeline.study.figures.plots import pyplot
 
     _, ds = quick

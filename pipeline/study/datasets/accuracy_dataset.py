@@ -15,9 +15,9 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .measure import meets_target
-from .spec import AccuracyStudy
-from ..datasets.describe import provenance
+from ..accuracy.measure import meets_target
+from ..accuracy.spec import AccuracyStudy
+from .describe import provenance
 
 
 class Variable(NamedTuple):

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from ..figures.plots import atomic_savefig, label_log_axis, pyplot, wrapped_title
+from .plots import atomic_savefig, label_log_axis, pyplot, wrapped_title
 
 
 def pareto_figure(path, ds, title: str | None = None):
