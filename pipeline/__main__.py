@@ -2,12 +2,24 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 from pathlib import Path
 
+import numpy as np
 
 from .errors import UsageError, interrupt_in_chain
+from .study.execution.cases import StaticDivergence, default_solver
+from .study.execution.checkpoint import checkpoint_dir
+from .study.execution.optimum_search import (find_optimum, optimum_words, search_warnings,
+                                             variable_of)
+from .study.execution.run import (add_run_parser, check_writable, configure_logging,
+                                  sigint_interrupts)
+from .study.execution.search_checkpoint import search_file
+from .study.files.declared import UndeclaredSeparation
+from .study.files.documents import load_study
+from .study.kinds import kind_of
 
 
 def _prog() -> str:
@@ -28,7 +40,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    from .study.execution.run import add_run_parser
     add_run_parser(sub)
 
     c = sub.add_parser("check", help="validate a study without computing (cases, solver, "
@@ -87,13 +98,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _cmd_keys(args) -> int:
-    from .study.files.keys import markdown
+    from .study.files.keys import markdown   # deferred: the key table, for this command only
 
     print(markdown(), end="")
     return 0
 
 
 def _cmd_hysteresis(args) -> int:
+    # looked up at each call: a replaced `plots.hysteresis_figure` is the one drawn
     from .study.figures.plots import check_element, hysteresis_figure
 
     out = Path(args.out)
@@ -104,7 +116,6 @@ def _cmd_hysteresis(args) -> int:
                if not out.exists() else "must be a .png file or a folder")
         print(f"error: --out: {args.out}: {why}", file=sys.stderr)
         return 2
-    import numpy as np
 
     for name, value in (("u", args.u), ("v", args.v[0]), ("v", args.v[1])):
         if not np.isfinite(value):
@@ -124,18 +135,7 @@ def _cmd_hysteresis(args) -> int:
 
 def _cmd_optimise(args) -> int:
     """Optimum preload by a search on the exact peak (peak_tracking.optimum_preload)."""
-    from pathlib import Path
-
-    from .study.files.declared import UndeclaredSeparation
-    from .study.figures.optimum_figure import optimum_figure
-    from .study.files.documents import load_study
-    from .study.execution.optimum_search import (find_optimum, optimum_words, search_warnings,
-                                                 variable_of)
-    from .study.kinds import kind_of
-    from .study.execution.cases import StaticDivergence, default_solver
-    from .study.execution.checkpoint import checkpoint_dir
-    from .study.execution.run import check_writable, sigint_interrupts
-    from .study.execution.search_checkpoint import search_file
+    from .study.figures.optimum_figure import optimum_figure   # deferred: only `optimise` draws it
 
     study = load_study(args.study, quick=args.quick)
     workers = args.workers
@@ -202,7 +202,7 @@ def _cmd_optimise(args) -> int:
 
 
 def _cmd_bench(args) -> int:
-    from . import bench
+    from . import bench   # deferred: the benchmarks load only for `bench`
 
     options = ({"nlvib": args.nlvib, "pyharm_python": args.pyharm_python}
                if args.what == "peers" else {})
@@ -215,9 +215,7 @@ def _cmd_bench(args) -> int:
 
 
 def _cmd_check(args) -> int:
-    import logging
-
-    from .study.files.check import check
+    from .study.files.check import check   # deferred: `--help` and `run` never load it
 
     if not args.verbose:   # a check prints its verdict only: no model-building chatter
         logging.getLogger("pipeline.structure").setLevel(logging.WARNING)
@@ -225,8 +223,6 @@ def _cmd_check(args) -> int:
 
 
 def main(argv=None) -> int:
-    from .study.execution.run import configure_logging
-
     args = build_parser().parse_args(argv)
     configure_logging(args.verbose)
     try:

@@ -3,6 +3,9 @@ it recognises an interrupt (exit 130) however it arrives, and how an atomic writ
 one back until it is done."""
 from __future__ import annotations
 
+import signal
+import threading
+
 
 class UsageError(Exception):
     """Bad user input: reported as one line `error: <file>: <field>: <what>`, exit 2."""
@@ -32,9 +35,6 @@ class interrupt_deferred:
     thread (signal handlers can only be set there)."""
 
     def __enter__(self):
-        import signal
-        import threading
-
         self._old, self._held = None, False
         if threading.current_thread() is threading.main_thread():
             self._old = signal.signal(signal.SIGINT, self._hold)
@@ -44,8 +44,6 @@ class interrupt_deferred:
         self._held = True
 
     def __exit__(self, exc_type, exc, tb):
-        import signal
-
         if self._old is None:
             return False
         signal.signal(signal.SIGINT, self._old)

@@ -3,10 +3,10 @@
 Every `import` and `from ... import` of `pipeline` counts, at module level and inside
 functions, relative and absolute.  Asserted: no private name (leading underscore) is
 imported from another module, no import circle anywhere, imports flow one way along
-the data path.  The failure message (and the summary test, with `pytest -s`) reports
-the largest modules and functions.  Also asserted: every unit of the package stays
-readable, no module longer than MAX_MODULE lines and no function or method longer
-than MAX_FUNCTION.
+the data path.  Sizes are advisory, never asserted: modules are cut where their
+concepts are, and `test_sizes_are_advisory` prints (with `pytest -s`) the modules
+over ADVISORY_MODULE lines, the functions over ADVISORY_FUNCTION and the folders over
+ADVISORY_FOLDER modules, as places to look at, not failures.
 """
 import ast
 from collections import defaultdict
@@ -180,8 +180,9 @@ def test_tests_use_public_names_and_no_other_test_module():
     assert not found, "\n".join(found)
 
 
-MAX_MODULE = 500    # lines of one module in pipeline/
-MAX_FUNCTION = 80   # lines of one function or method there (decorators aside)
+ADVISORY_MODULE = 500    # lines of one module in pipeline/: printed above, never failed
+ADVISORY_FUNCTION = 80   # lines of one function or method there (decorators aside)
+ADVISORY_FOLDER = 12     # modules of one folder of pipeline/ (its __init__ aside)
 
 
 def unit_sizes():
@@ -199,18 +200,33 @@ def unit_sizes():
     return sorted(modules, reverse=True), sorted(functions, reverse=True)
 
 
-def test_modules_are_short():
-    modules, _ = unit_sizes()
-    over = [f"{m} ({k} lines)" for k, m in modules if k > MAX_MODULE]
-    assert not over, (f"modules in pipeline longer than {MAX_MODULE} lines "
-                      f"(largest first): " + ", ".join(over))
+def folder_sizes():
+    """[(modules, folder)] of the folders of pipeline/ (each __init__ aside), largest first."""
+    out = []
+    for d in sorted(p for p in PACKAGE.rglob("*") if p.is_dir() and p.name != "__pycache__"):
+        mods = [f for f in d.glob("*.py") if f.name != "__init__.py"]
+        out.append((len(mods), str(d.relative_to(PACKAGE.parent))))
+    return sorted(out, reverse=True)
 
 
-def test_functions_are_short():
-    _, functions = unit_sizes()
-    over = [f"{u} ({k} lines)" for k, u in functions if k > MAX_FUNCTION]
-    assert not over, (f"functions or methods in pipeline longer than "
-                      f"{MAX_FUNCTION} lines (largest first): " + ", ".join(over))
+def advisory_sizes() -> str:
+    """The units over their advisory size, largest first, as text."""
+    modules, functions = unit_sizes()
+    lines = [f"modules over {ADVISORY_MODULE} lines: "
+             + (", ".join(f"{m} ({k})" for k, m in modules if k > ADVISORY_MODULE) or "none"),
+             f"functions over {ADVISORY_FUNCTION} lines: "
+             + ("; ".join(f"{u} ({k})" for k, u in functions if k > ADVISORY_FUNCTION) or "none"),
+             f"folders over {ADVISORY_FOLDER} modules: "
+             + (", ".join(f"{d} ({k})" for k, d in folder_sizes() if k > ADVISORY_FOLDER)
+                or "none")]
+    return "\n".join(lines)
+
+
+def test_sizes_are_advisory():
+    """Not a check: module, function and folder sizes over their advisory size, shown
+    with `pytest -s` (or -rP).  Modules are cut where their concepts are; a size is a
+    hint to look, not a reason to cut."""
+    print("\n" + advisory_sizes())
 
 
 def test_structure_summary():
@@ -218,7 +234,8 @@ def test_structure_summary():
     print("\n" + report())
 
 
-KERNEL = "pipeline/solve/harmonic_balance/dynamic_stiffness.py"
+KERNEL_FOLDER = "pipeline/solve/harmonic_balance/"
+KERNEL = KERNEL_FOLDER + "dynamic_stiffness.py"   # where the criterion must find it
 # Modules upstream of `solve` on the data path that cannot import the kernel, each with
 # its own (non-HBM) use: the receptance of a reduced blade model, checked against the
 # full model's in the structure folder.
@@ -269,27 +286,28 @@ def dynamic_stiffness_terms(path: Path):
                 break
 
 
-def test_dynamic_stiffness_is_formed_in_one_module():
+def test_dynamic_stiffness_is_formed_in_one_folder():
     """The harmonic dynamic stiffness K - (h Om)^2 M + i h Om C (and its real layout
-    K (x) I + Om C (x) D + Om^2 M (x) D^2) is formed in `solve/harmonic_balance/dynamic_stiffness.py`
-    only, so that an added linear term enters in one place.
+    K (x) I + Om C (x) D + Om^2 M (x) D^2) is formed in `solve/harmonic_balance/` only
+    (today in its `dynamic_stiffness.py`; a new solve strategy may be a module of its
+    own there), so that an added linear term enters in one folder.
 
     Criterion (`dynamic_stiffness_terms`, read with `ast`): no product of an expression
     naming `M` with a squared one, and no product of an expression naming `C` with an
-    imaginary literal, in any module of the package but the kernel.  Exempt, by
+    imaginary literal, in any module of the package outside that folder.  Exempt, by
     module and function: DYNAMIC_STIFFNESS_ELSEWHERE (upstream of `solve`, so unable
     to import it).  Not caught: a frequency squared under another name (an eigenvalue
     shift s = w^2 in K - s M, which is an eigen-problem, not a dynamic stiffness)."""
     found = []
     for path in sorted(PACKAGE.rglob("*.py")):
         rel = path.relative_to(PACKAGE.parent).as_posix()
-        if rel == KERNEL:
+        if rel.startswith(KERNEL_FOLDER):
             continue
         for line, func, text in dynamic_stiffness_terms(path):
             if DYNAMIC_STIFFNESS_ELSEWHERE.get(rel) != func:
                 found.append(f"{rel}:{line} ({func}) {text}")
     assert not found, ("the dynamic stiffness is formed outside "
-                       f"{KERNEL} (call it instead):\n" + "\n".join(found))
+                       f"{KERNEL_FOLDER} (call it instead):\n" + "\n".join(found))
     kernel = list(dynamic_stiffness_terms(PACKAGE.parent / KERNEL))
     assert kernel, "the criterion finds no dynamic stiffness in the kernel itself"
 
@@ -376,22 +394,6 @@ def test_yang_menq_is_named_only_in_the_contact_and_study_layers():
     assert not found, "Yang-Menq named outside its layers:\n" + "\n".join(found)
     assert law_names(PACKAGE / "solve" / "harmonic_balance" / "hbm.py") == []
     assert law_names(PACKAGE / "contact" / "registry.py")   # the scan sees names
-
-
-MAX_FOLDER = 12   # modules of one folder of pipeline/ (its __init__ aside)
-
-
-def test_no_folder_holds_more_than_a_dozen_modules():
-    """Folders by concept: a folder that outgrows a dozen modules is split into the
-    concepts it holds (solve/: harmonic balance, continuation, stability, time
-    integration, response curves; study/: files, scenes, execution, datasets, figures,
-    modes, accuracy)."""
-    big = []
-    for d in sorted(p for p in PACKAGE.rglob("*") if p.is_dir() and p.name != "__pycache__"):
-        mods = [f for f in d.glob("*.py") if f.name != "__init__.py"]
-        if len(mods) > MAX_FOLDER:
-            big.append(f"{d.relative_to(PACKAGE.parent)}: {len(mods)} modules")
-    assert not big, "\n".join(big)
 
 
 def test_tests_mirror_the_package():

@@ -14,7 +14,7 @@ from decimal import Decimal
 import numpy as np
 import pytest
 
-from pipeline.model.scene import build_system
+from pipeline.model.build import build_system
 from pipeline.model.system import natural_frequencies
 from pipeline.solve.response.response import frequency_response
 from pipeline.solve.stability import branch_stability as sc

@@ -7,7 +7,10 @@ from __future__ import annotations
 
 import logging
 import os
+import tempfile
 import time
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -16,6 +19,17 @@ from ..contact import YangMenq, exact_reference, forces
 from ..fourier.harmonics import basis
 from ..paper_systems import example1, example3
 from ..solve.response.response import frequency_response
+from ..study.execution.run import run_study
+from ..study.files.documents import load_study
+from .blade import run as run_blade
+from .disk import run as run_disk
+from .estimate import run as run_estimate
+from .evaluations import run as run_evaluations
+from .friction2d import friction2d_rows, print_friction2d
+from .modes import run as run_modes
+from .montecarlo import run as run_montecarlo
+from .peers import run as run_peers
+from .stability import run as run_stability
 
 
 def _median_time(fn, repeat):
@@ -86,7 +100,6 @@ def contact(quick=False):
     print("exact: the compiled kernel (contact.exact); numpy: the same mathematics in numpy "
           "(contact.exact_reference), diff = its largest difference in Fu and the Jacobian; "
           "ratio = time / exact time")
-    from .friction2d import friction2d_rows, print_friction2d
     print_friction2d(friction2d_rows(shroud_like_motions, _median_time, quick))
     return 0
 
@@ -162,13 +175,11 @@ def aft_table(quick=False):
 
 
 def blade(quick=False):
-    from .blade import run as run_blade  # deferred: scikit-fem (slow import)
     return run_blade(quick)
 
 
 def disk_bench(quick=False):
     # not named `disk`: that is the submodule, which its import sets as this attribute
-    from .disk import run as run_disk  # deferred: scikit-fem (slow import)
     return run_disk(quick)
 
 
@@ -176,16 +187,9 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
     """Wall time of whole studies: in this process, a 2-process pool and a Dask
     LocalCluster with 2 workers; the datasets must be identical (timing aside).
     "paper_example1 x mu": Example 1's preloads times mu = 0.3, 0.5, 0.7 (21 cases)."""
-    import logging
-    import tempfile
-    from dataclasses import replace
-    from pathlib import Path
-
     # deferred: the study layer imports xarray (slow), which the other benches never use
     import xarray as xr
 
-    from ..study.files.documents import load_study
-    from ..study.execution.run import run_study
 
     for name in ("pipeline", "distributed"):
         logging.getLogger(name).setLevel(logging.WARNING)
@@ -211,6 +215,7 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
                 kw = dict(figures=False, progress=False, checkpoints=False)
                 t = time.perf_counter()
                 if how == "dask":
+                    # deferred: Dask is optional (pip install -e ".[dask]")
                     from dask.distributed import LocalCluster
                     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                       dashboard_address=None, silence_logs=logging.WARNING) as cluster:
@@ -230,33 +235,27 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
 
 
 def evaluations_bench(quick=False):
-    from .evaluations import run as run_evaluations
     return run_evaluations(quick)
 
 
 def stability_bench(quick=False):
-    from .stability import run as run_stability
     return run_stability(quick)
 
 
 def peers_bench(quick=False, nlvib=None, pyharm_python=None):
     # not named `peers`: that is the submodule, which its import sets as this attribute
-    from .peers import run as run_peers
     return run_peers(quick, nlvib=nlvib, pyharm_python=pyharm_python)
 
 
 def modes_bench(quick=False):
-    from .modes import run as run_modes
     return run_modes(quick)
 
 
 def estimate_bench(quick=False, studies=()):
-    from .estimate import run as run_estimate
     return run_estimate(quick, studies)
 
 
 def montecarlo_bench(quick=False):
-    from .montecarlo import run as run_montecarlo
     return run_montecarlo(quick)
 
 

@@ -40,7 +40,8 @@ import scipy.sparse as sp
 from ..model.cyclic import DENSE_MAX_DOF
 from ..model.contacts import ShroudPair
 from ..model.loads import PointLoad
-from ..model.scene import Blade, CraigBampton, Cyclic, Scene, build_system, full_system
+from ..model.scene import Blade, CraigBampton, Cyclic, Scene
+from ..model.build import build_system, full_system
 from ..model.system import natural_frequencies
 from ..solve.harmonic_balance import hbm
 from ..solve.harmonic_balance.parts import SPARSE_JACOBIAN_MIN

@@ -30,6 +30,12 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..model import blade_cache
+from ..study.execution.cost import seconds, slowdown
+from ..study.execution.run import run_study
+from ..study.files.documents import load_study
+from ..study.kinds import kind_of
+
 ACCEPT = 3.0       # the estimate's middle within this factor of the measured time
 STUDIES = Path(__file__).resolve().parents[2] / "studies"
 
@@ -65,9 +71,6 @@ def warm_up():
     estimates assume the modules a run loads already loaded (xarray and its duck-array
     backends, netCDF4, matplotlib and its fonts: about 2 s of a process's first run,
     which would otherwise depend on what ran before in it)."""
-    from ..study.execution.run import run_study
-    from ..study.files.documents import load_study
-
     with tempfile.TemporaryDirectory() as tmp:
         run_study(load_study(STUDIES / f"{WARM_UP}.toml", quick=True), tmp, workers=1,
                   progress=False, checkpoints=False)
@@ -75,20 +78,14 @@ def warm_up():
 
 def measure(path, quick: bool = False, out_dir=None) -> Measured:
     """Estimate, then run, the study at `path` (serially), after `warm_up`; `Measured`."""
-    from ..model import scene as model_scene
-    from ..study.execution.cost import slowdown
-    from ..study.files.documents import load_study
-    from ..study.kinds import kind_of
-    from ..study.execution.run import run_study
-
     warm_up()
     study = load_study(path, quick=quick)
     kind = kind_of(study)
     load = slowdown()
     est = kind.estimate(study, workers=1)
-    model_scene.timed_blade_model.cache_clear()   # the run builds its model, as `run` does
-    model_scene.reduced_model.cache_clear()
-    model_scene.blade_at_speed.cache_clear()
+    blade_cache.timed_blade_model.cache_clear()   # the run builds its model, as `run` does
+    blade_cache.reduced_model.cache_clear()
+    blade_cache.blade_at_speed.cache_clear()
     with tempfile.TemporaryDirectory() as tmp:
         t0, c0 = time.perf_counter(), time.process_time()
         run_study(study, out_dir or tmp, workers=1, progress=False, checkpoints=False)
@@ -102,8 +99,6 @@ def shipped_studies() -> list:
 
 
 def run(quick: bool = False, studies=()) -> int:
-    from ..study.execution.cost import seconds
-
     paths = [Path(s) if Path(s).suffix == ".toml" else STUDIES / f"{s}.toml" for s in studies] \
         or shipped_studies()
     for p in paths:   # a missing study is one line before the table, not in its middle

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -26,6 +27,7 @@ from ..fourier.harmonics import amplitude_half_peak_to_peak
 from ..solve.nonlinear_modes.backbone import continue_mode, point_at
 from ..solve.nonlinear_modes.epmc import mode_problem
 from ..solve.nonlinear_modes.synthesis import refiner, synthesise
+from ..solve.nonlinear_modes.synthesis import synthesised_curve
 from ..solve.response.response import frequency_response
 from ..study.files.documents import load_study
 from ..solve.nonlinear_modes.epmc import onset_amplitude
@@ -35,7 +37,6 @@ FORCES = np.geomspace(0.25, 4.0, 100)     # factors on the 1 N engine-order load
 
 
 def backbone_table(quick: bool):
-    from pathlib import Path
     root = Path(__file__).resolve().parents[2] / "studies"
     study = load_study(root / "shrouded_disk.toml", quick=quick)
     system = study.system({"preload": 3.0})
@@ -61,7 +62,6 @@ def backbone_table(quick: bool):
 
 
 def synthesis_table():
-    from pathlib import Path
     study = load_study(Path(__file__).resolve().parents[2] / "studies" /
                        "disk_nonlinear_modes.toml").response
     sv, fr = study.solver, study.sweep.frequency
@@ -108,9 +108,6 @@ def synthesis_table():
 def preload_table(quick: bool):
     """The synthesised peak of shrouded_disk.toml (EO = ND 3) at its five preloads against
     the full harmonic balance's, with the time of each."""
-    from pathlib import Path
-    from ..solve.nonlinear_modes.synthesis import synthesised_curve
-
     study = load_study(Path(__file__).resolve().parents[2] / "studies" / "shrouded_disk.toml",
                        quick=quick)
     sv, fr = study.solver, study.sweep.frequency

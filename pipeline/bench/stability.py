@@ -6,7 +6,7 @@ each timed as this process's CPU time (single-threaded BLAS), with the points th
 exact Floquet multipliers decided, the unstable points and the bifurcations.
 
 Then the FE blade of `studies/blade_shroud_contact.toml` (its quick mesh, 208 DOFs:
-beyond the shooting, `stability_modes.effective_mode`): its curve without
+beyond the shooting, `stability.methods.effective_mode`): its curve without
 stability, and Hill's and the orbit monodromy's CPU time and largest multiplier at
 sampled points of it (a whole curve with either takes many minutes); the curve times
 of the modes follow from the per-point costs.

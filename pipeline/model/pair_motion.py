@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..structure.reduction import reduce_map
 from .contacts import ShroudPair, shroud_pair_maps
-from .scene import blade_model, case_speed, reduced_model
+from .blade_cache import blade_model, case_speed, reduced_model
 
 
 def free_pairs(scene) -> list:
@@ -49,8 +50,6 @@ def pair_rows(structure, reduction, pair: ShroudPair, speed: float) -> tuple:
     if reduction is None:
         reduce = (lambda B: B.toarray())
     else:
-        from ..structure.reduction import reduce_map   # deferred like scene's
-
         red = reduced_model(structure, reduction, speed)[0]
         reduce = (lambda B: reduce_map(red, B))
     return (np.stack([reduce(B) for B in own[:2]]), np.stack([reduce(B) for B in nxt[:2]]))

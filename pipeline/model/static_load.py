@@ -41,7 +41,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .contacts import FaceContact, ShroudPair
-from .scene import Scene, blade_contact_maps, build_system
+from .scene import Scene
+from .build import blade_contact_maps, build_system
 from .system import System, contact_set, coupled_stiffness, with_preload
 
 NORMAL_LOAD = "normal_load"   # the case key of a requested static normal load [N]

@@ -22,7 +22,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from ..contact.laws import ContactElements
 
@@ -183,8 +185,6 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     `coupled_stiffness(system, phi)` in place of K): the frequencies of the
     engine-order family (nodal diameter EO).
     """
-    import scipy.linalg as sla
-
     # every frequency: one dense eigen-solve of the whole structure (N n DOFs for an
     # N-sector assembly), whether the matrices are stored sparse or not
     K = linear_stiffness(system, contacts)
@@ -311,14 +311,11 @@ def lowest_squares(system: System, contacts: str, k: int, laws: bool = True) -> 
     contacts' ku, kv) and M stay sparse and ARPACK's shift-invert Lanczos about 0
     finds the k nearest 0 (the lowest where K has no large negative eigenvalue; a
     full wheel)."""
-    import scipy.linalg as sla
-
     n = system.n_dof
     k = min(int(k), n)
     if n <= DENSE_EIGEN_MAX or system.cyclic is not None or not sp.issparse(system.K):
         K = linear_stiffness(system, contacts, laws)
         return sla.eigh(K, dense(system.M), eigvals_only=True)[:k]
-    import scipy.sparse.linalg as spla
 
     K = sp.csr_matrix(system.K, dtype=float)
     if contacts in ("stuck", "tied", "small"):

@@ -21,7 +21,7 @@ from pipeline.solve.response.response import frequency_response
 from pipeline.solve.stability.hill import hill_eigenvalues, is_stable
 from pipeline.study.files.documents import load_study, study_from_document, study_to_mapping
 from pipeline.model.system import System, natural_frequencies
-from pipeline.model.scene import full_system
+from pipeline.model.build import full_system
 
 from helpers import fd, linear_peak, solve_sector
 

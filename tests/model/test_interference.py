@@ -14,7 +14,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from pipeline.model.contacts import fe_contact_maps
-from pipeline.model.scene import RPM, blade_at_speed, blade_model, build_system
+from pipeline.model.blade_cache import RPM, blade_at_speed, blade_model
+from pipeline.model.build import build_system
 from pipeline.model.static_load import static_contact, static_normal_load
 from pipeline.model.system import coupled_stiffness
 from pipeline.study.files.documents import parse_study

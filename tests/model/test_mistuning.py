@@ -17,7 +17,7 @@ from pipeline.study.datasets.conformance import problems
 from pipeline.errors import UsageError
 from pipeline.solve.response.response import frequency_response
 from pipeline.study.files.documents import load_study, study_from_document, study_to_mapping
-from pipeline.model.scene import stiffness_factors
+from pipeline.model.build import stiffness_factors
 
 ROOT = Path(__file__).resolve().parents[2]
 MISTUNED = ROOT / "studies" / "disk_mistuned.toml"
@@ -291,7 +291,7 @@ def tuned_peak(st, preload):
     """The tuned disk's blade peak from an independent one-sector continuation."""
     from dataclasses import replace as repl
     scene = repl(st.scene, assembly=repl(st.scene.assembly, mistuning=None))
-    from pipeline.model.scene import build_system
+    from pipeline.model.build import build_system
     s = build_system(scene, {"preload": preload})
     c = frequency_response(s, 1, 2 * np.pi * 360.0, 2 * np.pi * 470.0, stability=False,
                            tol_rel=st.solver.tolerance, peak_dofs=[0])

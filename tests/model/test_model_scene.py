@@ -10,12 +10,14 @@ from pipeline.model.cyclic import expand
 from pipeline.model.contacts import DofContact
 from pipeline.model.loads import Forcing, PointLoad
 from pipeline.model.scene import (CASE_KEYS, Blade, CraigBampton, Cyclic, Lumped, Mistuning, Scene,
-                                  Single, blade_model, build_system, full_system, stiffness_factors)
+                                  Single)
+from pipeline.model.blade_cache import blade_model
+from pipeline.model.build import build_system, full_system, stiffness_factors
 from pipeline.model.system import dense, natural_frequencies
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.response.response import frequency_response
 from pipeline.structure.fe_model import BladeParams
-from pipeline.study.files.spec import SWEEP_AXES
+from pipeline.study.files.study_types import SWEEP_AXES
 
 PARAMS = BladeParams(n_chord=2, n_thick=1, n_span=4)   # 100 reduced DOFs with 4 modes
 KU = 5e4          # [N/m] per node pair

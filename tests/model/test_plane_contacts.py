@@ -15,7 +15,9 @@ import pytest
 
 from pipeline.fourier.harmonics import shift
 from pipeline.model.contacts import fe_contact_maps, fe_plane_maps, pair_frame
-from pipeline.model.scene import Mistuning, blade_model, build_system
+from pipeline.model.scene import Mistuning
+from pipeline.model.blade_cache import blade_model
+from pipeline.model.build import build_system
 from pipeline.model.system import natural_frequencies
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.response.response import frequency_response

@@ -11,9 +11,9 @@ import scipy.linalg as la
 from pipeline.model.contacts import ShroudPair, pair_frame
 from pipeline.model.cyclic import expand, sector_system
 from pipeline.model.loads import PointLoad
-from pipeline.model.scene import (Blade, CraigBampton, Cyclic, Scene, blade_contact_maps,
-                                  blade_model, build_system, full_system, reduced_model,
-                                  scene_parts, sector)
+from pipeline.model.scene import Blade, CraigBampton, Cyclic, Scene
+from pipeline.model.build import blade_contact_maps, build_system, full_system, sector, unassembled
+from pipeline.model.blade_cache import blade_model, reduced_model
 from pipeline.model.system import dense
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.structure.beam import beam_dofs, torsion_constant
@@ -212,7 +212,7 @@ def test_rigid_rotation_of_a_beam_wheel_loads_no_shroud_pair():
     scale = 1e-3 * (DISK.hub_radius + BEAM.length)         # [m]: the tip's displacement
     assert max(np.abs((Bt + Btn) @ q).max(), np.abs((Bn + Bnn) @ q).max()) < 1e-14 * scale
     red = reduced_model(scene.structure, scene.reduction)[0]
-    parts = scene_parts(scene, {"preload": 1.0})
+    parts = unassembled(scene, {"preload": 1.0})
     qr = np.zeros(parts.M.shape[0])
     qr[:red.n_boundary] = q[red.boundary]
     for B in (parts.Bt + parts.Bt_next, parts.Bn + parts.Bn_next):

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 import scipy.linalg as la
 
-from pipeline.model.scene import (Blade, CraigBampton, Cyclic, Mistuning, Scene, full_system,
-                                  sector, stiffness_factors)
+from pipeline.model.scene import Blade, CraigBampton, Cyclic, Mistuning, Scene
+from pipeline.model.build import full_system, sector, stiffness_factors
 from pipeline.model.system import natural_frequencies
 from pipeline.structure.blades import build_blade
 from pipeline.structure.fe_model import BladeParams

@@ -137,7 +137,7 @@ class Friction2D:
 
 
 def cycle_results(X, law: Friction2D, n_samples: int = 256) -> dict:
-    """Per element (E,), as the 1D element's `cycle.cycle_results` but from the N
+    """Per element (E,), as the 1D element's `period_results.cycle_results` but from the N
     samples of the AFT cycle: `stick`, `slip`, `separation` (fractions of the samples
     [-]), `energy` dissipated per cycle [J] (the work of the tangential force over the
     relative motion, pi sum_h h (F_ch U_sh - F_sh U_ch) over both tangents: the elastic

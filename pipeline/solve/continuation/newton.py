@@ -2,8 +2,9 @@
 
 `newton` solves R(x) = 0 for `fun_x(x) -> (R, dR_dx)`; `newton_core` is the loop
 shared with the continuation corrector (`arclength.ScaledEquations`), which solves
-its bordered systems with `linear_solve`.  A point is converged only if its
-recomputed residual meets the tolerance; numerical failure is reported in the
+its bordered systems with `linear_solve`; `solve_on_plane` finds a branch point on
+a hyperplane across the branch (the points `dense_output` and `exact_peaks` add, the
+peak continued in preload).  A point is converged only if its recomputed residual meets the tolerance; numerical failure is reported in the
 result (`NEWTON_MESSAGES`), never raised.
 """
 from __future__ import annotations
@@ -376,3 +377,49 @@ def newton(fun_x, x0, tol, max_iter=20, damped=True, step=linear_solve) -> Newto
         checked, x0, tol, int(max_iter), np.linalg.norm, step, damped=damped)
     return NewtonResult(z, status == 0, status, NEWTON_MESSAGES[status], nit, nfev,
                         njev, float(r), J)
+
+
+_START_ITER = 4                 # Newton iterations from a curved start before the chord's
+
+
+def solve_on_plane(fun, p, d, scale, tol, start=None, factors=None):
+    """The branch point on the hyperplane through p normal to d (scaled unknowns
+    z / scale, d unit): Newton on R = 0 plus that condition, from `start` (scaled),
+    else from p.  Newton from `start` gets _START_ITER iterations, undamped: a start
+    that does not converge at once (a non-smooth stretch) is abandoned for p, so
+    that it cannot wander to another part of the branch.  (z, ok, nfev, tangent):
+    the tangent at z in physical units, along d, from the last Jacobian (no
+    further evaluation).  Every step is solved on `factors` (`KeptFactors.near`:
+    the last factorisation where refinement converges, as exact as a fresh LU; a
+    caller's, to start from the previous point's)."""
+    nfev = [0]
+
+    def aug(z):
+        R, Jx, Jl = fun(z[:-1], z[-1])
+        nfev[0] += 1
+        return (np.append(R, d @ (z / scale - p)),
+                augment(Jx, Jl, d / scale))
+
+    r = None
+    factors = KeptFactors() if factors is None else factors
+    if start is not None:
+        r = newton(aug, start * scale, tol, max_iter=_START_ITER, damped=False,
+                   step=factors.near)
+    if r is None or not r.success:
+        r = newton(aug, p * scale, tol, max_iter=20, step=factors.near)
+    return r.x, bool(r.success), nfev[0], _tangent(r.jac, factors) if r.success else None
+
+
+def _tangent(jac, factors=None):
+    """The null direction of the branch equations R = 0 at a point, from the Jacobian
+    [dR/dx, dR/dlam; d / scale] of a hyperplane corrector there: its row d / scale
+    times the tangent is 1, so the tangent points along d.  With the corrector's
+    `KeptFactors`, solved on its last step's factors where near enough.  None if
+    singular."""
+    e = np.zeros(jac.shape[0])
+    e[-1] = 1.0
+    try:
+        t = linear_solve(jac, e) if factors is None else factors.near(jac, e)
+    except (np.linalg.LinAlgError, RuntimeError):
+        return None
+    return t if np.all(np.isfinite(t)) else None

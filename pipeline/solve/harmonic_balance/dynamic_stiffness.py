@@ -42,13 +42,45 @@ from dataclasses import dataclass, replace
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from ...fourier.harmonics import complex_harmonics, derivative_matrix
 from ...model.system import coupled_stiffness, dense
 from .interior import condense_blocks, interior_blocks
 from .parts import PartBlocks, applied, on_contact_dofs, on_parts, on_pattern, part_blocks
 from .sparse_blocks import SparseBlocks, sparse_blocks
-from .terms import Term
+
+
+@dataclass(frozen=True, eq=False)
+class Term:
+    """An added linear term a A of the dynamic stiffness, a = w^power Omega^omega_power
+    (times i if imag), w = h Omega: Omega^q A d^p q/dt^p is Term(A (-1)^(p//2), p, p odd,
+    q)."""
+
+    matrix: object        # (n, n), dense or scipy.sparse, as the system's matrices
+    power: int            # power of w = h Omega (>= 1)
+    imag: bool = False    # multiplied by i
+    omega_power: int = 0  # power of Omega itself (a matrix proportional to Omega^q)
+
+    def __post_init__(self):
+        if int(self.power) < 1:
+            raise ValueError(f"a term's power of h Omega must be >= 1, got {self.power}")
+
+    def factor(self, w, Om):
+        """a at w = h Omega."""
+        a = w ** self.power
+        if self.omega_power:
+            a = a * Om ** self.omega_power
+        return 1j * a if self.imag else a
+
+    def rate(self, h, w, Om):
+        """da/dOmega = h p w^(p-1) Omega^q + q w^p Omega^(q-1) (times i)."""
+        p, q = self.power, self.omega_power
+        a = h * p * w ** (p - 1)
+        if q:
+            a = a * Om ** q + q * w ** p * Om ** (q - 1)
+        return 1j * a if self.imag else a
+
 
 STRATEGIES = ("blocks", "dense", "parts", "sparse")
 
@@ -304,7 +336,6 @@ class _Solver:
 
     def __init__(self, A):
         if sp.issparse(A):
-            import scipy.sparse.linalg as spla
             self.lu = spla.splu(A.tocsc())
             self.solve = self.lu.solve
             self.solve_T = lambda b: self.lu.solve(b, trans="T")

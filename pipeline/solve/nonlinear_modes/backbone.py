@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from ...model.system import dense
 from ..continuation.pseudo_arclength import continue_branch
@@ -274,8 +275,6 @@ def damping_peak(mp: ModeProblem, bb: Backbone, tol_rel: float = 1e-10):
     between the points either side of the largest sampled one by Brent's method on the
     mode recomputed at s (`point_at`), so no larger value hides between two points of a
     smooth stretch.  (NaN, NaN, NaN) for fewer than three points."""
-    from scipy.optimize import minimize_scalar
-
     if bb.s.size < 3:
         return np.nan, np.nan, np.nan
     i = int(np.argmax(bb.zeta))

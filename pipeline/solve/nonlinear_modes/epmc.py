@@ -46,8 +46,7 @@ import scipy.linalg as sla
 from ...fourier.harmonics import derivative_matrix
 from ...model.static_load import StaticState, static_state
 from ...model.system import System, contact_set, dense, linear_stiffness, with_preload
-from ..harmonic_balance.dynamic_stiffness import apply_full, apply_terms
-from ..harmonic_balance.terms import Term
+from ..harmonic_balance.dynamic_stiffness import Term, apply_full, apply_terms
 from ..harmonic_balance.full_operators import full_linear_operator
 from ..harmonic_balance.hbm import HBMProblem, contact_terms, setup
 

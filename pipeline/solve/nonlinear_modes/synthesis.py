@@ -32,8 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from .backbone import Backbone, point_at
-from .epmc import ModeProblem
+from ...fourier.harmonics import amplitude_half_peak_to_peak
+from .backbone import Backbone, continue_mode, point_at
+from .epmc import ModeProblem, mode_problem, onset_amplitude
 
 
 @dataclass(frozen=True)
@@ -176,10 +177,6 @@ def synthesised_curve(system, H: int, dof: int, method: str = "exact", n_samples
     back), `harmonic_amplitude` (P, H+1) [m], the largest amplitude of the DOF on it
     (`peak_amplitude` [m], `peak_omega` [rad/s]), `folds` [rad/s] (where a flank turns,
     at the backbone's points) and `message`."""
-    from ...fourier.harmonics import amplitude_half_peak_to_peak
-    from .backbone import continue_mode
-    from .epmc import mode_problem, onset_amplitude
-
     mp = mode_problem(system, H, 0, method, n_samples)
     a = onset_amplitude(mp)
     a = a if np.isfinite(a) else 1.0

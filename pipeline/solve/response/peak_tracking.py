@@ -39,7 +39,8 @@ import numpy as np
 
 from ..continuation.arclength import automatic_scale
 from ..continuation.amplitudes import amplitudes_at
-from ..continuation.branch_refinement import insert_peaks, solve_on_plane
+from ..continuation.exact_peaks import insert_peaks
+from ..continuation.newton import solve_on_plane
 from ..continuation.newton import augment, linear_solve
 from ..continuation.pseudo_arclength import continue_branch
 from ..continuation.restarts import join, piece

@@ -16,7 +16,8 @@ import numpy as np
 
 from ..harmonic_balance import hbm
 from ..harmonic_balance import roundoff
-from ..continuation.branch_refinement import PLOT_AXES, densify, insert_peaks
+from ..continuation.dense_output import PLOT_AXES, densify
+from ..continuation.exact_peaks import insert_peaks
 from ..continuation.pseudo_arclength import continue_branch
 from ...fourier.harmonics import amplitude_half_peak_to_peak
 from ..continuation.newton import newton, scale_rows

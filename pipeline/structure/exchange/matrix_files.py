@@ -277,6 +277,7 @@ def read_ansys(stiffness, mass, mapping) -> ExportedMatrices:
 def read_matrix_market(stiffness, mass, dof_table) -> ExportedMatrices:
     """Matrix Market files of the stiffness and the mass and a table "node direction"
     per row (lines starting with # are comments)."""
+    # deferred: scipy.io, only for Matrix Market files
     import scipy.io
 
     rows = _numbers(dof_table, _text(dof_table), 2, (int, int))

@@ -5,10 +5,10 @@
 and the baseline (`relative_errors`), recommends a value per knob (`recommend`) and
 runs the recommended combination; for the lumped case it checks the reference
 against event-driven time integration (`time_integration_check`).  The study, its
-errors and the recommendation rule are described in accuracy_cost.py.
+errors and the recommendation rule are described in study.py.
 
 The systems come from the caller: `system_for(settings)` returns (System, index of the
-case's DOF, model time [s], DOFs of the unreduced model), `accuracy_cost.case_systems`.
+case's DOF, model time [s], DOFs of the unreduced model), `case_systems`.
 """
 from __future__ import annotations
 
@@ -24,10 +24,12 @@ from ...solve.time_integration import timesim
 from ...solve.harmonic_balance.hbm_state import state_at_zero
 from ...solve.response.response import frequency_response
 from ...solve.nonlinear_modes.synthesis import synthesised_curve
-from ...model.scene import CraigBampton, build_system, reduced_model, timed_blade_model
+from ...model.scene import CraigBampton
+from ...model.build import build_system
+from ...model.blade_cache import reduced_model, timed_blade_model
 from .spec import MESH_FIELDS, Case, Settings
 from ...errors import interrupt_in_chain
-from ..files.spec import solver_rule_violations
+from ..files.study_types import solver_rule_violations
 
 log = logging.getLogger(__name__)
 
@@ -310,12 +312,12 @@ def checked_time_integration(case: Case, ref: Measurement) -> tuple:
 
 
 # ---------------------------------------------------------------------------
-# The systems of a case's runs (measured by accuracy_measure)
+# The systems of a case's runs (measured by `run_case`)
 # ---------------------------------------------------------------------------
 
 def _system(case: Case, s: Settings):
     """(System, index of the case's DOF, model time [s], n_dof_full) for settings s.
-    FE blades and their reductions are cached on their specs (`model.scene`); the
+    FE blades and their reductions are cached on their specs (`model.blade_cache`); the
     model time is what building and reducing took when first done."""
     case_arg = {"preload": case.preload} if case.preload is not None else None
     if case.name == "lumped":
@@ -331,7 +333,7 @@ def _system(case: Case, s: Settings):
 
 
 def case_systems(case: Case):
-    """`system_for` of `accuracy_measure.run_case`: settings -> (System, index of the
+    """`system_for` of `run_case`: settings -> (System, index of the
     case's DOF, model time [s], n_dof_full), FE blades cached per mesh and their
     reductions per (mesh, modes) for the case's runs."""
     return lambda s: _system(case, s)

@@ -35,12 +35,12 @@ the dataset contract per run, the settings, times and errors), `DIR/<name>/paret
 (error against wall time, log-log, one series per knob) and
 `DIR/<name>/table.md`.
 
-This module reads a study document (`study_from_mapping`, the scenes through scene.py
-and blade_scene.py), describes it for `check` and runs it (`run_accuracy_study`): its
-registry entry `KIND` (`kinds`); the estimate is `kind_costs.accuracy_estimate`, the
-systems of its runs `accuracy_measure.case_systems`.  The plain data is in accuracy_spec.py, the runs,
-errors and recommendation in accuracy_measure.py, the Dataset and the table in
-accuracy_dataset.py, the figure in pareto_figure.py.
+This module reads a study document (`study_from_mapping`, the scenes through
+lumped_scene.py and blade_scene.py), describes it for `check` and runs it
+(`run_accuracy_study`): its registry entry `KIND` (`kinds`); the estimate is
+`kind_costs.accuracy_estimate`, the systems of its runs `measure.case_systems`.  The
+plain data is in spec.py, the runs, errors and recommendation in measure.py, the Dataset
+and the table in `datasets.accuracy_dataset`, the figure in `figures.pareto_figure`.
 """
 from __future__ import annotations
 
@@ -49,20 +49,22 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from ...structure.fe_model import BladeParams
 from ...structure.reduction import DEFAULT_MODES
-from .dataset import recommendation_lines, results_table, to_dataset
+from ..datasets.accuracy_dataset import recommendation_lines, results_table, to_dataset
 from .measure import case_systems, run_case
 from .spec import (MESH_FIELDS, AccuracyStudy, Case, Settings, beyond_reference,
                             check_settings, mesh_value)
 from ..scenes.blade_scene import OUT_DOF_PATTERN, base_dir_of, parse_blade_params, parse_blade_scene
 from ..files.validation import Checker
 from ..files.header import overlay, parse_header, quick_tables
-from .pareto_figure import pareto_figure
+from ..figures.pareto_figure import pareto_figure
 from ..files.rules import check_scene_rules, contact_rules
-from ..scenes.lumped_scene import parse_scene, parse_sweep
+from ..files.sections import parse_sweep
+from ..scenes.lumped_scene import parse_scene
 from ..execution.kind_costs import accuracy_estimate, estimate_lines
-from ..files.spec import (MAX_HARMONICS, FrequencyRange, StudyKind, always, never,
-                   solver_rule_violations)
+from ..files.study_types import (MAX_HARMONICS, FrequencyRange, StudyKind, always, never,
+                                 solver_rule_violations)
 
 log = logging.getLogger(__name__)
 
@@ -211,7 +213,6 @@ def _settings(ck, c, t, path, where, h_excited, base=None) -> Settings:
             s = replace(s, craig_bampton_modes=DEFAULT_MODES)
         if s.mesh is None:
             # fe_model imports scikit-fem (slow to import): only a blade case needs it
-            from ...structure.fe_model import BladeParams
             p = BladeParams()
             s = replace(s, mesh=(p.n_chord, p.n_thick, p.n_span))
     check_settings(ck, s, lambda k: where(f"{path}.{k}") if k in t else where(path))
@@ -333,7 +334,7 @@ def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool
     # dataset.py (xarray) and run.py are imported when a study runs: reading or checking
     # one needs neither
     from ..datasets.dataset import write_netcdf
-    from ..files.spec import StudyResult
+    from ..files.study_types import StudyResult
 
     t0 = time.perf_counter()
     out_dir = Path(out_dir)

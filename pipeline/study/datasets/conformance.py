@@ -83,6 +83,7 @@ def problems(path) -> list[str]:
 
 def _check(path):
     """(problems, one-line summary) of a file or an in-memory dataset."""
+    # deferred: xarray (slow import), only when a dataset is checked
     import xarray as xr
 
     if isinstance(path, xr.Dataset):

@@ -13,7 +13,7 @@ The attribute `preload_given` says which of the two the study gave
 (`sweep.normal_load` gives s; n0 is then solved for it).  The elements' ku, kv, mu as solved (`element_parameters`).
 
 Per point (sweeps..., point, pair | contact), from the exact transition times of
-each converged point's periodic contact motion (`contact.cycle`): the fractions
+each converged point's periodic contact motion (`contact.period_results`): the fractions
 of the period stuck, slipping and separated, the energy dissipated per cycle by
 friction per element and per contact, and the normal contact force's mean and half
 peak-to-peak.  NaN at points that did not converge and at padding.
@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...contact import YangMenq
-from ...contact.cycle import cycle_results
+from ...contact.period_results import cycle_results
 from ...contact.friction2d.law import cycle_results as plane_cycle_results
 from ...fourier.harmonics import shift
 from .free_direction import WARNED, free_direction_variables
@@ -166,7 +166,7 @@ def set_motions(system, Q):
 
 
 def element_cycles(system, X, samples: int) -> dict:
-    """`cycle.cycle_results` of the system's contact elements for the motions X
+    """`period_results.cycle_results` of the system's contact elements for the motions X
     (P, E, D, 2H+1), flattened to (P E,): exact for Yang-Menq, from the AFT cycle of
     `samples` samples for the 2D friction law."""
     P, E, D, nh = X.shape

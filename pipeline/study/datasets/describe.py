@@ -9,9 +9,11 @@ import numpy as np
 
 from ... import __version__
 
-from ...model.scene import Blade, blade_contact_maps, reduced_model
+from ...model.scene import Blade
+from ...model.build import blade_contact_maps
+from ...model.blade_cache import reduced_model
 from .conformance import CONVENTIONS
-from ..files.spec import is_linear_scene
+from ..files.study_types import is_linear_scene
 
 
 def scene_attrs(scene) -> dict:

@@ -4,65 +4,13 @@ in the dataset).  `incomplete_cases` words them for the end of `python -m pipeli
 `hidden_peaks` those with resonance steps not resolved, `edge_peaks` the complete cases whose largest amplitude lies at an end of the interval
 (a resonance outside it, or none: not a peak), `window_edges` the same for the peak
 windows, `absent_effects` declared contact
-effects that no case shows;
-`CASE_FLAGS` describes that flag and the count of points accepted on the residual's
-round-off floor (`solve.harmonic_balance.roundoff`); `case_system_or_none` the system of
-a case that may have failed because its model cannot be built.
+effects that no case shows.
 """
 from __future__ import annotations
 
-import re
-
 import numpy as np
 
-from ...errors import interrupt_in_chain
 from ..files.rules import contact_rules
-
-PEAK_NAME = ("largest amplitude over the converged points inside the frequency interval "
-             "(a branch followed beyond it: not its points outside; the peak of the interval "
-             "only where peak_complete = 1)")
-# (dims after the sweep axes, units, long_name) of the per-case flags (`dataset`)
-CASE_FLAGS = {
-    "peak_complete": ((), "1", "1: the branch covers the frequency interval, so "
-                      "peak_amplitude is its peak; 0: the branch stopped short of it "
-                      "(see message), the peak may lie beyond its last point"),
-    "roundoff_points": ((), "1", "points accepted on the round-off floor of their residual, "
-                        "above residual_tolerance (-1: case failed)"),
-}
-
-
-_LAM = re.compile(r"\b(lam_end|lam0|lam) = ([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)")
-_WORDS = (("max_points reached before lam_end", "solver.max_points reached before the end of "
-           "the range"), ("step size below ds_min", "arc-length step below its smallest, ds_min"))
-
-
-def readable_message(message: str, to_unit: float, unit: str) -> str:
-    """A continuation message in the study's words and unit: the continuation
-    parameter lam [rad/s] is the excitation frequency ("reached lam_end = 439.82..."
-    -> "reached the end of the range = 70 Hz")."""
-    names = {"lam_end": "the end of the range", "lam0": "the start of the range",
-             "lam": "the frequency"}
-    for old, new in _WORDS:
-        message = message.replace(old, new)
-    return _LAM.sub(lambda m: f"{names[m.group(1)]} = {float(m.group(2)) / to_unit:.6g} {unit}",
-                    message)
-
-
-def case_system_or_none(study, case, curve):
-    """The case's system; None for a failed case (`curve` None) whose model cannot be
-    built (its variables stay padding: the other cases are written)."""
-    try:
-        return study.system(case)
-    except Exception as exc:
-        if curve is not None or interrupt_in_chain(exc):
-            raise
-        return None
-
-
-def case_flags(curve) -> tuple:
-    """(peak_complete, roundoff_points) of a finished curve: whether it covers its
-    interval (`success`), and its points accepted on the round-off floor."""
-    return bool(curve.success), int(curve.info.get("roundoff_points", 0))
 
 
 def incomplete_cases(study, ds) -> list:

@@ -13,7 +13,7 @@ were computed on: the words differ where the same number means something else.
 """
 from __future__ import annotations
 
-from ..files.spec import SWEEP_AXES
+from ..files.study_types import SWEEP_AXES
 
 _SHARE = {"per_node": "shared equally by its nodes, n0 / (number of nodes) each",
           "per_face": "shared by its nodes in proportion to their areas, n0 a_k / A"}

@@ -1,5 +1,5 @@
 """The dataset contract of a nonlinear modes study (global attribute
-`kind = "nonlinear_modes"`, `modes.nonlinear_modes_dataset`), beyond the rules every
+`kind = "nonlinear_modes"`, `datasets.nonlinear_modes_dataset`), beyond the rules every
 dataset meets (attributes, units, coordinates: `conformance`):
 
 - `frequency` [Hz], `damping_ratio` [1], `modal_amplitude` [kg0.5 m] and `converged`

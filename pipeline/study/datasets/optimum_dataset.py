@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..files.spec import OPTIMUM_UNITS, optimum_variable
+from ..files.study_types import OPTIMUM_UNITS, optimum_variable
 
 
 def add_optimum(data_vars, coords, opt, study, to_unit, unit):

@@ -15,7 +15,7 @@
     bifurcation_type      (sweeps..., bifurcation)  int8: 1 fold, 2 period doubling,
                                          3 Neimark-Sacker, -1 padding
 
-(`pipeline.solve.stability.branch_stability` decides; `dataset` calls these helpers.)
+(`pipeline.solve.stability.branch_stability` decides; `response_dataset` calls these helpers.)
 """
 from __future__ import annotations
 

@@ -4,7 +4,9 @@ process, a local process pool or a Dask cluster (`execute_cases`), each finished
 kept at once (`checkpoint`).  `disk_figures` and the optimum search reuse `run_case`."""
 from __future__ import annotations
 
+import ctypes
 import logging
+import signal
 import sys
 
 import numpy as np
@@ -15,7 +17,7 @@ from ...model.system import negative_stiffness
 from .checkpoint import load_cases, save_case
 from ...errors import interrupt_in_chain
 from ..files.declared import SeparationGuard, UndeclaredSeparation, needs_guard
-from ..files.spec import Study, is_linear_scene
+from ..files.study_types import Study, is_linear_scene
 
 
 def default_solver(study: Study | None = None):
@@ -108,12 +110,14 @@ class Progress:
         self.unit, self.to_rad_s = unit, (2.0 * np.pi if unit == "Hz" else 1.0)
         self._redirect = None
         try:
+            # deferred: tqdm, only for a progress bar (and optional)
             from tqdm.auto import tqdm
             self.bar = tqdm(total=total, initial=initial, desc=desc, unit="case",
                             disable=None, file=sys.stderr)
         except ImportError:
             self.bar = None
         if self.live:
+            # deferred: tqdm, only for a live bar
             from tqdm.contrib.logging import logging_redirect_tqdm
             self._redirect = logging_redirect_tqdm()
             self._redirect.__enter__()
@@ -220,9 +224,6 @@ def end_with_parent():
     """A pool worker's initializer: on Linux the worker is sent SIGTERM when the run's
     process ends (prctl PR_SET_PDEATHSIG), so that no worker outlives an interrupted
     run holding its output pipes; elsewhere nothing."""
-    import ctypes
-    import signal
-
     try:
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)   # 1: PR_SET_PDEATHSIG
     except (OSError, AttributeError, TypeError):
@@ -240,6 +241,7 @@ def map_jobs(fn, todo, job, done, workers=1, scheduler=None, serial=None):
     (serial(k) instead, if given); done(k, result) as each ends, in this process.  A
     Ctrl-C or a lost worker stops the running jobs at once (`WorkerLost`)."""
     if scheduler and todo:
+        # deferred: Dask is optional (pip install -e ".[dask]")
         from dask.distributed import Client, as_completed
 
         try:
@@ -253,6 +255,7 @@ def map_jobs(fn, todo, job, done, workers=1, scheduler=None, serial=None):
             for fut in as_completed(futs):
                 done(index[fut.key], fut.result())
     elif workers > 1 and len(todo) > 1:
+        # here: its as_completed, not Dask's above
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
         pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)),

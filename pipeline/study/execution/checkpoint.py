@@ -30,7 +30,8 @@ import numpy as np
 
 from ... import __version__
 from ...errors import interrupt_deferred
-from ..files.spec import content_bytes
+from ...solve.response.response import ResponseCurve
+from ..files.study_types import content_bytes
 
 log = logging.getLogger(__name__)
 
@@ -44,7 +45,6 @@ class NotACheckpoint(ValueError):
 
 
 def _curve_type():
-    from ...solve.response.response import ResponseCurve
     return ResponseCurve
 
 
@@ -64,6 +64,7 @@ def _jsonable(value):
 def to_dataset(curve, case: dict):
     """An xarray.Dataset holding `curve` (any dataclass of arrays, scalars, strings
     and JSON-able dicts) and the grid case it belongs to."""
+    # deferred: xarray (slow import), only when a case is kept
     import xarray as xr
 
     data_vars, scalars, attrs = {}, {}, {}
@@ -154,6 +155,7 @@ def write(path, curve, case: dict) -> Path:
 def read(path, cls=None):
     """(case dict, curve) of a checkpoint file; NotACheckpoint for anything else
     (the file is only parsed as netCDF data, never executed)."""
+    # deferred: xarray (slow import), only when kept cases are read
     import xarray as xr
 
     try:

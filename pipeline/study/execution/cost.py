@@ -52,6 +52,15 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from ...model.static_load import static_contact
+from ...model.system import lowest_frequencies
+from ...solve.continuation.newton import linear_solve
+from ...solve.harmonic_balance import hbm
+from ...solve.response.response import initial_guess
+from ...structure.mesh_size import mesh_size
 
 # t_point = c t_R + k t_S + s0 + s1 n + s_stab  [s] (module docstring):
 PAIRS_PER_POINT = (2.0, 5.0)          # c: residual evaluations per point (measured 1.9-6.5)
@@ -145,12 +154,12 @@ def time_point(study, repeats: int = 5) -> PointTiming:
     setup = time.perf_counter() - t0
     st, t_red, t_static = study.scene.structure, 0.0, 0.0
     if getattr(st, "params", None) is not None:   # FE: as first built
-        from ...model.scene import case_speed, reduced_model, timed_blade_model
+        # deferred: FE blades only (scikit-fem, meshio)
+        from ...model.blade_cache import case_speed, reduced_model, timed_blade_model
         t_red = reduced_model(st, study.scene.reduction, case_speed(st, case))[1]
         setup += timed_blade_model(st)[1] + t_red
     if "interference" in study.sweep.axes or any(
             getattr(c, "interference", None) is not None for c in study.scene.contacts):
-        from ...model.static_load import static_contact
         t1 = time.perf_counter()
         static_contact(system)
         t_static = time.perf_counter() - t1
@@ -165,13 +174,6 @@ def time_system_point(system, H: int, method: str, samples: int, omega: float,
     """(t_R, t_S [s], unknowns, sparse) of one continuation point of `system` at H
     harmonics, forces by `method` ("exact" / "aft" with `samples`), at `omega`
     [rad/s] from the linear response there (medians of `repeats`)."""
-    import scipy.linalg as sla
-    import scipy.sparse as sp
-
-    from ...solve.harmonic_balance import hbm
-    from ...solve.continuation.newton import linear_solve
-    from ...solve.response.response import initial_guess
-
     prob = hbm.setup(system, H, method, samples)
     x = initial_guess(prob, omega, system.contact)
     hbm.residual(prob, x, omega, system.contact)          # compiled / warmed once, not timed
@@ -212,8 +214,6 @@ def slowdown(repeats: int = 5) -> float:
 
 def _bordered(J, dR):
     """[[J, dR/dOm], [t^T]]: the continuation's Newton matrix, t a unit row."""
-    import scipy.sparse as sp
-
     n = J.shape[0]
     row = np.zeros(n + 1)
     row[-1] = 1.0
@@ -229,8 +229,6 @@ def _bordered(J, dR):
 def modes_in_range(system, fr) -> int:
     """m: natural frequencies of `system`, contacts open and stuck (counted apart), in
     the frequency range `fr` (the lowest 200 of each), traced up or down."""
-    from ...model.system import lowest_frequencies
-
     w = np.concatenate([lowest_frequencies(system, c, 200) for c in ("open", "stuck")])
     lo, hi = sorted((fr.omega_start, fr.omega_stop))
     return int(np.sum((w >= lo) & (w <= hi)))
@@ -331,7 +329,6 @@ def model_line(study) -> str:
     if structure.mesh:
         return (f"model: solid blade from {structure.mesh}, Craig-Bampton {modes} modes + the "
                 f"boundary DOFs{whole}")
-    from ...structure.mesh_size import mesh_size
 
     s = mesh_size(params, structure.disk)
     return (f"model: {params.kind} blade, {s.elements:,} elements, {s.free_dofs:,} DOFs (from "

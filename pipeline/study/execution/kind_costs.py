@@ -39,8 +39,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cost import (CALIBRATION_SLOWDOWN, OVERHEAD, modes_in_range, points_per_case,
-                   slowdown, time_system_point, work_per_point)
+from ...model.cyclic import sector_system
+from ...model.static_load import static_contact
+from ...model.system import natural_frequencies
+from ...structure.mesh_size import mesh_size
+from ..accuracy.measure import case_systems
+from ..figures.nd_figure import excited_nodal_diameter
+from ..modes.campbell import STATIC, frequencies_at, speed_sector, states
+from .cost import (CALIBRATION_SLOWDOWN, OVERHEAD, modes_in_range, points_per_case, seconds,
+                   slowdown, time_range, time_system_point, work_per_point)
 
 MODES_RATE = 3.3e-6        # [s per N^1.57] the full eigen-solve of a blade's FE model
 MODES_EXPONENT = 1.57
@@ -72,8 +79,6 @@ def _spread(mid: float, detail: str) -> RangeEstimate:
 
 def modes_estimate(study) -> RangeEstimate:
     """A blade modes study (module docstring)."""
-    from ...structure.mesh_size import mesh_size
-
     sc = study.scene
     n = mesh_size(sc.structure.params, sc.structure.disk).free_dofs
     f = slowdown()
@@ -87,9 +92,8 @@ def disk_modes_estimate(study) -> RangeEstimate:
     with speeds, `campbell_estimate`."""
     if getattr(study, "speeds", ()):
         return campbell_estimate(study)
-    from ...model.cyclic import sector_system
-    from ...model.system import natural_frequencies
-    from ...model.scene import sector
+    # deferred: `check` of a lumped study builds no sector
+    from ...model.build import sector
 
     sc = study.scene
     t0 = time.perf_counter()
@@ -98,7 +102,8 @@ def disk_modes_estimate(study) -> RangeEstimate:
     t1 = time.perf_counter()
     build = t1 - t0
     if getattr(sc.structure, "params", None) is not None:   # FE: as first built
-        from ...model.scene import reduced_model, timed_blade_model
+        # deferred: FE blades only (scikit-fem, meshio)
+        from ...model.blade_cache import reduced_model, timed_blade_model
         build += (timed_blade_model(sc.structure)[1]
                   + reduced_model(sc.structure, sc.reduction)[1])
     natural_frequencies(sector_system(sec, study.nodal_diameters[0]), "open")
@@ -111,16 +116,12 @@ def disk_modes_estimate(study) -> RangeEstimate:
 
 def campbell_estimate(study) -> RangeEstimate:
     """A Campbell diagram (module docstring): its parts timed now, `campbell_cost`."""
-    from ...model.cyclic import sector_system
-    from ...model.static_load import static_contact
-    from ..figures.nd_figure import excited_nodal_diameter
-    from ..modes.campbell import STATIC, frequencies_at, speed_sector, states
-
     sc, speeds = study.scene, study.speeds
     N, nf = sc.assembly.sectors, study.n_frequencies
     t_blade = 0.0
     if getattr(sc.structure, "params", None) is not None:   # FE: as first built
-        from ...model.scene import timed_blade_model
+        # deferred: FE blades only (scikit-fem, meshio)
+        from ...model.blade_cache import timed_blade_model
         t_blade = timed_blade_model(sc.structure)[1]
     ends = (speeds[0], speeds[-1])
     secs = [speed_sector(sc, ends[0])]   # the blade built (t_blade), then reduced
@@ -173,8 +174,6 @@ def campbell_cost(t_blade: float, t_red: float, t_eig: float, t_static: float, s
 
 def accuracy_estimate(study) -> RangeEstimate:
     """An accuracy-cost study (module docstring): every distinct run timed now."""
-    from ..accuracy.measure import case_systems
-
     f = slowdown() / CALIBRATION_SLOWDOWN
     lo = hi = 0.0
     runs = 0
@@ -200,7 +199,5 @@ def accuracy_estimate(study) -> RangeEstimate:
 
 def estimate_lines(e: RangeEstimate) -> list:
     """The cost line `check` prints for a modes, disk-modes or accuracy-cost study."""
-    from .cost import seconds, time_range
-
     return [f"estimated cost: {time_range(e.lo, e.hi)} (middle {seconds(e.mid)}): {e.detail}; "
             "calibrated on the shipped studies (bench estimate)"]

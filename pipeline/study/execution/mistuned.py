@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ...model.scene import build_system
+from ...model.build import build_system
 from .cases import default_solver, run_case
 
 log = logging.getLogger("pipeline.study.execution.mistuned")

@@ -18,9 +18,10 @@ from ...solve.response.peak_tracking import band_peak, optimum_preload
 from ...model.static_load import contact_owner, face_totals, static_state
 from ...model.system import negative_stiffness
 from ...errors import interrupt_in_chain
+from ..files.declared import UndeclaredSeparation
 from .cases import StaticDivergence, divergence, map_jobs, separation_guard
 from .search_checkpoint import load_search, save_search
-from ..files.spec import OPTIMUM_UNITS, Study, optimum_variable
+from ..files.study_types import OPTIMUM_UNITS, Study, optimum_variable
 
 log = logging.getLogger("pipeline.study.execution.run")
 
@@ -33,8 +34,6 @@ def study_optimum(study: Study, solver, curves, cdir=None, workers=1, scheduler=
     reused when they are HBM curves; a search stopped by an undeclared separation, or by
     an evaluation that raises, is an error (the dataset of the cases is written without
     it), logged."""
-    from ..files.declared import UndeclaredSeparation
-
     if study.output.optimum is None:
         return None, None
     hbm = getattr(solver, "__module__", "") == "pipeline.solve.response.response"

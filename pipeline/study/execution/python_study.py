@@ -19,7 +19,7 @@ import numpy as np
 from ...contact.registry import study_laws
 from ...model.scene import Lumped
 from ..files.rules import check_optimum_axes, check_scene_rules, contact_rules
-from ..files.spec import EFFECTS, INTEGER_SWEEP_AXES, SWEEP_AXES, solver_rule_violations
+from ..files.study_types import EFFECTS, INTEGER_SWEEP_AXES, SWEEP_AXES, solver_rule_violations
 from ..files.validation import Checker
 from ..scenes import blade_wheel_scene as blade_disk
 from ..scenes import lumped_disk_scene as disk_scene

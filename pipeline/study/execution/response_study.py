@@ -1,5 +1,5 @@
 """Response studies (`[study] kind = "response"`, the default): a lumped or disk scene
-(`scene`) or an FE blade scene (`blade_scene`), swept over a grid of cases, each one
+(`lumped_scene`) or an FE blade scene (`blade_scene`), swept over a grid of cases, each one
 frequency continuation `pipeline.solve.response.response.frequency_response(system, H,
 omega_start, omega_stop, **solver.kwargs())`, or one direct solve per frequency for
 a linear scene (`pipeline.solve.response.linear_response`).  Its registry entry `KIND`:
@@ -9,19 +9,22 @@ read, described for `check` with the cost estimate of `cost`, and run
 from __future__ import annotations
 
 import logging
+import shutil
 import time
 from pathlib import Path
 
+from ... import __version__
 from ..scenes import blade_scene
-from ..scenes import lumped_scene as scene
+from ..scenes import lumped_scene
 from .cases import default_solver, execute_cases
 from .checkpoint import checkpoint_dir, remove_stale
+from .cost import estimate as cost_estimate, further_reductions, model_line, seconds, time_range
 from .mistuned import tuned_references
 from .python_study import check_python_study
 from .optimum_search import grid_job, optimum_figure_of, planned_grid, study_optimum, variable_of
 from ..figures.peak_shapes import write_peak_shapes
 from ..figures.response_figures import sector_output_dofs, write_figures
-from ..files.spec import SWEEP_AXES, Study, StudyKind, StudyResult, always, is_linear_scene
+from ..files.study_types import SWEEP_AXES, Study, StudyKind, StudyResult, always, is_linear_scene
 
 log = logging.getLogger("pipeline.study.execution.run")
 
@@ -30,7 +33,7 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
           quick: bool = False) -> Study:
     """A response study document: an FE blade scene or a lumped or disk scene."""
     read = (blade_scene.response_from_mapping if blade_scene.is_blade_document(data)
-            else scene.study_from_mapping)
+            else lumped_scene.study_from_mapping)
     return read(data, file=file, name=name, text=text, quick=quick)
 
 
@@ -81,7 +84,6 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
     """The model and cost lines (`pipeline.study.execution.cost`: what they assume)."""
     if linear:
         return [f"estimated cost: {n_cases} direct solve sweep(s), well under 1 s each"]
-    from .cost import estimate as cost_estimate, model_line, seconds, time_range
 
     lines = [model_line(study)]
     e = cost_estimate(study, workers)
@@ -116,8 +118,6 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
 def model_words(study, tm) -> str:
     """What `cost.model_work` adds, in words: the further reductions and the static
     contact solutions (empty without either)."""
-    from .cost import further_reductions
-
     r = further_reductions(study)
     return ((f", + {r} further reduction(s) (speeds, the dataset's at rest), "
              f"{tm.reduction:.2g} s each" if r and tm.reduction else "")
@@ -127,8 +127,6 @@ def model_words(study, tm) -> str:
 
 def estimate(study: Study, workers: int = 1):
     """`cost.estimate` of a response study (what `check` prints)."""
-    from .cost import estimate as cost_estimate
-
     return cost_estimate(study, workers)
 
 
@@ -139,11 +137,10 @@ def n_cases(study: Study) -> int:
 def keep_older_dataset(target: Path):
     """A dataset at `target` written by another pipeline version (or not readable as
     ours) is renamed, never overwritten: `<name>.v<version>.nc` / `<name>.unreadable.nc`."""
-    from ... import __version__
-
     if not target.exists():
         return None
     try:
+        # deferred: xarray (slow import), only when a study runs
         import xarray as xr
         with xr.open_dataset(target, engine="netcdf4") as old:
             version = str(old.attrs.get("pipeline_version", "unknown"))
@@ -172,7 +169,9 @@ def run_response_study(study: Study, out_dir="results", *, workers: int = 1,
     With `checkpoints`, each finished case is kept in `checkpoint_dir` as soon as
     it ends; a rerun after an interruption computes only the missing cases, and
     the directory is removed once the dataset is written."""
-    from ..datasets.dataset import to_dataset, write_netcdf
+    # deferred: xarray (slow import), only when a study runs
+    from ..datasets.response_dataset import to_dataset
+    from ..datasets.dataset import write_netcdf
 
     check_python_study(study)   # a study built in Python meets its file's rules
     t0 = time.perf_counter()
@@ -208,7 +207,6 @@ def run_response_study(study: Study, out_dir="results", *, workers: int = 1,
     if int(ds["converged"].sum()) == 0:
         log.error("%s: no converged point in any case; nothing written", study.name)
         if cdir is not None:  # nothing worth resuming
-            import shutil
             shutil.rmtree(cdir, ignore_errors=True)
             if fresh_out and out_dir.is_dir() and not any(out_dir.iterdir()):
                 out_dir.rmdir()
@@ -219,7 +217,6 @@ def run_response_study(study: Study, out_dir="results", *, workers: int = 1,
     res.path = write_netcdf(ds, target)
     log.info("wrote %s", res.path)
     if cdir is not None and failures == 0:
-        import shutil
         shutil.rmtree(cdir, ignore_errors=True)
     elif cdir is not None:
         log.info("%s: %d case(s) failed; the finished ones stay in %s, a rerun retries "

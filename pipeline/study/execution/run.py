@@ -20,8 +20,13 @@ its registry entry (`kinds`).
 """
 from __future__ import annotations
 
+import argparse
 import logging
+import os
+import signal
 import sys
+import tempfile
+import threading
 from dataclasses import replace
 from pathlib import Path
 
@@ -34,7 +39,7 @@ from ..datasets.free_direction import free_direction_notes
 from ..datasets.incomplete import (absent_effects, edge_peaks, hidden_peaks, incomplete_cases,
                                    window_edges)
 from ..kinds import kind_of
-from ..files.spec import SWEEP_AXES, StudyResult
+from ..files.study_types import SWEEP_AXES, StudyResult
 
 log = logging.getLogger("pipeline.study.execution.run")
 
@@ -84,9 +89,6 @@ def check_writable(file, out: Path, name: str | None = None, dataset: bool = Tru
     computing, so that a blocked path never costs a run nor leaves a dataset alone.
     Inside that folder a folder named like the files a run writes there (`WRITTEN`:
     figures, mode shapes, tables; they replace files and links) is refused too."""
-    import os
-    import tempfile
-
     if out.exists() and not out.is_dir():
         raise UsageError(f"{file}: --out: {out} exists and is not a directory")
     try:
@@ -126,17 +128,12 @@ class sigint_interrupts:
     (signal handlers can only be set there)."""
 
     def __enter__(self):
-        import signal
-        import threading
-
         self._old = None
         if threading.current_thread() is threading.main_thread():
             self._old = signal.signal(signal.SIGINT, signal.default_int_handler)
         return self
 
     def __exit__(self, exc_type, exc, tb):
-        import signal
-
         if self._old is not None:
             signal.signal(signal.SIGINT, self._old)
         if isinstance(exc, SystemError) and interrupt_in_chain(exc):
@@ -191,7 +188,6 @@ def cmd_run(args) -> int:
         study = load_study(args.study, quick=getattr(args, "quick", False))
         workers = getattr(args, "workers", None)
         if workers is None:
-            import os
             workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
         if workers < 1:
             raise UsageError(f"{args.study}: --workers: must be >= 1, got {workers}")
@@ -245,8 +241,6 @@ def cmd_run(args) -> int:
 
 def main(argv=None) -> int:
     """`python -m pipeline.study.execution.run STUDY.toml ...` (same as `python -m pipeline run`)."""
-    import argparse
-
     p = argparse.ArgumentParser(prog="python -m pipeline.study.execution.run", description=__doc__.splitlines()[0])
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     configure_run_parser(p)

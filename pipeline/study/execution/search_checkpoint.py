@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import interrupt_deferred
-from ..files.spec import OPTIMUM_UNITS
+from ..files.study_types import OPTIMUM_UNITS
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +45,7 @@ def save_search(cdir, identity: dict, evaluations: dict, states=None) -> bool:
     """Write {n0: (peak, omega)} and the peak states {n0: Q (n_dof, 2H+1) or None}
     atomically (temporary file, then os.replace); False (logged) if it cannot be
     written: the search goes on, a rerun recomputes."""
+    # deferred: xarray (slow import), only when a search is kept
     import xarray as xr
 
     keys = sorted(evaluations)
@@ -84,6 +85,7 @@ def load_search(cdir, identity: dict, with_states: bool = False):
     """{n0: (peak, omega)} kept by an interrupted search with the same `identity`;
     {} when there is none or the file is not one (then it is ignored, and logged).
     with_states: (that dict, {n0: Q} of the peak states kept)."""
+    # deferred: xarray (slow import), only when a kept search is read
     import xarray as xr
 
     empty = ({}, {}) if with_states else {}

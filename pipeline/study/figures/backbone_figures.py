@@ -1,4 +1,4 @@
-"""Figures of a nonlinear modes dataset (`modes.nonlinear_modes_dataset`).
+"""Figures of a nonlinear modes dataset (`datasets.nonlinear_modes_dataset`).
 
 `backbones.png`: the frequency [Hz] (top) and the modal damping ratio (bottom) of
 every case's nonlinear mode against its modal amplitude on a log axis; colour = nodal

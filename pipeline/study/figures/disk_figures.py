@@ -37,7 +37,7 @@ import numpy as np
 
 from ..execution.mistuned import SEED_AXIS, TunedCurve, tuned_reference
 from . import plots
-from ..files.spec import SWEEP_AXES
+from ..files.study_types import SWEEP_AXES
 
 log = logging.getLogger("pipeline.study.figures.disk_figures")
 AT = "@"
@@ -64,6 +64,7 @@ def by_sector(da) -> dict:
     """{sector DOF name: `da` of that DOF with a `sector` dimension (coordinate: the
     sector numbers)}, from either layout: a `sector` dimension, or `<dof>@<sector>`
     labels along `dof` (then `sector` takes the place of `dof`)."""
+    # deferred: xarray (slow import), only when figures are drawn
     import xarray as xr
 
     if "sector" in da.dims:

@@ -102,6 +102,7 @@ def draw_static(ax, x, load):
 def thin_ticks(fig, axis):
     """Keep every second, third, ... labelled major tick of `axis` until no two tick
     labels overlap on the drawn canvas (many decades on a narrow axis)."""
+    # deferred: matplotlib, only when the figure is drawn
     from matplotlib.ticker import FixedLocator
 
     ticks = np.asarray(axis.get_majorticklocs())

@@ -22,7 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from ...model.contacts import FaceContact, ShroudPair
-from ...model.scene import Lumped, blade_model, case_speed, reduced_model
+from ...model.scene import Lumped
+from ...model.blade_cache import blade_model, case_speed, reduced_model
+from ...structure.fe_model import point_displacements
+from ...structure.reduction import reconstruct
 
 FIELDS = {"stick_fraction": "stick_fraction", "slip_fraction": "slip_fraction",
           "separation_fraction": "separation_fraction",
@@ -51,9 +54,8 @@ def case_label(case: dict) -> str:
 
 def write_peak_shapes(study, ds, curves, out_dir) -> list:
     """One VTU per case with a converged peak (module doc); [] for other scenes."""
+    # deferred: meshio (slow import), only when mode shapes are written
     from ...structure.mesh_io import write_mesh
-    from ...structure.fe_model import point_displacements
-    from ...structure.reduction import reconstruct
 
     scene = study.scene
     if (isinstance(scene.structure, Lumped) or scene.mistuning is not None

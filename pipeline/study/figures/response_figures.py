@@ -14,7 +14,7 @@ from .contact_figures import draw_face_loops, draw_plane_orbits
 from .disk_figures import is_sector_resolved, write_sector_figures
 from .plots import (atomic_savefig, pyplot, response_curves_figure, stability_for_plot,
                     wrapped_title)
-from ..files.spec import Study
+from ..files.study_types import Study
 
 
 def sector_output_dofs(study: Study) -> list:
@@ -30,7 +30,7 @@ def write_figures(study: Study, ds, fig_dir, tuned=None) -> list:
     """Amplitude-frequency figures (one per response DOF and per combination of
     the non-curve sweep axes); one curve per value of `preload` (or the first axis).
     A mistuned disk gets its own figures (`disk_figures.write_sector_figures`)."""
-    from ..datasets.dataset import dof_selection   # deferred: xarray, only when figures are drawn
+    from ..datasets.response_dataset import dof_selection   # deferred: xarray, only when figures are drawn
 
     if "amplitude" not in study.output.figures:
         return hysteresis_figures(study, ds, fig_dir)

@@ -15,9 +15,13 @@ from __future__ import annotations
 
 import os
 import sys
+import tomllib
 from pathlib import Path
 
 from ...errors import UsageError
+from ..datasets.conformance import problems
+from ..kinds import kind_of
+from .documents import load_study
 
 
 def check(path, quick: bool = False, workers: int | None = None, out=None) -> int:
@@ -26,7 +30,6 @@ def check(path, quick: bool = False, workers: int | None = None, out=None) -> in
     path = Path(path)
     if path.suffix == ".nc":
         return check_dataset(path, out)
-    from .documents import load_study
 
     try:
         study = load_study(path, quick=quick)
@@ -47,7 +50,6 @@ def check_dataset(path: Path, out) -> int:
     if not path.is_file():
         print(f"error: {path}: (file): no such file", file=sys.stderr)
         return 2
-    from ..datasets.conformance import problems  # deferred: xarray (slow import)
 
     found = list(problems(path))  # each line names the file
     for p in found:
@@ -60,7 +62,6 @@ def check_dataset(path: Path, out) -> int:
 
 
 def _has_quick(text: str) -> bool:
-    import tomllib
     try:
         return "quick" in tomllib.loads(text)
     except Exception:
@@ -70,8 +71,6 @@ def _has_quick(text: str) -> bool:
 def describe(study, workers: int = 1, has_quick: bool = False) -> list:
     """The lines `check` prints for a valid study: what it is, then what its kind says
     of it (`kinds`), the cost estimate included."""
-    from ..kinds import kind_of
-
     variant = ("quick variant" if has_quick else "quick variant: no [quick] table, the "
                "full study") if study.quick else (
         "full variant; [quick] not checked (check --quick does)" if has_quick else "full variant")

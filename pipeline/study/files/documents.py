@@ -13,7 +13,7 @@ import numpy as np
 from ...errors import UsageError
 from .validation import Checker
 from ..kinds import kind_of_document
-from .spec import Study, content_bytes
+from .study_types import Study, content_bytes
 
 
 # files mistaken for a study: their first bytes, what they are

@@ -15,6 +15,7 @@ take the keys of another one (`[quick.solver]` those of `[solver]`, ...).
 """
 from __future__ import annotations
 
+import re
 from dataclasses import fields
 
 from ...contact.registry import study_laws
@@ -22,7 +23,7 @@ from ...structure.fe_model import BladeParams
 from ...structure.reduction import DEFAULT_MODES
 from ..accuracy.spec import Settings
 from ...solve.response.optimum import LINEAR_NODES
-from .spec import EFFECTS, FIGURES, SWEEP_AXES, SolverSettings
+from .study_types import EFFECTS, FIGURES, SWEEP_AXES, SolverSettings
 
 FILE = ""                    # the top level of a study file
 CASE = "<case>"              # an accuracy-cost case: [lumped] or [blade]
@@ -62,7 +63,7 @@ def _fmt(v) -> str:
 
 
 def _settings_rows() -> list:
-    """[<case>.reference]: the accuracy settings, defaults from `accuracy_spec.Settings`
+    """[<case>.reference]: the accuracy settings, defaults from `accuracy.spec.Settings`
     (a blade's mode count and mesh from the reduction's and the blade's)."""
     d = {f.name: f.default for f in fields(Settings)}
     p = BladeParams()
@@ -390,8 +391,6 @@ def keys_by_table() -> dict:
 def canonical(path: str) -> str:
     """The table whose keys the table at dotted `path` takes (list indices dropped,
     `ALIASES` applied)."""
-    import re
-
     path = re.sub(r"\[\d+\]", "", path)
     for _ in range(8):
         hit = max((a for a in ALIASES if path == a or path.startswith(a + ".")),

@@ -1,7 +1,7 @@
 """Cross-field rules every scene kind shares: the declared physical effects match the
 scene's data (friction, normal-load variation, separation, cyclic coupling,
 mistuning), the harmonics cover the excitation, swept contact parameters have
-contacts to act on.  Failures go through a `checker.Checker`.
+contacts to act on.  Failures go through a `validation.Checker`.
 
 The contacts are read from the scene under every law alike (`contact_rules`): the
 scene's own contacts (`[[scene.contact]]`: lumped rows, FE faces and shroud pairs,

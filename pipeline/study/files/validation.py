@@ -12,7 +12,7 @@ import re
 import numpy as np
 
 from ...errors import UsageError
-from .spec import NAME_PATTERN
+from .study_types import NAME_PATTERN
 
 
 class Checker:

@@ -32,7 +32,8 @@ from dataclasses import replace
 
 from ...model.cyclic import sector_system
 from ...model.static_load import static_contact
-from ...model.scene import Scene, sector
+from ...model.scene import Scene
+from ...model.build import sector
 from ...model.system import natural_frequencies
 from ...errors import interrupt_in_chain
 from ..figures.nd_figure import excited_nodal_diameter

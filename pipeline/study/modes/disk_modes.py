@@ -33,8 +33,10 @@ from pathlib import Path
 import numpy as np
 
 from ...model.cyclic import sector_system
-from ...model.scene import Scene, sector
+from ...model.scene import Scene
+from ...model.build import sector
 from ...model.system import natural_frequencies
+from ..figures.nd_figure import nodal_diameter_figure
 from ..files.rules import check_speed_rules
 from ..scenes.blade_scene import BLADE_MODELS, base_dir_of, blade_scenes
 from ..scenes.blade_wheel_scene import can_turn
@@ -43,7 +45,7 @@ from ..files.validation import Checker
 from ..files.header import overlay, parse_header, quick_tables
 from ..scenes.lumped_scene import parse_scene
 from ..execution.kind_costs import disk_modes_estimate, estimate_lines
-from ..files.spec import StudyHeader, StudyKind, StudyResult, never
+from ..files.study_types import StudyHeader, StudyKind, StudyResult, never
 
 log = logging.getLogger(__name__)
 TOP = ("study", "scene", "modes", "quick")
@@ -140,9 +142,8 @@ def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: b
     """`out_dir/<name>.nc` and `out_dir/<name>/nodal_diameter_diagram.png`."""
     # deferred: xarray and matplotlib cost a second to import; validation needs neither
     from ..datasets.dataset import write_netcdf
-    from .modes_dataset import campbell_to_dataset, disk_modes_to_dataset
+    from ..datasets.modes_dataset import campbell_to_dataset, disk_modes_to_dataset
     from ..figures.campbell_figure import campbell_figure
-    from ..figures.nd_figure import nodal_diameter_figure
 
     t0 = time.perf_counter()
     sc = study.scene

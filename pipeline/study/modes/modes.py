@@ -12,12 +12,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ...model.scene import Scene, blade_model
+from ...model.scene import Scene
+from ...model.blade_cache import blade_model
 from ...structure.fe_model import boundary_dofs
+from ...structure.mesh_io import write_fields
 from ...structure.reduction import eigenmodes, reduce, reduced_modes
+from ..figures.plots import modal_convergence_figure
 from ..scenes.blade_scene import is_blade_document, modes_from_mapping
 from ..execution.kind_costs import estimate_lines, modes_estimate
-from ..files.spec import ModesStudy, StudyKind, StudyResult
+from ..files.study_types import ModesStudy, StudyKind, StudyResult
 
 log = logging.getLogger(__name__)
 
@@ -80,10 +83,8 @@ def run_modes_study(study: ModesStudy, out_dir="results", *, figures: bool = Tru
     """Run a modes study: `out_dir/<name>.nc`, then `out_dir/<name>/mode_shapes.vtu`
     and `out_dir/<name>/modal_convergence.png`."""
     # deferred: xarray, matplotlib and meshio are slow to import; reading a study needs none
-    from ...structure.mesh_io import write_fields
     from ..datasets.dataset import write_netcdf
-    from .modes_dataset import modes_to_dataset
-    from ..figures.plots import modal_convergence_figure
+    from ..datasets.modes_dataset import modes_to_dataset
 
     t0 = time.perf_counter()
     sc = study.scene

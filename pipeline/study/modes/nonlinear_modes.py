@@ -31,6 +31,7 @@ amplitude.
 from __future__ import annotations
 
 import logging
+import shutil
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,13 +40,16 @@ import numpy as np
 
 from ...solve.nonlinear_modes.backbone import continue_mode, damping_peak
 from ...solve.nonlinear_modes.epmc import mode_problem, onset_amplitude
+from ...solve.nonlinear_modes.epmc import linear_guess, residual
 from ...solve.nonlinear_modes.synthesis import refiner, synthesise
 from ...errors import interrupt_in_chain
 from ..execution import response_study
 from ..execution.cases import default_solver
+from ..execution.cases import map_jobs
+from ..execution.checkpoint import remove_stale
 from ..execution.kind_costs import RangeEstimate, estimate_lines
 from ..files.header import overlay
-from ..files.spec import StudyHeader, StudyKind, Study, StudyResult, always, never
+from ..files.study_types import StudyHeader, StudyKind, Study, StudyResult, always, never
 from ..files.validation import Checker
 from .disk_modes import is_disk_document
 
@@ -161,7 +165,7 @@ def parse(data: dict, *, file: str = "<study>", name: str = "study", text: str =
 
 def run_case(study: NonlinearModesStudy, case: dict) -> dict:
     """`case_result`, or for a case that raises {"case", "error"}: a failing case is
-    recorded as failed (`nonlinear_modes_dataset.case_status`), never the end of the
+    recorded as failed (`datasets.nonlinear_modes_dataset.case_status`), never the end of the
     others."""
     try:
         return case_result(study, case)
@@ -254,13 +258,10 @@ def run(study: NonlinearModesStudy, out_dir="results", *, figures: bool = True,
     finished case is kept at once (`nonlinear_modes_checkpoint`), a rerun computes only
     the missing ones, and the folder is removed once the dataset is written with no
     failed case."""
-    import shutil
-
+    # deferred: xarray and matplotlib (slow imports), only when the study runs
     from ..datasets.dataset import write_netcdf
-    from ..execution.cases import map_jobs
-    from ..execution.checkpoint import remove_stale
     from .nonlinear_modes_checkpoint import load_kept, modes_checkpoint_dir, save_kept
-    from .nonlinear_modes_dataset import case_status, modes_dataset
+    from ..datasets.nonlinear_modes_dataset import case_status, modes_dataset
     from ..figures.backbone_figures import write_backbone_figures
 
     t0 = time.perf_counter()
@@ -316,8 +317,6 @@ POINTS, ITERATIONS = 40, 4   # a backbone's points and Newton iterations a point
 def estimate(study: NonlinearModesStudy, workers: int = 1) -> RangeEstimate:
     """One EPMC Jacobian timed now on the first case's model, times the points and
     iterations of a typical backbone, per case; plus the response estimate (compare)."""
-    from ...solve.nonlinear_modes.epmc import linear_guess, residual
-
     cases = study.cases()
     sv = study.response.solver
     mp = mode_problem(study.response.system(cases[0][1]), sv.harmonics, study.mode,

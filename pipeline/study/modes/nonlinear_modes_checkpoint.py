@@ -23,8 +23,9 @@ import numpy as np
 
 from ... import __version__
 from ...solve.nonlinear_modes.backbone import Backbone
+from ...solve.response.response import ResponseCurve
 from ..execution.checkpoint import NotACheckpoint, case_file, read, same_case, write
-from ..files.spec import content_bytes
+from ..files.study_types import content_bytes
 
 log = logging.getLogger(__name__)
 
@@ -91,8 +92,6 @@ def load_kept(cdir: Path, cases) -> dict:
     """{case index: (KeptCase, compared ResponseCurve or None)} of the cases kept in
     `cdir`; a file that is not a complete case of this grid position is ignored (its
     case computed again)."""
-    from ...solve.response.response import ResponseCurve
-
     found = {}
     for k, case in enumerate(cases):
         f = case_file(cdir, k)

@@ -29,7 +29,7 @@ else "response"):
 - "response": frequency-response continuation per sweep case, the same command,
   dataset and figures as the lumped scenes (`scene.Study` with a `Scene`).
 
-Validation follows `scene.py`: every mistake is `UsageError("<file>: <field>: <what>")`.
+Validation follows `lumped_scene.py`: every mistake is `UsageError("<file>: <field>: <what>")`.
 """
 from __future__ import annotations
 
@@ -44,8 +44,10 @@ import numpy as np
 from ...errors import UsageError
 from ...model.contacts import FaceContact
 from ...model.loads import PointLoad, point_forcing
-from ...model.scene import Blade, CraigBampton, Scene, Single, blade_model
+from ...model.scene import Blade, CraigBampton, Scene, Single
+from ...model.blade_cache import blade_model
 from ...structure.fe_model import BladeParams, boundary_dofs
+from ...structure.mesh_io import read_mesh
 from ...structure.reduction import DEFAULT_MODES
 from . import blade_wheel_scene as blade_disk
 from . import lumped_disk_scene as disk_scene
@@ -54,9 +56,10 @@ from .matrix_scene import scene_matrices
 from ..files.validation import Checker
 from ..files.rules import check_optimum_axes, check_scene_rules, contact_rules
 from ..files.header import overlay, parse_header, quick_tables
-from .lumped_scene import (check_windows, output_common, parse_optimum, parse_solver, parse_sweep,
-                    quick_response_tables, solver_sweep_tables)
-from ..files.spec import EFFECTS, MAX_HARMONICS, NAME_PATTERN, ModesStudy, OutputSettings, Study, Sweep
+from ..files.sections import (check_windows, output_common, parse_optimum, parse_solver,
+                              parse_sweep, quick_response_tables, solver_sweep_tables)
+from ..files.study_types import (EFFECTS, MAX_HARMONICS, NAME_PATTERN, ModesStudy, OutputSettings,
+                                 Study, Sweep)
 
 log = logging.getLogger(__name__)
 
@@ -348,8 +351,6 @@ def _contacts_and_loads(ck, tab, loaded, params) -> tuple:
 
 
 def _mesh(ck, value, field_, base_dir, tab, contacts):
-    from ...structure.mesh_io import read_mesh  # deferred: meshio is slow to import
-
     s = ck.string(value, field_)
     path = Path(s) if Path(s).is_absolute() else base_dir / s
     if not path.is_file():

@@ -32,7 +32,7 @@ unmatched node.  Each case is solved on ONE sector by the cyclic reduction
 (`model.cyclic`), the neighbour's displacement turned by 2 pi / N into this
 sector's frame (`model.contacts.ShroudPair`).  A shroud pair is the effect
 "cyclic_coupling"; the engine-order rules are those of the lumped disk
-(`disk_scene.check_disk_rules`).
+(`lumped_disk_scene.check_disk_rules`).
 """
 from __future__ import annotations
 

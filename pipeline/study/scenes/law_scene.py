@@ -11,7 +11,7 @@ from __future__ import annotations
 from ...contact.laws import LawElements
 from ...contact.registry import study_laws
 from ...solve.stability.methods import require_mode
-from ..files.spec import NAME_PATTERN
+from ..files.study_types import NAME_PATTERN
 
 
 def law_tables(ck, tab, dofs, effects, disk, signed_row) -> tuple:
@@ -72,7 +72,7 @@ def supported(laws, stability) -> bool:
 
 def check_law_solvers(ck, laws, stability, field) -> None:
     """Fail at `field` when a solver the stability mode needs cannot evaluate one of
-    the scene's laws (`stability_modes.MODE_SOLVERS`; Hill's method serves every law)."""
+    the scene's laws (`stability.methods.MODE_SOLVERS`; Hill's method serves every law)."""
     try:
         require_mode(laws, stability)
     except ValueError as exc:

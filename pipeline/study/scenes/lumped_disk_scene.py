@@ -15,7 +15,7 @@ j phi).  EO is `[scene.disk] engine_order` or the sweep axis `eo`, an integer in
 0 <= EO <= N/2 (N - EO is the same wave travelling the other way; EO >= N repeats
 EO mod N).  Each case is solved on ONE sector by the cyclic reduction
 (`pipeline.model.cyclic.sector_system`, Petrov 2004): only the sector is built, never
-the N-sector assembly (`pipeline.model.scene.full_system` gives it, for checks).
+the N-sector assembly (`pipeline.model.build.full_system` gives it, for checks).
 
 Linear springs between neighbouring sectors (a flexible disk; effect
 "disk_coupling"): `[[scene.disk.spring]] elongation = ["next.xd", "-xd"], k = ...`
@@ -35,7 +35,7 @@ per sector on a `sector` dimension, with the sector's DOF names on `dof`.
 """
 from __future__ import annotations
 
-from ...model.scene import AT, NEXT, Mistuning, Scene
+from ...model.scene import AT, Mistuning, NEXT, Scene
 MAX_SECTORS = 10_000
 # the assembly of a mistuned disk is stored sparse (O(N)), but its condensed
 # harmonic-balance Jacobian (N nc (2H+1))^2, its natural frequencies and Hill's
@@ -45,7 +45,7 @@ MAX_STIFFNESS_STD = 0.5
 
 
 # ---------------------------------------------------------------------------
-# Validation (called by scene.py; every mistake is `<file>: <field>: <what>`)
+# Validation (called by lumped_scene.py; every mistake is `<file>: <field>: <what>`)
 # ---------------------------------------------------------------------------
 
 def check_dof_names(ck, dofs):
@@ -215,15 +215,6 @@ def output_dofs(ck, t, scene: Scene) -> tuple:
         if d in out[:i]:
             ck.fail("output.dofs", f"DOF {d!r} is reported twice")
     return tuple(out)
-
-
-def seed_range(ck, value, field) -> list:
-    """`mistuning_seed = { first = 1, count = 100 }`: the seeds first ... first + count - 1
-    (a Monte-Carlo sample)."""
-    ck.keys(value, field, ("first", "count"), required=("first", "count"))
-    first = ck.integer(value["first"], f"{field}.first", 0, 1 << 30)
-    count = ck.integer(value["count"], f"{field}.count", 1, 100_000)
-    return list(range(first, first + count))
 
 
 def parse_curves(ck, t, scene, windows) -> bool:

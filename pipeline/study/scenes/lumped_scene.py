@@ -13,10 +13,12 @@ shapes Phi as columns, modal masses m_r, frequencies w_r [rad/s], ratios z_r:
 
     M = Phi^-T diag(m) Phi^-1,  K = Phi^-T diag(m w^2) Phi^-1,  C = Phi^-T diag(2 z m w) Phi^-1
 
-Disk scene (`model = "disk"`, `disk_scene.py`): the same data for ONE sector of a
+Disk scene (`model = "disk"`, `lumped_disk_scene`): the same data for ONE sector of a
 tuned disk, `[scene.disk] sectors`, contact rows that may name the next sector's
 DOFs (`next.<dof>`), and an engine order (`engine_order` or the sweep axis `eo`);
-solved by the one-sector cyclic reduction (`cyclic.py`).
+solved by the one-sector cyclic reduction (`model.cyclic`).
+
+The [solver], [sweep] and shared [output] sections are read by `files.sections`.
 """
 from __future__ import annotations
 
@@ -31,17 +33,16 @@ from ...contact.registry import study_laws
 from ...model.contacts import DofContact
 from ...model.loads import Forcing
 from ...model.scene import Cyclic, Lumped, Scene, Single, Spring
-from ...solve.response.optimum import LINEAR_NODES
 from . import lumped_disk_scene as disk_scene
-from ..files.validation import Checker, join_field, kind_of
+from ..files.validation import Checker, join_field
 from ..files.header import parse_header, quick_tables
 from .law_scene import check_law_methods, check_law_solvers, law_tables, supported
 from ..files.rules import check_optimum_axes, check_scene_rules, contact_rules
+from ..files.sections import (check_windows, output_common, parse_optimum, parse_solver,
+                              parse_sweep, quick_response_tables, solver_sweep_tables)
 from .matrix_scene import exported_lumped, ordered, typed_matrices
-from ..files.spec import (DEFAULT_FIGURES, EFFECTS, FIGURES, FREQUENCY_UNITS, IMPLEMENTED_MODELS, INTEGER_SWEEP_AXES,
-                   MAX_DOFS, MAX_HARMONICS, MODELS, NAME_PATTERN, STABILITY_WHEN_TRUE, SWEEP_AXES,
-                   FrequencyRange, OutputSettings, SolverSettings, STABILITY_MODES, Study, Sweep,
-                   solver_rule_violations)
+from ..files.study_types import (EFFECTS, IMPLEMENTED_MODELS, MAX_DOFS, MAX_HARMONICS, MODELS,
+                                 NAME_PATTERN, OutputSettings, Study, Sweep)
 
 _SIGNED = re.compile(r"^\s*([+-]?)\s*([A-Za-z_][A-Za-z0-9_.]{0,63})\s*$")
 
@@ -98,114 +99,8 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
 
 
 # ---------------------------------------------------------------------------
-# Sections
+# The [scene] and [output] of a lumped or disk study
 # ---------------------------------------------------------------------------
-
-def solver_sweep_tables(ck, data):
-    """[solver] and [sweep] of any response study."""
-    solver_tab = ck.table(data.get("solver"), "solver", required=False)
-    sweep_tab = ck.table(data["sweep"], "sweep")
-    return solver_tab, sweep_tab
-
-
-def quick_response_tables(ck, quick: dict, sweep_tab):
-    """([quick.solver], [quick.sweep]) of a response study from its quick tables
-    (`header.quick_tables`, read only for `--quick`, after the main tables); quick
-    mode may only override axes that [sweep] has."""
-    q_sweep, q_solver = quick.get("sweep", {}), quick.get("solver", {})
-    for k in q_sweep:
-        if k not in sweep_tab:
-            ck.fail(join_field("quick.sweep", k), "quick mode may only override axes of [sweep] "
-                                             f"(which has: {', '.join(sweep_tab) or 'none'})")
-    return q_solver, q_sweep
-
-
-_SOLVER_KEYS = ("harmonics", "force_evaluation", "samples", "tolerance", "stability",
-                "initial_step", "max_step", "max_points", "dense_output")
-
-
-def parse_solver(ck, tab, path, base=None, model="lumped") -> SolverSettings:
-    """`SolverSettings` from the table `tab` at field `path` (keys not given keep the values
-    of `base`, or the defaults; `stability = true`: `spec.STABILITY_WHEN_TRUE[model]`)."""
-    ck.keys(tab, path, _SOLVER_KEYS)
-    kw = {}
-    if "harmonics" in tab:
-        kw["harmonics"] = ck.integer(tab["harmonics"], f"{path}.harmonics", 1, MAX_HARMONICS)
-    if "force_evaluation" in tab:
-        kw["force_evaluation"] = ck.string(tab["force_evaluation"], f"{path}.force_evaluation",
-                                           ("exact", "aft"))
-    if "samples" in tab:
-        kw["samples"] = ck.integer(tab["samples"], f"{path}.samples", 3, 1 << 16)
-    if "tolerance" in tab:
-        kw["tolerance"] = ck.number(tab["tolerance"], f"{path}.tolerance", gt=0.0, lt=1.0)
-    if "stability" in tab:
-        kw["stability"] = ck.switch(tab["stability"], f"{path}.stability", STABILITY_MODES,
-                                    STABILITY_WHEN_TRUE.get(str(model), "monodromy+check"))
-    if "dense_output" in tab:
-        kw["dense_output"] = ck.boolean(tab["dense_output"], f"{path}.dense_output")
-    for key in ("initial_step", "max_step"):
-        if key in tab:
-            kw[key] = ck.number(tab[key], f"{path}.{key}", gt=0.0, le=10.0)
-    if "max_points" in tab:
-        kw["max_points"] = ck.integer(tab["max_points"], f"{path}.max_points", 2, 1_000_000)
-    s = replace(base, **kw) if base is not None else SolverSettings(**kw)
-    # blame a key of this table that takes part in the broken rule
-    partner = {"initial_step": "max_step", "samples": "harmonics"}
-    for key, what in solver_rule_violations(s):
-        if key not in tab and partner[key] in tab:
-            key = partner[key]
-        ck.fail(f"{path}.{key}", what)
-    return s
-
-
-def parse_sweep(ck, tab, path, partial=False):
-    """(grid axes {name: values}, `FrequencyRange` or None) from the [sweep] table `tab`
-    at field `path`; `partial` (a quick override) may omit the frequency."""
-    axes, freq = {}, None
-    for key, value in tab.items():
-        field = join_field(path, key)
-        if key == "frequency":
-            if isinstance(value, list):
-                ck.fail(field, "a frequency grid (continuation in preload) is not supported yet; "
-                               "give the continuation interval {start, stop, unit}")
-            t = ck.table(value, field)
-            ck.keys(t, field, ("start", "stop", "unit"), required=("start", "stop"))
-            if "unit" not in t:  # no default: a range meant in Hz must not run in rad/s
-                ck.fail(f"{field}.unit", f"missing (required): one of {FREQUENCY_UNITS}")
-            unit = ck.string(t["unit"], f"{field}.unit", FREQUENCY_UNITS)
-            start = ck.number(t["start"], f"{field}.start", gt=0.0)
-            stop = ck.number(t["stop"], f"{field}.stop", gt=0.0)
-            if start == stop:
-                ck.fail(field, f"start and stop are equal ({start:g} {unit}): empty interval")
-            freq = FrequencyRange(start, stop, unit)
-        elif key in INTEGER_SWEEP_AXES:  # engine orders (range checked against the
-            # sectors) and mistuning seeds: integers >= 0
-            vals = (disk_scene.seed_range(ck, value, field) if key == "mistuning_seed"
-                    and isinstance(value, dict) else ck.array(value, field))
-            for i, v in enumerate(vals):
-                ck.integer(v, f"{field}[{i}]", 0, 1 << 30)
-                if v in vals[:i]:
-                    ck.fail(f"{field}[{i}]", f"duplicate value {v}")
-            axes[key] = tuple(int(v) for v in vals)
-        elif key in SWEEP_AXES:
-            if isinstance(value, dict):
-                ck.fail(field, f"continuation in {key} is not supported yet; give a list of values")
-            bounds = {"preload": {}, "normal_load": {"gt": 0.0}, "mu": {"ge": 0.0}, "ku": {"gt": 0.0}, "kv": {"ge": 0.0},
-                      "excitation_scale": {"gt": 0.0}, "speed": {"ge": 0.0},
-                      "interference": {}}[key]
-            vals = ck.numbers(value, field, **bounds)
-            for i, v in enumerate(vals):
-                if v in vals[:i]:
-                    ck.fail(f"{field}[{i}]", f"duplicate value {v:g}")
-            axes[key] = tuple(float(v) for v in vals)
-        else:
-            allowed = ("frequency",) + tuple(SWEEP_AXES)
-            ck.keys({key: value}, path, allowed)
-    if freq is None and not partial:
-        ck.fail(f"{path}.frequency", "missing (required): the continuation interval "
-                                     "{start, stop, unit}")
-    return axes, freq
-
 
 def parse_scene(ck, tab, loaded: bool = True) -> Scene:
     """The `Scene` of a lumped or disk [scene] table (a `Lumped` structure, single or
@@ -270,7 +165,6 @@ def parse_scene(ck, tab, loaded: bool = True) -> Scene:
     return Scene(structure=Lumped(M=M, C=C, K=K, dofs=dofs), contacts=contacts,
                  loads=(Forcing(forcing),), assembly=assembly, effects=effects, model=model,
                  laws=laws)
-
 
 
 def _modal(ck, t, n):
@@ -393,32 +287,6 @@ def _excitation(ck, raw, dofs) -> np.ndarray:
     return F
 
 
-def check_windows(ck, windows, freq):
-    """Every peak window must overlap the swept frequency range."""
-    f0, f1 = sorted((freq.start, freq.stop))
-    for lo, hi in windows:
-        if hi <= f0 or lo >= f1:
-            ck.fail("output.peak_windows", f"window [{lo:g}, {hi:g}] lies outside the frequency "
-                                           f"range [{f0:g}, {f1:g}] {freq.unit}")
-
-
-def output_common(ck, t):
-    """`[output]` keys shared by every scene: figures, yscale, peak_windows."""
-    figs = ck.names(t.get("figures", list(DEFAULT_FIGURES)), "output.figures", min_length=0)
-    for i, fg in enumerate(figs):
-        if fg not in FIGURES:
-            ck.fail(f"output.figures[{i}]", f"unknown figure {fg!r} (known: {', '.join(FIGURES)})")
-    yscale = ck.string(t.get("yscale", "linear"), "output.yscale", ("linear", "log"))
-    windows = []
-    for i, w in enumerate(ck.array(t.get("peak_windows", []), "output.peak_windows", min_length=0)):
-        lo, hi = ck.numbers(w, f"output.peak_windows[{i}]", 2, ge=0.0)
-        if not lo < hi:
-            ck.fail(f"output.peak_windows[{i}]", f"must be [low, high] with low < high, got "
-                                                 f"[{lo:g}, {hi:g}]")
-        windows.append((float(lo), float(hi)))
-    return tuple(figs), yscale, tuple(windows)
-
-
 def _output(ck, t, scene) -> OutputSettings:
     ck.keys(t, "output", ("dofs", "figures", "yscale", "peak_windows", "optimum_preload",
                           "curves"))
@@ -439,44 +307,9 @@ def _output(ck, t, scene) -> OutputSettings:
                           curves=disk_scene.parse_curves(ck, t, scene, windows))
 
 
-def parse_optimum(ck, t, scene, variable: str = "preload"):
-    """`[output] optimum_preload = { dof, bounds = [lo, hi] (N), frequency?, rtol? }`
-    (None when absent): the preload search of `peak_tracking.optimum_preload`;
-    variable="interference": `optimum_interference`, bounds [m] of either sign on a
-    linear grid of `nodes` (default LINEAR_NODES), rtol of the bounds' width."""
-    key = f"optimum_{variable}"
-    if key not in t:
-        return None
-    o, f, linear = t[key], f"output.{key}", variable == "interference"
-    if not isinstance(o, dict):
-        ck.fail(f, f"must be a table, got {kind_of(o)}")
-    ck.keys(o, f, ("dof", "bounds", "frequency", "rtol") + (("nodes",) if linear else ()))
-    if "dof" not in o or "bounds" not in o:
-        ck.fail(f, f"needs dof and bounds = [low, high] ({'m' if linear else 'N'})")
-    dof = ck.string(o["dof"], f + ".dof", tuple(scene.dofs))
-    lo, hi = ck.numbers(o["bounds"], f + ".bounds", 2, **({} if linear else {"gt": 0.0}))
-    if not lo < hi:
-        ck.fail(f + ".bounds", f"must be [low, high] with {'' if linear else '0 < '}low < high, "
-                               f"got [{lo:g}, {hi:g}]{' m' if linear else ''}")
-    window = None
-    if "frequency" in o:
-        w = o["frequency"]
-        if not isinstance(w, dict):
-            ck.fail(f + ".frequency", f"must be a table {{start, stop, unit}}, got {kind_of(w)}")
-        window = parse_sweep(ck, {"frequency": w}, f, partial=True)[1]
-    rtol = ck.number(o.get("rtol", 1e-2), f + ".rtol", gt=0.0, lt=1.0)
-    if not scene.contacts:
-        ck.fail(f, "the scene has no contact: there is no preload to optimise")
-    out = {"dof": dof, "bounds": (float(lo), float(hi)), "window": window, "rtol": float(rtol)}
-    if linear:
-        out.update(variable=variable, nodes=ck.integer(o.get("nodes", LINEAR_NODES),
-                                                       f + ".nodes", 3, 200))
-    return out
-
-
 def _check_consistency(ck, scene, solver, axes, spath, wpath, data):
     """Cross-field rules of a lumped or disk scene (`check_scene_rules`,
-    `disk_scene.check_disk_rules`, `check_law_solvers`)."""
+    `lumped_disk_scene.check_disk_rules`, `check_law_solvers`)."""
     check_law_solvers(ck, scene.laws, solver.stability, f"{spath}.stability")
     check_law_methods(ck, scene.laws, solver.force_evaluation, f"{spath}.force_evaluation")
     disk = scene.model == "disk"

@@ -14,7 +14,7 @@ import scipy.sparse as sp
 
 from pipeline.contact import YangMenq
 from pipeline.model import cyclic
-from pipeline.model.scene import engine_order, full_system, sector, stiffness_factors
+from pipeline.model.build import engine_order, full_system, sector, stiffness_factors
 from pipeline.model.system import natural_frequencies
 from pipeline.solve.harmonic_balance import full_operators
 from pipeline.solve.harmonic_balance import hbm

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from pipeline.model import cyclic
-from pipeline.model.scene import full_system
+from pipeline.model.build import full_system
 from pipeline.solve.nonlinear_modes import epmc
 from pipeline.solve.nonlinear_modes.backbone import continue_mode, newton, point_at
 from pipeline.study.files.documents import load_study

@@ -15,7 +15,7 @@ from pipeline.model import cyclic
 from pipeline.model.system import System, natural_frequencies
 from pipeline.solve.nonlinear_modes import epmc
 from pipeline.solve.nonlinear_modes.backbone import continue_mode, point_at
-from pipeline.model.scene import sector
+from pipeline.model.build import sector
 from pipeline.study.files.documents import load_study
 from helpers import STUDIES
 
@@ -111,8 +111,8 @@ def test_jenkins_one_harmonic_frequency_and_damping_are_the_closed_form():
     zeta = c/(2 omega) + W(a)/(2 pi omega^2 a^2) at every point (1e-10), so omega ->
     sqrt(1.25) at small amplitude (1e-10) and -> 1 at large amplitude (1e-6), zeta ->
     c/(2 omega) at both ends; the friction energy per cycle of the slipping element
-    (the contact's own slider work, `contact.cycle`) is 4 mu n (a - mu n / kt)."""
-    from pipeline.contact.cycle import cycle_results
+    (the contact's own slider work, `contact.period_results`) is 4 mu n (a - mu n / kt)."""
+    from pipeline.contact.period_results import cycle_results
 
     kt, fc, c = 0.25, 0.2, 0.01
     mp = epmc.mode_problem(jenkins(c=c, ku=kt, fc=fc), 1)

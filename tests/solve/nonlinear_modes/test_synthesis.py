@@ -7,7 +7,7 @@ import pytest
 from pipeline.contact import YangMenq
 from pipeline.fourier.harmonics import amplitude_half_peak_to_peak
 from pipeline.model.system import System
-from pipeline.model.scene import build_system
+from pipeline.model.build import build_system
 from pipeline.solve.nonlinear_modes import epmc
 from pipeline.solve.nonlinear_modes.backbone import continue_mode, point_at, segment_of
 from pipeline.solve.nonlinear_modes.synthesis import frequencies, modal_quantities, refiner, \

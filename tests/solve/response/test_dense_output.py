@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from pipeline.paper_systems import example2
-from pipeline.solve.continuation.branch_refinement import PLOT_MIN_CHORD, PLOT_TURN
+from pipeline.solve.continuation.dense_output import PLOT_MIN_CHORD, PLOT_TURN
 from pipeline.solve.response.response import frequency_response
 from helpers import chain_system, stuck_chain_amplitude
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pipeline.solve.continuation.amplitudes import amplitudes_at
-from pipeline.solve.continuation.branch_refinement import insert_peaks
+from pipeline.solve.continuation.exact_peaks import insert_peaks
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.response.response import frequency_response
 from pipeline.study.files.documents import load_study

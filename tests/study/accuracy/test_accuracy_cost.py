@@ -15,7 +15,8 @@ from pipeline.study.accuracy.spec import AccuracyStudy
 from pipeline.study.datasets.conformance import problems
 from pipeline.errors import UsageError
 from pipeline.study.files.documents import load_study, parse_study
-from pipeline.model.scene import blade_contact_maps, blade_elements, blade_model
+from pipeline.model.build import blade_contact_maps, blade_elements
+from pipeline.model.blade_cache import blade_model
 
 ROOT = Path(__file__).resolve().parents[3]
 STUDY = ROOT / "studies" / "accuracy_cost.toml"
@@ -69,7 +70,7 @@ def test_quick_study_writes_a_conforming_dataset_table_and_figure(quick):
 def test_pareto_time_axis_is_labelled_over_its_range(quick):
     """The quick study's wall times span less than a decade: at least three labelled
     ticks inside each panel's time range."""
-    from pipeline.study.accuracy.pareto_figure import pareto_plot
+    from pipeline.study.figures.pareto_figure import pareto_plot
     from pipeline.study.figures.plots import pyplot
 
     _, ds = quick

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pipeline.model.static_load import static_normal_load
-from pipeline.study.datasets.dataset import to_dataset
+from pipeline.study.datasets.response_dataset import to_dataset
 from pipeline.study.files.documents import parse_study
 
 K1, K2, KV, KU, MU = 4.0e4, 6.0e4, 2.0e4, 3.0e4, 0.3
@@ -307,7 +307,7 @@ def test_requested_static_load_is_recovered_per_face_on_fe_scenes(name):
 # ---------------------------------------------------------------------------
 
 from pipeline.contact import YangMenq                           # noqa: E402
-from pipeline.contact.cycle import cycle_results                 # noqa: E402
+from pipeline.contact.period_results import cycle_results                 # noqa: E402
 from pipeline.contact.exact import history                       # noqa: E402
 
 
@@ -523,7 +523,7 @@ def test_peak_shape_vtu_holds_the_peak_deflection_and_the_contact_results(tmp_pa
     from pipeline.solve.response.response import ResponseCurve
     from pipeline.study.files.documents import load_study
     from pipeline.study.figures.peak_shapes import element_points, write_peak_shapes
-    from pipeline.model.scene import blade_model
+    from pipeline.model.blade_cache import blade_model
 
     study = load_study(Path(__file__).resolve().parents[3] / "studies" /
                        "blade_shroud_contact.toml", quick=True)

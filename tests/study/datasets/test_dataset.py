@@ -10,13 +10,14 @@ import pytest
 import xarray as xr
 
 from pipeline.fourier import harmonics
-from pipeline.study.datasets.dataset import read_dataset, to_dataset, write_netcdf
+from pipeline.study.datasets.dataset import read_dataset, write_netcdf
+from pipeline.study.datasets.response_dataset import to_dataset
 from pipeline.study.datasets.conformance import UnreadableDataset, main as check_main, problems
 from pipeline.solve.response.response import ResponseCurve
 from pipeline.study.files.documents import load_study
 from pipeline.study.figures.response_figures import write_figures
 from pipeline.study.execution.run import run_study
-from pipeline.model.scene import stiffness_factors
+from pipeline.model.build import stiffness_factors
 
 ROOT = Path(__file__).resolve().parents[3]
 STUDIES = ROOT / "studies"

@@ -19,7 +19,8 @@ import scipy.sparse.linalg as spla
 import xarray as xr
 
 from pipeline.__main__ import main as cli
-from pipeline.model.scene import blade_forcing, blade_model
+from pipeline.model.build import blade_forcing
+from pipeline.model.blade_cache import blade_model
 from pipeline.study.files.documents import load_study
 
 R, N = 0.12, 36                # hub radius [m], sectors

@@ -127,7 +127,7 @@ def test_a_declared_effect_no_case_shows_is_named(tmp_path, capsys):
 
 
 def test_continuation_messages_are_in_the_studys_words():
-    from pipeline.study.datasets.incomplete import readable_message
+    from pipeline.study.datasets.response_dataset import readable_message
 
     two_pi = 2 * 3.141592653589793
     assert readable_message("max_points reached before lam_end", two_pi, "Hz") == (

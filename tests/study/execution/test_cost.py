@@ -57,7 +57,7 @@ def test_the_reductions_counted_are_the_ones_a_run_makes(speed_study, tmp_path, 
     speed study reduces its blade 4 times, at each of its 3 speeds and at rest (the
     dataset's reduced frequencies), which the estimate counts (the first in its
     setup)."""
-    from pipeline.model import scene as model_scene
+    from pipeline.model import blade_cache
     from pipeline.structure import reduction
     from pipeline.study.execution.run import run_study
 
@@ -65,7 +65,7 @@ def test_the_reductions_counted_are_the_ones_a_run_makes(speed_study, tmp_path, 
     real = reduction.reduce_blade
     monkeypatch.setattr(reduction, "reduce_blade",
                         lambda blade, *a, **k: made.append(1) or real(blade, *a, **k))
-    for cached in (model_scene.reduced_model, model_scene.blade_at_speed):
+    for cached in (blade_cache.reduced_model, blade_cache.blade_at_speed):
         cached.cache_clear()
     run_study(speed_study, tmp_path, workers=workers, progress=False, checkpoints=False)
     assert len(made) == 4

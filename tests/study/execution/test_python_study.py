@@ -127,14 +127,17 @@ def test_the_check_builds_no_model(monkeypatch):
     Python is checked without meshing, reducing or building a system."""
     from dataclasses import replace
 
+    import pipeline.model.build as build_mod
     import pipeline.model.scene as scene_mod
 
     def never(*a, **k):
         raise AssertionError("a model was built")
 
     study = load_study(ROOT / "studies" / "shrouded_disk_2d.toml", quick=True)
-    for name in ("reduced_model", "build_system", "scene_parts", "sector"):
-        monkeypatch.setattr(scene_mod, name, never)
+    for mod, name in ((scene_mod, "reduced_model"), (build_mod, "reduced_model"),
+                      (build_mod, "build_system"), (build_mod, "unassembled"),
+                      (build_mod, "sector")):
+        monkeypatch.setattr(mod, name, never)
     python_study.check_python_study(replace(study, text=""))
     gap = replace(study, text="", sweep=replace(study.sweep, axes={"preload": (-0.3, 3.0)}),
                   scene=replace(study.scene, effects=tuple(

@@ -687,7 +687,7 @@ def test_a_case_whose_model_cannot_be_built_fails_alone(tmp_path, monkeypatch, w
     """The system of the 3 N case cannot be built (a singular static solve): that case
     is recorded failed with its error, the dataset holds the other two exactly as a
     study of those two alone gives them."""
-    import pipeline.study.files.spec as spec
+    import pipeline.study.files.study_types as spec
 
     text = cases_only(TINY).replace("preload = [2.0, 5.0]", "preload = [2.0, 3.0, 5.0]")
     real = spec.case_system

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pipeline.fourier.harmonics import basis
-from pipeline.model.scene import build_system
+from pipeline.model.build import build_system
 from pipeline.model.system import contact_set
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.response.response import frequency_response

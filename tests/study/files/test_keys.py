@@ -162,7 +162,7 @@ def test_studies_readme_shows_the_generated_table(capsys):
 
 
 def test_units_and_solver_defaults_come_from_the_code():
-    from pipeline.study.files.spec import SWEEP_AXES, SolverSettings
+    from pipeline.study.files.study_types import SWEEP_AXES, SolverSettings
 
     rows = {(t, k): (u, d) for t, k, u, d, _ in keys.rows()}
     for axis, (unit, _) in SWEEP_AXES.items():
@@ -186,7 +186,7 @@ def test_the_walkthrough_study_in_studies_readme_is_valid():
     assert full.sweep.frequency.unit == "Hz"
     # "its modes are at 22.5 and 45.0 Hz with the damper open, 26.3 and 51.0 Hz with it stuck"
     import numpy as np
-    from pipeline.model.scene import build_system
+    from pipeline.model.build import build_system
     from pipeline.model.system import natural_frequencies
 
     stated = [float(x) for x in re.search(
@@ -205,7 +205,7 @@ def test_the_walkthrough_study_in_studies_readme_is_valid():
 def test_a_frequency_range_built_in_python_meets_the_study_files_rules(args, what):
     """A Python-built study's range is checked as a study file's is: an unknown unit
     would otherwise run in rad/s under another unit's label."""
-    from pipeline.study.files.spec import FrequencyRange
+    from pipeline.study.files.study_types import FrequencyRange
     with pytest.raises(ValueError, match=re.escape(what)):
         FrequencyRange(*args)
     assert FrequencyRange(150, 250.0, "Hz").omega_stop == pytest.approx(500 * np.pi)

@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from pipeline.errors import UsageError
-from pipeline.model.scene import build_system
+from pipeline.model.build import build_system
 from pipeline.study.files.documents import load_study, parse_study, study_from_document, study_to_mapping
 from pipeline.model.system import natural_frequencies
 

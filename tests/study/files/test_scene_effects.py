@@ -19,7 +19,7 @@ from pipeline.solve.response.response import frequency_response
 from pipeline.study.files.documents import parse_study
 from pipeline.study.execution.cases import default_solver
 from pipeline.study.execution.run import run_study
-from pipeline.model.scene import reduced_model
+from pipeline.model.blade_cache import reduced_model
 from pipeline.paper_systems import example1, example3
 
 ROOT = Path(__file__).resolve().parents[3]

@@ -14,7 +14,7 @@ import pytest
 import scipy.linalg as sla
 
 from pipeline.model.cyclic import sector_system
-from pipeline.model.scene import build_system, sector
+from pipeline.model.build import build_system, sector
 from pipeline.model.system import natural_frequencies
 from pipeline.study.files.documents import load_study
 
@@ -152,7 +152,7 @@ def test_shrouded_disk_campbell_comment():
 def test_shrouded_disk_speed_closing_speed():
     """'The first pair closes at 6,863 rpm (0.1 mm over v_c per Omega^2)'."""
     from pipeline.model.contacts import fe_contact_maps
-    from pipeline.model.scene import RPM, blade_model
+    from pipeline.model.blade_cache import RPM, blade_model
 
     st = load_study(STUDIES / "shrouded_disk_speed.toml")
     stated_rpm = float(re.search(r"first pair closes at ([\d,]+) rpm",
@@ -168,7 +168,7 @@ def test_shrouded_disk_2d_stuck_family_and_face_frame(shrouded_disk_nd3):
     """'the stuck ND 3 frequency rises to 345.4 Hz (322.4 Hz with the 1D pairs)', and
     the face frame the comment gives (normal, t1, t2 to 1e-3)."""
     from pipeline.model.contacts import pair_frame
-    from pipeline.model.scene import blade_model
+    from pipeline.model.blade_cache import blade_model
     f2, f1 = stated("shrouded_disk_2d.toml", r"rises to ([\d.]+) Hz \(([\d.]+) Hz with")
     st = load_study(STUDIES / "shrouded_disk_2d.toml")
     plane = sector_system(sector(st.scene, {"preload": 1.0}), st.scene.assembly.engine_order)
@@ -253,7 +253,8 @@ def stuck_flap_hz(scene, preload):
     """First natural frequency [Hz] of the unreduced blade with every contact stuck."""
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
-    from pipeline.model.scene import blade_contact_maps, blade_elements, blade_model
+    from pipeline.model.build import blade_contact_maps, blade_elements
+    from pipeline.model.blade_cache import blade_model
     blade = blade_model(scene.structure)
     Bt, Bn, _ = blade_contact_maps(scene)
     el = blade_elements(scene, {"preload": preload})

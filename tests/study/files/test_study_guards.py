@@ -88,7 +88,7 @@ def _curve(system, H, omega):
 
 
 def _dataset(study):
-    from pipeline.study.datasets.dataset import to_dataset
+    from pipeline.study.datasets.response_dataset import to_dataset
     fr = study.sweep.frequency
     om = np.linspace(fr.omega_start, fr.omega_stop, 20)
     return to_dataset(study, [_curve(study.system(case), study.solver.harmonics, om)
@@ -185,11 +185,11 @@ def test_quick_builds_only_the_quick_model(name, monkeypatch):
     full one: every blade built or reduced has the quick mesh counts."""
     import pipeline.structure.blades as blades
     import pipeline.structure.reduction as reduction
-    from pipeline.model import scene as model_scene
+    from pipeline.model import blade_cache
 
-    model_scene.timed_blade_model.cache_clear()
-    model_scene.reduced_model.cache_clear()
-    model_scene.blade_at_speed.cache_clear()
+    blade_cache.timed_blade_model.cache_clear()
+    blade_cache.reduced_model.cache_clear()
+    blade_cache.blade_at_speed.cache_clear()
     built, reduced = [], []
     build, reduce_ = blades.build_blade, reduction.reduce_blade
 

@@ -209,7 +209,7 @@ def test_a_comparison_that_raises_keeps_the_backbone(monkeypatch):
     backbone (from the stuck frequency sqrt((k + ku)/m)), status 1 and the comparison's
     error in its message; the dataset has no compared curve."""
     import pipeline.study.modes.nonlinear_modes as nm
-    from pipeline.study.modes.nonlinear_modes_dataset import modes_dataset
+    from pipeline.study.datasets.nonlinear_modes_dataset import modes_dataset
 
     def raising(*args, **kw):
         raise FloatingPointError("overflow in the Jacobian")

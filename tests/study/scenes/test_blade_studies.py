@@ -22,7 +22,8 @@ from pipeline.structure.mesh_io import write_mesh
 from pipeline.fourier.harmonics import amplitude_half_peak_to_peak, evaluate
 from pipeline.solve.response.response import initial_guess
 from pipeline.study.files.documents import load_study, parse_study
-from pipeline.model.scene import blade_model, build_system, full_dof, reduced_model
+from pipeline.model.blade_cache import blade_model, reduced_model
+from pipeline.model.build import build_system, full_dof
 
 ROOT = Path(__file__).resolve().parents[3]
 MODES = ROOT / "studies" / "blade_modes.toml"

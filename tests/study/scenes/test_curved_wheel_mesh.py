@@ -16,13 +16,13 @@ import scipy.sparse.linalg as spla
 from skfem import Basis, ElementHexS2, MeshHex
 
 from pipeline.fourier.harmonics import amplitude_half_peak_to_peak
-from pipeline.model.scene import blade_at_speed, blade_model, reduced_model
+from pipeline.model.blade_cache import blade_at_speed, blade_model, reduced_model
 from pipeline.model.static_load import static_state
 from pipeline.solve.response.response import ResponseCurve
 from pipeline.structure.fe_model import BladeParams, point_displacements
 from pipeline.structure.mesh_io import read_volume
 from pipeline.structure.reduction import reconstruct
-from pipeline.study.datasets.dataset import to_dataset
+from pipeline.study.datasets.response_dataset import to_dataset
 from pipeline.study.figures.peak_shapes import write_peak_shapes
 from pipeline.study.files.documents import load_study
 from curved_wheel_blade import STUDY, curved_wheel_blade, write_curved_wheel_blade

@@ -12,9 +12,9 @@ import pytest
 from pipeline.model.contacts import ShroudPair
 from pipeline.model.cyclic import expand, sector_system
 from pipeline.model.loads import PointLoad
-from pipeline.model.scene import (Blade, CraigBampton, Cyclic, Scene, Single, blade_contact_maps,
-                                  blade_model, build_system, full_system, reduced_model,
-                                  scene_parts, sector)
+from pipeline.model.scene import Blade, CraigBampton, Cyclic, Scene, Single
+from pipeline.model.build import blade_contact_maps, build_system, full_system, sector, unassembled
+from pipeline.model.blade_cache import blade_model, reduced_model
 from pipeline.model.system import dense, natural_frequencies
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.continuation.newton import newton
@@ -84,7 +84,7 @@ def test_rigid_rotation_of_the_wheel_loads_no_contact():
     radius = DISK.hub_radius + PARAMS.length     # [m]
     q, q_wrong = rigid_rotation(blade, DISK), rigid_rotation(blade, DISK, neighbour_turned=False)
     red = reduced_model(scene.structure, scene.reduction)[0]
-    p = scene_parts(scene, {"preload": 1.0})
+    p = unassembled(scene, {"preload": 1.0})
     for field, ok in ((q, True), (q_wrong, False)):
         qr = np.zeros(p.M.shape[0])
         qr[:red.n_boundary] = field[red.boundary]

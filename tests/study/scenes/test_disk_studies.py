@@ -75,7 +75,7 @@ def test_shrouded_disk_mistuned_builds_a_sparse_wheel_of_beam_blades():
     f_j K_r with the seed's factors, every blade's tip reported."""
     import scipy.sparse as sp
 
-    from pipeline.model.scene import stiffness_factors
+    from pipeline.model.build import stiffness_factors
 
     st = load_study(STUDIES / "shrouded_disk_mistuned.toml", quick=True)
     s = st.system({"preload": 3.0, "mistuning_seed": 2})

@@ -15,7 +15,7 @@ from skfem import Basis, ElementHexS2
 
 from pipeline.__main__ import main as cli
 from pipeline.errors import UsageError
-from pipeline.model.scene import blade_model
+from pipeline.model.blade_cache import blade_model
 from pipeline.structure.disk import wheel_params
 from pipeline.structure.exchange.calculix_deck import write_deck
 from pipeline.structure.fe_model import BladeParams, DiskPlacement

@@ -1,4 +1,4 @@
-"""The accuracy-cost study's results (`accuracy_measure.run_case`, one per case) as an
+"""The accuracy-cost study's results (`measure.run_case`, one per case) as an
 xarray Dataset and as a Markdown table.
 
 The Dataset has one `run` per measured setting (references, baselines, knob values,
@@ -15,9 +15,9 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .measure import meets_target
-from .spec import AccuracyStudy
-from ..datasets.describe import provenance
+from ..accuracy.measure import meets_target
+from ..accuracy.spec import AccuracyStudy
+from .describe import provenance
 
 
 class Variable(NamedTuple):

@@ -1,11 +1,11 @@
-"""The accuracy-cost Pareto figure (`accuracy_cost`): error against wall time per knob."""
+"""The accuracy-cost Pareto figure (`study`): error against wall time per knob."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from ..figures.plots import atomic_savefig, label_log_axis, pyplot, wrapped_title
+from .plots import atomic_savefig, label_log_axis, pyplot, wrapped_title
 
 
 def pareto_figure(path, ds, title: str | None = None):

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from ..datasets.describe import provenance, scene_attrs
+from .describe import provenance, scene_attrs
 
 
 def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset:

@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from ...contact.cycle import cycle_results
+from ...contact.period_results import cycle_results
 from ...fourier.harmonics import amplitude_half_peak_to_peak
 from ...solve.nonlinear_modes.backbone import point_at
-from ..datasets.contact_dataset import contact_coords, contact_motions
-from ..datasets.describe import provenance, scene_attrs
-from ..files.spec import SWEEP_AXES
+from .contact_dataset import contact_coords, contact_motions
+from .describe import provenance, scene_attrs
+from ..files.study_types import SWEEP_AXES
 
 TWO_PI = 2.0 * np.pi
 STARTING_STATE = ("each backbone starts from the unilateral static state without excitation: "

@@ -1,0 +1,88 @@
+"""FE blades and their Craig-Bampton reductions, built once per frozen spec.
+
+`blade_model`, `blade_at_speed` and `reduced_model` are cached on the frozen
+`scene.Blade` and `scene.CraigBampton` specs (`functools.lru_cache`): scenes sharing a
+structure share its model.  `reduced_dof_names` names a reduction's coordinates.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from functools import lru_cache
+
+import numpy as np
+
+RPM = 2.0 * np.pi / 60.0   # rad/s per rpm
+POINT_SETS = ("excitation", "response")   # FE node sets named by direction in DOF names
+COMPONENTS = "xyz"
+
+
+def blade_model(structure):
+    """The `fe_model.BladeModel` of a `Blade` spec (built once per spec)."""
+    return timed_blade_model(structure)[0]
+
+
+@lru_cache(maxsize=8)
+def timed_blade_model(structure) -> tuple:
+    """(`fe_model.BladeModel` of a `Blade` spec, the wall time [s] its build took)."""
+    # deferred: blades imports scikit-fem and meshio (about a second); lumped
+    # scenes never need them
+    from ..structure.blades import build_blade, load_blade
+
+    t0 = time.perf_counter()
+    centre = structure.disk.centre if structure.rotating else None
+    if structure.matrices is not None:
+        # deferred: an imported blade alone reads exported matrices
+        from ..structure.exchange.imported import import_blade
+        blade = import_blade(structure.mesh, structure.matrices, structure.params,
+                             rotation_centre=centre, disk=structure.disk)
+    elif structure.mesh:
+        blade = load_blade(structure.mesh, structure.params, required=("root",),
+                           rotation_centre=centre, scale=structure.mesh_scale)
+    else:
+        blade = build_blade(structure.params, structure.disk, rotation_centre=centre)
+    return blade, time.perf_counter() - t0
+
+
+@lru_cache(maxsize=16)
+def blade_at_speed(structure, speed: float):
+    """The blade turning at `speed` [rpm]: K + Omega^2 (K_sigma1 - M_P + K_1) + Omega^4 K_2, Omega = speed
+    x 2 pi / 60 (`structure.rotation`); at speed 0 the blade itself."""
+    blade = blade_model(structure)
+    if speed == 0.0:
+        return blade
+    if blade.rotation is None:
+        raise ValueError(f"speed {speed} rpm on a blade that does not turn: declare "
+                         "\"centrifugal_stiffening\" (a solid blade in a disk)")
+    return replace(blade, K=(blade.K + blade.rotation.speed_stiffness(speed * RPM)).tocsr())
+
+
+def case_speed(structure, case: dict | None) -> float:
+    """The rotation speed [rpm] of a case: its `speed`, else the structure's."""
+    return float((case or {}).get("speed", getattr(structure, "speed", 0.0)))
+
+
+@lru_cache(maxsize=16)
+def reduced_model(structure, reduction, speed: float = 0.0) -> tuple:
+    """(Craig-Bampton `ReducedModel` keeping contact faces, excitation and response
+    DOFs, its wall time [s]) of a blade turning at `speed` [rpm] (built once per spec
+    pair and speed)."""
+    # looked up at each call: a replaced `reduction.reduce_blade` is the one called
+    from ..structure.reduction import reduce_blade
+
+    kw = {"rayleigh": structure.rayleigh} if structure.rayleigh is not None else {}
+    blade = blade_at_speed(structure, speed)
+    t0 = time.perf_counter()
+    red = reduce_blade(blade, reduction.modes, **kw)
+    return red, time.perf_counter() - t0
+
+
+def reduced_dof_names(red) -> tuple:
+    """Names of reduced coordinates: `<set>.<c>` (point sets), `<face>.<k>.<c>`,
+    `mode.<j>` (modal coordinates)."""
+    names = [lab.replace(":", ".") for lab in red.labels]
+    for s in POINT_SETS:
+        if s in red.sets:
+            for c, pos in enumerate(red.sets[s][0]):
+                names[pos] = f"{s}.{COMPONENTS[c]}"
+    return tuple(names)
