@@ -9,6 +9,7 @@ over ADVISORY_MODULE lines, the functions over ADVISORY_FUNCTION and the folders
 ADVISORY_FOLDER modules, as places to look at, not failures.
 """
 import ast
+import functools
 from collections import defaultdict
 from pathlib import Path
 
@@ -16,6 +17,12 @@ import pipeline
 
 PACKAGE = Path(pipeline.__file__).resolve().parent
 TESTS = Path(__file__).resolve().parent
+
+
+@functools.lru_cache(maxsize=None)
+def parse(path: Path) -> ast.Module:
+    """The syntax tree of one file, parsed once for all the tests here (read only)."""
+    return ast.parse(path.read_text(encoding="utf-8"))
 
 
 
@@ -37,7 +44,7 @@ def absolute(current: str, is_package: bool, node: ast.ImportFrom) -> str:
 
 def imports(path: Path, name: str):
     """(imported module, imported name or None, line, at module level) of one file."""
-    tree = ast.parse(path.read_text(encoding="utf-8"))
+    tree = parse(path)
     top = {id(n) for n in tree.body}
     is_package = path.name == "__init__.py"
     for node in ast.walk(tree):
@@ -105,7 +112,7 @@ def largest_units(files, n=5):
     for mod, path in files.items():
         text = path.read_text(encoding="utf-8")
         sizes.append((len(text.splitlines()), mod))
-        for node in ast.walk(ast.parse(text)):
+        for node in ast.walk(parse(path)):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
                 units.append((node.end_lineno - node.lineno + 1,
                               f"{path.relative_to(PACKAGE.parent)}:{node.lineno} {node.name}"))
@@ -193,7 +200,7 @@ def unit_sizes():
         text = path.read_text(encoding="utf-8")
         where = path.relative_to(PACKAGE.parent)
         modules.append((len(text.splitlines()), str(where)))
-        for node in ast.walk(ast.parse(text)):
+        for node in ast.walk(parse(path)):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 functions.append((node.end_lineno - node.lineno + 1,
                                   f"{where}:{node.lineno} {node.name}"))
@@ -271,7 +278,7 @@ def dynamic_stiffness_terms(path: Path):
     that holds an imaginary literal (`1j`): the -(h Om)^2 M and i h Om C of a dynamic
     stiffness, in whatever layout or spelling (`w * w * M`, `Om**2 * (M @ Q)`,
     `(Om**2 * h2) * M`, `1j * h * Om * C`)."""
-    tree = ast.parse(path.read_text(encoding="utf-8"))
+    tree = parse(path)
     where = {}
     for f in ast.walk(tree):
         if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef)):
@@ -325,7 +332,7 @@ def kind_comparisons(path: Path, names) -> list:
     by kind names (`{"modes": f, ...}[x]`).  A name on the left of `in` (`"modes" in
     data`: is there a [modes] table) looks a key up and is no dispatch."""
     found = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in ast.walk(parse(path)):
         if isinstance(node, ast.Subscript) and isinstance(node.value, ast.Dict):
             found += [f"{path.relative_to(PACKAGE.parent)}:{node.lineno} looks up {k.value!r}"
                       for k in node.value.keys
@@ -374,7 +381,7 @@ def law_names(path: Path, prefix: str = "YangMenq") -> list:
     """Lines of `path` that name a class starting with `prefix` (as a name, an
     attribute or an imported name); prose in docstrings does not count."""
     found = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in ast.walk(parse(path)):
         names = ([a.name for a in node.names] if isinstance(node, (ast.Import, ast.ImportFrom))
                  else [node.id] if isinstance(node, ast.Name)
                  else [node.attr] if isinstance(node, ast.Attribute) else [])
