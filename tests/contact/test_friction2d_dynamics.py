@@ -26,46 +26,56 @@ FX, FY = 10.0, 7.0
 @njit(cache=True)
 def amplitudes(omegas, steps, periods, ku2):
     """(len(omegas), 2) half peak-to-peak of x, y over the last period (contact
-    stiffness KU along x, ku2 along y)."""
+    stiffness KU along x, ku2 along y).  Written per component (no array temporaries
+    in the step loop: the same operations in the same order as the vector form)."""
     out = np.zeros((omegas.size, 2))
+    slip = MU * N0
     for j in range(omegas.size):
         om = omegas[j]
         dt = 2 * np.pi / om / steps
-        x = np.zeros(2)
-        v = np.zeros(2)
-        w = np.zeros(2)
-        f = np.zeros(2)
-        lo = np.full(2, 1e9)
-        hi = np.full(2, -1e9)
-        k = np.array([KX, KY])
-        F = np.array([FX, FY])
-        a = -k * x - C * v - f
+        x0 = x1 = v0 = v1 = w0 = w1 = f0 = f1 = 0.0
+        lo0 = lo1 = 1e9
+        hi0 = hi1 = -1e9
+        a0 = -KX * x0 - C * v0 - f0
+        a1 = -KY * x1 - C * v1 - f1
         for n in range(steps * periods):
             t = n * dt
-            vh = v + 0.5 * dt * a
-            x = x + dt * vh
-            kc = np.array([KU, ku2])
-            tr = kc * (x - w)
-            size = np.sqrt(tr[0] ** 2 + tr[1] ** 2)
-            if size > MU * N0 and ku2 == KU:
-                tr = tr * (MU * N0 / size)
-                w = x - tr / KU
-            elif size > MU * N0:     # slide along the previous force onto the circle
-                fs = np.sqrt(f[0] ** 2 + f[1] ** 2)
-                e = f / fs if fs > 0 else tr / size
-                ke = kc * e
-                b, aa = tr[0] * ke[0] + tr[1] * ke[1], ke[0] ** 2 + ke[1] ** 2
-                dl = (b - np.sqrt(max(b * b - aa * (size ** 2 - (MU * N0) ** 2), 0.0))) / aa
-                w = w + dl * e
-                tr = kc * (x - w)
-            f = tr
-            a = F * np.cos(om * (t + dt)) - k * x - C * vh - f
-            v = vh + 0.5 * dt * a
+            vh0 = v0 + 0.5 * dt * a0
+            vh1 = v1 + 0.5 * dt * a1
+            x0 = x0 + dt * vh0
+            x1 = x1 + dt * vh1
+            tr0 = KU * (x0 - w0)
+            tr1 = ku2 * (x1 - w1)
+            size = np.sqrt(tr0 ** 2 + tr1 ** 2)
+            if size > slip and ku2 == KU:
+                tr0 = tr0 * (slip / size)
+                tr1 = tr1 * (slip / size)
+                w0 = x0 - tr0 / KU
+                w1 = x1 - tr1 / KU
+            elif size > slip:     # slide along the previous force onto the circle
+                fs = np.sqrt(f0 ** 2 + f1 ** 2)
+                if fs > 0:
+                    e0, e1 = f0 / fs, f1 / fs
+                else:
+                    e0, e1 = tr0 / size, tr1 / size
+                ke0, ke1 = KU * e0, ku2 * e1
+                b, aa = tr0 * ke0 + tr1 * ke1, ke0 ** 2 + ke1 ** 2
+                dl = (b - np.sqrt(max(b * b - aa * (size ** 2 - slip ** 2), 0.0))) / aa
+                w0 = w0 + dl * e0
+                w1 = w1 + dl * e1
+                tr0 = KU * (x0 - w0)
+                tr1 = ku2 * (x1 - w1)
+            f0, f1 = tr0, tr1
+            cs = np.cos(om * (t + dt))
+            a0 = FX * cs - KX * x0 - C * vh0 - f0
+            a1 = FY * cs - KY * x1 - C * vh1 - f1
+            v0 = vh0 + 0.5 * dt * a0
+            v1 = vh1 + 0.5 * dt * a1
             if n >= steps * (periods - 1):
-                for d in range(2):
-                    lo[d] = min(lo[d], x[d])
-                    hi[d] = max(hi[d], x[d])
-        out[j] = 0.5 * (hi - lo)
+                lo0, hi0 = min(lo0, x0), max(hi0, x0)
+                lo1, hi1 = min(lo1, x1), max(hi1, x1)
+        out[j, 0] = 0.5 * (hi0 - lo0)
+        out[j, 1] = 0.5 * (hi1 - lo1)
     return out
 
 

@@ -135,17 +135,25 @@ def fe_stretch(fe_curve):
                                c.fold_parameter, c.amplitude)
 
 
-def test_fe_study_figure_draws_stable_solid_and_unstable_dashed(fe_curve):
+@pytest.fixture(scope="module")
+def fe_folds(fe_curve):
+    """The coarse FE blade's flags by the fold rule (its default), for the figure and
+    the comparison with the stretches."""
+    _, system, c = fe_curve
+    return sc.branch_stability(hbm.setup(system, 3), c.Q, c.omega, c.omega,
+                               lambda lam: system.contact, c.converged, "folds",
+                               c.fold_parameter, c.amplitude)
+
+
+def test_fe_study_figure_draws_stable_solid_and_unstable_dashed(fe_curve, fe_folds):
     """FE blade scenes asked for stability (`stability = true`: "stretch") draw solid
     (stable) and dashed (unstable) stretches and no dotted one.  The flags drawn are the
     fold rule's, which equal the stretches' (`test_fe_blade_fold_rule_equals_stretch`)
     at a tenth of the monodromies: the stretches' own are computed once, in that test."""
     from pipeline.study.figures.plots import pyplot, response_curves_plot
-    _, system, c = fe_curve
+    _, _, c = fe_curve
     assert tiny_blade_study_with_stability().solver.stability == "stretch"
-    bs = sc.branch_stability(hbm.setup(system, 3), c.Q, c.omega, c.omega,
-                             lambda lam: system.contact, c.converged, "folds",
-                             c.fold_parameter, c.amplitude)
+    bs = fe_folds
     stable = np.where(c.converged, bs.stable.astype(float), np.nan)
     fig = response_curves_plot([("preload = 3 N", c.omega / (2 * np.pi), c.amplitude[:, 0],
                                  stable, c.converged)])
@@ -205,13 +213,11 @@ def test_example3_fold_rule_equals_every_point(n0, lo, hi):
     assert list(folds.bifurcation_kind) == [sc.FOLD, sc.FOLD]
 
 
-def test_fe_blade_fold_rule_equals_stretch(fe_curve, fe_stretch):
+def test_fe_blade_fold_rule_equals_stretch(fe_curve, fe_folds, fe_stretch):
     """The coarse FE blade through two folds: the fold rule (its default) gives the
     flags the orbit monodromy decides stretch by stretch, from the ends alone."""
-    _, system, c = fe_curve
-    prob = hbm.setup(system, 3)
-    args = (prob, c.Q, c.omega, c.omega, lambda lam: system.contact, c.converged)
-    rule = sc.branch_stability(*args, "folds", c.fold_parameter, c.amplitude)
+    _, _, c = fe_curve
+    rule = fe_folds
     ref = fe_stretch
     m = c.converged
     parity = fold_parity(c.omega, m)

@@ -11,6 +11,7 @@ import."""
 import re
 
 import numpy as np
+import pytest
 
 from pipeline.__main__ import main as cli
 from pipeline.study.datasets.dataset import read_dataset
@@ -48,10 +49,19 @@ def on_mesh(name, imported, edit=lambda t: t):
     return edit(text) + (MATRICES if imported else "")
 
 
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    """A folder with the deck `blade.inp` exported by ccx at rest and at SPEEDS, written
+    once for the tests below (each writes its own studies and decks beside it)."""
+    folder = tmp_path_factory.mktemp("turning")
+    exported_blade(folder)
+    export_speeds(folder)
+    return folder
+
+
 @needs_ccx
-def test_campbell_and_speed_studies_run_on_an_imported_turning_blade(tmp_path):
-    exported_blade(tmp_path)
-    export_speeds(tmp_path)
+def test_campbell_and_speed_studies_run_on_an_imported_turning_blade(exported):
+    tmp_path = exported
     campbell = lambda t: t.replace("count = 16", "count = 4")   # 0, 5000, 10000, 15000 rpm
     speed = lambda t: t.replace("speed = [6000.0, 7000.0, 7250.0, 8000.0]",
                                 "speed = [6000.0, 8000.0]")
@@ -111,7 +121,7 @@ def in_model_frame(text, axis=True):
 
 
 @needs_ccx
-def test_a_blade_in_its_own_engine_frame_equals_the_disk_frame_import(tmp_path, capsys):
+def test_a_blade_in_its_own_engine_frame_equals_the_disk_frame_import(exported, capsys):
     """Campbell frequencies and crossings, and the speed study's peaks, of the blade
     exported in the model frame and imported with its axis equal the disk-frame
     export's to 1e-7 (the same blade: only ccx's rounding of the exported matrices to 14
@@ -119,8 +129,7 @@ def test_a_blade_in_its_own_engine_frame_equals_the_disk_frame_import(tmp_path, 
     moves the lowest frequency by 1e-9 to 2.5e-8, so another ccx build may reach that);
     without the axis the blade sits askew in the disk
     and its shroud faces do not pair: refused."""
-    exported_blade(tmp_path)
-    export_speeds(tmp_path)
+    tmp_path = exported
     export_moved(tmp_path)
     campbell = lambda t: t.replace("count = 16", "count = 3").replace(
         "engine_orders = [1, 2, 3, 4, 5, 6]", "engine_orders = [3]\nnodal_diameters = [0, 3]")

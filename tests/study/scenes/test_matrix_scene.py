@@ -29,11 +29,30 @@ DISK = DiskPlacement(hub_radius=0.12, sectors=36)
 MATRICES = 'matrices = { format = "calculix", job = "blade", units = "SI" }'
 
 
+EXPORT_FILES = ("blade.inp", "blade.sti", "blade.mas", "blade.dof")
+_default_export = {}     # the files and result of write_export(folder): made once
+
+
 def write_export(folder, drop_root=True, sets_kept=None, mm=False, frame=None):
     """The wheel blade's deck and its K, M as CalculiX writes them (the upper triangle
     column by column; root DOFs absent when `drop_root`); `mm`: in N/mm, tonnes and mm;
     `frame` (Q, b): the blade moved to Q x + b [m], K and M assembled there.
-    Returns the package's full K, M (root DOFs kept, SI units) and the DOFs written."""
+    Returns the package's full K, M (root DOFs kept, SI units) and the DOFs written.
+    The default export, which most tests write, is assembled once and its files copied."""
+    default = drop_root and sets_kept is None and not mm and frame is None
+    if default and _default_export:
+        for name, text in _default_export["files"].items():
+            (folder / name).write_text(text)
+        return _default_export["result"]
+    result = assembled_export(folder, drop_root, sets_kept, mm, frame)
+    if default:
+        _default_export["files"] = {name: (folder / name).read_text() for name in EXPORT_FILES}
+        _default_export["result"] = result
+    return result
+
+
+def assembled_export(folder, drop_root, sets_kept, mm, frame):
+    """`write_export`, assembled and written."""
     mesh, sets = solid_mesh(BLADE, DISK)
     root = np.nonzero(np.abs(Basis(mesh, ElementHexS2()).doflocs[2]) < 1e-12)[0]
     if frame is not None:
