@@ -127,7 +127,7 @@ def stick_centres(u, r, tol, w, t, support):
         for i in range(N):
             if depth(ue, re, i, c1, c2) > depth(ue, re, S[0], c1, c2):
                 S[0] = i
-        m = 1
+        m = np.int64(1)  # typed, not a literal (a literal compiles small_minimax twice)
         for _ in range(4 * N):
             small_minimax(ue, re, S, m, tol[e], best, sup)
             far, worst = -1, best[2] + tol[e]
