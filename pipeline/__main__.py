@@ -7,19 +7,12 @@ import os
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from .errors import UsageError, interrupt_in_chain
-from .study.execution.cases import StaticDivergence, default_solver
-from .study.execution.checkpoint import checkpoint_dir
-from .study.execution.optimum_search import (find_optimum, optimum_words, search_warnings,
-                                             variable_of)
-from .study.execution.run import (add_run_parser, check_writable, configure_logging,
-                                  sigint_interrupts)
-from .study.execution.search_checkpoint import search_file
-from .study.files.declared import UndeclaredSeparation
-from .study.files.documents import load_study
-from .study.kinds import kind_of
+from .study.execution.run_parser import add_run_parser, configure_logging
+
+# The commands import what computes when they run (each in its function): the parser,
+# `--help` and a bad argument load argparse and the small modules above only, not
+# scikit-fem, meshio, the compiled kernels, SciPy, xarray or matplotlib.
 
 
 def _prog() -> str:
@@ -40,7 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    add_run_parser(sub)
+    add_run_parser(sub).set_defaults(func=_cmd_run)
 
     c = sub.add_parser("check", help="validate a study without computing (cases, solver, "
                                      "estimated cost), or a dataset against its contract")
@@ -97,6 +90,12 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _cmd_run(args) -> int:
+    from .study.execution.run import cmd_run   # deferred: the parser loads nothing heavy
+
+    return cmd_run(args)
+
+
 def _cmd_keys(args) -> int:
     from .study.files.keys import markdown   # deferred: the key table, for this command only
 
@@ -105,6 +104,8 @@ def _cmd_keys(args) -> int:
 
 
 def _cmd_hysteresis(args) -> int:
+    import numpy as np   # deferred: the parser loads nothing heavy
+
     # looked up at each call: a replaced `plots.hysteresis_figure` is the one drawn
     from .study.figures.plots import check_element, hysteresis_figure
 
@@ -136,6 +137,16 @@ def _cmd_hysteresis(args) -> int:
 def _cmd_optimise(args) -> int:
     """Optimum preload by a search on the exact peak (peak_tracking.optimum_preload)."""
     from .study.figures.optimum_figure import optimum_figure   # deferred: only `optimise` draws it
+    # deferred: the parser loads nothing heavy
+    from .study.execution.cases import StaticDivergence, default_solver
+    from .study.execution.checkpoint import checkpoint_dir
+    from .study.execution.optimum_search import (find_optimum, optimum_words, search_warnings,
+                                                 variable_of)
+    from .study.execution.run import check_writable, sigint_interrupts
+    from .study.execution.search_checkpoint import search_file
+    from .study.files.declared import UndeclaredSeparation
+    from .study.files.documents import load_study
+    from .study.kinds import kind_of
 
     study = load_study(args.study, quick=args.quick)
     workers = args.workers

@@ -1,10 +1,11 @@
 """The registry of study kinds: the one place a study's kind is dispatched on.
 
-Each kind's module defines its `spec.StudyKind` entry (how a document of it is
-recognised and read, how `check` describes it with its cost estimate, how it is
-estimated and run); `KINDS` lists them, first match first.  `documents` reads a
-document through `kind_of_document`, `run`, `check` and `bench estimate` act on a
-study through `kind_of`.  A new kind is one module and one line here.
+Each kind's module (`execution/<kind>_study`) defines its `study_types.StudyKind`
+entry (how a document of it is recognised and read, how `check` describes it with its
+cost estimate, how it is estimated and run); `KINDS` lists them, first match first.
+`documents` reads a document through `kind_of_document`, `run`, `check` and `bench
+estimate` act on a study through `kind_of`.  A new kind is one module and one line
+here.
 
 A document names its kind in `[study] kind` (`StudyKind.word`; "modes" is the
 modes of a blade or of a disk, told apart by the scene); without it, the first kind
@@ -13,19 +14,16 @@ table is a modes study, anything else a response).
 """
 from __future__ import annotations
 
-from .accuracy import study as accuracy_cost
-from .modes import disk_modes
-from .modes import modes
-from .modes import nonlinear_modes
-from .execution import response_study
+from .execution import (accuracy_study, disk_modes_study, modes_study, nonlinear_modes_study,
+                        response_study)
 from .files.validation import Checker
 
 KINDS = (
-    accuracy_cost.KIND,     # [study] kind = "accuracy_cost"
-    disk_modes.KIND,        # "modes" of a lumped disk or of FE blades in a disk
-    modes.KIND,             # "modes" of an FE blade
-    nonlinear_modes.KIND,   # "nonlinear_modes": backbones, modal damping, synthesis
-    response_study.KIND,    # "response" (the default): lumped, disk and blade scenes
+    accuracy_study.KIND,          # [study] kind = "accuracy_cost"
+    disk_modes_study.KIND,        # "modes" of a lumped disk or of FE blades in a disk
+    modes_study.KIND,             # "modes" of an FE blade
+    nonlinear_modes_study.KIND,   # "nonlinear_modes": backbones, modal damping, synthesis
+    response_study.KIND,          # "response" (the default): lumped, disk and blade scenes
 )
 
 

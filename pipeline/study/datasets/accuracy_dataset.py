@@ -1,4 +1,4 @@
-"""The accuracy-cost study's results (`measure.run_case`, one per case) as an
+"""The accuracy-cost study's results (`accuracy_measure.run_case`, one per case) as an
 xarray Dataset and as a Markdown table.
 
 The Dataset has one `run` per measured setting (references, baselines, knob values,
@@ -15,8 +15,8 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ..accuracy.measure import meets_target
-from ..accuracy.spec import AccuracyStudy
+from ..execution.accuracy_measure import meets_target
+from ..files.accuracy_types import AccuracyStudy
 from .describe import provenance
 
 

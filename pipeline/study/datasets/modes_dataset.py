@@ -12,7 +12,7 @@ from .describe import provenance, scene_attrs
 
 
 def modes_to_dataset(study, res: dict, mode_shapes_file: str = "") -> xr.Dataset:
-    """Dataset of a blade modes study (`modes.modal_study` result `res`): full and
+    """Dataset of a blade modes study (`modes_study.modal_study` result `res`): full and
     Craig-Bampton eigenfrequencies against the mode count, errors and timings."""
     counts = np.asarray(res["mode_counts"], dtype=np.int32)
     nf = len(res["full_hz"])
@@ -98,7 +98,7 @@ def family_attrs(study, solver: str) -> dict:
 
 
 def disk_modes_to_dataset(study, res: dict) -> xr.Dataset:
-    """Dataset of a disk modes study (`disk_modes.nodal_diameter_frequencies` result):
+    """Dataset of a disk modes study (`disk_modes_study.nodal_diameter_frequencies` result):
     natural frequencies per nodal diameter with the contacts open and stuck."""
     return xr.Dataset(
         {**family_frequencies(res, ("nodal_diameter", "mode")),
@@ -110,7 +110,7 @@ def disk_modes_to_dataset(study, res: dict) -> xr.Dataset:
 
 
 def campbell_to_dataset(study, res: dict) -> xr.Dataset:
-    """Dataset of a Campbell diagram (`campbell.campbell` result): natural frequencies
+    """Dataset of a Campbell diagram (`campbell_study.campbell` result): natural frequencies
     on (speed, nodal_diameter, mode), contacts open and stuck, and the engine-order
     crossings located by root finding (dimension `crossing`)."""
     cr = res["crossings"]

@@ -1,4 +1,4 @@
-"""The dataset of a nonlinear modes study (`nonlinear_modes`): per case (the sweep's
+"""The dataset of a nonlinear modes study (`nonlinear_modes_study`): per case (the sweep's
 axes, a disk's engine orders as `nodal_diameter`) the backbone along `point`, the
 synthesised forced response per `force_scale`, and the full harmonic balance's curve
 and peak (`hbm_point`) where it was compared.  Every number has its unit; a case's
@@ -42,7 +42,7 @@ def axes_of(study) -> tuple:
 
 
 def case_status(res) -> tuple:
-    """(status, message) of one case's result (`nonlinear_modes.run_case`): 0 the
+    """(status, message) of one case's result (`nonlinear_modes_study.run_case`): 0 the
     backbone covers the amplitude range; 1 it stopped short, or the compared full
     harmonic balance failed (message: why); -1 the case failed, no backbone point
     (message "failed: <why>")."""
@@ -175,7 +175,7 @@ def fill_compared(arrays, idx, res, grid, sizes):
 
 
 def modes_dataset(study, results) -> xr.Dataset | None:
-    """The dataset of a finished nonlinear modes study (`nonlinear_modes.run`); None
+    """The dataset of a finished nonlinear modes study (`nonlinear_modes_study.run`); None
     when no case has a backbone point."""
     axes = axes_of(study)
     shape = tuple(len(v) for _, v, _ in axes)

@@ -7,7 +7,7 @@ model it builds: the response studies' estimate is `cost`, these use its timings
                  8.3 s at N = 11934 on an idle core;
     disk_modes   the sector model built and one eigen-solve timed now, times the 2 x (nodal
                  diameters) solves (contacts open and stuck), + FIXED;
-    campbell     a disk modes study with speeds (`study.modes.campbell`): a reduction
+    campbell     a disk modes study with speeds (`study.execution.campbell_study`): a reduction
                  (Craig-Bampton at that speed) and the eigen-solves of every nodal
                  diameter and contact state at each speed, and Brent's evaluations of
                  each engine-order crossing (a reduction and one eigen-solve each):
@@ -43,9 +43,9 @@ from ...model.cyclic import sector_system
 from ...model.static_load import static_contact
 from ...model.system import natural_frequencies
 from ...structure.mesh_size import mesh_size
-from ..accuracy.measure import case_systems
+from .accuracy_measure import case_systems
 from ..figures.nd_figure import excited_nodal_diameter
-from ..modes.campbell import STATIC, frequencies_at, speed_sector, states
+from .campbell_study import STATIC, frequencies_at, speed_sector, states
 from .cost import (CALIBRATION_SLOWDOWN, OVERHEAD, modes_in_range, points_per_case, seconds,
                    slowdown, time_range, time_system_point, work_per_point)
 

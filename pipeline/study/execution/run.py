@@ -34,6 +34,7 @@ from ...errors import UsageError, interrupt_in_chain
 from .cases import SchedulerUnreachable, WorkerLost, default_solver
 from .checkpoint import kept_cases
 from .optimum_search import dataset_warnings
+from .run_parser import configure_logging, configure_run_parser
 from ..files.documents import load_study, text_describes
 from ..datasets.free_direction import free_direction_notes
 from ..datasets.incomplete import (absent_effects, edge_peaks, hidden_peaks, incomplete_cases,
@@ -62,20 +63,6 @@ def run_study(study, out_dir="results", *, workers: int = 1, scheduler: str | No
     return kind_of(study).run(study, out_dir, workers=workers, scheduler=scheduler,
                               solver=solver, figures=figures, progress=progress,
                               checkpoints=checkpoints)
-
-
-def configure_run_parser(r):
-    r.add_argument("study", metavar="STUDY.toml", help="study file (see studies/README.md)")
-    r.add_argument("--out", default="results", metavar="DIR",
-                   help="output directory: DIR/<name>.nc and DIR/<name>/*.png (default: results)")
-    r.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="local worker processes (default: one per CPU core; 1 = run in this process)")
-    r.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="Dask scheduler address, e.g. tcp://host:8786 (overrides --workers)")
-    r.add_argument("--quick", action="store_true",
-                   help="use the study's [quick] overrides (fewer cases, fewer harmonics)")
-    r.add_argument("--no-figures", dest="figures", action="store_false", help="skip the figures")
-    r.set_defaults(func=cmd_run)
 
 
 WRITTEN = (".png", ".vtu", ".md")   # the suffixes of what a run writes in out/<name>/
@@ -139,16 +126,6 @@ class sigint_interrupts:
         if isinstance(exc, SystemError) and interrupt_in_chain(exc):
             raise KeyboardInterrupt from exc
         return False
-
-
-def configure_logging(verbose: bool):
-    """Root logging for the command line; scikit-fem's per-step INFO lines and the
-    continuation's per-branch summary only with --verbose."""
-    logging.basicConfig(level=logging.DEBUG if verbose else logging.INFO,
-                        format="%(levelname)s %(name)s: %(message)s")
-    quiet = logging.NOTSET if verbose else logging.WARNING
-    for name in ("skfem", "pipeline.solve.continuation.pseudo_arclength"):
-        logging.getLogger(name).setLevel(quiet)
 
 
 def _kept(out, name) -> str:
@@ -255,14 +232,3 @@ def main(argv=None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
-
-
-# ---------------------------------------------------------------------------
-# Command line
-# ---------------------------------------------------------------------------
-
-def add_run_parser(subparsers):
-    """Register `run` on the CLI's subparsers (`pipeline/__main__.py`)."""
-    r = subparsers.add_parser("run", help="run a study file: dataset (netCDF) and figures")
-    configure_run_parser(r)
-    return r

@@ -1,4 +1,4 @@
-"""The accuracy-cost Pareto figure (`study`): error against wall time per knob."""
+"""The accuracy-cost Pareto figure (`accuracy_study`): error against wall time per knob."""
 from __future__ import annotations
 
 import math

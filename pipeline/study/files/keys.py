@@ -21,7 +21,7 @@ from dataclasses import fields
 from ...contact.registry import study_laws
 from ...structure.fe_model import BladeParams
 from ...structure.reduction import DEFAULT_MODES
-from ..accuracy.spec import Settings
+from .accuracy_types import Settings
 from ...solve.response.optimum import LINEAR_NODES
 from .study_types import EFFECTS, FIGURES, SWEEP_AXES, SolverSettings
 
@@ -63,7 +63,7 @@ def _fmt(v) -> str:
 
 
 def _settings_rows() -> list:
-    """[<case>.reference]: the accuracy settings, defaults from `accuracy.spec.Settings`
+    """[<case>.reference]: the accuracy settings, defaults from `accuracy_types.Settings`
     (a blade's mode count and mesh from the reduction's and the blade's)."""
     d = {f.name: f.default for f in fields(Settings)}
     p = BladeParams()

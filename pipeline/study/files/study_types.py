@@ -2,7 +2,7 @@
 validated (`Study`: a `pipeline.model.scene.Scene`, sweeps, solver and output
 settings), what a run returns (`StudyResult`), and what a registry entry of a study
 kind holds (`StudyKind`, listed in `kinds`).  A leaf of the study layer: the parsers
-(`lumped_scene`, `blade_scene`, `disk_modes`, `accuracy.study`) build these, `run` and
+(`lumped_scene`, `blade_scene`, `disk_modes_study`, `accuracy_study`) build these, `run` and
 `response_dataset` read them.  A study written in Python builds `Study` directly (the header
 fields are keywords with defaults; `studies/python_example.py`).
 """

@@ -25,7 +25,7 @@ reduced and the unreduced model then carry the same damping.
 Two study kinds (`[study] kind`, default "modes" when a `[modes]` table is given,
 else "response"):
 - "modes": full vs Craig-Bampton eigenfrequencies against the mode count, with
-  timings, and the mode shapes as VTU (`modes.run_modes_study`);
+  timings, and the mode shapes as VTU (`modes_study.run_modes_study`);
 - "response": frequency-response continuation per sweep case, the same command,
   dataset and figures as the lumped scenes (`scene.Study` with a `Scene`).
 

@@ -49,6 +49,28 @@ def test_usage_names_the_command_as_invoked(monkeypatch, capsys, argv0, prog):
     assert capsys.readouterr().out.startswith(f"usage: {prog} ")
 
 
+HEAVY = ("numba", "skfem", "meshio", "scipy", "xarray", "matplotlib", "dask")
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["optimise", "--help"]])
+def test_help_loads_nothing_that_computes(argv):
+    """`--help` (and building the parser) imports argparse and the small modules only:
+    the commands import the compiled kernels, scikit-fem, SciPy, xarray, matplotlib and
+    Dask when they run.  A fresh interpreter: this one has loaded them all."""
+    code = ("import sys, contextlib, io, pipeline.__main__ as m\n"
+            "with contextlib.redirect_stdout(io.StringIO()) as out:\n"
+            "    try:\n"
+            f"        m.main({argv!r})\n"
+            "    except SystemExit:\n"
+            "        pass\n"
+            "assert out.getvalue().startswith('usage: '), out.getvalue()\n"
+            f"print(sorted({{k.split('.')[0] for k in sys.modules}} & set({HEAVY!r})))")
+    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]"
+
+
 # ---------------------------------------------------------------------------
 # check STUDY.toml
 # ---------------------------------------------------------------------------
@@ -215,7 +237,7 @@ def test_progress_shows_the_frequency_in_the_study_unit(monkeypatch):
 def test_default_log_level_hides_solver_noise(tmp_path):
     """No continuation summary ('reached lam_end = ...') and no scikit-fem INFO lines at
     the default level; -v shows the continuation's."""
-    from pipeline.study.execution.run import configure_logging
+    from pipeline.study.execution.run_parser import configure_logging
 
     configure_logging(False)
     assert logging.getLogger("skfem").getEffectiveLevel() == logging.WARNING

@@ -115,7 +115,7 @@ def test_shrouded_disk_limits_of_the_first_family(shrouded_disk_nd3):
 def test_shrouded_disk_modes_matches_the_response_study_and_its_comment(shrouded_disk_nd3):
     """The modes study describes the same contacts as the response study, and the
     first family it states: open at every ND, stuck at ND 0, 3 (EO 3) and 18."""
-    from pipeline.study.modes.disk_modes import nodal_diameter_frequencies
+    from pipeline.study.execution.disk_modes_study import nodal_diameter_frequencies
     modes = load_study(STUDIES / "shrouded_disk_modes.toml")
     resp = load_study(STUDIES / "shrouded_disk.toml")
     assert modes.scene.contacts == resp.scene.contacts
@@ -133,7 +133,7 @@ def test_shrouded_disk_modes_matches_the_response_study_and_its_comment(shrouded
 def test_shrouded_disk_campbell_comment():
     """'stuck ND 3 from 322.4 Hz at rest to 467.6 Hz at 15,000 rpm; EO 3 crosses it
     (stuck) at 7,243 rpm'; 'EO 6 at 2,187 rpm' (open); EO 1 crosses nothing."""
-    from pipeline.study.modes.campbell import campbell
+    from pipeline.study.execution.campbell_study import campbell
 
     st = load_study(STUDIES / "shrouded_disk_campbell.toml")
     f0, f1 = stated("shrouded_disk_campbell.toml", r"from ([\d.]+) Hz at rest to\n#\s+([\d.]+) Hz")

@@ -19,7 +19,7 @@ from ...structure.mesh_io import write_fields
 from ...structure.reduction import eigenmodes, reduce, reduced_modes
 from ..figures.plots import modal_convergence_figure
 from ..scenes.blade_scene import is_blade_document, modes_from_mapping
-from ..execution.kind_costs import estimate_lines, modes_estimate
+from .kind_costs import estimate_lines, modes_estimate
 from ..files.study_types import ModesStudy, StudyKind, StudyResult
 
 log = logging.getLogger(__name__)

@@ -7,7 +7,7 @@
 At each speed Omega the blades carry their stress stiffening and spin softening
 (`structure.rotation`: K + Omega^2 (K_sigma1 - M_P), Craig-Bampton reduced at that
 speed) and the disk's natural frequencies per nodal diameter are those of
-`disk_modes` (contacts open and stuck).  An engine order EO excites the family
+`disk_modes_study` (contacts open and stuck).  An engine order EO excites the family
 ND = EO mod N folded into 0..N/2 at the frequency EO x speed / 60 [Hz]; a crossing is
 a speed where a natural frequency of that family equals it,
 

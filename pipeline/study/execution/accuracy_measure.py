@@ -5,7 +5,7 @@
 and the baseline (`relative_errors`), recommends a value per knob (`recommend`) and
 runs the recommended combination; for the lumped case it checks the reference
 against event-driven time integration (`time_integration_check`).  The study, its
-errors and the recommendation rule are described in study.py.
+errors and the recommendation rule are described in accuracy_study.py.
 
 The systems come from the caller: `system_for(settings)` returns (System, index of the
 case's DOF, model time [s], DOFs of the unreduced model), `case_systems`.
@@ -27,7 +27,7 @@ from ...solve.nonlinear_modes.synthesis import synthesised_curve
 from ...model.scene import CraigBampton
 from ...model.build import build_system
 from ...model.blade_cache import reduced_model, timed_blade_model
-from .spec import MESH_FIELDS, Case, Settings
+from ..files.accuracy_types import MESH_FIELDS, Case, Settings
 from ...errors import interrupt_in_chain
 from ..files.study_types import solver_rule_violations
 

@@ -1,4 +1,4 @@
-"""The Campbell diagram (`study.modes.campbell`): a disk modes study with speeds.
+"""The Campbell diagram (`study.execution.campbell_study`): a disk modes study with speeds.
 
 At speed 0 it is the frequency - nodal-diameter diagram itself (equal to 1e-10: the
 same eigenproblems, no speed term added); every crossing is a root of
@@ -15,8 +15,8 @@ from pipeline.__main__ import main as cli
 from pipeline.errors import UsageError
 from pipeline.study.datasets.dataset import read_dataset
 from pipeline.study.files.documents import load_study, parse_study
-from pipeline.study.modes.campbell import campbell, frequencies_at
-from pipeline.study.modes.disk_modes import nodal_diameter_frequencies
+from pipeline.study.execution.campbell_study import campbell, frequencies_at
+from pipeline.study.execution.disk_modes_study import nodal_diameter_frequencies
 from helpers import STUDIES
 
 NDS = (0, 3, 6, 18)
@@ -144,7 +144,7 @@ def test_progress_is_logged_without_a_line_per_reduction(quick, caplog, monkeypa
     stay at debug level, the sweep logs its progress (here every speed: PROGRESS = 0)
     and the crossings found; the reduction logger's level is restored after."""
     import logging
-    import pipeline.study.modes.campbell as cb
+    import pipeline.study.execution.campbell_study as cb
 
     monkeypatch.setattr(cb, "PROGRESS", 0.0)
     caplog.set_level(logging.INFO)
@@ -167,8 +167,8 @@ def test_a_speed_that_fails_loses_no_other(quick, diagram, tmp_path, monkeypatch
     speed; the dataset and figure are written, the run reports the one failure."""
     from dataclasses import replace
 
-    import pipeline.study.modes.campbell as cb
-    from pipeline.study.modes.disk_modes import run_disk_modes_study
+    import pipeline.study.execution.campbell_study as cb
+    from pipeline.study.execution.disk_modes_study import run_disk_modes_study
 
     whole, speeds = diagram
     real = cb.speed_sector
@@ -200,7 +200,7 @@ def test_a_crossing_that_cannot_be_located_loses_no_other(quick, monkeypatch, ca
     """Flat 100 Hz families: EO 6 meets ND 6 on the grid speed 1000 rpm (no root
     finding), EO 3 meets ND 3 between 1000 and 3000 rpm, where the model fails at
     Brent's first trial speed: that crossing is left out (logged), the other kept."""
-    import pipeline.study.modes.campbell as cb
+    import pipeline.study.execution.campbell_study as cb
 
     def failing(*args, **kw):
         raise np.linalg.LinAlgError("Singular matrix")

@@ -38,9 +38,10 @@ the dataset contract per run, the settings, times and errors), `DIR/<name>/paret
 This module reads a study document (`study_from_mapping`, the scenes through
 lumped_scene.py and blade_scene.py), describes it for `check` and runs it
 (`run_accuracy_study`): its registry entry `KIND` (`kinds`); the estimate is
-`kind_costs.accuracy_estimate`, the systems of its runs `measure.case_systems`.  The
-plain data is in spec.py, the runs, errors and recommendation in measure.py, the Dataset
-and the table in `datasets.accuracy_dataset`, the figure in `figures.pareto_figure`.
+`kind_costs.accuracy_estimate`, the systems of its runs
+`accuracy_measure.case_systems`.  The plain data is in files/accuracy_types.py, the
+runs, errors and recommendation in accuracy_measure.py, the Dataset and the table in
+`datasets.accuracy_dataset`, the figure in `figures.pareto_figure`.
 """
 from __future__ import annotations
 
@@ -52,8 +53,8 @@ from pathlib import Path
 from ...structure.fe_model import BladeParams
 from ...structure.reduction import DEFAULT_MODES
 from ..datasets.accuracy_dataset import recommendation_lines, results_table, to_dataset
-from .measure import case_systems, run_case
-from .spec import (MESH_FIELDS, AccuracyStudy, Case, Settings, beyond_reference,
+from .accuracy_measure import case_systems, run_case
+from ..files.accuracy_types import (MESH_FIELDS, AccuracyStudy, Case, Settings, beyond_reference,
                             check_settings, mesh_value)
 from ..scenes.blade_scene import OUT_DOF_PATTERN, base_dir_of, parse_blade_params, parse_blade_scene
 from ..files.validation import Checker
@@ -62,7 +63,7 @@ from ..figures.pareto_figure import pareto_figure
 from ..files.rules import check_scene_rules, contact_rules
 from ..files.sections import parse_sweep
 from ..scenes.lumped_scene import parse_scene
-from ..execution.kind_costs import accuracy_estimate, estimate_lines
+from .kind_costs import accuracy_estimate, estimate_lines
 from ..files.study_types import (MAX_HARMONICS, FrequencyRange, StudyKind, always, never,
                                  solver_rule_violations)
 
@@ -330,7 +331,7 @@ def _check_mesh(ck, scene, counts, field_):
 def run_accuracy_study(study: AccuracyStudy, out_dir="results", *, figures: bool = True,
                        progress: bool = True, solver=None):
     """Run every case, write `out_dir/<name>.nc`, `out_dir/<name>/table.md` and
-    `out_dir/<name>/pareto.png`; returns a `study.StudyResult`."""
+    `out_dir/<name>/pareto.png`; returns a `study_types.StudyResult`."""
     # dataset.py (xarray) and run.py are imported when a study runs: reading or checking
     # one needs neither
     from ..datasets.dataset import write_netcdf

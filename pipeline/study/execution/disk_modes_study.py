@@ -19,7 +19,7 @@ order EO excites only the family ND = EO (mod N, folded into 0..N/2).
 
 The dataset has `frequency_open` and `frequency_stuck` [Hz] on (nodal_diameter,
 mode); the figure `<name>/nodal_diameter_diagram.png` draws both.  With `[modes]
-speeds` (and `engine_orders`) the disk turns: the Campbell diagram (`campbell`),
+speeds` (and `engine_orders`) the disk turns: the Campbell diagram (`campbell_study`),
 frequencies on (speed, nodal_diameter, mode) and the engine-order crossings, drawn
 in `<name>/campbell_diagram.png`.
 """
@@ -40,11 +40,11 @@ from ..figures.nd_figure import nodal_diameter_figure
 from ..files.rules import check_speed_rules
 from ..scenes.blade_scene import BLADE_MODELS, base_dir_of, blade_scenes
 from ..scenes.blade_wheel_scene import can_turn
-from .campbell import campbell, parse_speeds
+from .campbell_study import campbell, parse_speeds
 from ..files.validation import Checker
 from ..files.header import overlay, parse_header, quick_tables
 from ..scenes.lumped_scene import parse_scene
-from ..execution.kind_costs import disk_modes_estimate, estimate_lines
+from .kind_costs import disk_modes_estimate, estimate_lines
 from ..files.study_types import StudyHeader, StudyKind, StudyResult, never
 
 log = logging.getLogger(__name__)
@@ -61,7 +61,7 @@ class DiskModesStudy(StudyHeader):
     n_frequencies: int
     quick: bool = False
     kind: str = "disk_modes"
-    speeds: tuple = ()          # [rpm]: a Campbell diagram (`campbell`)
+    speeds: tuple = ()          # [rpm]: a Campbell diagram (`campbell_study`)
     engine_orders: tuple = ()
 
 

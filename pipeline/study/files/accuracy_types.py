@@ -3,14 +3,14 @@ on settings that need no scene.
 
 `Settings` are the accuracy settings of one run, a `Case` is one scene with its
 reference, baseline and knob values, an `AccuracyStudy` is the validated study.
-Reading a study file, the scene parts included, is `study.study_from_mapping`;
-the study itself is described in study.py.
+Reading a study file, the scene parts included, is `accuracy_study.study_from_mapping`;
+the study itself is described in accuracy_study.py.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ..files.study_types import StudyHeader, solver_rule_violations
+from .study_types import StudyHeader, solver_rule_violations
 
 
 # ---------------------------------------------------------------------------
@@ -92,7 +92,7 @@ class Case:
 
 @dataclass(frozen=True)
 class AccuracyStudy(StudyHeader):
-    """A validated accuracy-cost study (`study.study_from_mapping`)."""
+    """A validated accuracy-cost study (`accuracy_study.study_from_mapping`)."""
 
     cases: tuple                # Case, ...
     target: float               # relative error the recommendation must meet

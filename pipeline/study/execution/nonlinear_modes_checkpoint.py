@@ -6,7 +6,7 @@ only, written atomically): the backbone's points, its wall time, the largest dam
 ratio located between them, and where the full harmonic balance was compared, its
 curve in `compared-NNNNN.nc` (written before the case, so a kept case is complete).
 A rerun computes only the cases not kept; a kept one gets its mode problem and its
-synthesis back from the same system and backbone (`nonlinear_modes.resumed_case`:
+synthesis back from the same system and backbone (`nonlinear_modes_study.resumed_case`:
 milliseconds, the same numbers). A failed case is not kept: a rerun computes it again.
 The key hashes the study (its text, or all its fields) and the pipeline version.
 """
@@ -24,7 +24,7 @@ import numpy as np
 from ... import __version__
 from ...solve.nonlinear_modes.backbone import Backbone
 from ...solve.response.response import ResponseCurve
-from ..execution.checkpoint import NotACheckpoint, case_file, read, same_case, write
+from .checkpoint import NotACheckpoint, case_file, read, same_case, write
 from ..files.study_types import content_bytes
 
 log = logging.getLogger(__name__)
@@ -70,7 +70,7 @@ def compared_file(cdir: Path, k: int) -> Path:
 
 
 def save_kept(cdir: Path, k: int, case: dict, res: dict) -> bool:
-    """Keep case k's result (`nonlinear_modes.run_case`); False (logged) if it cannot
+    """Keep case k's result (`nonlinear_modes_study.run_case`); False (logged) if it cannot
     be written: the run goes on, a rerun recomputes that case."""
     bb, curve = res["backbone"], res.get("curve")
     kept = KeptCase(bb.s, bb.omega, bb.zeta, bb.Q, bb.residual_static, bb.residual_harmonic,

@@ -43,15 +43,15 @@ from ...solve.nonlinear_modes.epmc import mode_problem, onset_amplitude
 from ...solve.nonlinear_modes.epmc import linear_guess, residual
 from ...solve.nonlinear_modes.synthesis import refiner, synthesise
 from ...errors import interrupt_in_chain
-from ..execution import response_study
-from ..execution.cases import default_solver
-from ..execution.cases import map_jobs
-from ..execution.checkpoint import remove_stale
-from ..execution.kind_costs import RangeEstimate, estimate_lines
+from . import response_study
+from .cases import default_solver
+from .cases import map_jobs
+from .checkpoint import remove_stale
+from .kind_costs import RangeEstimate, estimate_lines
 from ..files.header import overlay
 from ..files.study_types import StudyHeader, StudyKind, Study, StudyResult, always, never
 from ..files.validation import Checker
-from .disk_modes import is_disk_document
+from .disk_modes_study import is_disk_document
 
 log = logging.getLogger(__name__)
 KEYS = ("mode", "amplitude", "nodal_diameters", "force_scales", "compare", "reference_dof")

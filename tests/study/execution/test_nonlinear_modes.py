@@ -90,7 +90,7 @@ def fail_at(monkeypatch, preload, how):
     """The case at `preload` [N] fails: its backbone does not start (Newton from a NaN
     linear mode: no converged first point) or its mode problem raises."""
     from pipeline.solve.nonlinear_modes import backbone
-    import pipeline.study.modes.nonlinear_modes as nm
+    import pipeline.study.execution.nonlinear_modes_study as nm
 
     def at(mp_or_system):
         system = getattr(getattr(mp_or_system, "hbm", None), "system", mp_or_system)
@@ -156,7 +156,7 @@ def test_a_backbone_cut_short_is_a_warning_its_points_kept(tmp_path, monkeypatch
     from dataclasses import replace
 
     from pipeline.__main__ import main as cli
-    import pipeline.study.modes.nonlinear_modes as nm
+    import pipeline.study.execution.nonlinear_modes_study as nm
 
     why = "stopped at an internal 2:1 resonance (constructed)"
     monkeypatch.setattr(nm, "continue_mode", lambda *a, **k: replace(
@@ -190,7 +190,7 @@ def test_an_interrupt_in_a_case_is_no_failed_case(monkeypatch):
     """Ctrl-C inside a compiled kernel reaches the case as a SystemError caused by the
     KeyboardInterrupt: it stops the run (`pipeline.errors.interrupt_in_chain`) instead
     of being recorded as the case's failure."""
-    import pipeline.study.modes.nonlinear_modes as nm
+    import pipeline.study.execution.nonlinear_modes_study as nm
 
     def interrupted(*args):
         try:
@@ -208,7 +208,7 @@ def test_a_comparison_that_raises_keeps_the_backbone(monkeypatch):
     """The full harmonic balance compared with a case raises: the case keeps its
     backbone (from the stuck frequency sqrt((k + ku)/m)), status 1 and the comparison's
     error in its message; the dataset has no compared curve."""
-    import pipeline.study.modes.nonlinear_modes as nm
+    import pipeline.study.execution.nonlinear_modes_study as nm
     from pipeline.study.datasets.nonlinear_modes_dataset import modes_dataset
 
     def raising(*args, **kw):
@@ -233,7 +233,7 @@ def test_a_killed_run_resumes_with_the_kept_backbones(tmp_path, monkeypatch):
     """Killed just after its first case was kept (its backbone and compared curve), the
     rerun computes only the second case and writes the uninterrupted run's dataset in
     every variable but the wall times; the folder of kept cases is then removed."""
-    import pipeline.study.modes.nonlinear_modes_checkpoint as kept
+    import pipeline.study.execution.nonlinear_modes_checkpoint as kept
     from pipeline.study.execution.run import run_study
 
     study = parse_study(LUMPED, name="jenkins")

@@ -11,7 +11,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from pipeline.__main__ import main as cli
-from pipeline.study.accuracy.spec import AccuracyStudy
+from pipeline.study.files.accuracy_types import AccuracyStudy
 from pipeline.study.datasets.conformance import problems
 from pipeline.errors import UsageError
 from pipeline.study.files.documents import load_study, parse_study
@@ -314,8 +314,8 @@ def test_a_time_integration_check_that_raises_keeps_the_runs(tmp_path, monkeypat
     """The reference's event-driven check raises: the runs' dataset, table and figure are
     written without the check's variables, and the run reports a failure; its peaks
     are those of the same study without the check."""
-    import pipeline.study.accuracy.measure as measure
-    from pipeline.study.accuracy.study import run_accuracy_study
+    import pipeline.study.execution.accuracy_measure as measure
+    from pipeline.study.execution.accuracy_study import run_accuracy_study
 
     def raising(*args, **kw):
         raise FloatingPointError("step size underflow")

@@ -1,1 +1,0 @@
-"""Accuracy-versus-cost studies: what each accuracy setting buys."""

@@ -1,1 +1,0 @@
-"""Modal studies: blade modal convergence, frequency vs nodal diameter."""
