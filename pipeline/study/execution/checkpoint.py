@@ -183,7 +183,7 @@ def same_case(a: dict, b: dict) -> bool:
 
 def checkpoint_dir(study, out_dir, solver) -> Path:
     """`DIR/.<name>.<key>.cases`: the key hashes the study text (or, a study built
-    in Python, all its fields: `spec.content_bytes`), the quick flag, the solver
+    in Python, all its fields: `study_types.content_bytes`), the quick flag, the solver
     function and the pipeline version, so a changed study or software never reuses
     old cases."""
     fields = None if study.text else content_bytes(study)

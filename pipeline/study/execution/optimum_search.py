@@ -4,7 +4,7 @@ the actual static contact load of each evaluation beside it): the study's system
 each trial value, its cases' peaks reused as grid nodes, the evaluations kept on disk
 as they come so that an interrupted search resumes (`peak_tracking.optimum_preload`,
 `search_checkpoint`).  The result's `preload` is the optimum of the searched
-variable (`spec.optimum_variable`), in its unit (`spec.OPTIMUM_UNITS`)."""
+variable (`study_types.optimum_variable`), in its unit (`study_types.OPTIMUM_UNITS`)."""
 from __future__ import annotations
 
 import logging

@@ -65,7 +65,7 @@ def check_python_study(study) -> None:
 def sweep_axes(ck, axes) -> dict:
     """{axis: tuple of floats} of a Python-built sweep: known axis names, each a
     non-empty sequence of finite real numbers (numpy scalars too), integers on the
-    integer axes (`spec.INTEGER_SWEEP_AXES`)."""
+    integer axes (`study_types.INTEGER_SWEEP_AXES`)."""
     if not isinstance(axes, dict):
         ck.fail("sweep", f"axes must be a dict {{axis: values}}, got {type(axes).__name__}")
     out = {}

@@ -87,7 +87,7 @@ def text_describes(study) -> bool:
 def study_from_document(data, *, file: str = "<study>", name: str = "study", text: str = "",
                         quick: bool = False):
     """Validate an already-parsed study document of any kind (the dict `tomllib`
-    returns): a `spec.Study`, a `spec.ModesStudy`, a disk modes or an accuracy-cost
+    returns): a `study_types.Study`, a `study_types.ModesStudy`, a disk modes or an accuracy-cost
     study, as its kind reads it (`kinds.kind_of_document`)."""
     Checker(file).table(data, "(document)")
     return kind_of_document(data, file).parse(data, file=file, name=name, text=text, quick=quick)

@@ -5,7 +5,7 @@ row here and each row is accepted by some parser (probed with an unknown key in 
 table of the shipped studies, whose one-line error lists the keys allowed there).
 
 Units and defaults are taken from the code where it states them: the sweep axes'
-units from `spec.SWEEP_AXES`, the solver defaults from `spec.SolverSettings`, the
+units from `study_types.SWEEP_AXES`, the solver defaults from `study_types.SolverSettings`, the
 blade's from `structure.fe_model.BladeParams`, the mode count from
 `structure.reduction.DEFAULT_MODES`.
 
@@ -129,7 +129,7 @@ def _blade_rows() -> list:
 
 
 def _sweep_rows() -> list:
-    """[sweep]: the continuation interval and the grid axes of `spec.SWEEP_AXES`."""
+    """[sweep]: the continuation interval and the grid axes of `study_types.SWEEP_AXES`."""
     rows = [("sweep", "frequency", "", _REQ, "continuation interval `{start, stop, unit}`")]
     for k, (unit, text) in SWEEP_AXES.items():
         extra = {"preload": "; not with a contact's `n0`",

@@ -109,7 +109,7 @@ def scene_field(path: str) -> str:
 
 def response_from_mapping(data: dict, *, file: str, name: str, text: str = "",
                           quick: bool = False) -> Study:
-    """Validate a blade response study document: a `spec.Study`."""
+    """Validate a blade response study document: a `study_types.Study`."""
     ck = Checker(file)
     ck.keys(data, "", TOP, required=("study", "scene"))
     header = parse_header(ck, data)
