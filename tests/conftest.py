@@ -17,23 +17,14 @@ pytest_plugins = ["cost_profile"]   # --cost-profile=FILE: where the suite's tim
 
 def pytest_configure(config):
     """With test processes (pytest-xdist), the compiled kernels are compiled before they
-    start, in two halves side by side (`kernel_warmup.py`): once per run rather than
-    once in each test process (about 25 s of each on two cores; from the cache when it
-    is warm: about 2 s)."""
-    import subprocess
-    import sys
-    from pathlib import Path
-
+    start, as a parallel run compiles them before its workers start (`compile_ahead`):
+    once per machine rather than once in each test process (about 25 s of each on two
+    cores)."""
     if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
         return
-    here = Path(__file__).resolve().parent
-    halves = [subprocess.Popen([sys.executable, "kernel_warmup.py", half], cwd=here,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-              for half in ("exact", "others")]
-    for half in halves:
-        _, err = half.communicate()
-        if half.returncode:   # the tests compile what they need themselves
-            print(f"kernel warm-up failed: {err.strip().splitlines()[-1:]}", file=sys.stderr)
+    from pipeline.study.execution.compile_ahead import GROUPS, compile_ahead
+
+    compile_ahead(tuple(GROUPS), workers=2)
 
 
 def pytest_addoption(parser):

@@ -1,7 +1,8 @@
 """Every command README.md shows is run: the shell commands of its code blocks and every
 inline `python -m pipeline ...` (or `shroud ...`) command are either run here, as shown,
-from a folder holding the repository's studies, or listed in EXERCISED with what runs
-them (the install and the test suite: `.ci/run`).  A command added to the README and run
+from a folder holding the repository's studies (the further studies with their [quick]
+overrides; as shown under `-m slow`), or listed in EXERCISED with what runs them (the
+install and the test suite: `.ci/run`).  A command added to the README and run
 by nothing fails `test_every_readme_command_is_run`.
 
 The Python example under `<!-- python-example -->` is the public API's example file,
@@ -147,8 +148,24 @@ def test_first_commands_succeed_and_the_xarray_line_draws_the_branch(tmp_path, m
     plt.close("all")
 
 
+def quick(cmd):
+    """`cmd` with the study's [quick] overrides, when it runs a study."""
+    return cmd + " --quick" if cmd.split()[3:4] in (["run"], ["optimise"]) else cmd
+
+
 @pytest.mark.parametrize("group", list(OTHERS))
 def test_other_commands_succeed_and_write_what_the_readme_says(group, tmp_path):
+    """The README's further commands, each study with its [quick] overrides (the same
+    command line, the same files written; as shown: `-m slow`)."""
+    cmds, files = OTHERS[group]
+    out = _run_all([quick(c) for c in cmds], tmp_path / "readme")
+    for f in files:
+        assert (out / f).is_file(), f
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("group", list(OTHERS))
+def test_other_commands_as_shown_succeed_and_write_what_the_readme_says(group, tmp_path):
     cmds, files = OTHERS[group]
     out = _run_all(cmds, tmp_path / "readme")
     for f in files:

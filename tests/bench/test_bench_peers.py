@@ -16,6 +16,7 @@ def no_peers(monkeypatch):
     monkeypatch.delenv("PYHARM_PYTHON", raising=False)
 
 
+@pytest.mark.slow   # the whole `bench peers --quick` table, 17 s (our peak: by default, below)
 def test_bench_peers_prints_our_rows_and_the_missing_peers(no_peers, capsys):
     assert main(["bench", "peers", "--quick"]) == 0
     out = capsys.readouterr().out

@@ -147,7 +147,8 @@ def stick_centres(u, r, tol, w, t, support):
             S[m] = far
             m += 1
         w[e, 0], w[e, 1], t[e] = best[0], best[1], best[2]
-        support[e] = sup
+        for q in range(3):   # no slice copy: it compiles a shape check and its message
+            support[e, q] = sup[q]
 
 
 @njit(cache=True, error_model="numpy")

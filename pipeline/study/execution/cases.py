@@ -15,6 +15,7 @@ from ...solve.response import linear_response
 from ...solve.response import response
 from ...model.system import negative_stiffness
 from .checkpoint import load_cases, save_case
+from .compile_ahead import compile_ahead, groups_for
 from ...errors import interrupt_in_chain
 from ..files.declared import SeparationGuard, UndeclaredSeparation, needs_guard
 from ..files.study_types import Study, is_linear_scene
@@ -212,12 +213,28 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None, extra=
         solver_k, system, H_k, a, b, _, g = args
         return run_case(solver_k, system, H_k, a, b, kwk, g)
 
+    if workers > 1 and not scheduler and len(todo) + len(extra) > 1 and todo and \
+            getattr(solver, "__module__", "") == "pipeline.solve.response.response":
+        compile_kernels(study, cases[todo[0]][1], kw.get("method", "exact"), workers)
     try:
         map_jobs(call, todo + list(extra), job, done, workers, scheduler, serial)
     finally:
         if bar is not None:
             bar.close()
     return results, len(reused), more
+
+
+def compile_kernels(study, case, method, workers):
+    """The kernels the cases meet, compiled once before the pool's workers start
+    (`compile_ahead`), from the first case's system; nothing if it cannot be built (that
+    case then fails alone, as it would)."""
+    try:
+        system = study.system(case)
+    except Exception as exc:
+        if interrupt_in_chain(exc):
+            raise
+        return
+    compile_ahead(groups_for(system, method), workers)
 
 
 def end_with_parent():

@@ -406,6 +406,7 @@ def test_modes_decide_like_the_exact_multipliers():
 
 
 # ------------------------------------------------------------------ an FE blade
+@pytest.mark.slow   # 29 s; the orbit monodromy beyond the shooting by default: the 3-DOF blade
 def test_fe_blade_beyond_the_shooting_is_decided_by_the_orbit_monodromy():
     """A coarse solid blade (Craig-Bampton, 102 DOFs, 30 shroud-node contacts): its
     reduced model is too stiff for the event search (its boundary DOFs), so the
@@ -527,6 +528,7 @@ def shrouded_row(n0):
                   forcing=F), w1
 
 
+@pytest.mark.slow   # 33 s; the orbit monodromy against the exact multipliers by default: the corpus
 def test_many_contacts_monodromy_equals_the_exact_multipliers_where_hill_overestimates():
     """Five stick-slip contacts with a varying normal load (12 DOFs): the orbit
     monodromy is within 2e-3 of the exact orbit's largest |mu| (measured 1.9e-3), while

@@ -213,6 +213,7 @@ def test_example3_fold_rule_equals_every_point(n0, lo, hi):
     assert list(folds.bifurcation_kind) == [sc.FOLD, sc.FOLD]
 
 
+@pytest.mark.slow   # the orbit monodromy stretch by stretch, 34 s (Example 3's fold rule: by default)
 def test_fe_blade_fold_rule_equals_stretch(fe_curve, fe_folds, fe_stretch):
     """The coarse FE blade through two folds: the fold rule (its default) gives the
     flags the orbit monodromy decides stretch by stretch, from the ends alone."""
