@@ -45,7 +45,7 @@ from ...solve.nonlinear_modes.synthesis import refiner, synthesise
 from ...errors import interrupt_in_chain
 from . import response_study
 from .cases import default_solver
-from .cases import map_jobs
+from .cases import compile_kernels, map_jobs
 from .checkpoint import remove_stale
 from .kind_costs import RangeEstimate, estimate_lines
 from ..files.header import overlay
@@ -288,8 +288,11 @@ def run(study: NonlinearModesStudy, out_dir="results", *, figures: bool = True,
                  n_done, len(cases), cases[k], bb.s.size, *(bb.omega[[0, -1]] / (2 * np.pi)),
                  np.max(bb.zeta), res["time"], f" ({bb.message})" if bb.message else "")
 
-    map_jobs(run_case, [k for k in range(len(cases)) if k not in kept],
-             lambda k: (study, cases[k]), done, workers)
+    todo = [k for k in range(len(cases)) if k not in kept]
+    if workers > 1 and len(todo) > 1:
+        compile_kernels(study.response, cases[todo[0]], study.response.solver.force_evaluation,
+                        workers)
+    map_jobs(run_case, todo, lambda k: (study, cases[k]), done, workers)
     states = [(r["case"], *case_status(r)) for r in results]
     failed = [(case, msg) for case, status, msg in states if status < 0]
     ds = modes_dataset(study, results)

@@ -1,12 +1,15 @@
 """The nonlinear modes study kind: a lumped scene run end to end through the command
 line (dataset against its contract and against the solver called directly, figures),
 and one clear line, exit code 2, for each mistake in `[modes]`."""
+import os
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 import xarray as xr
+
+import pipeline
 
 from pipeline.solve.nonlinear_modes import epmc
 from pipeline.solve.nonlinear_modes.backbone import continue_mode
@@ -35,7 +38,9 @@ def test_lumped_study_runs_and_its_dataset_is_the_solvers(tmp_path):
     out = tmp_path / "out"
     r = subprocess.run([sys.executable, "-m", "pipeline", "run", str(f), "--out", str(out)],
                        capture_output=True, text=True, cwd=ROOT,
-                       env={"MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin"})
+                       env={"MPLBACKEND": "Agg", "PATH": "/usr/bin:/bin",   # a bare environment,
+                            "NUMBA_CACHE_DIR": os.environ.get("NUMBA_CACHE_DIR",
+                                                               pipeline.kernel_cache_dir())})  # the compiled kernels
     assert r.returncode == 0, r.stderr
     nc = out / "jenkins_modes.nc"
     assert problems(nc) == []
