@@ -29,7 +29,7 @@ import scipy.sparse as sp
 
 from ..contact.laws import ContactElements, LawElements
 from ..contact.registry import friction_elements
-from ..structure.disk import pair_faces
+from ..structure.disk import pairing
 from ..structure.fe_model import project_rows
 
 
@@ -117,9 +117,9 @@ def pair_frame(blade, pair: ShroudPair, disk) -> tuple:
 
 def shroud_pair_maps(blade, pair: ShroudPair, disk, plane: bool = False) -> tuple:
     """(Bt, Bn, Bt_next, Bn_next) sparse (k, n_full) of one `ShroudPair` on the
-    unreduced blade: one row per right-face point and its left-face partner
-    (`structure.disk.pair_faces`), the maps of the module doc with the selection S of
-    a node's 3 DOFs generalised to the faces' point motion P (d_k = P_k q,
+    unreduced blade: one row per right-face point and the left face under it (its
+    partner node, or interpolated on the left facet it falls on: `structure.disk.pairing`),
+    the maps of the module doc with the selection S of a node's 3 DOFs generalised to the faces' point motion P (d_k = P_k q,
     `fe_model.ContactFrame.point_motion`; a rigid shroud's points move with its body).
     plane=True: ((B1, B2, Bn), (B1_next, B2_next, Bn_next)) along t1, t2 = n x t1 and n."""
     for face in ("shroud_right", "shroud_left"):
@@ -127,13 +127,16 @@ def shroud_pair_maps(blade, pair: ShroudPair, disk, plane: bool = False) -> tupl
             raise ValueError(f"contact {pair.name!r}: the blade has no face {face!r}")
     t, n = pair_frame(blade, pair, disk)
     right, left_face = blade.frames["shroud_right"], blade.frames["shroud_left"]
-    left = pair_faces(right.points, left_face.points, disk)
+    W = pairing(right.points, left_face.points, disk, left_face.facets)
     try:
         Pr = right.point_motion(blade.n_dof)
         Pl = left_face.point_motion(blade.n_dof)
     except ValueError as exc:
         raise ValueError(f"contact {pair.name!r}: {exc}") from None
-    Pl = Pl[(3 * left[:, None] + np.arange(3)).ravel()]
+    if W.nnz == W.shape[0] and np.all(W.data == 1.0):   # node to node: the rows themselves
+        Pl = Pl[(3 * W.indices[:, None] + np.arange(3)).ravel()]
+    else:                                               # interpolated on the left facets
+        Pl = (sp.kron(W, sp.identity(3), format="csr") @ Pl).tocsr()
     Ra = disk.rotation(disk.pitch_angle)
     if plane:
         dirs = (t, np.cross(n, t), -n)     # u1, u2, and v = -n . d

@@ -34,8 +34,8 @@ displacements.
 A blade in a disk (`DiskPlacement`): the disk axis is parallel to X through
 (0, 0, -R), the root at radius R; blade j+1 is blade j turned by 2 pi / N about it.
 `disk.wheel_params` derives the shroud width of such a wheel, `solid.solid_mesh`
-shapes the left face as the right face turned by -2 pi / N, and `disk.pair_faces`
-pairs the faces of neighbours node by node.
+shapes the left face as the right face turned by -2 pi / N, and `disk.pairing`
+pairs the faces of neighbours, node to node or interpolated on the left face's facets.
 """
 from __future__ import annotations
 
@@ -198,7 +198,10 @@ class ContactFrame:
     area); None when the face spans no element facet.  motion: sparse (3k, n_dof) [-]
     point motion operator P, the displacements (X, Y, Z of point 0, of point 1, ...) =
     P q; None: the selection of `dofs` (FE nodes).  A rigid body carrying the points
-    (the beam blade's shroud) has d_k = u + theta x (x_k - x_0) in P.
+    (the beam blade's shroud) has d_k = u + theta x (x_k - x_0) in P.  facets (m, p):
+    the face's element facets as indices of `points` in the local order of
+    `structure.facets` (a displacement interpolated anywhere on the face); None: none
+    (a rigid shroud's points).
     """
 
     name: str
@@ -209,6 +212,7 @@ class ContactFrame:
     dofs: np.ndarray
     weights: np.ndarray | None = None
     motion: sp.csr_matrix | None = None
+    facets: np.ndarray | None = None
 
     def point_motion(self, n_dof: int) -> sp.csr_matrix:
         """P sparse (3k, n_dof) [-]: point displacements, point-major, = P q."""

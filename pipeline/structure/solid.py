@@ -22,6 +22,7 @@ from skfem.io.meshio import HEX_MAPPING
 from skfem.models.elasticity import lame_parameters
 
 from .disk import wheel_params
+from .facets import order_facet
 from .rotation import rotation_terms
 from .fe_model import (CONTACT_SETS, POINT_SETS, BladeModel, BladeParams, ContactFrame,
                        DiskPlacement, rotation_z)
@@ -195,7 +196,27 @@ def _face_weights(mesh, sbasis, nodes, scalar_dofs):
     return a.sum() * d / d.sum()
 
 
-def _frame(mesh, name, nodes, points, dofs, n_right, weights=None):
+def _face_facets(mesh, sbasis, nodes, scalar_dofs, points):
+    """(m, p) the boundary facets spanned by `nodes`, each as indices of the face's
+    points (rows of `scalar_dofs`) in the local order of `structure.facets`; None if
+    they span none."""
+    bf = mesh.boundary_facets()
+    facets = bf[np.isin(mesh.facets[:, bf], nodes).all(axis=0)]
+    if not facets.size:
+        return None
+    row = {int(d): i for i, d in enumerate(scalar_dofs)}
+    centre = points.mean(axis=0)
+    X2 = (points - centre) @ np.linalg.svd(points - centre, full_matrices=False)[2][:2].T
+    out = []
+    for f in facets:
+        view = sbasis.get_dofs(np.array([f]))
+        part = [[row[int(d)] for d in getattr(view, kind).get("u", ())]
+                for kind in ("nodal", "edge", "facet")]
+        out.append(order_facet(X2, part[0], part[1], part[2][0] if part[2] else None))
+    return np.asarray(out, dtype=np.int64)
+
+
+def _frame(mesh, name, nodes, points, dofs, n_right, weights=None, facets=None):
     X = mesh.p[:, nodes].T
     centre = X.mean(axis=0)
     _, sv, vt = np.linalg.svd(X - centre, full_matrices=False)
@@ -214,7 +235,8 @@ def _frame(mesh, name, nodes, points, dofs, n_right, weights=None):
     if np.linalg.norm(tangent) < 1e-8:
         tangent = np.cross(ref, [1.0, 0.0, 0.0])
     tangent /= np.linalg.norm(tangent)
-    return ContactFrame(name, normal, tangent, np.cross(tangent, ref), points, dofs, weights)
+    return ContactFrame(name, normal, tangent, np.cross(tangent, ref), points, dofs, weights,
+                        facets=facets)
 
 
 def assemble_elasticity(basis, E: float, nu: float, rho: float, chunk: int = 512):
@@ -315,7 +337,7 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
     K, M = K[free][:, free].tocsr(), M[free][:, free].tocsr()
     renum = -np.ones(basis.N, dtype=np.int64)
     renum[free] = np.arange(free.size)
-    dof_sets, set_points, weights = {}, {}, {}
+    dof_sets, set_points, weights, facets = {}, {}, {}, {}
     for name, nodes in node_sets.items():
         if name == "root":
             continue
@@ -326,12 +348,13 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
         dof_sets[name], set_points[name] = renum[d], x
         if name in CONTACT_SETS:
             weights[name] = _face_weights(mesh, sbasis, nodes, d[:, 0] // 3)
+            facets[name] = _face_facets(mesh, sbasis, nodes, d[:, 0] // 3, x)
     frames = {}
     n_right = None
     for name in ("shroud_right", "shroud_left"):
         if name in node_sets:
             f = _frame(mesh, name, node_sets[name], set_points[name], dof_sets[name], n_right,
-                       weights[name])
+                       weights[name], facets[name])
             n_right = f.normal if name == "shroud_right" else n_right
             frames[name] = f
     turning = None if rotation_centre is None else rotation_terms(

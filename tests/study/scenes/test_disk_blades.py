@@ -176,7 +176,8 @@ def test_case_keys_and_face_totals():
 
 def test_user_mesh_pairs_by_rotation_and_a_perturbed_face_fails(tmp_path):
     """A wheel blade written through meshio and read back pairs like the generated one;
-    moving one left-face vertex by 0.1 mm gives the one-line pairing error."""
+    moving one left-face vertex 0.1 mm radially, out of the face's plane (the left face
+    is the right one turned about the disk axis), gives the one-line pairing error."""
     blade = build_blade(PARAMS, DISK)
     path = write_mesh(blade, tmp_path / "wheel_blade.vtu")
     user = wheel(Blade(PARAMS, mesh=str(path), disk=DISK))
@@ -190,8 +191,9 @@ def test_user_mesh_pairs_by_rotation_and_a_perturbed_face_fails(tmp_path):
     bad = tmp_path / "perturbed.vtu"
     meshio.write(bad, m)
     with pytest.raises(ValueError, match=r"^shroud faces do not pair: shroud_right point \d+ "
-                                         r"at \(.*\) m has no shroud_left point turned by "
-                                         r"2 pi / 6 onto it \(nearest [0-9.e-]+ m away"):
+                                         r"at \(.*\) m lies on no shroud_left element "
+                                         r"turned by 2 pi / 6 \(nearest shroud_left point "
+                                         r"[0-9.e-]+ m away"):
         build_system(wheel(Blade(PARAMS, mesh=str(bad), disk=DISK)), {"preload": 1.0})
 
 
