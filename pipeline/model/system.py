@@ -191,6 +191,17 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     return from_squares(sla.eigh(K, dense(system.M), eigvals_only=True), square_scale(system))
 
 
+def natural_modes(system: System, contacts: str = "open") -> tuple:
+    """(frequencies [rad/s] (n,), mode shapes (n, n)) of `natural_frequencies`' problem:
+    column j solves (K_contacts - w_j^2 M) x_j = 0, complex for a cyclic sector's
+    travelling waves, each scaled to max |x| = 1 with that entry real and positive."""
+    K = linear_stiffness(system, contacts)
+    w2, X = sla.eigh(K, dense(system.M))
+    j = np.argmax(np.abs(X), axis=0)
+    peak = X[j, np.arange(X.shape[1])]
+    return from_squares(w2, square_scale(system)), X / peak[None, :]
+
+
 NEGATIVE_REL = 1e-12  # an omega^2 below -NEGATIVE_REL of the scale: a negative stiffness
 #                       (eigh's round-off: about eps times the largest omega^2)
 

@@ -20,7 +20,7 @@ from pipeline.fourier.harmonics import evaluate
 from pipeline.solve.response.response import frequency_response
 from pipeline.solve.stability.hill import hill_eigenvalues, is_stable
 from pipeline.study.files.documents import load_study, study_from_document, study_to_mapping
-from pipeline.model.system import System, natural_frequencies
+from pipeline.model.system import System, linear_stiffness, natural_frequencies, natural_modes
 from pipeline.model.build import full_system
 
 from helpers import fd, linear_peak, solve_sector
@@ -182,6 +182,22 @@ def test_stuck_frequencies_of_an_engine_order_are_those_of_the_assembly(eo):
         assert np.min(np.abs(f_full - f)) < 1e-10 * f
     np.testing.assert_allclose(natural_frequencies(sector_system(sec, eo), "open"),
                                natural_frequencies(isolated_system(sec), "open"))
+
+
+@pytest.mark.parametrize("eo", [0, 1, 2])
+def test_natural_modes_solve_the_sector_problem_at_its_frequencies(eo):
+    """`natural_modes`: the frequencies are `natural_frequencies`' and each shape x
+    solves (K_stuck - w^2 M) x = 0 (the Hermitian sector stiffness of the engine order),
+    scaled to max |x| = 1 with that entry real."""
+    s = sector_system(sector(), eo)
+    w, X = natural_modes(s, "stuck")
+    np.testing.assert_allclose(w, natural_frequencies(s, "stuck"), rtol=1e-13)
+    K = linear_stiffness(s, "stuck")
+    for j in range(X.shape[1]):
+        r = K @ X[:, j] - w[j] ** 2 * (s.M @ X[:, j])
+        assert np.linalg.norm(r) < 1e-12 * np.linalg.norm(K) * np.linalg.norm(X[:, j])
+    peak = X[np.argmax(np.abs(X), axis=0), np.arange(X.shape[1])]
+    np.testing.assert_array_equal(peak, 1.0)
 
 
 def test_bad_arguments_are_named():

@@ -99,12 +99,27 @@ def family_attrs(study, solver: str) -> dict:
 
 def disk_modes_to_dataset(study, res: dict) -> xr.Dataset:
     """Dataset of a disk modes study (`disk_modes_study.nodal_diameter_frequencies` result):
-    natural frequencies per nodal diameter with the contacts open and stuck."""
+    natural frequencies per nodal diameter with the contacts open and stuck, and their
+    mode shapes at the sector's physical DOFs."""
+    phys = res["physical"]
+    shapes = {f"mode_shape_{m}": (
+        ("nodal_diameter", "dof", "mode", "component"),
+        np.stack([res[f"shape_{m}"][:, phys].real, res[f"shape_{m}"][:, phys].imag], axis=-1),
+        {"units": "1", "long_name": f"mode shape at the sector's DOFs, contacts {m} "
+                                    "(component: real and imaginary parts, a travelling "
+                                    "wave for 0 < ND < N/2), scaled to max |x| = 1, that "
+                                    "entry real and positive"})
+        for m in ("open", "stuck")}
     return xr.Dataset(
-        {**family_frequencies(res, ("nodal_diameter", "mode")),
+        {**family_frequencies(res, ("nodal_diameter", "mode")), **shapes,
          "solve_time": ((), float(res["time_s"]), {"units": "s", "long_name": "wall time of "
                                                    "the eigen-solves"})},
-        coords=family_coords(study, res["open"].shape[1]),
+        coords={**family_coords(study, res["open"].shape[1]),
+                "dof": ("dof", np.asarray([res["dofs"][i] for i in phys], str),
+                        {"long_name": "the sector's DOF (a Craig-Bampton boundary DOF "
+                                      "<set>.<k>.<x|y|z>, or a lumped DOF)"}),
+                "component": ("component", np.asarray(["real", "imag"]),
+                              {"long_name": "real or imaginary part"})},
         attrs=family_attrs(study, "pipeline (cyclic eigenproblem of one sector per nodal "
                                   "diameter)"))
 

@@ -18,7 +18,9 @@ order EO excites only the family ND = EO (mod N, folded into 0..N/2).
                                               nodal_diameters = [0, 1, ...]  (default 0..N/2)
 
 The dataset has `frequency_open` and `frequency_stuck` [Hz] on (nodal_diameter,
-mode); the figure `<name>/nodal_diameter_diagram.png` draws both.  With `[modes]
+mode) and their mode shapes at the sector's physical DOFs; the figure
+`<name>/nodal_diameter_diagram.png` draws both, and on an FE disk
+`<name>/mode_shapes.vtu` holds the shapes on the blade mesh.  With `[modes]
 speeds` (and `engine_orders`) the disk turns: the Campbell diagram (`campbell_study`),
 frequencies on (speed, nodal_diameter, mode) and the engine-order crossings, drawn
 in `<name>/campbell_diagram.png`.
@@ -33,9 +35,12 @@ from pathlib import Path
 import numpy as np
 
 from ...model.cyclic import sector_system
-from ...model.scene import Scene
+from ...model.scene import Lumped, Scene
 from ...model.build import sector
-from ...model.system import natural_frequencies
+from ...model.system import natural_modes
+from ...model.blade_cache import blade_model, reduced_model
+from ...structure.mesh_io import write_fields
+from ...structure.reduction import reconstruct
 from ..figures.nd_figure import nodal_diameter_figure
 from ..files.rules import check_speed_rules
 from ..scenes.blade_scene import BLADE_MODELS, base_dir_of, blade_scenes
@@ -127,15 +132,44 @@ def check_modes_scene(ck, scene: Scene):
 
 def nodal_diameter_frequencies(scene: Scene, nodal_diameters, n_frequencies: int) -> dict:
     """{"open", "stuck"}: (len(nodal_diameters), n_frequencies) natural frequencies [Hz]
-    of the tuned disk per nodal diameter; "time_s": the wall time [s]."""
+    of the tuned disk per nodal diameter; {"shape_open", "shape_stuck"}: their mode
+    shapes (len(nodal_diameters), n, n_frequencies) at the sector's n DOFs ("dofs"),
+    complex (a travelling wave for 0 < ND < N/2), each scaled to max |x| = 1 over the
+    physical DOFs ("physical": not a Craig-Bampton modal coordinate `mode.<j>`), that
+    entry real and positive; "time_s": the wall time [s]."""
     t0 = time.perf_counter()
     preset = all(getattr(c, "n0", None) is not None for c in scene.contacts)
     sec = sector(scene, None if preset else {"preload": 0.0})  # n0 plays no part here
-    out = {m: np.array([natural_frequencies(sector_system(sec, nd), c)[:n_frequencies]
-                        for nd in nodal_diameters]) / (2 * np.pi)
-           for m, c in (("open", "open"), ("stuck", "tied"))}
+    physical = np.array([i for i, d in enumerate(sec.dof_names) if not d.startswith("mode.")])
+    out = {"dofs": tuple(sec.dof_names), "physical": physical}
+    for m, c in (("open", "open"), ("stuck", "tied")):
+        w, shapes = [], []
+        for nd in nodal_diameters:
+            wk, X = natural_modes(sector_system(sec, nd), c)
+            X = X[:, :n_frequencies]
+            j = np.argmax(np.abs(X[physical]), axis=0)
+            shapes.append(X / X[physical[j], np.arange(X.shape[1])][None, :])
+            w.append(wk[:n_frequencies])
+        out[m], out[f"shape_{m}"] = np.array(w) / (2 * np.pi), np.array(shapes, complex)
     out["time_s"] = time.perf_counter() - t0
     return out
+
+
+def write_mode_shapes(study, res: dict, path) -> Path | None:
+    """The mode shapes of an FE disk's sector on its blade mesh, VTU point data
+    `<open|stuck>_nd<ND>_mode<j>_re|im|abs` [-] (`structure.mesh_io.write_fields`),
+    recovered from the Craig-Bampton coordinates; None for a lumped disk."""
+    sc = study.scene
+    if isinstance(sc.structure, Lumped) or sc.reduction is None:
+        return None
+    red = reduced_model(sc.structure, sc.reduction)[0]
+    fields = {}
+    for m in ("open", "stuck"):
+        for i, nd in enumerate(study.nodal_diameters):
+            full = reconstruct(red, res[f"shape_{m}"][i])
+            for j in range(full.shape[1]):
+                fields[f"{m}_nd{nd}_mode{j + 1}"] = full[:, j]
+    return write_fields(blade_model(sc.structure), path, fields)
 
 
 def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: bool = True):
@@ -161,6 +195,11 @@ def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: b
     path = write_netcdf(ds, Path(out_dir) / f"{study.name}.nc")
     log.info("wrote %s", path)
     written = []
+    shapes = None if study.speeds else write_mode_shapes(
+        study, res, Path(out_dir) / study.name / "mode_shapes.vtu")
+    if shapes is not None:
+        written.append(shapes)
+        log.info("wrote %s", shapes)
     if figures:
         written.append(campbell_figure(Path(out_dir) / study.name / "campbell_diagram.png", ds)
                        if study.speeds else nodal_diameter_figure(
