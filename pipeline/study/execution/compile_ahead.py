@@ -117,15 +117,14 @@ def compile_ahead(groups, workers: int = 2) -> float:
     if not todo:
         return 0.0
     # deferred: only a cold cache needs processes
-    import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     t0 = time.perf_counter()
     log.info("compiling the kernels (%s) once for this machine: %d process(es)",
              ", ".join(todo), min(workers, len(todo)))
-    # fresh processes (spawn): nothing of this one, its threads or its imports, is copied
-    with ProcessPoolExecutor(min(workers, len(todo)),
-                             mp_context=multiprocessing.get_context("spawn")) as pool:
+    # the platform's default start, as the run's own pool (`cases.map_jobs`): a spawned
+    # process would run a calling script's unguarded top level again
+    with ProcessPoolExecutor(min(workers, len(todo))) as pool:
         futures = {g: pool.submit(GROUPS[g]) for g in todo}
         for g, fut in futures.items():
             try:
