@@ -73,6 +73,41 @@ def test_campbell_study_dataset_and_figure(tmp_path):
     assert ds["speed"].attrs["units"] == "rpm" and ds.sizes["speed"] == 16
     assert ds.sizes["crossing"] >= 6 and set(ds["crossing_contacts"].values) == {"open", "stuck"}
     assert (tmp_path / "shrouded_disk_campbell" / "campbell_diagram.png").is_file()
+    figure_reads(ds)
+
+
+def figure_reads(ds):
+    """The figure a review can read: every crossing labelled, no two labels (engine
+    orders, crossings) overlapping once drawn, every engine-order label inside the axes,
+    and the frequency axis 5 % above the families drawn (the excited NDs)."""
+    import numpy as np
+
+    from pipeline.study.figures import plots
+    from pipeline.study.figures.campbell_figure import draw_campbell, text_box
+    from pipeline.study.figures.nd_figure import excited_nodal_diameter
+
+    fig, labels = draw_campbell(ds)
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    texts = [t for t in ax.texts if t.get_gid() in ("engine_order_label", "crossing_label")]
+    assert sum(t.get_gid() == "crossing_label" for t in texts) == ds.sizes["crossing"]
+    assert sum(t.get_gid() == "engine_order_label" for t in texts) == ds.sizes["engine_order"]
+    boxes = [text_box(t) for t in texts]
+    assert not [(a.get_text(), b.get_text()) for i, a in enumerate(texts)
+                for b, bb in zip(texts[i + 1:], boxes[i + 1:]) if boxes[i].overlaps(bb)]
+    frame = ax.get_window_extent()
+    for t, b in zip(texts, boxes):
+        if t.get_gid() == "engine_order_label":
+            assert frame.x0 - 1 <= b.x0 and b.x1 <= frame.x1 + 1 and frame.y0 - 1 <= b.y0 \
+                and b.y1 <= frame.y1 + 1, t.get_text()
+    nds = list(ds.nodal_diameter.values)
+    drawn = {excited_nodal_diameter(int(e), int(ds.attrs["sectors"]))
+             for e in ds.engine_order.values} & set(nds)
+    top = max(np.nanmax(ds[v].values[:, nds.index(nd), :]) for v in
+              ("frequency_stuck", "frequency_open") for nd in drawn)
+    assert ax.get_ylim()[1] == pytest.approx(1.05 * top, rel=1e-12)
+    assert len(labels) == ds.sizes["crossing"] + ds.sizes["engine_order"]
+    plots.pyplot().close(fig)
 
 
 BAD = {   # (old, new, field, pattern) on the shipped Campbell study
