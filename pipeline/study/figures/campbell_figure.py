@@ -126,8 +126,9 @@ def text_box(label, renderer=None):
 def crossing_labels(ax, ds, drawn, N) -> list:
     """The crossings the study located, in their family's colour (filled: contacts
     stuck or static; open circle: open), each labelled with its engine order and speed
-    [rpm], a label that would overlap another moved down beside its marker (with a
-    leader line); [(text, x, y)].  Call with the figure's layout drawn."""
+    [rpm] (on the marker's left near the right edge), a label that would overlap another
+    moved down beside its marker (with a leader line); [(text, x, y)].  Call with the
+    figure's layout drawn."""
     renderer = ax.figure.canvas.get_renderer()
     out, placed = [], [text_box(t, renderer) for t in ax.texts]
     order = np.argsort(ds.crossing_speed.values) if ds.sizes.get("crossing", 0) else []
@@ -138,20 +139,26 @@ def crossing_labels(ax, ds, drawn, N) -> list:
         is_open = str(ds.crossing_contacts.values[k]) == "open"
         ax.plot(x, y, "o", ms=4, mfc="white" if is_open else colour, mec=colour)
         text = f"EO {eo}: {x:,.0f} rpm"
-        dy = 3.0
-        label = ax.annotate(text, (x, y), xytext=(4, dy), textcoords="offset points",
+        frame = ax.get_window_extent(renderer)
+        dx, dy, ha = 4.0, 3.0, "left"
+        label = ax.annotate(text, (x, y), xytext=(dx, dy), textcoords="offset points",
                             fontsize=6, color=colour, gid="crossing_label", bbox=GROUND)
         box = text_box(label, renderer)
+        if box.x1 > frame.x1:   # near the right edge: on the marker's left
+            dx, ha = -4.0, "right"
+            label.set_position((dx, dy))
+            label.set_horizontalalignment(ha)
+            box = text_box(label, renderer)
         while any(box.overlaps(b) for b in placed) and dy > -400:
             dy -= 7.0
-            label.set_position((4, dy))
+            label.set_position((dx, dy))
             box = text_box(label, renderer)
         if dy != 3.0:   # moved: drawn again with a leader line to its marker
             label.remove()
-            label = ax.annotate(text, (x, y), xytext=(4, dy), textcoords="offset points",
+            label = ax.annotate(text, (x, y), xytext=(dx, dy), textcoords="offset points",
                                 fontsize=6, color=colour, gid="crossing_label", bbox=GROUND,
-                                arrowprops={"arrowstyle": "-", "color": colour, "lw": 0.4,
-                                            "shrinkA": 0, "shrinkB": 2})
+                                ha=ha, arrowprops={"arrowstyle": "-", "color": colour,
+                                                   "lw": 0.4, "shrinkA": 0, "shrinkB": 2})
             box = text_box(label, renderer)
         placed.append(box)
         out.append((text, x, y))
