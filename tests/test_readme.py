@@ -142,6 +142,7 @@ def test_first_commands_succeed_and_the_xarray_line_draws_the_branch(tmp_path, m
                if tag == "python" and "xr.open_dataset" in body
                and before.strip() != "<!-- python-example -->"]
     monkeypatch.chdir(out.parent)
+    plt.close("all")   # as in a fresh session: no figure another test left open
     exec(compile(line, "README.md", "exec"), {})
     ax = plt.gca()
     assert ax.lines and len(ax.lines[0].get_xdata()) > 10
