@@ -182,3 +182,25 @@ def test_the_modes_study_runs_on_a_blade_whose_faces_do_not_match(tmp_path):
         assert np.isfinite(a).all() and a.shape == b.shape, var
         gap = np.abs(b / a - 1).max()
         assert lo <= gap < hi, (var, gap)
+
+
+def test_the_curved_deck_of_20_node_hexahedra_pairs_through_its_8_node_facets(tmp_path):
+    """A designer's deck (`tests/curved_wheel_blade.py`: C3D20, twisted and cambered
+    airfoil, inclined shroud faces): its faces are 8-node facets, and every right point
+    interpolated on them (not taken node to node) gives the node-to-node row to 1e-12."""
+    from curved_wheel_blade import write_curved_wheel_blade
+    from curved_wheel_blade import DISK as CURVED_DISK
+
+    params = BladeParams(n_chord=6, n_thick=1, n_span=4)
+    deck = write_curved_wheel_blade(tmp_path / "blade.inp", params)
+    blade = blade_model(Blade(params, mesh=str(deck), disk=CURVED_DISK))
+    R, L = blade.frames["shroud_right"], blade.frames["shroud_left"]
+    assert L.facets.shape[1] == 8 and len(R.points) >= 30
+    W = pairing(R.points, L.points, CURVED_DISK, L.facets)
+    assert W.nnz == W.shape[0] and np.all(W.data == 1.0)           # node to node
+    back = CURVED_DISK.rotate(R.points, -CURVED_DISK.pitch_angle)
+    rows = on_facets(back, L.points, L.facets, PAIR_TOLERANCE * np.ptp(R.points, axis=0).max())
+    Wi = np.zeros(W.shape)
+    for k, (ids, w) in enumerate(rows):
+        Wi[k, ids] += w
+    assert np.abs(Wi - W.toarray()).max() < 1e-12

@@ -15,7 +15,7 @@ from ...solve.response import linear_response
 from ...solve.response import response
 from ...model.system import negative_stiffness
 from .checkpoint import load_cases, save_case
-from .compile_ahead import compile_ahead, groups_for
+from .compile_ahead import GROUPS, compile_ahead, groups_for, marker
 from ...errors import interrupt_in_chain
 from ..files.declared import SeparationGuard, UndeclaredSeparation, needs_guard
 from ..files.study_types import Study, is_linear_scene
@@ -226,8 +226,11 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None, extra=
 
 def compile_kernels(study, case, method, workers):
     """The kernels the cases meet, compiled once before the pool's workers start
-    (`compile_ahead`), from the first case's system; nothing if it cannot be built (that
-    case then fails alone, as it would)."""
+    (`compile_ahead`), from the first case's system; nothing if every group is marked
+    compiled already (no system built) or if it cannot be built (that case then fails
+    alone, as it would)."""
+    if all(marker(g).exists() for g in GROUPS):
+        return
     try:
         system = study.system(case)
     except Exception as exc:
