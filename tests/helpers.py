@@ -15,7 +15,7 @@ import scipy.linalg as la
 from scipy.optimize import minimize_scalar
 
 from pipeline.contact import YangMenq
-from pipeline.model.cyclic import sector_system
+from pipeline.model.cyclic import Sector, sector_system, spring_stiffness
 from pipeline.model.system import System, dense
 from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.continuation.newton import newton
@@ -184,6 +184,22 @@ def closed_form_hz(nd, stuck, N=24):
     K = np.array([[KG + KB1 + K0 * c, -KB1, 0.0], [-KB1, KB1 + KB2, -KB2],
                   [0.0, -KB2, KB2 + (KU * c if stuck else 0.0)]])
     return np.sqrt(la.eigh(K, np.diag([MD, MB1, MB2]), eigvals_only=True)) / (2 * np.pi)
+
+
+def laxalde_sector(N=24, n0=5.0, mu=0.3, kv=0.0, normal=False, forcing=1.0):
+    """DOFs (xd, xb1, xb2); the disk spring k0 stretches by xd_{j+1} - xd_j; a
+    Jenkins element between neighbouring tip masses, u = xb2_{j+1} - xb2_j (with
+    `normal`, v = xb1_{j+1} - xb1_j also loads it); `forcing` N on xb2 [SI]."""
+    M = np.diag([MD, MB1, MB2])
+    K = np.array([[KG + KB1, -KB1, 0.0], [-KB1, KB1 + KB2, -KB2], [0.0, -KB2, KB2]])
+    Ks, Kn = spring_stiffness([[-1, 0, 0, 1, 0, 0]], [K0], 3)
+    e = np.eye(3)
+    Bn, Bn_next = (-e[[1]], e[[1]]) if normal else (0 * e[[1]], 0 * e[[1]])
+    F = np.zeros((3, 2), complex)
+    F[2, 1] = forcing
+    return Sector(M=M, C=2e-5 * K, K=K, Bt=-e[[2]], Bn=Bn, Bt_next=e[[2]], Bn_next=Bn_next,
+                  contact=YangMenq(KU, kv, mu, n0), forcing=F, sectors=N,
+                  dof_names=("xd", "xb1", "xb2"), K_spring=Ks, K_next=Kn)
 
 
 def solve_sector(sec, eo, Om, method="exact", n_samples=120, H=3):

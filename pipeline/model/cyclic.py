@@ -71,6 +71,8 @@ class Sector:
     K_spring: np.ndarray | None = None   # (n, n) inter-sector springs on own DOFs [N/m]
     K_next: np.ndarray | None = None     # (n, n) inter-sector springs to the next [N/m]
     laws: tuple = ()         # further `contact.laws.LawElements` (own and next-sector maps)
+    M_next: np.ndarray | None = None     # (n, n) mass coupling to the next sector [kg]
+    C_next: np.ndarray | None = None     # (n, n) damping coupling to the next [N s/m]
 
     def __post_init__(self):
         n = np.shape(self.M)[0]
@@ -130,7 +132,8 @@ def sector_system(sector: Sector, engine_order: int) -> System:
     eo = check_engine_order(sector.sectors, engine_order)
     cy = CyclicCoupling(Bt_next=np.asarray(sector.Bt_next, float),
                         Bn_next=np.asarray(sector.Bn_next, float),
-                        sectors=int(sector.sectors), engine_order=eo, K_next=sector.K_next)
+                        sectors=int(sector.sectors), engine_order=eo, K_next=sector.K_next,
+                        M_next=sector.M_next, C_next=sector.C_next)
     return System(M=sector.M, C=sector.C, K=sector.K_own, Bt=np.asarray(sector.Bt, float),
                   Bn=np.asarray(sector.Bn, float), contact=sector.contact,
                   forcing=np.asarray(sector.forcing, complex), dof_names=tuple(sector.dof_names),
@@ -143,8 +146,9 @@ def isolated_system(sector: Sector) -> System:
     (inter-sector springs in their EO = 0 state, K + K_next + K_next^T)."""
     keep = ~(np.any(sector.Bt_next != 0, 1) | np.any(sector.Bn_next != 0, 1))
     sub = sector.contact.take(keep)
-    K = sector.K_own if sector.K_next is None else sector.K_own + sector.K_next + sector.K_next.T
-    return System(M=sector.M, C=sector.C, K=K, Bt=np.asarray(sector.Bt)[keep],
+    K, M, C = (X if Xn is None else X + Xn + np.asarray(Xn).T for X, Xn in (
+        (sector.K_own, sector.K_next), (sector.M, sector.M_next), (sector.C, sector.C_next)))
+    return System(M=M, C=C, K=K, Bt=np.asarray(sector.Bt)[keep],
                   Bn=np.asarray(sector.Bn)[keep], contact=sub,
                   forcing=np.asarray(sector.forcing, complex), dof_names=tuple(sector.dof_names))
 
@@ -208,8 +212,10 @@ def full_assembly(sector: Sector, engine_order: int, stiffness_factors=None,
             "Bt": blk(one, sector.Bt) + blk(ring, sector.Bt_next),
             "Bn": blk(one, sector.Bn) + blk(ring, sector.Bn_next)}
     if sector.K_spring is not None:   # springs between sectors (the disk), never mistuned
-        mats["K"] = (mats["K"] + blk(one, sector.K_spring) + blk(ring, sector.K_next)
-                     + blk(ring.T, np.asarray(sector.K_next).T)).tocsr()
+        mats["K"] = (mats["K"] + blk(one, sector.K_spring)).tocsr()
+    for name, Xn in (("K", sector.K_next), ("M", sector.M_next), ("C", sector.C_next)):
+        if Xn is not None:           # the disk's coupling across the cut, never mistuned
+            mats[name] = (mats[name] + blk(ring, Xn) + blk(ring.T, np.asarray(Xn).T)).tocsr()
     if not (N * sector.n_dof > DENSE_MAX_DOF if sparse is None else sparse):
         mats = {k: A.toarray() for k, A in mats.items()}
     contact = sector.contact.tile(N)
@@ -239,7 +245,8 @@ def wheel_system(system: System) -> System:
     sec = Sector(M=system.M, C=system.C, K=system.K, Bt=system.Bt, Bn=system.Bn,
                  Bt_next=cy.Bt_next, Bn_next=cy.Bn_next, contact=system.contact,
                  forcing=system.forcing, sectors=cy.sectors,
-                 dof_names=tuple(system.dof_names), K_next=cy.K_next, laws=system.laws)
+                 dof_names=tuple(system.dof_names), K_next=cy.K_next, laws=system.laws,
+                 M_next=cy.M_next, C_next=cy.C_next)
     return full_assembly(sec, cy.engine_order, sparse=False)
 
 

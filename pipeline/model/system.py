@@ -55,7 +55,10 @@ class CyclicCoupling:
     `K_next` is a LINEAR coupling to the neighbours (disk flexibility, e.g. springs
     between neighbouring disk masses): the elastic force on sector j is
     K q_j + K_next q_{j+1} + K_next^T q_{j-1}, so harmonic h of the travelling
-    wave sees the Hermitian stiffness `coupled_stiffness(system, h phi)`.
+    wave sees the Hermitian stiffness `coupled_stiffness(system, h phi)`.  A sector
+    cut out of a flexible disk (`structure.cyclic_cut`) also shares mass and damping
+    with its neighbours across the cut faces: `M_next`, `C_next` couple the same way
+    (inertia M q_j'' + M_next q_{j+1}'' + M_next^T q_{j-1}'', `coupled_matrix`).
     """
 
     Bt_next: np.ndarray      # (E, n) tangential map on the next sector's DOFs [-]
@@ -63,6 +66,8 @@ class CyclicCoupling:
     sectors: int             # N
     engine_order: int        # EO
     K_next: np.ndarray | None = None   # (n, n) linear coupling to the next sector [N/m]
+    M_next: np.ndarray | None = None   # (n, n) mass coupling to the next sector [kg]
+    C_next: np.ndarray | None = None   # (n, n) damping coupling to the next sector [N s/m]
 
     @property
     def phase(self) -> float:
@@ -158,20 +163,40 @@ def with_preload(system: System, n0) -> System:
     return replace(system, laws=tuple(laws))
 
 
-def coupled_stiffness(system: System, angle: float):
-    """K + exp(i angle) K_next + exp(-i angle) K_next^T [N/m]: the stiffness a wave with
-    the inter-sector phase `angle` [rad] sees (harmonic h of the engine-order wave:
-    angle = h phi; Hill's perturbation of wave number r adds 2 pi r / N).  K itself
-    (real, dense or sparse as given) when the system has no linear inter-sector
-    coupling."""
-    cy = system.cyclic
-    if cy is None or cy.K_next is None:
-        return system.K
-    Kn = np.asarray(cy.K_next, dtype=float)
-    K = system.K.toarray() if hasattr(system.K, "toarray") else np.asarray(system.K, float)
+def coupled_matrix(system: System, name: str, angle: float):
+    """X + exp(i angle) X_next + exp(-i angle) X_next^T of the system's matrix `name`
+    ("K" [N/m], "M" [kg] or "C" [N s/m]): what a wave with the inter-sector phase
+    `angle` [rad] sees (harmonic h of the engine-order wave: angle = h phi; Hill's
+    perturbation of wave number r adds 2 pi r / N).  X itself (real, dense or sparse
+    as given) when the system has no such inter-sector coupling."""
+    X = getattr(system, name)
+    Xn = coupling(system, name)
+    if Xn is None:
+        return X
+    X = X.toarray() if hasattr(X, "toarray") else np.asarray(X, float)
     z = np.exp(1j * angle)
-    out = K + z * Kn + np.conj(z) * Kn.T
+    out = X + z * Xn + np.conj(z) * Xn.T
     return out.real if abs(z.imag) < 1e-15 else out
+
+
+def coupling(system: System, name: str):
+    """The dense inter-sector coupling X_next (n, n) of the matrix `name` ("K", "M",
+    "C") of a cyclic sector, or None."""
+    cy = system.cyclic
+    Xn = None if cy is None else getattr(cy, f"{name}_next")
+    return None if Xn is None else np.asarray(Xn.toarray() if hasattr(Xn, "toarray") else Xn,
+                                              dtype=float)
+
+
+def inertia_coupled(system: System) -> bool:
+    """True for a cyclic sector whose mass or damping couples it to its neighbours (a
+    sector cut out of a flexible disk): each harmonic then has its own M and C."""
+    return coupling(system, "M") is not None or coupling(system, "C") is not None
+
+
+def coupled_stiffness(system: System, angle: float):
+    """K + exp(i angle) K_next + exp(-i angle) K_next^T [N/m] (`coupled_matrix`)."""
+    return coupled_matrix(system, "K", angle)
 
 
 def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
@@ -182,13 +207,20 @@ def natural_frequencies(system: System, contacts: str = "open") -> np.ndarray:
     contact closed): with "open" the linear limits the nonlinear response tends to.  For a cyclic
     sector the maps of the first harmonic, B = Bt + exp(i phi) Bt_next, give the
     Hermitian stiffness K + B^H ku B + ... (with a linear inter-sector coupling,
-    `coupled_stiffness(system, phi)` in place of K): the frequencies of the
-    engine-order family (nodal diameter EO).
+    `coupled_stiffness(system, phi)` in place of K, and with a mass coupling
+    `wave_mass`): the frequencies of the engine-order family (nodal diameter EO).
     """
     # every frequency: one dense eigen-solve of the whole structure (N n DOFs for an
     # N-sector assembly), whether the matrices are stored sparse or not
     K = linear_stiffness(system, contacts)
-    return from_squares(sla.eigh(K, dense(system.M), eigvals_only=True), square_scale(system))
+    return from_squares(sla.eigh(K, wave_mass(system), eigvals_only=True), square_scale(system))
+
+
+def wave_mass(system: System) -> np.ndarray:
+    """The dense mass [kg] of `linear_stiffness`' problem: M, or for a cyclic sector
+    with a mass coupling that of its engine-order family (`coupled_matrix`)."""
+    cy = system.cyclic
+    return dense(coupled_matrix(system, "M", cy.phase if cy is not None else 0.0))
 
 
 def natural_modes(system: System, contacts: str = "open") -> tuple:
@@ -196,7 +228,7 @@ def natural_modes(system: System, contacts: str = "open") -> tuple:
     column j solves (K_contacts - w_j^2 M) x_j = 0, complex for a cyclic sector's
     travelling waves, each scaled to max |x| = 1 with that entry real and positive."""
     K = linear_stiffness(system, contacts)
-    w2, X = sla.eigh(K, dense(system.M))
+    w2, X = sla.eigh(K, wave_mass(system))
     j = np.argmax(np.abs(X), axis=0)
     peak = X[j, np.arange(X.shape[1])]
     return from_squares(w2, square_scale(system)), X / peak[None, :]
@@ -326,7 +358,7 @@ def lowest_squares(system: System, contacts: str, k: int, laws: bool = True) -> 
     k = min(int(k), n)
     if n <= DENSE_EIGEN_MAX or system.cyclic is not None or not sp.issparse(system.K):
         K = linear_stiffness(system, contacts, laws)
-        return sla.eigh(K, dense(system.M), eigvals_only=True)[:k]
+        return sla.eigh(K, wave_mass(system), eigvals_only=True)[:k]
 
     K = sp.csr_matrix(system.K, dtype=float)
     if contacts in ("stuck", "tied", "small"):

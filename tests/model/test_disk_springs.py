@@ -17,23 +17,7 @@ from pipeline.solve.response.linear_response import frequency_response as linear
 from pipeline.solve.response.response import frequency_response
 from pipeline.solve.stability.hill import hill_eigenvalues
 
-from helpers import K0, KB1, KB2, KG, KU, MB1, MB2, MD, closed_form_hz, fd, solve_sector
-
-
-def laxalde_sector(N=24, n0=5.0, mu=0.3, kv=0.0, normal=False, forcing=1.0):
-    """DOFs (xd, xb1, xb2); the disk spring k0 stretches by xd_{j+1} - xd_j; a
-    Jenkins element between neighbouring tip masses, u = xb2_{j+1} - xb2_j (with
-    `normal`, v = xb1_{j+1} - xb1_j also loads it); `forcing` N on xb2 [SI]."""
-    M = np.diag([MD, MB1, MB2])
-    K = np.array([[KG + KB1, -KB1, 0.0], [-KB1, KB1 + KB2, -KB2], [0.0, -KB2, KB2]])
-    Ks, Kn = spring_stiffness([[-1, 0, 0, 1, 0, 0]], [K0], 3)
-    e = np.eye(3)
-    Bn, Bn_next = (-e[[1]], e[[1]]) if normal else (0 * e[[1]], 0 * e[[1]])
-    F = np.zeros((3, 2), complex)
-    F[2, 1] = forcing
-    return Sector(M=M, C=2e-5 * K, K=K, Bt=-e[[2]], Bn=Bn, Bt_next=e[[2]], Bn_next=Bn_next,
-                  contact=YangMenq(KU, kv, mu, n0), forcing=F, sectors=N,
-                  dof_names=("xd", "xb1", "xb2"), K_spring=Ks, K_next=Kn)
+from helpers import K0, KU, closed_form_hz, fd, laxalde_sector, solve_sector
 
 
 def test_spring_stiffness_is_the_energy_of_the_stretch():

@@ -7,7 +7,9 @@ Per harmonic h, at w = h Omega and for the complex amplitude Q_h = Qc_h - i Qs_h
     dS_h/dOmega = h (-2 w M + i C) + sum_t da_t/dOmega A_t,
 
 K_h the stiffness of harmonic h (K, or for a cyclic sector with a linear inter-sector
-coupling K + e^{i h phi} K_next + e^{-i h phi} K_next^T, `stiffness_stack`).  An added
+coupling K + e^{i h phi} K_next + e^{-i h phi} K_next^T, `stiffness_stack`); a sector
+cut out of a flexible disk couples its mass and damping too, so M and C are per
+harmonic there (M_h, C_h in the same way, `harmonic_matrices`; strategy "dense").  An added
 linear term t is one `Term` (A_t, p_t, imag_t, q_t), a_t = w^p Omega^q (times i if
 imag): a mass-proportional damping c' M q' is Term(c' M, 1, True), exactly C + c' M;
 a gyroscopic G q' is Term(G, 1, True); the damping -2 zeta Omega M q' of the extended
@@ -45,7 +47,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ...fourier.harmonics import complex_harmonics, derivative_matrix
-from ...model.system import coupled_stiffness, dense
+from ...fourier.harmonics import shift as time_shift
+from ...model.system import coupled_matrix, coupled_stiffness, coupling, dense, inertia_coupled
 from .interior import condense_blocks, interior_blocks
 from .parts import PartBlocks, applied, on_contact_dofs, on_parts, on_pattern, part_blocks
 from .sparse_blocks import SparseBlocks, sparse_blocks
@@ -113,6 +116,14 @@ def harmonic_stiffnesses(sys, H: int) -> list:
     return [coupled_stiffness(sys, h * phi) for h in range(H + 1)]
 
 
+def harmonic_matrices(sys, name: str, H: int) -> np.ndarray:
+    """(H+1, n, n) dense M_h or C_h (`name` "M" or "C") of each harmonic of a cyclic
+    sector with a mass coupling: X + e^{i h phi} X_next + e^{-i h phi} X_next^T."""
+    phi = sys.cyclic.phase
+    return np.stack([np.asarray(dense(coupled_matrix(sys, name, h * phi)), complex)
+                     for h in range(H + 1)])
+
+
 def stiffness_stack(sys, H: int) -> np.ndarray:
     """(H+1, n, n) `harmonic_stiffnesses`, dense."""
     return np.stack([dense(K) for K in harmonic_stiffnesses(sys, H)])
@@ -124,6 +135,11 @@ def prepare(sys, H: int, c, o, P, extra=(), strategy: str | None = None) -> Dyna
     if strategy is not None and strategy not in STRATEGIES:
         raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
     extra, chosen = tuple(extra), strategy
+    if inertia_coupled(sys):
+        if strategy not in (None, "dense"):
+            raise ValueError(f"strategy {strategy!r} does not apply to a sector whose mass "
+                             "couples it to its neighbours (a flexible disk): 'dense'")
+        strategy = "dense"
     if strategy is None:
         coupled = sys.cyclic is not None and sys.cyclic.K_next is not None
         strategy = (("sparse" if sys.cyclic is not None else "parts") if sp.issparse(sys.K)
@@ -139,7 +155,8 @@ def prepare(sys, H: int, c, o, P, extra=(), strategy: str | None = None) -> Dyna
             raise ValueError(f"strategy {strategy!r} does not apply (no interior or no parts)")
         strategy = "dense" if strategy == "blocks" else "sparse"
     if strategy in ("blocks", "dense"):
-        M, C = (np.asarray(dense(A), dtype=float) for A in (sys.M, sys.C))
+        M, C = ((harmonic_matrices(sys, name, H) for name in ("M", "C")) if inertia_coupled(sys)
+                else (np.asarray(dense(A), dtype=float) for A in (sys.M, sys.C)))
         K = stiffness_stack(sys, H)
         extra = tuple(replace(t, matrix=np.asarray(dense(t.matrix), dtype=float))
                       for t in extra)
@@ -476,6 +493,25 @@ def apply_full(K, C, M, Q, Om: float, D, extra=(), rate: bool = False):
     else:
         out = K @ Q + Om * (C @ Q) @ D.T + Om**2 * (M @ Q) @ (D @ D).T
     return apply_terms(Q, Om, extra, rate, out)
+
+
+def apply_coupling(sys, Q, Om: float, D, absolute: bool = False):
+    """The forces [N] (n, 2H+1) of a cyclic sector's linear coupling to its neighbours on
+    the travelling wave Q (real layout): (K, C, M)_next acting on the next sector's
+    motion shift(Q, phi) and their transposes on the previous one's, shift(Q, -phi)
+    (`apply_full`); absolute=True: the same with |X_next|, |shift(Q)| and D as given
+    (the round-off bound); 0 without a coupling."""
+    cy = sys.cyclic
+    parts = [coupling(sys, name) for name in ("K", "C", "M")]
+    if cy is None or all(X is None for X in parts):
+        return 0.0
+    K, C, M = (np.zeros((sys.n_dof, sys.n_dof)) if X is None else (np.abs(X) if absolute else X)
+               for X in parts)
+    out = 0.0
+    for sign, (Kx, Cx, Mx) in ((1.0, (K, C, M)), (-1.0, (K.T, C.T, M.T))):
+        Qs = time_shift(Q, sign * cy.phase)
+        out = out + apply_full(Kx, Cx, Mx, np.abs(Qs) if absolute else Qs, Om, D)
+    return out
 
 
 def apply_terms(Q, Om: float, terms, rate: bool = False, out=None):

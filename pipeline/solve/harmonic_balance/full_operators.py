@@ -15,7 +15,8 @@ import numpy as np
 
 from ...contact.laws import ContactElements
 from ...fourier.harmonics import shift as time_shift
-from ...model.system import System, dense
+from ...fourier.harmonics import derivative_matrix
+from ...model.system import System, coupling, dense, inertia_coupled
 from .dynamic_stiffness import full_operator, motion_matrices
 from .hbm import HBMProblem, assemble, contact_terms
 
@@ -26,21 +27,31 @@ def full_linear_operator(sys: System, Om: float, H: int, coupling: bool = True, 
     (coupling=True) a cyclic sector's linear inter-sector coupling
     (`coupling_operators`, wave number 0)."""
     L = full_operator(sys, Om, H, extra)
-    parts = coupling_operators(sys, H) if coupling else None
+    parts = coupling_operators(sys, H, Om) if coupling else None
     return L if parts is None else L + parts[0] + parts[1]
 
 
-def coupling_operators(sys: System, H: int):
+def coupling_operators(sys: System, H: int, Om: float = 0.0):
     """(L_sn, L_ns) of a cyclic sector with a linear inter-sector coupling, in the
-    layout of `full_linear_operator`: K_next acting on the next sector's motion,
-    shift(Q, phi), and K_next^T on the previous one's, shift(Q, -phi); None when
-    there is no such coupling."""
+    layout of `full_linear_operator`: K_next + Om C_next D + Om^2 M_next D^2 acting on
+    the next sector's motion, shift(Q, phi), and the transposes on the previous one's,
+    shift(Q, -phi) (`dynamic_stiffness.apply_coupling`); None when there is no such
+    coupling."""
     cy = sys.cyclic
-    if cy is None or cy.K_next is None:
+    K, C, M = (coupling(sys, name) for name in "KCM")
+    if cy is None or (K is None and C is None and M is None):
         return None
+    D = derivative_matrix(H)
     T = time_shift(np.eye(2 * H + 1), cy.phase)       # shift(Q, phi) = Q @ T
-    Kn = np.asarray(cy.K_next, dtype=float)
-    return np.kron(Kn, T.T), np.kron(Kn.T, T)
+
+    def layout(X, Y):    # X Q Y on Q row-major
+        return 0.0 if X is None else np.kron(X, Y.T)
+
+    def part(tr, T):     # K Q T + Om C Q T D^T + Om^2 M Q T (D D)^T
+        Kx, Cx, Mx = (None if X is None else (X.T if tr else X) for X in (K, C, M))
+        return (layout(Kx, T) + Om * layout(Cx, T @ D.T) + Om ** 2 * layout(Mx, T @ (D @ D).T)
+                + np.zeros((sys.n_dof * (2 * H + 1),) * 2))
+    return part(False, T), part(True, T.T)
 
 
 def full_jacobian(prob: HBMProblem, Q, Om, contact: ContactElements | None = None):
@@ -78,6 +89,10 @@ def wave_jacobians(prob: HBMProblem, Q, Om, contact: ContactElements | None = No
 
     The union of their exponents is the Hill spectrum of the full assembly."""
     sysm, nh, n = prob.system, prob.nh, prob.system.n_dof
+    if inertia_coupled(sysm):
+        raise ValueError("Hill's method on a sector whose mass couples it to its neighbours "
+                         "(a flexible disk) is not available: use the wheel's orbit "
+                         "(stability = \"monodromy\") or stability = false")
     M, C = motion_matrices(dense(sysm.M), dense(sysm.C), Om, prob.linear.extra)
     if prob.nxt is None:
         return [(0, full_jacobian(prob, Q, Om, contact), M, C)]
@@ -96,7 +111,7 @@ def wave_jacobians(prob: HBMProblem, Q, Om, contact: ContactElements | None = No
 
     A = L + part(False, False) + part(True, True)
     Jsn, Jns = part(False, True), part(True, False)
-    lin = coupling_operators(sysm, prob.H)
+    lin = coupling_operators(sysm, prob.H, Om)
     if lin is not None:   # linear inter-sector coupling: also z on the next sector
         Jsn, Jns = Jsn + lin[0], Jns + lin[1]
     out = []

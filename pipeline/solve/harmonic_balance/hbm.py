@@ -51,7 +51,6 @@ from ...contact.laws import ContactElements
 from ...contact.registry import law_of
 from ...fourier.harmonics import (complex_harmonics, derivative_matrix, real_blocks, real_vector,
                                  shift_tables, turn)
-from ...fourier.harmonics import shift as time_shift
 from ...model.system import System, contact_set, element_rows
 from . import dynamic_stiffness as dyn
 from .law_terms import (LawSlots, assemble, combine, element_jacobian, law_columns, law_slots,
@@ -361,11 +360,9 @@ def recover(prob: HBMProblem, Qc, Om):
 def full_residual(prob: HBMProblem, Q, Om, contact: ContactElements | None = None):
     """Residual of all n (2H+1) equations [N] (no condensation): every point's convergence check."""
     sys = prob.system
-    lin = dyn.apply_full(sys.K, sys.C, sys.M, Q, Om, derivative_matrix(prob.H), prob.linear.extra)
-    cy = sys.cyclic
-    if cy is not None and cy.K_next is not None:
-        Kn = np.asarray(cy.K_next, dtype=float)
-        lin = lin + Kn @ time_shift(Q, cy.phase) + Kn.T @ time_shift(Q, -cy.phase)
+    D = derivative_matrix(prob.H)
+    lin = dyn.apply_full(sys.K, sys.C, sys.M, Q, Om, D, prob.linear.extra)
+    lin = lin + dyn.apply_coupling(sys, Q, Om, D)
     G, _, _ = contact_terms(prob, Q[prob.c], contact, jacobian=False)
     R = np.asarray(lin) - prob.P
     R[prob.c] += G

@@ -9,7 +9,7 @@ In the backward-error manner of linear algebra (Higham, Accuracy and Stability o
 Numerical Algorithms, 2nd ed., ch. 3 and 7) the floor of each equation block is
 
     floor = c eps || |K| |Q| + Om |C| |Q| |D|^T + Om^2 |M| |Q| |D^2|^T
-                    + |K_next| (|T(phi) Q| + ...) + |G| + |P| ||        (full residual)
+                    + |X_next| terms of (|T(phi) Q|, ...) + |G| + |P| ||  (full residual)
     floor = c eps ( || |J| |x| || + || load scale || )                (condensed residual)
 
 per block (static h = 0 column, harmonic h >= 1 columns), eps = 2.2e-16, |.| taken
@@ -40,8 +40,7 @@ import scipy.sparse as sp
 
 from . import hbm
 from ...fourier.harmonics import derivative_matrix
-from ...fourier.harmonics import shift as time_shift
-from .dynamic_stiffness import apply_full, term_layout
+from .dynamic_stiffness import apply_coupling, apply_full, term_layout
 
 ROUNDOFF_FACTOR = 8.0
 EPS = np.finfo(float).eps
@@ -84,10 +83,7 @@ def linear_terms(system, Q, Om, P, extra=()) -> np.ndarray:
     A = np.asarray(apply_full(K, C, M, aQ, Om, D))
     for t in extra:
         A = A + np.asarray(_absolute(t.matrix) @ aQ) @ np.abs(term_layout(t, H, Om)).T
-    cy = system.cyclic
-    if cy is not None and cy.K_next is not None:
-        Kn = np.abs(np.asarray(cy.K_next, dtype=float))
-        A = A + Kn @ np.abs(time_shift(Q, cy.phase)) + Kn.T @ np.abs(time_shift(Q, -cy.phase))
+    A = A + apply_coupling(system, Q, Om, D, absolute=True)
     return A + np.abs(P)
 
 

@@ -45,7 +45,8 @@ import scipy.linalg as sla
 
 from ...fourier.harmonics import derivative_matrix
 from ...model.static_load import StaticState, static_state
-from ...model.system import System, contact_set, dense, linear_stiffness, with_preload
+from ...model.system import (System, contact_set, dense, inertia_coupled, linear_stiffness,
+                             with_preload)
 from ..harmonic_balance.dynamic_stiffness import Term, apply_full, apply_terms
 from ..harmonic_balance.full_operators import full_linear_operator
 from ..harmonic_balance.hbm import HBMProblem, contact_terms, setup
@@ -116,6 +117,9 @@ def mode_problem(system: System, H: int, mode: int = 0, method: str = "exact",
     (n,) complex) replaces the linear mode the continuation starts from (e.g. a cyclic
     sector's travelling wave expanded to the whole wheel, where the linear modes of a
     nodal diameter come in degenerate pairs); it is M-normalised here."""
+    if inertia_coupled(system):
+        raise ValueError("nonlinear modes of a sector whose mass couples it to its neighbours "
+                         "(a flexible disk) are not available: solve the forced response")
     prob = setup(system, H, method, n_samples)
     M, C = dense(system.M), dense(system.C)
     st = static_start(system)

@@ -23,8 +23,8 @@ from scipy.optimize import minimize_scalar
 from ...fourier.harmonics import amplitude_half_peak_to_peak
 from ..harmonic_balance import roundoff
 from .response import ResponseCurve
-from ...model.system import System, coupled_stiffness, dense, natural_frequencies
-from ..harmonic_balance.dynamic_stiffness import at_frequency, stiffness_stack
+from ...model.system import System, coupled_matrix, dense, inertia_coupled, natural_frequencies
+from ..harmonic_balance.dynamic_stiffness import at_frequency, harmonic_matrices, stiffness_stack
 
 BASE_POINTS = 201                     # uniform part of the grid
 CLUSTER = np.array([-3e-2, -1e-2, -3e-3, -1e-3, 0.0, 1e-3, 3e-3, 1e-2, 3e-2])  # relative offsets
@@ -35,11 +35,12 @@ def is_linear(system: System) -> bool:
     return system.n_elements == 0
 
 
-def _solve(M, C, Ks, F, H, omega):
+def _solve(Ms, Cs, Ks, F, H, omega):
     """Q (n, 2H+1) in the real layout and the residual parts (static, harmonic) [N];
-    Ks[h] the stiffness of harmonic h (`dynamic_stiffness.stiffness_stack`); the
-    dynamic stiffness of harmonic h from `dynamic_stiffness.at_frequency`."""
-    n = M.shape[0]
+    Ks[h], Ms[h], Cs[h] the stiffness, mass and damping of harmonic h
+    (`dynamic_stiffness.stiffness_stack`, `harmonic_matrices`); the dynamic stiffness of
+    harmonic h from `dynamic_stiffness.at_frequency`."""
+    n = Ks[0].shape[0]
     K = Ks[0]
     Q = np.zeros((n, 2 * H + 1))
     r_static = r_dyn = 0.0
@@ -50,21 +51,21 @@ def _solve(M, C, Ks, F, H, omega):
     for h in range(1, min(H, F.shape[1] - 1) + 1):
         if not np.any(F[:, h]):
             continue
-        D = at_frequency(Ks[h], M, C, h * omega)
+        D = at_frequency(Ks[h], Ms[h], Cs[h], h * omega)
         X = np.linalg.solve(D, F[:, h])
         Q[:, 2 * h - 1], Q[:, 2 * h] = X.real, -X.imag
         r_dyn += float(np.linalg.norm(D @ X - F[:, h]) ** 2)
     return Q, r_static, float(np.sqrt(r_dyn))
 
 
-def wave_stiffnesses(system: System) -> list:
-    """Stiffness of every wave number r = 0..N/2 of perturbation of a cyclic sector
-    (angle 2 pi r / N; just K otherwise): the linear structure is stable iff each is."""
+def wave_matrices(system: System) -> list:
+    """(M, C, K) of every wave number r = 0..N/2 of perturbation of a cyclic sector
+    (angle 2 pi r / N, `coupled_matrix`; just the system's otherwise): the linear
+    structure is stable iff each is."""
     cy = system.cyclic
-    if cy is None or cy.K_next is None:
-        return [dense(system.K)]
-    return [dense(coupled_stiffness(system, 2 * np.pi * r / cy.sectors))
-            for r in range(cy.sectors // 2 + 1)]
+    angles = [0.0] if cy is None else [2 * np.pi * r / cy.sectors
+                                       for r in range(cy.sectors // 2 + 1)]
+    return [tuple(dense(coupled_matrix(system, name, a)) for name in "MCK") for a in angles]
 
 
 
@@ -102,7 +103,9 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
     t0 = time.perf_counter()
     # dense even for sparse input: the grid needs every natural frequency and the
     # stability every eigenvalue of the state matrix (dense eigen-solves anyway)
-    M, C, Ks = dense(system.M), dense(system.C), stiffness_stack(system, H)
+    Ks = stiffness_stack(system, H)
+    Ms, Cs = ((harmonic_matrices(system, name, H) for name in "MC") if inertia_coupled(system)
+              else ([dense(system.M)] * (H + 1), [dense(system.C)] * (H + 1)))
     F = np.zeros((system.n_dof, H + 1), complex)
     Fh = np.asarray(system.forcing, complex)
     F[:, :min(H + 1, Fh.shape[1])] = Fh[:, :H + 1]
@@ -111,7 +114,7 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
     tols = (tol_rel * s, tol_rel * (d or s))
 
     def amp(om, dof):
-        return amplitude_half_peak_to_peak(_solve(M, C, Ks, F, H, om)[0][None])[0, dof]
+        return amplitude_half_peak_to_peak(_solve(Ms, Cs, Ks, F, H, om)[0][None])[0, dof]
 
     grid = list(frequency_grid(system, omega_start, omega_end))
     dofs = range(system.n_dof) if peak_dofs is None else peak_dofs
@@ -134,7 +137,7 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
     ok = np.zeros(P, bool)
     n_floor = 0
     for i, w in enumerate(om):
-        Q[i], rs, rd = _solve(M, C, Ks, F, H, w)
+        Q[i], rs, rd = _solve(Ms, Cs, Ks, F, H, w)
         residual[i] = np.hypot(rs, rd)
         ok[i] = rs <= tols[0] and rd <= tols[1]
         if not ok[i] and np.isfinite(Q[i]).all():   # a tolerance below round-off
@@ -142,7 +145,7 @@ def frequency_response(system: System, H, omega_start, omega_end, *, tol_rel=1e-
             ok[i] = rs <= max(tols[0], fs) and rd <= max(tols[1], fd)
             n_floor += int(ok[i])
     ok &= np.isfinite(Q).all(axis=(1, 2))
-    stable = np.full(P, all(_asymptotically_stable(M, C, Kr) for Kr in wave_stiffnesses(system))
+    stable = np.full(P, all(_asymptotically_stable(*MCK) for MCK in wave_matrices(system))
                      if stability else True)
     n_bad = int(P - ok.sum())
     return ResponseCurve(

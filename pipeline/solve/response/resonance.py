@@ -48,7 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from ...model.system import coupled_stiffness, dense, stiffness_along
+from ...model.system import coupled_matrix, coupled_stiffness, dense, inertia_coupled, stiffness_along
 from ..harmonic_balance import hbm
 from ..harmonic_balance.part_spectrum import PartSpectrum, negative_eigenvalues, part_spectra
 
@@ -65,6 +65,7 @@ class ResonanceCount:
     harmonics: tuple        # excited harmonics h >= 1
     zeta: np.ndarray | None  # (n,) smallest modal damping ratio of mode i, open or closed [-]
     parts: object = None    # part_spectrum.PartSpectra of a structure of independent parts
+    masses: dict | None = None  # h -> (n, n) mass of harmonic h [kg] (a mass-coupled sector)
 
 
 class DenseSpectrum:
@@ -135,8 +136,13 @@ def prepare(prob: hbm.HBMProblem) -> ResonanceCount | None:
     # damping estimate (the count below uses each harmonic's Hermitian stiffness)
     coupled = sys.cyclic is not None and sys.cyclic.K_next is not None
     K1 = np.real(coupled_stiffness(sys, sys.cyclic.phase)) if coupled else K
+    masses = None
+    if inertia_coupled(sys):   # a flexible disk's sector: M and C of each harmonic too
+        phi = sys.cyclic.phase
+        masses = {h: dense(coupled_matrix(sys, "M", h * phi)) for h in harmonics}
+        M, C = (np.real(dense(coupled_matrix(sys, name, phi))) for name in "MC")
     zeta = np.minimum(modal_damping(M, C, K1), modal_damping(M, C, closed_stiffness(sys) + K1 - K))
-    return ResonanceCount(K, M, harmonics, np.maximum(zeta, 0.0))
+    return ResonanceCount(K, M, harmonics, np.maximum(zeta, 0.0), masses=masses)
 
 
 def contact_stiffness(prob: hbm.HBMProblem, Qc, contact, h: int) -> np.ndarray:
@@ -177,7 +183,9 @@ def natural_frequencies(rc: ResonanceCount, prob: hbm.HBMProblem, x, contact,
         zeta = rc.zeta
         if prob.laws:   # no open/stuck limits bound these laws: also this point's damping
             zeta = np.minimum(zeta, modal_damping(rc.M, dense(prob.system.C), K.real))
-        out.append(DenseSpectrum(K if np.any(K.imag) else K.real, rc.M, zeta))
+        M = rc.M if rc.masses is None else rc.masses[h]
+        out.append(DenseSpectrum(K if np.any(K.imag) else K.real,
+                                 M if np.any(np.imag(M)) else np.real(M), zeta))
     return tuple(out)
 
 
