@@ -179,3 +179,13 @@ def test_laxalde_response_study_runs_on_one_sector_and_round_trips(tmp_path):
     amp = ds.amplitude.sel(dof="xb2").squeeze()
     ref = laxalde_eo3_curve()
     assert np.isclose(float(amp.max()), ref.amplitude[:, 2].max(), rtol=1e-6)
+
+
+def test_wheel_of_a_sector_system_keeps_the_disk_springs():
+    """The wheel rebuilt from a cyclic sector `System` (the orbit of the monodromy
+    stability, `cyclic.wheel_system`) has the springs between sectors: its stiffness
+    equals the assembly of the `Sector` (before, the ring of K_next was dropped)."""
+    from pipeline.model.cyclic import wheel_system
+    sec = laxalde_sector(N=6)
+    wheel = wheel_system(sector_system(sec, 2))
+    np.testing.assert_array_equal(wheel.K, full_assembly(sec, 2, sparse=False).K)
