@@ -14,6 +14,7 @@ import numpy as np
 
 RPM = 2.0 * np.pi / 60.0   # rad/s per rpm
 POINT_SETS = ("excitation", "response")   # FE node sets named by direction in DOF names
+CUT_SETS = ("cyclic_low", "cyclic_high")  # a disk sector's cut faces (`fe_model.CUT_SETS`)
 COMPONENTS = "xyz"
 
 
@@ -30,12 +31,19 @@ def timed_blade_model(structure) -> tuple:
     from ..structure.blades import build_blade, load_blade
 
     t0 = time.perf_counter()
+    if structure.rotating and structure.disk_sector is not None:
+        raise ValueError("disk_sector: a disk sector does not turn yet (its centrifugal "
+                         "deflection needs the cut faces joined): leave out "
+                         "\"centrifugal_stiffening\"")
     centre = structure.disk.centre if structure.rotating else None
     if structure.matrices is not None:
         # deferred: an imported blade alone reads exported matrices
         from ..structure.exchange.imported import import_blade
         blade = import_blade(structure.mesh, structure.matrices, structure.params,
                              rotation_centre=centre, disk=structure.disk)
+    elif structure.disk_sector is not None:
+        from ..structure.disk_sector import sector_blade
+        blade = sector_blade(structure.params, structure.disk, structure.disk_sector)
     elif structure.mesh:
         blade = load_blade(structure.mesh, structure.params, required=("root",),
                            rotation_centre=centre, scale=structure.mesh_scale)
@@ -86,3 +94,33 @@ def reduced_dof_names(red) -> tuple:
             for c, pos in enumerate(red.sets[s][0]):
                 names[pos] = f"{s}.{COMPONENTS[c]}"
     return tuple(names)
+
+
+@lru_cache(maxsize=16)
+def cut_model(structure, reduction, speed: float = 0.0):
+    """The `cyclic_cut.CutSector` of a reduced blade whose structure has cyclic cut
+    faces (a disk sector: `cyclic_low`, `cyclic_high`), its cut faces joined to the
+    neighbours' and reduced to `reduction.cut_face_modes` modes per phase (None: all
+    their DOFs); None for a blade without cut faces."""
+    from ..structure.cyclic_cut import cut_pairing, cut_sector
+
+    red = reduced_model(structure, reduction, speed)[0]
+    if not all(s in red.sets for s in CUT_SETS):
+        return None
+    disk = structure.disk
+    if disk is None:
+        raise ValueError("cyclic_low, cyclic_high: cut faces need [scene.disk] (sectors, "
+                         "hub_radius: the disk axis)")
+    blade = blade_at_speed(structure, speed)
+    high = cut_pairing(*(blade.set_points[s] for s in CUT_SETS), disk)
+    return cut_sector(red.K, red.M, red.C, red.sets["cyclic_low"], red.sets["cyclic_high"][high],
+                      red.n_boundary, disk.rotation(disk.pitch_angle), reduced_dof_names(red),
+                      getattr(reduction, "cut_face_modes", None))
+
+
+def sector_names(structure, reduction) -> tuple:
+    """Names of a reduced sector's coordinates: the reduction's (`reduced_dof_names`), or
+    a disk sector's after its cut (`cut_model`; `cut.<k>` the cut-face modes)."""
+    cut = cut_model(structure, reduction)
+    return cut.names if cut is not None else reduced_dof_names(reduced_model(structure,
+                                                                             reduction)[0])

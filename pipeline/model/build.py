@@ -14,7 +14,7 @@ import numpy as np
 from ..contact.laws import ContactElements, LawElements
 from ..structure.reduction import reduce_map
 from . import cyclic
-from .blade_cache import (COMPONENTS, RPM, blade_at_speed, blade_model, case_speed,
+from .blade_cache import (COMPONENTS, RPM, blade_at_speed, blade_model, case_speed, cut_model,
                           reduced_dof_names, reduced_model)
 from .contacts import (DofContact, FaceContact, ShroudPair, blade_contact_sets, contact_elements,
                        fe_contact_maps)
@@ -75,6 +75,7 @@ class Unassembled:
     forcing: np.ndarray
     dofs: tuple
     laws: tuple = ()        # `LawElements` of the blade's 2D friction contacts
+    next: tuple = ()        # (K, M, C) towards the next sector (a disk sector's cut), or ()
 
 
 def check_case(scene: Scene, case: dict | None) -> dict:
@@ -130,6 +131,8 @@ def blade_unassembled(scene: Scene, case: dict, reduced: bool = True) -> Unassem
     (Bt, Bn, Bt_next, Bn_next), elem, plane = blade_contact_sets(blade, faces, st.disk, case, shift)
     F = blade_forcing(scene, case)
     if not reduced or scene.reduction is None:
+        if st.disk_sector is not None or "cyclic_low" in blade.dof_sets:
+            raise ValueError("a disk sector is solved reduced: give craig_bampton_modes")
         if rows:
             raise ValueError("DOF contacts on an FE blade name reduced DOFs: give a reduction")
         if st.rayleigh is None:
@@ -155,9 +158,32 @@ def blade_unassembled(scene: Scene, case: dict, reduced: bool = True) -> Unassem
     if plane:
         plane = LawElements(plane.law, tuple(reduce_map(red, B) for B in plane.maps),
                             tuple(reduce_map(red, B) for B in plane.maps_next))
-    return Unassembled(M=red.M, C=red.C, K=red.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next,
-                       Bn_next=Bn_next, contact=elem, forcing=Fr, dofs=dofs,
-                       laws=(plane,) if plane else ())
+    p = Unassembled(M=red.M, C=red.C, K=red.K, Bt=Bt, Bn=Bn, Bt_next=Bt_next,
+                    Bn_next=Bn_next, contact=elem, forcing=Fr, dofs=dofs,
+                    laws=(plane,) if plane else ())
+    cut = cut_model(st, scene.reduction, speed)
+    if cut is not None and rows:
+        raise ValueError("DOF contacts on a disk sector: give face contacts or shroud pairs")
+    return p if cut is None else joined(p, cut)
+
+
+def joined(p: Unassembled, cut) -> Unassembled:
+    """A reduced disk sector's `Unassembled` with its cut faces joined to the neighbours'
+    (`cyclic_cut.CutSector`): maps B T_own, load T_own^T F, (K, M, C)_0 and the coupling
+    (K, M, C)_1 towards the next sector.  ValueError when a contact or a load touches
+    the high cut face (it belongs to the next sector)."""
+    def own(B, what):
+        if np.abs(np.asarray(B) @ cut.T_next).max(initial=0.0) > 0:
+            raise ValueError(f"a {what} touches the cut face cyclic_high")
+        return np.asarray(B) @ cut.T_own
+
+    maps = [own(B, "contact") for B in (p.Bt, p.Bn, p.Bt_next, p.Bn_next)]
+    laws = tuple(LawElements(le.law, tuple(own(B, "contact") for B in le.maps),
+                             tuple(own(B, "contact") for B in le.maps_next)) for le in p.laws)
+    F = own(np.asarray(p.forcing).T, "load").T
+    return Unassembled(M=cut.M0, C=cut.C0, K=cut.K0, Bt=maps[0], Bn=maps[1], Bt_next=maps[2],
+                       Bn_next=maps[3], contact=p.contact, forcing=F, dofs=cut.names, laws=laws,
+                       next=(cut.K1, cut.M1, cut.C1))
 
 
 def unassembled(scene: Scene, case: dict | None = None, reduced: bool = True) -> Unassembled:
@@ -203,10 +229,11 @@ def sector(scene: Scene, case: dict | None = None) -> cyclic.Sector:
     springs = scene.assembly.springs
     Ks, Kn = (cyclic.spring_stiffness([s.row for s in springs], [s.k for s in springs],
                                       len(p.dofs)) if springs else (None, None))
+    Kc, Mc, Cc = p.next or (None, None, None)     # a disk sector's cut
     return cyclic.Sector(M=p.M, C=p.C, K=p.K, Bt=p.Bt, Bn=p.Bn, Bt_next=p.Bt_next,
                          Bn_next=p.Bn_next, contact=p.contact, forcing=p.forcing,
                          sectors=scene.assembly.sectors, dof_names=p.dofs, K_spring=Ks,
-                         K_next=Kn, laws=p.laws)
+                         K_next=Kn if Kc is None else Kc, laws=p.laws, M_next=Mc, C_next=Cc)
 
 
 def build_system(scene: Scene, case: dict | None = None, reduced: bool = True) -> System:
@@ -216,6 +243,8 @@ def build_system(scene: Scene, case: dict | None = None, reduced: bool = True) -
     DOFs named as `scene.dofs`."""
     if not scene.cyclic:
         p = unassembled(scene, case, reduced)
+        if p.next:
+            raise ValueError("a disk sector is one of N: give [scene.disk] (a cyclic assembly)")
         return System(M=p.M, C=p.C, K=p.K, Bt=p.Bt, Bn=p.Bn, contact=p.contact,
                       forcing=p.forcing, dof_names=p.dofs, laws=p.laws + scene.laws)
     if scene.mistuning is None:

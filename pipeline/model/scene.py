@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .blade_cache import reduced_dof_names, reduced_model
+from .blade_cache import sector_names
 from .contacts import DofContact, ShroudPair
 
 CASE_KEYS = ("preload", "mu", "ku", "kv", "interference", "excitation_scale", "eo",
@@ -70,7 +70,10 @@ class Blade:
     `mesh` (`structure.exchange.imported.MatrixFiles`) instead of the package's own.
     rotating: the blade turns about the disk axis at `speed` [rpm] (or a case's)
     (`structure.rotation`: its own assembly's prestress, or exported matrices' fit).
-    mesh_scale: metres per unit of the mesh file's coordinates (1e-3: millimetres)."""
+    mesh_scale: metres per unit of the mesh file's coordinates (1e-3: millimetres).
+    disk_sector: a flexible disk sector generated under the blade
+    (`structure.disk_sector`); a mesh with the node sets cyclic_low, cyclic_high is a
+    sector read as drawn.  Either is joined to its neighbours at its cut faces."""
 
     params: object           # fe_model.BladeParams
     mesh: str | None = None
@@ -80,13 +83,17 @@ class Blade:
     rotating: bool = False   # turns about the disk axis (`structure.rotation`)
     speed: float = 0.0       # [rpm] unless a case sets `speed`
     mesh_scale: float = 1.0  # [m] per mesh-file length unit
+    disk_sector: object = None  # structure.disk_sector.DiskSector: the disk under it
 
 
 @dataclass(frozen=True)
 class CraigBampton:
-    """Craig-Bampton reduction with `modes` fixed-interface modes."""
+    """Craig-Bampton reduction with `modes` fixed-interface modes; a disk sector's cut
+    faces reduced to `cut_face_modes` modes per phase (None: all their DOFs kept;
+    `structure.cyclic_cut.interface_basis`)."""
 
     modes: int
+    cut_face_modes: int | None = None
 
 
 @dataclass(frozen=True)
@@ -158,7 +165,7 @@ class Scene:
             return tuple(self.structure.dofs)
         if self.reduction is None:
             return ()
-        return reduced_dof_names(reduced_model(self.structure, self.reduction)[0])
+        return sector_names(self.structure, self.reduction)
 
     @property
     def dofs(self) -> tuple:

@@ -46,6 +46,7 @@ import scipy.sparse as sp
 
 CONTACT_SETS = ("shroud_left", "shroud_right")
 POINT_SETS = ("excitation", "response")
+CUT_SETS = ("cyclic_low", "cyclic_high")   # a disk sector's cyclic cut faces
 REQUIRED_SETS = ("root",) + CONTACT_SETS + POINT_SETS
 # what a real blade is, SI units: outside, a number in another unit
 MAX_LENGTH = 5.0           # [m] a blade dimension (the longest steam-turbine blades: ~2 m)
@@ -278,12 +279,12 @@ class BladeModel:
 
 def boundary_dofs(model: BladeModel, names=None) -> tuple[np.ndarray, tuple]:
     """Free-DOF indices of the named sets (default: contact faces, excitation,
-    response -- those present), de-duplicated in order, and their labels
+    response, a disk sector's cut faces -- those present), de-duplicated in order, and their labels
     `"<set>:<point>:<component>"`.  A contact face whose points move with several DOFs
     (a frame with a `motion`, no DOF set) contributes the DOFs that motion uses,
     labelled `"<face>:dof<index>"`."""
     if names is None:
-        names = [s for s in CONTACT_SETS + POINT_SETS
+        names = [s for s in CONTACT_SETS + POINT_SETS + CUT_SETS
                  if s in model.dof_sets or s in model.frames]
     dofs, labels, seen = [], [], set()
 

@@ -24,8 +24,8 @@ from skfem.models.elasticity import lame_parameters
 from .disk import wheel_params
 from .facets import order_facet
 from .rotation import rotation_terms
-from .fe_model import (CONTACT_SETS, POINT_SETS, BladeModel, BladeParams, ContactFrame,
-                       DiskPlacement, rotation_z)
+from .fe_model import (CONTACT_SETS, CUT_SETS, POINT_SETS, BladeModel, BladeParams,
+                       ContactFrame, DiskPlacement, rotation_z)
 
 log = logging.getLogger(__name__)
 
@@ -315,7 +315,8 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
     free)`: (K, M) over the 3 N vector DOFs (3 s + c) instead of assembling them -- an
     imported structure (`structure.imported`).  `rotation_centre`: a point [m] of the
     disk axis (along X) for a blade that turns (`rotation.rotation_terms`).  Sets
-    required: root; optional: shroud_left/right, excitation, response.
+    required: root; optional: shroud_left/right, excitation, response, cyclic_low/high
+    (a disk sector's cut faces, `disk_sector`: their free points only).
     """
     if "root" not in node_sets:
         raise ValueError(f"{source}: mesh has no node set 'root' (the clamped nodes)")
@@ -346,6 +347,11 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
         else:
             d, x = _set_dofs(mesh, basis, nodes)
         dof_sets[name], set_points[name] = renum[d], x
+        if name in CUT_SETS:   # a disk sector's cut face: its free points (not the bore's)
+            free_rows = np.all(renum[d] >= 0, axis=1)
+            if np.any(renum[d][~free_rows] >= 0):
+                raise ValueError(f"{source}: node set {name!r} has partly clamped points")
+            dof_sets[name], set_points[name] = renum[d][free_rows], x[free_rows]
         if name in CONTACT_SETS:
             weights[name] = _face_weights(mesh, sbasis, nodes, d[:, 0] // 3)
             facets[name] = _face_facets(mesh, sbasis, nodes, d[:, 0] // 3, x)

@@ -38,7 +38,7 @@ from ...model.cyclic import sector_system
 from ...model.scene import Lumped, Scene
 from ...model.build import sector
 from ...model.system import natural_frequencies, natural_modes
-from ...model.blade_cache import blade_model, reduced_model
+from ...model.blade_cache import blade_model, cut_model, reduced_model
 from ...structure.mesh_io import write_fields
 from ...structure.reduction import reconstruct
 from ..figures.nd_figure import nodal_diameter_figure
@@ -135,12 +135,14 @@ def nodal_diameter_frequencies(scene: Scene, nodal_diameters, n_frequencies: int
     of the tuned disk per nodal diameter; {"shape_open", "shape_stuck"}: their mode
     shapes (len(nodal_diameters), n, n_frequencies) at the sector's n DOFs ("dofs"),
     complex (a travelling wave for 0 < ND < N/2), each scaled to max |x| = 1 over the
-    physical DOFs ("physical": not a Craig-Bampton modal coordinate `mode.<j>`), that
+    physical DOFs ("physical": not a Craig-Bampton modal coordinate `mode.<j>` nor a disk
+    sector's cut-face mode `cut.<k>`), that
     entry real and positive; "time_s": the wall time [s]."""
     t0 = time.perf_counter()
     preset = all(getattr(c, "n0", None) is not None for c in scene.contacts)
     sec = sector(scene, None if preset else {"preload": 0.0})  # n0 plays no part here
-    physical = np.array([i for i, d in enumerate(sec.dof_names) if not d.startswith("mode.")])
+    physical = np.array([i for i, d in enumerate(sec.dof_names)
+                         if not d.startswith(("mode.", "cut."))])
     out = {"dofs": tuple(sec.dof_names), "physical": physical}
     for m, c in (("open", "open"), ("stuck", "tied")):
         w, shapes = [], []
@@ -160,15 +162,20 @@ def nodal_diameter_frequencies(scene: Scene, nodal_diameters, n_frequencies: int
 def write_mode_shapes(study, res: dict, path) -> Path | None:
     """The mode shapes of an FE disk's sector on its blade mesh, VTU point data
     `<open|stuck>_nd<ND>_mode<j>_re|im|abs` [-] (`structure.mesh_io.write_fields`),
-    recovered from the Craig-Bampton coordinates; None for a lumped disk."""
+    recovered from the Craig-Bampton coordinates (a disk sector's: from its own and
+    its next neighbour's, `cyclic_cut.CutSector.coordinates`); None for a lumped disk."""
     sc = study.scene
     if isinstance(sc.structure, Lumped) or sc.reduction is None:
         return None
     red = reduced_model(sc.structure, sc.reduction)[0]
+    cut = cut_model(sc.structure, sc.reduction)
     fields = {}
     for m in ("open", "stuck"):
         for i, nd in enumerate(study.nodal_diameters):
-            full = reconstruct(red, res[f"shape_{m}"][i])
+            q = res[f"shape_{m}"][i]
+            if cut is not None:
+                q = cut.coordinates(q, 2 * np.pi * nd / sc.assembly.sectors)
+            full = reconstruct(red, q)
             for j in range(full.shape[1]):
                 fields[f"{m}_nd{nd}_mode{j + 1}"] = full[:, j]
     return write_fields(blade_model(sc.structure), path, fields)

@@ -44,7 +44,7 @@ import numpy as np
 from ...errors import UsageError
 from ...model.contacts import FaceContact
 from ...model.loads import PointLoad, point_forcing
-from ...model.scene import Blade, CraigBampton, Scene, Single
+from ...model.scene import Blade, Scene, Single
 from ...model.blade_cache import blade_model
 from ...structure.fe_model import BladeParams, boundary_dofs
 from ...structure.mesh_io import read_mesh
@@ -251,7 +251,7 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
     has contacts and excitation (a response or a disk's modes; a blade's modes have
     none); `loaded`: an excitation is required (a response)."""
     allowed = ("model", "effects", "blade", "mesh", "units", "matrices",
-               "craig_bampton_modes", "rayleigh", "disk")
+               "craig_bampton_modes", "rayleigh", "disk", "disk_sector")
     if contacts:
         allowed += ("contact", "excitation")
     ck.keys(tab, "scene", allowed, required=("model",))
@@ -290,7 +290,7 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
     structure = Blade(params=params, mesh=mesh, rayleigh=rayleigh, disk=placement,
                       matrices=matrices, mesh_scale=mesh_scale)
     scene = Scene(structure=blade_disk.turning(ck, tab, structure, model, effects),
-                  contacts=contacts, loads=loads, reduction=CraigBampton(n_modes),
+                  contacts=contacts, loads=loads, reduction=blade_disk.reduction(ck, tab, n_modes),
                   effects=effects, model=model, assembly=assembly)
     if not build:
         return scene

@@ -44,11 +44,14 @@ import numpy as np
 from ...contact.registry import law_class
 from ...model.contacts import FRICTION, ShroudPair, fe_contact_maps
 from ...solve.stability.methods import require_mode
-from ...model.scene import Blade, Cyclic
-from ...structure.fe_model import DiskPlacement
+from ...model.scene import Blade, CraigBampton, Cyclic
+from ...structure.cyclic_cut import cut_pairing
+from ...structure.disk_sector import DiskSector
+from ...structure.fe_model import CUT_SETS, DiskPlacement
 from . import lumped_disk_scene as disk_scene
 
 PAIRS = ("shroud",)
+SECTOR_KEYS = ("bore_radius", "n_radial", "n_overhang", "E", "nu", "rho", "cut_face_modes")
 STIFFNESS = ("per_node", "per_face")
 
 
@@ -232,6 +235,61 @@ def check_pairs(ck, blade, contacts, placement, mesh_field):
         except ValueError as exc:
             ck.fail(mesh_field, str(exc))
         check_tangents(ck, blade, contacts)
+    check_cut_faces(ck, blade, placement, mesh_field)
+
+
+def parse_disk_sector(ck, tab, model: str, mesh) -> DiskSector | None:
+    """The `DiskSector` of `[scene.disk_sector]` (a generated blade on its flexible disk
+    sector), None without one or for a mesh (a sector read as drawn: its cut faces are
+    its node sets cyclic_low, cyclic_high; the table may then set cut_face_modes only)."""
+    if "disk_sector" not in tab:
+        return None
+    f = "scene.disk_sector"
+    t = ck.table(tab["disk_sector"], f)
+    if "disk" not in tab or model != "solid_blade":
+        ck.fail(f, "a disk sector is a solid blade's (model = \"solid_blade\") in a disk: "
+                   "give [scene.disk] sectors and hub_radius")
+    if mesh is not None:
+        ck.keys(t, f, ("cut_face_modes",))
+        return None
+    ck.keys(t, f, SECTOR_KEYS, required=("bore_radius",))
+    kw = {k: ck.number(t[k], f"{f}.{k}", gt=0.0) for k in ("bore_radius", "E", "rho") if k in t}
+    kw.update({k: ck.integer(t[k], f"{f}.{k}", 1, 100) for k in ("n_radial", "n_overhang")
+               if k in t})
+    if "nu" in t:
+        kw["nu"] = ck.number(t["nu"], f"{f}.nu", gt=-1.0, lt=0.5)
+    R = ck.number(tab["disk"].get("hub_radius", 0.0), "scene.disk.hub_radius")
+    if kw["bore_radius"] >= R:
+        ck.fail(f"{f}.bore_radius", f"{kw['bore_radius']!r} m is not below the hub radius "
+                                     f"{R!r} m")
+    return DiskSector(**kw)
+
+
+def reduction(ck, tab, modes: int) -> CraigBampton:
+    """The Craig-Bampton reduction with `modes` modes and `[scene.disk_sector]
+    cut_face_modes` (a disk sector's cut faces: modes per phase; absent: all kept)."""
+    t = tab.get("disk_sector")
+    if not isinstance(t, dict) or "cut_face_modes" not in t:
+        return CraigBampton(modes)
+    return CraigBampton(modes, ck.integer(t["cut_face_modes"], "scene.disk_sector.cut_face_modes",
+                                          1, 10_000))
+
+
+def check_cut_faces(ck, blade, placement, field: str) -> None:
+    """A blade with cut faces has both, in a disk, and its high face is its low face
+    turned by 2 pi / N, node for node (one line naming the farthest node otherwise)."""
+    present = [s for s in CUT_SETS if s in blade.dof_sets]
+    if not present:
+        return
+    if len(present) == 1:
+        ck.fail(field, f"a disk sector needs both cut faces: node set {present[0]!r} has no "
+                       f"{(set(CUT_SETS) - set(present)).pop()!r}")
+    if placement is None:
+        ck.fail(field, "cut faces cyclic_low, cyclic_high need [scene.disk] (the disk axis)")
+    try:
+        cut_pairing(*(blade.set_points[s] for s in CUT_SETS), placement)
+    except ValueError as exc:
+        ck.fail(field, str(exc))
 
 
 def placement_field(message: str) -> tuple:
@@ -240,13 +298,22 @@ def placement_field(message: str) -> tuple:
     for key in ("hub_radius", "sectors"):
         if message.startswith(f"disk.{key}: "):
             return f"scene.disk.{key}", message[len(f"disk.{key}: "):]
+    if message.startswith("disk_sector"):
+        field, _, rest = message.partition(": ")
+        return f"scene.{field}", rest
     return None, message
 
 
 def turning(ck, tab, structure: Blade, model: str, effects) -> Blade:
     """The blade spec with its speed (`scene.disk.speed` [rpm]) and whether it turns
     (the effect "centrifugal_stiffening" on a solid blade in a disk, its own assembly or
-    matrices exported at speeds)."""
+    matrices exported at speeds), and its disk sector (`parse_disk_sector`)."""
+    sector = parse_disk_sector(ck, tab, model, structure.mesh)
+    if sector is not None and "centrifugal_stiffening" in effects:
+        ck.fail("scene.effects", "a disk sector does not turn yet (its centrifugal deflection "
+                                 "needs the cut faces joined): leave out "
+                                 "\"centrifugal_stiffening\"")
+    structure = replace(structure, disk_sector=sector)
     if structure.disk is None:
         return structure
     speed = ck.number(tab["disk"].get("speed", 0.0), "scene.disk.speed", ge=0.0)
