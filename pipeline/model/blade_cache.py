@@ -124,3 +124,26 @@ def sector_names(structure, reduction) -> tuple:
     cut = cut_model(structure, reduction)
     return cut.names if cut is not None else reduced_dof_names(reduced_model(structure,
                                                                              reduction)[0])
+
+
+def sector_map(structure, reduction, speed: float, B) -> np.ndarray:
+    """A map B (E, n_full) of the blade's boundary DOFs on a case's sector coordinates
+    (dense): B T of the reduction (`reduction.reduce_map`), and for a disk sector B T
+    T_own after its cut (`cut_model`; B must not touch the high cut face)."""
+    from ..structure.reduction import reduce_map
+
+    out = reduce_map(reduced_model(structure, reduction, speed)[0], B)
+    cut = cut_model(structure, reduction, speed)
+    if cut is None:
+        return out
+    if np.abs(out @ cut.T_next).max(initial=0.0) > 0:
+        raise ValueError("a contact or a load touches the cut face cyclic_high")
+    return out @ cut.T_own
+
+
+def sector_coordinates(structure, reduction, speed: float, q, angle: float = 0.0):
+    """The reduction's coordinates r of a case's sector coordinates q (n, ...): q itself,
+    or a disk sector's own and next sector's parts on a wave of inter-sector phase
+    `angle` [rad] (`cyclic_cut.CutSector.coordinates`)."""
+    cut = cut_model(structure, reduction, speed)
+    return q if cut is None else cut.coordinates(q, angle)

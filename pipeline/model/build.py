@@ -172,18 +172,17 @@ def joined(p: Unassembled, cut) -> Unassembled:
     (`cyclic_cut.CutSector`): maps B T_own, load T_own^T F, (K, M, C)_0 and the coupling
     (K, M, C)_1 towards the next sector.  ValueError when a contact or a load touches
     the high cut face (it belongs to the next sector)."""
-    def own(B, what):
+    def own(B):
         if np.abs(np.asarray(B) @ cut.T_next).max(initial=0.0) > 0:
-            raise ValueError(f"a {what} touches the cut face cyclic_high")
+            raise ValueError("a contact or a load touches the cut face cyclic_high")
         return np.asarray(B) @ cut.T_own
 
-    maps = [own(B, "contact") for B in (p.Bt, p.Bn, p.Bt_next, p.Bn_next)]
-    laws = tuple(LawElements(le.law, tuple(own(B, "contact") for B in le.maps),
-                             tuple(own(B, "contact") for B in le.maps_next)) for le in p.laws)
-    F = own(np.asarray(p.forcing).T, "load").T
+    maps = [own(B) for B in (p.Bt, p.Bn, p.Bt_next, p.Bn_next)]
+    laws = tuple(LawElements(le.law, tuple(own(B) for B in le.maps),
+                             tuple(own(B) for B in le.maps_next)) for le in p.laws)
     return Unassembled(M=cut.M0, C=cut.C0, K=cut.K0, Bt=maps[0], Bn=maps[1], Bt_next=maps[2],
-                       Bn_next=maps[3], contact=p.contact, forcing=F, dofs=cut.names, laws=laws,
-                       next=(cut.K1, cut.M1, cut.C1))
+                       Bn_next=maps[3], contact=p.contact, forcing=own(np.asarray(p.forcing).T).T,
+                       dofs=cut.names, laws=laws, next=(cut.K1, cut.M1, cut.C1))
 
 
 def unassembled(scene: Scene, case: dict | None = None, reduced: bool = True) -> Unassembled:

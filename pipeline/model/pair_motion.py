@@ -7,7 +7,7 @@ spring along n.  The relative displacement along the other in-plane direction
 b = n x t meets no force at all.  `plane_rows` gives, for each such pair of a scene,
 the rows mapping a case's system coordinates q (one sector's: the Craig-Bampton
 coordinates of a reduced blade, whose boundary holds the face DOFs, so the rows are
-exact) to the relative displacement of each node pair along t and b,
+exact; a disk sector's after its cut, `blade_cache.sector_map`) to the relative displacement of each node pair along t and b,
 
     u_t = R_t q + R_t_next q_next,    u_b = R_b q + R_b_next q_next,
 
@@ -19,9 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..structure.reduction import reduce_map
 from .contacts import ShroudPair, shroud_pair_maps
-from .blade_cache import blade_model, case_speed, reduced_model
+from .blade_cache import blade_model, case_speed, sector_map
 
 
 def free_pairs(scene) -> list:
@@ -50,6 +49,5 @@ def pair_rows(structure, reduction, pair: ShroudPair, speed: float) -> tuple:
     if reduction is None:
         reduce = (lambda B: B.toarray())
     else:
-        red = reduced_model(structure, reduction, speed)[0]
-        reduce = (lambda B: reduce_map(red, B))
+        reduce = (lambda B: sector_map(structure, reduction, speed, B))
     return (np.stack([reduce(B) for B in own[:2]]), np.stack([reduce(B) for B in nxt[:2]]))

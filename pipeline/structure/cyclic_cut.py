@@ -164,7 +164,8 @@ class CutSector:
         """The sector's reduced coordinates r (n_r, ...) of q (n', ...) on a wave of
         inter-sector phase `angle` [rad] (the next sector's q is e^{i angle} q)."""
         q = np.asarray(q)
-        return self.T_own @ q + np.exp(1j * angle) * (self.T_next @ q)
+        z = np.exp(1j * angle) if angle else 1.0     # real coordinates stay real at 0
+        return self.T_own @ q + z * (self.T_next @ q)
 
 
 def cut_sector(K, M, C, low, high, n_physical: int, rotation, names, count=None) -> CutSector:

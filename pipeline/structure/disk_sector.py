@@ -84,10 +84,10 @@ def root_grid(mesh, root, gamma: float) -> np.ndarray:
     first (xi ascending), eta ascending, from their section-frame coordinates."""
     xi, eta, _ = rotation_z(-gamma) @ mesh.p[:, root]
     size = max(np.ptp(xi), np.ptp(eta))
-    ux = np.unique(np.round(xi / size, 9))
-    ue = np.unique(np.round(eta / size, 9))
+    a, b = np.round(xi / size, 9), np.round(eta / size, 9)
+    ux, ue = np.unique(a), np.unique(b)
     grid = -np.ones((ux.size, ue.size), dtype=np.int64)
-    grid[np.searchsorted(ux, np.round(xi / size, 9)), np.searchsorted(ue, np.round(eta / size, 9))] = root
+    grid[np.searchsorted(ux, a), np.searchsorted(ue, b)] = root
     if np.any(grid < 0):
         raise ValueError("disk sector: the blade root is not a structured grid")
     return grid
@@ -171,9 +171,10 @@ def sector_blade(p: BladeParams, disk: DiskPlacement, disk_sector: DiskSector,
                  element=None):
     """The `fe_model.BladeModel` of the wheel blade on its disk sector (`sector_mesh`):
     the bore clamped; the cut faces `cyclic_low`, `cyclic_high` as DOF sets of their
-    free points (the bore's edge, clamped on both faces, left out: `solid_from_mesh`).  `element`: the
-    scalar scikit-fem element (default ElementHex2; ElementHexS2 is CalculiX's C3D20)."""
+    free points (the bore's edge, clamped on both faces, left out: `solid_from_mesh`).
+    `element`: the scalar scikit-fem element (default ElementHex2; ElementHexS2 is
+    CalculiX's C3D20)."""
     mesh, sets, disk_cells = sector_mesh(p, disk, disk_sector)
-    blade = solid_from_mesh(mesh, sets, wheel_params(p, disk), "<generated disk sector>",
-                            element or ElementHex2(), matrices=sector_matrices(disk_sector, p, disk_cells))
-    return blade
+    return solid_from_mesh(mesh, sets, wheel_params(p, disk), "<generated disk sector>",
+                           element or ElementHex2(),
+                           matrices=sector_matrices(disk_sector, p, disk_cells))

@@ -62,8 +62,8 @@ def per_nodal_diameter(parts, N, k, nds=None):
 def test_the_sector_mesh_is_the_blade_on_a_disk_whose_cut_faces_map_by_the_pitch():
     """The generated mesh keeps the blade's vertices (its root at the rim), the high cut
     face is the low one turned by 2 pi / N node for node (to 1e-15 m), every hexahedron
-    keeps the blade's orientation, and the disk spans the pitch from the bore to the
-    rim (polar angles of the cut faces -alpha/2 +- ..., radii 0.08 to 0.12 m)."""
+    keeps the blade's orientation, and the cut faces span the bore (0.08 m) to the rim
+    (0.12 m)."""
     mesh, sets, disk_cells = sector_mesh(BLADE, DISK, SECTOR)
     blade, _ = solid_mesh(wheel_params(BLADE, DISK), DISK)
     np.testing.assert_array_equal(mesh.p[:, :blade.p.shape[1]], blade.p)
@@ -75,8 +75,10 @@ def test_the_sector_mesh_is_the_blade_on_a_disk_whose_cut_faces_map_by_the_pitch
     assert np.all(det * np.sign(det[0, 0]) > 0)
     r = np.hypot(mesh.p[1, sets["root"]], mesh.p[2, sets["root"]] + DISK.hub_radius)
     np.testing.assert_allclose(r, SECTOR.bore_radius, rtol=1e-14)
-    spread = np.ptp(DISK.polar_angle(high)) + 0 * np.ptp(DISK.polar_angle(low))
-    assert spread < DISK.pitch_angle and disk_cells.size == 2 * 3 * SECTOR.n_radial
+    r_cut = np.hypot(low[:, 1], low[:, 2] + DISK.hub_radius)
+    assert np.isclose(r_cut.min(), SECTOR.bore_radius) and np.isclose(r_cut.max(),
+                                                                      DISK.hub_radius)
+    assert disk_cells.size == 2 * 3 * SECTOR.n_radial
 
 
 @needs_ccx

@@ -48,7 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
-from ...model.system import coupled_matrix, coupled_stiffness, dense, inertia_coupled, stiffness_along
+from ...model.system import (coupled_matrix, coupled_stiffness, dense, inertia_coupled,
+                             stiffness_along)
 from ..harmonic_balance import hbm
 from ..harmonic_balance.part_spectrum import PartSpectrum, negative_eigenvalues, part_spectra
 

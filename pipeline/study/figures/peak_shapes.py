@@ -23,7 +23,8 @@ import numpy as np
 
 from ...model.contacts import FaceContact, ShroudPair
 from ...model.scene import Lumped
-from ...model.blade_cache import blade_model, case_speed, reduced_model
+from ...model.blade_cache import blade_model, case_speed, reduced_model, sector_coordinates
+from ...model.build import engine_order
 from ...structure.fe_model import point_displacements
 from ...structure.reduction import reconstruct
 
@@ -75,12 +76,16 @@ def write_peak_shapes(study, ds, curves, out_dir) -> list:
         amp = sub["amplitude"].isel(dof=0).values
         i = int(np.argmax(np.where(ok, amp, -np.inf)))
         Q = np.asarray(c.Q[i], float)
-        red = (reduced_model(scene.structure, scene.reduction,
-                             case_speed(scene.structure, case))[0] if scene.reduction else None)
-        fields = {"static": Q[:, 0], "harmonic1": Q[:, 1] - 1j * Q[:, 2]}
+        speed = case_speed(scene.structure, case)
+        red = reduced_model(scene.structure, scene.reduction, speed)[0] if scene.reduction else None
+        phi = 2 * np.pi * engine_order(scene, case) / scene.assembly.sectors if scene.cyclic else 0.0
+        fields = {"static": (Q[:, 0], 0.0), "harmonic1": (Q[:, 1] - 1j * Q[:, 2], phi)}
         data = {}
-        for name, q in fields.items():
-            d = point_displacements(model, reconstruct(red, q) if red is not None else q)
+        for name, (q, angle) in fields.items():
+            if red is not None:    # a disk sector's: from its own and the next sector's parts
+                q = reconstruct(red, sector_coordinates(scene.structure, scene.reduction, speed,
+                                                        q, angle))
+            d = point_displacements(model, q)
             if np.iscomplexobj(d):
                 data[f"{name}_re"], data[f"{name}_im"] = d.real, d.imag
                 data[f"{name}_abs"] = np.abs(d)

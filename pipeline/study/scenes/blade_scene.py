@@ -486,7 +486,7 @@ def _modes(ck, t, where, scene, built: bool = True):
 def _consistency(ck, scene, solver, axes, spath, wpath, data):
     """Cross-field rules (scene.check_scene_rules); every face contact has a normal."""
     blade_disk.check_interference(ck, scene.contacts, axes, wpath)
-    blade_disk.check_friction(ck, scene.contacts, scene.effects, solver, spath)
+    blade_disk.check_friction(ck, scene, solver, spath)
     check_scene_rules(ck, scene.effects, contact_rules(scene),
                       max([ld.harmonic for ld in scene.loads] + [0]), solver.harmonics,
                       axes, spath, wpath, disk=scene.cyclic, can_turn=blade_disk.can_turn(scene),

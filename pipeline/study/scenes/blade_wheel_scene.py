@@ -43,7 +43,7 @@ import numpy as np
 
 from ...contact.registry import law_class
 from ...model.contacts import FRICTION, ShroudPair, fe_contact_maps
-from ...solve.stability.methods import require_mode
+from ...solve.stability.methods import require_mode, stability_mode
 from ...model.scene import Blade, CraigBampton, Cyclic
 from ...structure.cyclic_cut import cut_pairing
 from ...structure.disk_sector import DiskSector
@@ -105,9 +105,16 @@ def parse_friction(ck, c, f) -> dict:
     return {"friction": friction, "ku2": ku2}
 
 
-def check_friction(ck, contacts, effects, solver, spath):
+def check_friction(ck, scene, solver, spath):
     """The contacts of a blade scene slide one way; "friction_2d" is declared exactly
-    when they slide in the plane, which AFT evaluates."""
+    when they slide in the plane, which AFT evaluates.  A disk sector's stability is not
+    Hill's (its mass couples it to the neighbours: `full_operators.wave_jacobians`)."""
+    contacts, effects = scene.contacts, scene.effects
+    if (getattr(scene.structure, "disk_sector", None) is not None
+            and stability_mode(solver.stability) in ("hill", "hill+check")):
+        ck.fail(f"{spath}.stability", "Hill's method on a disk sector (its mass couples it to "
+                                      "its neighbours) is not available: give \"folds\", "
+                                      "\"monodromy\" or false")
     kinds = [getattr(c, "friction", "1d") for c in contacts]
     for i, k in enumerate(kinds):
         if k != kinds[0]:
