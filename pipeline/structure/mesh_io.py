@@ -19,7 +19,7 @@ import numpy as np
 from skfem import MeshHex, MeshTet
 from skfem.io.meshio import HEX_MAPPING
 
-from .fe_model import MAX_LENGTH, REQUIRED_SETS, BladeModel, point_displacements
+from .fe_model import CUT_SETS, MAX_LENGTH, REQUIRED_SETS, BladeModel, point_displacements
 from .quadratic_cells import CORNERS, curved_mesh
 
 _INV_HEX = [HEX_MAPPING.index(i) for i in range(8)]
@@ -155,7 +155,7 @@ def read_volume(path, required=REQUIRED_SETS, scale: float = 1.0) -> VolumeMesh:
     cell_type = blocks[0].type
     full = np.concatenate([c.data for c in blocks])
     conn = full[:, :CORNERS[cell_type]]
-    sets = _named_sets(m, path, tuple(required) + REQUIRED_SETS)
+    sets = _named_sets(m, path, tuple(required) + REQUIRED_SETS + CUT_SETS)
     for name in required:
         if len(sets.get(name.lower(), ())) == 0:
             raise ValueError(f"mesh file {path} has no node set {name!r} "

@@ -48,7 +48,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from skfem import ElementHex1, ElementHex2, ElementHexS2, ElementTetP1, ElementTetP2
 
-from ..fe_model import DENSITY_RANGE, REQUIRED_SETS, BladeModel
+from ..fe_model import CUT_SETS, DENSITY_RANGE, REQUIRED_SETS, BladeModel
 from ..mesh_io import check_span, read_volume
 from ..rotation import centrifugal_load, fitted_terms
 from ..solid import solid_from_mesh
@@ -256,7 +256,7 @@ def import_blade(mesh_path, files: MatrixFiles, p, required=("root",),
                     spun=[place(P @ o.K @ P.T)[free][:, free] for o in spun])
         return K, M
 
-    sets = {k: v for k, v in vol.node_sets.items() if k in REQUIRED_SETS}
+    sets = {k: v for k, v in vol.node_sets.items() if k in REQUIRED_SETS + CUT_SETS}
     blade = solid_from_mesh(vol.mesh, sets, p, source, ELEMENTS[vol.cell_type](), matrices)
     if files.axis is not None and "shroud_right" in blade.frames:
         check_right_face(blade.frames["shroud_right"], files.axis[1], disk.centre, source)
