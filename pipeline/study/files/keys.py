@@ -175,6 +175,9 @@ _FIXED = [
     ("scene", "contact", "", "[]", "Yang–Menq contacts (array of tables)"),
     ("scene", "excitation", "", _REQ, "harmonic loads (array of tables; not in a modes study)"),
     ("scene", "disk", "", "", "a disk: sectors, engine order, mistuning, springs, hub radius"),
+    ("scene", "disk_sector", "", "", "solid blades in a disk: the flexible disk sector under "
+                                     "the blade (a mesh's: its node sets `cyclic_low`, "
+                                     "`cyclic_high`)"),
     ("scene", "blade", "", "{}", "FE blades: `BladeParams` fields"),
     ("scene", "mesh", "", "", "solid blades: a mesh file with named node sets "
                               "(meshes/README.md), relative to the study file"),
@@ -252,6 +255,17 @@ _FIXED = [
     ("scene.disk", "spring", "", "[]", "lumped disks: linear springs to the next sector"),
     ("scene.disk", "hub_radius", "m", "", "FE blades: R, the blade root's radius (required "
                                           "there)"),
+    ("scene.disk_sector", "bore_radius", "m", "", "generated: the bore, below the hub "
+                                                  "radius, clamped (required there)"),
+    ("scene.disk_sector", "n_radial", "1", "2", "generated: element layers bore to rim"),
+    ("scene.disk_sector", "n_overhang", "1", "1", "generated: elements from the airfoil to "
+                                                  "each cut face"),
+    ("scene.disk_sector", "E", "Pa", "the blade's", "generated: the disk's Young's modulus"),
+    ("scene.disk_sector", "nu", "1", "the blade's", "generated: the disk's Poisson ratio"),
+    ("scene.disk_sector", "rho", "kg/m³", "the blade's", "generated: the disk's density"),
+    ("scene.disk_sector", "cut_face_modes", "1", "all DOFs kept", "the cut face reduced to "
+                                                                  "its condensed modes, this "
+                                                                  "many per phase 0, π/2, π"),
     ("scene.disk.mistuning", "stiffness_std", "1", "", "s: sector j stiffness (1 + δ_j)K, "
                                                         "δ_j ~ N(0, s²) cut at 3s, 0 ≤ s < 0.5"),
     ("scene.disk.mistuning", "seed", "1", "the sweep's `mistuning_seed`",
@@ -367,7 +381,8 @@ def rows() -> list:
     """[(table, key, unit, default, meaning)] in the order of a study file."""
     laws = [f"scene.{t}" for t in study_laws()]
     order = ["study", "scene", "scene.matrices", "scene.matrices.axis", "scene.modal", "scene.contact", *laws,
-             "scene.excitation", "scene.disk", "scene.disk.mistuning", "scene.disk.spring",
+             "scene.excitation", "scene.disk", "scene.disk_sector", "scene.disk.mistuning",
+             "scene.disk.spring",
              "scene.blade", "sweep", "sweep.frequency", "sweep.mistuning_seed", "solver", "output",
              "output.optimum_preload", "output.optimum_interference", "modes", "modes.speeds", "quick", "quick.scene", "recommendation",
              CASE, f"{CASE}.reference", f"{CASE}.knobs"]

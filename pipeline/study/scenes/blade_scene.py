@@ -44,7 +44,7 @@ import numpy as np
 from ...errors import UsageError
 from ...model.contacts import FaceContact
 from ...model.loads import PointLoad, point_forcing
-from ...model.scene import Blade, Scene, Single
+from ...model.scene import Blade, Scene
 from ...model.blade_cache import blade_model
 from ...structure.fe_model import BladeParams, boundary_dofs
 from ...structure.mesh_io import read_mesh
@@ -279,8 +279,7 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
         if "damping_ratios" in ck.table(tab.get("blade"), "scene.blade", required=False):
             ck.fail("scene.blade.damping_ratios", "unused with scene.rayleigh (Rayleigh damping "
                                                   "replaces the modal ratios): give one of the two")
-    placement, assembly = (blade_disk.parse_placement(ck, tab) if "disk" in tab
-                           else (None, Single()))
+    placement, assembly = blade_disk.parse_placement(ck, tab)
     check_material(ck, params, lambda k: fld(f"blade.{k}"))   # SI units
     if mesh is None:   # before anything is meshed: lengths in metres, a model of sane size
         check_blade_size(ck, tab.get("blade", {}), params, placement,
@@ -311,7 +310,7 @@ def parse_blade_scene(ck, tab, base_dir, fld=scene_field, build: bool = True,
             point_forcing(blade, (ld,))
         except ValueError as exc:
             ck.fail(f"scene.excitation[{i}].set", str(exc))
-    blade_disk.check_pairs(ck, blade, contacts, placement, fld("mesh") if mesh else "scene.disk")
+    blade_disk.check_pairs(ck, blade, scene, placement, fld("mesh") if mesh else "scene.disk")
     for i, c in enumerate(contacts):
         if not isinstance(c, FaceContact):
             continue

@@ -44,7 +44,7 @@ import numpy as np
 from ...contact.registry import law_class
 from ...model.contacts import FRICTION, ShroudPair, fe_contact_maps
 from ...solve.stability.methods import require_mode, stability_mode
-from ...model.scene import Blade, CraigBampton, Cyclic
+from ...model.scene import Blade, CraigBampton, Cyclic, Single
 from ...structure.cyclic_cut import cut_pairing
 from ...structure.disk_sector import DiskSector
 from ...structure.fe_model import CUT_SETS, DiskPlacement
@@ -56,7 +56,13 @@ STIFFNESS = ("per_node", "per_face")
 
 
 def parse_placement(ck, tab) -> tuple:
-    """(DiskPlacement, Cyclic) of the `[scene.disk]` table of a blade scene."""
+    """(DiskPlacement, Cyclic) of the `[scene.disk]` table of a blade scene; (None,
+    Single()) without one (a disk sector then refused)."""
+    if "disk" not in tab:
+        if "disk_sector" in tab:
+            ck.fail("scene.disk_sector", "a disk sector is one of N: give [scene.disk] "
+                                         "sectors and hub_radius (the disk axis)")
+        return None, Single()
     t = ck.table(tab["disk"], "scene.disk")
     ck.keys(t, "scene.disk", ("sectors", "hub_radius", "engine_order", "mistuning", "speed"),
             required=("sectors", "hub_radius"))
@@ -233,16 +239,17 @@ def check_disk_contacts(ck, contacts, placement):
                                  "a [[scene.contact]] with pair = \"shroud\"")
 
 
-def check_pairs(ck, blade, contacts, placement, mesh_field):
-    """Shroud faces that pair by the rotation 2 pi / N (one line naming the first
-    unmatched node otherwise)."""
+def check_pairs(ck, blade, scene, placement, mesh_field):
+    """Cut faces that join (`check_cut_faces`) and shroud faces that pair by the
+    rotation 2 pi / N (one line naming the first unmatched node otherwise)."""
+    contacts = scene.contacts
+    check_cut_faces(ck, blade, placement, mesh_field, scene.reduction)
     if any(isinstance(c, ShroudPair) for c in contacts):
         try:
             fe_contact_maps(blade, contacts, placement)
         except ValueError as exc:
             ck.fail(mesh_field, str(exc))
         check_tangents(ck, blade, contacts)
-    check_cut_faces(ck, blade, placement, mesh_field)
 
 
 def parse_disk_sector(ck, tab, model: str, mesh) -> DiskSector | None:
@@ -256,7 +263,7 @@ def parse_disk_sector(ck, tab, model: str, mesh) -> DiskSector | None:
     if "disk" not in tab or model != "solid_blade":
         ck.fail(f, "a disk sector is a solid blade's (model = \"solid_blade\") in a disk: "
                    "give [scene.disk] sectors and hub_radius")
-    if mesh is not None:
+    if mesh is not None:     # the mesh's own disk: the generator's keys are unknown here
         ck.keys(t, f, ("cut_face_modes",))
         return None
     ck.keys(t, f, SECTOR_KEYS, required=("bore_radius",))
@@ -282,9 +289,10 @@ def reduction(ck, tab, modes: int) -> CraigBampton:
                                           1, 10_000))
 
 
-def check_cut_faces(ck, blade, placement, field: str) -> None:
-    """A blade with cut faces has both, in a disk, and its high face is its low face
-    turned by 2 pi / N, node for node (one line naming the farthest node otherwise)."""
+def check_cut_faces(ck, blade, placement, field: str, reduction=None) -> None:
+    """A blade with cut faces has both, in a disk, its high face is its low face
+    turned by 2 pi / N, node for node (one line naming the farthest node otherwise),
+    and `reduction.cut_face_modes` does not exceed the face's DOFs."""
     present = [s for s in CUT_SETS if s in blade.dof_sets]
     if not present:
         return
@@ -297,6 +305,10 @@ def check_cut_faces(ck, blade, placement, field: str) -> None:
         cut_pairing(*(blade.set_points[s] for s in CUT_SETS), placement)
     except ValueError as exc:
         ck.fail(field, str(exc))
+    count, dofs = getattr(reduction, "cut_face_modes", None), blade.dof_sets["cyclic_low"].size
+    if count is not None and count > dofs:
+        ck.fail("scene.disk_sector.cut_face_modes", f"{count} modes per phase, but the cut face "
+                                                    f"has {dofs} DOFs: give at most {dofs}")
 
 
 def placement_field(message: str) -> tuple:

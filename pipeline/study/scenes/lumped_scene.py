@@ -105,6 +105,10 @@ def study_from_mapping(data: dict, *, file: str = "<study>", name: str = "study"
 def parse_scene(ck, tab, loaded: bool = True) -> Scene:
     """The `Scene` of a lumped or disk [scene] table (a `Lumped` structure, single or
     `Cyclic`); failures through ck.  loaded=False (modes): the excitation is optional."""
+    if "disk_sector" in tab:
+        ck.fail("scene.disk_sector", "a lumped structure has no disk sector to cut: its sectors "
+                                     "couple through [[scene.disk.spring]]; a disk sector is an "
+                                     "FE blade's (model = \"solid_blade\")")
     ck.keys(tab, "scene", ("model", "effects", "dofs", "matrices", "modal", "contact",
                            "excitation", "disk") + tuple(study_laws()), required=("model",))
     model = ck.string(tab["model"], "scene.model", MODELS)

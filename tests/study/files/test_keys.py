@@ -70,6 +70,30 @@ matrices = {{ format = "{_fmt}", units = "SI", {_files}{_axis} }}
 mode_counts = [0, 5]
 """
 
+EXTRA["generated disk sector"] = """
+[study]
+title = "t"
+kind = "modes"
+[scene]
+model = "solid_blade"
+craig_bampton_modes = 4
+[scene.blade]
+n_chord = 2
+n_thick = 1
+n_span = 2
+[scene.disk]
+sectors = 36
+hub_radius = 0.12
+[scene.disk_sector]
+bore_radius = 0.08
+[[scene.contact]]
+pair = "shroud"
+ku = 5e5
+mu = 0.3
+[modes]
+n_frequencies = 2
+"""
+
 EXTRA["lumped exported"] = """
 [study]
 title = "t"

@@ -129,6 +129,25 @@ def test_shrouded_disk_modes_matches_the_response_study_and_its_comment(shrouded
     assert hz(natural_frequencies(shrouded_disk_nd3, "tied")[0]) == pytest.approx(f3, abs=0.05)
 
 
+def test_bladed_disk_sector_against_the_rigid_disk():
+    """'the first flap family's stuck frequency at ND 3 is 320.5 Hz against 322.4 Hz on a
+    rigid disk; the second family ... at ND 0 (1248 against 1463 Hz) and by 0.2 % at
+    ND 18', recomputed: the flexible sector of the shipped deck (the response study's
+    scene) and the rigid-disk wheel of studies/shrouded_disk_modes.toml."""
+    from pipeline.study.execution.disk_modes_study import nodal_diameter_frequencies
+    f3, f3_rigid, f0, f0_rigid = stated(
+        "bladed_disk_sector.toml", r"ND 3 is ([\d.]+) Hz against ([\d.]+) Hz on a rigid disk"
+                                   r"(?:.*\n)+?.*at ND 0 \(([\d.]+) against ([\d.]+) Hz\)")
+    drop18 = stated("bladed_disk_sector.toml", r"by ([\d.]+) % at\n# ND 18")[0]
+    flexible = load_study(STUDIES / "bladed_disk_sector.toml").scene
+    rigid = load_study(STUDIES / "shrouded_disk_modes.toml").scene
+    a, b = (nodal_diameter_frequencies(sc, (0, 3, 18), 2)["stuck"] for sc in (flexible, rigid))
+    assert a[1, 0] == pytest.approx(f3, abs=0.05) and b[1, 0] == pytest.approx(f3_rigid, abs=0.05)
+    assert a[0, 1] == pytest.approx(f0, abs=0.5) and b[0, 1] == pytest.approx(f0_rigid, abs=0.5)
+    assert 100 * (1 - a[2, 1] / b[2, 1]) == pytest.approx(drop18, abs=0.05)
+    assert 100 * (1 - a[0, 1] / b[0, 1]) == pytest.approx(15, abs=0.5)
+
+
 # --------------------------------------------------------------------------- completeness
 def test_shrouded_disk_campbell_comment():
     """'stuck ND 3 from 322.4 Hz at rest to 467.6 Hz at 15,000 rpm; EO 3 crosses it
@@ -191,6 +210,7 @@ CHECKED = {   # study -> the stated results above (numbers followed by Hz or rad
     "shrouded_disk.toml": {212.9, 300.9, 322.4},
     "shrouded_disk_2d.toml": {345.4, 322.4},
     "shrouded_disk_modes.toml": {212.9, 213.9, 322.4, 877.1},
+    "bladed_disk_sector.toml": {320.5, 322.4, 1463.0},
     "shrouded_disk_campbell.toml": {322.4, 467.6},
     "shrouded_disk_mistuned.toml": {271.3},
     "shrouded_disk_monte_carlo.toml": {271.3},   # the same wheel and window
