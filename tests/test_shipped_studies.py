@@ -33,6 +33,7 @@ SLOW = {"shrouded_disk_mistuned", "shrouded_disk_monte_carlo", "blade3_stability
 # studies whose figures some test reads (here, test_accuracy_cost.py, test_blade_studies.py):
 # their shared run draws them, the others' runs do not
 FIGURES = {"accuracy_cost", "blade_modes", "disk_laxalde", "shrouded_disk_modes",
+           "bladed_disk_sector_campbell",
            "shrouded_disk_campbell", "shrouded_disk_2d"}
 
 
@@ -306,7 +307,8 @@ def shrouded_disk(out, nc, ds, st):
 
 def bladed_disk_sector(out, nc, ds, st):
     """The blade on its flexible disk sector (a deck with cut faces, non-matching shroud
-    faces): small preload, the peak near the open blade; large preload (30 N), stuck:
+    faces): small preload, the peak between the open blade and the stuck family; large
+    preload (30 N), stuck:
     the peak at the stuck ND 3 frequency, 320.5 Hz; in between (3 N) the lowest peak;
     the first flap family's stuck ND 3 frequency below the rigid disk's 322.4 Hz."""
     f = ds["peak_frequency"].sel(dof="response.y")
@@ -331,6 +333,20 @@ def bladed_disk_sector_modes(out, nc, ds, st):
     first_open = ds.frequency_open.values[:, 0]
     assert np.ptp(first_open) < 1e-3 * first_open.mean()
     assert (out / "bladed_disk_sector_modes" / "mode_shapes.vtu").is_file()
+    assert problems(nc) == []
+
+
+def bladed_disk_sector_campbell(out, nc, ds, st):
+    """'The whole sector turns, disk included ... stiffen every family': the first family
+    stiffens with speed, open and stuck, at every ND, and EO 3 crosses it open and stuck
+    as on the rigid disk; the figure is drawn."""
+    for c in ("open", "stuck"):
+        assert np.all(np.diff(ds[f"frequency_{c}"].values[:, :, 0], axis=0) > 0)
+    found = {(int(e), str(c)) for e, c, m in zip(ds.crossing_engine_order.values,
+                                                 ds.crossing_contacts.values,
+                                                 ds.crossing_mode.values) if m == 1}
+    assert {(3, "open"), (3, "stuck")} <= found
+    assert (out / "bladed_disk_sector_campbell" / "campbell_diagram.png").is_file()
     assert problems(nc) == []
 
 
@@ -527,7 +543,7 @@ def shrouded_disk_monte_carlo(out, nc, ds, st):
 CHECKS = {f.__name__: f for f in (
     paper_example1, paper_example2, paper_example3, blade3_stability, blade_modes,
     blade_shroud_contact, accuracy_cost, accuracy_cost_friction2d, disk_cyclic, disk_laxalde, disk_mistuned,
-    bladed_disk_sector, bladed_disk_sector_modes,
+    bladed_disk_sector, bladed_disk_sector_modes, bladed_disk_sector_campbell,
     shrouded_disk, shrouded_disk_2d, shrouded_disk_modes, shrouded_disk_campbell, shrouded_disk_speed,
     shrouded_disk_interference,
     shrouded_disk_mistuned, shrouded_disk_monte_carlo,

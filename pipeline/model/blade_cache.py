@@ -31,10 +31,6 @@ def timed_blade_model(structure) -> tuple:
     from ..structure.blades import build_blade, load_blade
 
     t0 = time.perf_counter()
-    if structure.rotating and structure.disk_sector is not None:
-        raise ValueError("disk_sector: a disk sector does not turn yet (its centrifugal "
-                         "deflection needs the cut faces joined): leave out "
-                         "\"centrifugal_stiffening\"")
     centre = structure.disk.centre if structure.rotating else None
     if structure.matrices is not None:
         # deferred: an imported blade alone reads exported matrices
@@ -43,10 +39,12 @@ def timed_blade_model(structure) -> tuple:
                              rotation_centre=centre, disk=structure.disk)
     elif structure.disk_sector is not None:
         from ..structure.disk_sector import sector_blade
-        blade = sector_blade(structure.params, structure.disk, structure.disk_sector)
+        blade = sector_blade(structure.params, structure.disk, structure.disk_sector,
+                             rotation_centre=centre)
     elif structure.mesh:
         blade = load_blade(structure.mesh, structure.params, required=("root",),
-                           rotation_centre=centre, scale=structure.mesh_scale)
+                           rotation_centre=centre, scale=structure.mesh_scale,
+                           disk=structure.disk)
     else:
         blade = build_blade(structure.params, structure.disk, rotation_centre=centre)
     return blade, time.perf_counter() - t0

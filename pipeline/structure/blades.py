@@ -24,7 +24,7 @@ def build_blade(p: BladeParams, disk: DiskPlacement | None = None,
 
 def load_blade(path, p: BladeParams = BladeParams(),
                required=("root",) + CONTACT_SETS, rotation_centre=None,
-               scale: float = 1.0) -> BladeModel:
+               scale: float = 1.0, disk=None) -> BladeModel:
     """Solid blade from a mesh file (.msh/.vtu/.xdmf/.inp) with named node sets, its
     coordinates times `scale` in metres (1e-3: a mesh in millimetres); material and
     damping from `p`; the sets cyclic_low, cyclic_high make it a disk sector
@@ -35,4 +35,4 @@ def load_blade(path, p: BladeParams = BladeParams(),
                else f"(read times {scale:g})")
     keep = {k: s for k, s in v.node_sets.items() if k in REQUIRED_SETS + CUT_SETS}
     return solid_from_mesh(v.mesh, keep, p, str(path), MESH_ELEMENTS[v.cell_type](),
-                           rotation_centre=rotation_centre)
+                           rotation_centre=rotation_centre, disk=disk)

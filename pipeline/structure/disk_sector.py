@@ -168,13 +168,19 @@ def sector_matrices(disk_sector: DiskSector, p: BladeParams, disk_cells):
 
 
 def sector_blade(p: BladeParams, disk: DiskPlacement, disk_sector: DiskSector,
-                 element=None):
+                 element=None, rotation_centre=None):
     """The `fe_model.BladeModel` of the wheel blade on its disk sector (`sector_mesh`):
     the bore clamped; the cut faces `cyclic_low`, `cyclic_high` as DOF sets of their
     free points (the bore's edge, clamped on both faces, left out: `solid_from_mesh`).
     `element`: the scalar scikit-fem element (default ElementHex2; ElementHexS2 is
-    CalculiX's C3D20)."""
+    CalculiX's C3D20).  Turning about the axis through `rotation_centre`: its rotation
+    terms with the cut faces joined (`solid.joined_cut`); ValueError naming the disk
+    sector's material when it is not the blade's (the prestress is of one material)."""
+    if rotation_centre is not None and disk_sector.material(p) != (p.E, p.nu, p.rho):
+        raise ValueError("disk_sector.E: a disk sector of its own material does not turn yet "
+                         "(the centrifugal prestress is computed for one material)")
     mesh, sets, disk_cells = sector_mesh(p, disk, disk_sector)
     return solid_from_mesh(mesh, sets, wheel_params(p, disk), "<generated disk sector>",
                            element or ElementHex2(),
-                           matrices=sector_matrices(disk_sector, p, disk_cells))
+                           matrices=sector_matrices(disk_sector, p, disk_cells),
+                           rotation_centre=rotation_centre, disk=disk)

@@ -80,18 +80,25 @@ class RotationTerms:
         return s * (self.stiffness + K1) + s * s * K2
 
 
-def rotation_terms(sbasis, free, K, E: float, nu: float, rho: float, centre, axis=(1.0, 0, 0)
-                   ) -> RotationTerms:
+def rotation_terms(sbasis, free, K, E: float, nu: float, rho: float, centre, axis=(1.0, 0, 0),
+                   joined=None) -> RotationTerms:
     """`RotationTerms` of a solid blade: `sbasis` its scalar scikit-fem basis (vector DOF
     3 s + c), `free` its free vector DOFs, `K` its stiffness on them [N/m]; material E
-    [Pa], nu, rho [kg/m^3]; the disk axis through `centre` [m] along `axis`."""
+    [Pa], nu, rho [kg/m^3]; the disk axis through `centre` [m] along `axis`.  `joined`
+    (sparse (n_free, m)): u = joined q for a sector of a disk whose cut faces are joined
+    to its neighbours' (nodal diameter 0, `cyclic_cut.cut_maps` A + B), so that its static
+    deflection u_1 = J (J^T K J)^-1 J^T f_1 is the wheel's, not a loose sector's."""
     e = np.asarray(axis, float) / np.linalg.norm(axis)
     P = np.eye(3) - np.outer(e, e)
     n = 3 * sbasis.N
     load = centrifugal_load(sbasis, rho, centre, axis)
     f1 = load[free]
     u1 = np.zeros(n)
-    u1[free] = sla.spsolve(K.tocsc(), f1)
+    if joined is None:
+        u1[free] = sla.spsolve(K.tocsc(), f1)
+    else:
+        J = sp.csr_matrix(joined)
+        u1[free] = J @ sla.spsolve((J.T @ K @ J).tocsc(), J.T @ f1)
     lam, mu = lame_parameters(E, nu)
     g = np.stack([sbasis.interpolate(u1[comp::3]).grad for comp in range(3)])  # (c, a, E, q)
     eps = 0.5 * (g + g.transpose(1, 0, 2, 3))

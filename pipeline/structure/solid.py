@@ -21,6 +21,7 @@ from skfem import (Basis, BilinearForm, ElementHex2, ElementHexS2, ElementTetP2,
 from skfem.io.meshio import HEX_MAPPING
 from skfem.models.elasticity import lame_parameters
 
+from .cyclic_cut import cut_maps, cut_pairing
 from .disk import wheel_params
 from .facets import order_facet
 from .rotation import rotation_terms
@@ -304,7 +305,7 @@ class _VectorDofs:
 
 
 def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<generated>",
-                    element=None, matrices=None, rotation_centre=None) -> BladeModel:
+                    element=None, matrices=None, rotation_centre=None, disk=None) -> BladeModel:
     """Assemble a clamped solid blade on a MeshHex/MeshTet with named vertex sets.
 
     `element` (a scalar scikit-fem element): by default ElementHex2 on hexahedra and
@@ -313,7 +314,9 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
     of 20-node hexahedra gives ElementHexS2 (`MESH_ELEMENTS`).  Linear elements lock in
     bending and are used only for matrices imported with them.  `matrices(basis,
     free)`: (K, M) over the 3 N vector DOFs (3 s + c) instead of assembling them -- an
-    imported structure (`structure.imported`).  `rotation_centre`: a point [m] of the
+    imported structure (`structure.imported`).  `disk`: the placement of a disk sector
+    (its cut faces joined for the static deflection of a turning one).
+    `rotation_centre`: a point [m] of the
     disk axis (along X) for a blade that turns (`rotation.rotation_terms`).  Sets
     required: root; optional: shroud_left/right, excitation, response, cyclic_low/high
     (a disk sector's cut faces, `disk_sector`: their free points only).
@@ -364,13 +367,29 @@ def solid_from_mesh(mesh, node_sets: dict, p: BladeParams, source: str = "<gener
             n_right = f.normal if name == "shroud_right" else n_right
             frames[name] = f
     turning = None if rotation_centre is None else rotation_terms(
-        sbasis, free, K, p.E, p.nu, p.rho, rotation_centre)
+        sbasis, free, K, p.E, p.nu, p.rho, rotation_centre,
+        joined=joined_cut(free.size, dof_sets, set_points, disk))
     t = mesh.t if cell_type == "tetra" else mesh.t[HEX_MAPPING[:8]]
     log.info("solid blade (%s): %d cells, %d free DOFs", source, mesh.t.shape[1], free.size)
     vertices = mesh.p[:, :mesh.nvertices]   # a curved mesh's p holds its midside nodes too
     return BladeModel(p, K, M, vertices.T.copy(), ((cell_type, t.T.copy()),),
                       renum[basis.nodal_dofs.T], np.eye(3), dof_sets, set_points, frames,
                       {k: np.asarray(v) for k, v in node_sets.items()}, turning)
+
+
+def joined_cut(n: int, dof_sets, set_points, disk):
+    """u = J q (sparse (n, n')) of a disk sector's n free DOFs with its cut faces joined at
+    nodal diameter 0 (`cyclic_cut.cut_maps`: A + B), None without cut faces; ValueError
+    when it has them and no `disk` placement."""
+    if not all(s in dof_sets for s in CUT_SETS):
+        return None
+    if disk is None:
+        raise ValueError("cyclic_low, cyclic_high: a turning disk sector needs its disk "
+                         "placement (sectors, hub radius)")
+    high = cut_pairing(set_points["cyclic_low"], set_points["cyclic_high"], disk)
+    A, B, _ = cut_maps(n, dof_sets["cyclic_low"], dof_sets["cyclic_high"][high],
+                       disk.rotation(disk.pitch_angle))
+    return A + B
 
 
 def solid_blade(p: BladeParams, disk: DiskPlacement | None = None,

@@ -328,10 +328,12 @@ def turning(ck, tab, structure: Blade, model: str, effects) -> Blade:
     (the effect "centrifugal_stiffening" on a solid blade in a disk, its own assembly or
     matrices exported at speeds), and its disk sector (`parse_disk_sector`)."""
     sector = parse_disk_sector(ck, tab, model, structure.mesh)
-    if sector is not None and "centrifugal_stiffening" in effects:
-        ck.fail("scene.effects", "a disk sector does not turn yet (its centrifugal deflection "
-                                 "needs the cut faces joined): leave out "
-                                 "\"centrifugal_stiffening\"")
+    if (sector is not None and "centrifugal_stiffening" in effects
+            and sector.material(structure.params) != tuple(
+                getattr(structure.params, k) for k in ("E", "nu", "rho"))):
+        ck.fail("scene.effects", "a disk sector of its own material does not turn yet (the "
+                                 "centrifugal prestress is computed for one material): leave "
+                                 "out \"centrifugal_stiffening\" or the disk's E, nu, rho")
     structure = replace(structure, disk_sector=sector)
     if structure.disk is None:
         return structure
