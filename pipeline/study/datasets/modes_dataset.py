@@ -127,7 +127,7 @@ def disk_modes_to_dataset(study, res: dict) -> xr.Dataset:
 def campbell_to_dataset(study, res: dict) -> xr.Dataset:
     """Dataset of a Campbell diagram (`campbell_study.campbell` result): natural frequencies
     on (speed, nodal_diameter, mode), contacts open and stuck, and the engine-order
-    crossings located by root finding (dimension `crossing`)."""
+    crossings located by root finding (dimension `crossing`), each with its mode shape."""
     cr = res["crossings"]
     col = list(zip(*cr)) if cr else [()] * 6
 
@@ -135,8 +135,19 @@ def campbell_to_dataset(study, res: dict) -> xr.Dataset:
         return (("crossing",), np.asarray(col[k], dtype=dtype),
                 {"units": units, "long_name": long_name} if units else {"long_name": long_name})
 
+    sh = res.get("crossing_shapes") or {"shapes": np.zeros((0, 0), complex), "dofs": (),
+                                         "physical": np.zeros(0, int)}
+    phys = sh["physical"]
+    X = sh["shapes"][:, phys] if len(cr) else np.zeros((0, phys.size), complex)
     return xr.Dataset(
         {**family_frequencies(res, ("speed", "nodal_diameter", "mode")),
+         "crossing_mode_shape": (("crossing", "dof", "component"),
+                                 np.stack([X.real, X.imag], axis=-1),
+                                 {"units": "1", "long_name": "mode shape of the crossing's "
+                                  "family at the sector's DOFs, at the crossing speed and "
+                                  "contact state (component: real and imaginary parts, a "
+                                  "travelling wave for 0 < ND < N/2), scaled to max |x| = 1, "
+                                  "that entry real and positive"}),
          "crossing_engine_order": cvar(0, np.int32, "1", "engine order EO of the crossing"),
          "crossing_nodal_diameter": cvar(1, np.int32, "1", "nodal diameter EO excites"),
          "crossing_mode": cvar(2, np.int32, "1", "mode number within the family"),
@@ -156,6 +167,11 @@ def campbell_to_dataset(study, res: dict) -> xr.Dataset:
                 "engine_order": ("engine_order", np.asarray(study.engine_orders, np.int32),
                                  {"units": "1", "long_name": "engine orders drawn"}),
                 "crossing": ("crossing", np.arange(len(cr), dtype=np.int32),
-                             {"units": "1", "long_name": "crossing index, by engine order"})},
+                             {"units": "1", "long_name": "crossing index, by engine order"}),
+                "dof": ("dof", np.asarray([sh["dofs"][i] for i in phys], str),
+                        {"long_name": "the sector's DOF (a Craig-Bampton boundary DOF "
+                                      "<set>.<k>.<x|y|z>)"}),
+                "component": ("component", np.asarray(["real", "imag"]),
+                              {"long_name": "real or imaginary part"})},
         attrs=family_attrs(study, "pipeline (cyclic eigenproblem of one sector per nodal "
                                   "diameter and speed, stress stiffening and spin softening)"))

@@ -34,7 +34,7 @@ from ...model.cyclic import sector_system
 from ...model.static_load import static_contact
 from ...model.scene import Scene
 from ...model.build import sector
-from ...model.system import natural_frequencies
+from ...model.system import natural_frequencies, natural_modes
 from ...errors import interrupt_in_chain
 from ..figures.nd_figure import excited_nodal_diameter
 
@@ -168,7 +168,8 @@ def speed_frequencies(scene: Scene, speed: float, nodal_diameters, n_frequencies
 
 def campbell(scene: Scene, speeds, nodal_diameters, n_frequencies: int, engine_orders) -> dict:
     """{"open", "stuck"[, "static"]}: (speed, nodal diameter, mode) natural frequencies
-    [Hz] (`states`); "crossings": the list of `crossings`; "message": per speed, why it
+    [Hz] (`states`); "crossings": the list of `crossings`; "crossing_shapes": their
+    mode shapes (`crossing_shapes`); "message": per speed, why it
     failed ("" where solved; NaN frequencies there).  Progress is logged every
     `PROGRESS` seconds and at the end (the reductions' own lines only at debug level)."""
     t0 = shown = time.perf_counter()
@@ -186,9 +187,41 @@ def campbell(scene: Scene, speeds, nodal_diameters, n_frequencies: int, engine_o
         freqs = {state: np.array(f) for state, f in freqs.items()}
         freqs["crossings"] = crossings(scene, speeds, nodal_diameters, freqs, engine_orders)
         freqs["message"] = message
+        freqs["crossing_shapes"] = crossing_shapes(scene, freqs["crossings"])
     log.info("Campbell: %d engine-order crossing(s) located by Brent, %.1f s",
              len(freqs["crossings"]), time.perf_counter() - t0)
     return freqs
+
+
+def crossing_shapes(scene: Scene, found) -> dict:
+    """The mode shape of each crossing of `found` (`crossings`): at its speed, nodal
+    diameter and contact state, the mode of its family (`natural_modes`) at the sector's
+    coordinates, scaled to max |x| = 1 over the physical DOFs (not `mode.<j>`, `cut.<k>`),
+    that entry real and positive: {"shapes": (C, n) complex, "dofs": names, "physical":
+    their indices}; NaN where the crossing's model cannot be solved."""
+    shapes, names = [], ()
+    for eo, nd, mode, state, speed, _ in found:
+        try:
+            sec = speed_sector(scene, speed)
+            if state == STATIC:
+                closed = static_contact(sector_system(sec, 0))[1]
+                sec = replace(sec, contact=replace(sec.contact, n0=np.where(closed, 1.0, -1.0)))
+            names = tuple(sec.dof_names)
+            x = natural_modes(sector_system(sec, nd), STATES.get(state, "small"))[1][:, mode - 1]
+        except Exception as exc:   # one shape lost, not the diagram
+            if interrupt_in_chain(exc):
+                raise
+            log.exception("Campbell: the shape of the EO %d crossing at %g rpm", eo, speed)
+            x = None
+        shapes.append(x)
+    physical = np.array([i for i, d in enumerate(names) if not d.startswith(("mode.", "cut."))],
+                        dtype=np.int64)
+    out = np.full((len(shapes), len(names)), np.nan, complex)
+    for c, x in enumerate(shapes):
+        if x is not None:
+            j = physical[np.argmax(np.abs(x[physical]))]
+            out[c] = x / x[j]
+    return {"shapes": out, "dofs": names, "physical": physical}
 
 
 @contextmanager

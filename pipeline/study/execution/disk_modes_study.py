@@ -23,7 +23,8 @@ mode) and their mode shapes at the sector's physical DOFs; the figure
 `<name>/mode_shapes.vtu` holds the shapes on the blade mesh.  With `[modes]
 speeds` (and `engine_orders`) the disk turns: the Campbell diagram (`campbell_study`),
 frequencies on (speed, nodal_diameter, mode) and the engine-order crossings, drawn
-in `<name>/campbell_diagram.png`.
+in `<name>/campbell_diagram.png`, each crossing's mode shape in the dataset and on the
+mesh in `<name>/crossing_shapes.vtu`.
 """
 from __future__ import annotations
 
@@ -38,7 +39,7 @@ from ...model.cyclic import sector_system
 from ...model.scene import Lumped, Scene
 from ...model.build import sector
 from ...model.system import natural_frequencies, natural_modes
-from ...model.blade_cache import blade_model, cut_model, reduced_model
+from ...model.blade_cache import blade_model, cut_model, reduced_model, sector_coordinates
 from ...structure.mesh_io import write_fields
 from ...structure.reduction import reconstruct
 from ..figures.nd_figure import nodal_diameter_figure
@@ -181,6 +182,25 @@ def write_mode_shapes(study, res: dict, path) -> Path | None:
     return write_fields(blade_model(sc.structure), path, fields)
 
 
+def write_crossing_shapes(study, res: dict, path) -> Path | None:
+    """The mode shape of each engine-order crossing of a Campbell diagram on the sector
+    mesh, VTU point data `eo<EO>_<state>_mode<k>_<rpm>rpm_re|im|abs` [-], recovered at the
+    crossing's speed (its reduction, a disk sector's own and next sector's parts); None for
+    a lumped disk or no crossing."""
+    sc, sh = study.scene, res.get("crossing_shapes")
+    if isinstance(sc.structure, Lumped) or sc.reduction is None or not res["crossings"]:
+        return None
+    fields = {}
+    for (eo, nd, k, state, speed, _), q in zip(res["crossings"], sh["shapes"]):
+        if not np.all(np.isfinite(q)):
+            continue
+        red = reduced_model(sc.structure, sc.reduction, float(speed))[0]
+        q = sector_coordinates(sc.structure, sc.reduction, float(speed), q,
+                               2 * np.pi * nd / sc.assembly.sectors)
+        fields[f"eo{eo}_{state}_mode{k}_{speed:.0f}rpm"] = reconstruct(red, q)
+    return write_fields(blade_model(sc.structure), path, fields) if fields else None
+
+
 def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: bool = True):
     """`out_dir/<name>.nc` and `out_dir/<name>/nodal_diameter_diagram.png`."""
     # deferred: xarray and matplotlib cost a second to import; validation needs neither
@@ -204,8 +224,9 @@ def run_disk_modes_study(study: DiskModesStudy, out_dir="results", *, figures: b
     path = write_netcdf(ds, Path(out_dir) / f"{study.name}.nc")
     log.info("wrote %s", path)
     written = []
-    shapes = None if study.speeds else write_mode_shapes(
-        study, res, Path(out_dir) / study.name / "mode_shapes.vtu")
+    folder = Path(out_dir) / study.name
+    shapes = (write_crossing_shapes(study, res, folder / "crossing_shapes.vtu") if study.speeds
+              else write_mode_shapes(study, res, folder / "mode_shapes.vtu"))
     if shapes is not None:
         written.append(shapes)
         log.info("wrote %s", shapes)
