@@ -51,7 +51,7 @@ def check_python_study(study) -> None:
     else:
         blade_disk.check_interference(ck, sc.contacts, axes, "sweep")
         blade_disk.check_interference_search(ck, sc.contacts, study.output.optimum, axes, "sweep")
-        blade_disk.check_friction(ck, sc.contacts, sc.effects, sv, "solver")
+        blade_disk.check_friction(ck, sc, sv, "solver")
     check_scene_rules(ck, sc.effects, contact_rules(sc), excited_harmonic(sc.loads),
                       int(sv.harmonics), axes, "solver", "sweep", disk=sc.cyclic,
                       can_turn=blade_disk.can_turn(sc),

@@ -127,6 +127,7 @@ def test_the_check_builds_no_model(monkeypatch):
     Python is checked without meshing, reducing or building a system."""
     from dataclasses import replace
 
+    import pipeline.model.blade_cache as cache_mod
     import pipeline.model.build as build_mod
     import pipeline.model.scene as scene_mod
 
@@ -134,9 +135,9 @@ def test_the_check_builds_no_model(monkeypatch):
         raise AssertionError("a model was built")
 
     study = load_study(ROOT / "studies" / "shrouded_disk_2d.toml", quick=True)
-    for mod, name in ((scene_mod, "reduced_model"), (build_mod, "reduced_model"),
-                      (build_mod, "build_system"), (build_mod, "unassembled"),
-                      (build_mod, "sector")):
+    for mod, name in ((scene_mod, "sector_names"), (cache_mod, "reduced_model"),
+                      (build_mod, "reduced_model"), (build_mod, "build_system"),
+                      (build_mod, "unassembled"), (build_mod, "sector")):
         monkeypatch.setattr(mod, name, never)
     python_study.check_python_study(replace(study, text=""))
     gap = replace(study, text="", sweep=replace(study.sweep, axes={"preload": (-0.3, 3.0)}),
