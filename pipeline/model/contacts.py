@@ -127,7 +127,8 @@ def shroud_pair_maps(blade, pair: ShroudPair, disk, plane: bool = False) -> tupl
             raise ValueError(f"contact {pair.name!r}: the blade has no face {face!r}")
     t, n = pair_frame(blade, pair, disk)
     right, left_face = blade.frames["shroud_right"], blade.frames["shroud_left"]
-    W = pairing(right.points, left_face.points, disk, left_face.facets)
+    W = pairing(right.points, left_face.points, disk, left_face.facets,
+                facets_right=right.facets)
     try:
         Pr = right.point_motion(blade.n_dof)
         Pl = left_face.point_motion(blade.n_dof)

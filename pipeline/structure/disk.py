@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 
 from .facets import inside, kind_of, locate, shape
 from .fe_model import BladeParams, DiskPlacement
+from .mortar import dual_pairing
 
 PAIR_TOLERANCE = 1e-6   # default pairing tolerance, relative to the face size [-]
 
@@ -72,7 +73,7 @@ def wheel_params(p: BladeParams, disk: DiskPlacement) -> BladeParams:
 
 
 def pairing(points_right, points_left, placement: DiskPlacement, facets=None,
-            tol: float | None = None) -> sp.csr_matrix:
+            tol: float | None = None, facets_right=None) -> sp.csr_matrix:
     """W sparse (k_R, k_L) [-]: the left face's displacement under each right-face point,
     d_L(x_k) = sum_l W_kl d_l, on a blade of `placement` (module doc).
 
@@ -103,6 +104,14 @@ def pairing(points_right, points_left, placement: DiskPlacement, facets=None,
             f"shroud faces do not pair: shroud_right point {k} at ({xr[k, 0]:.6g}, {xr[k, 1]:.6g}, "
             f"{xr[k, 2]:.6g}) m has no shroud_left point turned by 2 pi / {placement.sectors} "
             f"onto it (nearest {dist[k]:.3g} m away, tolerance {tol:.3g} m)")
+    if rest.size and facets_right is not None:     # faces meshed differently: dual mortar
+        centre = xl.mean(axis=0)
+        frame = np.linalg.svd(xl - centre, full_matrices=False)[2]
+        off = np.abs((np.vstack([xl, back]) - centre) @ frame[2])
+        W = (dual_pairing((back - centre) @ frame[:2].T, facets_right,
+                          (xl - centre) @ frame[:2].T, facets) if off.max() <= tol else None)
+        if W is not None:     # both faces in one plane: else node to segment below decides
+            return W
     if rest.size:
         for k, (ids, w) in zip(rest, on_facets(back[rest], xl, facets, tol)):
             if ids is None:
