@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
-from functools import lru_cache
+from functools import lru_cache, wraps
+from inspect import signature
 
 import numpy as np
 
@@ -16,6 +17,23 @@ RPM = 2.0 * np.pi / 60.0   # rad/s per rpm
 POINT_SETS = ("excitation", "response")   # FE node sets named by direction in DOF names
 CUT_SETS = ("cyclic_low", "cyclic_high")  # a disk sector's cut faces (`fe_model.CUT_SETS`)
 COMPONENTS = "xyz"
+
+
+def spec_cache(maxsize: int):
+    """`functools.lru_cache` keyed on the arguments with their defaults filled in: a call
+    with `speed` left out and one with speed = 0.0 share one entry (one reduction, not
+    two); `cache_clear` as lru_cache's."""
+    def wrap(fun):
+        store, sig = lru_cache(maxsize=maxsize)(fun), signature(fun)
+
+        @wraps(fun)
+        def call(*args, **kwargs):
+            bound = sig.bind(*args, **kwargs)
+            bound.apply_defaults()
+            return store(*bound.args)
+        call.cache_clear = store.cache_clear
+        return call
+    return wrap
 
 
 def blade_model(structure):
@@ -68,7 +86,7 @@ def case_speed(structure, case: dict | None) -> float:
     return float((case or {}).get("speed", getattr(structure, "speed", 0.0)))
 
 
-@lru_cache(maxsize=16)
+@spec_cache(maxsize=16)
 def reduced_model(structure, reduction, speed: float = 0.0) -> tuple:
     """(Craig-Bampton `ReducedModel` keeping contact faces, excitation and response
     DOFs, its wall time [s]) of a blade turning at `speed` [rpm] (built once per spec
@@ -94,7 +112,7 @@ def reduced_dof_names(red) -> tuple:
     return tuple(names)
 
 
-@lru_cache(maxsize=16)
+@spec_cache(maxsize=16)
 def cut_model(structure, reduction, speed: float = 0.0):
     """The `cyclic_cut.CutSector` of a reduced blade whose structure has cyclic cut
     faces (a disk sector: `cyclic_low`, `cyclic_high`), its cut faces joined to the
