@@ -11,6 +11,7 @@ match node for node (`solid.solid_mesh`, `beam.shroud_face_geometry`, `pair_face
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import replace
 
 import numpy as np
@@ -20,6 +21,8 @@ from scipy.spatial import cKDTree
 from .facets import inside, kind_of, locate, shape
 from .fe_model import BladeParams, DiskPlacement
 from .mortar import dual_pairing
+
+log = logging.getLogger(__name__)
 
 PAIR_TOLERANCE = 1e-6   # default pairing tolerance, relative to the face size [-]
 
@@ -112,6 +115,8 @@ def pairing(points_right, points_left, placement: DiskPlacement, facets=None,
                           (xl - centre) @ frame[:2].T, facets) if off.max() <= tol else None)
         if W is not None:     # both faces in one plane: else node to segment below decides
             return W
+        log.info("shroud faces meshed differently: paired node to segment (the dual mortar "
+                 "needs 9-node facets with straight edges, both faces in one plane)")
     if rest.size:
         for k, (ids, w) in zip(rest, on_facets(back[rest], xl, facets, tol)):
             if ids is None:

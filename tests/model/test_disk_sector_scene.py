@@ -15,50 +15,19 @@ from pipeline.solve.harmonic_balance import hbm
 from pipeline.solve.response.response import frequency_response
 from pipeline.study.files.documents import parse_study
 
-STUDY = """
-[study]
-title = "blade on its disk sector"
+from helpers import STUDIES
 
-[scene]
-model = "solid_blade"
-effects = ["friction", "normal_load_variation", "separation", "cyclic_coupling"]
-craig_bampton_modes = 20
-rayleigh = [20.0, 4e-6]
-
-[scene.blade]
-n_chord = 2
-n_thick = 1
-n_span = 4
-
-[scene.disk]
-sectors = 36
-hub_radius = 0.12
-engine_order = 3
-
+# the shrouded disk's quick study (2 x 1 x 4 blade, 36 sectors, EO 3) on a disk sector
+SECTOR = """
 [scene.disk_sector]
 bore_radius = 0.08
 cut_face_modes = 6
-
-[[scene.contact]]
-pair = "shroud"
-ku = 5e5
-kv = 5e5
-mu = 0.3
-stiffness = "per_face"
-
-[[scene.excitation]]
-set = "excitation"
-direction = [0.0, 1.0, 0.0]
-amplitude = 1.0
-
-[sweep]
-preload = [1.0]
-frequency = { start = 150.0, stop = 400.0, unit = "Hz" }
 """
 
 
 def scene():
-    return parse_study(STUDY, file="sector.toml", name="sector").scene
+    text = (STUDIES / "shrouded_disk.toml").read_text() + SECTOR
+    return parse_study(text, file="sector.toml", name="sector", quick=True).scene
 
 
 def check_on_the_wheel(sc, case, s, Q, Om):
