@@ -22,7 +22,7 @@ from scipy.optimize import minimize_scalar
 
 from ...model.system import dense
 from ..continuation.pseudo_arclength import continue_branch
-from .epmc import ModeProblem, check_values, evaluate, linear_guess, residual, unpack
+from .epmc import ModeProblem, check_values, evaluate, linear_guess, pack, residual, unpack
 
 TONGUE = 0.5    # a harmonic h >= 2 carrying more of the motion where the amplitude turns
 FAMILY = 0.9    # the first harmonic's share of a point on the family itself
@@ -134,7 +134,8 @@ def stretch(mp: ModeProblem, y0, s_from: float, s_to: float, *, tol_rel, max_poi
     """(points [(s, y, iterations, ModeCheck)], message) of one continuation run from
     the converged y0 at s_from towards s_to."""
     nh = 2 * mp.H + 1
-    groups = np.concatenate([np.repeat(np.arange(mp.n), nh), [mp.n, mp.n + 1]])
+    nk = mp.kept.size
+    groups = np.concatenate([np.repeat(np.arange(nk), nh), [nk, nk + 1]])
     r_ref = float(np.linalg.norm(residual(mp, y0, s_from, jacobian=False)[0][:-2]) +
                   np.linalg.norm(dense(mp.hbm.system.K) @ unpack(mp, y0, s_from)[0]))
 
@@ -211,7 +212,7 @@ def family_beyond(mp: ModeProblem, point, s_c: float, s_to: float, tol_rel: floa
     Z = Z.copy()
     Z[:, 3:] = 0.0
     Z[:, 1:3] /= np.sqrt(np.sum(Z[:, 1:3] * (mp.M @ Z[:, 1:3])))
-    guess = np.concatenate([Z.ravel(), [om, ze]])
+    guess = pack(mp, Z, om, ze)
     for k in (1, 2, 4, 8):
         s_j = s_c + k * max(s_c - s_b, 0.01)
         if s_j >= s_to:
@@ -261,8 +262,8 @@ def point_at(mp: ModeProblem, bb: Backbone, s: float, tol_rel: float = 1e-8,
     scale[0] = 1.0
     Z = (1 - t) * bb.Q[i] + t * bb.Q[i + 1]
     Z[:, 1:] /= 10.0 ** s
-    guess = np.concatenate([Z.ravel(), [(1 - t) * bb.omega[i] + t * bb.omega[i + 1],
-                                        (1 - t) * bb.zeta[i] + t * bb.zeta[i + 1]]])
+    guess = pack(mp, Z, (1 - t) * bb.omega[i] + t * bb.omega[i + 1],
+                 (1 - t) * bb.zeta[i] + t * bb.zeta[i + 1])
     y, _, ok = newton(mp, guess, s, tol_rel)
     if y is None:
         raise ValueError(f"no converged point of the mode at log10 a = {s:.6g}")

@@ -8,8 +8,7 @@ damping that compensates the dissipation,
 
 and defines the nonlinear mode at the modal amplitude a as its periodic motion: the
 frequency omega(a), the modal damping ratio zeta(a) and the shape.  In harmonic
-balance (real layout of `fourier.harmonics`, Q (n, 2H+1), all DOFs, no condensation)
-the motion is
+balance (real layout of `fourier.harmonics`, Q (n, 2H+1)) the motion is
 
     Q = [Q_0, a Psi_1c, a Psi_1s, ..., a Psi_Hc, a Psi_Hs],
 
@@ -24,7 +23,10 @@ unknowns are y = [Q_0, Psi (n 2H), omega, zeta] at a given s = log10 a; the equa
 
 with L the linear operator of `dynamic_stiffness` plus the EPMC term
 Term(-2 zeta M, 1, True, 1) (i h omega (-2 zeta omega) M on harmonic h) and G the
-contact forces of `hbm.contact_terms` (exact or AFT, with their Jacobian).
+contact forces of `hbm.contact_terms` (exact or AFT, with their Jacobian).  By default
+the unknowns are the contact DOFs' rows of Z only, the others recovered per harmonic
+as the forced response recovers them (`condensed`); `mode_problem(condense=False)`
+keeps every DOF's rows as unknowns (below).
 
 Amplitude: the shape is mass-normalised over all harmonics of the vibration
 (h >= 1; NLvib normalises over all harmonics including h = 0, which a preload's static
@@ -50,6 +52,8 @@ from ...model.system import (System, contact_set, dense, inertia_coupled, linear
 from ..harmonic_balance.dynamic_stiffness import Term, apply_full, apply_terms
 from ..harmonic_balance.full_operators import full_linear_operator
 from ..harmonic_balance.hbm import HBMProblem, contact_terms, setup
+from .condensed import Condensation, condensation, recover
+from .condensed import evaluate as evaluate_condensed
 
 LN10 = np.log(10.0)
 
@@ -69,10 +73,16 @@ class ModeProblem:
     zeta0: float
     shape: np.ndarray
     static: StaticState | None = None   # the unilateral static state it starts from
+    condensed: Condensation | None = None  # the unknowns on the contact DOFs only
 
     @property
     def n(self) -> int:
         return self.M.shape[0]
+
+    @property
+    def kept(self) -> np.ndarray:
+        """The DOFs whose coefficients are unknowns: the contact DOFs when condensed."""
+        return np.arange(self.n) if self.condensed is None else self.condensed.c
 
     @property
     def H(self) -> int:
@@ -80,8 +90,8 @@ class ModeProblem:
 
     @property
     def size(self) -> int:
-        """Unknowns (and equations) at one amplitude: n (2H+1) + 2."""
-        return self.n * (2 * self.H + 1) + 2
+        """Unknowns (and equations) at one amplitude: n (2H+1) + 2 (n_c when condensed)."""
+        return self.kept.size * (2 * self.H + 1) + 2
 
 
 def static_start(system: System) -> StaticState:
@@ -110,13 +120,16 @@ def linear_mode(system: System, mode: int = 0, closed=None):
 
 
 def mode_problem(system: System, H: int, mode: int = 0, method: str = "exact",
-                 n_samples: int = 256, ref: int | None = None, start=None) -> ModeProblem:
+                 n_samples: int = 256, ref: int | None = None, start=None,
+                 condense: bool = True) -> ModeProblem:
     """Prepare the EPMC of the linear mode `mode` of `system` (its forcing is ignored).
     `ref` (default: the DOF with the largest kinetic-energy share of the linear mode,
     |phi_i (M phi)_i|) carries the phase condition.  `start` = (omega [rad/s], shape
     (n,) complex) replaces the linear mode the continuation starts from (e.g. a cyclic
     sector's travelling wave expanded to the whole wheel, where the linear modes of a
-    nodal diameter come in degenerate pairs); it is M-normalised here."""
+    nodal diameter come in degenerate pairs); it is M-normalised here.  `condense`
+    (default) keeps the contact DOFs' coefficients as the unknowns and recovers the
+    others (`condensed`); False solves for all DOFs."""
     if inertia_coupled(system):
         raise ValueError("nonlinear modes of a sector whose mass couples it to its neighbours "
                          "(a flexible disk) are not available: solve the forced response")
@@ -134,7 +147,8 @@ def mode_problem(system: System, H: int, mode: int = 0, method: str = "exact",
         raise ValueError(f"ref must be a DOF index in 0..{system.n_dof - 1}, got {ref}")
     phi = phi * np.exp(-1j * np.angle(phi[ref]))
     zeta0 = float(np.real(phi.conj() @ C @ phi)) / (2.0 * omega0)
-    return ModeProblem(prob, int(ref), M, C, omega0, zeta0, phi, st)
+    cd = condensation(system, H, prob.c, M) if condense else None
+    return ModeProblem(prob, int(ref), M, C, omega0, zeta0, phi, st, cd)
 
 
 def onset_amplitude(mp) -> float:
@@ -167,17 +181,26 @@ def linear_guess(mp: ModeProblem) -> np.ndarray:
     if mp.static is not None and mp.static.q0.size == mp.n:
         Z[:, 0] = mp.static.q0
     Z[:, 1], Z[:, 2] = mp.shape.real, -mp.shape.imag
-    return np.concatenate([Z.ravel(), [mp.omega0, mp.zeta0]])
+    return pack(mp, Z, mp.omega0, mp.zeta0)
+
+
+def pack(mp: ModeProblem, Z, omega: float, zeta: float) -> np.ndarray:
+    """y of a motion Z (n, 2H+1) (Z_0 = Q_0, Z_h = Psi_h): its kept DOFs' rows, omega,
+    zeta."""
+    return np.concatenate([np.asarray(Z)[mp.kept].ravel(), [omega, zeta]])
 
 
 def unpack(mp: ModeProblem, y, s: float):
-    """(Z (n, 2H+1) with Z_0 = Q_0 and Z_h = Psi_h, omega, zeta, column scale
-    [1, a, a, ...], Q = Z * scale)."""
+    """(Z (n, 2H+1) with Z_0 = Q_0 and Z_h = Psi_h of all DOFs (recovered when
+    condensed), omega, zeta, column scale [1, a, a, ...], Q = Z * scale)."""
     nh = 2 * mp.H + 1
-    Z = np.asarray(y[:-2], float).reshape(mp.n, nh)
+    Z = np.asarray(y[:-2], float).reshape(mp.kept.size, nh)
+    om, ze = float(y[-2]), float(y[-1])
+    if mp.condensed is not None:
+        Z = recover(mp.condensed, Z, om, ze)
     scale = np.full(nh, 10.0 ** s)
     scale[0] = 1.0
-    return Z, float(y[-2]), float(y[-1]), scale
+    return Z, om, ze, scale
 
 
 def epmc_term(mp: ModeProblem, zeta: float) -> Term:
@@ -214,6 +237,17 @@ def residual(mp: ModeProblem, y, s: float, jacobian: bool = True):
 
 def evaluate(mp: ModeProblem, y, s: float, jacobian: bool = True):
     """`residual`'s three outputs, then F = L Q + G [N], G [N] and Q [m] (n, 2H+1)."""
+    if mp.condensed is not None:
+        nh = 2 * mp.H + 1
+        Zc = np.asarray(y[:-2], float).reshape(mp.kept.size, nh)
+        scale = np.full(nh, 10.0 ** s)
+        scale[0] = 1.0
+
+        def contact(Qc, jac):
+            G, J, _ = contact_terms(mp.hbm, Qc, jacobian=jac)
+            return G, J
+        return evaluate_condensed(mp.condensed, Zc, float(y[-2]), float(y[-1]), scale, mp.M,
+                                  mp.ref, contact, jacobian)
     Z, om, zeta, scale = unpack(mp, y, s)
     n, nh = Z.shape
     Q = Z * scale

@@ -45,7 +45,7 @@ def test_sector_mode_is_the_wheels(beams, nd):
         om, ze, Q = point_at(mp, bb, s, 1e-12)
         scale = np.full(2 * H + 1, 10 ** (s + shift))
         scale[0] = 1.0
-        y0 = np.concatenate([(cyclic.expand(Q, N, nd) / scale).ravel(), [om, ze]])
+        y0 = epmc.pack(mpf, cyclic.expand(Q, N, nd) / scale, om, ze)
         y, it, ok = newton(mpf, y0, s + shift, 1e-10)
         assert it == 0 and ok.converged          # the expanded mode solves the wheel's
         y, it, ok = newton(mpf, y0 * (1 + 1e-3), s + shift, 1e-12)
