@@ -305,6 +305,24 @@ def shrouded_disk(out, nc, ds, st):
     assert problems(nc) == []
 
 
+def full_size_blade(out, nc, ds, st):
+    """The curved blade with 2D friction at H = 3 (quick: coarse mesh, H = 1): every case
+    through its whole window, every point converged; stuck at 100 N (the peak at the
+    stuck ND 3 frequency, 1e-3); at 1 N sliding (pairs slip over half the period), the
+    peak lower and
+    between the open blade's and the stuck family's frequency."""
+    assert bool(ds["success"].all()) and bool(ds["converged"].sum() == ds["n_points"].sum())
+    f = ds["peak_frequency"].sel(dof="response.y")
+    a = ds["peak_amplitude"].sel(dof="response.y")
+    f_stuck = at(ds, "natural_frequency_stuck", preload=100.0, mode=1)
+    f_open = at(ds, "natural_frequency_free", preload=100.0, mode=1)
+    assert float(f.sel(preload=100.0)) == pytest.approx(f_stuck, rel=1e-3)
+    assert f_open < float(f.sel(preload=1.0)) < 0.99 * f_stuck
+    assert float(a.sel(preload=1.0)) < 0.5 * float(a.sel(preload=100.0))
+    assert float(ds["slip_fraction"].sel(preload=1.0).max()) > 0.5
+    assert problems(nc) == []
+
+
 def bladed_disk_sector(out, nc, ds, st):
     """The blade on its flexible disk sector (a deck with cut faces, non-matching shroud
     faces): small preload, the peak between the open blade and the stuck family; large
@@ -543,7 +561,7 @@ def shrouded_disk_monte_carlo(out, nc, ds, st):
 CHECKS = {f.__name__: f for f in (
     paper_example1, paper_example2, paper_example3, blade3_stability, blade_modes,
     blade_shroud_contact, accuracy_cost, accuracy_cost_friction2d, disk_cyclic, disk_laxalde, disk_mistuned,
-    bladed_disk_sector, bladed_disk_sector_modes, bladed_disk_sector_campbell,
+    bladed_disk_sector, bladed_disk_sector_modes, bladed_disk_sector_campbell, full_size_blade,
     shrouded_disk, shrouded_disk_2d, shrouded_disk_modes, shrouded_disk_campbell, shrouded_disk_speed,
     shrouded_disk_interference,
     shrouded_disk_mistuned, shrouded_disk_monte_carlo,

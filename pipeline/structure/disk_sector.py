@@ -101,6 +101,9 @@ def sector_mesh(p: BladeParams, disk: DiskPlacement, sector: DiskSector):
     if rb >= R:
         raise ValueError(f"disk_sector.bore_radius: {rb!r} m is not below the hub radius "
                          f"{R!r} m")
+    if p.twist or p.camber or p.taper:
+        raise ValueError("disk sector: meshed under the straight blade's root; a curved "
+                         "blade (twist, camber, taper) stands on the rigid disk only")
     p = wheel_params(p, disk)
     blade, sets = solid_mesh(p, disk)
     grid = root_grid(blade, sets["root"], p.stagger_angle)

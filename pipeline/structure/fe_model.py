@@ -57,6 +57,10 @@ DENSITY_RANGE = (500.0, 25000.0)   # [kg/m^3] blade materials, polymers to tungs
 # Parameters
 # ---------------------------------------------------------------------------
 
+# the curved airfoil's parameters and their bounds (`airfoil`)
+SHAPE_BOUNDS = {"twist": (-np.pi / 4, np.pi / 4), "camber": (-0.25, 0.25), "taper": (-0.5, 1.0)}
+
+
 @dataclass(frozen=True)
 class BladeParams:
     """Blade geometry [m], material (E [Pa], nu [-], rho [kg/m^3]), angles [rad].
@@ -65,7 +69,10 @@ class BladeParams:
     (Euler-Bernoulli, with a rigid tip shroud of the same block if `shroud`).  Mesh resolution: elements across the
     chord (`n_chord`), the thickness (`n_thick`) and along the span (`n_span`);
     the shroud overhang uses the chordwise element size.  `damping_ratios`:
-    modal damping ratios zeta_k (the last one repeats for higher modes).
+    modal damping ratios zeta_k (the last one repeats for higher modes).  A solid
+    blade's airfoil may be curved (`airfoil`): `twist` [rad] the root section's
+    stagger beyond the shroud's, `camber` the root section's camber height over its
+    chord, `taper` the root chord's excess over `chord` (all vanish at the shroud).
     """
 
     length: float = 0.10
@@ -85,6 +92,9 @@ class BladeParams:
     n_chord: int = 8
     n_thick: int = 2
     n_span: int = 20
+    twist: float = 0.0
+    camber: float = 0.0
+    taper: float = 0.0
 
     def __post_init__(self):
         positive = ("length", "chord", "thickness", "shroud_chord", "shroud_width",
@@ -105,6 +115,13 @@ class BladeParams:
                 raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
         if self.kind not in ("solid", "beam"):
             raise ValueError(f"kind must be 'solid' or 'beam', got {self.kind!r}")
+        for name, (lo, hi) in SHAPE_BOUNDS.items():
+            v = getattr(self, name)
+            if not (np.isfinite(v) and lo <= v <= hi):
+                raise ValueError(f"{name} must be in [{lo:.4g}, {hi:.4g}], got {v!r}")
+            if v and self.kind == "beam":
+                raise ValueError(f"{name} must be 0 on a beam blade, got {v!r} (a beam is "
+                                 "straight; a solid blade may be curved)")
         z = np.atleast_1d(np.asarray(self.damping_ratios, dtype=float))
         if z.ndim != 1 or z.size < 1 or np.any(~np.isfinite(z)) or np.any(z < 0):
             raise ValueError(f"damping_ratios must be a non-empty sequence of ratios >= 0, "

@@ -21,6 +21,7 @@ from skfem import (Basis, BilinearForm, ElementHex2, ElementHexS2, ElementTetP2,
 from skfem.io.meshio import HEX_MAPPING
 from skfem.models.elasticity import lame_parameters
 
+from .airfoil import curved_mesh, is_curved
 from .cyclic_cut import cut_maps, cut_pairing
 from .disk import wheel_params
 from .facets import order_facet
@@ -394,9 +395,11 @@ def joined_cut(n: int, dof_sets, set_points, disk):
 
 def solid_blade(p: BladeParams, disk: DiskPlacement | None = None,
                 rotation_centre=None) -> BladeModel:
-    """Generated solid blade (see `solid_mesh`); in a disk, its params carry the
-    derived shroud width; turning about the axis through `rotation_centre`, its
-    `rotation` terms."""
+    """Generated solid blade (see `solid_mesh`; curved by `airfoil.curved_mesh` when
+    its twist, camber or taper is set); in a disk, its params carry the derived shroud
+    width; turning about the axis through `rotation_centre`, its `rotation` terms."""
     mesh, sets = solid_mesh(p, disk)
-    return solid_from_mesh(mesh, sets, p if disk is None else wheel_params(p, disk),
-                           rotation_centre=rotation_centre)
+    wp = p if disk is None else wheel_params(p, disk)
+    if is_curved(p):
+        mesh = curved_mesh(mesh, solid_mesh(wp)[0], wp)
+    return solid_from_mesh(mesh, sets, wp, rotation_centre=rotation_centre)

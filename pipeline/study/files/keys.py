@@ -119,6 +119,12 @@ def _blade_rows() -> list:
              "n_chord": ("1", "elements across the chord"),
              "n_thick": ("1", "elements through the thickness"),
              "n_span": ("1", "elements along the span"),
+             "twist": ("rad", "solid blade: root stagger beyond the shroud's, linear along the "
+                              "span, ≤ π/4"),
+             "camber": ("1", "solid blade: root camber height / chord, fading as 1 - s², "
+                             "≤ 0.25"),
+             "taper": ("1", "solid blade: root chord / chord - 1, linear along the span, "
+                            "-0.5 … 1"),
              "damping_ratios": ("1", "modal damping ratios (the last repeats); not with "
                                      "`rayleigh`"),
              "shroud": ("", "with the tip shroud and its contact faces")}

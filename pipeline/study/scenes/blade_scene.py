@@ -46,7 +46,7 @@ from ...model.contacts import FaceContact
 from ...model.loads import PointLoad, point_forcing
 from ...model.scene import Blade, Scene
 from ...model.blade_cache import blade_model
-from ...structure.fe_model import BladeParams, boundary_dofs
+from ...structure.fe_model import SHAPE_BOUNDS, BladeParams, boundary_dofs
 from ...structure.mesh_io import read_mesh
 from ...structure.reduction import DEFAULT_MODES
 from . import blade_wheel_scene as blade_disk
@@ -75,7 +75,7 @@ OUT_DOF_PATTERN = re.compile(r"^(excitation|response)\.([xyz])$")
 _FLOAT_FIELDS = ("length", "chord", "thickness", "shroud_chord", "shroud_width", "shroud_height",
                  "shroud_angle", "stagger_angle", "E", "nu", "rho")
 _INT_FIELDS = ("n_chord", "n_thick", "n_span")
-_BLADE_KEYS = _FLOAT_FIELDS + _INT_FIELDS + ("damping_ratios", "shroud")
+_BLADE_KEYS = _FLOAT_FIELDS + _INT_FIELDS + tuple(SHAPE_BOUNDS) + ("damping_ratios", "shroud")
 _MAX_ELEMENTS = 200_000
 
 
@@ -215,6 +215,8 @@ def parse_blade_params(ck, t, model, field=scene_field):
             kw[k] = ck.number(v, where(k), gt=-math.pi / 2, lt=math.pi / 2)
         elif k == "nu":
             kw[k] = ck.number(v, where(k), gt=-1.0, lt=0.5)
+        elif k in SHAPE_BOUNDS:
+            kw[k] = ck.number(v, where(k), ge=SHAPE_BOUNDS[k][0], le=SHAPE_BOUNDS[k][1])
         elif k in _FLOAT_FIELDS:
             kw[k] = ck.number(v, where(k), gt=0.0)
         elif k in _INT_FIELDS:

@@ -267,6 +267,11 @@ def parse_disk_sector(ck, tab, model: str, mesh) -> DiskSector | None:
         ck.keys(t, f, ("cut_face_modes",))
         return None
     ck.keys(t, f, SECTOR_KEYS, required=("bore_radius",))
+    blade = tab.get("blade") if isinstance(tab.get("blade"), dict) else {}
+    for k in ("twist", "camber", "taper"):
+        if blade.get(k):
+            ck.fail(f"scene.blade.{k}", "a disk sector is meshed under the straight blade's "
+                                        "root: a curved blade stands on the rigid disk only")
     kw = {k: ck.number(t[k], f"{f}.{k}", gt=0.0) for k in ("bore_radius", "E", "rho") if k in t}
     kw.update({k: ck.integer(t[k], f"{f}.{k}", 1, 100) for k in ("n_radial", "n_overhang")
                if k in t})
