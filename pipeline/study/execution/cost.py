@@ -44,10 +44,20 @@ the compiled kernels are cached (a first run compiles them: up to 50 s more) and
 machine as loaded as when it timed: the constant terms are scaled by the slowdown
 measured then (wall / CPU time of one thread, `slowdown`) against CALIBRATION_SLOWDOWN.
 A curve with many more folds costs more.
+
+A mistuned wheel of more than WHEEL_BUILT unknowns is estimated without building it
+(`time_point`): its tuned
+sector at the first case's engine order is timed, t_R and t_S scaled by N and by
+WHEEL_RESIDUAL, WHEEL_SOLVE (the wheel's sparse Jacobian and LU against N sectors'
+dense ones, measured on wheels of 12-48 FE blades), and its natural frequencies are
+counted as the tuned wheel's, the sector's at every nodal diameter (`wheel_modes`);
+the memory of its Jacobian and LU, about WHEEL_BYTES per entry of its N dense blocks
+of n_u^2, is compared with the machine's (`wheel_memory`).
 """
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass
 
@@ -55,6 +65,8 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from ...model.build import engine_order, sector
+from ...model.cyclic import sector_system
 from ...model.static_load import static_contact
 from ...model.system import lowest_frequencies
 from ...solve.continuation.newton import linear_solve
@@ -103,6 +115,18 @@ SEARCH_SERIAL = (1.0, 3.0)  # ... and in one process: each refined bracket's ban
 #                             band evaluation each on the FE sector)
 
 
+# a mistuned wheel from its tuned sector (module docstring): residual + Jacobian and one
+# sparse LU of the wheel against N times the sector's, the middles of the ratios
+# measured on wheels of the coarse FE blade (12, 24, 48 blades, 630-1134 unknowns a
+# sector): 1.1-4.1 and 8-36
+WHEEL_RESIDUAL, WHEEL_SOLVE = 2.0, 17.0
+WHEEL_BYTES = 150  # at least, per entry of the wheel's N n_u^2 blocks: its Jacobian pattern,
+#                    values and LU (48 blades of 2142 unknowns: 10 GB after its set-up, over
+#                    24 GB before its first residual was done)
+WHEEL_BUILT = 5000  # a wheel of at most this many unknowns is built and timed itself (the
+#                     shipped ones: up to 1008; 7560 took 11 s to time)
+
+
 @dataclass(frozen=True)
 class PointTiming:
     """Measured on the model a study runs: t_R [s] (residual + Jacobian), t_S [s] (one
@@ -116,6 +140,7 @@ class PointTiming:
     slowdown: float = CALIBRATION_SLOWDOWN   # wall / CPU time of one thread, now
     reduction: float = 0.0      # [s] one reduction of an FE blade (a further speed's)
     static: float = 0.0         # [s] the static contact solution of a case (interference)
+    sectors: int = 0            # N of a mistuned wheel timed on its tuned sector, else 0
 
 
 @dataclass(frozen=True)
@@ -144,13 +169,26 @@ def stability_key(stability) -> str:
     return "off" if not stability else str(stability)
 
 
+def tuned_sector(study, case, eo=None):
+    """The tuned one-sector system of a mistuned wheel's scene at engine order `eo`
+    (default the case's)."""
+    return sector_system(sector(study.scene, case),
+                         engine_order(study.scene, case) if eo is None else eo)
+
+
+def is_wheel(study) -> bool:
+    """A mistuned wheel: every case the N-sector assembly."""
+    return study.scene.cyclic and study.scene.mistuning is not None
+
+
 def time_point(study, repeats: int = 5) -> PointTiming:
     """`PointTiming` of the first case of `study` at the geometric middle of its
-    frequency range, from the linear response there (medians of `repeats`)."""
+    frequency range, from the linear response there (medians of `repeats`); a mistuned
+    wheel's from its tuned sector, scaled (module docstring)."""
     sv, fr = study.solver, study.sweep.frequency
     t0 = time.perf_counter()
     case = study.sweep.cases()[0][1]
-    system = study.system(case)
+    system = tuned_sector(study, case) if is_wheel(study) else study.system(case)
     setup = time.perf_counter() - t0
     st, t_red, t_static = study.scene.structure, 0.0, 0.0
     if getattr(st, "params", None) is not None:   # FE: as first built
@@ -166,7 +204,32 @@ def time_point(study, repeats: int = 5) -> PointTiming:
     t_r, t_s, unknowns, sparse = time_system_point(
         system, sv.harmonics, sv.force_evaluation, sv.samples,
         math.sqrt(fr.omega_start * fr.omega_stop), repeats)
+    N = study.scene.assembly.sectors if is_wheel(study) else 0
+    if N and N * unknowns > WHEEL_BUILT:
+        return PointTiming(N * WHEEL_RESIDUAL * t_r, N * WHEEL_SOLVE * t_s, N * unknowns,
+                           setup, True, slowdown(), t_red, t_static, N)
+    if N:   # a small wheel: built and timed itself
+        t_r, t_s, unknowns, sparse = time_system_point(
+            study.system(case), sv.harmonics, sv.force_evaluation, sv.samples,
+            math.sqrt(fr.omega_start * fr.omega_stop), repeats)
     return PointTiming(t_r, t_s, unknowns, setup, sparse, slowdown(), t_red, t_static)
+
+
+def wheel_modes(study, fr) -> int:
+    """m of a mistuned wheel counted on the tuned wheel: its tuned sector's natural
+    frequencies in the range at every nodal diameter, those of 0 < ND < N/2 twice (a
+    travelling pair)."""
+    N, case = study.scene.assembly.sectors, study.sweep.cases()[0][1]
+    return sum((1 if nd in (0, N / 2) else 2) * modes_in_range(tuned_sector(study, case, nd), fr)
+               for nd in range(N // 2 + 1))
+
+
+def wheel_memory(tm: PointTiming) -> tuple:
+    """(bytes [B] a mistuned wheel's Jacobian and LU take, about; the machine's memory
+    [B]), WHEEL_BYTES per entry of its N blocks of (unknowns / N)^2."""
+    b = tm.unknowns / max(tm.sectors, 1)
+    have = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    return WHEEL_BYTES * tm.sectors * b * b, float(have)
 
 
 def time_system_point(system, H: int, method: str, samples: int, omega: float,
@@ -240,8 +303,12 @@ def estimate(study, workers: int = 1, timing: PointTiming | None = None) -> Esti
     sv, fr = study.solver, study.sweep.frequency
     n_cases = len(study.sweep.cases())
     w = max(1, min(workers, n_cases))
-    system = study.system(study.sweep.cases()[0][1])
-    n, m = system.n_dof, modes_in_range(system, fr)
+    if timing.sectors:     # a mistuned wheel, not built (`time_point`)
+        n = timing.sectors * tuned_sector(study, study.sweep.cases()[0][1]).n_dof
+        m = wheel_modes(study, fr)
+    else:
+        system = study.system(study.sweep.cases()[0][1])
+        n, m = system.n_dof, modes_in_range(system, fr)
     f = timing.slowdown / CALIBRATION_SLOWDOWN      # the machine now against then
     key = stability_key(sv.stability)
     stab = STABILITY.get(key, STABILITY["hill+check"])

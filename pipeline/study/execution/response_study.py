@@ -18,7 +18,9 @@ from ..scenes import blade_scene
 from ..scenes import lumped_scene
 from .cases import default_solver, execute_cases
 from .checkpoint import checkpoint_dir, remove_stale
+from .cost import WHEEL_RESIDUAL, WHEEL_SOLVE
 from .cost import estimate as cost_estimate, further_reductions, model_line, seconds, time_range
+from .cost import wheel_memory
 from .mistuned import tuned_references
 from .python_study import check_python_study
 from .optimum_search import grid_job, optimum_figure_of, planned_grid, study_optimum, variable_of
@@ -107,6 +109,17 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
         "already cached (the first run after an install compiles them: up to 50 s more); a "
         "fresh process adds 2-5 s of start-up (imports, the first figure); a "
         "curve with many more folds costs more")
+    if tm.sectors:
+        need, have = wheel_memory(tm)
+        lines.append(
+            f"  the mistuned wheel is not built to estimate it: its tuned sector was timed "
+            f"and scaled to {tm.sectors} blades (residual x {WHEEL_RESIDUAL:g} N, sparse LU "
+            f"x {WHEEL_SOLVE:g} N the sector's dense one); its natural frequencies counted "
+            f"as the tuned wheel's; its Jacobian and LU need at least about {need / 1e9:.2g} GB")
+        if need > 0.8 * have:
+            lines.append(f"warning: the wheel's Jacobian and LU (about {need / 1e9:.2g} GB) "
+                         f"exceed this machine's memory ({have / 1e9:.2g} GB): the run would "
+                         "be stopped for memory; fewer contact pairs, harmonics or blades")
     if e.modes == 0:
         fr = study.sweep.frequency
         lines.append(f"warning: no natural frequency (contacts open or stuck) lies in "
