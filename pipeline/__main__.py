@@ -73,7 +73,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("bench", help="benchmarks that print tables")
     b.add_argument("what", choices=["contact", "hbm", "evaluations", "blade", "disk", "parallel",
-                                    "peers", "stability", "estimate", "modes", "montecarlo"],
+                                    "peers", "stability", "estimate", "modes", "montecarlo",
+                                    "interface"],
                    help="what to benchmark")
     b.add_argument("studies", nargs="*", metavar="STUDY",
                    help="estimate: studies to run (names in studies/ or files; default all)")

@@ -26,6 +26,7 @@ from .disk import run as run_disk
 from .estimate import run as run_estimate
 from .evaluations import run as run_evaluations
 from .friction2d import friction2d_rows, print_friction2d
+from .interface import run as run_interface
 from .modes import run as run_modes
 from .montecarlo import run as run_montecarlo
 from .peers import run as run_peers
@@ -262,7 +263,7 @@ def montecarlo_bench(quick=False):
 BENCHES = {"contact": contact, "hbm": hbm, "evaluations": evaluations_bench, "blade": blade,
            "disk": disk_bench, "parallel": parallel, "peers": peers_bench,
            "stability": stability_bench, "estimate": estimate_bench, "modes": modes_bench,
-           "montecarlo": montecarlo_bench}
+           "montecarlo": montecarlo_bench, "interface": run_interface}
 
 
 def run(what, quick=False, **options):
