@@ -118,7 +118,8 @@ SEARCH_SERIAL = (1.0, 3.0)  # ... and in one process: each refined bracket's ban
 # a mistuned wheel from its tuned sector (module docstring): residual + Jacobian and one
 # sparse LU of the wheel against N times the sector's, the middles of the ratios
 # measured on wheels of the coarse FE blade (12, 24, 48 blades, 630-1134 unknowns a
-# sector): 1.1-4.1 and 8-36
+# sector; timed beside another computation on the 2 cores, so a spread, not a law):
+# 1.1-4.1 and 8-36
 WHEEL_RESIDUAL, WHEEL_SOLVE = 2.0, 17.0
 WHEEL_BYTES = 150  # at least, per entry of the wheel's N n_u^2 blocks: its Jacobian pattern,
 #                    values and LU (48 blades of 2142 unknowns: 10 GB after its set-up, over
