@@ -20,6 +20,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from ..harmonic_balance.ring import ring_solver
+
 log = logging.getLogger(__name__)
 
 _REFINE_ITER = 6   # refinement steps on kept factors before factorising afresh
@@ -150,7 +152,24 @@ def _sparse_solver(A):
     and a 1.4-1.7x faster factorisation and solve than COLAMD with partial
     pivoting.  Such threshold pivoting bounds the growth less tightly, so its solves
     are refined to a partial-pivoting LU's backward error (`refined`); where that
-    fails, A is factorised again with partial pivoting (`_partial_pivoting`)."""
+    fails, A is factorised again with partial pivoting (`_partial_pivoting`).
+
+    A wheel's matrix, a ring of blades each coupled only to its neighbours (bordered
+    or not), is solved by block elimination instead (`ring`, blocks in float32): no
+    fill beyond its blocks.  A singular block falls back to the sparse LU, solutions
+    that do not refine to float64 blocks, then to the sparse LU (`_second_chance`)."""
+    try:
+        solve = ring_solver(A)
+    except np.linalg.LinAlgError:
+        log.debug("ring solve: a singular block; sparse LU")
+        solve = None
+    if solve is not None:
+        return solve
+    return _general_sparse(A)
+
+
+def _general_sparse(A):
+    """The solve of SuperLU's LU of A, minimum degree on A^T + A, threshold pivoting."""
     A = sp.csc_matrix(A)
     try:
         return spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=_DIAG_PIVOT).solve
@@ -164,14 +183,32 @@ def _partial_pivoting(A):
     return spla.splu(sp.csc_matrix(A)).solve
 
 
+def _second_chance(A, b):
+    """(solve, x) after the first sparse factorisation's solutions failed to refine:
+    a ring in float64, refined, else SuperLU with partial pivoting."""
+    try:
+        solve = ring_solver(A, single=False)
+    except np.linalg.LinAlgError:
+        solve = None
+    if solve is not None:
+        x = refined(A, b, solve)
+        if x is not None:
+            return solve, x
+        log.debug("ring solve: not refined to 16 eps in float64; sparse LU")
+        solve = _general_sparse(A)
+        x = refined(A, b, solve)
+        if x is not None:
+            return solve, x
+    log.debug("sparse LU: threshold pivots not refined to 16 eps; partial pivoting")
+    solve = _partial_pivoting(A)
+    return solve, solve(b)
+
+
 def linear_solve(A, b):
     """Dense or sparse linear solve; raises LinAlgError / RuntimeError if singular."""
     if sp.issparse(A):
         x = refined(A, b, _sparse_solver(A))
-        if x is None:
-            log.debug("sparse LU: threshold pivots not refined to 16 eps; partial pivoting")
-            return _partial_pivoting(A)(b)
-        return x
+        return _second_chance(A, b)[1] if x is None else x
     return np.linalg.solve(A, b)
 
 
@@ -233,10 +270,8 @@ class KeptFactors:
         if not sp.issparse(A):
             return self.last(b)
         x = self._refined(A, b)
-        if x is None:   # the threshold pivots grew too much: partial pivoting
-            log.debug("sparse LU: threshold pivots not refined to 16 eps; partial pivoting")
-            self.last = _partial_pivoting(A)
-            x = self.last(b)
+        if x is None:   # float32 blocks or threshold pivots not enough
+            self.last, x = _second_chance(A, b)
         return x
 
     def near(self, A, b):
