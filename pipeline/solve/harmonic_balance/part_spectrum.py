@@ -31,6 +31,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .parts import PartBlocks
+from .ring import negative_eigenvalues as ring_negatives
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,13 +56,25 @@ def part_spectra(system, pb: PartBlocks, c) -> PartSpectra:
 
 
 def count_below(ps: PartSpectra, Zh, s: float) -> int:
-    """Number of eigenvalues of (K + Herm Zh, M) below s [rad^2/s^2] (module doc)."""
+    """Number of eigenvalues of (K + Herm Zh, M) below s [rad^2/s^2] (module doc).
+    With Zh sparse (a wheel), S is assembled sparse and its inertia taken over its
+    ring of blades (`ring.negative_eigenvalues`) where it has one."""
     pb = ps.pb
     Doo, Doc, Dco = (K - s * M for K, M, *_ in (pb.oo, pb.oc, pb.co))
     X = np.linalg.solve(Doo, Doc)                                   # (P, m, k)
-    S = (pb.cc[0] - s * pb.cc[1]).astype(complex) + 0.5 * (Zh + Zh.conj().T)
     rows = np.broadcast_to(pb.ck[:, :, None], X.shape[:1] + (pb.ck.shape[1],) * 2)
     cols = np.broadcast_to(pb.ck[:, None, :], rows.shape)
+    if sp.issparse(Zh) and pb.cc_nz:
+        nc = Zh.shape[0]
+        S = sp.csr_matrix((np.concatenate([pb.ccv[0] - s * pb.ccv[1], -(Dco @ X).ravel()]),
+                           (np.concatenate([pb.cc_nz[0], rows.ravel()]),
+                            np.concatenate([pb.cc_nz[1], cols.ravel()]))), shape=(nc, nc))
+        S = S.astype(complex) + 0.5 * (Zh + Zh.conj().T)
+        S = (0.5 * (S + S.conj().T)).tocsr()
+        below = ring_negatives(S, negative_eigenvalues)
+        return int(np.searchsorted(ps.clamped, s)) + (
+            negative_eigenvalues(S.toarray()) if below is None else below)
+    S = (pb.cc[0] - s * pb.cc[1]).astype(complex) + 0.5 * (Zh + Zh.conj().T)
     np.add.at(S, (rows, cols), -(Dco @ X))
     S = 0.5 * (S + S.conj().T)
     return int(np.searchsorted(ps.clamped, s)) + negative_eigenvalues(S)

@@ -46,6 +46,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 import scipy.linalg as sla
 
 from ...model.system import (coupled_matrix, coupled_stiffness, dense, inertia_coupled,
@@ -146,12 +147,12 @@ def prepare(prob: hbm.HBMProblem) -> ResonanceCount | None:
     return ResonanceCount(K, M, harmonics, np.maximum(zeta, 0.0), masses=masses)
 
 
-def contact_stiffness(prob: hbm.HBMProblem, Qc, contact, h: int) -> np.ndarray:
-    """Complex tangent stiffness Z_h (nc, nc) of the contacts at harmonic h [N/m]."""
+def contact_stiffness(prob: hbm.HBMProblem, Qc, contact, h: int, sparse: bool = False):
+    """Complex tangent stiffness Z_h (nc, nc) of the contacts at harmonic h [N/m]
+    (sparse: scipy.sparse CSR, for a wheel of parts)."""
     nc = prob.c.size
-    Z = np.zeros((nc, nc), complex)
     if prob.slot_index.shape[0] == 0:
-        return Z
+        return sp.csr_matrix((nc, nc), dtype=complex) if sparse else np.zeros((nc, nc), complex)
     _, Je, _ = hbm.contact_terms(prob, Qc, contact, jacobian=True, blocks=True)
     a, b = 2 * h - 1, 2 * h
     z = 0.5 * (Je[..., a, a] + Je[..., b, b]) + 0.5j * (Je[..., a, b] - Je[..., b, a])
@@ -159,6 +160,9 @@ def contact_stiffness(prob: hbm.HBMProblem, Qc, contact, h: int) -> np.ndarray:
     E, m = idx.shape
     ia = np.broadcast_to(idx[:, :, None], (E, m, m))
     ib = np.broadcast_to(idx[:, None, :], (E, m, m))
+    if sparse:   # duplicates summed
+        return sp.csr_matrix((z.ravel(), (ia.ravel(), ib.ravel())), shape=(nc, nc))
+    Z = np.zeros((nc, nc), complex)
     np.add.at(Z, (ia, ib), z)
     return Z
 
@@ -171,7 +175,8 @@ def natural_frequencies(rc: ResonanceCount, prob: hbm.HBMProblem, x, contact,
     parts a `PartSpectrum` near h Om)."""
     Qc = np.asarray(x, float).reshape(prob.c.size, prob.nh)
     if rc.parts is not None:
-        return tuple(PartSpectrum(rc.parts, contact_stiffness(prob, Qc, contact, h), h * Om)
+        return tuple(PartSpectrum(rc.parts, contact_stiffness(prob, Qc, contact, h, True),
+                                  h * Om)
                      for h in rc.harmonics)
     cc = np.ix_(prob.c, prob.c)
     out = []
