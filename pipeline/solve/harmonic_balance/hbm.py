@@ -337,9 +337,7 @@ def residual(prob: HBMProblem, x, Om, contact: ContactElements | None = None, ja
     pat = prob.pattern
     St, dSt, Pt, dPt = linear_part(prob, Om, derivatives=jacobian,   # dSt applied to Qc
                                    motion=complex_harmonics(Qc) if jacobian else None,
-                                   pattern=pat if jacobian else None)
-    if pat is not None and not jacobian:
-        St = np.array([S[pat.pi, pat.pj] for S in St])
+                                   pattern=pat)
     L = pattern_matrix(pat, linear_values(St)) if pat is not None else real_blocks(St, nh)
     G, Jnl, _ = contact_terms(prob, Qc, contact, jacobian, blocks=jacobian)
     R = L @ x + G.ravel() - real_vector(Pt, nh).ravel()
