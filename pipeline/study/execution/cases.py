@@ -8,6 +8,7 @@ import ctypes
 import logging
 import signal
 import sys
+import time
 
 import numpy as np
 
@@ -34,14 +35,44 @@ def default_solver(study: Study | None = None):
     return fn
 
 
-def run_case(solver, system, H, omega_start, omega_stop, kwargs, guard=None):
+def accepts_callback(solver) -> bool:
+    """The HBM continuation (`response.frequency_response`) takes a point callback."""
+    return getattr(solver, "__module__", "") == "pipeline.solve.response.response"
+
+
+HEARTBEAT = 30.0   # [s] between a long case's progress lines (no live progress bar)
+
+
+class Heartbeat:
+    """A continuation callback that logs, at most every HEARTBEAT seconds, how far a
+    case is (points, frequency, time): a case in a worker process or written to a log
+    has no live bar, and a wheel's case runs for minutes."""
+
+    def __init__(self, label):
+        self.label, self.points = label, 0
+        self.start = self.last = time.perf_counter()
+
+    def __call__(self, x, lam):
+        self.points += 1
+        now = time.perf_counter()
+        if now - self.last >= HEARTBEAT:
+            self.last = now
+            log.info("case %s: %d points, at %.6g Hz, %.0f s", self.label, self.points,
+                     lam / (2.0 * np.pi), now - self.start)
+        return False
+
+
+def run_case(solver, system, H, omega_start, omega_stop, kwargs, guard=None, label=None):
     """One continuation; returns (ResponseCurve or None, error text or None).
 
     guard: a `declared.SeparationGuard` when the scene's normal load varies but
     separation is not declared: the continuation stops at the first point that
     separates, and every point of the finished curve is checked, so such a case
-    fails instead of being solved with separation."""
+    fails instead of being solved with separation.  label: the case, for the
+    progress lines of a continuation without another callback (`Heartbeat`)."""
     try:
+        if label is not None and kwargs.get("callback") is None and accepts_callback(solver):
+            kwargs = dict(kwargs, callback=Heartbeat(label))
         w2 = negative_stiffness(system)
         if w2 is not None:
             return None, divergence(w2)
@@ -189,7 +220,8 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None, extra=
                 raise
             log.exception("case %s: its model cannot be built", cases[k][1])
             return failed_case, f"{type(exc).__name__}: {exc}"
-        return (run_case, solver, system, H, fr.omega_start, fr.omega_stop, kw, guard)
+        return (run_case, solver, system, H, fr.omega_start, fr.omega_stop, kw, guard,
+                cases[k][1])
 
     def done(k, res):
         if k in extra:
@@ -210,8 +242,8 @@ def execute_cases(study, solver, workers, scheduler, progress, cdir=None, extra=
         fn, *args = job(k)
         if fn is not run_case:
             return fn(*args)
-        solver_k, system, H_k, a, b, _, g = args
-        return run_case(solver_k, system, H_k, a, b, kwk, g)
+        solver_k, system, H_k, a, b, _, g, label = args
+        return run_case(solver_k, system, H_k, a, b, kwk, g, label)
 
     if workers > 1 and not scheduler and len(todo) + len(extra) > 1 and todo and \
             getattr(solver, "__module__", "") == "pipeline.solve.response.response":
