@@ -7,7 +7,8 @@ For each, with the 1D law (exact forces) and the 2D law (AFT, 64 samples): the
 unknowns of the condensed harmonic balance, one residual with its Jacobian and one
 Newton solve of it (`cost.time_system_point`, medians of three; the solve a float32
 LU from 500 rows, as the solver does), and the curve from 0.985 to 1.003 of the
-model's stuck ND 3 frequency, through its peak, without dense output (its
+model's stuck ND 3 frequency, through its peak (located for the study's output DOF,
+as the study does), without dense output (its
 continuation points, time per point, and that time over one residual + one solve: the
 floor a Newton step cannot go under; `whole`: the window covered).  The growth
 exponent of the time per point with the pair count is the slope of a least-squares
@@ -53,7 +54,8 @@ def row(n_chord: int, law: str):
     t_r, t_s, unknowns, _ = time_system_point(system, sv.harmonics, sv.force_evaluation,
                                               sv.samples, math.sqrt(w0 * w1), 3)
     t0 = time.perf_counter()
-    c = frequency_response(system, sv.harmonics, w0, w1, stability=False,
+    dofs = [study.scene.dof_index(d) for d in study.output.dofs]   # the study's peaks
+    c = frequency_response(system, sv.harmonics, w0, w1, stability=False, peak_dofs=dofs,
                            tol_rel=sv.tolerance, method=sv.force_evaluation,
                            n_samples=sv.samples, dense_output=False)
     t = time.perf_counter() - t0

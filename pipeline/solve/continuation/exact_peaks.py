@@ -298,7 +298,8 @@ def _brent_peak(trials, grid_first):
     the best of a grid, if grid_first: sampled forces alias, the amplitude ripples
     along the branch with several maxima per bracket)."""
     def solve(sig):  # a failed solve ranks below any amplitude (finite: Brent cannot take inf)
-        return -trials.solve(sig)[2]
+        known = trials.cache.get(sig)   # the branch points, other DOFs' trials (`adopt`)
+        return -(trials.solve(sig) if known is None else known)[2]
 
     lo, hi = -1.0, 1.0
     if grid_first:
