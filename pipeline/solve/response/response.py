@@ -13,8 +13,6 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..harmonic_balance import hbm
 from ..harmonic_balance import roundoff
@@ -23,11 +21,14 @@ from ..continuation.exact_peaks import insert_peaks
 from ..continuation.pseudo_arclength import continue_branch
 from ...fourier.harmonics import amplitude_half_peak_to_peak
 from ..continuation.newton import newton, scale_rows
+from .linear_guess import initial_guess
 from .resonance import MAX_DENSE_DOF, step_guard
 from .window import edge_points, follow_out, peak_points, windowed
 from ..continuation.restarts import cover_range
 from ..stability.branch_stability import branch_stability
 from ..stability.methods import stability_mode
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -82,47 +83,6 @@ class ResponseCurve:
 
 
 GUESS_NFEV = 2  # residual evaluations of `initial_guess` (R alone, at its two guesses)
-
-
-def initial_guess(prob, Om, contact):
-    """Starting vector x of the condensed HBM problem `prob` at Om [rad/s]: of the
-    linear solutions with the contacts open and fully stuck, the one with the smaller
-    nonlinear residual (`hbm.residual` with the elements `contact`; GUESS_NFEV
-    evaluations).  A problem with a sparse Jacobian (a wheel) solves them sparse, on
-    its pattern."""
-    nh, nc, pat = prob.nh, prob.c.size, prob.pattern
-    St, _, Pt, _ = hbm.linear_part(prob, Om, derivatives=False, pattern=pat)
-    # linearised contact stiffness: ku along t, kv along n (assembled)
-    bt, bn, idx = prob.bt, prob.bn, prob.idx
-    blocks = (contact.ku[:, None, None] * bt[:, :, None] * bt[:, None, :]
-              + contact.kv[:, None, None] * bn[:, :, None] * bn[:, None, :])
-    rows = np.broadcast_to(idx[:, :, None], blocks.shape).ravel()
-    cols = np.broadcast_to(idx[:, None, :], blocks.shape).ravel()
-    Kc = sp.csr_matrix((blocks.ravel(), (rows, cols)), shape=(nc, nc))
-    guesses = []
-    for stuck in (False, True):
-        xs = []
-        for h in range(prob.H + 1):
-            if pat is not None:
-                A = sp.csc_matrix((St[h], (pat.pi, pat.pj)), shape=(nc, nc)) + stuck * Kc
-                xs.append(_sparse_solve(A.tocsc(), Pt[h]))
-                continue
-            A = St[h] + Kc.toarray() if stuck else St[h]
-            try:
-                xs.append(np.linalg.solve(A, Pt[h]))
-            except np.linalg.LinAlgError:
-                xs.append(np.linalg.lstsq(A, Pt[h], rcond=None)[0])
-        guesses.append(hbm.real_vector(np.array(xs), nh).ravel())
-    norms = [np.linalg.norm(hbm.residual(prob, g, Om, contact, jacobian=False)[0]) for g in guesses]
-    return guesses[int(np.argmin(norms))]
-
-
-def _sparse_solve(A, b):
-    """A^-1 b by a sparse LU, or its least-squares solution if A is singular."""
-    try:
-        return spla.splu(A).solve(b)
-    except RuntimeError:
-        return spla.lsqr(A, b)[0]
 
 
 def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_samples=256,
@@ -186,6 +146,10 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
     if A is not None:   # read by `insert_peaks` (not drawn again)
         pts["amplitude"], pts["amplitude_dofs"] = A, dofs
     pts = edge_points(fp, pts, window)
+    if time.perf_counter() - t_start > LONG_BRANCH:   # a long case says what comes next
+        log.info("branch: %d points in %.0f s; now its %s", len(br.lam),
+                 time.perf_counter() - t_start,
+                 "dense output and peaks" if axes else "peaks")
     if axes:
         pts = densify(prob, pts, fun, tol, dofs, axes=axes)
     pts = insert_peaks(prob, pts, fun, tol, elem, dofs, largest=keep == "peaks", window=window)
@@ -197,6 +161,7 @@ def frequency_response(system, H, omega_start, omega_end, *, method="exact", n_s
                     window, dofs, notes)
 
 
+LONG_BRANCH = 30.0   # [s] a branch traced longer than this is logged before its peaks
 KEEP = ("curve", "peaks")  # what `frequency_response` keeps of the branch
 
 
@@ -383,7 +348,7 @@ def curve_from_points(prob, br, pts, elem_at, tols, stability, omega_of, elapsed
     converged = pts["converged"] & ok & np.isfinite(res)
     n_floor = int(np.sum(floor & converged))
     if n_floor:
-        logging.getLogger(__name__).warning(
+        log.warning(
             "%d of %d points accepted on the round-off floor of their residual, above the "
             "tolerance (static %.3g N, harmonic %.3g N): the tolerance lies below what "
             "double precision resolves for this model near its peaks", n_floor, P, *tols)
