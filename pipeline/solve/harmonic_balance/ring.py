@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import warnings
 import weakref
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
@@ -102,25 +103,28 @@ def _neighbours(off, N) -> bool:
 
 
 class RingFactors:
-    """The block elimination of the module doc of the (n, n) ring J (CSR) of N blocks;
+    """The block elimination of the module doc of a ring of N blocks, the (n, n) part
+    of the sparse A (CSR or CSC; bordered: A has a last row and column more);
     `solve(b)` gives J^-1 b.  LinAlgError if a block is singular."""
 
-    def __init__(self, J, N: int, dtype=float, pivots=None):
-        n = J.shape[0]
-        m = n // N
-        self.N, self.m, self.dtype, self.pivots = N, m, dtype, pivots
-        rows = [J[b * m:(b + 1) * m] for b in range(N)]
-        self.U = [_Panel(rows[b], (b + 1) % N, m, dtype) for b in range(N)]   # b -> b+1
-        self.L = [_Panel(rows[b], (b - 1) % N, m, dtype) for b in range(N)]   # b -> b-1
+    def __init__(self, A, N: int, dtype=float, pivots=None, bordered: bool = False):
+        g = _gather(A, N, bordered)
+        self.N, self.m, self.dtype, self.pivots = N, g.m, dtype, pivots
+        blocks = np.zeros((N, 3, g.m, g.m), dtype)       # D_b, U_b (b -> b+1), L_b (b -> b-1)
+        blocks.reshape(-1)[g.flat] = A.data[g.inner]
+        self.border = ((A.data[g.col_pos], A.data[g.row_pos], A.data[g.corner])
+                       if bordered else None)
+        self.U = [_Panel(blocks[b, 1], g.cols[b, 1]) for b in range(N)]
+        self.L = [_Panel(blocks[b, 2], g.cols[b, 2]) for b in range(N)]
         self.lu, self.X = [], []
         for b in range(N - 1):
-            Dt = rows[b][:, b * m:(b + 1) * m].toarray().astype(dtype)
+            Dt = blocks[b, 0]
             if b:
                 Dt[:, self.U[b - 1].cols] -= self.L[b].on(self.X[b - 1])
             self.lu.append(_lu(Dt, self.pivots))
             if b < N - 2:
                 self.X.append(self._solve(b, self.U[b].dense))   # (m, |cols of U_b|)
-        self._separator(rows[N - 1][:, (N - 1) * m:].toarray().astype(dtype))
+        self._separator(blocks[N - 1, 0])
 
     def _solve(self, b, rhs):
         return sla.lu_solve(self.lu[b], rhs, check_finite=False)
@@ -170,30 +174,85 @@ def _lu(A, pivots=None):
 
 
 class _Panel:
-    """The off-diagonal block (m, m) of rows `R` (CSR) at column block j: its nonzero
-    columns `cols` and the block on them, dense (`dense`, (m, |cols|))."""
+    """An off-diagonal block (m, m): its nonzero columns `cols` and the block on them
+    (`dense`, (m, |cols|))."""
 
-    def __init__(self, R, j, m, dtype=float):
-        B = R[:, j * m:(j + 1) * m].tocsc()
-        self.cols = np.flatnonzero(np.diff(B.indptr))
-        self.dense = B[:, self.cols].toarray().astype(dtype)
+    def __init__(self, block, cols):
+        self.cols, self.dense = cols, block[:, cols]
 
     def on(self, V):
         """The block times V (m, k), V's rows at `cols` only."""
         return self.dense @ V[self.cols]
 
 
+@dataclass(frozen=True, eq=False)
+class _Gather:
+    """Where a pattern's entries go in the (N, 3, m, m) blocks of its ring: `flat`, the
+    positions of the entries `inner` (indices into the data); the nonzero columns
+    `cols[b, k]` of each off-diagonal block; the border's column, row and corner
+    entries (data indices, ascending)."""
+
+    m: int
+    inner: np.ndarray
+    flat: np.ndarray
+    cols: np.ndarray
+    col_pos: np.ndarray
+    row_pos: np.ndarray
+    corner: np.ndarray
+
+
+_GATHERS: dict = {}   # (id(indptr), N, bordered) -> (weak reference, indices' address, _Gather)
+
+
+def _gather(A, N: int, bordered: bool) -> _Gather:
+    """The `_Gather` of A's pattern (CSR or CSC, canonical), kept per pattern."""
+    key = (id(A.indptr), N, bordered)
+    kept = _GATHERS.get(key)
+    if kept is not None and kept[0]() is A.indptr and kept[1] == A.indices.ctypes.data:
+        return kept[2]
+    n = A.shape[0] - bordered
+    m = n // N
+    major = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    minor = A.indices[:A.indptr[-1]]
+    row, col = (major, minor) if A.format == "csr" else (minor, major)
+    inner = np.flatnonzero((row < n) & (col < n))
+    r, c = row[inner], col[inner]
+    br, slot = r // m, ((c // m - r // m) % N)
+    slot = np.where(slot == 0, 0, np.where(slot == 1, 1, 2))
+    flat = ((br * 3 + slot) * m + r % m) * m + c % m
+    off = slot > 0
+    used = np.unique((br[off] * 3 + slot[off]) * m + c[off] % m)   # sorted by block
+    bounds = np.searchsorted(used, np.arange(3 * N + 1) * m)
+    cols = np.empty((N, 3), dtype=object)
+    for b in range(N):
+        for k in (1, 2):
+            j = 3 * b + k
+            cols[b, k] = used[bounds[j]:bounds[j + 1]] - j * m
+    on_col = np.flatnonzero((col == n) & (row < n)) if bordered else np.zeros(0, int)
+    on_row = np.flatnonzero((row == n) & (col < n)) if bordered else np.zeros(0, int)
+    corner = np.flatnonzero((row == n) & (col == n)) if bordered else np.zeros(0, int)
+    g = _Gather(m, inner, flat, cols, on_col[np.argsort(row[on_col])],
+                on_row[np.argsort(col[on_row])], corner)
+    if len(_GATHERS) > 16:
+        _GATHERS.clear()
+    _GATHERS[key] = (weakref.ref(A.indptr), A.indices.ctypes.data, g)
+    return g
+
+
 def bordered_solver(A, N: int, dtype=float):
-    """The solve of the bordered matrix A = [[J, c], [r, d]] ((n+1) square, sparse)
-    whose J is a ring of N blocks: J y = b, J z = c, x_n = (b_n - r y)/(d - r z),
-    x = y - x_n z.  LinAlgError if a block or the border's pivot is singular."""
-    A = A.tocsr()
+    """The solve of the bordered matrix A = [[J, c], [r, d]] ((n+1) square, sparse
+    CSR or CSC) whose J is a ring of N blocks: J y = b, J z = c,
+    x_n = (b_n - r y)/(d - r z), x = y - x_n z.  LinAlgError if a block or the
+    border's pivot is singular."""
+    A = _canonical(A)
     n = A.shape[0] - 1
-    J = A[:n, :n]
-    c = A[:n, n].toarray().ravel()
-    r = A[n, :n].toarray().ravel()
-    d = A[n, n]
-    F = RingFactors(J, N, dtype)
+    F = RingFactors(A, N, dtype, bordered=True)
+    g = _gather(A, N, True)
+    c, r = np.zeros(n), np.zeros(n)
+    rows = A.indices[g.col_pos] if A.format == "csc" else _major(A, g.col_pos)
+    cols = A.indices[g.row_pos] if A.format == "csr" else _major(A, g.row_pos)
+    c[rows], r[cols] = F.border[0], F.border[1]
+    d = F.border[2].sum()
     z = F.solve(c)
     pivot = d - r @ z
     if pivot == 0 or not np.isfinite(pivot):
@@ -208,6 +267,21 @@ def bordered_solver(A, N: int, dtype=float):
     return solve
 
 
+def _major(A, pos):
+    """The major index (row of a CSR, column of a CSC) of the data positions pos."""
+    return np.searchsorted(A.indptr, pos, side="right") - 1
+
+
+def _canonical(A):
+    """A as CSR or CSC with sorted, unrepeated indices (a copy only if needed)."""
+    if A.format not in ("csr", "csc"):
+        A = A.tocsr()
+    if not A.has_canonical_format:
+        A = A.copy()
+        A.sum_duplicates()
+    return A
+
+
 def negative_eigenvalues(S, count) -> int | None:
     """The number of negative eigenvalues of the Hermitian sparse S whose pattern is a
     ring (`layout`, from MIN_INERTIA_ROWS rows), by Sylvester's law of inertia over its block
@@ -219,7 +293,7 @@ def negative_eigenvalues(S, count) -> int | None:
         return None
     total = []
     try:
-        RingFactors(S.tocsr(), found[0], complex, pivots=lambda D: total.append(count(D)))
+        RingFactors(_canonical(S), found[0], complex, pivots=lambda D: total.append(count(D)))
     except np.linalg.LinAlgError:
         return None
     return int(sum(total))
@@ -235,4 +309,5 @@ def ring_solver(A, single: bool = True):
         return None
     N, bordered = found
     dtype = np.float32 if single else float
-    return bordered_solver(A, N, dtype) if bordered else RingFactors(A.tocsr(), N, dtype).solve
+    return (bordered_solver(A, N, dtype) if bordered
+            else RingFactors(_canonical(A), N, dtype).solve)
