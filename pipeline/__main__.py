@@ -77,7 +77,8 @@ def build_parser() -> argparse.ArgumentParser:
                                     "interface"],
                    help="what to benchmark")
     b.add_argument("studies", nargs="*", metavar="STUDY",
-                   help="estimate: studies to run (names in studies/ or files; default all)")
+                   help="estimate, parallel: studies to run (names in studies/ or files; "
+                        "default all / the paper's)")
     b.add_argument("--quick", action="store_true", help="fewer repetitions")
     b.add_argument("--nlvib", metavar="PATH", default=None,
                    help="peers: the NLvib folder (default $NLVIB_PATH); needs octave on PATH")
@@ -218,11 +219,13 @@ def _cmd_bench(args) -> int:
 
     options = ({"nlvib": args.nlvib, "pyharm_python": args.pyharm_python}
                if args.what == "peers" else {})
-    if args.studies and args.what != "estimate":
+    if args.studies and args.what not in ("estimate", "parallel"):
         print(f"error: bench {args.what}: takes no STUDY arguments", file=sys.stderr)
         return 2
     if args.what == "estimate":
         options = {"studies": tuple(args.studies)}
+    if args.what == "parallel" and args.studies:   # long studies: the pool against Dask
+        options = {"studies": tuple(args.studies), "serial": False}
     return bench.run(args.what, quick=args.quick, **options)
 
 

@@ -738,3 +738,23 @@ def test_an_optimum_search_that_raises_keeps_the_dataset_of_the_cases(tmp_path, 
                                    tmp_path / "b", workers=1, figures=False,
                                    progress=False).path)
     xr.testing.assert_identical(comparable(ds).drop_attrs(), comparable(plain).drop_attrs())
+
+
+def test_a_long_case_logs_its_progress(monkeypatch, caplog):
+    """A case without a live bar logs its points, frequency [Hz] and time at most every
+    HEARTBEAT seconds; the callback never stops the continuation."""
+    import logging
+
+    from pipeline.study.execution import cases
+    beat = cases.Heartbeat({"preload": 1.0})
+    monkeypatch.setattr(cases, "HEARTBEAT", 0.0)
+    with caplog.at_level(logging.INFO, logger="pipeline.study.execution.run"):
+        assert beat(None, 2 * np.pi * 100.0) is False
+        assert beat(None, 2 * np.pi * 120.0) is False
+    lines = [r.getMessage() for r in caplog.records]
+    assert lines[-1].startswith("case {'preload': 1.0}: 2 points, at 120 Hz")
+    monkeypatch.setattr(cases, "HEARTBEAT", 1e9)
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="pipeline.study.execution.run"):
+        beat(None, 1.0)
+    assert not caplog.records
