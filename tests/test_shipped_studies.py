@@ -29,7 +29,8 @@ STUDY_FILES = sorted(STUDIES.glob("*.toml"))
 # (about 90 s, more than any other test).  The blade's study file is checked against
 # pipeline.paper_systems.blade3 bit for bit (test_paper_systems.py) and its stated
 # window on that system at the stated H = 10 (test_stability_check.py) in every run.
-SLOW = {"shrouded_disk_mistuned", "shrouded_disk_monte_carlo", "blade3_stability"}
+SLOW = {"shrouded_disk_mistuned", "shrouded_disk_monte_carlo", "blade3_stability",
+        "fe_wheel_monte_carlo"}
 # studies whose figures some test reads (here, test_accuracy_cost.py, test_blade_studies.py):
 # their shared run draws them, the others' runs do not
 FIGURES = {"accuracy_cost", "blade_modes", "disk_laxalde", "shrouded_disk_modes",
@@ -558,13 +559,29 @@ def shrouded_disk_monte_carlo(out, nc, ds, st):
     shrouded_disk_mistuned(out, nc, ds, st)
 
 
+def fe_wheel_monte_carlo(out, nc, ds, st):
+    """README: the quick variant (2 seeds, H = 1, 372-388 Hz) gives amplification
+    factors 1.017 and 1.033 at 10 N; every blade's peak located inside the window, near
+    the tuned wheel's 380.0 Hz; peaks only, every point converged; below Whitehead's
+    bound (1 + sqrt(24)) / 2."""
+    assert ds.attrs["points"].startswith("peaks only") and ds.sizes["point"] <= 24
+    assert bool(ds["success"].all()) and bool(ds["converged"].sum() == ds["n_points"].sum())
+    a = ds["amplification_factor"].sel(preload=10.0, dof="response.y").values
+    for got, text in zip(a, ("1.017", "1.033")):
+        assert_stated(got, text)
+    assert np.all(a < (1 + np.sqrt(24)) / 2)
+    f = ds["peak_frequency"].sel(dof="response.y").values
+    assert np.all((f > 372.5) & (f < 387.5)) and np.all(np.abs(f / 380.0 - 1) < 5e-3)
+    assert problems(nc) == []
+
+
 CHECKS = {f.__name__: f for f in (
     paper_example1, paper_example2, paper_example3, blade3_stability, blade_modes,
     blade_shroud_contact, accuracy_cost, accuracy_cost_friction2d, disk_cyclic, disk_laxalde, disk_mistuned,
     bladed_disk_sector, bladed_disk_sector_modes, bladed_disk_sector_campbell, full_size_blade,
     shrouded_disk, shrouded_disk_2d, shrouded_disk_modes, shrouded_disk_campbell, shrouded_disk_speed,
     shrouded_disk_interference,
-    shrouded_disk_mistuned, shrouded_disk_monte_carlo,
+    shrouded_disk_mistuned, shrouded_disk_monte_carlo, fe_wheel_monte_carlo,
     disk_nonlinear_modes,
     shrouded_disk_nonlinear_modes)}
 

@@ -48,10 +48,11 @@ A curve with many more folds costs more.
 A mistuned wheel of more than WHEEL_BUILT unknowns is estimated without building it
 (`time_point`): its tuned
 sector at the first case's engine order is timed, t_R and t_S scaled by N and by
-WHEEL_RESIDUAL, WHEEL_SOLVE (the wheel's sparse Jacobian and LU against N sectors'
-dense ones, measured on wheels of 12-48 FE blades), and its natural frequencies are
+WHEEL_RESIDUAL, WHEEL_SOLVE (the wheel's sparse Jacobian and its solve over the ring of
+blades against N sectors' dense ones, measured on wheels of 24-48 FE blades), and its
+natural frequencies are
 counted as the tuned wheel's, the sector's at every nodal diameter (`wheel_modes`);
-the memory of its Jacobian and LU, about WHEEL_BYTES per entry of its N dense blocks
+the memory of its Jacobian and factors, about WHEEL_BYTES per entry of its N dense blocks
 of n_u^2, is compared with the machine's (`wheel_memory`).
 """
 from __future__ import annotations
@@ -116,14 +117,14 @@ SEARCH_SERIAL = (1.0, 3.0)  # ... and in one process: each refined bracket's ban
 
 
 # a mistuned wheel from its tuned sector (module docstring): residual + Jacobian and one
-# sparse LU of the wheel against N times the sector's, the middles of the ratios
-# measured on wheels of the coarse FE blade (12, 24, 48 blades, 630-1134 unknowns a
-# sector; timed beside another computation on the 2 cores, so a spread, not a law):
-# 1.1-4.1 and 8-36
-WHEEL_RESIDUAL, WHEEL_SOLVE = 2.0, 17.0
-WHEEL_BYTES = 150  # at least, per entry of the wheel's N n_u^2 blocks: its Jacobian pattern,
-#                    values and LU (48 blades of 2142 unknowns: 10 GB after its set-up, over
-#                    24 GB before its first residual was done)
+# solve of the wheel's Newton matrix over its ring of blades (`harmonic_balance.ring`,
+# its pattern found and gathered in that time) against N times the sector's, the middles
+# of the ratios measured on wheels of the curved FE blade (24 and 48 blades, 630 and 1134
+# unknowns a sector, 2026-12-07): 2.8-3.4 and 4.9-8.8 (17 with the general sparse LU)
+WHEEL_RESIDUAL, WHEEL_SOLVE = 3.0, 7.0
+WHEEL_BYTES = 70   # at least, per entry of the wheel's N n_u^2 blocks: its Jacobian pattern,
+#                    values and ring factors (48 blades of 2142 unknowns: 10.4 GB for the
+#                    set-up and a residual, 6.8 GB for a factorisation with the Jacobian)
 WHEEL_BUILT = 5000  # a wheel of at most this many unknowns is built and timed itself (the
 #                     shipped ones: up to 1008; 7560 took 11 s to time)
 
@@ -226,7 +227,7 @@ def wheel_modes(study, fr) -> int:
 
 
 def wheel_memory(tm: PointTiming) -> tuple:
-    """(bytes [B] a mistuned wheel's Jacobian and LU take, about; the machine's memory
+    """(bytes [B] a mistuned wheel's Jacobian and factors take, about; the machine's memory
     [B]), WHEEL_BYTES per entry of its N blocks of (unknowns / N)^2."""
     b = tm.unknowns / max(tm.sectors, 1)
     have = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")

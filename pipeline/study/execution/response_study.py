@@ -113,11 +113,12 @@ def estimate_lines(study, n_cases: int, workers: int, linear: bool) -> list:
         need, have = wheel_memory(tm)
         lines.append(
             f"  the mistuned wheel is not built to estimate it: its tuned sector was timed "
-            f"and scaled to {tm.sectors} blades (residual x {WHEEL_RESIDUAL:g} N, sparse LU "
-            f"x {WHEEL_SOLVE:g} N the sector's dense one); its natural frequencies counted "
-            f"as the tuned wheel's; its Jacobian and LU need at least about {need / 1e9:.2g} GB")
+            f"and scaled to {tm.sectors} blades (residual x {WHEEL_RESIDUAL:g} N, the solve over "
+            f"its ring of blades x {WHEEL_SOLVE:g} N the sector's dense one); its natural "
+            f"frequencies counted as the tuned wheel's; its Jacobian and factors need at "
+            f"least about {need / 1e9:.2g} GB")
         if need > 0.8 * have:
-            lines.append(f"warning: the wheel's Jacobian and LU (about {need / 1e9:.2g} GB) "
+            lines.append(f"warning: the wheel's Jacobian and factors (about {need / 1e9:.2g} GB) "
                          f"exceed this machine's memory ({have / 1e9:.2g} GB): the run would "
                          "be stopped for memory; fewer contact pairs, harmonics or blades")
     if e.modes == 0:

@@ -1,7 +1,7 @@
 """`check` of a mistuned wheel of FE blades without building the wheel
 (`cost.time_point`): its tuned sector timed and scaled, its natural frequencies in the
 range counted as the tuned wheel's (against the tuned wheel assembled sector by sector
-and solved), the memory its Jacobian and LU need against the machine's."""
+and solved), the memory its Jacobian and factors need against the machine's."""
 import pytest
 
 from pipeline.model import build
@@ -58,7 +58,7 @@ def test_wheel_modes_are_the_tuned_wheels():
 
 
 def test_a_wheel_beyond_the_machines_memory_is_said(monkeypatch):
-    """The warning line when the Jacobian and LU would not fit (the machine's memory
+    """The warning line when the Jacobian and factors would not fit (the machine's memory
     made 1 kB here); WHEEL_BYTES per entry of the N blocks of (n_u / N)^2."""
     study = wheel_study()
     tm = cost.PointTiming(1.0, 1.0, 12 * 630, 1.0, True, 1.0, 0.0, 0.0, 12)
@@ -66,4 +66,4 @@ def test_a_wheel_beyond_the_machines_memory_is_said(monkeypatch):
     assert need == pytest.approx(cost.WHEEL_BYTES * 12 * 630.0 ** 2) and have > 1e9
     monkeypatch.setattr(response_study, "wheel_memory", lambda tm: (need, 1e3))
     lines = response_study.estimate_lines(study, 1, 1, linear=False)
-    assert any(line.startswith("warning: the wheel's Jacobian and LU") for line in lines)
+    assert any(line.startswith("warning: the wheel's Jacobian and factors") for line in lines)
