@@ -48,11 +48,12 @@ MAX_BLOCK = 6000       # rows of a block at most (a dense LU of 6000 rows: 0.3 G
 _LAYOUTS: dict = {}    # id(indptr) -> (weak reference, indices' address, N or None)
 
 
-def layout(A, min_rows: int | None = None) -> tuple | None:
+def layout(A, min_rows: int | None = None, keep: bool = True) -> tuple | None:
     """(N, bordered) if the sparse square matrix A (CSC or CSR) is a ring of
     N >= MIN_BLOCKS equal blocks (each couples only to its neighbours, module doc), the
     largest such N, or is one bordered by a last row and column (bordered True); else
-    None.  Kept per pattern (index arrays); None below min_rows rows (MIN_ROWS)."""
+    None.  Kept per pattern (index arrays) unless keep=False (a matrix built once: it
+    would push the Newton matrices' patterns out); None below min_rows rows (MIN_ROWS)."""
     min_rows = MIN_ROWS if min_rows is None else min_rows
     key = id(A.indptr)
     kept = _LAYOUTS.get(key)
@@ -65,9 +66,10 @@ def layout(A, min_rows: int | None = None) -> tuple | None:
         rings = [(N, bordered) for bordered in (True, False)
                  if (N := _find_ring(A, A.shape[0] - bordered)) is not None]
         found = max(rings, default=None)   # the finer cut: a coarse one can hide in it
-    if len(_LAYOUTS) > 64:
-        _LAYOUTS.clear()
-    _LAYOUTS[key] = (weakref.ref(A.indptr), A.indices.ctypes.data, found)
+    if keep:
+        if len(_LAYOUTS) > 64:
+            _LAYOUTS.clear()
+        _LAYOUTS[key] = (weakref.ref(A.indptr), A.indices.ctypes.data, found)
     return found
 
 
@@ -107,8 +109,9 @@ class RingFactors:
     of the sparse A (CSR or CSC; bordered: A has a last row and column more);
     `solve(b)` gives J^-1 b.  LinAlgError if a block is singular."""
 
-    def __init__(self, A, N: int, dtype=float, pivots=None, bordered: bool = False):
-        g = _gather(A, N, bordered)
+    def __init__(self, A, N: int, dtype=float, pivots=None, bordered: bool = False,
+                 keep: bool = True):
+        g = _gather(A, N, bordered, keep)
         self.N, self.m, self.dtype, self.pivots = N, g.m, dtype, pivots
         blocks = np.zeros((N, 3, g.m, g.m), dtype)       # D_b, U_b (b -> b+1), L_b (b -> b-1)
         blocks.reshape(-1)[g.flat] = A.data[g.inner]
@@ -204,7 +207,7 @@ class _Gather:
 _GATHERS: dict = {}   # (id(indptr), N, bordered) -> (weak reference, indices' address, _Gather)
 
 
-def _gather(A, N: int, bordered: bool) -> _Gather:
+def _gather(A, N: int, bordered: bool, keep: bool = True) -> _Gather:
     """The `_Gather` of A's pattern (CSR or CSC, canonical), kept per pattern."""
     key = (id(A.indptr), N, bordered)
     kept = _GATHERS.get(key)
@@ -233,9 +236,10 @@ def _gather(A, N: int, bordered: bool) -> _Gather:
     corner = np.flatnonzero((row == n) & (col == n)) if bordered else np.zeros(0, int)
     g = _Gather(m, inner, flat, cols, on_col[np.argsort(row[on_col])],
                 on_row[np.argsort(col[on_row])], corner)
-    if len(_GATHERS) > 16:
-        _GATHERS.clear()
-    _GATHERS[key] = (weakref.ref(A.indptr), A.indices.ctypes.data, g)
+    if keep:
+        if len(_GATHERS) > 16:
+            _GATHERS.clear()
+        _GATHERS[key] = (weakref.ref(A.indptr), A.indices.ctypes.data, g)
     return g
 
 
@@ -288,12 +292,13 @@ def negative_eigenvalues(S, count) -> int | None:
     elimination (Haynsworth: the inertia of S is the sum of its pivot blocks', each
     counted by `count` (dense)); None if S has no ring layout or a pivot block is
     singular."""
-    found = layout(S, min_rows=MIN_INERTIA_ROWS)
+    found = layout(S, min_rows=MIN_INERTIA_ROWS, keep=False)   # S is new at every count
     if found is None or found[1]:
         return None
     total = []
     try:
-        RingFactors(_canonical(S), found[0], complex, pivots=lambda D: total.append(count(D)))
+        RingFactors(_canonical(S), found[0], complex, keep=False,
+                    pivots=lambda D: total.append(count(D)))
     except np.linalg.LinAlgError:
         return None
     return int(sum(total))

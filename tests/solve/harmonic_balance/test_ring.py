@@ -121,7 +121,10 @@ def test_inertia_over_the_ring_equals_the_eigenvalues(monkeypatch):
     H = 0.5 * (H + H.conj().T)
     lam = np.linalg.eigvalsh(H)
     shifts = np.quantile(lam, [0.0, 0.1, 0.37, 0.5, 0.81, 1.0]) + 1e-3
+    kept = (dict(ring._LAYOUTS), dict(ring._GATHERS))
     for s in shifts:
         S = sp.csr_matrix(H - s * np.eye(N * m))
         got = ring.negative_eigenvalues(S, negative_eigenvalues)
         assert got == int(np.sum(lam < s))
+    # each count's S is new: nothing kept of it (the Newton matrices' patterns stay)
+    assert (ring._LAYOUTS, ring._GATHERS) == kept
