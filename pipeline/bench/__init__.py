@@ -204,11 +204,12 @@ def parallel(quick=False, studies=("paper_example1", "paper_example3", "paper_ex
         a.attrs.pop("created", None), b.attrs.pop("created", None)
         return a.identical(b)
 
+    paths = [Path(name.split()[0]) for name in studies]
+    paths = [p if p.suffix == ".toml" else root / f"{p}.toml" for p in paths]
+    loaded = [load_study(p, quick=quick) for p in paths]   # a bad file: its error, no table
     print(f"{'study':<20} {'cases':>5} | {'serial s':>8} | {'pool-2 s':>8} {'speed-up':>8} | "
           f"{'dask-2 s':>8} {'speed-up':>8} | identical")
-    for name in studies:
-        path = Path(name.split()[0])
-        study = load_study(path if path.suffix == ".toml" else root / f"{path}.toml", quick=quick)
+    for name, path, study in zip(studies, paths, loaded):
         if name.endswith("x mu"):
             study = replace(study, sweep=replace(study.sweep, axes={**study.sweep.axes,
                                                                     "mu": (0.3, 0.5, 0.7)}))
